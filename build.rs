@@ -1,0 +1,140 @@
+//! Keeps `generated/` in step with the symbolic stage.
+//!
+//! Every generated file records the SHA-256 of the generator's inputs. This script
+//! recomputes that hash (same rule as `symbolic/inputs_hash.py`); when it differs, it
+//! runs `python -m symbolic.generate` with the interpreter from `CBFGEN_PYTHON`, else
+//! the project venv, else `python3`. A fresh clone has current files and needs no
+//! Python at all.
+
+use sha2::{Digest, Sha256};
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const HASH_PREFIX: &str = "// inputs-sha256: ";
+const HASHED_SUFFIXES: [&str; 3] = [".py", ".toml", ".txt"];
+const SKIPPED_DIRS: [&str; 2] = ["tests", "__pycache__"];
+
+fn main() {
+    let root = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets this"));
+    println!("cargo:rerun-if-env-changed=CBFGEN_PYTHON");
+    let symbolic = root.join("symbolic");
+    if !symbolic.is_dir() {
+        return; // a packaged crate: generated/ is all there is
+    }
+    let inputs = input_files(&root);
+    for file in &inputs {
+        println!("cargo:rerun-if-changed={}", file.display());
+    }
+    let digest = inputs_hash(&root, &inputs);
+    let generated = root.join("generated");
+    let stale = stale_files(&generated, &digest);
+    for file in generated_files(&generated) {
+        println!("cargo:rerun-if-changed={}", file.display());
+    }
+    if stale.is_empty() {
+        return;
+    }
+    if let Err(why) = regenerate(&root) {
+        println!(
+            "cargo::error=generated/ is stale ({} differs from symbolic/) and regeneration failed: {why}. \
+             Fix: run `scripts/cbf setup` (creates .venv with symbolic/requirements.txt) or set CBFGEN_PYTHON to a python with symengine.",
+            stale[0]
+        );
+        return;
+    }
+    let still = stale_files(&generated, &digest);
+    if !still.is_empty() {
+        println!("cargo::error=regenerated generated/ but {} still records another inputs hash", still[0]);
+    }
+}
+
+/// Files the generator reads; keep this rule identical to symbolic/inputs_hash.py.
+fn input_files(root: &Path) -> Vec<PathBuf> {
+    fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
+        let Ok(entries) = fs::read_dir(dir) else { return };
+        for entry in entries.flatten() {
+            let path = entry.path();
+            let name = entry.file_name().to_string_lossy().into_owned();
+            if path.is_dir() {
+                if !(SKIPPED_DIRS.contains(&name.as_str()) || name.starts_with('.')) {
+                    walk(&path, out);
+                }
+            } else if HASHED_SUFFIXES.iter().any(|s| name.ends_with(s)) {
+                out.push(path);
+            }
+        }
+    }
+    let mut files = Vec::new();
+    walk(&root.join("symbolic"), &mut files);
+    files.sort_by_key(|p| relative(root, p).into_bytes());
+    files
+}
+
+fn relative(root: &Path, path: &Path) -> String {
+    let rel = path.strip_prefix(root).unwrap_or(path);
+    rel.components().map(|c| c.as_os_str().to_string_lossy()).collect::<Vec<_>>().join("/")
+}
+
+fn inputs_hash(root: &Path, files: &[PathBuf]) -> String {
+    let mut hasher = Sha256::new();
+    for file in files {
+        hasher.update(relative(root, file).as_bytes());
+        hasher.update([0u8]);
+        hasher.update(fs::read(file).unwrap_or_default());
+        hasher.update([0u8]);
+    }
+    hasher.finalize().iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// mod.rs plus every module it declares.
+fn generated_files(generated: &Path) -> Vec<PathBuf> {
+    let mod_rs = generated.join("mod.rs");
+    let mut files = vec![mod_rs.clone()];
+    if let Ok(text) = fs::read_to_string(&mod_rs) {
+        for line in text.lines() {
+            if let Some(name) = line.strip_prefix("pub mod ").and_then(|l| l.strip_suffix(';')) {
+                files.push(generated.join(format!("{name}.rs")));
+            }
+        }
+    }
+    files
+}
+
+fn stale_files(generated: &Path, digest: &str) -> Vec<String> {
+    let want = format!("{HASH_PREFIX}{digest}");
+    generated_files(generated)
+        .into_iter()
+        .filter(|f| {
+            fs::read_to_string(f).map_or(true, |text| !text.lines().take(3).any(|l| l == want))
+        })
+        .map(|f| f.display().to_string())
+        .collect()
+}
+
+fn python(root: &Path) -> PathBuf {
+    if let Ok(p) = std::env::var("CBFGEN_PYTHON") {
+        return PathBuf::from(p);
+    }
+    let venv = root.join(".venv").join("bin").join("python");
+    if venv.is_file() {
+        venv
+    } else {
+        PathBuf::from("python3")
+    }
+}
+
+fn regenerate(root: &Path) -> Result<(), String> {
+    let py = python(root);
+    let out = Command::new(&py)
+        .args(["-m", "symbolic.generate"])
+        .current_dir(root)
+        .output()
+        .map_err(|e| format!("cannot start {}: {e}", py.display()))?;
+    if out.status.success() {
+        return Ok(());
+    }
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let last = stderr.lines().rev().find(|l| !l.trim().is_empty()).unwrap_or("no output");
+    Err(format!("`{} -m symbolic.generate` said: {last}", py.display()))
+}

@@ -1,0 +1,35 @@
+//! The crate's error type.
+
+use thiserror::Error;
+
+/// Everything that can go wrong in cbfgen's public API.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum CbfError {
+    /// A value that must be finite was NaN or infinite.
+    #[error("{what} must be finite, got {value}")]
+    NonFinite { what: &'static str, value: f64 },
+    /// A value that must be strictly positive was not.
+    #[error("{what} must be > 0, got {value}")]
+    NotPositive { what: &'static str, value: f64 },
+    /// A rotation matrix was not orthonormal with determinant +1.
+    #[error("rotation is not a proper rotation (|R^T R - I| = {deviation:.3e})")]
+    NotARotation { deviation: f64 },
+}
+
+/// `Ok(value)` if finite, else [`CbfError::NonFinite`].
+pub(crate) fn finite(what: &'static str, value: f64) -> Result<f64, CbfError> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(CbfError::NonFinite { what, value })
+    }
+}
+
+/// `Ok(value)` if finite and > 0.
+pub(crate) fn positive(what: &'static str, value: f64) -> Result<f64, CbfError> {
+    if finite(what, value)? > 0.0 {
+        Ok(value)
+    } else {
+        Err(CbfError::NotPositive { what, value })
+    }
+}

@@ -1,0 +1,25 @@
+//! # cbfgen — code-generated Exponential-CBF safety filters
+//!
+//! A build-time SymEngine stage (`symbolic/`) differentiates each safety constraint and
+//! emits straight-line Rust into `generated/`; this crate wraps those kernels in a safe
+//! API. Data flows one way: model → symbolic expressions → derivatives → CSE → Rust →
+//! [`generated`] → the modules below.
+//!
+//! * [`ssat`] — Smooth Separating Axis Theorem between oriented boxes, with a certified
+//!   margin that turns a smooth barrier into an exact no-overlap proof.
+//! * [`sat`] — the exact SAT, the reference the smooth one is tested against.
+//! * [`geometry`] — validated oriented boxes.
+
+pub mod error;
+pub mod geometry;
+pub mod sat;
+pub mod ssat;
+
+/// Kernels emitted by `python -m symbolic.generate`. Never edited by hand: change
+/// `symbolic/` and rebuild (build.rs regenerates when the inputs' hash changes).
+#[path = "../generated/mod.rs"]
+#[allow(missing_docs)]
+pub mod generated;
+
+pub use error::CbfError;
+pub use geometry::OrientedBox;

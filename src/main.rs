@@ -1,0 +1,84 @@
+//! `cbfgen` command line.
+
+use cbfgen::ssat::{self, SmoothParams};
+use cbfgen::{sat, OrientedBox};
+use clap::{Parser, Subcommand};
+use nalgebra::{Rotation3, Vector3};
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(name = "cbfgen", version, about = "Code-generated ECBF safety filters (Tachyon 3 style)")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Smooth SAT between a robot body and a stair-edge cuboid below it: value,
+    /// certified margin, exact SAT and gradient, for a body height you choose.
+    Ssat {
+        /// Height of the body's underside above the step's top face [m].
+        #[arg(long, default_value_t = 0.075, allow_negative_numbers = true)]
+        clearance: f64,
+        /// Body pitch [rad].
+        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        pitch: f64,
+        /// Smooth-max / smooth-|x| sharpness α [1/m] (α_rot uses the same value).
+        #[arg(long, default_value_t = 200.0)]
+        alpha: f64,
+    },
+    /// Regenerate generated/ from symbolic/ (runs `python -m symbolic.generate`).
+    Generate,
+}
+
+fn main() -> ExitCode {
+    match run(Cli::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
+    match cli.command {
+        Command::Ssat { clearance, pitch, alpha } => {
+            let params = SmoothParams::new(alpha, alpha)?;
+            // A 0.9 x 0.5 x 0.2 m body over a 4 cm edge cuboid running along y at x = 0.
+            let half_body = Vector3::new(0.45, 0.25, 0.10);
+            let edge = OrientedBox::axis_aligned(Vector3::new(0.0, 0.0, -0.02), Vector3::new(0.02, 1.0, 0.02))?;
+            let body = OrientedBox::new(
+                Vector3::new(0.0, 0.0, clearance + half_body.z),
+                Rotation3::from_euler_angles(0.0, pitch, 0.0),
+                half_body,
+            )?;
+            let d = ssat::ssat_with_derivatives(&edge, &body, &params);
+            let margin = ssat::certified_margin(&edge, &body, &params);
+            println!("body over stair edge, clearance {clearance:.4} m, pitch {pitch:.3} rad, alpha {alpha}");
+            println!("  smooth SAT h          {:+.6} m", d.value);
+            println!("  certified margin m    {:.6} m", margin);
+            println!("  h - m                 {:+.6} m  ({})", d.value - margin,
+                     if d.value - margin >= 0.0 { "certified apart" } else { "not certified" });
+            println!("  exact SAT separation  {:+.6} m", sat::separation(&edge, &body));
+            println!("  dh/dp_body            [{:+.4}, {:+.4}, {:+.4}]", d.gradient.x, d.gradient.y, d.gradient.z);
+            Ok(())
+        }
+        Command::Generate => {
+            let root = env!("CARGO_MANIFEST_DIR");
+            let python = std::env::var("CBFGEN_PYTHON").unwrap_or_else(|_| {
+                let venv = format!("{root}/.venv/bin/python");
+                if std::path::Path::new(&venv).is_file() { venv } else { "python3".into() }
+            });
+            let status = std::process::Command::new(&python)
+                .args(["-m", "symbolic.generate"])
+                .current_dir(root)
+                .status()?;
+            if !status.success() {
+                return Err(format!("`{python} -m symbolic.generate` failed; run `scripts/cbf setup` first").into());
+            }
+            Ok(())
+        }
+    }
+}

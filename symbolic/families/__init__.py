@@ -1,0 +1,1 @@
+"""Constraint families: each module builds the kernels of one kind of constraint."""

@@ -1,0 +1,196 @@
+"""A kernel: one straight-line function from named inputs to named outputs.
+
+A family (SSAT, joint limits, ...) builds a :class:`Kernel` out of SymEngine
+expressions; the emitter turns it into Rust. The kernel is also the symbolic truth the
+tests evaluate numerically, so it keeps every definition it was built from.
+
+Three kinds of named intermediate exist besides inputs and outputs:
+
+* ``let_`` - a value computed once from inputs (e.g. the relative pose of two boxes).
+  Later expressions use its symbol as an atom, which keeps them small and lets the
+  family differentiate with respect to it and apply the chain rule itself.
+* ``runtime_max`` - max() over expressions, evaluated numerically at run time. Used
+  only where the result does not change the outputs mathematically (the overflow shift
+  of a log-sum-exp), so derivatives may treat it as a constant.
+* generated constants - integer tables such as the input columns a row touches.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from typing import Dict, List, Optional, Sequence, Tuple, Union
+
+import symengine as se
+
+_IDENT = re.compile(r"^[a-z][a-z0-9_]*$")
+# SymEngine's cse() names its temporaries x0, x1, ...; inputs must not look like those.
+_CSE_TEMP = re.compile(r"^x\d+$")
+
+
+@dataclass(frozen=True)
+class Input:
+    name: str
+    symbols: Tuple[se.Symbol, ...]
+    is_array: bool
+    doc: str
+
+
+@dataclass(frozen=True)
+class Let:
+    symbol: se.Symbol
+    expr: se.Expr
+
+
+@dataclass(frozen=True)
+class RuntimeMax:
+    symbol: se.Symbol
+    exprs: Tuple[se.Expr, ...]
+
+
+@dataclass(frozen=True)
+class Output:
+    """``kind`` is ``scalar``, ``vector`` (length n) or ``symmetric`` (n x n, from the
+    upper triangle: ``exprs`` holds it row by row)."""
+
+    name: str
+    kind: str
+    exprs: Tuple[se.Expr, ...]
+    dim: int
+    doc: str
+
+
+@dataclass(frozen=True)
+class Constant:
+    name: str
+    rust_type: str
+    value: str
+    doc: str
+
+
+def symmetric_upper(matrix: Sequence[Sequence[se.Expr]]) -> Tuple[se.Expr, ...]:
+    n = len(matrix)
+    return tuple(matrix[i][j] for i in range(n) for j in range(i, n))
+
+
+@dataclass
+class Kernel:
+    name: str
+    doc: str
+    inputs: List[Input] = field(default_factory=list)
+    lets: List[Let] = field(default_factory=list)
+    reductions: List[RuntimeMax] = field(default_factory=list)
+    outputs: List[Output] = field(default_factory=list)
+    constants: List[Constant] = field(default_factory=list)
+    _names: set = field(default_factory=set)
+
+    def _claim(self, name: str) -> str:
+        if not _IDENT.match(name) or _CSE_TEMP.match(name):
+            raise ValueError(f"kernel {self.name}: '{name}' is not a usable identifier")
+        if name in self._names:
+            raise ValueError(f"kernel {self.name}: name '{name}' used twice")
+        self._names.add(name)
+        return name
+
+    # ----------------------------------------------------------------- inputs
+    def scalar_input(self, name: str, doc: str) -> se.Symbol:
+        sym = se.Symbol(self._claim(name))
+        self.inputs.append(Input(name, (sym,), False, doc))
+        return sym
+
+    def array_input(self, name: str, components: Sequence[str], doc: str) -> List[se.Symbol]:
+        """An ``&[f64; n]`` argument; component ``c`` becomes the local ``{name}_{c}``."""
+        self._claim(name)
+        syms = tuple(se.Symbol(self._claim(f"{name}_{c}")) for c in components)
+        self.inputs.append(Input(name, syms, True, doc))
+        return list(syms)
+
+    # ---------------------------------------------------------- intermediates
+    def let_(self, name: str, expr: se.Expr) -> se.Symbol:
+        sym = se.Symbol(self._claim(name))
+        self.lets.append(Let(sym, se.sympify(expr)))
+        return sym
+
+    def runtime_max(self, name: str, exprs: Sequence[se.Expr]) -> se.Symbol:
+        if not exprs:
+            raise ValueError(f"kernel {self.name}: runtime_max '{name}' over nothing")
+        sym = se.Symbol(self._claim(name))
+        self.reductions.append(RuntimeMax(sym, tuple(se.sympify(e) for e in exprs)))
+        return sym
+
+    # ---------------------------------------------------------------- outputs
+    def output_scalar(self, name: str, expr: se.Expr, doc: str) -> None:
+        self.outputs.append(Output(self._claim(name), "scalar", (se.sympify(expr),), 1, doc))
+
+    def output_vector(self, name: str, exprs: Sequence[se.Expr], doc: str) -> None:
+        exprs = tuple(se.sympify(e) for e in exprs)
+        self.outputs.append(Output(self._claim(name), "vector", exprs, len(exprs), doc))
+
+    def output_symmetric(self, name: str, matrix: Sequence[Sequence[se.Expr]], doc: str) -> None:
+        n = len(matrix)
+        if any(len(row) != n for row in matrix):
+            raise ValueError(f"kernel {self.name}: '{name}' is not square")
+        upper = tuple(se.sympify(e) for e in symmetric_upper(matrix))
+        self.outputs.append(Output(self._claim(name), "symmetric", upper, n, doc))
+
+    def constant(self, name: str, rust_type: str, value: str, doc: str) -> None:
+        self.constants.append(Constant(name, rust_type, value, doc))
+
+    # ------------------------------------------------------------- evaluation
+    def evaluate(self, values: Dict[str, Union[float, Sequence[float]]]) -> Dict[str, List[float]]:
+        """Evaluate the kernel's definitions with SymEngine, independently of any
+        emitted code: the reference the cross-validation tests compare Rust against.
+
+        ``values`` maps each input name to a float or a sequence of floats.
+        """
+        subs: Dict[se.Symbol, se.Expr] = {}
+        for inp in self.inputs:
+            given = values[inp.name]
+            seq = list(given) if inp.is_array else [given]
+            if len(seq) != len(inp.symbols):
+                raise ValueError(f"input {inp.name}: expected {len(inp.symbols)} values")
+            for sym, v in zip(inp.symbols, seq):
+                subs[sym] = se.RealDouble(float(v))
+        for let in self.lets:
+            subs[let.symbol] = se.RealDouble(float(let.expr.xreplace(subs)))
+        for red in self.reductions:
+            subs[red.symbol] = se.RealDouble(max(float(e.xreplace(subs)) for e in red.exprs))
+        return {
+            out.name: [float(e.xreplace(subs)) for e in out.exprs] for out in self.outputs
+        }
+
+
+def gradient(expr: se.Expr, wrt: Sequence[se.Symbol]) -> List[se.Expr]:
+    return [se.diff(expr, v) for v in wrt]
+
+
+def hessian(expr: se.Expr, wrt: Sequence[se.Symbol]) -> List[List[se.Expr]]:
+    """Full symmetric Hessian; the lower triangle reuses the upper one's expressions."""
+    grad = gradient(expr, wrt)
+    n = len(wrt)
+    upper: Dict[Tuple[int, int], se.Expr] = {}
+    for i in range(n):
+        for j in range(i, n):
+            upper[(i, j)] = se.diff(grad[i], wrt[j])
+    return [[upper[(min(i, j), max(i, j))] for j in range(n)] for i in range(n)]
+
+
+def chain_linear(
+    grad_inner: Sequence[se.Expr],
+    hess_inner: Optional[Sequence[Sequence[se.Expr]]],
+    jacobian: Sequence[Sequence[se.Expr]],
+) -> Tuple[List[se.Expr], Optional[List[List[se.Expr]]]]:
+    """Gradient and Hessian with respect to z when the inner variables are u = J z + c
+    with J constant: grad_z = J^T grad_u and H_z = J^T H_u J."""
+    rows, cols = len(jacobian), len(jacobian[0])
+    grad = [se.Add(*[jacobian[k][i] * grad_inner[k] for k in range(rows)]) for i in range(cols)]
+    if hess_inner is None:
+        return grad, None
+    hj = [[se.Add(*[hess_inner[k][l] * jacobian[l][j] for l in range(rows)])
+           for j in range(cols)] for k in range(rows)]
+    hess_upper = {}
+    for i in range(cols):
+        for j in range(i, cols):
+            hess_upper[(i, j)] = se.Add(*[jacobian[k][i] * hj[k][j] for k in range(rows)])
+    hess = [[hess_upper[(min(i, j), max(i, j))] for j in range(cols)] for i in range(cols)]
+    return grad, hess

@@ -1,0 +1,311 @@
+"""Turn a :class:`~symbolic.kernel.Kernel` into one straight-line Rust function.
+
+All outputs of a kernel (value, gradient, Hessian, ...) go through a single
+``symengine.cse`` pass, so work is shared between them. Statements are then emitted on
+demand, depth first from the outputs, so every temporary, ``let_`` and runtime max is
+computed exactly once and only if something needs it. The output is plain f64
+arithmetic: no loops, no heap, integer powers as products, ``sqrt`` for half powers.
+"""
+
+from __future__ import annotations
+
+from fractions import Fraction
+from typing import Dict, List, Sequence, Tuple
+
+import symengine as se
+
+from .kernel import Kernel
+
+_ADD, _MUL, _UNARY, _ATOM = 1, 2, 3, 4
+
+_METHODS = {
+    "tanh": "tanh", "sinh": "sinh", "cosh": "cosh", "sin": "sin", "cos": "cos",
+    "tan": "tan", "asin": "asin", "acos": "acos", "atan": "atan", "log": "ln",
+    "Abs": "abs",
+}
+
+
+def float_literal(value: float) -> str:
+    """A Rust f64 literal that round-trips ``value`` exactly."""
+    if value != value or value in (float("inf"), float("-inf")):
+        raise ValueError(f"non-finite constant {value} in generated code")
+    text = repr(float(value))
+    if "." not in text and "e" not in text:
+        text += ".0"
+    return text
+
+
+def _number(e: se.Expr) -> float:
+    if isinstance(e, se.Integer):
+        return float(int(e))
+    if isinstance(e, se.Rational):
+        return float(Fraction(int(e.p), int(e.q)))
+    return float(e)
+
+
+def _is_number(e: se.Expr) -> bool:
+    return isinstance(e, (se.Integer, se.Rational, se.RealDouble))
+
+
+class RustPrinter:
+    """Prints SymEngine expressions as Rust f64 expressions over named locals."""
+
+    def __init__(self, names: Dict[se.Symbol, str]):
+        self.names = names
+
+    def __call__(self, e: se.Expr) -> str:
+        return self._p(e)[0]
+
+    def _at(self, e: se.Expr, level: int) -> str:
+        text, prec = self._p(e)
+        return text if prec >= level else f"({text})"
+
+    def _p(self, e: se.Expr) -> Tuple[str, int]:
+        if isinstance(e, se.Symbol):
+            try:
+                return self.names[e], _ATOM
+            except KeyError:
+                raise ValueError(f"symbol '{e}' has no value in the emitted function") from None
+        if _is_number(e) or not e.free_symbols:
+            # Numbers, and constant subexpressions such as ln(15), become one literal.
+            v = _number(e) if _is_number(e) else float(e.n(53))
+            return (float_literal(v), _ATOM) if v >= 0 else (float_literal(v), _UNARY)
+        if isinstance(e, se.Add):
+            return self._add(e)
+        if isinstance(e, se.Mul):
+            return self._mul(e)
+        if isinstance(e, se.Pow):
+            return self._pow(e.args[0], e.args[1])
+        fname = type(e).__name__
+        if fname in _METHODS:
+            return f"{self._at(e.args[0], _ATOM)}.{_METHODS[fname]}()", _ATOM
+        if fname == "atan2":
+            y, x = e.args
+            return f"{self._at(y, _ATOM)}.atan2({self(x)})", _ATOM
+        raise ValueError(f"cannot emit '{fname}' ({e}) as Rust")
+
+    def _add(self, e: se.Expr) -> Tuple[str, int]:
+        # Sorted for a stable text whatever order SymEngine keeps terms in.
+        terms = sorted(e.args, key=lambda t: (_is_number(t), str(t)))
+        parts: List[str] = []
+        for i, term in enumerate(terms):
+            negated = _negated(term)
+            if i == 0:
+                parts.append(self._at(term, _ADD))
+            elif negated is not None:
+                parts.append(" - " + self._at(negated, _MUL))
+            else:
+                parts.append(" + " + self._at(term, _MUL if _is_negative(term) else _ADD))
+        return "".join(parts), _ADD
+
+    def _mul(self, e: se.Expr) -> Tuple[str, int]:
+        coeff = 1.0
+        num: List[se.Expr] = []
+        den: List[se.Expr] = []
+        for f in sorted(e.args, key=str):
+            if _is_number(f):
+                coeff *= _number(f)
+            elif isinstance(f, se.Pow) and _is_number(f.args[1]) and _number(f.args[1]) < 0:
+                den.append(se.Pow(f.args[0], -f.args[1]))
+            else:
+                num.append(f)
+        negative = coeff < 0
+        coeff = abs(coeff)
+        factors = [self._at(f, _UNARY) for f in num]
+        if coeff != 1.0 or not factors:
+            factors.insert(0, float_literal(coeff))
+        text = " * ".join(factors)
+        if den:
+            denominator = (self._at(den[0], _ATOM) if len(den) == 1
+                           else "(" + " * ".join(self._at(f, _UNARY) for f in den) + ")")
+            text = f"{text} / {denominator}"
+        if negative:
+            return "-" + (text if (len(factors) == 1 and not den) else f"({text})"), _UNARY
+        return text, (_ATOM if len(factors) == 1 and not den and num else _MUL)
+
+    def _pow(self, base: se.Expr, exp: se.Expr) -> Tuple[str, int]:
+        if base == se.E:
+            return f"{self._at(exp, _ATOM)}.exp()", _ATOM
+        if isinstance(exp, se.Integer):
+            n = int(exp)
+            if n < 0:
+                return f"1.0 / {self._at(se.Pow(base, -n), _ATOM)}", _MUL
+            return self._integer_power(base, n)
+        if isinstance(exp, se.Rational) and int(exp.q) == 2:
+            n = int(exp.p)
+            root = f"{self._at(base, _ATOM)}.sqrt()"
+            if n == 1:
+                return root, _ATOM
+            if n == -1:
+                return f"1.0 / {root}", _MUL
+            rest = self._integer_power(base, (abs(n) - 1) // 2)[0]
+            text = f"({rest} * {root})"
+            return (text, _ATOM) if n > 0 else (f"1.0 / {text}", _MUL)
+        return f"{self._at(base, _ATOM)}.powf({self(exp)})", _ATOM
+
+    def _integer_power(self, base: se.Expr, n: int) -> Tuple[str, int]:
+        """b^n by repeated squaring; a compound base is bound once in a block."""
+        if n == 0:
+            return "1.0", _ATOM
+        if n == 1:
+            return self._p(base)
+        b = self._at(base, _ATOM)
+        simple = isinstance(base, se.Symbol)
+        if n in (2, 3) and simple:
+            return " * ".join([b] * n), _MUL
+        steps = [f"let pw = {self(base)};"] if not simple else []
+        name = b if simple else "pw"
+        factors, square, k = [], name, 1
+        while n:
+            if n & 1:
+                factors.append(square)
+            n >>= 1
+            if n:
+                k *= 2
+                steps.append(f"let pw{k} = {square} * {square};")
+                square = f"pw{k}"
+        if not steps:
+            return " * ".join(factors), _MUL
+        return "{ " + " ".join(steps) + " " + " * ".join(factors) + " }", _ATOM
+
+
+def _negated(term: se.Expr):
+    """-term if term carries a negative numeric coefficient, else None."""
+    if _is_number(term) and _number(term) < 0:
+        return -term
+    if isinstance(term, se.Mul) and any(_is_number(f) and _number(f) < 0 for f in term.args):
+        return -term
+    return None
+
+
+def _is_negative(term: se.Expr) -> bool:
+    return _negated(term) is not None
+
+
+# --------------------------------------------------------------------- kernels
+def _rust_type(kind: str, dim: int) -> str:
+    return {"scalar": "f64", "vector": f"[f64; {dim}]",
+            "symmetric": f"[[f64; {dim}]; {dim}]"}[kind]
+
+
+def emit_kernel(kernel: Kernel) -> str:
+    """The Rust text of one kernel: constants, then the function."""
+    flat: List[se.Expr] = [let.expr for let in kernel.lets]
+    for red in kernel.reductions:
+        flat.extend(red.exprs)
+    for out in kernel.outputs:
+        flat.extend(out.exprs)
+    replacements, reduced = se.cse(flat)
+
+    # Every symbol the body may define, with the expression(s) defining it.
+    defs: Dict[se.Symbol, Tuple[str, Sequence[se.Expr]]] = {}
+    order: Dict[se.Symbol, int] = {}
+    pos = 0
+    for let in kernel.lets:
+        defs[let.symbol] = ("let", [reduced[pos]])
+        pos += 1
+    for red in kernel.reductions:
+        defs[red.symbol] = ("max", reduced[pos:pos + len(red.exprs)])
+        pos += len(red.exprs)
+    out_exprs = reduced[pos:]
+    for sym, rhs in replacements:
+        defs[sym] = ("tmp", [rhs])
+    for i, sym in enumerate([l.symbol for l in kernel.lets] + [r.symbol for r in kernel.reductions]
+                            + [s for s, _ in replacements]):
+        order[sym] = i
+
+    names: Dict[se.Symbol, str] = {}
+    for inp in kernel.inputs:
+        for sym in inp.symbols:
+            names[sym] = str(sym)
+    for sym, (kind, _) in defs.items():
+        if kind != "tmp":
+            names[sym] = str(sym)
+
+    emitted: List[Tuple[se.Symbol, str, Sequence[se.Expr]]] = []
+    done: set = set()
+    used_inputs: set = set()
+
+    def visit(expr: se.Expr) -> None:
+        for sym in sorted(expr.free_symbols, key=lambda s: order.get(s, -1)):
+            if sym in defs:
+                if sym in done:
+                    continue
+                done.add(sym)
+                kind, rhs = defs[sym]
+                for r in rhs:
+                    visit(r)
+                if kind == "tmp":
+                    names[sym] = f"t{sum(1 for e in emitted if e[1] == 'tmp')}"
+                emitted.append((sym, kind, rhs))
+            else:
+                used_inputs.add(sym)
+
+    for e in out_exprs:
+        visit(e)
+
+    p = RustPrinter(names)
+    lines: List[str] = []
+    for line in kernel.doc.strip().splitlines():
+        lines.append(f"/// {line}".rstrip())
+    lines.append("///")
+    lines.append("/// # Arguments")
+    for inp in kernel.inputs:
+        comps = ", ".join(str(s) for s in inp.symbols) if inp.is_array else ""
+        suffix = f" (components {comps})" if comps else ""
+        lines.append(f"/// * `{inp.name}` - {inp.doc}{suffix}")
+    lines.append("///")
+    lines.append("/// # Returns")
+    for out in kernel.outputs:
+        lines.append(f"/// * `{out.name}` - {out.doc}")
+
+    args = ", ".join(
+        f"{inp.name}: &[f64; {len(inp.symbols)}]" if inp.is_array else f"{inp.name}: f64"
+        for inp in kernel.inputs)
+    types = [_rust_type(o.kind, o.dim) for o in kernel.outputs]
+    ret = types[0] if len(types) == 1 else "(" + ", ".join(types) + ")"
+    lines.append("#[inline]")
+    lines.append(f"pub fn {kernel.name}({args}) -> {ret} {{")
+    # Scalar inputs are already locals under their own name; arrays are unpacked.
+    for inp in filter(lambda i: i.is_array, kernel.inputs):
+        for k, sym in enumerate(inp.symbols):
+            if sym in used_inputs:
+                lines.append(f"    let {names[sym]} = {inp.name}[{k}];")
+    for sym, kind, rhs in emitted:
+        if kind == "max":
+            text = p(rhs[0]) if len(rhs) == 1 else (
+                f"{p._at(rhs[0], _ATOM)}" + "".join(f".max({p(r)})" for r in rhs[1:]))
+        else:
+            text = p(rhs[0])
+        lines.append(f"    let {names[sym]} = {text};")
+
+    results: List[str] = []
+    pos = 0
+    for out in kernel.outputs:
+        parts = [p(e) for e in out_exprs[pos:pos + len(out.exprs)]]
+        pos += len(out.exprs)
+        if out.kind == "scalar":
+            results.append(parts[0])
+        elif out.kind == "vector":
+            results.append("[" + ", ".join(parts) + "]")
+        else:
+            n, k, idx = out.dim, 0, {}
+            for i in range(n):
+                for j in range(i, n):
+                    idx[(i, j)] = k
+                    k += 1
+            # Bind the upper triangle once; the lower triangle repeats it.
+            for (i, j), k in idx.items():
+                lines.append(f"    let {out.name}_{i}{j} = {parts[k]};")
+            rows = ["[" + ", ".join(f"{out.name}_{min(i, j)}{max(i, j)}" for j in range(n)) + "]"
+                    for i in range(n)]
+            results.append("[" + ", ".join(rows) + "]")
+    body = results[0] if len(results) == 1 else "(" + ", ".join(results) + ")"
+    lines.append(f"    {body}")
+    lines.append("}")
+
+    consts: List[str] = []
+    for c in kernel.constants:
+        consts.append(f"/// {c.doc}")
+        consts.append(f"pub const {c.name}: {c.rust_type} = {c.value};")
+    return "\n".join(consts + lines) + "\n"
