@@ -23,3 +23,8 @@ pub mod generated;
 
 pub use error::CbfError;
 pub use geometry::OrientedBox;
+
+/// The README's examples compile and run as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;
