@@ -11,6 +11,15 @@ pub enum CbfError {
     /// A value that must be strictly positive was not.
     #[error("{what} must be > 0, got {value}")]
     NotPositive { what: &'static str, value: f64 },
+    /// More obstacles or foothold edges than the catalog was sized for.
+    #[error("too many {what}: capacity is {capacity}")]
+    CapacityExceeded { what: &'static str, capacity: usize },
+    /// An environment sized for another catalog capacity.
+    #[error("environment and catalog were built for different capacities")]
+    CapacityMismatch,
+    /// A leg index outside 0..6.
+    #[error("no leg {leg}: legs are 0..6 in LEG_NAMES order")]
+    NoSuchLeg { leg: usize },
     /// A rotation matrix was not orthonormal with determinant +1.
     #[error("rotation is not a proper rotation (|R^T R - I| = {deviation:.3e})")]
     NotARotation { deviation: f64 },

@@ -9,9 +9,13 @@
 //!   margin that turns a smooth barrier into an exact no-overlap proof.
 //! * [`sat`] — the exact SAT, the reference the smooth one is tested against.
 //! * [`geometry`] — validated oriented boxes.
+//! * [`model`] — the Tachyon 3 state/input layout and dynamics (generated from the model file).
+//! * [`catalog`] — every ECBF row of the model, evaluated into preallocated storage.
 
+pub mod catalog;
 pub mod error;
 pub mod geometry;
+pub mod model;
 pub mod sat;
 pub mod ssat;
 

@@ -10,11 +10,12 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import Callable, Dict, List, Tuple
+from typing import Callable, Dict, List, Tuple, Union
 
-from .families import ssat
+from .families import ssat, tachyon3
 from .inputs_hash import inputs_hash
 from .kernel import Kernel
+from .rust_emitter import RawRust
 from .rust_emitter import emit_kernel
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
@@ -22,8 +23,9 @@ HASH_PREFIX = "// inputs-sha256: "
 REGENERATE = "scripts/cbf generate  (or: python -m symbolic.generate)"
 
 # module name -> (doc, kernel builder). Order is the order in generated/mod.rs.
-MODULES: Dict[str, Tuple[str, Callable[[], List[Kernel]]]] = {
+MODULES: Dict[str, Tuple[str, Callable[[], List[Union[Kernel, RawRust]]]]] = {
     "ssat": (ssat.MODULE_DOC, ssat.kernels),
+    "tachyon3": (tachyon3.MODULE_DOC, tachyon3.kernels),
 }
 
 
@@ -41,7 +43,8 @@ def render(repo_root: Path = REPO_ROOT) -> Dict[str, str]:
     files: Dict[str, str] = {}
     mod_lines = [_header(digest), "//! Kernels emitted by the symbolic stage.\n"]
     for name, (doc, build) in MODULES.items():
-        body = "\n".join(emit_kernel(k) for k in build())
+        body = "\n".join(item.text if isinstance(item, RawRust) else emit_kernel(item)
+                          for item in build())
         module_doc = "".join(f"//! {line}".rstrip() + "\n" for line in doc.strip().splitlines())
         lint = ("#![allow(clippy::all, clippy::pedantic, unused_parens, unused_variables)]\n"
                 "#![allow(clippy::excessive_precision, clippy::too_many_arguments)]\n")

@@ -50,14 +50,16 @@ class RuntimeMax:
 
 @dataclass(frozen=True)
 class Output:
-    """``kind`` is ``scalar``, ``vector`` (length n) or ``symmetric`` (n x n, from the
-    upper triangle: ``exprs`` holds it row by row)."""
+    """``kind`` is ``scalar``, ``vector`` (length dim), ``symmetric`` (dim x dim, from the
+    upper triangle: ``exprs`` holds it row by row) or ``matrix`` (dim rows of ``cols``,
+    row-major)."""
 
     name: str
     kind: str
     exprs: Tuple[se.Expr, ...]
     dim: int
     doc: str
+    cols: int = 1
 
 
 @dataclass(frozen=True)
@@ -132,6 +134,13 @@ class Kernel:
             raise ValueError(f"kernel {self.name}: '{name}' is not square")
         upper = tuple(se.sympify(e) for e in symmetric_upper(matrix))
         self.outputs.append(Output(self._claim(name), "symmetric", upper, n, doc))
+
+    def output_matrix(self, name: str, rows: Sequence[Sequence[se.Expr]], doc: str) -> None:
+        cols = len(rows[0]) if rows else 0
+        if not rows or any(len(r) != cols for r in rows):
+            raise ValueError(f"kernel {self.name}: '{name}' rows differ in length")
+        flat = tuple(se.sympify(e) for r in rows for e in r)
+        self.outputs.append(Output(self._claim(name), "matrix", flat, len(rows), doc, cols))
 
     def constant(self, name: str, rust_type: str, value: str, doc: str) -> None:
         self.constants.append(Constant(name, rust_type, value, doc))

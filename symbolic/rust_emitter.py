@@ -16,6 +16,13 @@ import symengine as se
 
 from .kernel import Kernel
 
+
+class RawRust:
+    """Rust items a family emits verbatim (tables over its kernels, for instance)."""
+
+    def __init__(self, text: str):
+        self.text = text if text.endswith("\n") else text + "\n"
+
 _ADD, _MUL, _UNARY, _ATOM = 1, 2, 3, 4
 
 _METHODS = {
@@ -183,9 +190,9 @@ def _is_negative(term: se.Expr) -> bool:
 
 
 # --------------------------------------------------------------------- kernels
-def _rust_type(kind: str, dim: int) -> str:
+def _rust_type(kind: str, dim: int, cols: int) -> str:
     return {"scalar": "f64", "vector": f"[f64; {dim}]",
-            "symmetric": f"[[f64; {dim}]; {dim}]"}[kind]
+            "symmetric": f"[[f64; {dim}]; {dim}]", "matrix": f"[[f64; {cols}]; {dim}]"}[kind]
 
 
 def emit_kernel(kernel: Kernel) -> str:
@@ -262,7 +269,7 @@ def emit_kernel(kernel: Kernel) -> str:
     args = ", ".join(
         f"{inp.name}: &[f64; {len(inp.symbols)}]" if inp.is_array else f"{inp.name}: f64"
         for inp in kernel.inputs)
-    types = [_rust_type(o.kind, o.dim) for o in kernel.outputs]
+    types = [_rust_type(o.kind, o.dim, o.cols) for o in kernel.outputs]
     ret = types[0] if len(types) == 1 else "(" + ", ".join(types) + ")"
     lines.append("#[inline]")
     lines.append(f"pub fn {kernel.name}({args}) -> {ret} {{")
@@ -273,8 +280,9 @@ def emit_kernel(kernel: Kernel) -> str:
                 lines.append(f"    let {names[sym]} = {inp.name}[{k}];")
     for sym, kind, rhs in emitted:
         if kind == "max":
+            # f64::max for the first pair fixes the type even when it starts with a literal.
             text = p(rhs[0]) if len(rhs) == 1 else (
-                f"{p._at(rhs[0], _ATOM)}" + "".join(f".max({p(r)})" for r in rhs[1:]))
+                f"f64::max({p(rhs[0])}, {p(rhs[1])})" + "".join(f".max({p(r)})" for r in rhs[2:]))
         else:
             text = p(rhs[0])
         lines.append(f"    let {names[sym]} = {text};")
@@ -288,6 +296,9 @@ def emit_kernel(kernel: Kernel) -> str:
             results.append(parts[0])
         elif out.kind == "vector":
             results.append("[" + ", ".join(parts) + "]")
+        elif out.kind == "matrix":
+            rows = [parts[r * out.cols:(r + 1) * out.cols] for r in range(out.dim)]
+            results.append("[" + ", ".join("[" + ", ".join(r) + "]" for r in rows) + "]")
         else:
             n, k, idx = out.dim, 0, {}
             for i in range(n):

@@ -1,0 +1,369 @@
+//! The constraint catalog: every ECBF row of the Tachyon 3 model, laid out once and
+//! evaluated each control cycle into preallocated storage.
+//!
+//! The row layout is fixed when the catalog is built from a [`Capacity`]. The QP's
+//! sparsity pattern can then be fixed too, and rows that do not apply this cycle (an
+//! unused obstacle slot, a foothold edge of a foot in stance) are flagged inactive, not
+//! removed. Order: joint limits (4 per leg), foot height (1 per leg), static stability
+//! (lower and upper per leg), body–edge SSAT (1 per edge slot), toe–edge superellipsoid
+//! (6 per edge slot), foothold half-spaces (per leg, its capacity).
+//!
+//! ```
+//! use cbfgen::catalog::{Capacity, Catalog, EdgeCuboid, Environment};
+//! use cbfgen::model::standard_posture;
+//! use nalgebra::Vector3;
+//!
+//! let mut catalog = Catalog::new(Capacity::PAPER_WORST_CASE);
+//! assert_eq!(catalog.len(), 269);
+//! let mut env = Environment::new(Capacity::PAPER_WORST_CASE);
+//! let step = cbfgen::OrientedBox::axis_aligned(Vector3::new(0.8, 0.0, 0.06), Vector3::new(0.02, 1.0, 0.02))?;
+//! env.push_edge(EdgeCuboid::from_box(&step))?;
+//! catalog.evaluate(&standard_posture(), &env)?;
+//! let body_edge = catalog.rows().iter().zip(catalog.slots())
+//!     .find(|(_, s)| s.family == cbfgen::catalog::Family::BodyEdge && s.instance == 0).unwrap().0;
+//! assert!(body_edge.active && body_edge.h() > 0.0);
+//! # Ok::<(), cbfgen::CbfError>(())
+//! ```
+
+use crate::error::{finite, CbfError};
+use crate::generated::tachyon3 as gen;
+use crate::geometry::OrientedBox;
+use crate::model::{State, NU};
+
+/// Every family of this model has relative degree 2; the row storage relies on it. A
+/// model change that alters a degree stops the build here instead of misreading rows.
+pub const RELATIVE_DEGREE: usize = 2;
+const _: () = assert!(
+    gen::BODY_EDGE_SSAT_RELATIVE_DEGREE == RELATIVE_DEGREE
+        && gen::JOINT_LIMITS_LF_RELATIVE_DEGREE == RELATIVE_DEGREE
+        && gen::TOE_EDGE_LF_RELATIVE_DEGREE == RELATIVE_DEGREE
+        && gen::FOOTHOLD_LF_RELATIVE_DEGREE == RELATIVE_DEGREE
+        && gen::FOOT_HEIGHT_LF_RELATIVE_DEGREE == RELATIVE_DEGREE
+        && gen::STABILITY_LF_RELATIVE_DEGREE == RELATIVE_DEGREE
+);
+
+const LEGS: usize = 6;
+const JOINT_ROWS_PER_LEG: usize = 4;
+
+/// The constraint families of the paper's section IV.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Family {
+    /// Knee length and hip angle, min and max (eq. 4–6).
+    JointLimits,
+    /// Toe wheel bottom above the floor plane.
+    FootHeight,
+    /// Approximate static stability, eq. 13; instance 0 = lower, 1 = upper bound.
+    Stability,
+    /// Body vs edge cuboid by the smooth SAT minus its certified margin (eq. 10).
+    BodyEdge,
+    /// Toe sphere vs edge cuboid by superellipsoid (eq. 11).
+    ToeEdge,
+    /// Swing toe inside a convex foothold half-space (eq. 12).
+    Foothold,
+}
+
+/// Where a row sits: its family, leg (if any), instance within that leg/family (edge
+/// slot, foothold edge, joint row…) and the input columns its `L_g L_f h` can touch.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RowSlot {
+    pub family: Family,
+    pub leg: Option<usize>,
+    pub instance: usize,
+    pub columns: &'static [usize],
+}
+
+/// One evaluated ECBF row: `lie = [h, L_f h, L_f² h]` and `lg = L_g L_f h` (dense over
+/// the inputs; zero outside the slot's columns). Inactive rows keep stale values.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Row {
+    pub lie: [f64; RELATIVE_DEGREE + 1],
+    pub lg: [f64; NU],
+    pub active: bool,
+}
+
+impl Row {
+    pub fn h(&self) -> f64 {
+        self.lie[0]
+    }
+}
+
+/// How many obstacle and foothold rows the catalog reserves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Capacity {
+    /// Edge cuboids: each brings 1 body row and 6 toe rows.
+    pub edges: usize,
+    /// Foothold polygon edges per leg.
+    pub foothold_edges: [usize; LEGS],
+}
+
+impl Capacity {
+    /// The paper's worst case: 20 edge cuboids × (6 toes + body) = 140 collision rows, plus
+    /// 24 joint-limit, 6 foot-height, 12 stability and 87 foothold rows: 269 rows.
+    pub const PAPER_WORST_CASE: Capacity = Capacity { edges: 20, foothold_edges: [15, 15, 15, 14, 14, 14] };
+
+    /// Rows a catalog of this capacity holds.
+    pub fn rows(&self) -> usize {
+        LEGS * (JOINT_ROWS_PER_LEG + 1 + 2) + self.edges * (1 + LEGS) + self.foothold_edges.iter().sum::<usize>()
+    }
+}
+
+/// An edge cuboid in the kernels' argument layout.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EdgeCuboid {
+    center: [f64; 3],
+    rotation: [f64; 9],
+    half: [f64; 3],
+}
+
+impl EdgeCuboid {
+    pub fn from_box(b: &OrientedBox) -> Self {
+        let (center, rotation, half) = b.kernel_args();
+        Self { center, rotation, half }
+    }
+}
+
+/// A foothold half-space on the world xy plane: `normal · p_xy + offset ≥ 0` inside.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HalfPlane {
+    normal: [f64; 2],
+    offset: f64,
+}
+
+impl HalfPlane {
+    /// # Errors
+    /// Non-finite values or a zero normal.
+    pub fn new(normal: [f64; 2], offset: f64) -> Result<Self, CbfError> {
+        finite("half-plane normal", normal[0])?;
+        finite("half-plane normal", normal[1])?;
+        finite("half-plane offset", offset)?;
+        if normal[0] == 0.0 && normal[1] == 0.0 {
+            return Err(CbfError::NotPositive { what: "half-plane normal length", value: 0.0 });
+        }
+        Ok(Self { normal, offset })
+    }
+}
+
+/// Eq. 13's `a (x_toe − x_body) + b ≥ 0`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StabilityBound {
+    pub a: f64,
+    pub b: f64,
+}
+
+/// What the robot perceives and plans this cycle: obstacles, floors, footholds, gait.
+/// Sized once by its [`Capacity`]; updating it never allocates.
+#[derive(Debug, Clone)]
+pub struct Environment {
+    capacity: Capacity,
+    edges: Vec<EdgeCuboid>,
+    /// Floor height under each toe, world frame [m].
+    pub floor_z: [f64; LEGS],
+    footholds: [Vec<HalfPlane>; LEGS],
+    /// Which legs swing; foothold rows apply to swinging legs only.
+    pub swing: [bool; LEGS],
+    /// Lower and upper stability bounds per leg; `None` leaves the rows inactive.
+    pub stability: [[Option<StabilityBound>; 2]; LEGS],
+}
+
+impl Environment {
+    pub fn new(capacity: Capacity) -> Self {
+        Self {
+            capacity,
+            edges: Vec::with_capacity(capacity.edges),
+            floor_z: [0.0; LEGS],
+            footholds: std::array::from_fn(|leg| Vec::with_capacity(capacity.foothold_edges[leg])),
+            swing: [false; LEGS],
+            stability: [[None; 2]; LEGS],
+        }
+    }
+
+    pub fn edges(&self) -> &[EdgeCuboid] {
+        &self.edges
+    }
+
+    /// # Errors
+    /// [`CbfError::CapacityExceeded`] when every edge slot is taken.
+    pub fn push_edge(&mut self, edge: EdgeCuboid) -> Result<(), CbfError> {
+        if self.edges.len() == self.capacity.edges {
+            return Err(CbfError::CapacityExceeded { what: "edge cuboids", capacity: self.capacity.edges });
+        }
+        self.edges.push(edge);
+        Ok(())
+    }
+
+    pub fn clear_edges(&mut self) {
+        self.edges.clear();
+    }
+
+    /// Replace leg `leg`'s foothold polygon with `edges` half-planes.
+    ///
+    /// # Errors
+    /// More edges than the leg's capacity, or `leg >= 6`.
+    pub fn set_foothold(&mut self, leg: usize, edges: &[HalfPlane]) -> Result<(), CbfError> {
+        let capacity = *self.capacity.foothold_edges.get(leg).ok_or(CbfError::NoSuchLeg { leg })?;
+        if edges.len() > capacity {
+            return Err(CbfError::CapacityExceeded { what: "foothold edges", capacity });
+        }
+        self.footholds[leg].clear();
+        self.footholds[leg].extend_from_slice(edges);
+        Ok(())
+    }
+
+    pub fn foothold(&self, leg: usize) -> &[HalfPlane] {
+        &self.footholds[leg]
+    }
+}
+
+/// All rows of the model for one capacity, and the storage they are evaluated into.
+#[derive(Debug, Clone)]
+pub struct Catalog {
+    capacity: Capacity,
+    slots: Vec<RowSlot>,
+    rows: Vec<Row>,
+}
+
+impl Catalog {
+    pub fn new(capacity: Capacity) -> Self {
+        let mut slots = Vec::with_capacity(capacity.rows());
+        for leg in 0..LEGS {
+            for instance in 0..JOINT_ROWS_PER_LEG {
+                let columns = &gen::JOINT_LIMITS_INPUT_COLUMNS[leg];
+                slots.push(RowSlot { family: Family::JointLimits, leg: Some(leg), instance, columns });
+            }
+        }
+        for leg in 0..LEGS {
+            let columns = &gen::FOOT_HEIGHT_INPUT_COLUMNS[leg];
+            slots.push(RowSlot { family: Family::FootHeight, leg: Some(leg), instance: 0, columns });
+        }
+        for leg in 0..LEGS {
+            for instance in 0..2 {
+                let columns = &gen::STABILITY_INPUT_COLUMNS[leg];
+                slots.push(RowSlot { family: Family::Stability, leg: Some(leg), instance, columns });
+            }
+        }
+        for instance in 0..capacity.edges {
+            let columns = &gen::BODY_EDGE_SSAT_INPUT_COLUMNS;
+            slots.push(RowSlot { family: Family::BodyEdge, leg: None, instance, columns });
+        }
+        for instance in 0..capacity.edges {
+            for leg in 0..LEGS {
+                let columns = &gen::TOE_EDGE_INPUT_COLUMNS[leg];
+                slots.push(RowSlot { family: Family::ToeEdge, leg: Some(leg), instance, columns });
+            }
+        }
+        for leg in 0..LEGS {
+            for instance in 0..capacity.foothold_edges[leg] {
+                let columns = &gen::FOOTHOLD_INPUT_COLUMNS[leg];
+                slots.push(RowSlot { family: Family::Foothold, leg: Some(leg), instance, columns });
+            }
+        }
+        debug_assert_eq!(slots.len(), capacity.rows());
+        let rows = vec![Row { lie: [0.0; RELATIVE_DEGREE + 1], lg: [0.0; NU], active: false }; slots.len()];
+        Self { capacity, slots, rows }
+    }
+
+    pub fn capacity(&self) -> Capacity {
+        self.capacity
+    }
+
+    pub fn len(&self) -> usize {
+        self.slots.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.slots.is_empty()
+    }
+
+    pub fn slots(&self) -> &[RowSlot] {
+        &self.slots
+    }
+
+    pub fn rows(&self) -> &[Row] {
+        &self.rows
+    }
+
+    /// Evaluate every applicable row at state `x` in environment `env`. Does not
+    /// allocate; rows that do not apply are marked inactive.
+    ///
+    /// # Errors
+    /// A non-finite state entry ([`CbfError::NonFinite`]), or an environment built for
+    /// another capacity. Rows are left as they were.
+    pub fn evaluate(&mut self, x: &State, env: &Environment) -> Result<(), CbfError> {
+        if env.capacity != self.capacity {
+            return Err(CbfError::CapacityMismatch);
+        }
+        for &v in x.iter() {
+            finite("state entry", v)?;
+        }
+        // Same order as the slots laid out in `new`; one kernel call fills all its rows.
+        let mut rows = self.rows.iter_mut();
+        let mut next = || rows.next().expect("rows match the capacity");
+        for leg in 0..LEGS {
+            let (lie, lg) = gen::JOINT_LIMITS[leg](x);
+            for i in 0..JOINT_ROWS_PER_LEG {
+                store(next(), &lie[i], &lg[i], &gen::JOINT_LIMITS_INPUT_COLUMNS[leg]);
+            }
+        }
+        for leg in 0..LEGS {
+            let (lie, lg) = gen::FOOT_HEIGHT[leg](x, env.floor_z[leg]);
+            store(next(), &lie[0], &lg[0], &gen::FOOT_HEIGHT_INPUT_COLUMNS[leg]);
+        }
+        for leg in 0..LEGS {
+            for bound in env.stability[leg] {
+                let row = next();
+                match bound {
+                    Some(b) => {
+                        let (lie, lg) = gen::STABILITY[leg](x, b.a, b.b);
+                        store(row, &lie[0], &lg[0], &gen::STABILITY_INPUT_COLUMNS[leg]);
+                    }
+                    None => row.active = false,
+                }
+            }
+        }
+        for i in 0..self.capacity.edges {
+            let row = next();
+            match env.edges.get(i) {
+                Some(e) => {
+                    let (lie, lg) = gen::body_edge_ssat(x, &e.center, &e.rotation, &e.half);
+                    store(row, &lie[0], &lg[0], &gen::BODY_EDGE_SSAT_INPUT_COLUMNS);
+                }
+                None => row.active = false,
+            }
+        }
+        for i in 0..self.capacity.edges {
+            for leg in 0..LEGS {
+                let row = next();
+                match env.edges.get(i) {
+                    Some(e) => {
+                        let (lie, lg) = gen::TOE_EDGE[leg](x, &e.center, &e.rotation, &e.half);
+                        store(row, &lie[0], &lg[0], &gen::TOE_EDGE_INPUT_COLUMNS[leg]);
+                    }
+                    None => row.active = false,
+                }
+            }
+        }
+        for leg in 0..LEGS {
+            for i in 0..self.capacity.foothold_edges[leg] {
+                let row = next();
+                match env.footholds[leg].get(i).filter(|_| env.swing[leg]) {
+                    Some(p) => {
+                        let (lie, lg) = gen::FOOTHOLD[leg](x, &p.normal, p.offset);
+                        store(row, &lie[0], &lg[0], &gen::FOOTHOLD_INPUT_COLUMNS[leg]);
+                    }
+                    None => row.active = false,
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Copy one kernel row into `row`, scattering `lg_lf` onto the slot's input columns.
+fn store<const C: usize>(row: &mut Row, lie: &[f64; 3], lg_lf: &[f64; C], columns: &[usize]) {
+    row.lie = *lie;
+    row.lg = [0.0; NU];
+    for (&col, &v) in columns.iter().zip(lg_lf) {
+        row.lg[col] = v;
+    }
+    row.active = true;
+}

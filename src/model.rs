@@ -1,0 +1,56 @@
+//! The Tachyon 3 model's layout and dynamics, as generated from
+//! `symbolic/models/tachyon3.toml`.
+//!
+//! State (36) and input (17) layouts are [`STATE_NAMES`] and [`INPUT_NAMES`]: the
+//! ground-moving origin (world position, yaw, speed, yaw rate), the origin-relative body
+//! (x, z, pitch and rates) and six toes (x, z and rates, each in its leg's lateral plane).
+
+use crate::generated::tachyon3 as gen;
+pub use gen::{
+    BODY_HALF_EXTENTS, ECBF_POLES, G_PATTERN, HIP_OUTWARD, HIP_POSITIONS, HIP_RANGES, INPUT_NAMES, KNEE_RANGE,
+    LEG_NAMES, NOMINAL_CLEARANCE, NU, NX, STATE_NAMES, TOE_RADIUS,
+};
+
+/// A state vector.
+pub type State = [f64; NX];
+/// An input vector.
+pub type Input = [f64; NU];
+
+/// Index of the first toe block; toe `leg` occupies `TOE_BLOCK + 4 * leg ..+4` (x, z, vx, vz).
+pub const TOE_BLOCK: usize = 12;
+/// Body states: x, z, pitch at 6, 7, 8.
+pub const BODY_X: usize = 6;
+pub const BODY_Z: usize = 7;
+pub const BODY_PITCH: usize = 8;
+
+/// Position of a named state in [`State`].
+pub fn state_index(name: &str) -> Option<usize> {
+    STATE_NAMES.iter().position(|n| *n == name)
+}
+
+/// Position of a named input in [`Input`].
+pub fn input_index(name: &str) -> Option<usize> {
+    INPUT_NAMES.iter().position(|n| *n == name)
+}
+
+/// `ẋ = f(x) + g(x) u`.
+pub fn xdot(x: &State, u: &Input) -> State {
+    let mut dx = gen::dynamics_f(x);
+    for (&(row, col), g) in G_PATTERN.iter().zip(gen::dynamics_g(x)) {
+        dx[row] += g * u[col];
+    }
+    dx
+}
+
+/// The standard low posture at rest at the world origin: body underside at
+/// [`NOMINAL_CLEARANCE`], pitch 0, every toe on the ground (wheel centre at
+/// [`TOE_RADIUS`]) straight below its hip.
+pub fn standard_posture() -> State {
+    let mut x = [0.0; NX];
+    x[BODY_Z] = NOMINAL_CLEARANCE + BODY_HALF_EXTENTS[2];
+    for (leg, hip) in HIP_POSITIONS.iter().enumerate() {
+        x[TOE_BLOCK + 4 * leg] = hip[0];
+        x[TOE_BLOCK + 4 * leg + 1] = TOE_RADIUS;
+    }
+    x
+}

@@ -1,0 +1,237 @@
+"""The Tachyon 3 model's dynamics and its six ECBF constraint families (paper section IV).
+
+Every constraint kernel takes the state ``x`` and its runtime parameters, and returns,
+per row, ``lie = [h, L_f h, ..., L_f^r h]`` and ``lg_lf = L_g L_f^(r-1) h`` on the input
+columns listed in the kernel's ``*_INPUT_COLUMNS`` constant. The relative degree r is
+found by :mod:`symbolic.lie`, never assumed. What is baked (the robot's structure,
+smoothing, limits) comes from the model file; what is runtime (obstacles, floor heights,
+foothold edges, stability bounds) is a kernel argument.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Callable, List, Tuple
+
+import symengine as se
+
+from ..kernel import Kernel
+from ..rust_emitter import RawRust
+from ..lie import LieEngine
+from ..model import Leg, Tachyon3, load_tachyon3
+from ..smoothing import LSE, XTANH
+from .ssat import AXES, AXIS_COUNT, ROT, separating_axes
+
+RowBuilder = Callable[[Kernel, LieEngine], List[Tuple[str, se.Expr]]]
+
+
+def _rust_str_array(items) -> str:
+    return "[" + ", ".join(f'"{i}"' for i in items) + "]"
+
+
+def _row_kernel(system: Tachyon3, name: str, doc: str, build: RowBuilder) -> Kernel:
+    k = Kernel(name, doc)
+    k.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
+    engine = LieEngine(k, system.x, system.f, system.g)
+    rows = build(k, engine)
+    lie = [engine.row(h, f"{name}.{row}") for row, h in rows]
+    degrees = {r.degree for r in lie}
+    if len(degrees) != 1:
+        raise ValueError(f"{name}: rows of one kernel must share a relative degree, got {degrees}")
+    degree = degrees.pop()
+    columns = sorted(set().union(*(r.lg for r in lie)))
+    upper = name.upper()
+    k.constant(f"{upper}_RELATIVE_DEGREE", "usize", str(degree),
+               f"Relative degree of every row of [`{name}`] (found symbolically).")
+    k.constant(f"{upper}_INPUT_COLUMNS", f"[usize; {len(columns)}]", str(columns),
+               f"Input columns of `lg_lf` in [`{name}`]: the only inputs its rows depend on.")
+    k.constant(f"{upper}_ROW_NAMES", f"[&str; {len(rows)}]", _rust_str_array(r for r, _ in rows),
+               f"What each row of [`{name}`] constrains.")
+    k.output_matrix("lie", [list(r.lf) for r in lie], "per row: h, L_f h, ..., L_f^r h")
+    k.output_matrix("lg_lf", [[r.lg.get(u, se.Integer(0)) for u in columns] for r in lie],
+                    f"per row: L_g L_f^(r-1) h on the columns `{upper}_INPUT_COLUMNS`")
+    return k
+
+
+def _vec_input(k: Kernel, name: str, doc: str) -> List[se.Symbol]:
+    return k.array_input(name, AXES, doc)
+
+
+def _toe_world_lets(system: Tachyon3, engine: LieEngine, leg: Leg) -> List[se.Symbol]:
+    return [engine.let_(f"toe_{c}", e) for c, e in zip(AXES, system.toe_world(leg))]
+
+
+# -------------------------------------------------------------------- families
+def joint_limits(system: Tachyon3, leg: Leg) -> Kernel:
+    m = system.model
+
+    def build(k: Kernel, eng: LieEngine):
+        dx, dz = system.leg_vector(leg)
+        dx, dz = eng.let_("leg_dx", dx), eng.let_("leg_dz", dz)
+        knee = eng.let_("knee", se.sqrt(dx * dx + dz * dz))
+        hip = eng.let_("hip", leg.outward * (se.atan2(dx, -dz) + system.s["pitch"]))
+        return [("knee_min", knee - m.knee_min), ("knee_max", m.knee_max - knee),
+                ("hip_min", hip - leg.hip_min), ("hip_max", leg.hip_max - hip)]
+
+    return _row_kernel(system, f"joint_limits_{leg.name.lower()}",
+                       f"Joint limits of leg {leg.name} (eq. 4-6): knee length in "
+                       f"[{m.knee_min}, {m.knee_max}] m, hip angle in "
+                       f"[{math.degrees(leg.hip_min):g}, {math.degrees(leg.hip_max):g}] deg.", build)
+
+
+def _edge_inputs(k: Kernel):
+    center = _vec_input(k, "edge_center", "edge cuboid centre, world frame [m]")
+    rot = k.array_input("edge_rotation", ROT, "edge cuboid rotation, row-major (columns = its axes)")
+    half = _vec_input(k, "edge_half", "edge cuboid half extents [m]")
+    return center, [[rot[3 * i + j] for j in range(3)] for i in range(3)], half
+
+
+def body_edge_ssat(system: Tachyon3) -> Kernel:
+    m = system.model
+    alpha, alpha_rot = se.RealDouble(m.ssat_alpha), se.RealDouble(m.ssat_alpha_rot)
+    body_half = [se.RealDouble(v) for v in m.body_half_extents]
+
+    def build(k: Kernel, eng: LieEngine):
+        center, ra, half = _edge_inputs(k)
+        pos = [eng.let_(f"body_{c}", e) for c, e in zip(AXES, system.body_position_world())]
+        rb = system.body_rotation_world()
+        rb = [[eng.let_(f"body_r{i}{j}", rb[i][j]) for j in range(3)] for i in range(3)]
+        # Box A = the edge cuboid, box B = the body: the SSAT formulation in A's frame.
+        t = [eng.let_(f"t_{AXES[i]}", se.Add(*[ra[q][i] * (pos[q] - center[q]) for q in range(3)]))
+             for i in range(3)]
+        rot = [[eng.let_(f"rot_{i}{j}", se.Add(*[ra[q][i] * rb[q][j] for q in range(3)]))
+                for j in range(3)] for i in range(3)]
+        axes = separating_axes(t, rot, half, body_half, XTANH, alpha, alpha_rot)
+        ys = [y for y, _ in axes]
+        shift = k.runtime_max("y_max", ys)
+        worst = k.runtime_max("worst_axis", [b for _, b in axes])
+        margin = LSE.over(AXIS_COUNT, alpha) + worst
+        # h - margin >= 0 certifies that the exact body and edge cuboid do not overlap.
+        return [("body_edge", LSE(ys, alpha, shift) - margin)]
+
+    return _row_kernel(system, "body_edge_ssat",
+                       "Body vs edge cuboid by the smooth SAT (eq. 10), minus its certified margin:\n"
+                       f"h >= 0 proves the boxes do not overlap. alpha = {m.ssat_alpha}, "
+                       f"alpha_rot = {m.ssat_alpha_rot}.", build)
+
+
+def toe_edge(system: Tachyon3, leg: Leg) -> Kernel:
+    m = system.model
+    power = 2 * m.superellipsoid_n
+
+    def build(k: Kernel, eng: LieEngine):
+        center, ra, half = _edge_inputs(k)
+        toe = _toe_world_lets(system, eng, leg)
+        rel = [eng.let_(f"rel_{AXES[i]}", se.Add(*[ra[q][i] * (toe[q] - center[q]) for q in range(3)]))
+               for i in range(3)]
+        # The sphere is folded into the cuboid: each half extent grows by the toe radius.
+        h = se.Add(*[(rel[i] / (half[i] + m.toe_radius)) ** power for i in range(3)]) - 1
+        return [("toe_edge", h)]
+
+    return _row_kernel(system, f"toe_edge_{leg.name.lower()}",
+                       f"Toe sphere of leg {leg.name} vs edge cuboid by superellipsoid (eq. 11), "
+                       f"exponent {power}.", build)
+
+
+def foothold(system: Tachyon3, leg: Leg) -> Kernel:
+    def build(k: Kernel, eng: LieEngine):
+        normal = k.array_input("normal", "xy", "inward normal a of the foothold edge (world xy)")
+        offset = k.scalar_input("offset", "offset b of the edge: the row is a . p_xy + b >= 0 [m]")
+        toe = _toe_world_lets(system, eng, leg)
+        return [("foothold", normal[0] * toe[0] + normal[1] * toe[1] + offset)]
+
+    return _row_kernel(system, f"foothold_{leg.name.lower()}",
+                       f"Convex foothold half-space on the world xy of toe {leg.name} (eq. 12).", build)
+
+
+def foot_height(system: Tachyon3, leg: Leg) -> Kernel:
+    def build(k: Kernel, eng: LieEngine):
+        floor = k.scalar_input("floor_z", "height of the floor plane under the toe, world frame [m]")
+        toe = _toe_world_lets(system, eng, leg)
+        return [("foot_height", toe[2] - system.model.toe_radius - floor)]
+
+    return _row_kernel(system, f"foot_height_{leg.name.lower()}",
+                       f"Toe {leg.name} above the floor plane: wheel bottom height minus floor height.", build)
+
+
+def stability(system: Tachyon3, leg: Leg) -> Kernel:
+    def build(k: Kernel, eng: LieEngine):
+        a = k.scalar_input("a", "slope a_i of eq. 13 (+1 / -1 for lower / upper bounds)")
+        b = k.scalar_input("b", "offset b_i of eq. 13 [m]")
+        t = leg.name.lower()
+        return [("stability", a * (system.s[f"{t}_x"] - system.s["bx"]) + b)]
+
+    return _row_kernel(system, f"stability_{leg.name.lower()}",
+                       f"Approximate static stability of toe {leg.name} vs the body (eq. 13): "
+                       "a (x_toe - x_body) + b >= 0, origin frame.", build)
+
+
+# -------------------------------------------------------------------- dynamics
+def dynamics(system: Tachyon3) -> List[Kernel]:
+    m = system.model
+    f = Kernel("dynamics_f", "Drift f(x) of x' = f(x) + g(x) u (paper eq. 1-3).")
+    f.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
+    f.output_vector("f", system.f, "f(x)")
+    pattern = [(r, c) for r in range(len(system.x)) for c in range(system.g and len(system.g[0]))
+               if system.g[r][c] != 0]
+    g = Kernel("dynamics_g", "Non-zeros of the input matrix g(x), in the order of `G_PATTERN`.")
+    g.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
+    g.output_vector("g", [system.g[r][c] for r, c in pattern], "g(x) at `G_PATTERN`")
+    consts = [
+        ("NX", "usize", str(len(system.x)), "State dimension."),
+        ("NU", "usize", str(len(system.input_names)), "Input dimension."),
+        ("STATE_NAMES", f"[&str; {len(system.x)}]", _rust_str_array(system.state_names), "State layout."),
+        ("INPUT_NAMES", f"[&str; {len(system.input_names)}]", _rust_str_array(system.input_names), "Input layout."),
+        ("LEG_NAMES", "[&str; 6]", _rust_str_array(l.name for l in m.legs), "Legs, in the order of the toe blocks."),
+        ("G_PATTERN", f"[(usize, usize); {len(pattern)}]", str(pattern), "(row, column) of each non-zero of g."),
+        ("BODY_HALF_EXTENTS", "[f64; 3]", str(list(m.body_half_extents)), "Body box half extents [m]."),
+        ("NOMINAL_CLEARANCE", "f64", repr(m.nominal_clearance), "Body underside above ground in the standard posture [m]."),
+        ("TOE_RADIUS", "f64", repr(m.toe_radius), "Toe sphere radius [m]."),
+        ("KNEE_RANGE", "[f64; 2]", str([m.knee_min, m.knee_max]), "Knee length limits [m]."),
+        ("HIP_POSITIONS", "[[f64; 3]; 6]", str([list(l.hip) for l in m.legs]), "Hip mounts, body frame [m]."),
+        ("HIP_RANGES", "[[f64; 2]; 6]", str([[l.hip_min, l.hip_max] for l in m.legs]), "Hip angle limits [rad], positive outward."),
+        ("HIP_OUTWARD", "[f64; 6]", str([l.outward for l in m.legs]), "+1 where outward is forward, -1 backward."),
+        ("SSAT_ALPHA", "[f64; 2]", str([m.ssat_alpha, m.ssat_alpha_rot]), "Body SSAT sharpness (alpha, alpha_rot)."),
+        ("SUPERELLIPSOID_N", "u32", str(m.superellipsoid_n), "Toe-edge superellipsoid exponent is 2N."),
+        ("ECBF_POLES", "[f64; 2]", str(list(m.ecbf_poles)), "Default ECBF poles [1/s]."),
+    ]
+    for name, ty, value, doc in consts:
+        f.constant(name, ty, value, doc)
+    return [f, g]
+
+
+def _leg_table(family: str, per_leg: List[Kernel]) -> RawRust:
+    """``FAMILY: [fn; 6]`` and ``FAMILY_INPUT_COLUMNS: [[usize; n]; 6]`` in leg order, so the
+    runtime can treat the six legs' kernels of one family alike."""
+    signatures = {k.inputs and tuple((i.name, len(i.symbols), i.is_array) for i in k.inputs) for k in per_leg}
+    shapes = {tuple((o.dim, o.cols) for o in k.outputs) for k in per_leg}
+    if len(signatures) != 1 or len(shapes) != 1:
+        raise ValueError(f"{family}: the legs' kernels differ in signature; cannot tabulate them")
+    k0 = per_leg[0]
+    args = ", ".join(f"&[f64; {len(i.symbols)}]" if i.is_array else "f64" for i in k0.inputs)
+    (lie_rows, lie_cols), (lg_rows, lg_cols) = [(o.dim, o.cols) for o in k0.outputs]
+    ret = f"([[f64; {lie_cols}]; {lie_rows}], [[f64; {lg_cols}]; {lg_rows}])"
+    upper = family.upper()
+    names = ", ".join(k.name for k in per_leg)
+    cols = ", ".join(f"{k.name.upper()}_INPUT_COLUMNS" for k in per_leg)
+    return RawRust(
+        f"/// The {family} kernels of the six legs, in `LEG_NAMES` order.\n"
+        f"pub const {upper}: [fn({args}) -> {ret}; 6] = [{names}];\n"
+        f"/// Input columns of each entry of [`{upper}`].\n"
+        f"pub const {upper}_INPUT_COLUMNS: [[usize; {lg_cols}]; 6] = [{cols}];\n")
+
+
+def kernels(system: Tachyon3 | None = None) -> List[Kernel | RawRust]:
+    system = system or load_tachyon3()
+    out: List[Kernel | RawRust] = dynamics(system)
+    out.append(body_edge_ssat(system))
+    for family in (joint_limits, toe_edge, foothold, foot_height, stability):
+        per_leg = [family(system, leg) for leg in system.model.legs]
+        out += per_leg
+        out.append(_leg_table(family.__name__, per_leg))
+    return out
+
+
+MODULE_DOC = """The Tachyon 3 model (`symbolic/models/tachyon3.toml`): dynamics, layout constants and
+the six ECBF constraint families of the paper's section IV, each differentiated to its
+relative degree. See `symbolic/families/tachyon3.py`."""
