@@ -120,6 +120,21 @@ impl EdgeCuboid {
         let (center, rotation, half) = b.kernel_args();
         Self { center, rotation, half }
     }
+
+    /// Centre, world frame [m].
+    pub fn center(&self) -> &[f64; 3] {
+        &self.center
+    }
+
+    /// Rotation, row-major; its columns are the cuboid's axes.
+    pub fn rotation(&self) -> &[f64; 9] {
+        &self.rotation
+    }
+
+    /// Half extents [m].
+    pub fn half_extents(&self) -> &[f64; 3] {
+        &self.half
+    }
 }
 
 /// A foothold half-space on the world xy plane: `normal · p_xy + offset ≥ 0` inside.

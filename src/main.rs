@@ -1,5 +1,7 @@
 //! `cbfgen` command line.
 
+use cbfgen::catalog::{Capacity, Catalog, Environment, Family};
+use cbfgen::model;
 use cbfgen::ssat::{self, SmoothParams};
 use cbfgen::{sat, OrientedBox};
 use clap::{Parser, Subcommand};
@@ -28,6 +30,9 @@ enum Command {
         #[arg(long, default_value_t = 200.0)]
         alpha: f64,
     },
+    /// Evaluate the Tachyon 3 joint-limit rows (h, L_f h, L_f^2 h) at the standard
+    /// posture: edit symbolic/models/tachyon3.toml, rebuild, and watch them change.
+    Rows,
     /// Regenerate generated/ from symbolic/ (runs `python -m symbolic.generate`).
     Generate,
 }
@@ -63,6 +68,21 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                      if d.value - margin >= 0.0 { "certified apart" } else { "not certified" });
             println!("  exact SAT separation  {:+.6} m", sat::separation(&edge, &body));
             println!("  dh/dp_body            [{:+.4}, {:+.4}, {:+.4}]", d.gradient.x, d.gradient.y, d.gradient.z);
+            Ok(())
+        }
+        Command::Rows => {
+            let env = Environment::new(Capacity::PAPER_WORST_CASE);
+            let mut catalog = Catalog::new(Capacity::PAPER_WORST_CASE);
+            catalog.evaluate(&model::standard_posture(), &env)?;
+            println!("joint-limit rows at the standard posture (body underside {} m up)", model::NOMINAL_CLEARANCE);
+            println!("{:<4} {:<9} {:>12} {:>12} {:>12}", "leg", "row", "h", "L_f h", "L_f^2 h");
+            let names = cbfgen::generated::tachyon3::JOINT_LIMITS_LF_ROW_NAMES;
+            for (slot, row) in catalog.slots().iter().zip(catalog.rows()) {
+                if let (Family::JointLimits, Some(leg)) = (slot.family, slot.leg) {
+                    println!("{:<4} {:<9} {:>12.6} {:>12.6} {:>12.6}", model::LEG_NAMES[leg], names[slot.instance],
+                             row.lie[0], row.lie[1], row.lie[2]);
+                }
+            }
             Ok(())
         }
         Command::Generate => {

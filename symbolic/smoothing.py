@@ -80,7 +80,8 @@ SQRT = SmoothAbs(
 class SmoothMax:
     """A smooth surrogate S(y) for max(y) with  -under <= S(y) - max(y) <= over.
 
-    ``value(ys, alpha, shift)`` takes a *shift* symbol. The surrogate is built so its
+    ``value(ys, alpha, shift, let_=None)`` takes a *shift* symbol, and optionally a let
+    factory (``LieEngine.let_``) to build its pieces as named intermediates. The surrogate is built so its
     value does not depend on the shift at all (exactly, not approximately); the emitted
     code sets the shift to the runtime max(y) so no exp() can overflow, and
     differentiation may treat the shift as a constant because every derivative of the
@@ -89,19 +90,25 @@ class SmoothMax:
 
     name: str
     doc: str
-    value: Callable[[Sequence[se.Expr], se.Expr, se.Expr], se.Expr]
+    value: Callable[..., se.Expr]
     over: Callable[[int, se.Expr], se.Expr]
 
-    def __call__(self, ys: Sequence[se.Expr], alpha: se.Expr, shift: se.Expr) -> se.Expr:
-        return self.value(ys, alpha, shift)
+    def __call__(self, ys: Sequence[se.Expr], alpha: se.Expr, shift: se.Expr, let_=None) -> se.Expr:
+        return self.value(ys, alpha, shift, let_)
 
 
-def _lse(ys: Sequence[se.Expr], alpha: se.Expr, shift: se.Expr) -> se.Expr:
-    total = se.Add(*[se.exp(alpha * (y - shift)) for y in ys])
-    return shift + se.log(total) / alpha
+def _lse(ys: Sequence[se.Expr], alpha: se.Expr, shift: se.Expr, let_=None) -> se.Expr:
+    terms = [se.exp(alpha * (y - shift)) for y in ys]
+    if let_ is not None:
+        # Exponentials and their sum as named intermediates: differentiated forward, the
+        # k-th derivative of h is then a short recurrence in the sum's derivatives
+        # (h' = S'/(alpha S), h'' = (S''/S - (S'/S)^2)/alpha) instead of an n^2 expansion.
+        terms = [let_(f"lse_e{i}", e) for i, e in enumerate(terms)]
+        return shift + se.log(let_("lse_sum", se.Add(*terms))) / alpha
+    return shift + se.log(se.Add(*terms)) / alpha
 
 
-def _boltzmann(ys: Sequence[se.Expr], alpha: se.Expr, shift: se.Expr) -> se.Expr:
+def _boltzmann(ys: Sequence[se.Expr], alpha: se.Expr, shift: se.Expr, let_=None) -> se.Expr:
     weights = [se.exp(alpha * (y - shift)) for y in ys]
     return se.Add(*[y * w for y, w in zip(ys, weights)]) / se.Add(*weights)
 

@@ -2,6 +2,7 @@
 
 mod common;
 
+use cbfgen::catalog::{Capacity, Catalog, EdgeCuboid, Environment, Family, HalfPlane, StabilityBound};
 use cbfgen::generated::tachyon3 as gen;
 use cbfgen::model::{self, State, BODY_PITCH, BODY_X, BODY_Z, NU, NX, TOE_BLOCK};
 use common::{random_rotation, random_vector, rng};
@@ -35,8 +36,8 @@ fn random_state(r: &mut impl Rng) -> State {
     x[BODY_X] = r.random_range(-0.1..0.1);
     x[BODY_Z] = r.random_range(0.2..0.5);
     x[BODY_PITCH] = r.random_range(-0.3..0.3);
-    for k in 9..12 {
-        x[k] = r.random_range(-0.5..0.5);
+    for rate in &mut x[9..12] {
+        *rate = r.random_range(-0.5..0.5);
     }
     for leg in 0..6 {
         let t = TOE_BLOCK + 4 * leg;
@@ -134,7 +135,7 @@ fn lie_derivatives_match_finite_differences_along_f_and_g() {
                 let lf_scale = plus_f[k].0[1].abs().max(minus_f[k].0[1].abs());
                 assert_close(lf_fd, lie[1], h_scale, eps, &format!("{name} row {k}: L_f h"));
                 assert_close(lf2_fd, lie[2], lf_scale, eps, &format!("{name} row {k}: L_f^2 h"));
-                for u in 0..NU {
+                for (u, &lg_u) in lg.iter().enumerate() {
                     let gu = g_column(&x, u);
                     let (p, m) = (kernel(&shifted(&x, &gu, eps_g)), kernel(&shifted(&x, &gu, -eps_g)));
                     // Relative degree 2: h itself does not see the input...
@@ -142,8 +143,8 @@ fn lie_derivatives_match_finite_differences_along_f_and_g() {
                     // ...and L_g L_f h is zero outside the listed columns, right inside them.
                     let lglf_fd = (p[k].0[1] - m[k].0[1]) / (2.0 * eps_g);
                     let scale = p[k].0[1].abs().max(m[k].0[1].abs());
-                    assert_close(lglf_fd, lg[u], scale, eps_g, &format!("{name} row {k}: L_g L_f h[{u}]"));
-                    if lg[u].abs() > 1e-9 {
+                    assert_close(lglf_fd, lg_u, scale, eps_g, &format!("{name} row {k}: L_g L_f h[{u}]"));
+                    if lg_u.abs() > 1e-9 {
                         nonzero_seen.insert((name.clone(), u), true);
                     }
                 }
@@ -170,4 +171,135 @@ fn lie_derivatives_match_finite_differences_along_f_and_g() {
     for &u in &gen::BODY_EDGE_SSAT_INPUT_COLUMNS {
         assert!(nonzero_seen.contains_key(&("body_edge_ssat".to_string(), u)), "body_edge_ssat column {u} never non-zero");
     }
+}
+
+/// Place toe `leg` so its knee length is `length` and its hip angle (positive outward)
+/// is `angle`, computing the geometry with nalgebra rotations, not the generated code.
+fn place_toe(x: &mut State, leg: usize, length: f64, angle: f64) {
+    let pitch = Rotation3::from_euler_angles(0.0, x[BODY_PITCH], 0.0);
+    let hip_body = nalgebra::Vector3::from(model::HIP_POSITIONS[leg]);
+    let hip = nalgebra::Vector3::new(x[BODY_X], 0.0, x[BODY_Z]) + pitch * hip_body;
+    let leg_body = nalgebra::Vector3::new(model::HIP_OUTWARD[leg] * length * angle.sin(), 0.0, -length * angle.cos());
+    let toe = hip + pitch * leg_body;
+    x[TOE_BLOCK + 4 * leg] = toe.x;
+    x[TOE_BLOCK + 4 * leg + 1] = toe.z;
+}
+
+#[test]
+fn joint_rows_vanish_exactly_at_each_limit() {
+    let [kmin, kmax] = model::KNEE_RANGE;
+    for leg in 0..6 {
+        let [hmin, hmax] = model::HIP_RANGES[leg];
+        let mut x = model::standard_posture();
+        x[BODY_X] = 0.05;
+        x[BODY_Z] = 0.35;
+        x[BODY_PITCH] = 0.2;
+        // (row that must vanish, knee length, hip angle)
+        for (row, length, angle) in [(0, kmin, 0.1), (1, kmax, 0.1), (2, 0.3, hmin), (3, 0.3, hmax)] {
+            place_toe(&mut x, leg, length, angle);
+            let (lie, _) = gen::JOINT_LIMITS[leg](&x);
+            assert!(lie[row][0].abs() < 1e-12, "leg {leg} row {row}: h = {}", lie[row][0]);
+            for other in (0..4).filter(|&o| o != row) {
+                assert!(lie[other][0] > 0.0, "leg {leg}: row {other} should hold strictly");
+            }
+        }
+    }
+}
+
+#[test]
+fn toe_on_a_foothold_edge_and_on_the_floor_gives_zero() {
+    let mut x = model::standard_posture();
+    x[0] = 0.3;
+    x[1] = -0.2;
+    x[2] = 0.05;
+    x[3] = 0.7; // yaw
+    for leg in 0..6 {
+        let y_hip = model::HIP_POSITIONS[leg][1];
+        let (s, c) = x[3].sin_cos();
+        // Foothold edge: world x <= 1.2, i.e. (-1, 0) . p + 1.2 >= 0; put the toe on it.
+        x[TOE_BLOCK + 4 * leg] = (1.2 - x[0] + y_hip * s) / c;
+        let (lie, _) = gen::FOOTHOLD[leg](&x, &[-1.0, 0.0], 1.2);
+        assert!(lie[0][0].abs() < 1e-12, "foothold leg {leg}: h = {}", lie[0][0]);
+        // Floor at z = 0.13: wheel centre one radius above it.
+        x[TOE_BLOCK + 4 * leg + 1] = 0.13 + model::TOE_RADIUS - x[2];
+        let (lie, _) = gen::FOOT_HEIGHT[leg](&x, 0.13);
+        assert!(lie[0][0].abs() < 1e-12, "foot height leg {leg}: h = {}", lie[0][0]);
+    }
+}
+
+fn full_environment(r: &mut impl Rng) -> Environment {
+    let cap = Capacity::PAPER_WORST_CASE;
+    let mut env = Environment::new(cap);
+    for _ in 0..cap.edges {
+        let (c, rot, h) = random_edge(r);
+        let m = nalgebra::Matrix3::from_row_slice(&rot);
+        let b = cbfgen::OrientedBox::new(c.into(), Rotation3::from_matrix_unchecked(m), h.into()).unwrap();
+        env.push_edge(EdgeCuboid::from_box(&b)).unwrap();
+    }
+    for leg in 0..6 {
+        let planes: Vec<_> = (0..cap.foothold_edges[leg])
+            .map(|k| {
+                let a = k as f64 * 0.4;
+                HalfPlane::new([a.cos(), a.sin()], 1.0).unwrap()
+            })
+            .collect();
+        env.set_foothold(leg, &planes).unwrap();
+        env.swing[leg] = true;
+        env.stability[leg] = [Some(StabilityBound { a: 1.0, b: 0.3 }), Some(StabilityBound { a: -1.0, b: 0.3 })];
+        env.floor_z[leg] = -0.01;
+    }
+    env
+}
+
+#[test]
+fn the_paper_worst_case_has_269_rows_all_evaluated() {
+    let mut r = rng(4);
+    let env = full_environment(&mut r);
+    let mut catalog = Catalog::new(Capacity::PAPER_WORST_CASE);
+    assert_eq!(catalog.len(), 269);
+    let x = random_state(&mut r);
+    catalog.evaluate(&x, &env).unwrap();
+    assert!(catalog.rows().iter().all(|row| row.active && row.lie.iter().all(|v| v.is_finite())));
+    let count = |f: Family| catalog.slots().iter().filter(|s| s.family == f).count();
+    assert_eq!(count(Family::BodyEdge) + count(Family::ToeEdge), 140);
+    assert_eq!((count(Family::JointLimits), count(Family::FootHeight), count(Family::Stability)), (24, 6, 12));
+    // Each slot holds what its own kernel returns for its own parameters.
+    for (slot, row) in catalog.slots().iter().zip(catalog.rows()) {
+        let e = slot.instance;
+        let expected = match slot.family {
+            Family::BodyEdge => {
+                let edge = env.edges()[e];
+                gen::body_edge_ssat(&x, edge.center(), edge.rotation(), edge.half_extents()).0[0]
+            }
+            Family::ToeEdge => {
+                let edge = env.edges()[e];
+                gen::TOE_EDGE[slot.leg.unwrap()](&x, edge.center(), edge.rotation(), edge.half_extents()).0[0]
+            }
+            Family::JointLimits => gen::JOINT_LIMITS[slot.leg.unwrap()](&x).0[e],
+            _ => continue,
+        };
+        assert_eq!(row.lie, expected, "{slot:?}");
+        for (u, v) in row.lg.iter().enumerate() {
+            assert!(*v == 0.0 || slot.columns.contains(&u), "{slot:?}: value outside its columns");
+        }
+    }
+}
+
+#[test]
+fn bad_input_is_an_error_not_a_panic() {
+    let mut r = rng(5);
+    let env = full_environment(&mut r);
+    let mut catalog = Catalog::new(Capacity::PAPER_WORST_CASE);
+    let mut x = model::standard_posture();
+    x[7] = f64::NAN;
+    assert!(catalog.evaluate(&x, &env).is_err());
+    x[7] = f64::INFINITY;
+    assert!(catalog.evaluate(&x, &env).is_err());
+    let mut small = Environment::new(Capacity { edges: 1, foothold_edges: [1; 6] });
+    assert!(catalog.evaluate(&model::standard_posture(), &small).is_err(), "capacity mismatch");
+    let edge = env.edges()[0];
+    small.push_edge(edge).unwrap();
+    assert!(small.push_edge(edge).is_err());
+    assert!(small.set_foothold(6, &[]).is_err());
+    assert!(HalfPlane::new([0.0, 0.0], 1.0).is_err());
 }

@@ -51,14 +51,18 @@ def separating_axes(
     sabs: SmoothAbs,
     alpha: se.Expr,
     alpha_rot: se.Expr,
+    let_=None,
 ) -> List[Tuple[se.Expr, se.Expr]]:
     """The 15 (y, overshoot bound) pairs in box A's frame.
 
     ``t`` is B's centre in A's frame, ``rot[i][j]`` = e_i . f_j (A axis i, B axis j).
     ``sabs`` smooths |.|: distances with sharpness ``alpha``, rotation entries with
-    ``alpha_rot``. The bound is an upper bound on y_smooth - y_exact.
+    ``alpha_rot``. The bound is an upper bound on y_smooth - y_exact. With a let factory
+    the nine smoothed |R_ij|, each shared by several axes, become named intermediates.
     """
     abs_rot = [[sabs(rot[i][j], alpha_rot) for j in range(3)] for i in range(3)]
+    if let_ is not None:
+        abs_rot = [[let_(f"abs_rot_{i}{j}", abs_rot[i][j]) for j in range(3)] for i in range(3)]
     centre_over = sabs.over(alpha)
     extent_under = sabs.under(alpha_rot)
     penalty_scale = se.Add(*half_a) + se.Add(*half_b)

@@ -101,13 +101,16 @@ def body_edge_ssat(system: Tachyon3) -> Kernel:
              for i in range(3)]
         rot = [[eng.let_(f"rot_{i}{j}", se.Add(*[ra[q][i] * rb[q][j] for q in range(3)]))
                 for j in range(3)] for i in range(3)]
-        axes = separating_axes(t, rot, half, body_half, XTANH, alpha, alpha_rot)
-        ys = [y for y, _ in axes]
+        axes = separating_axes(t, rot, half, body_half, XTANH, alpha, alpha_rot, eng.let_)
+        # Axis values, and below the LSE's exponentials and sum, as lets: the engine then
+        # carries per-axis rates (y', y'') and L_f^2 h costs O(15), not a dense Hessian
+        # over the twelve pose intermediates or an n^2 expansion of the smooth max.
+        ys = [eng.let_(f"y_{i}", y) for i, (y, _) in enumerate(axes)]
         shift = k.runtime_max("y_max", ys)
         worst = k.runtime_max("worst_axis", [b for _, b in axes])
         margin = LSE.over(AXIS_COUNT, alpha) + worst
         # h - margin >= 0 certifies that the exact body and edge cuboid do not overlap.
-        return [("body_edge", LSE(ys, alpha, shift) - margin)]
+        return [("body_edge", LSE(ys, alpha, shift, eng.let_) - margin)]
 
     return _row_kernel(system, "body_edge_ssat",
                        "Body vs edge cuboid by the smooth SAT (eq. 10), minus its certified margin:\n"

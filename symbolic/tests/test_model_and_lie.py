@@ -1,0 +1,92 @@
+"""Relative-degree detection, model-file validation, and model edits reaching the output."""
+
+import shutil
+from pathlib import Path
+
+import pytest
+import symengine as se
+
+from symbolic.families import tachyon3
+from symbolic.inputs_hash import inputs_hash
+from symbolic.kernel import Kernel
+from symbolic.lie import LieEngine, RelativeDegreeError
+from symbolic.model import MODELS_DIR, ModelError, Tachyon3, load_model
+from symbolic.generate import REPO_ROOT
+from symbolic.rust_emitter import emit_kernel
+
+MODEL = MODELS_DIR / "tachyon3.toml"
+
+
+@pytest.fixture(scope="module")
+def system():
+    return Tachyon3(load_model(MODEL))
+
+
+def engine(system):
+    k = Kernel("probe", "probe")
+    k.array_input("x", system.state_names, "state")
+    return LieEngine(k, system.x, system.f, system.g)
+
+
+def test_velocity_constraint_has_degree_one(system):
+    row = engine(system).row(1 - system.s["v"] ** 2, "speed")
+    assert row.degree == 1 and set(row.lg) == {system.input_names.index("a")}
+
+
+def test_position_constraints_have_degree_two(system):
+    s = system.s
+    eng = engine(system)
+    assert eng.row(s["bz"] - 0.1, "body height").degree == 2
+    world_x = eng.row(s["px"], "origin x")  # p_x' = v cos(yaw): the input reaches it via v
+    assert world_x.degree == 2 and set(world_x.lg) == {system.input_names.index("a")}
+    # Through a named intermediate, as the families use them.
+    z = eng.let_("probe_z", s["bz"] + 0.3 * se.sin(s["pitch"]))
+    row = eng.row(z * z - 0.04, "through a let")
+    assert row.degree == 2
+    assert set(row.lg) == {system.input_names.index("baz"), system.input_names.index("pitch_acc")}
+
+
+def test_constraint_without_input_dependence_is_rejected(system):
+    with pytest.raises(RelativeDegreeError, match="does not depend on the input"):
+        engine(system).row(system.s["pz"] - 0.5, "origin height")  # p_z' = 0 for ever
+
+
+def _kernel_texts(system):
+    return {k.name: emit_kernel(k) for k in tachyon3.kernels(system) if isinstance(k, Kernel)}
+
+
+def test_moving_a_hip_regenerates_exactly_the_kernels_that_depend_on_it(system, tmp_path):
+    text = MODEL.read_text()
+    edited = text.replace("hip = [0.40, 0.35, 0.05]", "hip = [0.42, 0.35, 0.05]", 1)  # LF hip 2 cm forward
+    assert edited != text
+    (tmp_path / "tachyon3.toml").write_text(edited)
+    before = _kernel_texts(system)
+    after = _kernel_texts(Tachyon3(load_model(tmp_path / "tachyon3.toml")))
+    changed = {name for name in before if before[name] != after[name]}
+    assert "joint_limits_lf" in changed
+    assert "dynamics_f" in changed  # it carries the HIP_POSITIONS constant
+    assert not changed & {"joint_limits_rf", "body_edge_ssat", "toe_edge_lf", "foothold_lf"}
+
+
+def test_editing_the_model_changes_the_inputs_hash(tmp_path):
+    copy = tmp_path / "repo"
+    shutil.copytree(REPO_ROOT / "symbolic", copy / "symbolic",
+                    ignore=shutil.ignore_patterns("__pycache__", "tests"))
+    before = inputs_hash(copy)
+    assert before == inputs_hash(REPO_ROOT)
+    model = copy / "symbolic" / "models" / "tachyon3.toml"
+    model.write_text(model.read_text().replace("radius = 0.10", "radius = 0.11"))
+    assert inputs_hash(copy) != before
+
+
+@pytest.mark.parametrize("edit, message", [
+    (("stroke = 0.50", "stroke = -0.50"), "knee.stroke: must be > 0"),
+    (('outward = "forward"', 'outward = "sideways"'), "outward"),
+    (("hip_range_deg = [-45.0, 45.0]", "hip_range_deg = [45.0, -45.0]"), "hip_range_deg"),
+    (("superellipsoid_n = 2", "superellipsoid_n = 1.5"), "superellipsoid_n"),
+])
+def test_broken_model_files_are_rejected_with_the_key_named(tmp_path, edit, message):
+    path = tmp_path / "broken.toml"
+    path.write_text(MODEL.read_text().replace(*edit, 1))
+    with pytest.raises(ModelError, match=message):
+        load_model(path)
