@@ -15,8 +15,7 @@ from typing import Callable, Dict, List, Tuple, Union
 from .families import ssat, tachyon3
 from .inputs_hash import inputs_hash
 from .kernel import Kernel
-from .rust_emitter import RawRust
-from .rust_emitter import emit_kernel
+from .rust_emitter import RawRust, emit_kernel
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 HASH_PREFIX = "// inputs-sha256: "

@@ -84,6 +84,9 @@ class Kernel:
     reductions: List[RuntimeMax] = field(default_factory=list)
     outputs: List[Output] = field(default_factory=list)
     constants: List[Constant] = field(default_factory=list)
+    # Lets and runtime maxima interleave (a max over lets, lets over that max), so their
+    # declaration order is the evaluation order.
+    definitions: List[Union[Let, RuntimeMax]] = field(default_factory=list)
     _names: set = field(default_factory=set)
 
     def _claim(self, name: str) -> str:
@@ -111,6 +114,7 @@ class Kernel:
     def let_(self, name: str, expr: se.Expr) -> se.Symbol:
         sym = se.Symbol(self._claim(name))
         self.lets.append(Let(sym, se.sympify(expr)))
+        self.definitions.append(self.lets[-1])
         return sym
 
     def runtime_max(self, name: str, exprs: Sequence[se.Expr]) -> se.Symbol:
@@ -118,6 +122,7 @@ class Kernel:
             raise ValueError(f"kernel {self.name}: runtime_max '{name}' over nothing")
         sym = se.Symbol(self._claim(name))
         self.reductions.append(RuntimeMax(sym, tuple(se.sympify(e) for e in exprs)))
+        self.definitions.append(self.reductions[-1])
         return sym
 
     # ---------------------------------------------------------------- outputs
@@ -160,10 +165,11 @@ class Kernel:
                 raise ValueError(f"input {inp.name}: expected {len(inp.symbols)} values")
             for sym, v in zip(inp.symbols, seq):
                 subs[sym] = se.RealDouble(float(v))
-        for let in self.lets:
-            subs[let.symbol] = se.RealDouble(float(let.expr.xreplace(subs)))
-        for red in self.reductions:
-            subs[red.symbol] = se.RealDouble(max(float(e.xreplace(subs)) for e in red.exprs))
+        for d in self.definitions:
+            if isinstance(d, Let):
+                subs[d.symbol] = se.RealDouble(float(d.expr.xreplace(subs)))
+            else:
+                subs[d.symbol] = se.RealDouble(max(float(e.xreplace(subs)) for e in d.exprs))
         return {
             out.name: [float(e.xreplace(subs)) for e in out.exprs] for out in self.outputs
         }

@@ -215,16 +215,17 @@ class Tachyon3:
         toe = self.toe_origin(leg)
         return toe[0] - s["bx"] - hip[0], toe[2] - s["bz"] - hip[2]
 
-    def knee_length(self, leg: Leg) -> se.Expr:
-        """Prismatic knee length (eq. 4): rotation-invariant, so the origin frame will do."""
-        dx, dz = self.leg_vector(leg)
+    @staticmethod
+    def knee_length(dx: se.Expr, dz: se.Expr) -> se.Expr:
+        """Prismatic knee length (eq. 4) from the hip-to-toe vector of :meth:`leg_vector`:
+        rotation-invariant, so the origin frame will do."""
         return se.sqrt(dx * dx + dz * dz)
 
-    def hip_angle(self, leg: Leg) -> se.Expr:
-        """Hip angle (eq. 4): 0 with the leg along the body's -z axis, positive outward.
-        The leg's angle from straight down in the origin frame plus the body pitch, which
-        equals atan2 of the body-frame vector while the leg points downward."""
-        dx, dz = self.leg_vector(leg)
+    def hip_angle(self, leg: Leg, dx: se.Expr, dz: se.Expr) -> se.Expr:
+        """Hip angle (eq. 4) from the hip-to-toe vector: 0 with the leg along the body's -z
+        axis, positive outward. The leg's angle from straight down in the origin frame
+        plus the body pitch, which equals atan2 of the body-frame vector while the leg
+        points downward."""
         return leg.outward * (se.atan2(dx, -dz) + self.s["pitch"])
 
 

@@ -81,8 +81,8 @@ class SmoothMax:
     """A smooth surrogate S(y) for max(y) with  -under <= S(y) - max(y) <= over.
 
     ``value(ys, alpha, shift, let_=None)`` takes a *shift* symbol, and optionally a let
-    factory (``LieEngine.let_``) to build its pieces as named intermediates. The surrogate is built so its
-    value does not depend on the shift at all (exactly, not approximately); the emitted
+    factory (``LieEngine.let_``) to build its pieces as named intermediates. The
+    surrogate is built so its value does not depend on the shift at all (exactly, not approximately); the emitted
     code sets the shift to the runtime max(y) so no exp() can overflow, and
     differentiation may treat the shift as a constant because every derivative of the
     surrogate with respect to it is identically zero.
@@ -110,6 +110,10 @@ def _lse(ys: Sequence[se.Expr], alpha: se.Expr, shift: se.Expr, let_=None) -> se
 
 def _boltzmann(ys: Sequence[se.Expr], alpha: se.Expr, shift: se.Expr, let_=None) -> se.Expr:
     weights = [se.exp(alpha * (y - shift)) for y in ys]
+    if let_ is not None:  # as for the LSE: weights and both sums as named intermediates
+        weights = [let_(f"boltzmann_w{i}", w) for i, w in enumerate(weights)]
+        numerator = let_("boltzmann_num", se.Add(*[y * w for y, w in zip(ys, weights)]))
+        return numerator / let_("boltzmann_den", se.Add(*weights))
     return se.Add(*[y * w for y, w in zip(ys, weights)]) / se.Add(*weights)
 
 

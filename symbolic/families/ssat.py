@@ -96,6 +96,28 @@ def separating_axes(
     return axes
 
 
+def matrix(row_major: Sequence[se.Expr]) -> List[List[se.Expr]]:
+    """3x3 nested list from nine row-major entries."""
+    return [[row_major[3 * i + j] for j in range(3)] for i in range(3)]
+
+
+def relative_pose(let_, p_a, r_a, p_b, r_b):
+    """Box B's pose in box A's frame as lets: t = R_A^T (p_B - p_A) and R = R_A^T R_B.
+    ``let_`` names them (``Kernel.let_``, or ``LieEngine.let_`` to differentiate through)."""
+    t = [let_(f"t_{AXES[i]}", se.Add(*[r_a[k][i] * (p_b[k] - p_a[k]) for k in range(3)]))
+         for i in range(3)]
+    rot = [[let_(f"rot_{i}{j}", se.Add(*[r_a[k][i] * r_b[k][j] for k in range(3)]))
+            for j in range(3)] for i in range(3)]
+    return t, rot
+
+
+def certified_margin(kernel: Kernel, smax: SmoothMax, axes, alpha: se.Expr) -> se.Expr:
+    """m with h - m >= 0 => no overlap: the smooth max's overshoot plus the worst axis's
+    overshoot bound (the second element of each ``separating_axes`` pair)."""
+    worst_axis = kernel.runtime_max("worst_axis", [bound for _, bound in axes])
+    return smax.over(AXIS_COUNT, alpha) + worst_axis
+
+
 class _BoxPair:
     """Inputs shared by every SSAT kernel, and the relative pose as named lets."""
 
@@ -115,13 +137,8 @@ class _BoxPair:
             "alpha_rot", "sharpness of the smooth |.| on rotation-matrix entries [-]")
         if not with_poses:
             return
-        ra = [[self.r_a[3 * i + j] for j in range(3)] for i in range(3)]
-        rb = [[self.r_b[3 * i + j] for j in range(3)] for i in range(3)]
-        delta = [self.p_b[k] - self.p_a[k] for k in range(3)]
-        self.t = [kernel.let_(f"t_{AXES[i]}", se.Add(*[ra[k][i] * delta[k] for k in range(3)]))
-                  for i in range(3)]
-        self.rot = [[kernel.let_(f"rot_{i}{j}", se.Add(*[ra[k][i] * rb[k][j] for k in range(3)]))
-                     for j in range(3)] for i in range(3)]
+        ra, rb = matrix(self.r_a), matrix(self.r_b)
+        self.t, self.rot = relative_pose(kernel.let_, self.p_a, ra, self.p_b, rb)
         # d t / d p_B = R_A^T, a constant Jacobian: derivatives go through t by the chain rule.
         self.dt_dpb = [[ra[k][i] for k in range(3)] for i in range(3)]
 
@@ -172,11 +189,10 @@ def margin_kernel(smax: SmoothMax, sabs: SmoothAbs) -> Kernel:
     pair = _BoxPair(k, with_poses=False)
     placeholder_t = [se.Integer(0)] * 3
     placeholder_rot = [[se.Integer(0)] * 3 for _ in range(3)]
-    bounds = [b for _, b in separating_axes(placeholder_t, placeholder_rot, pair.half_a,
-                                            pair.half_b, sabs, pair.alpha, pair.alpha_rot)]
-    worst_axis = k.runtime_max("worst_axis", bounds)
-    k.output_scalar("margin", smax.over(AXIS_COUNT, pair.alpha) + worst_axis,
-                    "the certified margin [m]")
+    # The bounds depend on sizes and sharpness only; the pose placeholders never reach them.
+    axes = separating_axes(placeholder_t, placeholder_rot, pair.half_a, pair.half_b,
+                           sabs, pair.alpha, pair.alpha_rot)
+    k.output_scalar("margin", certified_margin(k, smax, axes, pair.alpha), "the certified margin [m]")
     return k
 
 

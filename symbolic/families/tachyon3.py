@@ -16,11 +16,11 @@ from typing import Callable, List, Tuple
 import symengine as se
 
 from ..kernel import Kernel
-from ..rust_emitter import RawRust
 from ..lie import LieEngine
 from ..model import Leg, Tachyon3, load_tachyon3
+from ..rust_emitter import RawRust
 from ..smoothing import LSE, XTANH
-from .ssat import AXES, AXIS_COUNT, ROT, separating_axes
+from .ssat import AXES, ROT, certified_margin, matrix, relative_pose, separating_axes
 
 RowBuilder = Callable[[Kernel, LieEngine], List[Tuple[str, se.Expr]]]
 
@@ -68,8 +68,8 @@ def joint_limits(system: Tachyon3, leg: Leg) -> Kernel:
     def build(k: Kernel, eng: LieEngine):
         dx, dz = system.leg_vector(leg)
         dx, dz = eng.let_("leg_dx", dx), eng.let_("leg_dz", dz)
-        knee = eng.let_("knee", se.sqrt(dx * dx + dz * dz))
-        hip = eng.let_("hip", leg.outward * (se.atan2(dx, -dz) + system.s["pitch"]))
+        knee = eng.let_("knee", system.knee_length(dx, dz))
+        hip = eng.let_("hip", system.hip_angle(leg, dx, dz))
         return [("knee_min", knee - m.knee_min), ("knee_max", m.knee_max - knee),
                 ("hip_min", hip - leg.hip_min), ("hip_max", leg.hip_max - hip)]
 
@@ -83,7 +83,7 @@ def _edge_inputs(k: Kernel):
     center = _vec_input(k, "edge_center", "edge cuboid centre, world frame [m]")
     rot = k.array_input("edge_rotation", ROT, "edge cuboid rotation, row-major (columns = its axes)")
     half = _vec_input(k, "edge_half", "edge cuboid half extents [m]")
-    return center, [[rot[3 * i + j] for j in range(3)] for i in range(3)], half
+    return center, matrix(rot), half
 
 
 def body_edge_ssat(system: Tachyon3) -> Kernel:
@@ -97,19 +97,15 @@ def body_edge_ssat(system: Tachyon3) -> Kernel:
         rb = system.body_rotation_world()
         rb = [[eng.let_(f"body_r{i}{j}", rb[i][j]) for j in range(3)] for i in range(3)]
         # Box A = the edge cuboid, box B = the body: the SSAT formulation in A's frame.
-        t = [eng.let_(f"t_{AXES[i]}", se.Add(*[ra[q][i] * (pos[q] - center[q]) for q in range(3)]))
-             for i in range(3)]
-        rot = [[eng.let_(f"rot_{i}{j}", se.Add(*[ra[q][i] * rb[q][j] for q in range(3)]))
-                for j in range(3)] for i in range(3)]
+        t, rot = relative_pose(eng.let_, center, ra, pos, rb)
         axes = separating_axes(t, rot, half, body_half, XTANH, alpha, alpha_rot, eng.let_)
         # Axis values, and below the LSE's exponentials and sum, as lets: the engine then
         # carries per-axis rates (y', y'') and L_f^2 h costs O(15), not a dense Hessian
         # over the twelve pose intermediates or an n^2 expansion of the smooth max.
         ys = [eng.let_(f"y_{i}", y) for i, (y, _) in enumerate(axes)]
         shift = k.runtime_max("y_max", ys)
-        worst = k.runtime_max("worst_axis", [b for _, b in axes])
-        margin = LSE.over(AXIS_COUNT, alpha) + worst
         # h - margin >= 0 certifies that the exact body and edge cuboid do not overlap.
+        margin = certified_margin(k, LSE, axes, alpha)
         return [("body_edge", LSE(ys, alpha, shift, eng.let_) - margin)]
 
     return _row_kernel(system, "body_edge_ssat",
@@ -175,7 +171,7 @@ def dynamics(system: Tachyon3) -> List[Kernel]:
     f = Kernel("dynamics_f", "Drift f(x) of x' = f(x) + g(x) u (paper eq. 1-3).")
     f.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
     f.output_vector("f", system.f, "f(x)")
-    pattern = [(r, c) for r in range(len(system.x)) for c in range(system.g and len(system.g[0]))
+    pattern = [(r, c) for r in range(len(system.x)) for c in range(len(system.input_names))
                if system.g[r][c] != 0]
     g = Kernel("dynamics_g", "Non-zeros of the input matrix g(x), in the order of `G_PATTERN`.")
     g.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
@@ -206,7 +202,7 @@ def dynamics(system: Tachyon3) -> List[Kernel]:
 def _leg_table(family: str, per_leg: List[Kernel]) -> RawRust:
     """``FAMILY: [fn; 6]`` and ``FAMILY_INPUT_COLUMNS: [[usize; n]; 6]`` in leg order, so the
     runtime can treat the six legs' kernels of one family alike."""
-    signatures = {k.inputs and tuple((i.name, len(i.symbols), i.is_array) for i in k.inputs) for k in per_leg}
+    signatures = {tuple((i.name, len(i.symbols), i.is_array) for i in k.inputs) for k in per_leg}
     shapes = {tuple((o.dim, o.cols) for o in k.outputs) for k in per_leg}
     if len(signatures) != 1 or len(shapes) != 1:
         raise ValueError(f"{family}: the legs' kernels differ in signature; cannot tabulate them")

@@ -90,3 +90,32 @@ def test_broken_model_files_are_rejected_with_the_key_named(tmp_path, edit, mess
     path.write_text(MODEL.read_text().replace(*edit, 1))
     with pytest.raises(ModelError, match=message):
         load_model(path)
+
+
+def test_body_edge_row_is_the_world_frame_ssat_minus_its_margin(system):
+    """The row's h, evaluated by SymEngine, against the numpy SSAT reference with the
+    body pose built from the state independently (p + Rz(yaw)(bx, 0, bz), Rz Ry)."""
+    import numpy as np
+
+    from symbolic.families import ssat
+    from symbolic.smoothing import LSE, XTANH
+    from symbolic.tests.test_ssat_reference import random_rotation, reference_axes, reference_h
+
+    kernel = next(k for k in tachyon3.kernels(system) if isinstance(k, Kernel) and k.name == "body_edge_ssat")
+    margin = ssat.margin_kernel(LSE, XTANH)
+    rng = np.random.default_rng(8)
+    m = system.model
+    for _ in range(20):
+        x = rng.normal(size=36) * 0.3
+        yaw, pitch = x[3], x[8]
+        rz = np.array([[np.cos(yaw), -np.sin(yaw), 0], [np.sin(yaw), np.cos(yaw), 0], [0, 0, 1]])
+        ry = np.array([[np.cos(pitch), 0, np.sin(pitch)], [0, 1, 0], [-np.sin(pitch), 0, np.cos(pitch)]])
+        body_c = x[0:3] + rz @ np.array([x[6], 0.0, x[7]])
+        body_r = rz @ ry
+        ec, er, eh = rng.uniform(-1, 1, 3), random_rotation(), rng.uniform(0.02, 0.5, 3)
+        got = kernel.evaluate({"x": x, "edge_center": ec, "edge_rotation": er.flatten(), "edge_half": eh})
+        hb = np.array(m.body_half_extents)
+        ys = reference_axes(ec, er, eh, body_c, body_r, hb, "xtanh", m.ssat_alpha, m.ssat_alpha_rot)
+        want = reference_h(ys, "lse", m.ssat_alpha) - margin.evaluate(
+            {"half_a": eh, "half_b": hb, "alpha": m.ssat_alpha, "alpha_rot": m.ssat_alpha_rot})["margin"][0]
+        assert got["lie"][0] == pytest.approx(want, rel=1e-10, abs=1e-12)

@@ -61,3 +61,18 @@ def test_every_derivative_with_respect_to_the_shift_vanishes(smax):
                 alpha: float(rng.uniform(1, 50)), shift: float(rng.normal())}
         assert abs(float(first.subs(subs))) < 1e-12
         assert abs(float(mixed.subs(subs))) < 1e-10
+
+
+@pytest.mark.parametrize("smax", [LSE, BOLTZMANN], ids=lambda s: s.name)
+def test_building_with_named_intermediates_keeps_the_value(smax):
+    from symbolic.kernel import Kernel
+
+    k = Kernel("probe", "probe")
+    ys = k.array_input("y", [str(i) for i in range(6)], "values")
+    a = k.scalar_input("a", "sharpness")
+    shift = k.runtime_max("m", ys)
+    k.output_scalar("plain", smax(ys, a, shift), "without lets")
+    k.output_scalar("named", smax(ys, a, shift, k.let_), "with lets")
+    for _ in range(50):
+        out = k.evaluate({"y": rng.normal(size=6), "a": float(rng.uniform(1, 100))})
+        assert out["named"][0] == pytest.approx(out["plain"][0], rel=1e-14, abs=1e-15)
