@@ -310,68 +310,66 @@ impl Catalog {
         for &v in x.iter() {
             finite("state entry", v)?;
         }
-        // Same order as the slots laid out in `new`; one kernel call fills all its rows.
-        let mut rows = self.rows.iter_mut();
-        let mut next = || rows.next().expect("rows match the capacity");
-        for leg in 0..LEGS {
-            let (lie, lg) = gen::JOINT_LIMITS[leg](x);
-            for i in 0..JOINT_ROWS_PER_LEG {
-                store(next(), &lie[i], &lg[i], &gen::JOINT_LIMITS_INPUT_COLUMNS[leg]);
-            }
-        }
-        for leg in 0..LEGS {
-            let (lie, lg) = gen::FOOT_HEIGHT[leg](x, env.floor_z[leg]);
-            store(next(), &lie[0], &lg[0], &gen::FOOT_HEIGHT_INPUT_COLUMNS[leg]);
-        }
-        for leg in 0..LEGS {
-            for bound in env.stability[leg] {
-                let row = next();
-                match bound {
+        // The slots laid out in `new` are the one source of row order. A leg's four
+        // joint-limit rows come from one kernel call, kept while that leg's slots pass.
+        let mut joint_rows: Option<(usize, JointRows)> = None;
+        for (slot, row) in self.slots.iter().zip(self.rows.iter_mut()) {
+            let (leg, i) = (slot.leg.unwrap_or(0), slot.instance);
+            match slot.family {
+                Family::JointLimits => {
+                    let (lie, lg) = match joint_rows {
+                        Some((cached, rows)) if cached == leg => rows,
+                        _ => {
+                            let rows = gen::JOINT_LIMITS[leg](x);
+                            joint_rows = Some((leg, rows));
+                            rows
+                        }
+                    };
+                    store(row, &lie[i], &lg[i], slot.columns);
+                }
+                Family::FootHeight => {
+                    let (lie, lg) = gen::FOOT_HEIGHT[leg](x, env.floor_z[leg]);
+                    store(row, &lie[0], &lg[0], slot.columns);
+                }
+                Family::Stability => match env.stability[leg][i] {
                     Some(b) => {
                         let (lie, lg) = gen::STABILITY[leg](x, b.a, b.b);
-                        store(row, &lie[0], &lg[0], &gen::STABILITY_INPUT_COLUMNS[leg]);
+                        store(row, &lie[0], &lg[0], slot.columns);
                     }
                     None => row.active = false,
-                }
-            }
-        }
-        for i in 0..self.capacity.edges {
-            let row = next();
-            match env.edges.get(i) {
-                Some(e) => {
-                    let (lie, lg) = gen::body_edge_ssat(x, &e.center, &e.rotation, &e.half);
-                    store(row, &lie[0], &lg[0], &gen::BODY_EDGE_SSAT_INPUT_COLUMNS);
-                }
-                None => row.active = false,
-            }
-        }
-        for i in 0..self.capacity.edges {
-            for leg in 0..LEGS {
-                let row = next();
-                match env.edges.get(i) {
+                },
+                Family::BodyEdge => match env.edges.get(i) {
+                    Some(e) => {
+                        let (lie, lg) = gen::body_edge_ssat(x, &e.center, &e.rotation, &e.half);
+                        store(row, &lie[0], &lg[0], slot.columns);
+                    }
+                    None => row.active = false,
+                },
+                Family::ToeEdge => match env.edges.get(i) {
                     Some(e) => {
                         let (lie, lg) = gen::TOE_EDGE[leg](x, &e.center, &e.rotation, &e.half);
-                        store(row, &lie[0], &lg[0], &gen::TOE_EDGE_INPUT_COLUMNS[leg]);
+                        store(row, &lie[0], &lg[0], slot.columns);
                     }
                     None => row.active = false,
-                }
-            }
-        }
-        for leg in 0..LEGS {
-            for i in 0..self.capacity.foothold_edges[leg] {
-                let row = next();
-                match env.footholds[leg].get(i).filter(|_| env.swing[leg]) {
+                },
+                Family::Foothold => match env.footholds[leg].get(i).filter(|_| env.swing[leg]) {
                     Some(p) => {
                         let (lie, lg) = gen::FOOTHOLD[leg](x, &p.normal, p.offset);
-                        store(row, &lie[0], &lg[0], &gen::FOOTHOLD_INPUT_COLUMNS[leg]);
+                        store(row, &lie[0], &lg[0], slot.columns);
                     }
                     None => row.active = false,
-                }
+                },
             }
         }
         Ok(())
     }
 }
+
+/// One joint-limit kernel call: four rows of [h, L_f h, L_f² h] and their L_g L_f h.
+type JointRows = (
+    [[f64; RELATIVE_DEGREE + 1]; JOINT_ROWS_PER_LEG],
+    [[f64; gen::JOINT_LIMITS_LF_INPUT_COLUMNS.len()]; JOINT_ROWS_PER_LEG],
+);
 
 /// Copy one kernel row into `row`, scattering `lg_lf` onto the slot's input columns.
 fn store<const C: usize>(row: &mut Row, lie: &[f64; 3], lg_lf: &[f64; C], columns: &[usize]) {
