@@ -52,6 +52,7 @@ class RobotModel:
     ssat_alpha_rot: float
     superellipsoid_n: int
     ecbf_poles: Tuple[float, ...]
+    input_limits: Tuple[float, ...]
 
 
 def _number(table: dict, key: str, where: str, positive: bool = False) -> float:
@@ -81,6 +82,7 @@ def load_model(path: Path) -> RobotModel:
         raise ModelError(f"{where}: {e}") from e
     body, toe, knee = data.get("body", {}), data.get("toe", {}), data.get("knee", {})
     smoothing, ecbf = data.get("smoothing", {}), data.get("ecbf", {})
+    inputs = data.get("inputs", {})
     legs = []
     for i, leg in enumerate(data.get("legs", [])):
         lw = f"{where}: legs[{i}]"
@@ -112,6 +114,20 @@ def load_model(path: Path) -> RobotModel:
         ssat_alpha_rot=_number(smoothing, "ssat_alpha_rot", f"{where}: smoothing", positive=True),
         superellipsoid_n=n,
         ecbf_poles=_vector(ecbf, "poles", f"{where}: ecbf", 2, positive=True),
+        input_limits=_input_limits(inputs, f"{where}: inputs"),
+    )
+
+
+def _input_limits(inputs: dict, where: str) -> Tuple[float, ...]:
+    """Magnitude limit of each input, in the order of ``input_names``."""
+    body = _vector(inputs, "body_accel", where, 2, positive=True)
+    toe = _vector(inputs, "toe_accel", where, 2, positive=True)
+    return (
+        _number(inputs, "origin_accel", where, positive=True),
+        _number(inputs, "yaw_accel", where, positive=True),
+        *body,
+        _number(inputs, "pitch_accel", where, positive=True),
+        *(toe * 6),
     )
 
 

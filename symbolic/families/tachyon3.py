@@ -193,6 +193,7 @@ def dynamics(system: Tachyon3) -> List[Kernel]:
         ("SSAT_ALPHA", "[f64; 2]", str([m.ssat_alpha, m.ssat_alpha_rot]), "Body SSAT sharpness (alpha, alpha_rot)."),
         ("SUPERELLIPSOID_N", "u32", str(m.superellipsoid_n), "Toe-edge superellipsoid exponent is 2N."),
         ("ECBF_POLES", "[f64; 2]", str(list(m.ecbf_poles)), "Default ECBF poles [1/s]."),
+        ("INPUT_LIMITS", f"[f64; {len(m.input_limits)}]", str(list(m.input_limits)), "Input magnitude limits, INPUT_NAMES order."),
     ]
     for name, ty, value, doc in consts:
         f.constant(name, ty, value, doc)

@@ -84,12 +84,21 @@ def test_editing_the_model_changes_the_inputs_hash(tmp_path):
     (('outward = "forward"', 'outward = "sideways"'), "outward"),
     (("hip_range_deg = [-45.0, 45.0]", "hip_range_deg = [45.0, -45.0]"), "hip_range_deg"),
     (("superellipsoid_n = 2", "superellipsoid_n = 1.5"), "superellipsoid_n"),
+    (("toe_accel = [10.0, 10.0]", "toe_accel = [10.0]"), "inputs.toe_accel"),
+    (("origin_accel = 3.0", "origin_accel = 0.0"), "inputs.origin_accel: must be > 0"),
 ])
 def test_broken_model_files_are_rejected_with_the_key_named(tmp_path, edit, message):
     path = tmp_path / "broken.toml"
     path.write_text(MODEL.read_text().replace(*edit, 1))
     with pytest.raises(ModelError, match=message):
         load_model(path)
+
+
+def test_input_limits_follow_the_input_layout(system):
+    """One limit per input, read from the file's groups (toe limits repeated per leg)."""
+    limits = dict(zip(system.input_names, system.model.input_limits, strict=True))
+    assert limits["a"] == 3.0 and limits["pitch_acc"] == 4.0
+    assert limits["baz"] == 4.0 and limits["rr_az"] == 10.0 and limits["lf_ax"] == 10.0
 
 
 def test_body_edge_row_is_the_world_frame_ssat_minus_its_margin(system):
