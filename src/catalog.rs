@@ -62,6 +62,29 @@ pub enum Family {
     Foothold,
 }
 
+impl Family {
+    /// Every family, in [`Family::index`] order.
+    pub const ALL: [Family; 6] =
+        [Family::JointLimits, Family::FootHeight, Family::Stability, Family::BodyEdge, Family::ToeEdge, Family::Foothold];
+
+    /// Position in [`Family::ALL`], for per-family tables.
+    pub const fn index(self) -> usize {
+        self as usize
+    }
+
+    /// Lower-case name, as used in the CLI and the benches.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Family::JointLimits => "joint_limits",
+            Family::FootHeight => "foot_height",
+            Family::Stability => "stability",
+            Family::BodyEdge => "body_edge",
+            Family::ToeEdge => "toe_edge",
+            Family::Foothold => "foothold",
+        }
+    }
+}
+
 /// Where a row sits: its family, leg (if any), instance within that leg/family (edge
 /// slot, foothold edge, joint row…) and the input columns its `L_g L_f h` can touch.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -20,6 +20,21 @@ pub enum CbfError {
     /// A leg index outside 0..6.
     #[error("no leg {leg}: legs are 0..6 in LEG_NAMES order")]
     NoSuchLeg { leg: usize },
+    /// A setting outside its allowed range.
+    #[error("{what} = {value} is outside {range}")]
+    OutOfRange { what: &'static str, value: f64, range: &'static str },
+    /// A slice of the wrong length for what it was passed to.
+    #[error("{what}: expected length {expected}, got {got}")]
+    LengthMismatch { what: &'static str, expected: usize, got: usize },
+    /// A constraint row named an input column twice or beyond the input dimension.
+    #[error("constraint row {row}: input column {column} is repeated or out of range")]
+    BadRowPattern { row: usize, column: usize },
+    /// An active constraint row evaluated to NaN or infinity (degenerate geometry or state).
+    #[error("constraint row {row} is not finite")]
+    NonFiniteRow { row: usize },
+    /// OSQP refused the problem at set-up.
+    #[error("QP solver set-up failed: {reason}")]
+    SolverSetup { reason: String },
     /// A rotation matrix was not orthonormal with determinant +1.
     #[error("rotation is not a proper rotation (|R^T R - I| = {deviation:.3e})")]
     NotARotation { deviation: f64 },

@@ -11,13 +11,19 @@
 //! * [`geometry`] — validated oriented boxes.
 //! * [`model`] — the Tachyon 3 state/input layout and dynamics (generated from the model file).
 //! * [`catalog`] — every ECBF row of the model, evaluated into preallocated storage.
+//! * [`filter`] — the ECBF-QP safety filter on OSQP: one allocation-free control update.
+//! * [`terrain`] — stairs as edge cuboids and floors; [`approach`] — a scripted drive to them.
 
+pub mod approach;
 pub mod catalog;
 pub mod error;
+pub mod filter;
 pub mod geometry;
+pub mod latency;
 pub mod model;
 pub mod sat;
 pub mod ssat;
+pub mod terrain;
 
 /// Kernels emitted by `python -m symbolic.generate`. Never edited by hand: change
 /// `symbolic/` and rebuild (build.rs regenerates when the inputs' hash changes).

@@ -1,6 +1,7 @@
 //! `cbfgen` command line.
 
 use cbfgen::catalog::{Capacity, Catalog, Environment, Family};
+use cbfgen::filter::FilterSettings;
 use cbfgen::model;
 use cbfgen::ssat::{self, SmoothParams};
 use cbfgen::{sat, OrientedBox};
@@ -33,8 +34,68 @@ enum Command {
     /// Evaluate the Tachyon 3 joint-limit rows (h, L_f h, L_f^2 h) at the standard
     /// posture: edit symbolic/models/tachyon3.toml, rebuild, and watch them change.
     Rows,
+    /// Time the ECBF filter: consecutive 269-row updates at 1 kHz while the robot rolls
+    /// into a staircase; prints median, p99 and max per update.
+    Latency {
+        /// Number of consecutive updates.
+        #[arg(long, default_value_t = 10_000)]
+        cycles: usize,
+        /// Commanded forward speed [m/s].
+        #[arg(long, default_value_t = 0.3)]
+        speed: f64,
+        /// Start this far from the first riser (body front) [m].
+        #[arg(long, default_value_t = 0.6)]
+        gap: f64,
+        #[command(flatten)]
+        solver: SolverArgs,
+    },
     /// Regenerate generated/ from symbolic/ (runs `python -m symbolic.generate`).
     Generate,
+}
+
+/// OSQP overrides for tuning runs; defaults are [`cbfgen::filter::SolverSettings::default`].
+#[derive(clap::Args)]
+struct SolverArgs {
+    /// Absolute tolerance.
+    #[arg(long)]
+    eps_abs: Option<f64>,
+    /// Relative tolerance.
+    #[arg(long)]
+    eps_rel: Option<f64>,
+    /// Initial ADMM step ρ.
+    #[arg(long)]
+    rho: Option<f64>,
+    /// Over-relaxation α in (0, 2).
+    #[arg(long)]
+    alpha: Option<f64>,
+    /// Iterations between convergence checks.
+    #[arg(long)]
+    check_termination: Option<u32>,
+    /// Iterations between ρ adaptations (0 turns adaptation off).
+    #[arg(long)]
+    adaptive_rho_interval: Option<u32>,
+    /// Slack weight w_δ of every family.
+    #[arg(long)]
+    slack_weight: Option<f64>,
+}
+
+impl SolverArgs {
+    fn apply(&self, s: &mut FilterSettings) {
+        let o = &mut s.solver;
+        o.eps_abs = self.eps_abs.unwrap_or(o.eps_abs);
+        o.eps_rel = self.eps_rel.unwrap_or(o.eps_rel);
+        o.rho = self.rho.unwrap_or(o.rho);
+        o.alpha = self.alpha.unwrap_or(o.alpha);
+        o.check_termination = self.check_termination.unwrap_or(o.check_termination);
+        match self.adaptive_rho_interval {
+            Some(0) => o.adaptive_rho = false,
+            Some(n) => o.adaptive_rho_interval = n,
+            None => {}
+        }
+        if let Some(w) = self.slack_weight {
+            s.families.iter_mut().for_each(|f| f.slack_weight = w);
+        }
+    }
 }
 
 fn main() -> ExitCode {
@@ -83,6 +144,12 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                              row.lie[0], row.lie[1], row.lie[2]);
                 }
             }
+            Ok(())
+        }
+        Command::Latency { cycles, speed, gap, solver } => {
+            let mut settings = FilterSettings::default();
+            solver.apply(&mut settings);
+            println!("{}", cbfgen::latency::run(cycles, speed, gap, settings)?);
             Ok(())
         }
         Command::Generate => {

@@ -1,0 +1,253 @@
+//! The ECBF safety filter: one real-time control update (Tachyon 3 paper, section III-C).
+//!
+//! Each cycle [`EcbfFilter::update`] evaluates every catalog row at the state, decides
+//! which rows take part (the catalog's own flags, then each family's activation
+//! threshold on `h`), and solves
+//!
+//! ```text
+//! min Σ_j w_j (u_j − u_ref,j)² + Σ_i w_δ,i δ_i²
+//! s.t. L_g L_f h_i · u + δ_i ≥ −(L_f² h_i + k1 L_f h_i + k0 h_i)   (active rows)
+//!      input_min ≤ u ≤ input_max
+//! ```
+//!
+//! on OSQP, warm-started from the previous cycle. The sparsity pattern is fixed when the
+//! filter is built; after that an update allocates nothing (tested by counting every
+//! `malloc` over thousands of cycles).
+//!
+//! # Bad input and failure
+//! * `x` or `u_ref` with NaN/inf, or an environment of another capacity: `Err`, and the
+//!   filter is unchanged (the caller chooses; [`EcbfFilter::fallback_input`] is there).
+//! * OSQP stops at its iteration or time limit: `Ok`, with the iterate it stopped at
+//!   ([`InputSource::Unconverged`]). It already reflects this cycle's rows, and the next
+//!   cycle continues from it (warm start), so a hard instance converges over a few cycles
+//!   instead of stalling one. This happens when rows conflict with the input limits (large
+//!   slacks), where ADMM needs hundreds of iterations.
+//! * An active row that evaluates to NaN/inf (degenerate geometry or state), an
+//!   infeasibility report or a solver fault: `Ok`, with a **fallback input**: the last
+//!   QP-solved input if there is one ([`InputSource::LastSafe`]), else the nominal input
+//!   ([`InputSource::NominalClipped`]).
+//!
+//! Every returned input is clipped to the input box. [`FilterOutput::consecutive_fallbacks`]
+//! counts the cycles in a row whose source was not [`InputSource::Qp`]. The slacks make
+//! the QP feasible for any rows, so "infeasible" is a solver report, not a property of the
+//! problem.
+//!
+//! ```
+//! use cbfgen::catalog::{Capacity, EdgeCuboid, Environment};
+//! use cbfgen::filter::{EcbfFilter, FilterSettings, InputSource};
+//! use cbfgen::model::{standard_posture, NU};
+//! use nalgebra::Vector3;
+//!
+//! let mut filter = EcbfFilter::new(Capacity::PAPER_WORST_CASE, FilterSettings::default())?;
+//! let mut env = Environment::new(Capacity::PAPER_WORST_CASE);
+//! let step = cbfgen::OrientedBox::axis_aligned(Vector3::new(0.8, 0.0, 0.15), Vector3::new(0.02, 1.0, 0.02))?;
+//! env.push_edge(EdgeCuboid::from_box(&step))?;
+//! let out = filter.update(&standard_posture(), &[0.0; NU], &env)?;
+//! assert_eq!(out.source, InputSource::Qp);
+//! assert!(out.u.iter().all(|u| u.abs() < 1e-3)); // at rest and safe: nothing to correct
+//! # Ok::<(), cbfgen::CbfError>(())
+//! ```
+
+mod polish;
+mod qp;
+mod settings;
+
+use std::time::{Duration, Instant};
+
+pub use qp::{EcbfQp, QpStatus, RowSpec};
+pub use settings::{FamilyParams, FilterSettings, SolverSettings};
+
+use crate::catalog::{Capacity, Catalog, Environment, Row, RowSlot};
+use crate::error::CbfError;
+use crate::model::{Input, State, NU};
+
+/// Where this cycle's input came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum InputSource {
+    /// The QP's optimum.
+    Qp,
+    /// The iterate OSQP stopped at when it hit its iteration or time limit.
+    Unconverged,
+    /// Fallback: the last QP-solved input.
+    LastSafe,
+    /// Fallback before any QP was solved: the nominal input.
+    NominalClipped,
+}
+
+/// One update's result (rows, their `h` and slacks are read through the filter).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FilterOutput {
+    /// The input to apply.
+    pub u: Input,
+    pub source: InputSource,
+    /// OSQP's report; `None` when no solve was attempted (a non-finite row).
+    pub status: Option<QpStatus>,
+    /// The first active row that was not finite, if any.
+    pub nonfinite_row: Option<usize>,
+    pub iterations: u32,
+    /// Whether `u` is the polished optimum (exact for the active set OSQP found, KKT
+    /// verified); an unconverged OSQP iterate that polishes is reported as `Qp`.
+    pub polished: bool,
+    /// Rows that took part in the QP.
+    pub active_rows: usize,
+    /// Fallback cycles in a row, this one included (0 when `source` is `Qp`).
+    pub consecutive_fallbacks: u32,
+    /// Time in row evaluation and activation.
+    pub eval_time: Duration,
+    /// Time in the QP update and solve.
+    pub solve_time: Duration,
+}
+
+/// The ECBF-QP safety filter for the Tachyon 3 model.
+#[derive(Debug)]
+pub struct EcbfFilter {
+    catalog: Catalog,
+    settings: FilterSettings,
+    qp: EcbfQp,
+    /// Per row: the family's activation threshold on `h`.
+    activation: Vec<f64>,
+    active: Vec<bool>,
+    last_safe: Option<Input>,
+    output: FilterOutput,
+}
+
+impl EcbfFilter {
+    /// Lay out the catalog and the QP for `capacity` and set OSQP up. The only
+    /// allocations of the filter's life happen here.
+    ///
+    /// # Errors
+    /// Invalid settings ([`FilterSettings::validate`]) or an OSQP set-up failure.
+    pub fn new(capacity: Capacity, settings: FilterSettings) -> Result<Self, CbfError> {
+        settings.validate()?;
+        let catalog = Catalog::new(capacity);
+        let specs: Vec<RowSpec<'_>> = catalog
+            .slots()
+            .iter()
+            .map(|s| {
+                let p = settings.family(s.family);
+                RowSpec { columns: s.columns, gains: p.gains(), slack_weight: p.slack_weight }
+            })
+            .collect();
+        let qp = EcbfQp::new(&specs, &settings.input_weights, &settings.input_min, &settings.input_max, settings.solver)?;
+        let activation = catalog.slots().iter().map(|s| settings.family(s.family).activation).collect();
+        let rows = catalog.len();
+        Ok(Self {
+            catalog,
+            settings,
+            qp,
+            activation,
+            active: vec![false; rows],
+            last_safe: None,
+            output: FilterOutput {
+                u: [0.0; NU],
+                source: InputSource::NominalClipped,
+                status: None,
+                nonfinite_row: None,
+                iterations: 0,
+                polished: false,
+                active_rows: 0,
+                consecutive_fallbacks: 0,
+                eval_time: Duration::ZERO,
+                solve_time: Duration::ZERO,
+            },
+        })
+    }
+
+    /// One control update: the safe input for state `x`, nominal input `u_ref` and this
+    /// cycle's environment. Allocation-free.
+    ///
+    /// # Errors
+    /// NaN/inf in `x` or `u_ref`, or `env` built for another capacity; the filter is then
+    /// unchanged. Solver trouble is not an error: see the [module docs](self).
+    pub fn update(&mut self, x: &State, u_ref: &Input, env: &Environment) -> Result<&FilterOutput, CbfError> {
+        for &v in u_ref {
+            crate::error::finite("nominal input", v)?;
+        }
+        let start = Instant::now();
+        self.catalog.evaluate(x, env)?;
+        let mut active_rows = 0;
+        for ((on, row), &threshold) in self.active.iter_mut().zip(self.catalog.rows()).zip(&self.activation) {
+            *on = row.active && row.h() < threshold;
+            active_rows += usize::from(*on);
+        }
+        let evaluated = Instant::now();
+        let solved = self.qp.solve(u_ref, self.catalog.rows(), &self.active);
+        let out = &mut self.output;
+        out.eval_time = evaluated - start;
+        out.solve_time = evaluated.elapsed();
+        out.active_rows = active_rows;
+        out.iterations = self.qp.iterations();
+        out.polished = solved.is_ok() && self.qp.polished();
+        (out.status, out.nonfinite_row) = match solved {
+            Ok(status) => (Some(status), None),
+            Err(CbfError::NonFiniteRow { row }) => (None, Some(row)),
+            // `u_ref`, `x` and the row count were checked above, so nothing else reaches here.
+            Err(_) => (Some(QpStatus::SolverFault), None),
+        };
+        (out.u, out.source) = match out.status {
+            Some(s) if s.is_solved() || out.polished => (*self.qp.u(), InputSource::Qp),
+            Some(QpStatus::MaxIterations | QpStatus::TimeLimit) => (*self.qp.u(), InputSource::Unconverged),
+            _ => match self.last_safe {
+                Some(u) => (u, InputSource::LastSafe),
+                None => (*u_ref, InputSource::NominalClipped),
+            },
+        };
+        // ADMM meets the box only to its tolerance; the caller gets it exactly.
+        clip(&mut out.u, &self.settings.input_min, &self.settings.input_max);
+        if out.source == InputSource::Qp {
+            out.consecutive_fallbacks = 0;
+            self.last_safe = Some(out.u);
+        } else {
+            out.consecutive_fallbacks = out.consecutive_fallbacks.saturating_add(1);
+        }
+        Ok(&self.output)
+    }
+
+    /// The last update's result.
+    pub fn output(&self) -> &FilterOutput {
+        &self.output
+    }
+
+    /// What the filter would fall back to now for nominal input `u_ref` (see the module
+    /// docs): for a caller whose update returned `Err`.
+    pub fn fallback_input(&self, u_ref: &Input) -> Input {
+        let mut u = self.last_safe.unwrap_or(*u_ref);
+        clip(&mut u, &self.settings.input_min, &self.settings.input_max);
+        u
+    }
+
+    /// Row layout (family, leg, instance, input columns), fixed at construction.
+    pub fn slots(&self) -> &[RowSlot] {
+        self.catalog.slots()
+    }
+
+    /// This cycle's rows: `h`, `L_f h`, `L_f² h`, `L_g L_f h`.
+    pub fn rows(&self) -> &[Row] {
+        self.catalog.rows()
+    }
+
+    /// Which rows took part in the last QP.
+    pub fn active(&self) -> &[bool] {
+        &self.active
+    }
+
+    /// Slacks of the last QP iterate, one per row.
+    pub fn delta(&self) -> &[f64] {
+        self.qp.delta()
+    }
+
+    pub fn settings(&self) -> &FilterSettings {
+        &self.settings
+    }
+
+    /// The QP underneath (for inspection: non-zeros, last status).
+    pub fn qp(&self) -> &EcbfQp {
+        &self.qp
+    }
+}
+
+fn clip(u: &mut Input, lo: &Input, hi: &Input) {
+    for j in 0..NU {
+        u[j] = u[j].clamp(lo[j], hi[j]);
+    }
+}

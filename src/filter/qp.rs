@@ -1,0 +1,429 @@
+//! The ECBF quadratic program on OSQP, with its sparsity fixed at construction.
+//!
+//! ```text
+//! minimise   Σ_j w_j (u_j − u_ref,j)² + Σ_i w_δ,i δ_i²
+//! subject to L_g L_f h_i · u + δ_i ≥ −(L_f² h_i + k1_i L_f h_i + k0_i h_i)   (active rows)
+//!            u_min ≤ u ≤ u_max
+//! ```
+//!
+//! OSQP sees it in scaled variables `ũ = √w ∘ u`, `s = √w_δ ∘ δ`, so that `P = I`, and with
+//! every ECBF row divided by its norm each cycle. The scaling is exact (the optimum is the
+//! same) and tracks the rows as they change, which OSQP's own set-up-time scaling cannot.
+//! Inactive rows keep their place with bounds `(−∞, ∞)` and zero coefficients.
+
+use std::borrow::Cow;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+use osqp::{CscMatrix, Problem, Status};
+
+use super::polish::{self, Held};
+use super::settings::SolverSettings;
+use crate::catalog::Row;
+use crate::error::CbfError;
+use crate::model::{Input, NU};
+
+/// One ECBF row's fixed description.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RowSpec<'a> {
+    /// Input columns `L_g L_f h` may touch (structural non-zeros).
+    pub columns: &'a [usize],
+    /// `[k0, k1]`.
+    pub gains: [f64; 2],
+    /// `w_δ` of this row's slack.
+    pub slack_weight: f64,
+}
+
+/// How a solve ended, as OSQP reported it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum QpStatus {
+    Solved,
+    /// Met the tolerances ×10 only (OSQP's "solved inaccurate").
+    SolvedInaccurate,
+    MaxIterations,
+    TimeLimit,
+    PrimalInfeasible,
+    DualInfeasible,
+    NonConvex,
+    /// The solver wrapper panicked (a violated internal invariant); the solver is rebuilt
+    /// on the next call.
+    SolverFault,
+}
+
+impl QpStatus {
+    /// Whether the returned iterate is an optimum to the set tolerances.
+    pub fn is_solved(self) -> bool {
+        matches!(self, QpStatus::Solved | QpStatus::SolvedInaccurate)
+    }
+}
+
+/// A borrowed view of the constraint matrix (no copy, no allocation).
+fn constraint_matrix<'a>(rows: usize, indptr: &'a [usize], indices: &'a [usize], data: &'a [f64]) -> CscMatrix<'a> {
+    CscMatrix {
+        nrows: rows + NU,
+        ncols: NU + rows,
+        indptr: Cow::Borrowed(indptr),
+        indices: Cow::Borrowed(indices),
+        data: Cow::Borrowed(data),
+    }
+}
+
+/// OSQP's `l`/`u` infinity.
+const INF: f64 = 1e30;
+
+/// The QP, its OSQP workspace, and the last solution.
+pub struct EcbfQp {
+    rows: usize,
+    sqrt_w: [f64; NU],
+    gains: Vec<[f64; 2]>,
+    /// `1/√w_δ,i`: the slack's coefficient in its row, in scaled variables.
+    slack_coef: Vec<f64>,
+    a_indptr: Vec<usize>,
+    a_indices: Vec<usize>,
+    a_data: Vec<f64>,
+    /// Row `i`'s entries are `row_entries[row_start[i]..row_start[i + 1]]`: (index into
+    /// `a_data`, input column).
+    row_start: Vec<usize>,
+    row_entries: Vec<(usize, usize)>,
+    slack_entry: Vec<usize>,
+    /// Per row: `w_δ`, and this cycle's `b = L_f² h + k1 L_f h + k0 h` (original units).
+    slack_weight: Vec<f64>,
+    row_bound: Vec<f64>,
+    /// Polish scratch: rows ADMM reports binding, inputs held at a bound.
+    binding: Vec<bool>,
+    held: [Held; NU],
+    input_weights: [f64; NU],
+    input_min: Input,
+    input_max: Input,
+    q: Vec<f64>,
+    lower: Vec<f64>,
+    upper: Vec<f64>,
+    settings: SolverSettings,
+    problem: Option<Problem>,
+    u: Input,
+    delta: Vec<f64>,
+    status: QpStatus,
+    iterations: u32,
+    polished: bool,
+}
+
+impl std::fmt::Debug for EcbfQp {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("EcbfQp")
+            .field("rows", &self.rows)
+            .field("nnz", &self.a_data.len())
+            .field("status", &self.status)
+            .field("iterations", &self.iterations)
+            .field("polished", &self.polished)
+            .finish_non_exhaustive()
+    }
+}
+
+impl EcbfQp {
+    /// Lay out the QP for `rows` and set OSQP up once.
+    ///
+    /// # Errors
+    /// Invalid weights, limits or settings, a row naming an input column twice or beyond
+    /// `NU`, or OSQP refusing the set-up.
+    pub fn new(
+        rows: &[RowSpec<'_>],
+        input_weights: &[f64; NU],
+        input_min: &Input,
+        input_max: &Input,
+        settings: SolverSettings,
+    ) -> Result<Self, CbfError> {
+        settings.validate()?;
+        let m = rows.len();
+        let mut sqrt_w = [0.0; NU];
+        for j in 0..NU {
+            sqrt_w[j] = crate::error::positive("input weight", input_weights[j])?.sqrt();
+            crate::error::finite("input limit", input_min[j])?;
+            crate::error::finite("input limit", input_max[j])?;
+            if input_min[j] > input_max[j] {
+                return Err(CbfError::OutOfRange { what: "input_min", value: input_min[j], range: "[-inf, input_max]" });
+            }
+        }
+        let mut gains = Vec::with_capacity(m);
+        let mut slack_coef = Vec::with_capacity(m);
+        for (i, r) in rows.iter().enumerate() {
+            let mut seen = [false; NU];
+            for &c in r.columns {
+                if c >= NU || seen[c] {
+                    return Err(CbfError::BadRowPattern { row: i, column: c });
+                }
+                seen[c] = true;
+            }
+            crate::error::finite("ECBF gain", r.gains[0])?;
+            crate::error::finite("ECBF gain", r.gains[1])?;
+            gains.push(r.gains);
+            slack_coef.push(1.0 / crate::error::positive("slack weight", r.slack_weight)?.sqrt());
+        }
+
+        // A is (m ECBF rows + NU box rows) × (NU inputs + m slacks), column-major.
+        let nnz = rows.iter().map(|r| r.columns.len() + 1).sum::<usize>() + NU;
+        let mut a_indptr = Vec::with_capacity(NU + m + 1);
+        let mut a_indices = Vec::with_capacity(nnz);
+        let mut row_cols: Vec<Vec<(usize, usize)>> = vec![Vec::new(); m];
+        a_indptr.push(0);
+        for j in 0..NU {
+            for (i, r) in rows.iter().enumerate() {
+                if r.columns.contains(&j) {
+                    row_cols[i].push((a_indices.len(), j));
+                    a_indices.push(i);
+                }
+            }
+            a_indices.push(m + j);
+            a_indptr.push(a_indices.len());
+        }
+        let mut slack_entry = Vec::with_capacity(m);
+        for i in 0..m {
+            slack_entry.push(a_indices.len());
+            a_indices.push(i);
+            a_indptr.push(a_indices.len());
+        }
+        let mut row_start = Vec::with_capacity(m + 1);
+        let mut row_entries = Vec::with_capacity(nnz);
+        row_start.push(0);
+        for entries in &row_cols {
+            row_entries.extend_from_slice(entries);
+            row_start.push(row_entries.len());
+        }
+        let mut a_data = vec![0.0; a_indices.len()];
+        for i in 0..m {
+            a_data[slack_entry[i]] = slack_coef[i];
+        }
+        for j in 0..NU {
+            a_data[a_indptr[j + 1] - 1] = 1.0; // box row
+        }
+
+        let n = NU + m;
+        let mut lower = vec![-INF; m + NU];
+        let mut upper = vec![INF; m + NU];
+        for j in 0..NU {
+            lower[m + j] = sqrt_w[j] * input_min[j];
+            upper[m + j] = sqrt_w[j] * input_max[j];
+        }
+        let q = vec![0.0; n];
+        let mut qp = Self {
+            rows: m,
+            sqrt_w,
+            gains,
+            slack_coef,
+            a_indptr,
+            a_indices,
+            a_data,
+            row_start,
+            row_entries,
+            slack_entry,
+            slack_weight: rows.iter().map(|r| r.slack_weight).collect(),
+            row_bound: vec![0.0; m],
+            binding: vec![false; m],
+            held: [Held::Free; NU],
+            input_weights: *input_weights,
+            input_min: *input_min,
+            input_max: *input_max,
+            q,
+            lower,
+            upper,
+            settings,
+            problem: None,
+            u: [0.0; NU],
+            delta: vec![0.0; m],
+            status: QpStatus::Solved,
+            iterations: 0,
+            polished: false,
+        };
+        qp.problem = Some(qp.setup()?);
+        Ok(qp)
+    }
+
+    fn setup(&self) -> Result<Problem, CbfError> {
+        let n = NU + self.rows;
+        let p = CscMatrix {
+            nrows: n,
+            ncols: n,
+            indptr: Cow::Owned((0..=n).collect()),
+            indices: Cow::Owned((0..n).collect()),
+            data: Cow::Owned(vec![1.0; n]),
+        };
+        let a = constraint_matrix(self.rows, &self.a_indptr, &self.a_indices, &self.a_data);
+        Problem::new(p, &self.q, a, &self.lower, &self.upper, &self.settings.to_osqp())
+            .map_err(|e| CbfError::SolverSetup { reason: e.to_string() })
+    }
+
+    /// Number of ECBF rows.
+    pub fn rows(&self) -> usize {
+        self.rows
+    }
+
+    /// Non-zeros of the constraint matrix (ECBF rows, slacks and the input box).
+    pub fn nnz(&self) -> usize {
+        self.a_data.len()
+    }
+
+    /// Solve for `u_ref` and this cycle's `rows`; only rows with `active[i]` constrain
+    /// (`Row::active` is not read, so a caller can narrow it without copying rows). Does not
+    /// allocate unless the previous call reported [`QpStatus::SolverFault`].
+    ///
+    /// On a status where OSQP has an iterate (solved, inaccurate, iteration or time limit)
+    /// [`EcbfQp::u`] and [`EcbfQp::delta`] hold it; otherwise they keep the last one.
+    ///
+    /// # Errors
+    /// `u_ref` or an active row not finite, or `rows`/`active` of the wrong length.
+    /// Nothing is changed then.
+    pub fn solve(&mut self, u_ref: &Input, rows: &[Row], active: &[bool]) -> Result<QpStatus, CbfError> {
+        if rows.len() != self.rows {
+            return Err(CbfError::LengthMismatch { what: "constraint rows", expected: self.rows, got: rows.len() });
+        }
+        if active.len() != self.rows {
+            return Err(CbfError::LengthMismatch { what: "active flags", expected: self.rows, got: active.len() });
+        }
+        for &v in u_ref {
+            crate::error::finite("nominal input", v)?;
+        }
+        for (i, (r, &on)) in rows.iter().zip(active).enumerate() {
+            if on && !(r.lie.iter().all(|v| v.is_finite()) && r.lg.iter().all(|v| v.is_finite())) {
+                return Err(CbfError::NonFiniteRow { row: i });
+            }
+        }
+
+        for ((q, w), r) in self.q.iter_mut().zip(&self.sqrt_w).zip(u_ref) {
+            *q = -w * r;
+        }
+        for (i, (r, &on)) in rows.iter().zip(active).enumerate() {
+            let entries = &self.row_entries[self.row_start[i]..self.row_start[i + 1]];
+            if !on {
+                for &(k, _) in entries {
+                    self.a_data[k] = 0.0;
+                }
+                self.a_data[self.slack_entry[i]] = self.slack_coef[i];
+                self.lower[i] = -INF;
+                continue;
+            }
+            let [k0, k1] = self.gains[i];
+            self.row_bound[i] = r.lie[2] + k1 * r.lie[1] + k0 * r.lie[0];
+            let bound = -self.row_bound[i];
+            let mut norm2 = self.slack_coef[i] * self.slack_coef[i];
+            for &(_, c) in entries {
+                let a = r.lg[c] / self.sqrt_w[c];
+                norm2 += a * a;
+            }
+            let scale = 1.0 / norm2.sqrt();
+            for &(k, c) in entries {
+                self.a_data[k] = r.lg[c] / self.sqrt_w[c] * scale;
+            }
+            self.a_data[self.slack_entry[i]] = self.slack_coef[i] * scale;
+            // A bound this large is a row that cannot bind; clamp so OSQP reads it as one.
+            self.lower[i] = (bound * scale).clamp(-INF, INF);
+        }
+
+        let status = catch_unwind(AssertUnwindSafe(|| self.run_osqp())).unwrap_or(QpStatus::SolverFault);
+        if status == QpStatus::SolverFault {
+            self.problem = None;
+        }
+        self.polished = matches!(
+            status,
+            QpStatus::Solved | QpStatus::SolvedInaccurate | QpStatus::MaxIterations | QpStatus::TimeLimit
+        ) && polish::polish(
+            &polish::Problem {
+                weights: &self.input_weights,
+                u_ref,
+                input_min: &self.input_min,
+                input_max: &self.input_max,
+                rows,
+                active,
+                bounds: &self.row_bound,
+                slack_weights: &self.slack_weight,
+            },
+            &self.binding,
+            &self.held,
+            &mut self.u,
+            &mut self.delta,
+        );
+        self.status = status;
+        Ok(status)
+    }
+
+    fn run_osqp(&mut self) -> QpStatus {
+        if self.problem.is_none() {
+            match self.setup() {
+                Ok(p) => self.problem = Some(p),
+                Err(_) => return QpStatus::SolverFault,
+            }
+        }
+        let a = constraint_matrix(self.rows, &self.a_indptr, &self.a_indices, &self.a_data);
+        // Taken out for the solve so the iterate it lends can be read alongside `self`.
+        let Some(mut problem) = self.problem.take() else { return QpStatus::SolverFault };
+        problem.update_lin_cost(&self.q);
+        problem.update_bounds(&self.lower, &self.upper);
+        problem.update_A(a);
+        let result = problem.solve();
+        self.iterations = result.iter();
+        let (status, iterate) = match &result {
+            Status::Solved(s) => (QpStatus::Solved, Some((s.x(), s.y()))),
+            Status::SolvedInaccurate(s) => (QpStatus::SolvedInaccurate, Some((s.x(), s.y()))),
+            Status::MaxIterationsReached(s) => (QpStatus::MaxIterations, Some((s.x(), s.y()))),
+            Status::TimeLimitReached(s) => (QpStatus::TimeLimit, Some((s.x(), s.y()))),
+            Status::PrimalInfeasible(_) | Status::PrimalInfeasibleInaccurate(_) => (QpStatus::PrimalInfeasible, None),
+            Status::DualInfeasible(_) | Status::DualInfeasibleInaccurate(_) => (QpStatus::DualInfeasible, None),
+            Status::NonConvex(_) => (QpStatus::NonConvex, None),
+            _ => (QpStatus::SolverFault, None),
+        };
+        if let Some((z, y)) = iterate {
+            for ((u, z), w) in self.u.iter_mut().zip(z).zip(&self.sqrt_w) {
+                *u = z / w;
+            }
+            for i in 0..self.rows {
+                self.delta[i] = z[NU + i] * self.slack_coef[i];
+            }
+            self.guess_active_set(z, y);
+        }
+        self.problem = Some(problem);
+        status
+    }
+
+    /// OSQP's own polish rule: a constraint binds at its lower bound when
+    /// `A z − l < −y`, at its upper when `u − A z < y` (scaled problem).
+    fn guess_active_set(&mut self, z: &[f64], y: &[f64]) {
+        for i in 0..self.rows {
+            let entries = &self.row_entries[self.row_start[i]..self.row_start[i + 1]];
+            let value = entries.iter().map(|&(k, c)| self.a_data[k] * z[c]).sum::<f64>()
+                + self.a_data[self.slack_entry[i]] * z[NU + i];
+            self.binding[i] = value - self.lower[i] < -y[i];
+        }
+        for j in 0..NU {
+            let (value, dual) = (z[j], y[self.rows + j]);
+            self.held[j] = if value - self.lower[self.rows + j] < -dual {
+                Held::Lower
+            } else if self.upper[self.rows + j] - value < dual {
+                Held::Upper
+            } else {
+                Held::Free
+            };
+        }
+    }
+
+    /// The input of the last iterate OSQP returned.
+    pub fn u(&self) -> &Input {
+        &self.u
+    }
+
+    /// Slacks `δ` of the last iterate, one per row (≈ 0 for rows that hold).
+    pub fn delta(&self) -> &[f64] {
+        &self.delta
+    }
+
+    pub fn status(&self) -> QpStatus {
+        self.status
+    }
+
+    /// Whether the last solution is the polished one: the exact optimum of the active
+    /// set ADMM found, verified against every KKT condition (see the `polish` module).
+    pub fn polished(&self) -> bool {
+        self.polished
+    }
+
+    /// ADMM iterations of the last solve.
+    pub fn iterations(&self) -> u32 {
+        self.iterations
+    }
+}

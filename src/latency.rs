@@ -1,0 +1,117 @@
+//! Latency harness: consecutive filter updates along the [`Approach`] drive, with
+//! percentiles of the time per update. Wall-clock, single thread, one cycle after
+//! another as a controller would run them (no criterion batching or warm caches
+//! between repetitions of the same input).
+
+use std::fmt;
+use std::time::{Duration, Instant};
+
+use crate::approach::Approach;
+use crate::catalog::Capacity;
+use crate::error::CbfError;
+use crate::filter::{EcbfFilter, FilterSettings, InputSource};
+use crate::terrain::Stairs;
+
+/// Control period [s].
+pub const DT: f64 = 1e-3;
+
+/// Percentiles of one timed quantity.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Percentiles {
+    pub median: Duration,
+    pub p99: Duration,
+    pub max: Duration,
+}
+
+impl Percentiles {
+    /// Nearest-rank percentiles; sorts `samples`. `None` when empty.
+    pub fn of(samples: &mut [Duration]) -> Option<Self> {
+        samples.sort_unstable();
+        let rank = |p: f64| samples[((p * samples.len() as f64).ceil() as usize).clamp(1, samples.len()) - 1];
+        Some(Self { median: rank(0.5), p99: rank(0.99), max: *samples.last()? })
+    }
+}
+
+/// What a harness run measured.
+#[derive(Debug, Clone)]
+pub struct LatencyReport {
+    pub cycles: usize,
+    pub rows: usize,
+    pub total: Percentiles,
+    pub eval: Percentiles,
+    pub solve: Percentiles,
+    /// ADMM iterations per cycle: median, p99, max.
+    pub iterations: [u32; 3],
+    /// Active rows per cycle: min, max.
+    pub active_rows: [usize; 2],
+    pub fallbacks: usize,
+    /// Cycles whose input is the polished (KKT-verified) optimum.
+    pub polished: usize,
+    /// Body front travel from start to end [m], and its final gap to the first riser.
+    pub travel: f64,
+    pub final_gap: f64,
+}
+
+/// Run `cycles` updates at 1 kHz from `start_gap` metres before the stairs at `speed`.
+///
+/// # Errors
+/// Filter construction or an update returning an error (bad state).
+pub fn run(cycles: usize, speed: f64, start_gap: f64, settings: FilterSettings) -> Result<LatencyReport, CbfError> {
+    let capacity = Capacity::PAPER_WORST_CASE;
+    let stairs = Stairs::HARDWARE;
+    let mut filter = EcbfFilter::new(capacity, settings)?;
+    let mut drive = Approach::new(capacity, stairs, start_gap, speed)?;
+    let start_x = drive.x[0];
+    let (mut total, mut eval, mut solve) =
+        (Vec::with_capacity(cycles), Vec::with_capacity(cycles), Vec::with_capacity(cycles));
+    let mut iterations = Vec::with_capacity(cycles);
+    let (mut active_min, mut active_max, mut fallbacks, mut polished) = (usize::MAX, 0, 0, 0);
+    for _ in 0..cycles {
+        let u_ref = drive.nominal_input();
+        let t0 = Instant::now();
+        let out = *filter.update(&drive.x, &u_ref, &drive.env)?;
+        total.push(t0.elapsed());
+        eval.push(out.eval_time);
+        solve.push(out.solve_time);
+        iterations.push(out.iterations);
+        active_min = active_min.min(out.active_rows);
+        active_max = active_max.max(out.active_rows);
+        fallbacks += usize::from(out.source != InputSource::Qp);
+        polished += usize::from(out.polished);
+        drive.advance(&out.u, DT);
+    }
+    iterations.sort_unstable();
+    let pick = |p: f64| iterations[((p * cycles as f64) as usize).min(cycles.saturating_sub(1))];
+    let empty = || CbfError::LengthMismatch { what: "latency cycles", expected: 1, got: 0 };
+    let body_front = drive.x[0] + drive.x[crate::model::BODY_X] + crate::model::BODY_HALF_EXTENTS[0];
+    Ok(LatencyReport {
+        cycles,
+        rows: filter.rows().len(),
+        total: Percentiles::of(&mut total).ok_or_else(empty)?,
+        eval: Percentiles::of(&mut eval).ok_or_else(empty)?,
+        solve: Percentiles::of(&mut solve).ok_or_else(empty)?,
+        iterations: [pick(0.5), pick(0.99), *iterations.last().ok_or_else(empty)?],
+        active_rows: [active_min, active_max],
+        fallbacks,
+        polished,
+        travel: drive.x[0] - start_x,
+        final_gap: stairs.start_x - body_front,
+    })
+}
+
+impl fmt::Display for LatencyReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let us = |d: Duration| d.as_secs_f64() * 1e6;
+        writeln!(f, "{} consecutive updates of {} rows at 1 kHz (drive into a 5-step staircase)", self.cycles, self.rows)?;
+        writeln!(f, "{:<22}{:>10}{:>10}{:>10}", "time per update [µs]", "median", "p99", "max")?;
+        for (name, p) in [("whole update", self.total), ("row evaluation", self.eval), ("QP update + solve", self.solve)]
+        {
+            writeln!(f, "{:<22}{:>10.1}{:>10.1}{:>10.1}", name, us(p.median), us(p.p99), us(p.max))?;
+        }
+        let [im, i99, imax] = self.iterations;
+        writeln!(f, "ADMM iterations: median {im}, p99 {i99}, max {imax}")?;
+        writeln!(f, "active rows: {} to {}", self.active_rows[0], self.active_rows[1])?;
+        writeln!(f, "polished (KKT-verified) cycles: {}; cycles not solved to tolerance: {}", self.polished, self.fallbacks)?;
+        write!(f, "travel {:.3} m; body front stopped {:.3} m before the first riser", self.travel, self.final_gap)
+    }
+}

@@ -1,0 +1,86 @@
+//! Terrain the examples, benches and simulations run on: a straight staircase, turned
+//! into the filter's runtime obstacles (one edge cuboid along each step nosing, as the
+//! paper extracts them from its map) and floor heights.
+
+use nalgebra::Vector3;
+
+use crate::catalog::{Capacity, EdgeCuboid, Environment, HalfPlane, StabilityBound};
+use crate::error::CbfError;
+use crate::geometry::OrientedBox;
+
+/// Steps of equal `rise` × `run` going up in +x, spanning y ∈ [−half_width, half_width].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Stairs {
+    /// x of the first riser [m].
+    pub start_x: f64,
+    pub rise: f64,
+    pub run: f64,
+    pub count: usize,
+    pub half_width: f64,
+    /// Half side of the square section of each nosing's edge cuboid [m].
+    pub edge_half_section: f64,
+}
+
+impl Stairs {
+    /// The hardware experiment's flight: 5 steps, 16.5 cm high, 35 cm deep.
+    pub const HARDWARE: Stairs =
+        Stairs { start_x: 1.0, rise: 0.165, run: 0.35, count: 5, half_width: 1.0, edge_half_section: 0.025 };
+
+    /// Ground height at world `x` [m].
+    pub fn height_at(&self, x: f64) -> f64 {
+        if x < self.start_x {
+            return 0.0;
+        }
+        let steps = ((x - self.start_x) / self.run).floor() as usize + 1;
+        steps.min(self.count) as f64 * self.rise
+    }
+
+    /// The cuboid along step `k`'s nosing: tucked into the corner of the tread and riser.
+    ///
+    /// # Errors
+    /// Non-positive dimensions.
+    pub fn edge(&self, k: usize) -> Result<EdgeCuboid, CbfError> {
+        let s = self.edge_half_section;
+        let center = Vector3::new(self.start_x + k as f64 * self.run + s, 0.0, (k + 1) as f64 * self.rise - s);
+        Ok(EdgeCuboid::from_box(&OrientedBox::axis_aligned(center, Vector3::new(s, self.half_width, s))?))
+    }
+}
+
+/// An environment that fills every row of `capacity`: the staircase's nosings first,
+/// then further edges up the same slope (a longer flight beyond the first `count`), a
+/// regular foothold polygon of inradius `foothold_radius` around the world point
+/// `foothold_center` for every leg, all legs swinging, and both stability bounds set
+/// (each toe within ±0.25 m of its hip's x relative to the body).
+/// The heaviest evaluation the catalog can be asked for.
+///
+/// # Errors
+/// Invalid stair dimensions or a non-positive radius.
+pub fn worst_case_environment(
+    capacity: Capacity,
+    stairs: &Stairs,
+    foothold_center: [f64; 2],
+    foothold_radius: f64,
+) -> Result<Environment, CbfError> {
+    crate::error::positive("foothold radius", foothold_radius)?;
+    let mut env = Environment::new(capacity);
+    for k in 0..capacity.edges {
+        env.push_edge(stairs.edge(k)?)?;
+    }
+    for leg in 0..6 {
+        let n = capacity.foothold_edges[leg];
+        let planes = (0..n)
+            .map(|k| {
+                let a = std::f64::consts::TAU * k as f64 / n as f64;
+                // Inward normal −(cos a, sin a): n · (p − c) + r ≥ 0.
+                let normal = [-a.cos(), -a.sin()];
+                HalfPlane::new(normal, foothold_radius - normal[0] * foothold_center[0] - normal[1] * foothold_center[1])
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        env.set_foothold(leg, &planes)?;
+        env.swing[leg] = true;
+        let hip_x = crate::model::HIP_POSITIONS[leg][0];
+        env.stability[leg] =
+            [Some(StabilityBound { a: 1.0, b: 0.25 - hip_x }), Some(StabilityBound { a: -1.0, b: 0.25 + hip_x })];
+    }
+    Ok(env)
+}

@@ -1,0 +1,395 @@
+//! The ECBF filter against independent truths: Clarabel (an interior-point solver) on the
+//! same QP written out directly in original units, the KKT conditions checked from the
+//! returned input and slacks alone, hand-solved projections, and the documented fault
+//! behaviour.
+
+// Index loops mirror the formulas (rows × inputs) in this file.
+#![allow(clippy::needless_range_loop)]
+
+mod common;
+
+use cbfgen::approach::Approach;
+use cbfgen::catalog::{Capacity, Environment, Row};
+use cbfgen::filter::{EcbfFilter, EcbfQp, FilterSettings, InputSource, QpStatus, RowSpec, SolverSettings};
+use cbfgen::model::{self, Input, State, NU, NX, TOE_BLOCK};
+use cbfgen::terrain::Stairs;
+use cbfgen::CbfError;
+use clarabel::algebra::CscMatrix;
+use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus};
+use rand::Rng;
+
+const CAPACITY: Capacity = Capacity::PAPER_WORST_CASE;
+
+/// The filter's QP rebuilt from its rows and settings in original units — cost
+/// `Σ w (u − u_ref)² + Σ w_δ δ²`, rows `−(L_g L_f h · u + δ) ≤ L_f² h + k1 L_f h + k0 h`,
+/// the input box — and solved by Clarabel. Returns `u`.
+fn clarabel_reference(filter: &EcbfFilter, u_ref: &Input) -> Input {
+    let s = filter.settings();
+    let active: Vec<usize> = (0..filter.rows().len()).filter(|&i| filter.active()[i]).collect();
+    let n = NU + active.len();
+    // P = 2 diag(w, w_δ) (upper triangular CSC of a diagonal).
+    let mut p_diag: Vec<f64> = s.input_weights.iter().map(|w| 2.0 * w).collect();
+    for &i in &active {
+        p_diag.push(2.0 * s.family(filter.slots()[i].family).slack_weight);
+    }
+    let p = CscMatrix::new(n, n, (0..=n).collect(), (0..n).collect(), p_diag);
+    let mut q = vec![0.0; n];
+    for j in 0..NU {
+        q[j] = -2.0 * s.input_weights[j] * u_ref[j];
+    }
+    // Dense rows, then CSC: active ECBF rows, then u ≤ max, then −u ≤ −min.
+    let m = active.len() + 2 * NU;
+    let mut dense = vec![vec![0.0; n]; m];
+    let mut b = vec![0.0; m];
+    for (k, &i) in active.iter().enumerate() {
+        let row = &filter.rows()[i];
+        let [p1, p2] = s.family(filter.slots()[i].family).poles;
+        for j in 0..NU {
+            dense[k][j] = -row.lg[j];
+        }
+        dense[k][NU + k] = -1.0;
+        b[k] = row.lie[2] + (p1 + p2) * row.lie[1] + p1 * p2 * row.lie[0];
+    }
+    for j in 0..NU {
+        dense[active.len() + j][j] = 1.0;
+        b[active.len() + j] = s.input_max[j];
+        dense[active.len() + NU + j][j] = -1.0;
+        b[active.len() + NU + j] = -s.input_min[j];
+    }
+    let (mut colptr, mut rowval, mut nzval) = (vec![0], vec![], vec![]);
+    for c in 0..n {
+        for (r, row) in dense.iter().enumerate() {
+            if row[c] != 0.0 {
+                rowval.push(r);
+                nzval.push(row[c]);
+            }
+        }
+        colptr.push(rowval.len());
+    }
+    let a = CscMatrix::new(m, n, colptr, rowval, nzval);
+    let settings = DefaultSettings { verbose: false, ..DefaultSettings::default() };
+    let mut solver = DefaultSolver::new(&p, &q, &a, &b, &[NonnegativeConeT(m)], settings).expect("clarabel setup");
+    solver.solve();
+    assert_eq!(solver.solution.status, SolverStatus::Solved, "clarabel must solve the reference");
+    std::array::from_fn(|j| solver.solution.x[j])
+}
+
+/// What the KKT check allows (see `kkt_violation`): ten times the default `eps_abs`.
+/// OSQP stops once its residuals in the scaled problem (rows divided by their norms)
+/// are below `eps_abs` 1e-4 plus `eps_rel` 1e-5 times the size of the terms.
+const KKT_TOLERANCE: f64 = 1e-3;
+
+/// Worst violation of the KKT conditions by the filter's `u`, `δ`, with the multipliers
+/// recovered from the slacks (`λ_i = 2 w_δ δ_i`, from ∂/∂δ_i of the Lagrangian):
+/// primal feasibility, `δ ≥ 0`, complementarity `δ_i (row_i) = 0`, and stationarity in
+/// `u` (zero inside the box, signed at a bound). Row residuals are divided by the row's
+/// norm (the scale OSQP's tolerance applies to); stationarity by the size of the input
+/// terms.
+fn kkt_violation(filter: &EcbfFilter, u: &Input, u_ref: &Input) -> f64 {
+    let s = filter.settings();
+    let delta = filter.delta();
+    let mut worst: f64 = 0.0;
+    let mut stationarity: [f64; NU] = std::array::from_fn(|j| s.input_weights[j] * (u[j] - u_ref[j]));
+    for (i, row) in filter.rows().iter().enumerate() {
+        if !filter.active()[i] {
+            continue;
+        }
+        let f = s.family(filter.slots()[i].family);
+        let [p1, p2] = f.poles;
+        let b = row.lie[2] + (p1 + p2) * row.lie[1] + p1 * p2 * row.lie[0];
+        let lhs = (0..NU).map(|j| row.lg[j] * u[j]).sum::<f64>() + delta[i] + b;
+        // In the row's own scale, as OSQP sees it (each row divided by its norm).
+        let size = row.lg.iter().map(|v| v * v).sum::<f64>().sqrt().max(1.0);
+        worst = worst.max(-lhs / size); // primal
+        worst = worst.max(-delta[i] * f.slack_weight.sqrt()); // δ ≥ 0, in units of √w_δ δ
+        if delta[i] * f.slack_weight.sqrt() > 1e-3 {
+            worst = worst.max(lhs.abs() / size); // complementarity
+        }
+        for j in 0..NU {
+            stationarity[j] -= f.slack_weight * delta[i] * row.lg[j];
+        }
+    }
+    for j in 0..NU {
+        let (lo, hi) = (s.input_min[j], s.input_max[j]);
+        let size = 1.0 + s.input_weights[j] * (u[j].abs() + u_ref[j].abs());
+        worst = worst.max((u[j] - hi) / size).max((lo - u[j]) / size);
+        let r = stationarity[j] / size;
+        // "At a bound" to the solver's tolerance, in the same units.
+        let tol_bound = KKT_TOLERANCE * size;
+        worst = worst.max(if u[j] >= hi - tol_bound {
+            r.max(0.0) // at the upper bound the cost may still pull up
+        } else if u[j] <= lo + tol_bound {
+            (-r).max(0.0)
+        } else {
+            r.abs()
+        });
+    }
+    worst
+}
+
+/// States along the scripted drive into the stairs (approach, contact, pushing), plus
+/// random perturbations of them, with random nominal inputs for the latter.
+fn instances(seed: u64) -> Vec<(State, Input, Environment)> {
+    let mut out = Vec::new();
+    let mut drive = Approach::new(CAPACITY, Stairs::HARDWARE, 0.3, 0.4).expect("drive");
+    let mut filter = EcbfFilter::new(CAPACITY, FilterSettings::default()).expect("filter");
+    for k in 0..3000 {
+        let u_ref = drive.nominal_input();
+        if k % 20 == 0 {
+            out.push((drive.x, u_ref, drive.env.clone()));
+        }
+        let u = filter.update(&drive.x, &u_ref, &drive.env).expect("finite").u;
+        drive.advance(&u, 1e-3);
+    }
+    let scenario = out.len();
+    let mut rng = common::rng(seed);
+    for k in 0..120 {
+        let (mut x, _, env) = out[k % scenario].clone();
+        recoverable_perturbation(&mut rng, &mut x);
+        let u_ref: Input = std::array::from_fn(|j| 0.8 * model::INPUT_LIMITS[j] * rng.random_range(-1.0..1.0));
+        out.push((x, u_ref, env));
+    }
+    out
+}
+
+/// Velocities ±0.1 (m or rad)/s, body ±1 cm / ±0.02 rad, toes up to 1 cm higher or
+/// ±1 cm along x: states the filter can bring back within the input limits.
+fn recoverable_perturbation(rng: &mut impl Rng, x: &mut State) {
+    for (i, v) in x.iter_mut().enumerate().skip(4) {
+        let toe = i.checked_sub(TOE_BLOCK).map(|k| k % 4);
+        *v += match (i, toe) {
+            (4 | 5 | 9 | 10 | 11, _) | (_, Some(2 | 3)) => rng.random_range(-0.1..0.1),
+            (_, Some(1)) => rng.random_range(0.0..0.01),
+            _ => rng.random_range(-0.01..0.01),
+        };
+    }
+}
+
+#[test]
+fn osqp_agrees_with_clarabel_and_satisfies_kkt_on_scenario_and_random_instances() {
+    let cases = instances(11);
+    assert!(cases.len() >= 200);
+    let mut filter = EcbfFilter::new(CAPACITY, FilterSettings::default()).expect("filter");
+    let (mut worst_du, mut worst_kkt, mut corrected, mut continued, mut polished) = (0.0f64, 0.0f64, 0, 0, 0);
+    for (k, (x, u_ref, env)) in cases.iter().enumerate() {
+        // Each instance starts from the previous one's warm start. One that needs more
+        // than the per-cycle iteration budget is handed back flagged; repeating the cycle
+        // continues from that iterate, as the next control cycle would.
+        let mut out = *filter.update(x, u_ref, env).expect("finite instance");
+        for _ in 0..20 {
+            if out.source != InputSource::Unconverged {
+                break;
+            }
+            continued += 1;
+            out = *filter.update(x, u_ref, env).expect("finite instance");
+        }
+        assert_eq!(out.source, InputSource::Qp, "instance {k}: {:?}", out.status);
+        let reference = clarabel_reference(&filter, u_ref);
+        let du = (0..NU).map(|j| (out.u[j] - reference[j]).abs()).fold(0.0, f64::max);
+        assert!(du <= 1e-3, "instance {k}: |u_osqp - u_clarabel| = {du:.2e}");
+        let kkt = kkt_violation(&filter, &out.u, u_ref);
+        assert!(kkt <= KKT_TOLERANCE, "instance {k}: KKT violation {kkt:.2e}");
+        worst_du = worst_du.max(du);
+        worst_kkt = worst_kkt.max(kkt);
+        corrected += usize::from((0..NU).any(|j| (out.u[j] - u_ref[j]).abs() > 1e-2));
+        polished += usize::from(out.polished);
+    }
+    // The instances must exercise the constraints, not just return u_ref.
+    assert!(corrected >= cases.len() / 4, "only {corrected} of {} instances bent the input", cases.len());
+    eprintln!(
+        "{} instances, {corrected} corrected, {polished} polished, {continued} extra cycles: max |du| {worst_du:.2e}, max KKT {worst_kkt:.2e}",
+        cases.len()
+    );
+}
+
+/// A QP of a single ECBF row over all 17 inputs, tolerances tightened so the comparison
+/// tests the formulation, not the stopping rule.
+fn single_row_qp(columns: &[usize], slack_weight: f64, weights: &[f64; NU], limits: f64) -> EcbfQp {
+    let spec = RowSpec { columns, gains: [6.0, 5.0], slack_weight };
+    let tight = SolverSettings { eps_abs: 1e-10, eps_rel: 1e-10, max_iter: 100_000, ..SolverSettings::default() };
+    EcbfQp::new(&[spec], weights, &[-limits; NU], &[limits; NU], tight).expect("qp")
+}
+
+#[test]
+fn one_row_is_the_weighted_projection_onto_its_half_space_by_hand() {
+    // min Σ w_j (u_j − r_j)² + w_δ δ²  s.t.  a·u + δ ≥ −b:
+    // if a·r + b < 0, λ = −(a·r + b) / (Σ a_j²/w_j + 1/w_δ), u = r + λ a/w, δ = λ/w_δ.
+    let mut rng = common::rng(5);
+    for case in 0..20 {
+        let columns: Vec<usize> = (0..NU).collect();
+        let weights: [f64; NU] = std::array::from_fn(|_| rng.random_range(0.5..4.0));
+        let slack_weight = [1e2, 1e4, 1e6][case % 3];
+        let mut qp = single_row_qp(&columns, slack_weight, &weights, 1e3);
+        let lg: [f64; NU] = std::array::from_fn(|_| rng.random_range(-2.0..2.0));
+        let lie = [rng.random_range(-0.1..0.3), rng.random_range(-1.0..1.0), rng.random_range(-3.0..3.0)];
+        let u_ref: Input = std::array::from_fn(|_| rng.random_range(-3.0..3.0));
+        let b = lie[2] + 5.0 * lie[1] + 6.0 * lie[0];
+        let a_r = (0..NU).map(|j| lg[j] * u_ref[j]).sum::<f64>() + b;
+        let lambda = (-a_r).max(0.0) / ((0..NU).map(|j| lg[j] * lg[j] / weights[j]).sum::<f64>() + 1.0 / slack_weight);
+        let row = Row { lie, lg, active: true };
+        assert_eq!(qp.solve(&u_ref, &[row], &[true]), Ok(QpStatus::Solved));
+        for j in 0..NU {
+            let want = u_ref[j] + lambda * lg[j] / weights[j];
+            assert!((qp.u()[j] - want).abs() <= 1e-6, "case {case}, u[{j}]: {} vs {want}", qp.u()[j]);
+        }
+        assert!((qp.delta()[0] - lambda / slack_weight).abs() <= 1e-6, "case {case}: δ");
+    }
+}
+
+#[test]
+fn without_binding_rows_the_input_box_is_a_clip_by_hand() {
+    let mut qp = single_row_qp(&[0, 3], 1e4, &[1.0; NU], 2.0);
+    let u_ref: Input = std::array::from_fn(|j| 4.0 * ((j as f64) / 8.0 - 1.0)); // −4 … 4
+    let row = Row { lie: [1.0, 0.0, 0.0], lg: [0.0; NU], active: true };
+    assert_eq!(qp.solve(&u_ref, &[row], &[false]), Ok(QpStatus::Solved));
+    for j in 0..NU {
+        assert!((qp.u()[j] - u_ref[j].clamp(-2.0, 2.0)).abs() <= 1e-6, "u[{j}]");
+    }
+}
+
+#[test]
+fn a_nominal_input_that_satisfies_every_row_passes_unchanged() {
+    let mut filter = EcbfFilter::new(CAPACITY, FilterSettings::default()).expect("filter");
+    let drive = Approach::new(CAPACITY, Stairs::HARDWARE, 0.4, 0.2).expect("drive");
+    let mut rng = common::rng(9);
+    let mut checked = 0;
+    for _ in 0..50 {
+        // Small accelerations, toes lifting (they stand on the floor, h = 0).
+        let u_ref: Input = std::array::from_fn(|j| {
+            let lifting = j >= 5 && (j - 5) % 2 == 1;
+            0.1 * model::INPUT_LIMITS[j] * if lifting { rng.random_range(0.2..1.0) } else { rng.random_range(-1.0..1.0) }
+        });
+        let mut out = *filter.update(&drive.x, &u_ref, &drive.env).expect("finite");
+        for _ in 0..5 {
+            if out.source == InputSource::Qp {
+                break;
+            }
+            out = *filter.update(&drive.x, &u_ref, &drive.env).expect("finite");
+        }
+        // Independent check that u_ref satisfies every active ECBF row with margin.
+        let s = filter.settings();
+        let satisfied = filter.rows().iter().zip(filter.active()).zip(filter.slots()).all(|((row, &on), slot)| {
+            let [p1, p2] = s.family(slot.family).poles;
+            let b = row.lie[2] + (p1 + p2) * row.lie[1] + p1 * p2 * row.lie[0];
+            !on || (0..NU).map(|j| row.lg[j] * u_ref[j]).sum::<f64>() + b > 1e-3
+        });
+        if !satisfied {
+            continue;
+        }
+        checked += 1;
+        assert_eq!(out.source, InputSource::Qp);
+        for j in 0..NU {
+            assert!((out.u[j] - u_ref[j]).abs() <= 1e-3, "u[{j}] = {} vs u_ref {}", out.u[j], u_ref[j]);
+        }
+        let max_slack = filter.delta().iter().fold(0.0f64, |m, d| m.max(d.abs()));
+        assert!(max_slack <= 1e-6, "slack {max_slack:.2e}");
+    }
+    assert!(checked >= 25, "only {checked} nominal inputs satisfied every row");
+}
+
+fn drive_and_filter(settings: FilterSettings) -> (Approach, EcbfFilter) {
+    let drive = Approach::new(CAPACITY, Stairs::HARDWARE, 0.05, 0.3).expect("drive");
+    (drive, EcbfFilter::new(CAPACITY, settings).expect("filter"))
+}
+
+/// Update on the drive's state until the QP converges (a cold start may take a few
+/// cycles' iteration budgets).
+fn converged_update(filter: &mut EcbfFilter, drive: &Approach) -> cbfgen::filter::FilterOutput {
+    for _ in 0..20 {
+        let out = *filter.update(&drive.x, &drive.nominal_input(), &drive.env).expect("finite");
+        if out.source == InputSource::Qp {
+            return out;
+        }
+    }
+    panic!("the QP did not converge in 20 cycles");
+}
+
+#[test]
+fn nan_or_infinite_state_and_nominal_input_are_errors_that_change_nothing() {
+    let (drive, mut filter) = drive_and_filter(FilterSettings::default());
+    let u_ref = drive.nominal_input();
+    let before = converged_update(&mut filter, &drive);
+    for i in [0, 7, 13, NX - 1] {
+        for bad in [f64::NAN, f64::INFINITY] {
+            let mut x = drive.x;
+            x[i] = bad;
+            assert!(matches!(filter.update(&x, &u_ref, &drive.env), Err(CbfError::NonFinite { .. })));
+        }
+    }
+    let mut bad_u = u_ref;
+    bad_u[3] = f64::NEG_INFINITY;
+    assert!(matches!(filter.update(&drive.x, &bad_u, &drive.env), Err(CbfError::NonFinite { .. })));
+    assert_eq!(*filter.output(), before, "a rejected update must leave the last output");
+    assert_eq!(filter.fallback_input(&bad_u), before.u);
+    let other = Environment::new(Capacity { edges: 1, foothold_edges: [1; 6] });
+    assert_eq!(filter.update(&drive.x, &u_ref, &other).err(), Some(CbfError::CapacityMismatch));
+}
+
+#[test]
+fn a_degenerate_leg_falls_back_to_the_last_safe_input_with_a_flag() {
+    let (drive, mut filter) = drive_and_filter(FilterSettings::default());
+    // Toe exactly at its hip: knee length 0, whose derivative is 0/0.
+    let mut broken = drive.x;
+    let hip = model::HIP_POSITIONS[0];
+    broken[TOE_BLOCK] = broken[model::BODY_X] + hip[0];
+    broken[TOE_BLOCK + 1] = broken[model::BODY_Z] + hip[2];
+    let nominal = [50.0; NU]; // beyond every limit: the clipped fallback is visible
+    let first = *filter.update(&broken, &nominal, &drive.env).expect("ok with a fallback");
+    assert_eq!(first.source, InputSource::NominalClipped);
+    assert_eq!(first.status, None);
+    assert!(first.nonfinite_row.is_some());
+    assert_eq!(first.u, model::INPUT_LIMITS);
+
+    let good = converged_update(&mut filter, &drive);
+    let slot = filter.slots()[first.nonfinite_row.expect("flagged")];
+    assert_eq!(slot.leg, Some(0), "the flagged row is one of leg 0's");
+    let fallback = *filter.update(&broken, &nominal, &drive.env).expect("ok with a fallback");
+    assert_eq!((fallback.source, fallback.u, fallback.consecutive_fallbacks), (InputSource::LastSafe, good.u, 1));
+    let again = *filter.update(&broken, &nominal, &drive.env).expect("ok with a fallback");
+    assert_eq!(again.consecutive_fallbacks, 2);
+}
+
+#[test]
+fn an_iteration_or_time_limit_hands_back_the_clipped_iterate_and_the_next_cycle_continues() {
+    let mut settings = FilterSettings::default();
+    settings.solver.max_iter = 10;
+    let (drive, mut filter) = drive_and_filter(settings);
+    let nominal = drive.nominal_input();
+    let out = *filter.update(&drive.x, &nominal, &drive.env).expect("ok, flagged");
+    assert_eq!((out.status, out.source), (Some(QpStatus::MaxIterations), InputSource::Unconverged));
+    let s = filter.settings();
+    assert!((0..NU).all(|j| (s.input_min[j]..=s.input_max[j]).contains(&out.u[j])), "clipped to the box");
+    // Ten iterations per cycle still converge, cycle after cycle, from the warm start.
+    let mut cycles = 1;
+    while filter.update(&drive.x, &nominal, &drive.env).expect("finite").source != InputSource::Qp {
+        cycles += 1;
+        assert!(cycles < 200, "no convergence across cycles");
+    }
+    assert_eq!(filter.output().consecutive_fallbacks, 0);
+
+    let mut settings = FilterSettings::default();
+    settings.solver.time_limit = Some(std::time::Duration::from_nanos(1));
+    let (drive, mut filter) = drive_and_filter(settings);
+    let out = *filter.update(&drive.x, &drive.nominal_input(), &drive.env).expect("ok, flagged");
+    assert_eq!((out.status, out.source), (Some(QpStatus::TimeLimit), InputSource::Unconverged));
+}
+
+#[test]
+fn invalid_settings_are_rejected_at_construction() {
+    let edits: [fn(&mut FilterSettings); 6] = [
+        |s| s.input_weights[2] = 0.0,
+        |s| s.families[1].poles[0] = -1.0,
+        |s| s.families[3].slack_weight = f64::NAN,
+        |s| s.input_min[4] = s.input_max[4] + 1.0,
+        |s| s.solver.alpha = 2.5,
+        |s| s.solver.eps_abs = 0.0,
+    ];
+    for (k, edit) in edits.iter().enumerate() {
+        let mut s = FilterSettings::default();
+        edit(&mut s);
+        assert!(EcbfFilter::new(CAPACITY, s).is_err(), "edit {k} was accepted");
+    }
+    let bad_row = RowSpec { columns: &[3, 3], gains: [1.0, 1.0], slack_weight: 1.0 };
+    let err = EcbfQp::new(&[bad_row], &[1.0; NU], &[-1.0; NU], &[1.0; NU], SolverSettings::default());
+    assert_eq!(err.err(), Some(CbfError::BadRowPattern { row: 0, column: 3 }));
+}
