@@ -33,8 +33,8 @@ pub struct Approach {
 }
 
 impl Approach {
-    /// Start `start_gap` metres before the first riser (body front to riser), rolling at
-    /// `speed` [m/s].
+    /// Start with the robot's foremost point (body front or a toe) `start_gap` metres
+    /// before the first riser, rolling at `speed` [m/s].
     ///
     /// # Errors
     /// Invalid stair dimensions or a non-finite speed or gap.
@@ -43,7 +43,7 @@ impl Approach {
         crate::error::finite("start gap", start_gap)?;
         let posture = model::standard_posture();
         let mut x = posture;
-        x[0] = stairs.start_x - start_gap - model::BODY_HALF_EXTENTS[0];
+        x[0] = stairs.start_x - start_gap - front_reach(&posture);
         x[SPEED] = speed;
         // Footholds wide enough to contain every toe for the whole drive.
         let env = worst_case_environment(capacity, &stairs, [x[0], 0.0], 4.0)?;
@@ -87,6 +87,11 @@ impl Approach {
         self.update_floors();
     }
 
+    /// Distance from the origin to the robot's foremost point [m].
+    pub fn front_reach(&self) -> f64 {
+        front_reach(&self.x)
+    }
+
     fn update_floors(&mut self) {
         let (px, yaw) = (self.x[0], self.x[3]);
         for leg in 0..6 {
@@ -95,4 +100,10 @@ impl Approach {
             self.env.floor_z[leg] = self.stairs.height_at(px + yaw.cos() * toe_x - yaw.sin() * hip_y);
         }
     }
+}
+
+/// Origin-relative x of the foremost point of body and toes (yaw and pitch ignored).
+fn front_reach(x: &State) -> f64 {
+    let toes = (0..6).map(|leg| x[TOE_BLOCK + 4 * leg] + model::TOE_RADIUS);
+    toes.fold(x[BODY_X] + model::BODY_HALF_EXTENTS[0], f64::max)
 }

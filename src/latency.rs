@@ -47,7 +47,7 @@ pub struct LatencyReport {
     pub fallbacks: usize,
     /// Cycles whose input is the polished (KKT-verified) optimum.
     pub polished: usize,
-    /// Body front travel from start to end [m], and its final gap to the first riser.
+    /// Travel from start to end [m], and the robot front's final gap to the first riser.
     pub travel: f64,
     pub final_gap: f64,
 }
@@ -83,7 +83,7 @@ pub fn run(cycles: usize, speed: f64, start_gap: f64, settings: FilterSettings) 
     iterations.sort_unstable();
     let pick = |p: f64| iterations[((p * cycles as f64) as usize).min(cycles.saturating_sub(1))];
     let empty = || CbfError::LengthMismatch { what: "latency cycles", expected: 1, got: 0 };
-    let body_front = drive.x[0] + drive.x[crate::model::BODY_X] + crate::model::BODY_HALF_EXTENTS[0];
+    let front = drive.x[0] + drive.front_reach();
     Ok(LatencyReport {
         cycles,
         rows: filter.rows().len(),
@@ -95,7 +95,7 @@ pub fn run(cycles: usize, speed: f64, start_gap: f64, settings: FilterSettings) 
         fallbacks,
         polished,
         travel: drive.x[0] - start_x,
-        final_gap: stairs.start_x - body_front,
+        final_gap: stairs.start_x - front,
     })
 }
 
@@ -112,6 +112,6 @@ impl fmt::Display for LatencyReport {
         writeln!(f, "ADMM iterations: median {im}, p99 {i99}, max {imax}")?;
         writeln!(f, "active rows: {} to {}", self.active_rows[0], self.active_rows[1])?;
         writeln!(f, "polished (KKT-verified) cycles: {}; cycles not solved to tolerance: {}", self.polished, self.fallbacks)?;
-        write!(f, "travel {:.3} m; body front stopped {:.3} m before the first riser", self.travel, self.final_gap)
+        write!(f, "travel {:.3} m; the robot's front stopped {:.3} m before the first riser", self.travel, self.final_gap)
     }
 }

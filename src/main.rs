@@ -43,7 +43,7 @@ enum Command {
         /// Commanded forward speed [m/s].
         #[arg(long, default_value_t = 0.3)]
         speed: f64,
-        /// Start this far from the first riser (body front) [m].
+        /// Start with the robot's front (body or toe) this far from the first riser [m].
         #[arg(long, default_value_t = 0.6)]
         gap: f64,
         #[command(flatten)]

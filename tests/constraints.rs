@@ -303,3 +303,45 @@ fn bad_input_is_an_error_not_a_panic() {
     assert!(small.set_foothold(6, &[]).is_err());
     assert!(HalfPlane::new([0.0, 0.0], 1.0).is_err());
 }
+
+#[test]
+fn world_kinematics_matches_an_independent_pose_and_the_body_row() {
+    // Body: p + Rz(yaw)(bx, 0, bz), rotation Rz(yaw) Ry(pitch); toes: p + Rz(yaw)(x, hip_y, z).
+    // And the body-edge row's h equals the exact smooth SAT of that pose minus its margin.
+    let mut r = rng(41);
+    for _ in 0..500 {
+        let x = random_state(&mut r);
+        let (center, rotation, toes) = gen::world_kinematics(&x);
+        let p = nalgebra::Vector3::new(x[0], x[1], x[2]);
+        let rz = Rotation3::from_axis_angle(&nalgebra::Vector3::z_axis(), x[3]);
+        let ry = Rotation3::from_axis_angle(&nalgebra::Vector3::y_axis(), x[BODY_PITCH]);
+        let want_center = p + rz * nalgebra::Vector3::new(x[BODY_X], 0.0, x[BODY_Z]);
+        let want_rotation = rz * ry;
+        for i in 0..3 {
+            assert!((center[i] - want_center[i]).abs() < 1e-12);
+            for j in 0..3 {
+                assert!((rotation[i][j] - want_rotation[(i, j)]).abs() < 1e-12);
+            }
+        }
+        for (leg, toe) in toes.iter().enumerate() {
+            let rel = nalgebra::Vector3::new(x[TOE_BLOCK + 4 * leg], model::HIP_POSITIONS[leg][1], x[TOE_BLOCK + 4 * leg + 1]);
+            let want = p + rz * rel;
+            assert!((0..3).all(|i| (toe[i] - want[i]).abs() < 1e-12), "toe {leg}");
+        }
+        let (ec, er, eh) = random_edge(&mut r);
+        let edge = cbfgen::OrientedBox::new(
+            nalgebra::Vector3::from(ec),
+            Rotation3::from_matrix_unchecked(nalgebra::Matrix3::from_row_slice(&er)),
+            nalgebra::Vector3::from(eh),
+        )
+        .expect("valid edge");
+        let rot = nalgebra::Matrix3::from_fn(|i, j| rotation[i][j]);
+        let half = nalgebra::Vector3::from(model::BODY_HALF_EXTENTS);
+        let body = cbfgen::OrientedBox::new(nalgebra::Vector3::from(center), Rotation3::from_matrix_unchecked(rot), half)
+            .expect("valid body");
+        let params = cbfgen::ssat::SmoothParams::default();
+        let want_h = cbfgen::ssat::ssat(&edge, &body, &params) - cbfgen::ssat::certified_margin(&edge, &body, &params);
+        let (lie, _) = gen::body_edge_ssat(&x, &ec, &er, &eh);
+        assert!((lie[0][0] - want_h).abs() <= 1e-9 * (1.0 + want_h.abs()), "{} vs {want_h}", lie[0][0]);
+    }
+}

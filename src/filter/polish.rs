@@ -38,9 +38,46 @@ pub(crate) struct Problem<'a> {
 /// 17×17 solve, far tighter than any ADMM stopping rule.
 const TOLERANCE: f64 = 1e-9;
 
-/// Solve with rows `binding[i]` held as equalities and inputs held as `held`. Writes
-/// `u` and `delta` and returns `true` only if the result satisfies the KKT conditions.
-pub(crate) fn polish(p: &Problem<'_>, binding: &[bool], held: &[Held; NU], u: &mut Input, delta: &mut [f64]) -> bool {
+/// Active-set corrections tried after ADMM's guess before giving up.
+const MAX_CORRECTIONS: usize = 6;
+
+/// Solve from ADMM's active set guess (`binding`, `held`, corrected in place). When the
+/// guess fails the KKT test, the rows and inputs that broke it swap sides — a binding
+/// row whose slack came out negative is released, a violated free row binds, an input
+/// past its bound is held there, a held input pulled inward is freed — and the solve is
+/// repeated, a few times at most. Writes `u` and `delta` and returns `true` only for a
+/// solution that satisfies every KKT condition.
+pub(crate) fn polish(
+    p: &Problem<'_>,
+    binding: &mut [bool],
+    held: &mut [Held; NU],
+    u: &mut Input,
+    delta: &mut [f64],
+) -> bool {
+    for _ in 0..=MAX_CORRECTIONS {
+        match solve_active_set(p, binding, held) {
+            Some(x) if correct(p, &x, binding, held) == 0 => {
+                for (i, row) in p.rows.iter().enumerate() {
+                    delta[i] =
+                        if p.active[i] && binding[i] { (-row_value(p, row, i, &x)).max(0.0) } else { 0.0 };
+                }
+                u.copy_from_slice(x.as_slice());
+                return true;
+            }
+            Some(_) => {}
+            None => return false,
+        }
+    }
+    false
+}
+
+/// `a·u + b` of row `i`: ≥ 0 when the row holds without slack.
+fn row_value(p: &Problem<'_>, row: &Row, i: usize, x: &SVector<f64, NU>) -> f64 {
+    (0..NU).map(|j| row.lg[j] * x[j]).sum::<f64>() + p.bounds[i]
+}
+
+/// The optimum for a fixed active set, or `None` if the system is singular or not finite.
+fn solve_active_set(p: &Problem<'_>, binding: &[bool], held: &[Held; NU]) -> Option<SVector<f64, NU>> {
     // H u = g with H = W + Σ w_δ a aᵀ, g = W u_ref − Σ w_δ b a over binding rows.
     let mut h = SMatrix::<f64, NU, NU>::zeros();
     let mut g = SVector::<f64, NU>::zeros();
@@ -57,8 +94,6 @@ pub(crate) fn polish(p: &Problem<'_>, binding: &[bool], held: &[Held; NU], u: &m
         h.ger(w, &a, &a, 1.0);
         g.axpy(-w * p.bounds[i], &a, 1.0);
     }
-    let full_h = h;
-    let full_g = g;
     // Held inputs: fix them at their bound and move their columns to the right side.
     for j in 0..NU {
         let value = match held[j] {
@@ -74,44 +109,52 @@ pub(crate) fn polish(p: &Problem<'_>, binding: &[bool], held: &[Held; NU], u: &m
         h[(j, j)] = 1.0;
         g[j] = value;
     }
-    let Some(chol) = h.cholesky() else { return false };
-    let x = chol.solve(&g);
-    if !x.iter().all(|v| v.is_finite()) {
-        return false;
-    }
+    let x = h.cholesky()?.solve(&g);
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}
 
-    // KKT: stationarity holds by construction; check the rest.
-    let residual = full_h * x - full_g; // = −(box multipliers) on held inputs
+/// Check the KKT conditions at `x` (stationarity holds by construction) and move every
+/// row and input that breaks one to the other side. Returns how many moved.
+fn correct(p: &Problem<'_>, x: &SVector<f64, NU>, binding: &mut [bool], held: &mut [Held; NU]) -> usize {
+    let mut moved = 0;
+    // Gradient of the objective with the binding rows' slacks eliminated; on a held
+    // input it is minus that bound's multiplier.
+    let mut gradient = SVector::<f64, NU>::zeros();
     for j in 0..NU {
-        let scale = 1.0 + full_g[j].abs() + (full_h[(j, j)] * x[j]).abs();
-        let ok = match held[j] {
-            Held::Free => x[j] >= p.input_min[j] - TOLERANCE * scale && x[j] <= p.input_max[j] + TOLERANCE * scale,
-            Held::Upper => residual[j] <= TOLERANCE * scale,
-            Held::Lower => residual[j] >= -TOLERANCE * scale,
-        };
-        if !ok {
-            return false;
+        gradient[j] = p.weights[j] * (x[j] - p.u_ref[j]);
+    }
+    for (i, row) in p.rows.iter().enumerate() {
+        if p.active[i] && binding[i] {
+            let a = SVector::<f64, NU>::from_row_slice(&row.lg);
+            gradient.axpy(p.slack_weights[i] * row_value(p, row, i, x), &a, 1.0);
         }
     }
-    let row_value = |row: &Row, i: usize| (0..NU).map(|j| row.lg[j] * x[j]).sum::<f64>() + p.bounds[i];
+    for j in 0..NU {
+        let scale = 1.0 + p.weights[j] * (x[j].abs() + p.u_ref[j].abs());
+        let next = match held[j] {
+            Held::Free if x[j] > p.input_max[j] + TOLERANCE * scale => Held::Upper,
+            Held::Free if x[j] < p.input_min[j] - TOLERANCE * scale => Held::Lower,
+            Held::Upper if gradient[j] > TOLERANCE * scale => Held::Free,
+            Held::Lower if gradient[j] < -TOLERANCE * scale => Held::Free,
+            same => same,
+        };
+        moved += usize::from(next != held[j]);
+        held[j] = next;
+    }
     for (i, row) in p.rows.iter().enumerate() {
         if !p.active[i] {
             continue;
         }
-        let value = row_value(row, i);
+        let value = row_value(p, row, i, x);
         let scale = 1.0 + p.bounds[i].abs() + row.lg.iter().zip(x.iter()).map(|(a, v)| (a * v).abs()).sum::<f64>();
-        // Binding rows: the slack −value must be ≥ 0 (its multiplier is 2 w_δ δ).
-        // Others must hold on their own.
-        let ok = if binding[i] { value <= TOLERANCE * scale } else { value >= -TOLERANCE * scale };
-        if !ok {
-            return false;
+        // A binding row's slack −value must be ≥ 0 (its multiplier is 2 w_δ δ); a free
+        // row must hold on its own.
+        let flip = if binding[i] { value > TOLERANCE * scale } else { value < -TOLERANCE * scale };
+        if flip {
+            binding[i] = !binding[i];
+            moved += 1;
         }
     }
-    for (i, row) in p.rows.iter().enumerate() {
-        delta[i] = if p.active[i] && binding[i] { (-row_value(row, i)).max(0.0) } else { 0.0 };
-    }
-    for j in 0..NU {
-        u[j] = x[j];
-    }
-    true
+    moved
 }
+

@@ -320,7 +320,8 @@ impl EcbfQp {
         if status == QpStatus::SolverFault {
             self.problem = None;
         }
-        self.polished = matches!(
+        self.polished = self.settings.polish
+            && matches!(
             status,
             QpStatus::Solved | QpStatus::SolvedInaccurate | QpStatus::MaxIterations | QpStatus::TimeLimit
         ) && polish::polish(
@@ -334,8 +335,8 @@ impl EcbfQp {
                 bounds: &self.row_bound,
                 slack_weights: &self.slack_weight,
             },
-            &self.binding,
-            &self.held,
+            &mut self.binding,
+            &mut self.held,
             &mut self.u,
             &mut self.delta,
         );

@@ -64,6 +64,9 @@ pub struct SolverSettings {
     pub check_termination: u32,
     /// Give up (flagged, with a fallback input) after this long; `None` = no limit.
     pub time_limit: Option<Duration>,
+    /// Solve ADMM's active set exactly and keep it when it passes the KKT test (this
+    /// crate's allocation-free polish; OSQP's own stays off).
+    pub polish: bool,
 }
 
 impl Default for SolverSettings {
@@ -79,6 +82,7 @@ impl Default for SolverSettings {
             adaptive_rho_interval: 25,
             check_termination: 5,
             time_limit: None,
+            polish: true,
         }
     }
 }

@@ -221,9 +221,22 @@ def _leg_table(family: str, per_leg: List[Kernel]) -> RawRust:
         f"pub const {upper}_INPUT_COLUMNS: [[usize; {lg_cols}]; 6] = [{cols}];\n")
 
 
+def world_kinematics(system: Tachyon3) -> Kernel:
+    """Body pose and toe centres in the world frame: what a simulator or a collision
+    check needs, from the same expressions the constraint rows differentiate."""
+    k = Kernel("world_kinematics", "Body pose and toe sphere centres in the world frame.")
+    k.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
+    k.output_vector("body_center", system.body_position_world(), "body box centre [m]")
+    k.output_matrix("body_rotation", system.body_rotation_world(), "body rotation (columns = body axes)")
+    k.output_matrix("toes", [system.toe_world(leg) for leg in system.model.legs],
+                    "toe sphere centres [m], one row per leg in `LEG_NAMES` order")
+    return k
+
+
 def kernels(system: Tachyon3 | None = None) -> List[Kernel | RawRust]:
     system = system or load_tachyon3()
     out: List[Kernel | RawRust] = dynamics(system)
+    out.append(world_kinematics(system))
     out.append(body_edge_ssat(system))
     for family in (joint_limits, toe_edge, foothold, foot_height, stability):
         per_leg = [family(system, leg) for leg in system.model.legs]

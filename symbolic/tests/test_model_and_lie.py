@@ -57,7 +57,7 @@ def _kernel_texts(system):
 
 def test_moving_a_hip_regenerates_exactly_the_kernels_that_depend_on_it(system, tmp_path):
     text = MODEL.read_text()
-    edited = text.replace("hip = [0.40, 0.35, 0.05]", "hip = [0.42, 0.35, 0.05]", 1)  # LF hip 2 cm forward
+    edited = text.replace("hip = [0.40, 0.40, 0.12]", "hip = [0.42, 0.40, 0.12]", 1)  # LF hip 2 cm forward
     assert edited != text
     (tmp_path / "tachyon3.toml").write_text(edited)
     before = _kernel_texts(system)
