@@ -43,7 +43,7 @@ impl Approach {
         crate::error::finite("start gap", start_gap)?;
         let posture = model::standard_posture();
         let mut x = posture;
-        x[0] = stairs.start_x - start_gap - front_reach(&posture);
+        x[0] = stairs.start_x - start_gap - model::front_reach(&posture);
         x[SPEED] = speed;
         // Footholds wide enough to contain every toe for the whole drive.
         let env = worst_case_environment(capacity, &stairs, [x[0], 0.0], 4.0)?;
@@ -89,7 +89,7 @@ impl Approach {
 
     /// Distance from the origin to the robot's foremost point [m].
     pub fn front_reach(&self) -> f64 {
-        front_reach(&self.x)
+        model::front_reach(&self.x)
     }
 
     fn update_floors(&mut self) {
@@ -102,8 +102,3 @@ impl Approach {
     }
 }
 
-/// Origin-relative x of the foremost point of body and toes (yaw and pitch ignored).
-fn front_reach(x: &State) -> f64 {
-    let toes = (0..6).map(|leg| x[TOE_BLOCK + 4 * leg] + model::TOE_RADIUS);
-    toes.fold(x[BODY_X] + model::BODY_HALF_EXTENTS[0], f64::max)
-}

@@ -13,6 +13,7 @@
 //! * [`catalog`] — every ECBF row of the model, evaluated into preallocated storage.
 //! * [`filter`] — the ECBF-QP safety filter on OSQP: one allocation-free control update.
 //! * [`terrain`] — stairs as edge cuboids and floors; [`approach`] — a scripted drive to them.
+//! * [`sim`] — the closed-loop stair simulation (gait, filter, integration, CSV and figures).
 
 pub mod approach;
 pub mod catalog;
@@ -22,6 +23,7 @@ pub mod geometry;
 pub mod latency;
 pub mod model;
 pub mod sat;
+pub mod sim;
 pub mod ssat;
 pub mod terrain;
 

@@ -2,6 +2,7 @@
 
 use cbfgen::catalog::{Capacity, Catalog, Environment, Family};
 use cbfgen::filter::FilterSettings;
+use cbfgen::sim::{self, output, Scenario, SimConfig, SimResult};
 use cbfgen::model;
 use cbfgen::ssat::{self, SmoothParams};
 use cbfgen::{sat, OrientedBox};
@@ -49,8 +50,32 @@ enum Command {
         #[command(flatten)]
         solver: SolverArgs,
     },
+    /// Closed-loop simulation at 1 kHz: the robot walks over a step or climbs five stairs
+    /// with the ECBF filter correcting a naive gait. Writes a CSV and the paper's
+    /// Figs. 7-10 (SVG) to --out and prints a summary. Unless --no-body-cbf is given, the
+    /// same course is also run without the body SSAT CBF for Fig. 7's comparison.
+    Simulate {
+        /// Course: one 16.5 cm step, or five steps of 16.5 x 35 cm.
+        #[arg(long, value_enum, default_value_t = ScenarioArg::Stairs)]
+        scenario: ScenarioArg,
+        /// Run only without the body SSAT CBF (the body hits the edge).
+        #[arg(long)]
+        no_body_cbf: bool,
+        /// Directory for the CSV files and figures.
+        #[arg(long, default_value = "out")]
+        out: std::path::PathBuf,
+        /// Write every N-th cycle to the CSV (1 = every millisecond).
+        #[arg(long, default_value_t = 10)]
+        csv_every: usize,
+    },
     /// Regenerate generated/ from symbolic/ (runs `python -m symbolic.generate`).
     Generate,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum ScenarioArg {
+    Step,
+    Stairs,
 }
 
 /// OSQP overrides for tuning runs; defaults are [`cbfgen::filter::SolverSettings::default`].
@@ -96,6 +121,23 @@ impl SolverArgs {
             s.families.iter_mut().for_each(|f| f.slack_weight = w);
         }
     }
+}
+
+/// One simulation run with a progress bar on stderr.
+fn simulate(config: &SimConfig) -> Result<SimResult, cbfgen::CbfError> {
+    let bar = indicatif::ProgressBar::new((config.max_time * 10.0).round() as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{msg:32} [{bar:40}] {pos}/{len} (0.1 s of simulated time)")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    bar.set_message(format!(
+        "{} {} body SSAT CBF",
+        config.scenario.name(),
+        if config.body_cbf { "with" } else { "without" }
+    ));
+    let result = sim::run(config, |t| bar.set_position((t * 10.0) as u64));
+    bar.finish_and_clear();
+    result
 }
 
 fn main() -> ExitCode {
@@ -150,6 +192,20 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             let mut settings = FilterSettings::default();
             solver.apply(&mut settings);
             println!("{}", cbfgen::latency::run(cycles, speed, gap, settings)?);
+            Ok(())
+        }
+        Command::Simulate { scenario, no_body_cbf, out, csv_every } => {
+            let scenario = match scenario {
+                ScenarioArg::Step => Scenario::Step,
+                ScenarioArg::Stairs => Scenario::Stairs,
+            };
+            let main = simulate(&SimConfig::new(scenario, !no_body_cbf))?;
+            let comparison = if no_body_cbf { None } else { Some(simulate(&SimConfig::new(scenario, false))?) };
+            for run in std::iter::once(&main).chain(comparison.as_ref()) {
+                println!("{}", run.summary);
+            }
+            let written = output::write_all(&out, &main, comparison.as_ref(), csv_every)?;
+            println!("wrote {}", written.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "));
             Ok(())
         }
         Command::Generate => {

@@ -54,3 +54,9 @@ pub fn standard_posture() -> State {
     }
     x
 }
+
+/// Origin-relative x of the robot's foremost point: the body's front face or a toe
+/// sphere's front, whichever reaches further (yaw and pitch ignored).
+pub fn front_reach(x: &State) -> f64 {
+    (0..6).map(|leg| x[TOE_BLOCK + 4 * leg] + TOE_RADIUS).fold(x[BODY_X] + BODY_HALF_EXTENTS[0], f64::max)
+}

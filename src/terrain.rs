@@ -35,6 +35,26 @@ impl Stairs {
         steps.min(self.count) as f64 * self.rise
     }
 
+    /// One step of the same dimensions: the `step` scenario's obstacle.
+    pub const SINGLE_STEP: Stairs = Stairs { count: 1, ..Stairs::HARDWARE };
+
+    /// x where the flat region holding world `x` begins and ends (the ground before the
+    /// stairs, a tread, or the top landing, which runs on).
+    pub fn flat_region(&self, x: f64) -> (f64, f64) {
+        if x < self.start_x {
+            return (f64::NEG_INFINITY, self.start_x);
+        }
+        let k = (((x - self.start_x) / self.run).floor() as usize).min(self.count - 1);
+        let begin = self.start_x + k as f64 * self.run;
+        let end = if k + 1 == self.count { f64::INFINITY } else { begin + self.run };
+        (begin, end)
+    }
+
+    /// Height of the top landing [m].
+    pub fn top(&self) -> f64 {
+        self.count as f64 * self.rise
+    }
+
     /// The cuboid along step `k`'s nosing: tucked into the corner of the tread and riser.
     ///
     /// # Errors
@@ -44,6 +64,25 @@ impl Stairs {
         let center = Vector3::new(self.start_x + k as f64 * self.run + s, 0.0, (k + 1) as f64 * self.rise - s);
         Ok(EdgeCuboid::from_box(&OrientedBox::axis_aligned(center, Vector3::new(s, self.half_width, s))?))
     }
+}
+
+/// A convex foothold for a toe of radius `r`: world x in `[x_begin + r, x_end − r]` and
+/// |y| within the stairs' half width less `r` (infinite ends are capped at ±100 m).
+///
+/// # Errors
+/// An empty interval.
+pub fn foothold_strip(stairs: &Stairs, x_begin: f64, x_end: f64, r: f64) -> Result<[HalfPlane; 4], CbfError> {
+    let (lo, hi) = ((x_begin + r).max(-100.0), (x_end - r).min(100.0));
+    let w = stairs.half_width - r;
+    if !(hi > lo && w > 0.0) {
+        return Err(CbfError::OutOfRange { what: "foothold strip length", value: hi - lo, range: "(0, inf)" });
+    }
+    Ok([
+        HalfPlane::new([1.0, 0.0], -lo)?,
+        HalfPlane::new([-1.0, 0.0], hi)?,
+        HalfPlane::new([0.0, 1.0], w)?,
+        HalfPlane::new([0.0, -1.0], w)?,
+    ])
 }
 
 /// An environment that fills every row of `capacity`: the staircase's nosings first,

@@ -1,0 +1,146 @@
+//! Minimal SVG line charts for the simulation figures. SVG keeps text as text for the
+//! viewer to render, so no font has to be found or shipped at run time.
+
+use std::fmt::Write;
+
+/// One line of a chart.
+#[derive(Debug, Clone)]
+pub struct Series {
+    pub name: String,
+    pub color: &'static str,
+    pub points: Vec<(f64, f64)>,
+    /// Drawn dashed (reference lines).
+    pub dashed: bool,
+}
+
+impl Series {
+    pub fn new(name: &str, color: &'static str, points: Vec<(f64, f64)>) -> Self {
+        Self { name: name.to_string(), color, points, dashed: false }
+    }
+
+    pub fn dashed(mut self) -> Self {
+        self.dashed = true;
+        self
+    }
+}
+
+/// A chart: title, axis labels, series.
+#[derive(Debug, Clone)]
+pub struct Chart {
+    pub title: String,
+    pub x_label: String,
+    pub y_label: String,
+    pub series: Vec<Series>,
+}
+
+const WIDTH: f64 = 800.0;
+const HEIGHT: f64 = 420.0;
+const LEFT: f64 = 70.0;
+const RIGHT: f64 = 20.0;
+const TOP: f64 = 40.0;
+const BOTTOM: f64 = 50.0;
+/// Points drawn per series at most; longer series are thinned evenly.
+const MAX_POINTS: usize = 4000;
+
+impl Chart {
+    pub fn new(title: &str, x_label: &str, y_label: &str) -> Self {
+        Self { title: title.into(), x_label: x_label.into(), y_label: y_label.into(), series: Vec::new() }
+    }
+
+    pub fn with(mut self, series: Series) -> Self {
+        self.series.push(series);
+        self
+    }
+
+    /// The chart as an SVG document. Non-finite points are skipped.
+    pub fn to_svg(&self) -> String {
+        let finite = |&(x, y): &(f64, f64)| x.is_finite() && y.is_finite();
+        let all = self.series.iter().flat_map(|s| s.points.iter().filter(|p| finite(p)));
+        let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+        for &(x, y) in all {
+            (x0, x1, y0, y1) = (x0.min(x), x1.max(x), y0.min(y), y1.max(y));
+        }
+        // No finite point, or all at one x: a unit range around it.
+        if x0.partial_cmp(&x1) != Some(std::cmp::Ordering::Less) {
+            (x0, x1) = if x0.is_finite() { (x0 - 0.5, x0 + 0.5) } else { (0.0, 1.0) };
+        }
+        if y0.partial_cmp(&y1) != Some(std::cmp::Ordering::Less) {
+            (y0, y1) = if y0.is_finite() { (y0 - 0.5, y0 + 0.5) } else { (0.0, 1.0) };
+        }
+        let pad = 0.05 * (y1 - y0);
+        (y0, y1) = (y0 - pad, y1 + pad);
+        let (pw, ph) = (WIDTH - LEFT - RIGHT, HEIGHT - TOP - BOTTOM);
+        let sx = |x: f64| LEFT + (x - x0) / (x1 - x0) * pw;
+        let sy = |y: f64| TOP + (1.0 - (y - y0) / (y1 - y0)) * ph;
+
+        let mut svg = String::new();
+        // Writing to a String cannot fail.
+        let _ = writeln!(
+            svg,
+            r#"<svg xmlns="http://www.w3.org/2000/svg" width="{WIDTH}" height="{HEIGHT}" font-family="sans-serif" font-size="12">"#
+        );
+        let _ = writeln!(svg, r#"<rect width="100%" height="100%" fill="white"/>"#);
+        let _ = writeln!(svg, r#"<text x="{}" y="22" font-size="15" text-anchor="middle">{}</text>"#, WIDTH / 2.0, escape(&self.title));
+        let _ = writeln!(svg, r#"<rect x="{LEFT}" y="{TOP}" width="{pw}" height="{ph}" fill="none" stroke="black"/>"#);
+        for k in 0..=5 {
+            let f = k as f64 / 5.0;
+            let (x, y) = (x0 + f * (x1 - x0), y0 + f * (y1 - y0));
+            let _ = writeln!(svg, r##"<line x1="{0}" y1="{TOP}" x2="{0}" y2="{1}" stroke="#ddd"/>"##, sx(x), TOP + ph);
+            let _ = writeln!(svg, r##"<line x1="{LEFT}" y1="{0}" x2="{1}" y2="{0}" stroke="#ddd"/>"##, sy(y), LEFT + pw);
+            let _ = writeln!(svg, r#"<text x="{}" y="{}" text-anchor="middle">{}</text>"#, sx(x), TOP + ph + 16.0, tick(x));
+            let _ = writeln!(svg, r#"<text x="{}" y="{}" text-anchor="end">{}</text>"#, LEFT - 6.0, sy(y) + 4.0, tick(y));
+        }
+        let _ = writeln!(svg, r#"<text x="{}" y="{}" text-anchor="middle">{}</text>"#, LEFT + pw / 2.0, HEIGHT - 10.0, escape(&self.x_label));
+        let _ = writeln!(
+            svg,
+            r#"<text x="16" y="{0}" text-anchor="middle" transform="rotate(-90 16 {0})">{1}</text>"#,
+            TOP + ph / 2.0,
+            escape(&self.y_label)
+        );
+        for (k, s) in self.series.iter().enumerate() {
+            let stride = s.points.len().div_ceil(MAX_POINTS).max(1);
+            let mut path = String::new();
+            for (x, y) in s.points.iter().step_by(stride).filter(|p| finite(p)) {
+                let _ = write!(path, "{:.1},{:.1} ", sx(*x), sy(*y));
+            }
+            let dash = if s.dashed { r#" stroke-dasharray="6 4""# } else { "" };
+            let _ = writeln!(svg, r#"<polyline fill="none" stroke="{}" stroke-width="1.5"{dash} points="{path}"/>"#, s.color);
+            let ly = TOP + 14.0 + 16.0 * k as f64;
+            let _ = writeln!(svg, r#"<line x1="{0}" y1="{1}" x2="{2}" y2="{1}" stroke="{3}" stroke-width="2"{dash}/>"#, LEFT + 10.0, ly - 4.0, LEFT + 30.0, s.color);
+            let _ = writeln!(svg, r#"<text x="{}" y="{ly}">{}</text>"#, LEFT + 36.0, escape(&s.name));
+        }
+        svg.push_str("</svg>\n");
+        svg
+    }
+}
+
+fn tick(v: f64) -> String {
+    if v == 0.0 || (1e-2..1e4).contains(&v.abs()) {
+        format!("{v:.3}").trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        format!("{v:.1e}")
+    }
+}
+
+fn escape(s: &str) -> String {
+    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_chart_maps_its_extremes_to_the_plot_corners() {
+        let svg = Chart::new("t <1>", "x", "y")
+            .with(Series::new("a", "red", vec![(0.0, 0.0), (1.0, 1.0), (0.5, f64::NAN)]))
+            .to_svg();
+        assert!(svg.contains("t &lt;1&gt;"));
+        // y spans [0, 1] padded by 5 %: the data's corners sit inside the frame.
+        let (pw, ph) = (WIDTH - LEFT - RIGHT, HEIGHT - TOP - BOTTOM);
+        let low = format!("{:.1},{:.1}", LEFT, TOP + ph * (1.0 - 0.05 / 1.1));
+        let high = format!("{:.1},{:.1}", LEFT + pw, TOP + ph * (0.05 / 1.1));
+        assert!(svg.contains(&low) && svg.contains(&high), "{svg}");
+        assert_eq!(svg.matches("<polyline").count(), 1);
+    }
+}

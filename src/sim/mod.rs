@@ -1,0 +1,277 @@
+//! Closed-loop simulation of the Tachyon 3 kinematic model at 1 kHz (paper section V-B):
+//! the nominal gait of [`gait`] → [`EcbfFilter`] → explicit Euler on `ẋ = f(x) + g(x) u`.
+//!
+//! Two scenarios: `step` (one 16.5 cm step, the robot starting in its low standard
+//! posture) and `stairs` (five steps, 16.5 cm high and 35 cm deep, as in the hardware
+//! experiment). Every cycle records the state, each family's minimum `h`, the active
+//! rows, the time spent and the exact clearance of body and toes to every edge cuboid
+//! (exact SAT for the body, exact sphere–box distance for the toes).
+
+pub mod chart;
+pub mod gait;
+pub mod output;
+
+use std::time::Instant;
+
+use nalgebra::{Matrix3, Rotation3, Vector3};
+
+use crate::catalog::{Capacity, Environment, Family, StabilityBound};
+use crate::error::CbfError;
+use crate::filter::{EcbfFilter, FilterSettings, InputSource};
+use crate::generated::tachyon3 as gen;
+use crate::geometry::OrientedBox;
+use crate::model::{self, State, TOE_RADIUS};
+use crate::terrain::Stairs;
+use gait::{Gait, GaitParams};
+
+/// Control period [s].
+pub const DT: f64 = 1e-3;
+
+/// Which course the robot runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Scenario {
+    /// One step of the hardware stairs' size.
+    Step,
+    /// Five steps, 16.5 cm × 35 cm.
+    Stairs,
+}
+
+impl Scenario {
+    pub fn stairs(self) -> Stairs {
+        match self {
+            Scenario::Step => Stairs::SINGLE_STEP,
+            Scenario::Stairs => Stairs::HARDWARE,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Scenario::Step => "step",
+            Scenario::Stairs => "stairs",
+        }
+    }
+}
+
+/// One simulation run's set-up.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SimConfig {
+    pub scenario: Scenario,
+    /// With `false`, the body–edge SSAT rows never take part (the paper's comparison).
+    pub body_cbf: bool,
+    /// Give up after this long [s].
+    pub max_time: f64,
+    /// Start with the robot's foremost point this far from the first riser [m].
+    pub start_gap: f64,
+    pub gait: GaitParams,
+    pub filter: FilterSettings,
+}
+
+impl SimConfig {
+    pub fn new(scenario: Scenario, body_cbf: bool) -> Self {
+        let mut filter = FilterSettings::default();
+        if !body_cbf {
+            filter.family_mut(Family::BodyEdge).activation = f64::NEG_INFINITY;
+        }
+        let max_time = match scenario {
+            Scenario::Step => 25.0,
+            Scenario::Stairs => 60.0,
+        };
+        Self { scenario, body_cbf, max_time, start_gap: 0.3, gait: GaitParams::default(), filter }
+    }
+}
+
+/// One control cycle's record.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sample {
+    pub t: f64,
+    pub x: State,
+    /// Minimum `h` over each family's applicable rows, [`Family::index`] order
+    /// (`f64::INFINITY` where none applies).
+    pub min_h: [f64; 6],
+    pub active_rows: usize,
+    pub iterations: u32,
+    pub source: InputSource,
+    /// Row evaluation, QP, and the whole update [µs].
+    pub eval_us: f64,
+    pub solve_us: f64,
+    pub update_us: f64,
+    /// Exact clearance to the nearest edge cuboid [m]: body (SAT separation) and the
+    /// closest toe (sphere–box distance). Negative = penetration.
+    pub body_clearance: f64,
+    pub toe_clearance: f64,
+    /// Body centre height above the gait's nominal [m].
+    pub body_raise: f64,
+    /// Which tripod swings (-1: none).
+    pub swinging: i8,
+}
+
+/// What a run established.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Summary {
+    pub scenario: Scenario,
+    pub body_cbf: bool,
+    /// Every toe stands on the top level, and the body centre is past the last riser.
+    pub completed: bool,
+    pub duration: f64,
+    pub min_body_clearance: f64,
+    pub min_toe_clearance: f64,
+    pub min_h: [f64; 6],
+    pub max_body_raise: f64,
+    pub max_update_us: f64,
+    pub p99_update_us: f64,
+    pub median_update_us: f64,
+    pub fallback_cycles: usize,
+}
+
+impl Summary {
+    /// Penetration beyond `tolerance` [m] by body or toes.
+    pub fn collided(&self, tolerance: f64) -> bool {
+        self.min_body_clearance < -tolerance || self.min_toe_clearance < -tolerance
+    }
+}
+
+/// A finished run.
+#[derive(Debug, Clone)]
+pub struct SimResult {
+    pub samples: Vec<Sample>,
+    pub summary: Summary,
+}
+
+/// Run `config` to completion or `max_time`, calling `progress(t)` every 100 cycles.
+///
+/// # Errors
+/// Filter construction, or a state that became non-finite.
+pub fn run(config: &SimConfig, mut progress: impl FnMut(f64)) -> Result<SimResult, CbfError> {
+    let stairs = config.scenario.stairs();
+    let capacity = Capacity::PAPER_WORST_CASE;
+    let mut filter = EcbfFilter::new(capacity, config.filter)?;
+    let mut env = Environment::new(capacity);
+    let mut edges = Vec::with_capacity(stairs.count);
+    for k in 0..stairs.count {
+        let edge = stairs.edge(k)?;
+        env.push_edge(edge)?;
+        edges.push(edge_box(&edge)?);
+    }
+    for (leg, hip) in model::HIP_POSITIONS.iter().enumerate() {
+        // Each toe within ±0.45 m (x) of its hip, relative to the body (eq. 13).
+        env.stability[leg] =
+            [Some(StabilityBound { a: 1.0, b: 0.45 - hip[0] }), Some(StabilityBound { a: -1.0, b: 0.45 + hip[0] })];
+    }
+    let mut gait = Gait::new(config.gait, stairs);
+    let mut x = model::standard_posture();
+    x[0] = stairs.start_x - config.start_gap - model::front_reach(&x);
+
+    let steps = (config.max_time / DT).ceil() as usize;
+    let mut samples = Vec::with_capacity(steps);
+    let mut completed_at = None;
+    for k in 0..steps {
+        let t = k as f64 * DT;
+        let (_, _, toes) = gen::world_kinematics(&x);
+        for (leg, toe) in toes.iter().enumerate() {
+            env.floor_z[leg] = stairs.height_at(toe[0]);
+        }
+        let plan = gait.plan(t, &x)?;
+        env.swing = plan.swing;
+        for (leg, strip) in plan.footholds.iter().enumerate() {
+            if let Some(strip) = strip {
+                env.set_foothold(leg, strip)?;
+            }
+        }
+        let start = Instant::now();
+        let out = *filter.update(&x, &plan.u_ref, &env)?;
+        let update_us = start.elapsed().as_secs_f64() * 1e6;
+
+        let (body_center, body_rotation, _) = gen::world_kinematics(&x);
+        let body = body_box(&body_center, &body_rotation)?;
+        let body_clearance = edges.iter().map(|e| crate::sat::separation(e, &body)).fold(f64::INFINITY, f64::min);
+        let toe_clearance = edges
+            .iter()
+            .flat_map(|e| toes.iter().map(move |toe| sphere_box_distance(toe, e)))
+            .fold(f64::INFINITY, f64::min);
+        let mut min_h = [f64::INFINITY; 6];
+        for (row, slot) in filter.rows().iter().zip(filter.slots()) {
+            if row.active {
+                let m = &mut min_h[slot.family.index()];
+                *m = m.min(row.h());
+            }
+        }
+        samples.push(Sample {
+            t,
+            x,
+            min_h,
+            active_rows: out.active_rows,
+            iterations: out.iterations,
+            source: out.source,
+            eval_us: out.eval_time.as_secs_f64() * 1e6,
+            solve_us: out.solve_time.as_secs_f64() * 1e6,
+            update_us,
+            body_clearance,
+            toe_clearance,
+            body_raise: body_center[2] - plan.body_height,
+            swinging: gait.swinging().map_or(-1, |s| s as i8),
+        });
+
+        let dx = model::xdot(&x, &out.u);
+        for (v, d) in x.iter_mut().zip(dx) {
+            *v += d * DT;
+        }
+        if k % 100 == 0 {
+            progress(t);
+        }
+        let on_top = toes.iter().all(|toe| stairs.height_at(toe[0]) >= stairs.top() - 1e-9);
+        let past = body_center[0] > stairs.start_x + (stairs.count - 1) as f64 * stairs.run;
+        match completed_at {
+            None if on_top && past && gait.swinging().is_none() => completed_at = Some(t),
+            Some(done) if t - done > 1.0 => break,
+            _ => {}
+        }
+    }
+    let summary = summarize(config, &samples, completed_at.is_some());
+    Ok(SimResult { samples, summary })
+}
+
+fn summarize(config: &SimConfig, samples: &[Sample], completed: bool) -> Summary {
+    let mut times: Vec<f64> = samples.iter().map(|s| s.update_us).collect();
+    times.sort_unstable_by(f64::total_cmp);
+    let pick = |p: f64| times.get(((p * times.len() as f64) as usize).min(times.len().saturating_sub(1))).copied();
+    let fold = |f: fn(&Sample) -> f64| samples.iter().map(f).fold(f64::INFINITY, f64::min);
+    let mut min_h = [f64::INFINITY; 6];
+    for s in samples {
+        for (m, h) in min_h.iter_mut().zip(s.min_h) {
+            *m = m.min(h);
+        }
+    }
+    Summary {
+        scenario: config.scenario,
+        body_cbf: config.body_cbf,
+        completed,
+        duration: samples.last().map_or(0.0, |s| s.t),
+        min_body_clearance: fold(|s| s.body_clearance),
+        min_toe_clearance: fold(|s| s.toe_clearance),
+        min_h,
+        max_body_raise: samples.iter().map(|s| s.body_raise).fold(f64::NEG_INFINITY, f64::max),
+        max_update_us: times.last().copied().unwrap_or(0.0),
+        p99_update_us: pick(0.99).unwrap_or(0.0),
+        median_update_us: pick(0.5).unwrap_or(0.0),
+        fallback_cycles: samples.iter().filter(|s| s.source != InputSource::Qp).count(),
+    }
+}
+
+fn edge_box(edge: &crate::catalog::EdgeCuboid) -> Result<OrientedBox, CbfError> {
+    let r = Rotation3::from_matrix_unchecked(Matrix3::from_row_slice(edge.rotation()));
+    OrientedBox::new(Vector3::from(*edge.center()), r, Vector3::from(*edge.half_extents()))
+}
+
+fn body_box(center: &[f64; 3], rotation: &[[f64; 3]; 3]) -> Result<OrientedBox, CbfError> {
+    let r = Rotation3::from_matrix_unchecked(Matrix3::from_fn(|i, j| rotation[i][j]));
+    OrientedBox::new(Vector3::from(*center), r, Vector3::from(model::BODY_HALF_EXTENTS))
+}
+
+/// Exact signed distance from a toe sphere to a box: negative inside.
+fn sphere_box_distance(center: &[f64; 3], b: &OrientedBox) -> f64 {
+    let local = b.rotation().inverse() * (Vector3::from(*center) - b.center());
+    let h = b.half_extents();
+    let outside = Vector3::from_fn(|i, _| (local[i].abs() - h[i]).max(0.0));
+    let inside = (0..3).map(|i| local[i].abs() - h[i]).fold(f64::NEG_INFINITY, f64::max).min(0.0);
+    outside.norm() + inside - TOE_RADIUS
+}

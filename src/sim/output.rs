@@ -1,0 +1,160 @@
+//! What a simulation leaves behind: a CSV time series, the paper's Figs. 7–10 as SVG,
+//! and a printed summary.
+//!
+//! CSV columns, one row per recorded cycle:
+//!
+//! | column | meaning |
+//! |---|---|
+//! | `t` | time [s] |
+//! | `px` … `rr_vz` | the 36 states, `model::STATE_NAMES` order (origin-relative body and toes) |
+//! | `body_z_world`, `body_raise` | body centre height, and its excess over the gait's nominal [m] |
+//! | `min_h_<family>` | minimum `h` over that family's applicable rows (empty if none) |
+//! | `active_rows`, `iterations`, `source` | rows in the QP, ADMM iterations, where `u` came from |
+//! | `eval_us`, `solve_us`, `update_us` | row evaluation, QP, whole filter update [µs] |
+//! | `body_clearance`, `toe_clearance` | exact distance of body / nearest toe to the nearest edge cuboid [m]; negative = penetration |
+//! | `swinging` | tripod in swing: 0 = (LR, RR, MF), 1 = (MR, LF, RF), -1 = none |
+
+use std::fmt::{self, Write as _};
+use std::io;
+use std::path::{Path, PathBuf};
+
+use super::chart::{Chart, Series};
+use super::{Sample, SimResult, Summary};
+use crate::catalog::Family;
+use crate::model::{BODY_Z, STATE_NAMES};
+
+/// The CSV text of `samples`, every `every`-th cycle.
+pub fn csv(samples: &[Sample], every: usize) -> String {
+    let mut out = String::from("t");
+    for name in STATE_NAMES {
+        out.push(',');
+        out.push_str(name);
+    }
+    out.push_str(",body_z_world,body_raise");
+    for f in Family::ALL {
+        let _ = write!(out, ",min_h_{}", f.name());
+    }
+    out.push_str(",active_rows,iterations,source,eval_us,solve_us,update_us,body_clearance,toe_clearance,swinging\n");
+    for s in samples.iter().step_by(every.max(1)) {
+        let _ = write!(out, "{:.3}", s.t);
+        for v in s.x {
+            let _ = write!(out, ",{v:.6}");
+        }
+        let _ = write!(out, ",{:.6},{:.6}", s.x[2] + s.x[BODY_Z], s.body_raise);
+        for h in s.min_h {
+            if h.is_finite() {
+                let _ = write!(out, ",{h:.6}");
+            } else {
+                out.push(',');
+            }
+        }
+        let _ = writeln!(
+            out,
+            ",{},{},{:?},{:.1},{:.1},{:.1},{:.6},{:.6},{}",
+            s.active_rows,
+            s.iterations,
+            s.source,
+            s.eval_us,
+            s.solve_us,
+            s.update_us,
+            s.body_clearance,
+            s.toe_clearance,
+            s.swinging
+        );
+    }
+    out
+}
+
+/// Write `<scenario>.csv` (and `<scenario>_no_body_cbf.csv` for the comparison run) and
+/// the four figures into `dir`. Returns the paths written.
+///
+/// # Errors
+/// Any I/O error.
+pub fn write_all(dir: &Path, main: &SimResult, comparison: Option<&SimResult>, every: usize) -> io::Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir)?;
+    let mut written = Vec::new();
+    let mut put = |name: String, text: String| -> io::Result<()> {
+        let path = dir.join(name);
+        std::fs::write(&path, text)?;
+        written.push(path);
+        Ok(())
+    };
+    for run in std::iter::once(main).chain(comparison) {
+        put(format!("{}.csv", file_stem(&run.summary)), csv(&run.samples, every))?;
+    }
+    for (name, chart) in figures(main, comparison) {
+        put(format!("{}_{name}.svg", main.summary.scenario.name()), chart.to_svg())?;
+    }
+    Ok(written)
+}
+
+fn file_stem(s: &Summary) -> String {
+    if s.body_cbf {
+        s.scenario.name().to_string()
+    } else {
+        format!("{}_no_body_cbf", s.scenario.name())
+    }
+}
+
+fn series(samples: &[Sample], f: impl Fn(&Sample) -> f64) -> Vec<(f64, f64)> {
+    samples.iter().map(|s| (s.t, f(s))).collect()
+}
+
+/// Figs. 7–10 of the paper for one run (and the run without the body CBF, for Fig. 7).
+pub fn figures(main: &SimResult, comparison: Option<&SimResult>) -> Vec<(&'static str, Chart)> {
+    let body_z = |s: &Sample| s.x[2] + s.x[BODY_Z];
+    let label = |r: &SimResult| if r.summary.body_cbf { "with body SSAT CBF" } else { "without body SSAT CBF" };
+    let mut fig7 = Chart::new("Body height (Fig. 7)", "time [s]", "body centre height [m]")
+        .with(Series::new(label(main), "#1f77b4", series(&main.samples, body_z)));
+    if let Some(other) = comparison {
+        fig7 = fig7.with(Series::new(label(other), "#d62728", series(&other.samples, body_z)));
+    }
+    fig7 = fig7.with(Series::new("nominal (gait)", "#555", series(&main.samples, |s| body_z(s) - s.body_raise)).dashed());
+    let min_h = |f: Family| move |s: &Sample| s.min_h[f.index()];
+    let fig8 = Chart::new("Minimum h (Fig. 8)", "time [s]", "h")
+        .with(Series::new("body–edge SSAT [m]", "#1f77b4", series(&main.samples, min_h(Family::BodyEdge))))
+        .with(Series::new("joint limits [m, rad]", "#2ca02c", series(&main.samples, min_h(Family::JointLimits))))
+        .with(Series::new("h = 0", "#555", series(&main.samples, |_| 0.0)).dashed());
+    let fig9 = Chart::new("Active CBF rows (Fig. 9)", "time [s]", "rows in the QP")
+        .with(Series::new("active rows", "#9467bd", series(&main.samples, |s| s.active_rows as f64)));
+    let fig10 = Chart::new("Computation time per cycle (Fig. 10)", "time [s]", "µs")
+        .with(Series::new("whole update", "#1f77b4", series(&main.samples, |s| s.update_us)))
+        .with(Series::new("row evaluation", "#2ca02c", series(&main.samples, |s| s.eval_us)))
+        .with(Series::new("QP update + solve", "#ff7f0e", series(&main.samples, |s| s.solve_us)));
+    vec![("fig7_body_height", fig7), ("fig8_min_h", fig8), ("fig9_active_rows", fig9), ("fig10_cycle_time", fig10)]
+}
+
+impl fmt::Display for Summary {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mm = |v: f64| v * 1e3;
+        writeln!(
+            f,
+            "scenario {} {} body SSAT CBF: {} after {:.1} s",
+            self.scenario.name(),
+            if self.body_cbf { "with" } else { "without" },
+            if self.completed { "climbed" } else { "did NOT finish" },
+            self.duration
+        )?;
+        writeln!(
+            f,
+            "  exact clearance to the edges, minimum: body {:.1} mm, toes {:.1} mm ({})",
+            mm(self.min_body_clearance),
+            mm(self.min_toe_clearance),
+            if self.collided(1e-3) { "PENETRATION beyond 1 mm" } else { "no penetration beyond 1 mm" }
+        )?;
+        write!(f, "  minimum h:")?;
+        for fam in Family::ALL {
+            let h = self.min_h[fam.index()];
+            if h.is_finite() {
+                write!(f, " {} {:.4}", fam.name(), h)?;
+            }
+        }
+        writeln!(f)?;
+        writeln!(f, "  maximum body raise above nominal: {:.1} cm", self.max_body_raise * 100.0)?;
+        write!(
+            f,
+            "  filter update: median {:.1} µs, p99 {:.1} µs, max {:.1} µs; cycles not solved to tolerance: {}",
+            self.median_update_us, self.p99_update_us, self.max_update_us, self.fallback_cycles
+        )
+    }
+}
