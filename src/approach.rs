@@ -93,11 +93,9 @@ impl Approach {
     }
 
     fn update_floors(&mut self) {
-        let (px, yaw) = (self.x[0], self.x[3]);
-        for leg in 0..6 {
-            let toe_x = self.x[TOE_BLOCK + 4 * leg];
-            let hip_y = model::HIP_POSITIONS[leg][1];
-            self.env.floor_z[leg] = self.stairs.height_at(px + yaw.cos() * toe_x - yaw.sin() * hip_y);
+        let (_, _, toes) = crate::generated::tachyon3::world_kinematics(&self.x);
+        for (floor, toe) in self.env.floor_z.iter_mut().zip(toes) {
+            *floor = self.stairs.height_at(toe[0]);
         }
     }
 }
