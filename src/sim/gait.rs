@@ -46,6 +46,11 @@ pub struct GaitParams {
     pub clearance: f64,
     /// A toe steps when a riser is within this distance of its front [m].
     pub lookahead: f64,
+    /// When the robot has been stalled (speed below 2 cm/s) for `stall_time` [s], toes
+    /// with a riser within `stall_lookahead` [m] step too: the filter may be holding the
+    /// body back until the rear legs climb.
+    pub stall_time: f64,
+    pub stall_lookahead: f64,
     /// How far a swing carries the toe forward relative to the body on flat ground [m];
     /// over a riser it aims one toe radius past the riser instead.
     pub reach: f64,
@@ -63,6 +68,8 @@ impl Default for GaitParams {
             stance_time: 0.3,
             clearance: 0.06,
             lookahead: 0.06,
+            stall_time: 1.0,
+            stall_lookahead: 0.3,
             reach: 0.12,
             leg_room: 0.15,
         }
@@ -101,11 +108,12 @@ pub struct Gait {
     swing: Option<Swing>,
     last_tripod: usize,
     stance_since: f64,
+    moving_since: f64,
 }
 
 impl Gait {
     pub fn new(params: GaitParams, stairs: Stairs) -> Self {
-        Self { params, stairs, swing: None, last_tripod: 1, stance_since: 0.0 }
+        Self { params, stairs, swing: None, last_tripod: 1, stance_since: 0.0, moving_since: 0.0 }
     }
 
     /// Which tripod swings now, if any.
@@ -129,8 +137,12 @@ impl Gait {
                 self.stance_since = t;
             }
         }
+        if x[4].abs() >= 0.02 {
+            self.moving_since = t;
+        }
+        let lookahead = if t - self.moving_since >= p.stall_time { p.stall_lookahead } else { p.lookahead };
         if self.swing.is_none() && t - self.stance_since >= p.stance_time {
-            let needs = TRIPODS.map(|legs| legs.iter().any(|&leg| self.riser_ahead(toes[leg][0])));
+            let needs = TRIPODS.map(|legs| legs.iter().any(|&leg| self.riser_ahead(toes[leg][0], lookahead)));
             let tripod = match needs {
                 [true, true] => Some(1 - self.last_tripod),
                 [true, false] => Some(0),
@@ -194,8 +206,8 @@ impl Gait {
         Ok(Plan { u_ref: u, swing, footholds, body_height })
     }
 
-    fn riser_ahead(&self, toe_x: f64) -> bool {
-        let ahead = toe_x + TOE_RADIUS + self.params.lookahead;
+    fn riser_ahead(&self, toe_x: f64, lookahead: f64) -> bool {
+        let ahead = toe_x + TOE_RADIUS + lookahead;
         self.stairs.height_at(ahead) > self.stairs.height_at(toe_x) + 1e-3
     }
 
@@ -207,7 +219,8 @@ impl Gait {
             s.from[leg] = [x[ix], x[iz]];
             let toe_x = toes[leg][0];
             let (_, region_end) = self.stairs.flat_region(toe_x);
-            s.land_x[leg] = if self.riser_ahead(toe_x) { region_end + TOE_RADIUS } else { toe_x + p.reach };
+            let climbs = self.riser_ahead(toe_x, p.stall_lookahead.max(p.lookahead));
+            s.land_x[leg] = if climbs { region_end + TOE_RADIUS } else { toe_x + p.reach };
             let here = self.stairs.height_at(toe_x);
             let there = self.stairs.height_at(s.land_x[leg]);
             s.apex[leg] = here.max(there) + TOE_RADIUS + p.clearance - x[2];
