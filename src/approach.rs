@@ -94,9 +94,7 @@ impl Approach {
 
     fn update_floors(&mut self) {
         let (_, _, toes) = crate::generated::tachyon3::world_kinematics(&self.x);
-        for (floor, toe) in self.env.floor_z.iter_mut().zip(toes) {
-            *floor = self.stairs.height_at(toe[0]);
-        }
+        self.env.floor_z = self.stairs.floors_under(&toes);
     }
 }
 

@@ -23,12 +23,17 @@ pub struct Percentiles {
     pub max: Duration,
 }
 
+/// The nearest-rank `p`-quantile (`0 < p ≤ 1`) of an ascending slice; `None` when empty.
+pub fn nearest_rank<T: Copy>(sorted: &[T], p: f64) -> Option<T> {
+    let rank = (p * sorted.len() as f64).ceil() as usize;
+    sorted.get(rank.clamp(1, sorted.len().max(1)) - 1).copied()
+}
+
 impl Percentiles {
     /// Nearest-rank percentiles; sorts `samples`. `None` when empty.
     pub fn of(samples: &mut [Duration]) -> Option<Self> {
         samples.sort_unstable();
-        let rank = |p: f64| samples[((p * samples.len() as f64).ceil() as usize).clamp(1, samples.len()) - 1];
-        Some(Self { median: rank(0.5), p99: rank(0.99), max: *samples.last()? })
+        Some(Self { median: nearest_rank(samples, 0.5)?, p99: nearest_rank(samples, 0.99)?, max: *samples.last()? })
     }
 }
 
@@ -81,8 +86,8 @@ pub fn run(cycles: usize, speed: f64, start_gap: f64, settings: FilterSettings) 
         drive.advance(&out.u, DT);
     }
     iterations.sort_unstable();
-    let pick = |p: f64| iterations[((p * cycles as f64) as usize).min(cycles.saturating_sub(1))];
     let empty = || CbfError::LengthMismatch { what: "latency cycles", expected: 1, got: 0 };
+    let pick = |p: f64| nearest_rank(&iterations, p).ok_or_else(empty);
     let front = drive.x[0] + drive.front_reach();
     Ok(LatencyReport {
         cycles,
@@ -90,7 +95,7 @@ pub fn run(cycles: usize, speed: f64, start_gap: f64, settings: FilterSettings) 
         total: Percentiles::of(&mut total).ok_or_else(empty)?,
         eval: Percentiles::of(&mut eval).ok_or_else(empty)?,
         solve: Percentiles::of(&mut solve).ok_or_else(empty)?,
-        iterations: [pick(0.5), pick(0.99), *iterations.last().ok_or_else(empty)?],
+        iterations: [pick(0.5)?, pick(0.99)?, pick(1.0)?],
         active_rows: [active_min, active_max],
         fallbacks,
         polished,
@@ -113,5 +118,18 @@ impl fmt::Display for LatencyReport {
         writeln!(f, "active rows: {} to {}", self.active_rows[0], self.active_rows[1])?;
         writeln!(f, "polished (KKT-verified) cycles: {}; cycles not solved to tolerance: {}", self.polished, self.fallbacks)?;
         write!(f, "travel {:.3} m; the robot's front stopped {:.3} m before the first riser", self.travel, self.final_gap)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::nearest_rank;
+
+    #[test]
+    fn nearest_rank_by_hand() {
+        let v: Vec<u32> = (1..=100).collect();
+        assert_eq!([0.5, 0.99, 1.0].map(|p| nearest_rank(&v, p)), [Some(50), Some(99), Some(100)]);
+        assert_eq!(nearest_rank(&[7.0], 0.99), Some(7.0));
+        assert_eq!(nearest_rank::<f64>(&[], 0.5), None);
     }
 }

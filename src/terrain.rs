@@ -35,6 +35,11 @@ impl Stairs {
         steps.min(self.count) as f64 * self.rise
     }
 
+    /// Ground height under each toe centre (world positions, `LEG_NAMES` order) [m].
+    pub fn floors_under(&self, toes: &[[f64; 3]; 6]) -> [f64; 6] {
+        toes.map(|toe| self.height_at(toe[0]))
+    }
+
     /// One step of the same dimensions: the `step` scenario's obstacle.
     pub const SINGLE_STEP: Stairs = Stairs { count: 1, ..Stairs::HARDWARE };
 

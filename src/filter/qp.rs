@@ -17,7 +17,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use osqp::{CscMatrix, Problem, Status};
 
 use super::polish::{self, Held};
-use super::settings::SolverSettings;
+use super::settings::{validate_inputs, SolverSettings};
 use crate::catalog::Row;
 use crate::error::CbfError;
 use crate::model::{Input, NU};
@@ -132,16 +132,9 @@ impl EcbfQp {
         settings: SolverSettings,
     ) -> Result<Self, CbfError> {
         settings.validate()?;
+        validate_inputs(input_weights, input_min, input_max)?;
         let m = rows.len();
-        let mut sqrt_w = [0.0; NU];
-        for j in 0..NU {
-            sqrt_w[j] = crate::error::positive("input weight", input_weights[j])?.sqrt();
-            crate::error::finite("input limit", input_min[j])?;
-            crate::error::finite("input limit", input_max[j])?;
-            if input_min[j] > input_max[j] {
-                return Err(CbfError::OutOfRange { what: "input_min", value: input_min[j], range: "[-inf, input_max]" });
-            }
-        }
+        let sqrt_w = input_weights.map(f64::sqrt);
         let mut gains = Vec::with_capacity(m);
         let mut slack_coef = Vec::with_capacity(m);
         for (i, r) in rows.iter().enumerate() {

@@ -188,18 +188,25 @@ impl FilterSettings {
                 return Err(CbfError::NonFinite { what: "activation threshold", value: p.activation });
             }
         }
-        for j in 0..NU {
-            positive("input weight", self.input_weights[j])?;
-            crate::error::finite("input limit", self.input_min[j])?;
-            crate::error::finite("input limit", self.input_max[j])?;
-            if self.input_min[j] > self.input_max[j] {
-                return Err(CbfError::OutOfRange {
-                    what: "input_min (must not exceed input_max)",
-                    value: self.input_min[j],
-                    range: "[-inf, input_max]",
-                });
-            }
-        }
+        validate_inputs(&self.input_weights, &self.input_min, &self.input_max)?;
         self.solver.validate()
     }
+}
+
+/// Input weights positive, box limits finite with `min ≤ max`: shared by
+/// [`FilterSettings::validate`] and [`EcbfQp::new`](super::EcbfQp::new).
+pub(crate) fn validate_inputs(weights: &[f64; NU], min: &Input, max: &Input) -> Result<(), CbfError> {
+    for j in 0..NU {
+        positive("input weight", weights[j])?;
+        crate::error::finite("input limit", min[j])?;
+        crate::error::finite("input limit", max[j])?;
+        if min[j] > max[j] {
+            return Err(CbfError::OutOfRange {
+                what: "input_min (must not exceed input_max)",
+                value: min[j],
+                range: "[-inf, input_max]",
+            });
+        }
+    }
+    Ok(())
 }

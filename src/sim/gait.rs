@@ -128,7 +128,7 @@ impl Gait {
     pub fn plan(&mut self, t: f64, x: &State) -> Result<Plan, CbfError> {
         let p = self.params;
         let (_, _, toes) = gen::world_kinematics(x);
-        let floor = toes.map(|toe| self.stairs.height_at(toe[0]));
+        let floor = self.stairs.floors_under(&toes);
 
         if let Some(s) = self.swing {
             if t - s.start >= p.swing_time {

@@ -167,9 +167,7 @@ pub fn run(config: &SimConfig, mut progress: impl FnMut(f64)) -> Result<SimResul
     for k in 0..steps {
         let t = k as f64 * DT;
         let (_, _, toes) = gen::world_kinematics(&x);
-        for (leg, toe) in toes.iter().enumerate() {
-            env.floor_z[leg] = stairs.height_at(toe[0]);
-        }
+        env.floor_z = stairs.floors_under(&toes);
         let plan = gait.plan(t, &x)?;
         env.swing = plan.swing;
         for (leg, strip) in plan.footholds.iter().enumerate() {
@@ -218,7 +216,7 @@ pub fn run(config: &SimConfig, mut progress: impl FnMut(f64)) -> Result<SimResul
         if k % 100 == 0 {
             progress(t);
         }
-        let on_top = toes.iter().all(|toe| stairs.height_at(toe[0]) >= stairs.top() - 1e-9);
+        let on_top = env.floor_z.iter().all(|&floor| floor >= stairs.top() - 1e-9);
         let past = body_center[0] > stairs.start_x + (stairs.count - 1) as f64 * stairs.run;
         match completed_at {
             None if on_top && past && gait.swinging().is_none() => completed_at = Some(t),
@@ -233,7 +231,7 @@ pub fn run(config: &SimConfig, mut progress: impl FnMut(f64)) -> Result<SimResul
 fn summarize(config: &SimConfig, samples: &[Sample], completed: bool) -> Summary {
     let mut times: Vec<f64> = samples.iter().map(|s| s.update_us).collect();
     times.sort_unstable_by(f64::total_cmp);
-    let pick = |p: f64| times.get(((p * times.len() as f64) as usize).min(times.len().saturating_sub(1))).copied();
+    let pick = |p: f64| crate::latency::nearest_rank(&times, p);
     let fold = |f: fn(&Sample) -> f64| samples.iter().map(f).fold(f64::INFINITY, f64::min);
     let mut min_h = [f64::INFINITY; 6];
     for s in samples {
@@ -250,7 +248,7 @@ fn summarize(config: &SimConfig, samples: &[Sample], completed: bool) -> Summary
         min_toe_clearance: fold(|s| s.toe_clearance),
         min_h,
         max_body_raise: samples.iter().map(|s| s.body_raise).fold(f64::NEG_INFINITY, f64::max),
-        max_update_us: times.last().copied().unwrap_or(0.0),
+        max_update_us: pick(1.0).unwrap_or(0.0),
         p99_update_us: pick(0.99).unwrap_or(0.0),
         median_update_us: pick(0.5).unwrap_or(0.0),
         fallback_cycles: samples.iter().filter(|s| s.source != InputSource::Qp).count(),
