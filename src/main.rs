@@ -8,6 +8,7 @@ use cbfgen::ssat::{self, SmoothParams};
 use cbfgen::{sat, OrientedBox};
 use clap::{Parser, Subcommand};
 use nalgebra::{Rotation3, Vector3};
+use std::io::Write;
 use std::process::ExitCode;
 
 #[derive(Parser)]
@@ -143,6 +144,10 @@ fn simulate(config: &SimConfig) -> Result<SimResult, cbfgen::CbfError> {
 fn main() -> ExitCode {
     match run(Cli::parse()) {
         Ok(()) => ExitCode::SUCCESS,
+        // A closed pipe (`cbfgen … | head`) is the reader's choice, not an error.
+        Err(e) if e.downcast_ref::<std::io::Error>().is_some_and(|e| e.kind() == std::io::ErrorKind::BrokenPipe) => {
+            ExitCode::SUCCESS
+        }
         Err(e) => {
             eprintln!("error: {e}");
             ExitCode::FAILURE
@@ -151,6 +156,7 @@ fn main() -> ExitCode {
 }
 
 fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
+    let mut stdout = std::io::stdout().lock();
     match cli.command {
         Command::Ssat { clearance, pitch, alpha } => {
             let params = SmoothParams::new(alpha, alpha)?;
@@ -164,26 +170,26 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             )?;
             let d = ssat::ssat_with_derivatives(&edge, &body, &params);
             let margin = ssat::certified_margin(&edge, &body, &params);
-            println!("body over stair edge, clearance {clearance:.4} m, pitch {pitch:.3} rad, alpha {alpha}");
-            println!("  smooth SAT h          {:+.6} m", d.value);
-            println!("  certified margin m    {:.6} m", margin);
-            println!("  h - m                 {:+.6} m  ({})", d.value - margin,
-                     if d.value - margin >= 0.0 { "certified apart" } else { "not certified" });
-            println!("  exact SAT separation  {:+.6} m", sat::separation(&edge, &body));
-            println!("  dh/dp_body            [{:+.4}, {:+.4}, {:+.4}]", d.gradient.x, d.gradient.y, d.gradient.z);
+            writeln!(stdout, "body over stair edge, clearance {clearance:.4} m, pitch {pitch:.3} rad, alpha {alpha}")?;
+            writeln!(stdout, "  smooth SAT h          {:+.6} m", d.value)?;
+            writeln!(stdout, "  certified margin m    {:.6} m", margin)?;
+            writeln!(stdout, "  h - m                 {:+.6} m  ({})", d.value - margin,
+                     if d.value - margin >= 0.0 { "certified apart" } else { "not certified" })?;
+            writeln!(stdout, "  exact SAT separation  {:+.6} m", sat::separation(&edge, &body))?;
+            writeln!(stdout, "  dh/dp_body            [{:+.4}, {:+.4}, {:+.4}]", d.gradient.x, d.gradient.y, d.gradient.z)?;
             Ok(())
         }
         Command::Rows => {
             let env = Environment::new(Capacity::PAPER_WORST_CASE);
             let mut catalog = Catalog::new(Capacity::PAPER_WORST_CASE);
             catalog.evaluate(&model::standard_posture(), &env)?;
-            println!("joint-limit rows at the standard posture (body underside {} m up)", model::NOMINAL_CLEARANCE);
-            println!("{:<4} {:<9} {:>12} {:>12} {:>12}", "leg", "row", "h", "L_f h", "L_f^2 h");
+            writeln!(stdout, "joint-limit rows at the standard posture (body underside {} m up)", model::NOMINAL_CLEARANCE)?;
+            writeln!(stdout, "{:<4} {:<9} {:>12} {:>12} {:>12}", "leg", "row", "h", "L_f h", "L_f^2 h")?;
             let names = cbfgen::generated::tachyon3::JOINT_LIMITS_LF_ROW_NAMES;
             for (slot, row) in catalog.slots().iter().zip(catalog.rows()) {
                 if let (Family::JointLimits, Some(leg)) = (slot.family, slot.leg) {
-                    println!("{:<4} {:<9} {:>12.6} {:>12.6} {:>12.6}", model::LEG_NAMES[leg], names[slot.instance],
-                             row.lie[0], row.lie[1], row.lie[2]);
+                    writeln!(stdout, "{:<4} {:<9} {:>12.6} {:>12.6} {:>12.6}", model::LEG_NAMES[leg], names[slot.instance],
+                             row.lie[0], row.lie[1], row.lie[2])?;
                 }
             }
             Ok(())
@@ -191,7 +197,7 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
         Command::Latency { cycles, speed, gap, solver } => {
             let mut settings = FilterSettings::default();
             solver.apply(&mut settings);
-            println!("{}", cbfgen::latency::run(cycles, speed, gap, settings)?);
+            writeln!(stdout, "{}", cbfgen::latency::run(cycles, speed, gap, settings)?)?;
             Ok(())
         }
         Command::Simulate { scenario, no_body_cbf, out, csv_every } => {
@@ -202,10 +208,10 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             let main = simulate(&SimConfig::new(scenario, !no_body_cbf))?;
             let comparison = if no_body_cbf { None } else { Some(simulate(&SimConfig::new(scenario, false))?) };
             for run in std::iter::once(&main).chain(comparison.as_ref()) {
-                println!("{}", run.summary);
+                writeln!(stdout, "{}", run.summary)?;
             }
             let written = output::write_all(&out, &main, comparison.as_ref(), csv_every)?;
-            println!("wrote {}", written.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "));
+            writeln!(stdout, "wrote {}", written.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "))?;
             Ok(())
         }
         Command::Generate => {
