@@ -8,21 +8,21 @@
 //! (exact SAT for the body, exact sphere–box distance for the toes).
 
 pub mod chart;
+mod course;
 pub mod gait;
 pub mod output;
 
+pub use course::{Clearance, Course};
+
 use std::time::Instant;
 
-use nalgebra::{Matrix3, Rotation3, Vector3};
-
-use crate::catalog::{Capacity, Environment, Family, StabilityBound};
+use crate::catalog::Family;
 use crate::error::CbfError;
 use crate::filter::{EcbfFilter, FilterSettings, InputSource};
 use crate::generated::tachyon3 as gen;
-use crate::geometry::OrientedBox;
-use crate::model::{self, State, TOE_RADIUS};
+use crate::model::{self, State};
 use crate::terrain::Stairs;
-use gait::{Gait, GaitParams};
+use gait::GaitParams;
 
 /// Control period [s].
 pub const DT: f64 = 1e-3;
@@ -142,50 +142,21 @@ pub struct SimResult {
 /// # Errors
 /// Filter construction, or a state that became non-finite.
 pub fn run(config: &SimConfig, mut progress: impl FnMut(f64)) -> Result<SimResult, CbfError> {
-    let stairs = config.scenario.stairs();
-    let capacity = Capacity::PAPER_WORST_CASE;
-    let mut filter = EcbfFilter::new(capacity, config.filter)?;
-    let mut env = Environment::new(capacity);
-    let mut edges = Vec::with_capacity(stairs.count);
-    for k in 0..stairs.count {
-        let edge = stairs.edge(k)?;
-        env.push_edge(edge)?;
-        edges.push(edge_box(&edge)?);
-    }
-    for (leg, hip) in model::HIP_POSITIONS.iter().enumerate() {
-        // Each toe within ±0.45 m (x) of its hip, relative to the body (eq. 13).
-        env.stability[leg] =
-            [Some(StabilityBound { a: 1.0, b: 0.45 - hip[0] }), Some(StabilityBound { a: -1.0, b: 0.45 + hip[0] })];
-    }
-    let mut gait = Gait::new(config.gait, stairs);
-    let mut x = model::standard_posture();
-    x[0] = stairs.start_x - config.start_gap - model::front_reach(&x);
+    let mut course = Course::new(config.scenario, config.gait)?;
+    let mut filter = EcbfFilter::new(Course::CAPACITY, config.filter)?;
+    let mut x = course.initial_state(config.start_gap);
 
     let steps = (config.max_time / DT).ceil() as usize;
     let mut samples = Vec::with_capacity(steps);
     let mut completed_at = None;
     for k in 0..steps {
         let t = k as f64 * DT;
-        let (_, _, toes) = gen::world_kinematics(&x);
-        env.floor_z = stairs.floors_under(&toes);
-        let plan = gait.plan(t, &x)?;
-        env.swing = plan.swing;
-        for (leg, strip) in plan.footholds.iter().enumerate() {
-            if let Some(strip) = strip {
-                env.set_foothold(leg, strip)?;
-            }
-        }
+        let plan = course.plan(t, &x)?;
         let start = Instant::now();
-        let out = *filter.update(&x, &plan.u_ref, &env)?;
+        let out = *filter.update(&x, &plan.u_ref, course.environment())?;
         let update_us = start.elapsed().as_secs_f64() * 1e6;
 
-        let (body_center, body_rotation, _) = gen::world_kinematics(&x);
-        let body = body_box(&body_center, &body_rotation)?;
-        let body_clearance = edges.iter().map(|e| crate::sat::separation(e, &body)).fold(f64::INFINITY, f64::min);
-        let toe_clearance = edges
-            .iter()
-            .flat_map(|e| toes.iter().map(move |toe| sphere_box_distance(toe, e)))
-            .fold(f64::INFINITY, f64::min);
+        let clearance = course.clearance(&x)?;
         let mut min_h = [f64::INFINITY; 6];
         for (row, slot) in filter.rows().iter().zip(filter.slots()) {
             if row.active {
@@ -193,6 +164,7 @@ pub fn run(config: &SimConfig, mut progress: impl FnMut(f64)) -> Result<SimResul
                 *m = m.min(row.h());
             }
         }
+        let (body_center, _, _) = gen::world_kinematics(&x);
         samples.push(Sample {
             t,
             x,
@@ -203,11 +175,12 @@ pub fn run(config: &SimConfig, mut progress: impl FnMut(f64)) -> Result<SimResul
             eval_us: out.eval_time.as_secs_f64() * 1e6,
             solve_us: out.solve_time.as_secs_f64() * 1e6,
             update_us,
-            body_clearance,
-            toe_clearance,
+            body_clearance: clearance.body,
+            toe_clearance: clearance.toe,
             body_raise: body_center[2] - plan.body_height,
-            swinging: gait.swinging().map_or(-1, |s| s as i8),
+            swinging: course.swinging().map_or(-1, |s| s as i8),
         });
+        let finished = course.finished(&x);
 
         let dx = model::xdot(&x, &out.u);
         for (v, d) in x.iter_mut().zip(dx) {
@@ -216,10 +189,8 @@ pub fn run(config: &SimConfig, mut progress: impl FnMut(f64)) -> Result<SimResul
         if k % 100 == 0 {
             progress(t);
         }
-        let on_top = env.floor_z.iter().all(|&floor| floor >= stairs.top() - 1e-9);
-        let past = body_center[0] > stairs.start_x + (stairs.count - 1) as f64 * stairs.run;
         match completed_at {
-            None if on_top && past && gait.swinging().is_none() => completed_at = Some(t),
+            None if finished => completed_at = Some(t),
             Some(done) if t - done > 1.0 => break,
             _ => {}
         }
@@ -253,23 +224,4 @@ fn summarize(config: &SimConfig, samples: &[Sample], completed: bool) -> Summary
         median_update_us: pick(0.5).unwrap_or(0.0),
         fallback_cycles: samples.iter().filter(|s| s.source != InputSource::Qp).count(),
     }
-}
-
-fn edge_box(edge: &crate::catalog::EdgeCuboid) -> Result<OrientedBox, CbfError> {
-    let r = Rotation3::from_matrix_unchecked(Matrix3::from_row_slice(edge.rotation()));
-    OrientedBox::new(Vector3::from(*edge.center()), r, Vector3::from(*edge.half_extents()))
-}
-
-fn body_box(center: &[f64; 3], rotation: &[[f64; 3]; 3]) -> Result<OrientedBox, CbfError> {
-    let r = Rotation3::from_matrix_unchecked(Matrix3::from_fn(|i, j| rotation[i][j]));
-    OrientedBox::new(Vector3::from(*center), r, Vector3::from(model::BODY_HALF_EXTENTS))
-}
-
-/// Exact signed distance from a toe sphere to a box: negative inside.
-fn sphere_box_distance(center: &[f64; 3], b: &OrientedBox) -> f64 {
-    let local = b.rotation().inverse() * (Vector3::from(*center) - b.center());
-    let h = b.half_extents();
-    let outside = Vector3::from_fn(|i, _| (local[i].abs() - h[i]).max(0.0));
-    let inside = (0..3).map(|i| local[i].abs() - h[i]).fold(f64::NEG_INFINITY, f64::max).min(0.0);
-    outside.norm() + inside - TOE_RADIUS
 }

@@ -1,0 +1,155 @@
+//! One scenario's world and nominal controller, stepped by whoever owns the control loop:
+//! [`super::run`] in Rust, or a Python loop through the bindings.
+//!
+//! Each cycle, [`Course::plan`] reads the state, updates the filter's [`Environment`]
+//! (floor under each toe, which legs swing, the swing legs' foothold strips) and returns
+//! the gait's nominal input. The caller filters that input and integrates.
+
+use nalgebra::{Matrix3, Rotation3, Vector3};
+
+use super::gait::{Gait, GaitParams, Plan};
+use super::Scenario;
+use crate::catalog::{Capacity, EdgeCuboid, Environment, StabilityBound};
+use crate::error::CbfError;
+use crate::generated::tachyon3 as gen;
+use crate::geometry::OrientedBox;
+use crate::model::{self, State, TOE_RADIUS};
+use crate::terrain::Stairs;
+
+/// Each toe within this distance (x) of its hip, relative to the body: the stability
+/// bounds of eq. 13 [m].
+const STABILITY_REACH: f64 = 0.45;
+
+/// The stairs, their edge cuboids as filter obstacles, and the gait.
+#[derive(Debug, Clone)]
+pub struct Course {
+    stairs: Stairs,
+    env: Environment,
+    /// The edge cuboids again, as validated boxes for the exact clearance checks.
+    edges: Vec<OrientedBox>,
+    gait: Gait,
+}
+
+/// Exact clearances of the robot to the nearest edge cuboid [m]; negative = penetration.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Clearance {
+    /// Body box to the nearest edge, by the exact SAT.
+    pub body: f64,
+    /// The closest toe sphere to the nearest edge (exact sphere–box distance).
+    pub toe: f64,
+}
+
+impl Course {
+    /// The scenario's stairs, with every edge pushed into an environment of the paper's
+    /// worst-case [`Capacity`].
+    ///
+    /// # Errors
+    /// Degenerate stair dimensions.
+    pub fn new(scenario: Scenario, gait: GaitParams) -> Result<Self, CbfError> {
+        let stairs = scenario.stairs();
+        let mut env = Environment::new(Self::CAPACITY);
+        let mut edges = Vec::with_capacity(stairs.count);
+        for k in 0..stairs.count {
+            let edge = stairs.edge(k)?;
+            env.push_edge(edge)?;
+            edges.push(edge_box(&edge)?);
+        }
+        for (leg, hip) in model::HIP_POSITIONS.iter().enumerate() {
+            env.stability[leg] = [
+                Some(StabilityBound { a: 1.0, b: STABILITY_REACH - hip[0] }),
+                Some(StabilityBound { a: -1.0, b: STABILITY_REACH + hip[0] }),
+            ];
+        }
+        Ok(Self { stairs, env, edges, gait: Gait::new(gait, stairs) })
+    }
+
+    /// The capacity every course's environment is laid out for; build the filter with it.
+    pub const CAPACITY: Capacity = Capacity::PAPER_WORST_CASE;
+
+    /// The standard posture, placed so that the robot's foremost point is `start_gap`
+    /// metres before the first riser.
+    pub fn initial_state(&self, start_gap: f64) -> State {
+        let mut x = model::standard_posture();
+        x[0] = self.stairs.start_x - start_gap - model::front_reach(&x);
+        x
+    }
+
+    /// Update the environment for state `x` at time `t` and return the gait's plan.
+    ///
+    /// # Errors
+    /// A non-finite state, or stairs without room for a foothold.
+    pub fn plan(&mut self, t: f64, x: &State) -> Result<Plan, CbfError> {
+        for &v in x {
+            crate::error::finite("state entry", v)?;
+        }
+        let (_, _, toes) = gen::world_kinematics(x);
+        self.env.floor_z = self.stairs.floors_under(&toes);
+        let plan = self.gait.plan(t, x)?;
+        self.env.swing = plan.swing;
+        for (leg, strip) in plan.footholds.iter().enumerate() {
+            if let Some(strip) = strip {
+                self.env.set_foothold(leg, strip)?;
+            }
+        }
+        Ok(plan)
+    }
+
+    /// What the filter must respect this cycle (as of the last [`Course::plan`]).
+    pub fn environment(&self) -> &Environment {
+        &self.env
+    }
+
+    pub fn stairs(&self) -> &Stairs {
+        &self.stairs
+    }
+
+    /// Which tripod swings now, if any.
+    pub fn swinging(&self) -> Option<usize> {
+        self.gait.swinging()
+    }
+
+    /// Exact clearance of body and toes at `x` to the nearest edge cuboid.
+    ///
+    /// # Errors
+    /// A state whose body rotation is not a rotation (non-finite entries).
+    pub fn clearance(&self, x: &State) -> Result<Clearance, CbfError> {
+        let (body_center, body_rotation, toes) = gen::world_kinematics(x);
+        let body = body_box(&body_center, &body_rotation)?;
+        let body_clearance = self.edges.iter().map(|e| crate::sat::separation(e, &body)).fold(f64::INFINITY, f64::min);
+        let toe_clearance = self
+            .edges
+            .iter()
+            .flat_map(|e| toes.iter().map(move |toe| sphere_box_distance(toe, e)))
+            .fold(f64::INFINITY, f64::min);
+        Ok(Clearance { body: body_clearance, toe: toe_clearance })
+    }
+
+    /// Every toe stands on the top level, the body centre is past the last riser and no
+    /// tripod swings.
+    pub fn finished(&self, x: &State) -> bool {
+        let stairs = &self.stairs;
+        let on_top = self.env.floor_z.iter().all(|&floor| floor >= stairs.top() - 1e-9);
+        let (body_center, _, _) = gen::world_kinematics(x);
+        let past = body_center[0] > stairs.start_x + (stairs.count - 1) as f64 * stairs.run;
+        on_top && past && self.gait.swinging().is_none()
+    }
+}
+
+fn edge_box(edge: &EdgeCuboid) -> Result<OrientedBox, CbfError> {
+    let r = Rotation3::from_matrix_unchecked(Matrix3::from_row_slice(edge.rotation()));
+    OrientedBox::new(Vector3::from(*edge.center()), r, Vector3::from(*edge.half_extents()))
+}
+
+fn body_box(center: &[f64; 3], rotation: &[[f64; 3]; 3]) -> Result<OrientedBox, CbfError> {
+    let r = Rotation3::from_matrix_unchecked(Matrix3::from_fn(|i, j| rotation[i][j]));
+    OrientedBox::new(Vector3::from(*center), r, Vector3::from(model::BODY_HALF_EXTENTS))
+}
+
+/// Exact signed distance from a toe sphere to a box: negative inside.
+fn sphere_box_distance(center: &[f64; 3], b: &OrientedBox) -> f64 {
+    let local = b.rotation().inverse() * (Vector3::from(*center) - b.center());
+    let h = b.half_extents();
+    let outside = Vector3::from_fn(|i, _| (local[i].abs() - h[i]).max(0.0));
+    let inside = (0..3).map(|i| local[i].abs() - h[i]).fold(f64::NEG_INFINITY, f64::max).min(0.0);
+    outside.norm() + inside - TOE_RADIUS
+}
