@@ -179,6 +179,16 @@ impl HalfPlane {
         }
         Ok(Self { normal, offset })
     }
+
+    /// The inward normal `a` (not necessarily unit).
+    pub fn normal(&self) -> &[f64; 2] {
+        &self.normal
+    }
+
+    /// The offset `b` [m].
+    pub fn offset(&self) -> f64 {
+        self.offset
+    }
 }
 
 /// Eq. 13's `a (x_toe − x_body) + b ≥ 0`.
@@ -213,6 +223,10 @@ impl Environment {
             swing: [false; LEGS],
             stability: [[None; 2]; LEGS],
         }
+    }
+
+    pub fn capacity(&self) -> Capacity {
+        self.capacity
     }
 
     pub fn edges(&self) -> &[EdgeCuboid] {

@@ -40,3 +40,7 @@ pub use geometry::OrientedBox;
 #[cfg(doctest)]
 #[doc = include_str!("../README.md")]
 pub struct ReadmeDoctests;
+
+/// The Python extension module `cbfgen._native` (built by maturin with this feature).
+#[cfg(feature = "python")]
+mod python;

@@ -74,6 +74,22 @@ pub enum InputSource {
     NominalClipped,
 }
 
+impl InputSource {
+    /// Every source, in declaration order.
+    pub const ALL: [InputSource; 4] =
+        [InputSource::Qp, InputSource::Unconverged, InputSource::LastSafe, InputSource::NominalClipped];
+
+    /// Snake-case name, as written to CSV and shown in Python.
+    pub const fn name(self) -> &'static str {
+        match self {
+            InputSource::Qp => "qp",
+            InputSource::Unconverged => "unconverged",
+            InputSource::LastSafe => "last_safe",
+            InputSource::NominalClipped => "nominal_clipped",
+        }
+    }
+}
+
 /// One update's result (rows, their `h` and slacks are read through the filter).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FilterOutput {

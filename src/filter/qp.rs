@@ -54,6 +54,20 @@ impl QpStatus {
     pub fn is_solved(self) -> bool {
         matches!(self, QpStatus::Solved | QpStatus::SolvedInaccurate)
     }
+
+    /// Snake-case name, as shown in Python.
+    pub const fn name(self) -> &'static str {
+        match self {
+            QpStatus::Solved => "solved",
+            QpStatus::SolvedInaccurate => "solved_inaccurate",
+            QpStatus::MaxIterations => "max_iterations",
+            QpStatus::TimeLimit => "time_limit",
+            QpStatus::PrimalInfeasible => "primal_infeasible",
+            QpStatus::DualInfeasible => "dual_infeasible",
+            QpStatus::NonConvex => "non_convex",
+            QpStatus::SolverFault => "solver_fault",
+        }
+    }
 }
 
 /// A borrowed view of the constraint matrix (no copy, no allocation).

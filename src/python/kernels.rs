@@ -1,0 +1,259 @@
+//! The generated kernels: SSAT variants, every constraint family's rows, the dynamics
+//! and the world kinematics. Inputs are validated (finite, proper rotations, positive
+//! sizes) before any kernel runs; the kernels themselves are the generated ones.
+
+use nalgebra::{Matrix3, Rotation3, Vector3};
+use pyo3::prelude::*;
+
+use super::convert::{choice, fixed, matrix, matrix_from_fn, vector, Array1Out, Array2Out, ArrayIn, LegArg};
+use crate::catalog::{EdgeCuboid, HalfPlane, RELATIVE_DEGREE};
+use crate::error::finite;
+use crate::generated::tachyon3 as gen;
+use crate::model::{self, State, NU, NX};
+use crate::ssat::{SmoothAbs, SmoothMax, SmoothParams};
+use crate::OrientedBox;
+
+/// The SSAT variants by name (Table I of the paper: smooth max × smooth |.|).
+const SSAT_VARIANTS: [(&str, SmoothMax, SmoothAbs); 4] = [
+    ("lse_xtanh", SmoothMax::Lse, SmoothAbs::XTanh),
+    ("lse_sqrt", SmoothMax::Lse, SmoothAbs::Sqrt),
+    ("boltzmann_xtanh", SmoothMax::Boltzmann, SmoothAbs::XTanh),
+    ("boltzmann_sqrt", SmoothMax::Boltzmann, SmoothAbs::Sqrt),
+];
+
+type Rows<'py> = (Array2Out<'py>, Array2Out<'py>);
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("SSAT_VARIANTS", SSAT_VARIANTS.map(|v| v.0).to_vec())?;
+    m.add("JOINT_LIMIT_ROWS", gen::JOINT_LIMITS_LF_ROW_NAMES.to_vec())?;
+    m.add_function(wrap_pyfunction!(ssat, m)?)?;
+    m.add_function(wrap_pyfunction!(ssat_derivatives, m)?)?;
+    m.add_function(wrap_pyfunction!(ssat_margin, m)?)?;
+    m.add_function(wrap_pyfunction!(joint_limits, m)?)?;
+    m.add_function(wrap_pyfunction!(foot_height, m)?)?;
+    m.add_function(wrap_pyfunction!(stability, m)?)?;
+    m.add_function(wrap_pyfunction!(body_edge, m)?)?;
+    m.add_function(wrap_pyfunction!(toe_edge, m)?)?;
+    m.add_function(wrap_pyfunction!(foothold, m)?)?;
+    m.add_function(wrap_pyfunction!(dynamics_f, m)?)?;
+    m.add_function(wrap_pyfunction!(dynamics_g, m)?)?;
+    m.add_function(wrap_pyfunction!(xdot, m)?)?;
+    m.add_function(wrap_pyfunction!(world_kinematics, m)?)?;
+    m.add_function(wrap_pyfunction!(standard_posture, m)?)?;
+    Ok(())
+}
+
+// ------------------------------------------------------------------ conversion
+pub fn state(x: &ArrayIn<'_>) -> PyResult<State> {
+    let x = fixed::<NX>("x", x)?;
+    for &v in &x {
+        finite("state entry", v)?;
+    }
+    Ok(x)
+}
+
+pub fn input(what: &str, u: &ArrayIn<'_>) -> PyResult<model::Input> {
+    let u = fixed::<NU>(what, u)?;
+    for &v in &u {
+        finite("input entry", v)?;
+    }
+    Ok(u)
+}
+
+/// A validated box from centre, rotation (9 values, row-major) and half extents.
+pub fn oriented_box(center: &ArrayIn<'_>, rotation: &ArrayIn<'_>, half: &ArrayIn<'_>) -> PyResult<OrientedBox> {
+    let c = fixed::<3>("centre", center)?;
+    let r = fixed::<9>("rotation", rotation)?;
+    let h = fixed::<3>("half extents", half)?;
+    Ok(OrientedBox::new(
+        Vector3::from(c),
+        Rotation3::from_matrix_unchecked(Matrix3::from_row_slice(&r)),
+        Vector3::from(h),
+    )?)
+}
+
+/// Kernel rows as numpy: `lie` (rows × 3: h, L_f h, L_f² h) and `lg_lf` scattered onto
+/// all NU input columns.
+fn rows_out<'py, const R: usize, const C: usize>(
+    py: Python<'py>,
+    (lie, lg): ([[f64; RELATIVE_DEGREE + 1]; R], [[f64; C]; R]),
+    columns: &[usize; C],
+) -> Rows<'py> {
+    let dense = matrix_from_fn(py, R, NU, |i, j| columns.iter().position(|&c| c == j).map_or(0.0, |k| lg[i][k]));
+    (matrix(py, &lie), dense)
+}
+
+fn ssat_params(variant: &str, alpha: f64, alpha_rot: f64) -> PyResult<SmoothParams> {
+    let names = SSAT_VARIANTS.map(|v| v.0);
+    let (_, max, abs) = SSAT_VARIANTS[choice("SSAT variant", variant, &names)?];
+    Ok(SmoothParams::new(alpha, alpha_rot)?.with_variant(max, abs))
+}
+
+// ------------------------------------------------------------------------ SSAT
+/// Smooth SAT value h of boxes A and B (> 0 apart, < 0 overlapping).
+///
+/// Rotations are 9 values, row-major (columns = the box's axes in the world frame), or
+/// a 3×3 array. ``variant`` is one of ``SSAT_VARIANTS``.
+#[pyfunction]
+#[pyo3(signature = (p_a, r_a, half_a, p_b, r_b, half_b, alpha=200.0, alpha_rot=200.0, variant="lse_xtanh"))]
+#[allow(clippy::too_many_arguments)]
+fn ssat(
+    p_a: ArrayIn<'_>,
+    r_a: ArrayIn<'_>,
+    half_a: ArrayIn<'_>,
+    p_b: ArrayIn<'_>,
+    r_b: ArrayIn<'_>,
+    half_b: ArrayIn<'_>,
+    alpha: f64,
+    alpha_rot: f64,
+    variant: &str,
+) -> PyResult<f64> {
+    let (a, b) = (oriented_box(&p_a, &r_a, &half_a)?, oriented_box(&p_b, &r_b, &half_b)?);
+    Ok(crate::ssat::ssat(&a, &b, &ssat_params(variant, alpha, alpha_rot)?))
+}
+
+/// ``(h, gradient, hessian)``: the smooth SAT value with its gradient (3,) and Hessian
+/// (3, 3) with respect to box B's centre.
+#[pyfunction]
+#[pyo3(signature = (p_a, r_a, half_a, p_b, r_b, half_b, alpha=200.0, alpha_rot=200.0, variant="lse_xtanh"))]
+#[allow(clippy::too_many_arguments)]
+fn ssat_derivatives<'py>(
+    py: Python<'py>,
+    p_a: ArrayIn<'py>,
+    r_a: ArrayIn<'py>,
+    half_a: ArrayIn<'py>,
+    p_b: ArrayIn<'py>,
+    r_b: ArrayIn<'py>,
+    half_b: ArrayIn<'py>,
+    alpha: f64,
+    alpha_rot: f64,
+    variant: &str,
+) -> PyResult<(f64, Array1Out<'py>, Array2Out<'py>)> {
+    let (a, b) = (oriented_box(&p_a, &r_a, &half_a)?, oriented_box(&p_b, &r_b, &half_b)?);
+    let d = crate::ssat::ssat_with_derivatives(&a, &b, &ssat_params(variant, alpha, alpha_rot)?);
+    let hessian = matrix_from_fn(py, 3, 3, |i, j| d.hessian[(i, j)]);
+    Ok((d.value, vector(py, d.gradient.as_slice()), hessian))
+}
+
+/// The certified margin m: ``ssat(...) - m >= 0`` proves the exact boxes do not overlap.
+/// It depends on the sizes and the smoothing only.
+#[pyfunction]
+#[pyo3(signature = (half_a, half_b, alpha=200.0, alpha_rot=200.0, variant="lse_xtanh"))]
+fn ssat_margin(half_a: ArrayIn<'_>, half_b: ArrayIn<'_>, alpha: f64, alpha_rot: f64, variant: &str) -> PyResult<f64> {
+    let box_of = |half: &ArrayIn<'_>| -> PyResult<OrientedBox> {
+        Ok(OrientedBox::axis_aligned(Vector3::zeros(), Vector3::from(fixed::<3>("half extents", half)?))?)
+    };
+    let (a, b) = (box_of(&half_a)?, box_of(&half_b)?);
+    Ok(crate::ssat::certified_margin(&a, &b, &ssat_params(variant, alpha, alpha_rot)?))
+}
+
+// -------------------------------------------------------------------- families
+/// The four joint-limit rows of ``leg`` (knee_min, knee_max, hip_min, hip_max; see
+/// ``JOINT_LIMIT_ROWS``): ``(lie, lg_lf)`` with ``lie[i] = [h, L_f h, L_f² h]`` and
+/// ``lg_lf[i]`` = L_g L_f h over all NU inputs.
+#[pyfunction]
+fn joint_limits<'py>(py: Python<'py>, leg: LegArg, x: ArrayIn<'py>) -> PyResult<Rows<'py>> {
+    let leg = leg.index()?;
+    Ok(rows_out(py, gen::JOINT_LIMITS[leg](&state(&x)?), &gen::JOINT_LIMITS_INPUT_COLUMNS[leg]))
+}
+
+/// Toe ``leg``'s wheel bottom above the floor plane at height ``floor_z``: one row.
+#[pyfunction]
+fn foot_height<'py>(py: Python<'py>, leg: LegArg, x: ArrayIn<'py>, floor_z: f64) -> PyResult<Rows<'py>> {
+    let leg = leg.index()?;
+    let floor_z = finite("floor height", floor_z)?;
+    Ok(rows_out(py, gen::FOOT_HEIGHT[leg](&state(&x)?, floor_z), &gen::FOOT_HEIGHT_INPUT_COLUMNS[leg]))
+}
+
+/// Static stability bound of eq. 13 for toe ``leg``: ``a (x_toe - x_body) + b >= 0``.
+#[pyfunction]
+fn stability<'py>(py: Python<'py>, leg: LegArg, x: ArrayIn<'py>, a: f64, b: f64) -> PyResult<Rows<'py>> {
+    let leg = leg.index()?;
+    let (a, b) = (finite("stability slope", a)?, finite("stability offset", b)?);
+    Ok(rows_out(py, gen::STABILITY[leg](&state(&x)?, a, b), &gen::STABILITY_INPUT_COLUMNS[leg]))
+}
+
+/// The body vs one edge cuboid by the smooth SAT minus its certified margin: one row;
+/// ``h >= 0`` proves the body and the cuboid do not overlap.
+#[pyfunction]
+fn body_edge<'py>(
+    py: Python<'py>,
+    x: ArrayIn<'py>,
+    edge_center: ArrayIn<'py>,
+    edge_rotation: ArrayIn<'py>,
+    edge_half: ArrayIn<'py>,
+) -> PyResult<Rows<'py>> {
+    let e = EdgeCuboid::from_box(&oriented_box(&edge_center, &edge_rotation, &edge_half)?);
+    let rows = gen::body_edge_ssat(&state(&x)?, e.center(), e.rotation(), e.half_extents());
+    Ok(rows_out(py, rows, &gen::BODY_EDGE_SSAT_INPUT_COLUMNS))
+}
+
+/// Toe ``leg``'s sphere vs one edge cuboid by the superellipsoid of eq. 11: one row.
+#[pyfunction]
+fn toe_edge<'py>(
+    py: Python<'py>,
+    leg: LegArg,
+    x: ArrayIn<'py>,
+    edge_center: ArrayIn<'py>,
+    edge_rotation: ArrayIn<'py>,
+    edge_half: ArrayIn<'py>,
+) -> PyResult<Rows<'py>> {
+    let leg = leg.index()?;
+    let e = EdgeCuboid::from_box(&oriented_box(&edge_center, &edge_rotation, &edge_half)?);
+    let rows = gen::TOE_EDGE[leg](&state(&x)?, e.center(), e.rotation(), e.half_extents());
+    Ok(rows_out(py, rows, &gen::TOE_EDGE_INPUT_COLUMNS[leg]))
+}
+
+/// Toe ``leg`` inside the foothold half-plane ``normal . p_xy + offset >= 0``: one row.
+#[pyfunction]
+fn foothold<'py>(
+    py: Python<'py>,
+    leg: LegArg,
+    x: ArrayIn<'py>,
+    normal: ArrayIn<'py>,
+    offset: f64,
+) -> PyResult<Rows<'py>> {
+    let leg = leg.index()?;
+    let plane = HalfPlane::new(fixed::<2>("normal", &normal)?, offset)?;
+    let rows = gen::FOOTHOLD[leg](&state(&x)?, plane.normal(), plane.offset());
+    Ok(rows_out(py, rows, &gen::FOOTHOLD_INPUT_COLUMNS[leg]))
+}
+
+// -------------------------------------------------------------------- dynamics
+/// The drift f(x) of x' = f(x) + g(x) u, shape (NX,).
+#[pyfunction]
+fn dynamics_f<'py>(py: Python<'py>, x: ArrayIn<'py>) -> PyResult<Array1Out<'py>> {
+    Ok(vector(py, &gen::dynamics_f(&state(&x)?)))
+}
+
+/// The input matrix g(x), dense, shape (NX, NU).
+#[pyfunction]
+fn dynamics_g<'py>(py: Python<'py>, x: ArrayIn<'py>) -> PyResult<Array2Out<'py>> {
+    let values = gen::dynamics_g(&state(&x)?);
+    let at = |r: usize, c: usize| gen::G_PATTERN.iter().position(|&p| p == (r, c)).map_or(0.0, |k| values[k]);
+    Ok(matrix_from_fn(py, NX, NU, at))
+}
+
+/// x' = f(x) + g(x) u, shape (NX,).
+#[pyfunction]
+fn xdot<'py>(py: Python<'py>, x: ArrayIn<'py>, u: ArrayIn<'py>) -> PyResult<Array1Out<'py>> {
+    Ok(vector(py, &model::xdot(&state(&x)?, &input("u", &u)?)))
+}
+
+/// ``(body_center (3,), body_rotation (3, 3), toes (6, 3))`` in the world frame; toe rows
+/// in ``LEG_NAMES`` order.
+#[pyfunction]
+#[allow(clippy::type_complexity)]
+fn world_kinematics<'py>(
+    py: Python<'py>,
+    x: ArrayIn<'py>,
+) -> PyResult<(Array1Out<'py>, Array2Out<'py>, Array2Out<'py>)> {
+    let (center, rotation, toes) = gen::world_kinematics(&state(&x)?);
+    Ok((vector(py, &center), matrix(py, &rotation), matrix(py, &toes)))
+}
+
+/// The standard low posture at rest at the world origin, shape (NX,).
+#[pyfunction]
+fn standard_posture(py: Python<'_>) -> Array1Out<'_> {
+    vector(py, &model::standard_posture())
+}

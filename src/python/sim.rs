@@ -1,0 +1,169 @@
+//! The simulation scenarios for Python: `Course`, for a control loop written in Python,
+//! and `simulate`, the whole Rust closed loop returning its time series as numpy arrays.
+
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use super::convert::{choice, matrix_from_fn, vector, Array1Out, ArrayIn};
+use super::filter::PyEnvironment;
+use super::kernels::state;
+use crate::catalog::Family;
+use crate::error::finite;
+use crate::filter::InputSource;
+use crate::model::NX;
+use crate::sim::gait::GaitParams;
+use crate::sim::{self, Course, Scenario, SimConfig};
+
+const SCENARIOS: [Scenario; 2] = [Scenario::Step, Scenario::Stairs];
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("SCENARIOS", SCENARIOS.map(Scenario::name).to_vec())?;
+    m.add("INPUT_SOURCES", InputSource::ALL.map(InputSource::name).to_vec())?;
+    m.add_class::<PyCourse>()?;
+    m.add_function(wrap_pyfunction!(simulate, m)?)?;
+    Ok(())
+}
+
+fn scenario(name: &str) -> PyResult<Scenario> {
+    Ok(SCENARIOS[choice("scenario", name, &SCENARIOS.map(Scenario::name))?])
+}
+
+/// A scenario's stairs and nominal gait, stepped by your own loop::
+///
+///     course = Course("step")
+///     filt = EcbfFilter()
+///     x = course.initial_state()
+///     for k in range(n):
+///         u_ref = course.plan(k * DT, x)          # also updates course.environment
+///         out = filt.update(x, u_ref, course.environment)
+///         x = x + DT * xdot(x, out.u)
+#[pyclass(name = "Course", module = "cbfgen")]
+pub struct PyCourse {
+    inner: Course,
+    env: Py<PyEnvironment>,
+    nominal_body_height: f64,
+}
+
+#[pymethods]
+impl PyCourse {
+    #[new]
+    #[pyo3(signature = (scenario="step"))]
+    fn new(py: Python<'_>, scenario: &str) -> PyResult<Self> {
+        let inner = Course::new(self::scenario(scenario)?, GaitParams::default())?;
+        let env = Py::new(py, PyEnvironment { inner: inner.environment().clone() })?;
+        Ok(Self { inner, env, nominal_body_height: f64::NAN })
+    }
+
+    /// The standard posture with the robot's foremost point ``start_gap`` metres before
+    /// the first riser, shape (NX,).
+    #[pyo3(signature = (start_gap=0.3))]
+    fn initial_state<'py>(&self, py: Python<'py>, start_gap: f64) -> PyResult<Array1Out<'py>> {
+        Ok(vector(py, &self.inner.initial_state(finite("start gap", start_gap)?)))
+    }
+
+    /// The gait's nominal input at time ``t`` [s] for state ``x``, shape (NU,). Updates
+    /// ``environment`` (floors under the toes, swing legs, their foothold strips).
+    fn plan<'py>(&mut self, py: Python<'py>, t: f64, x: ArrayIn<'py>) -> PyResult<Array1Out<'py>> {
+        let plan = self.inner.plan(finite("time", t)?, &state(&x)?)?;
+        self.nominal_body_height = plan.body_height;
+        self.env.borrow_mut(py).inner.clone_from(self.inner.environment());
+        Ok(vector(py, &plan.u_ref))
+    }
+
+    /// The environment the filter must respect, as of the last ``plan``.
+    #[getter]
+    fn environment(&self, py: Python<'_>) -> Py<PyEnvironment> {
+        self.env.clone_ref(py)
+    }
+
+    /// The gait's nominal body-centre height at the last ``plan`` [m] (NaN before).
+    #[getter]
+    fn nominal_body_height(&self) -> f64 {
+        self.nominal_body_height
+    }
+
+    /// Which tripod swings (0: LR RR MF, 1: MR LF RF), or None.
+    #[getter]
+    fn swinging(&self) -> Option<usize> {
+        self.inner.swinging()
+    }
+
+    /// Exact ``(body, toe)`` clearance at ``x`` to the nearest edge cuboid [m];
+    /// negative = penetration.
+    fn clearance(&self, x: ArrayIn<'_>) -> PyResult<(f64, f64)> {
+        let c = self.inner.clearance(&state(&x)?)?;
+        Ok((c.body, c.toe))
+    }
+
+    /// Every toe on the top level, the body past the last riser, no tripod swinging.
+    fn finished(&self, x: ArrayIn<'_>) -> PyResult<bool> {
+        Ok(self.inner.finished(&state(&x)?))
+    }
+
+    /// Ground height at world ``x`` [m].
+    fn floor_height(&self, x: f64) -> PyResult<f64> {
+        Ok(self.inner.stairs().height_at(finite("x", x)?))
+    }
+}
+
+/// Run a scenario's closed loop in Rust (gait → filter → Euler at 1 kHz) and return its
+/// time series as a dict of numpy arrays, one entry per cycle:
+///
+/// ``t`` (n,), ``x`` (n, NX), ``body_z_world`` and ``body_raise`` (n,), ``min_h`` (n, 6) in
+/// ``FAMILIES`` order (inf where no row applied), ``active_rows``, ``iterations``,
+/// ``source`` (index into ``INPUT_SOURCES``), ``eval_us``, ``solve_us``, ``update_us``,
+/// ``body_clearance``, ``toe_clearance``, ``swinging`` (-1: none); and ``summary``, a dict.
+/// The GIL is released while it runs.
+#[pyfunction]
+#[pyo3(signature = (scenario="stairs", body_cbf=true, max_time=None))]
+fn simulate<'py>(
+    py: Python<'py>,
+    scenario: &str,
+    body_cbf: bool,
+    max_time: Option<f64>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let mut config = SimConfig::new(self::scenario(scenario)?, body_cbf);
+    if let Some(t) = max_time {
+        config.max_time = crate::error::positive("max_time", t)?;
+    }
+    let run = py.detach(|| sim::run(&config, |_| {}))?;
+    let s = &run.samples;
+    let column = |f: &dyn Fn(&sim::Sample) -> f64| -> Vec<f64> { s.iter().map(f).collect() };
+    let out = PyDict::new(py);
+    out.set_item("t", vector(py, &column(&|s| s.t)))?;
+    out.set_item("x", matrix_from_fn(py, s.len(), NX, |i, j| s[i].x[j]))?;
+    out.set_item("body_z_world", vector(py, &column(&|s| s.x[2] + s.x[crate::model::BODY_Z])))?;
+    out.set_item("body_raise", vector(py, &column(&|s| s.body_raise)))?;
+    out.set_item("min_h", matrix_from_fn(py, s.len(), Family::ALL.len(), |i, j| s[i].min_h[j]))?;
+    out.set_item("active_rows", vector(py, &column(&|s| s.active_rows as f64)))?;
+    out.set_item("iterations", vector(py, &column(&|s| f64::from(s.iterations))))?;
+    let source_index = |s: &sim::Sample| InputSource::ALL.iter().position(|&k| k == s.source).unwrap_or(0) as f64;
+    out.set_item("source", vector(py, &column(&source_index)))?;
+    out.set_item("eval_us", vector(py, &column(&|s| s.eval_us)))?;
+    out.set_item("solve_us", vector(py, &column(&|s| s.solve_us)))?;
+    out.set_item("update_us", vector(py, &column(&|s| s.update_us)))?;
+    out.set_item("body_clearance", vector(py, &column(&|s| s.body_clearance)))?;
+    out.set_item("toe_clearance", vector(py, &column(&|s| s.toe_clearance)))?;
+    out.set_item("swinging", vector(py, &column(&|s| f64::from(s.swinging))))?;
+
+    let m = &run.summary;
+    let summary = PyDict::new(py);
+    summary.set_item("scenario", m.scenario.name())?;
+    summary.set_item("body_cbf", m.body_cbf)?;
+    summary.set_item("completed", m.completed)?;
+    summary.set_item("duration", m.duration)?;
+    summary.set_item("min_body_clearance", m.min_body_clearance)?;
+    summary.set_item("min_toe_clearance", m.min_toe_clearance)?;
+    let min_h = PyDict::new(py);
+    for f in Family::ALL {
+        min_h.set_item(f.name(), m.min_h[f.index()])?;
+    }
+    summary.set_item("min_h", min_h)?;
+    summary.set_item("max_body_raise", m.max_body_raise)?;
+    summary.set_item("median_update_us", m.median_update_us)?;
+    summary.set_item("p99_update_us", m.p99_update_us)?;
+    summary.set_item("max_update_us", m.max_update_us)?;
+    summary.set_item("fallback_cycles", m.fallback_cycles)?;
+    out.set_item("summary", summary)?;
+    Ok(out)
+}

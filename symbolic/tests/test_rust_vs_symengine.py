@@ -1,0 +1,264 @@
+"""Every generated kernel, called in Rust through the `cbfgen` Python module, against its
+symbolic definition evaluated numerically by SymEngine (see symengine_reference.py).
+
+For each kernel, 500 random inputs. Every output value must agree with SymEngine's
+double-precision evaluation to a relative 1e-9. A value that does not is looked at
+again in 256-bit arithmetic (SymEngine's MPFR evaluation of the same expressions):
+
+* if SymEngine's own double result is within 1e-12 of that truth, the value is
+  well-conditioned and the Rust kernel is wrong: the test fails;
+* otherwise the value comes out of cancellation (SSAT Hessians where one axis
+  dominates: a difference of O(alpha) terms that nearly vanishes). Both double
+  evaluations are then rounding-limited, in different ways, and Rust must be within
+  1e-9 of the truth or within 1e-10 of that output's typical size (RMS over the
+  samples). The worst seen is 1.6e-11, in the Boltzmann Hessians.
+
+At most half of an output's values may need the second look: a drifted kernel fails
+fast, with a count. A value whose truth is exactly zero must be zero to 1e-12 of that
+output's typical size.
+
+Run by `scripts/cbf test`, which builds and installs the module first and sets
+CBFGEN_REQUIRE_BINDINGS, so a missing module fails instead of skipping.
+"""
+
+from __future__ import annotations
+
+import ast
+import os
+import zlib
+from typing import Callable, Dict, List, Tuple
+
+import numpy as np
+import pytest
+
+from symbolic.families import ssat as ssat_family
+from symbolic.families import tachyon3
+from symbolic.generate import MODULES
+from symbolic.kernel import Kernel
+
+from .symengine_reference import SymEngineReference
+
+if os.environ.get("CBFGEN_REQUIRE_BINDINGS"):
+    import cbfgen
+else:
+    cbfgen = pytest.importorskip("cbfgen", reason="build it with `scripts/cbf setup`")
+
+SAMPLES = 500
+RELATIVE = 1e-9
+WELL_CONDITIONED = 1e-12
+CANCELLING = 1e-10
+MAX_SECOND_LOOKS = 0.5
+
+Inputs = Dict[str, np.ndarray]
+# inputs -> {output name: flat values in the kernel's output layout}
+RustCall = Callable[[Inputs], Dict[str, np.ndarray]]
+
+
+def all_kernels() -> Dict[str, Kernel]:
+    """Every kernel the generator emits, by name."""
+    out = {}
+    for _, build in MODULES.values():
+        for item in build():
+            if isinstance(item, Kernel):
+                out[item.name] = item
+    return out
+
+
+KERNELS = all_kernels()
+SYSTEM = tachyon3.load_tachyon3()
+NX, NU = len(SYSTEM.state_names), len(SYSTEM.input_names)
+
+
+def constant(name: str):
+    for k in KERNELS.values():
+        for c in k.constants:
+            if c.name == name:
+                return ast.literal_eval(c.value)
+    raise KeyError(name)
+
+
+# ----------------------------------------------------------------- random inputs
+def random_rotation(rng: np.random.Generator) -> np.ndarray:
+    q, r = np.linalg.qr(rng.normal(size=(3, 3)))
+    q = q @ np.diag(np.sign(np.diag(r)))
+    return q if np.linalg.det(q) > 0 else -q
+
+
+def random_state(rng: np.random.Generator) -> np.ndarray:
+    """Around the standard posture: any origin pose and speed, body and toes displaced
+    and moving (the same ranges as the Rust finite-difference test)."""
+    x = np.asarray(cbfgen.standard_posture())
+    x[0:2] = rng.uniform(-2, 2, 2)
+    x[2] = rng.uniform(-0.2, 0.2)
+    x[3] = rng.uniform(-3, 3)
+    x[4] = rng.uniform(-1, 1)
+    x[5] = rng.uniform(-0.5, 0.5)
+    x[6] = rng.uniform(-0.1, 0.1)
+    x[7] = rng.uniform(0.2, 0.5)
+    x[8] = rng.uniform(-0.3, 0.3)
+    x[9:12] = rng.uniform(-0.5, 0.5, 3)
+    hips = constant("HIP_POSITIONS")
+    for leg in range(6):
+        t = 12 + 4 * leg
+        x[t] = x[6] + hips[leg][0] + rng.uniform(-0.3, 0.3)
+        x[t + 1] = rng.uniform(-0.05, 0.15)
+        x[t + 2:t + 4] = rng.uniform(-0.5, 0.5, 2)
+    return x
+
+
+def random_edge_near(rng: np.random.Generator, point: np.ndarray, spread: float) -> Inputs:
+    rot = random_rotation(rng)
+    if rng.random() < 0.5:  # stair edges are yaw-only
+        a = rng.uniform(-3, 3)
+        rot = np.array([[np.cos(a), -np.sin(a), 0], [np.sin(a), np.cos(a), 0], [0, 0, 1]])
+    return {"edge_center": point + rng.uniform(-spread, spread, 3),
+            "edge_rotation": rot.ravel(), "edge_half": rng.uniform(0.02, 0.5, 3)}
+
+
+def ssat_inputs(rng: np.random.Generator) -> Inputs:
+    return {"p_a": rng.uniform(-1, 1, 3), "r_a": random_rotation(rng).ravel(),
+            "half_a": rng.uniform(0.05, 0.6, 3), "p_b": rng.uniform(-1, 1, 3),
+            "r_b": random_rotation(rng).ravel(), "half_b": rng.uniform(0.05, 0.6, 3),
+            "alpha": rng.uniform(5, 300), "alpha_rot": rng.uniform(5, 300)}
+
+
+def family_inputs(family: str, leg: int, rng: np.random.Generator) -> Inputs:
+    x = random_state(rng)
+    v: Inputs = {"x": x}
+    if family == "body_edge_ssat":
+        center, _, _ = cbfgen.world_kinematics(x)
+        v.update(random_edge_near(rng, np.asarray(center), 0.8))
+    elif family == "toe_edge":
+        _, _, toes = cbfgen.world_kinematics(x)
+        v.update(random_edge_near(rng, np.asarray(toes)[leg], 0.4))
+    elif family == "foothold":
+        a = rng.uniform(-np.pi, np.pi)
+        v.update(normal=np.array([np.cos(a), np.sin(a)]) * rng.uniform(0.5, 2), offset=rng.uniform(-1, 1))
+    elif family == "foot_height":
+        v.update(floor_z=rng.uniform(-0.2, 0.2))
+    elif family == "stability":
+        v.update(a=rng.choice([-1.0, 1.0]), b=rng.uniform(-0.5, 0.5))
+    return v
+
+
+# ------------------------------------------------------------ the Rust side
+def family_rows(family: str, leg: int, columns: List[int]) -> RustCall:
+    def call(v: Inputs) -> Dict[str, np.ndarray]:
+        if family == "body_edge_ssat":
+            lie, lg = cbfgen.body_edge(v["x"], v["edge_center"], v["edge_rotation"], v["edge_half"])
+        elif family == "joint_limits":
+            lie, lg = cbfgen.joint_limits(leg, v["x"])
+        elif family == "toe_edge":
+            lie, lg = cbfgen.toe_edge(leg, v["x"], v["edge_center"], v["edge_rotation"], v["edge_half"])
+        elif family == "foothold":
+            lie, lg = cbfgen.foothold(leg, v["x"], v["normal"], v["offset"])
+        elif family == "foot_height":
+            lie, lg = cbfgen.foot_height(leg, v["x"], v["floor_z"])
+        else:
+            lie, lg = cbfgen.stability(leg, v["x"], v["a"], v["b"])
+        others = [c for c in range(NU) if c not in columns]
+        # Columns outside the kernel's structural pattern are exactly zero.
+        assert not np.any(lg[:, others]), f"{family}: L_g L_f h non-zero outside its columns"
+        return {"lie": lie.ravel(), "lg_lf": lg[:, columns].ravel()}
+    return call
+
+
+def ssat_call(kind: str, variant: str) -> RustCall:
+    def call(v: Inputs) -> Dict[str, np.ndarray]:
+        s = (v["alpha"], v["alpha_rot"], variant)
+        if kind == "margin":
+            return {"margin": np.array([cbfgen.ssat_margin(v["half_a"], v["half_b"], *s)])}
+        boxes = (v["p_a"], v["r_a"], v["half_a"], v["p_b"], v["r_b"], v["half_b"])
+        if kind == "value":
+            return {"h": np.array([cbfgen.ssat(*boxes, *s)])}
+        h, grad, hess = cbfgen.ssat_derivatives(*boxes, *s)
+        upper = hess[np.triu_indices(3)]  # the kernel's symmetric output: upper triangle, row by row
+        return {"h": np.array([h]), "gradient": grad, "hessian": upper}
+    return call
+
+
+def dynamics_g_call(v: Inputs) -> Dict[str, np.ndarray]:
+    dense = cbfgen.dynamics_g(v["x"])
+    pattern = constant("G_PATTERN")
+    mask = np.zeros_like(dense, dtype=bool)
+    for r, c in pattern:
+        mask[r, c] = True
+    assert not np.any(dense[~mask]), "g(x) non-zero outside G_PATTERN"
+    return {"g": np.array([dense[r, c] for r, c in pattern])}
+
+
+def world_kinematics_call(v: Inputs) -> Dict[str, np.ndarray]:
+    center, rotation, toes = cbfgen.world_kinematics(v["x"])
+    return {"body_center": center, "body_rotation": rotation.ravel(), "toes": toes.ravel()}
+
+
+def cases() -> Dict[str, Tuple[Callable[[np.random.Generator], Inputs], RustCall]]:
+    """Kernel name -> (random inputs, the Rust call through the bindings)."""
+    out = {}
+    for smax, sabs in ssat_family.VARIANTS:
+        variant = f"{smax.name}_{sabs.name}"
+        out[f"ssat_{variant}"] = (ssat_inputs, ssat_call("value", variant))
+        out[f"ssat_{variant}_derivatives"] = (ssat_inputs, ssat_call("derivatives", variant))
+        out[f"ssat_{variant}_margin"] = (ssat_inputs, ssat_call("margin", variant))
+    state_only = lambda rng: {"x": random_state(rng)}  # noqa: E731
+    out["dynamics_f"] = (state_only, lambda v: {"f": cbfgen.dynamics_f(v["x"])})
+    out["dynamics_g"] = (state_only, dynamics_g_call)
+    out["world_kinematics"] = (state_only, world_kinematics_call)
+    columns = lambda name: list(constant(f"{name.upper()}_INPUT_COLUMNS"))  # noqa: E731
+    out["body_edge_ssat"] = (lambda rng: family_inputs("body_edge_ssat", 0, rng),
+                             family_rows("body_edge_ssat", 0, columns("body_edge_ssat")))
+    for family in ("joint_limits", "toe_edge", "foothold", "foot_height", "stability"):
+        for leg, leg_name in enumerate(constant("LEG_NAMES")):
+            name = f"{family}_{leg_name.lower()}"
+            out[name] = (lambda rng, f=family, l=leg: family_inputs(f, l, rng),
+                         family_rows(family, leg, columns(name)))
+    return out
+
+
+CASES = cases()
+
+
+def test_every_generated_kernel_is_cross_checked():
+    assert sorted(CASES) == sorted(KERNELS)
+
+
+def compare(name: str, ref: np.ndarray, got: np.ndarray, truth_of: Callable[[int], np.ndarray]) -> None:
+    """Assert the module docstring's rule on (samples x values) arrays; ``truth_of(i)``
+    gives sample i's values in high precision."""
+    err = np.abs(got - ref)
+    suspects = np.argwhere(err > RELATIVE * np.abs(ref))
+    nonzero = max(1, np.count_nonzero(ref))
+    assert len(suspects) <= MAX_SECOND_LOOKS * nonzero, (
+        f"{name}: {len(suspects)} of {nonzero} values differ by more than {RELATIVE:g} relative")
+    typical = np.sqrt(np.mean(ref ** 2, axis=0))
+    truths: Dict[int, np.ndarray] = {}
+    for i, j in suspects:
+        if i not in truths:
+            truths[i] = truth_of(i)
+        truth = truths[i][j]
+        ref_err, rust_err = abs(ref[i, j] - truth), abs(got[i, j] - truth)
+        where = f"{name}: sample {i}, value {j}: rust {got[i, j]!r}, symengine {ref[i, j]!r}, truth {truth!r}"
+        if truth == 0.0:
+            assert rust_err <= 1e-12 * typical[j], where
+        elif ref_err <= WELL_CONDITIONED * abs(truth):
+            pytest.fail(f"{where}: well-conditioned, and rust is off by {rust_err / abs(truth):.2e} relative")
+        else:
+            assert rust_err <= max(RELATIVE * abs(truth), CANCELLING * typical[j]), where
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_rust_kernel_matches_symengine(name):
+    draw, rust = CASES[name]
+    reference = SymEngineReference(KERNELS[name])
+    rng = np.random.default_rng(zlib.crc32(name.encode()))
+    inputs = [draw(rng) for _ in range(SAMPLES)]
+    refs: Dict[str, List[np.ndarray]] = {}
+    gots: Dict[str, List[np.ndarray]] = {}
+    for v in inputs:
+        for store, values in ((refs, reference(v)), (gots, rust(v))):
+            for out, vals in values.items():
+                store.setdefault(out, []).append(np.asarray(vals, dtype=float))
+    assert sorted(gots) == sorted(refs), f"{name}: outputs differ"
+    for out in refs:
+        compare(f"{name}.{out}", np.array(refs[out]), np.array(gots[out]),
+                lambda i, o=out: reference.high_precision(inputs[i])[o])
