@@ -1,0 +1,206 @@
+# Type stubs for the Rust extension module (src/python/). Arrays are float64 numpy
+# arrays; "ArrayLike" inputs accept anything numpy converts to float64 with exactly the
+# stated number of values (row-major; a 3x3 rotation may be given as 9 values).
+# python/tests/test_api.py checks that this file and the module list the same names.
+
+from typing import Literal, Optional, Sequence, Union
+
+import numpy as np
+import numpy.typing as npt
+
+ArrayLike = npt.ArrayLike
+Vector = npt.NDArray[np.float64]
+Matrix = npt.NDArray[np.float64]
+Leg = Union[int, str]
+"""A leg: its index in LEG_NAMES order (0..6) or its name ("LF", "mf", ...)."""
+Rows = tuple[Matrix, Matrix]
+"""(lie, lg_lf): lie[i] = [h, L_f h, L_f^2 h] (rows x 3); lg_lf[i] = L_g L_f h (rows x NU)."""
+SsatVariant = Literal["lse_xtanh", "lse_sqrt", "boltzmann_xtanh", "boltzmann_sqrt"]
+Family = Literal["joint_limits", "foot_height", "stability", "body_edge", "toe_edge", "foothold"]
+
+class CbfError(ValueError):
+    """An error reported by cbfgen's Rust core (bad value, capacity, solver set-up...)."""
+
+NX: int
+NU: int
+STATE_NAMES: list[str]
+INPUT_NAMES: list[str]
+LEG_NAMES: list[str]
+INPUT_LIMITS: list[float]
+TOE_RADIUS: float
+BODY_HALF_EXTENTS: list[float]
+RELATIVE_DEGREE: int
+FAMILIES: list[str]
+DT: float
+SSAT_VARIANTS: list[str]
+JOINT_LIMIT_ROWS: list[str]
+SCENARIOS: list[str]
+INPUT_SOURCES: list[str]
+
+# ----------------------------------------------------------------------- SSAT
+def ssat(
+    p_a: ArrayLike, r_a: ArrayLike, half_a: ArrayLike,
+    p_b: ArrayLike, r_b: ArrayLike, half_b: ArrayLike,
+    alpha: float = 200.0, alpha_rot: float = 200.0, variant: SsatVariant = "lse_xtanh",
+) -> float:
+    """Smooth SAT value h of boxes A and B (> 0 apart, < 0 overlapping)."""
+
+def ssat_derivatives(
+    p_a: ArrayLike, r_a: ArrayLike, half_a: ArrayLike,
+    p_b: ArrayLike, r_b: ArrayLike, half_b: ArrayLike,
+    alpha: float = 200.0, alpha_rot: float = 200.0, variant: SsatVariant = "lse_xtanh",
+) -> tuple[float, Vector, Matrix]:
+    """(h, gradient (3,), hessian (3, 3)) with respect to box B's centre."""
+
+def ssat_margin(
+    half_a: ArrayLike, half_b: ArrayLike,
+    alpha: float = 200.0, alpha_rot: float = 200.0, variant: SsatVariant = "lse_xtanh",
+) -> float:
+    """Certified margin m: ssat(...) - m >= 0 proves the exact boxes do not overlap."""
+
+# ------------------------------------------------------------------- families
+def joint_limits(leg: Leg, x: ArrayLike) -> Rows:
+    """The four joint-limit rows of a leg, in JOINT_LIMIT_ROWS order."""
+
+def foot_height(leg: Leg, x: ArrayLike, floor_z: float) -> Rows:
+    """Toe wheel bottom above the floor plane at height floor_z: one row."""
+
+def stability(leg: Leg, x: ArrayLike, a: float, b: float) -> Rows:
+    """Static stability bound a (x_toe - x_body) + b >= 0 (eq. 13): one row."""
+
+def body_edge(x: ArrayLike, edge_center: ArrayLike, edge_rotation: ArrayLike, edge_half: ArrayLike) -> Rows:
+    """Body vs edge cuboid: smooth SAT minus its certified margin (eq. 10): one row."""
+
+def toe_edge(leg: Leg, x: ArrayLike, edge_center: ArrayLike, edge_rotation: ArrayLike, edge_half: ArrayLike) -> Rows:
+    """Toe sphere vs edge cuboid by superellipsoid (eq. 11): one row."""
+
+def foothold(leg: Leg, x: ArrayLike, normal: ArrayLike, offset: float) -> Rows:
+    """Toe inside the half-plane normal . p_xy + offset >= 0 (eq. 12): one row."""
+
+# ------------------------------------------------------------------- dynamics
+def dynamics_f(x: ArrayLike) -> Vector:
+    """Drift f(x), shape (NX,)."""
+
+def dynamics_g(x: ArrayLike) -> Matrix:
+    """Input matrix g(x), dense, shape (NX, NU)."""
+
+def xdot(x: ArrayLike, u: ArrayLike) -> Vector:
+    """f(x) + g(x) u, shape (NX,)."""
+
+def world_kinematics(x: ArrayLike) -> tuple[Vector, Matrix, Matrix]:
+    """(body_center (3,), body_rotation (3, 3), toes (6, 3)), world frame."""
+
+def standard_posture() -> Vector:
+    """The standard low posture at rest at the world origin, shape (NX,)."""
+
+# --------------------------------------------------------------------- filter
+class Environment:
+    """Edge cuboids, floors, foothold polygons, swing legs and stability bounds, sized once."""
+
+    def __init__(self, edges: int = 20, foothold_edges: Optional[Sequence[int]] = None) -> None: ...
+    @property
+    def capacity(self) -> tuple[int, list[int]]: ...
+    def push_edge(self, center: ArrayLike, rotation: ArrayLike, half_extents: ArrayLike) -> None: ...
+    def clear_edges(self) -> None: ...
+    @property
+    def edge_count(self) -> int: ...
+    @property
+    def floor_z(self) -> Vector: ...
+    @floor_z.setter
+    def floor_z(self, values: ArrayLike) -> None: ...
+    @property
+    def swing(self) -> list[bool]: ...
+    @swing.setter
+    def swing(self, values: Sequence[bool]) -> None: ...
+    def set_foothold(self, leg: Leg, normals: ArrayLike, offsets: ArrayLike) -> None:
+        """Row k: normals[k] . p_xy + offsets[k] >= 0; normals is (k, 2)."""
+    def foothold(self, leg: Leg) -> tuple[Matrix, Vector]: ...
+    def set_stability(
+        self, leg: Leg, lower: Optional[tuple[float, float]] = None, upper: Optional[tuple[float, float]] = None
+    ) -> None: ...
+
+class FilterOutput:
+    """One update's result."""
+
+    @property
+    def u(self) -> Vector: ...
+    @property
+    def source(self) -> Literal["qp", "unconverged", "last_safe", "nominal_clipped"]: ...
+    @property
+    def status(self) -> Optional[str]: ...
+    @property
+    def nonfinite_row(self) -> Optional[int]: ...
+    @property
+    def iterations(self) -> int: ...
+    @property
+    def polished(self) -> bool: ...
+    @property
+    def active_rows(self) -> int: ...
+    @property
+    def consecutive_fallbacks(self) -> int: ...
+    @property
+    def eval_time_us(self) -> float: ...
+    @property
+    def solve_time_us(self) -> float: ...
+
+class EcbfFilter:
+    """The ECBF-QP safety filter on OSQP; one allocation-free update per control cycle."""
+
+    def __init__(
+        self,
+        edges: int = 20,
+        foothold_edges: Optional[Sequence[int]] = None,
+        *,
+        activation: Optional[dict[str, float]] = None,
+        slack_weight: Optional[dict[str, float]] = None,
+        poles: Optional[dict[str, tuple[float, float]]] = None,
+        input_weights: Optional[ArrayLike] = None,
+        input_min: Optional[ArrayLike] = None,
+        input_max: Optional[ArrayLike] = None,
+        eps_abs: Optional[float] = None,
+        eps_rel: Optional[float] = None,
+        max_iter: Optional[int] = None,
+        polish: Optional[bool] = None,
+        time_limit_us: Optional[float] = None,
+    ) -> None: ...
+    def update(self, x: ArrayLike, u_ref: ArrayLike, env: Environment) -> FilterOutput: ...
+    def fallback_input(self, u_ref: ArrayLike) -> Vector: ...
+    @property
+    def output(self) -> FilterOutput: ...
+    @property
+    def row_count(self) -> int: ...
+    @property
+    def slots(self) -> list[tuple[str, Optional[int], int]]: ...
+    @property
+    def lie(self) -> Matrix: ...
+    @property
+    def lg_lf(self) -> Matrix: ...
+    @property
+    def applicable(self) -> list[bool]: ...
+    @property
+    def active(self) -> list[bool]: ...
+    @property
+    def slack(self) -> Vector: ...
+
+# ------------------------------------------------------------------ scenarios
+class Course:
+    """A scenario's stairs and nominal gait, stepped by your own loop."""
+
+    def __init__(self, scenario: Literal["step", "stairs"] = "step") -> None: ...
+    def initial_state(self, start_gap: float = 0.3) -> Vector: ...
+    def plan(self, t: float, x: ArrayLike) -> Vector:
+        """The gait's nominal input; also updates `environment`."""
+    @property
+    def environment(self) -> Environment: ...
+    @property
+    def nominal_body_height(self) -> float: ...
+    @property
+    def swinging(self) -> Optional[int]: ...
+    def clearance(self, x: ArrayLike) -> tuple[float, float]: ...
+    def finished(self, x: ArrayLike) -> bool: ...
+    def floor_height(self, x: float) -> float: ...
+
+def simulate(
+    scenario: Literal["step", "stairs"] = "stairs", body_cbf: bool = True, max_time: Optional[float] = None
+) -> dict[str, np.ndarray | dict]:
+    """The Rust closed loop's time series as numpy arrays, plus a "summary" dict."""
