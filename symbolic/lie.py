@@ -10,6 +10,15 @@ created on first use and shared by everything that needs it. Expressions therefo
 the size of the formula rather than of its fully substituted form, and CSE can share
 every intermediate rate between h, L_f h, L_f^2 h and L_g L_f h.
 
+Time-varying constraints h(x, t) (a moving boundary, say) pass the time symbol as
+``time=t``. The drift field then gets the extra component dt/dt = 1, as if t were a state
+with t' = 1 and no input column, so
+
+    L_f h = dh/dt + sum_k dh/dx_k f_k + sum_L dh/dL * D_f L,
+
+lets included (a let of t alone has the rate dL/dt). The input fields are unchanged:
+L_g h has no time term. Without ``time`` the engine is exactly the time-invariant one.
+
 The relative degree is found, not assumed: the first k with L_g L_f^k h structurally
 non-zero. Runtime reductions (a smooth max's shift) are neither states nor lets, so they
 are constants here, which is exact for the shift-invariant smooth maxima.
@@ -43,8 +52,9 @@ class LieRow:
 
 class LieEngine:
     def __init__(self, kernel: Kernel, x: Sequence[se.Symbol], f: Sequence[se.Expr],
-                 g: Sequence[Sequence[se.Expr]]):
+                 g: Sequence[Sequence[se.Expr]], time: Optional[se.Symbol] = None):
         self.kernel = kernel
+        self.time = time
         self.x = list(x)
         self.f = list(f)
         self.g = [list(row) for row in g]
@@ -61,12 +71,17 @@ class LieEngine:
         return sym
 
     def along(self, e: se.Expr, column: Optional[int]) -> se.Expr:
-        """D_f e (``column=None``) or D_{g_u} e (``column=u``)."""
+        """D_f e (``column=None``, with d/dt when the engine has a time symbol) or
+        D_{g_u} e (``column=u``)."""
         if column is None:
             field = [(k, self.f[k]) for k in self._f_support]
         else:
             field = [(k, self.g[k][column]) for k in self._g_support[column]]
         terms: List[se.Expr] = []
+        if column is None and self.time is not None:
+            d = se.diff(e, self.time)  # t' = 1: the augmented drift's time component
+            if d != 0:
+                terms.append(d)
         for k, vk in field:
             d = se.diff(e, self.x[k])
             if d != 0:

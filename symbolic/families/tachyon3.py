@@ -11,7 +11,7 @@ foothold edges, stability bounds) is a kernel argument.
 from __future__ import annotations
 
 import math
-from typing import Callable, List, Tuple
+from typing import List
 
 import symengine as se
 
@@ -20,37 +20,11 @@ from ..lie import LieEngine
 from ..model import Leg, Tachyon3, load_tachyon3
 from ..rust_emitter import RawRust
 from ..smoothing import LSE, XTANH
+from .rows import RowBuilder, row_kernel, rust_str_array
 from .ssat import AXES, ROT, certified_margin, matrix, relative_pose, separating_axes
 
-RowBuilder = Callable[[Kernel, LieEngine], List[Tuple[str, se.Expr]]]
-
-
-def _rust_str_array(items) -> str:
-    return "[" + ", ".join(f'"{i}"' for i in items) + "]"
-
-
 def _row_kernel(system: Tachyon3, name: str, doc: str, build: RowBuilder) -> Kernel:
-    k = Kernel(name, doc)
-    k.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
-    engine = LieEngine(k, system.x, system.f, system.g)
-    rows = build(k, engine)
-    lie = [engine.row(h, f"{name}.{row}") for row, h in rows]
-    degrees = {r.degree for r in lie}
-    if len(degrees) != 1:
-        raise ValueError(f"{name}: rows of one kernel must share a relative degree, got {degrees}")
-    degree = degrees.pop()
-    columns = sorted(set().union(*(r.lg for r in lie)))
-    upper = name.upper()
-    k.constant(f"{upper}_RELATIVE_DEGREE", "usize", str(degree),
-               f"Relative degree of every row of [`{name}`] (found symbolically).")
-    k.constant(f"{upper}_INPUT_COLUMNS", f"[usize; {len(columns)}]", str(columns),
-               f"Input columns of `lg_lf` in [`{name}`]: the only inputs its rows depend on.")
-    k.constant(f"{upper}_ROW_NAMES", f"[&str; {len(rows)}]", _rust_str_array(r for r, _ in rows),
-               f"What each row of [`{name}`] constrains.")
-    k.output_matrix("lie", [list(r.lf) for r in lie], "per row: h, L_f h, ..., L_f^r h")
-    k.output_matrix("lg_lf", [[r.lg.get(u, se.Integer(0)) for u in columns] for r in lie],
-                    f"per row: L_g L_f^(r-1) h on the columns `{upper}_INPUT_COLUMNS`")
-    return k
+    return row_kernel(name, doc, system.state_names, system.x, system.f, system.g, build)
 
 
 def _vec_input(k: Kernel, name: str, doc: str) -> List[se.Symbol]:
@@ -179,9 +153,9 @@ def dynamics(system: Tachyon3) -> List[Kernel]:
     consts = [
         ("NX", "usize", str(len(system.x)), "State dimension."),
         ("NU", "usize", str(len(system.input_names)), "Input dimension."),
-        ("STATE_NAMES", f"[&str; {len(system.x)}]", _rust_str_array(system.state_names), "State layout."),
-        ("INPUT_NAMES", f"[&str; {len(system.input_names)}]", _rust_str_array(system.input_names), "Input layout."),
-        ("LEG_NAMES", "[&str; 6]", _rust_str_array(l.name for l in m.legs), "Legs, in the order of the toe blocks."),
+        ("STATE_NAMES", f"[&str; {len(system.x)}]", rust_str_array(system.state_names), "State layout."),
+        ("INPUT_NAMES", f"[&str; {len(system.input_names)}]", rust_str_array(system.input_names), "Input layout."),
+        ("LEG_NAMES", "[&str; 6]", rust_str_array(l.name for l in m.legs), "Legs, in the order of the toe blocks."),
         ("G_PATTERN", f"[(usize, usize); {len(pattern)}]", str(pattern), "(row, column) of each non-zero of g."),
         ("BODY_HALF_EXTENTS", "[f64; 3]", str(list(m.body_half_extents)), "Body box half extents [m]."),
         ("NOMINAL_CLEARANCE", "f64", repr(m.nominal_clearance), "Body underside above ground in the standard posture [m]."),
