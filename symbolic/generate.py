@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 from typing import Callable, Dict, List, Tuple, Union
 
-from .families import ssat, tachyon3
+from .families import double_integrator, ssat, tachyon3
 from .inputs_hash import inputs_hash
 from .kernel import Kernel
 from .rust_emitter import RawRust, emit_kernel
@@ -25,6 +25,7 @@ REGENERATE = "scripts/cbf generate  (or: python -m symbolic.generate)"
 MODULES: Dict[str, Tuple[str, Callable[[], List[Union[Kernel, RawRust]]]]] = {
     "ssat": (ssat.MODULE_DOC, ssat.kernels),
     "tachyon3": (tachyon3.MODULE_DOC, tachyon3.kernels),
+    "double_integrator": (double_integrator.MODULE_DOC, double_integrator.kernels),
 }
 
 

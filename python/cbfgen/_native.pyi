@@ -77,6 +77,9 @@ def toe_edge(leg: Leg, x: ArrayLike, edge_center: ArrayLike, edge_rotation: Arra
 def foothold(leg: Leg, x: ArrayLike, normal: ArrayLike, offset: float) -> Rows:
     """Toe inside the half-plane normal . p_xy + offset >= 0 (eq. 12): one row."""
 
+def sine_barrier(x: ArrayLike, t: float, amplitude: float, omega: float, offset: float) -> tuple[list[float], float]:
+    """Double integrator x = [q, q'] above A sin(w t) + c: ([h, L_f h, L_f^2 h] with the dh/dt terms, L_g L_f h)."""
+
 # ------------------------------------------------------------------- dynamics
 def dynamics_f(x: ArrayLike) -> Vector:
     """Drift f(x), shape (NX,)."""

@@ -35,6 +35,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(body_edge, m)?)?;
     m.add_function(wrap_pyfunction!(toe_edge, m)?)?;
     m.add_function(wrap_pyfunction!(foothold, m)?)?;
+    m.add_function(wrap_pyfunction!(sine_barrier, m)?)?;
     m.add_function(wrap_pyfunction!(dynamics_f, m)?)?;
     m.add_function(wrap_pyfunction!(dynamics_g, m)?)?;
     m.add_function(wrap_pyfunction!(xdot, m)?)?;
@@ -217,6 +218,23 @@ fn foothold<'py>(
     let plane = HalfPlane::new(fixed::<2>("normal", &normal)?, offset)?;
     let rows = gen::FOOTHOLD[leg](&state(&x)?, plane.normal(), plane.offset());
     Ok(rows_out(py, rows, &gen::FOOTHOLD_INPUT_COLUMNS[leg]))
+}
+
+/// The double integrator's time-varying row ``h = q - A sin(w t) - c`` at state
+/// ``x = [q, q']`` and time ``t``: ``(lie, lg_lf)`` with ``lie = [h, L_f h, L_f² h]``
+/// (dh/dt terms included) and ``lg_lf = L_g L_f h`` (the one input u).
+#[pyfunction]
+fn sine_barrier(x: ArrayIn<'_>, t: f64, amplitude: f64, omega: f64, offset: f64) -> PyResult<([f64; 3], f64)> {
+    let x = fixed::<2>("x", &x)?;
+    for &v in &x {
+        finite("state entry", v)?;
+    }
+    let args = [("time", t), ("amplitude", amplitude), ("omega", omega), ("offset", offset)];
+    for (what, v) in args {
+        finite(what, v)?;
+    }
+    let ([lie], [[lg]]) = crate::generated::double_integrator::sine_barrier(&x, t, amplitude, omega, offset);
+    Ok((lie, lg))
 }
 
 // -------------------------------------------------------------------- dynamics

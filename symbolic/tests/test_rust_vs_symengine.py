@@ -192,6 +192,16 @@ def world_kinematics_call(v: Inputs) -> Dict[str, np.ndarray]:
     return {"body_center": center, "body_rotation": rotation.ravel(), "toes": toes.ravel()}
 
 
+def sine_barrier_inputs(rng: np.random.Generator) -> Inputs:
+    return {"x": rng.uniform(-3, 3, 2), "t": rng.uniform(0, 20), "amplitude": rng.uniform(0, 2),
+            "omega": rng.uniform(0.1, 5), "offset": rng.uniform(-1, 1)}
+
+
+def sine_barrier_call(v: Inputs) -> Dict[str, np.ndarray]:
+    lie, lg = cbfgen.sine_barrier(v["x"], v["t"], v["amplitude"], v["omega"], v["offset"])
+    return {"lie": np.asarray(lie), "lg_lf": np.array([lg])}
+
+
 def cases() -> Dict[str, Tuple[Callable[[np.random.Generator], Inputs], RustCall]]:
     """Kernel name -> (random inputs, the Rust call through the bindings)."""
     out = {}
@@ -212,6 +222,7 @@ def cases() -> Dict[str, Tuple[Callable[[np.random.Generator], Inputs], RustCall
             name = f"{family}_{leg_name.lower()}"
             out[name] = (lambda rng, f=family, l=leg: family_inputs(f, l, rng),
                          family_rows(family, leg, columns(name)))
+    out["sine_barrier"] = (sine_barrier_inputs, sine_barrier_call)
     return out
 
 
