@@ -35,6 +35,10 @@ pub enum CbfError {
     /// OSQP refused the problem at set-up.
     #[error("QP solver set-up failed: {reason}")]
     SolverSetup { reason: String },
+    /// A QP of the multi-layer controller ended without a usable iterate (infeasible,
+    /// non-convex or a solver fault); `status` is [`QpStatus::name`](crate::filter::QpStatus::name).
+    #[error("{layer}: QP not solved ({status})")]
+    QpFailed { layer: &'static str, status: &'static str },
     /// A rotation matrix was not orthonormal with determinant +1.
     #[error("rotation is not a proper rotation (|R^T R - I| = {deviation:.3e})")]
     NotARotation { deviation: f64 },

@@ -14,6 +14,7 @@
 //! * [`filter`] — the ECBF-QP safety filter on OSQP: one allocation-free control update.
 //! * [`terrain`] — stairs as edge cuboids and floors; [`approach`] — a scripted drive to them.
 //! * [`sim`] — the closed-loop stair simulation (gait, filter, integration, CSV and figures).
+//! * [`multilayer`] — a CBF in a low-rate MPC and in a high-rate QP, on the double integrator.
 
 pub mod approach;
 pub mod catalog;
@@ -22,6 +23,7 @@ pub mod filter;
 pub mod geometry;
 pub mod latency;
 pub mod model;
+pub mod multilayer;
 pub mod sat;
 pub mod sim;
 pub mod ssat;

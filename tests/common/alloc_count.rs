@@ -72,7 +72,6 @@ unsafe extern "C" fn free(ptr: *mut u8) {
     unsafe { __libc_free(ptr) }
 }
 
-
 /// Run `f` with both counters on; returns its result and the (Rust, C) allocation counts.
 pub fn counting<R>(f: impl FnOnce() -> R) -> (R, usize, usize) {
     RUST_ALLOCS.store(0, Ordering::SeqCst);

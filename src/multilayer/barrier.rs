@@ -1,0 +1,75 @@
+//! The moving lower bound of the example and its generated ECBF row.
+//!
+//! ```text
+//! s(t) = A sin(ω t) + c,      h(x, t) = q − s(t),      x = [q, q̇]
+//! L_f h = q̇ − A ω cos(ω t),   L_f² h = A ω² sin(ω t),  L_g L_f h = 1
+//! ```
+//!
+//! The values come from the generated kernel (`generated/double_integrator.rs`), whose
+//! Lie derivatives include ∂h/∂t: the boundary's own velocity and acceleration.
+
+use crate::error::{finite, CbfError};
+use crate::generated::double_integrator as gen;
+
+/// The double integrator's state `[q, q̇]`.
+pub type State = [f64; 2];
+
+/// `h` and its Lie derivatives at one state and time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BarrierRow {
+    /// `[h, L_f h, L_f² h]`, each including its ∂/∂t terms.
+    pub lie: [f64; 3],
+    /// `L_g L_f h`: the coefficient of `u` in `ḧ`.
+    pub lg_lf: f64,
+}
+
+impl BarrierRow {
+    /// `L_f² h + k1 L_f h + k0 h`: the ECBF row holds when `lg_lf · u ≥ −` this.
+    pub fn ecbf_bound(&self, [k0, k1]: [f64; 2]) -> f64 {
+        self.lie[2] + k1 * self.lie[1] + k0 * self.lie[0]
+    }
+}
+
+/// The safe set `q ≥ A sin(ω t) + c`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SineBarrier {
+    amplitude: f64,
+    omega: f64,
+    offset: f64,
+}
+
+impl SineBarrier {
+    /// # Errors
+    /// A non-finite parameter.
+    pub fn new(amplitude: f64, omega: f64, offset: f64) -> Result<Self, CbfError> {
+        Ok(Self {
+            amplitude: finite("barrier amplitude", amplitude)?,
+            omega: finite("barrier frequency", omega)?,
+            offset: finite("barrier offset", offset)?,
+        })
+    }
+
+    /// `[A, ω, c]`.
+    pub fn parameters(&self) -> [f64; 3] {
+        [self.amplitude, self.omega, self.offset]
+    }
+
+    /// The boundary position `s(t)`.
+    pub fn boundary(&self, t: f64) -> f64 {
+        self.amplitude * (self.omega * t).sin() + self.offset
+    }
+
+    /// The generated row at `x` and `t` (no validation: callers check finiteness).
+    pub fn row(&self, x: &State, t: f64) -> BarrierRow {
+        let ([lie], [[lg_lf]]) = gen::sine_barrier(x, t, self.amplitude, self.omega, self.offset);
+        BarrierRow { lie, lg_lf }
+    }
+}
+
+/// `Ok` if `t` and both state entries are finite.
+pub(crate) fn check_state(x: &State, t: f64) -> Result<(), CbfError> {
+    finite("time", t)?;
+    finite("position", x[0])?;
+    finite("velocity", x[1])?;
+    Ok(())
+}

@@ -1,0 +1,314 @@
+//! The low-rate kinematic MPC: positions are states, velocities are its inputs.
+//!
+//! At time `t` with measured `[q̂, v̂]`, sample time `δt` and horizon `N`:
+//!
+//! ```text
+//! minimise   Σ_{k=1..N} w_q (q_k − q_ref)² + Σ_{k=0..N−1} w_v v_k² + Σ_{k=1..N−1} w_a ((v_k − v_{k−1}) / δt)²
+//! subject to q_0 = q̂,   v_0 = v̂,   q_{k+1} = q_k + δt v_k                        (k = 0..N−1)
+//!            and, by [`MpcMode`], for k = 2..N with t_k = t + k δt and h_k = q_k − s(t_k):
+//!            DiscreteCbf:      h_k ≥ (1 − γ) h_{k−1}   i.e. q_k − (1 − γ) q_{k−1} ≥ s(t_k) − (1 − γ) s(t_{k−1})
+//!            StateConstraint:  h_k ≥ 0                 i.e. q_k ≥ s(t_k)
+//!            Unconstrained:    nothing
+//! ```
+//!
+//! `v_0 = v̂` hands the tracking layer a reference continuous with the measured velocity;
+//! the desired acceleration is the finite difference `a_des = (v_1 − v_0) / δt`. The
+//! barrier rows start at k = 2 because `q_1 = q̂ + δt v̂` is fixed by the measurement:
+//! a row on it could only be trivially true or infeasible. From k = 2 on every row has a
+//! free velocity in it and velocities are unbounded, so the QP is always feasible.
+//!
+//! Both matrices are constant (the barrier is linear in `q` and its time dependence is in
+//! the bounds), so a cycle only updates `l`/`u` and OSQP keeps its factorisation.
+
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+use osqp::Problem;
+
+use super::barrier::{check_state, SineBarrier, State};
+use super::solver::{read, Csc, LayerSolverSettings, INF};
+use crate::error::{positive, CbfError};
+use crate::filter::QpStatus;
+
+/// What the MPC knows of the barrier.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum MpcMode {
+    /// The discrete-time CBF `h_{k} ≥ (1 − γ) h_{k−1}`, `γ ∈ (0, 1]` (the paper's proposal).
+    DiscreteCbf { gamma: f64 },
+    /// The state constraint `h(q_k, t_k) ≥ 0`.
+    StateConstraint,
+    /// No barrier information: only the high-rate CBF-QP keeps the system safe.
+    Unconstrained,
+}
+
+impl MpcMode {
+    /// Short name for tables and legends.
+    pub fn name(&self) -> &'static str {
+        match self {
+            MpcMode::DiscreteCbf { .. } => "CBF in MPC + CBF-QP",
+            MpcMode::StateConstraint => "state constraint in MPC + CBF-QP",
+            MpcMode::Unconstrained => "no constraint in MPC + CBF-QP",
+        }
+    }
+}
+
+/// Horizon, weights and solver settings of the MPC.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MpcSettings {
+    /// Sample time `δt` [s], also the re-planning period.
+    pub dt: f64,
+    /// Number of steps `N` (≥ 2).
+    pub horizon: usize,
+    /// The position it drives to [m].
+    pub q_ref: f64,
+    pub w_q: f64,
+    pub w_v: f64,
+    pub w_a: f64,
+    pub solver: LayerSolverSettings,
+}
+
+impl Default for MpcSettings {
+    /// 20 Hz over 1.5 s. The weights make it reach the reference in about two seconds
+    /// with accelerations of about 2 m/s²; all are assumed (the paper gives none).
+    fn default() -> Self {
+        Self {
+            dt: 0.05,
+            horizon: 30,
+            q_ref: 0.0,
+            w_q: 10.0,
+            w_v: 1.0,
+            w_a: 2.0,
+            solver: LayerSolverSettings { eps_abs: 1e-6, eps_rel: 1e-6, max_iter: 4000, scaling: 10 },
+        }
+    }
+}
+
+/// One MPC solution.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MpcOutput {
+    /// `(v_1 − v_0) / δt` [m/s²].
+    pub desired_accel: f64,
+    /// `Solved`, `SolvedInaccurate`, or a limit (its iterate, flagged).
+    pub status: QpStatus,
+    pub iterations: u32,
+}
+
+/// The kinematic MPC, laid out once; [`KinematicMpc::solve`] only updates bounds.
+pub struct KinematicMpc {
+    settings: MpcSettings,
+    mode: MpcMode,
+    barrier: SineBarrier,
+    p: Csc,
+    a: Csc,
+    q_lin: Vec<f64>,
+    lower: Vec<f64>,
+    upper: Vec<f64>,
+    problem: Option<Problem>,
+    z: Vec<f64>,
+    /// First barrier row.
+    barrier_row: usize,
+}
+
+impl std::fmt::Debug for KinematicMpc {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("KinematicMpc")
+            .field("mode", &self.mode)
+            .field("settings", &self.settings)
+            .finish_non_exhaustive()
+    }
+}
+
+impl KinematicMpc {
+    /// # Errors
+    /// A non-positive sample time, weight or γ outside (0, 1], a horizon below 2, or OSQP
+    /// refusing the set-up.
+    pub fn new(settings: MpcSettings, mode: MpcMode, barrier: SineBarrier) -> Result<Self, CbfError> {
+        let s = settings;
+        positive("MPC sample time", s.dt)?;
+        positive("MPC position weight", s.w_q)?;
+        positive("MPC velocity weight", s.w_v)?;
+        positive("MPC acceleration weight", s.w_a)?;
+        crate::error::finite("MPC reference", s.q_ref)?;
+        if s.horizon < 2 {
+            return Err(CbfError::OutOfRange { what: "MPC horizon", value: s.horizon as f64, range: "[2, ∞)" });
+        }
+        if let MpcMode::DiscreteCbf { gamma } = mode {
+            if !(gamma > 0.0 && gamma <= 1.0) {
+                return Err(CbfError::OutOfRange { what: "discrete CBF gamma", value: gamma, range: "(0, 1]" });
+            }
+        }
+        let n = s.horizon;
+        let (qi, vi) = (|k: usize| k, move |k: usize| n + 1 + k);
+        let vars = 2 * n + 1;
+
+        // Cost ½ zᵀ P z + q_linᵀ z; P upper triangle.
+        let wa = s.w_a / (s.dt * s.dt);
+        let p_value = |r: usize, c: usize| -> f64 {
+            if r == c {
+                if (1..=n).contains(&r) {
+                    return 2.0 * s.w_q;
+                }
+                if r > n {
+                    let k = r - (n + 1);
+                    let neighbours = usize::from(k >= 1) + usize::from(k < n - 1);
+                    return 2.0 * s.w_v + 2.0 * wa * neighbours as f64;
+                }
+                return 0.0;
+            }
+            if r > n && c == r + 1 {
+                return -2.0 * wa;
+            }
+            0.0
+        };
+        let p = Csc::new(vars, vars, |r, c| c >= r && p_value(r, c) != 0.0, p_value);
+        let mut q_lin = vec![0.0; vars];
+        for k in 1..=n {
+            q_lin[qi(k)] = -2.0 * s.w_q * s.q_ref;
+        }
+
+        // Rows: q_0, v_0, N dynamics rows, then the barrier rows.
+        let barrier_rows = match mode {
+            MpcMode::Unconstrained => 0,
+            _ => n - 1,
+        };
+        let rows = 2 + n + barrier_rows;
+        let keep_factor = match mode {
+            MpcMode::DiscreteCbf { gamma } => 1.0 - gamma,
+            _ => 0.0,
+        };
+        let a_value = move |r: usize, c: usize| -> f64 {
+            match r {
+                0 => f64::from(u8::from(c == qi(0))),
+                1 => f64::from(u8::from(c == vi(0))),
+                r if r < 2 + n => {
+                    let k = r - 2;
+                    if c == qi(k + 1) {
+                        1.0
+                    } else if c == qi(k) {
+                        -1.0
+                    } else if c == vi(k) {
+                        -s.dt
+                    } else {
+                        0.0
+                    }
+                }
+                r => {
+                    let k = r - (2 + n) + 2;
+                    if c == qi(k) {
+                        1.0
+                    } else if c == qi(k - 1) {
+                        -keep_factor
+                    } else {
+                        0.0
+                    }
+                }
+            }
+        };
+        let a = Csc::new(rows, vars, |r, c| a_value(r, c) != 0.0, a_value);
+        let mut lower = vec![0.0; rows];
+        let mut upper = vec![0.0; rows];
+        for r in 2 + n..rows {
+            (lower[r], upper[r]) = (-INF, INF);
+        }
+        let mut mpc = Self {
+            settings,
+            mode,
+            barrier,
+            p,
+            a,
+            q_lin,
+            lower,
+            upper,
+            problem: None,
+            z: vec![0.0; vars],
+            barrier_row: 2 + n,
+        };
+        mpc.problem = Some(mpc.setup()?);
+        Ok(mpc)
+    }
+
+    fn setup(&self) -> Result<Problem, CbfError> {
+        Problem::new(
+            self.p.view(),
+            &self.q_lin,
+            self.a.view(),
+            &self.lower,
+            &self.upper,
+            &self.settings.solver.to_osqp(),
+        )
+        .map_err(|e| CbfError::SolverSetup { reason: e.to_string() })
+    }
+
+    pub fn mode(&self) -> MpcMode {
+        self.mode
+    }
+
+    pub fn settings(&self) -> &MpcSettings {
+        &self.settings
+    }
+
+    /// Plan from state `x` at time `t`. Allocation-free unless the previous call ended in
+    /// a solver fault (the workspace is then rebuilt).
+    ///
+    /// # Errors
+    /// `x` or `t` not finite (nothing changes), or no usable iterate
+    /// ([`CbfError::QpFailed`]).
+    pub fn solve(&mut self, t: f64, x: &State) -> Result<MpcOutput, CbfError> {
+        check_state(x, t)?;
+        let n = self.settings.horizon;
+        let dt = self.settings.dt;
+        (self.lower[0], self.upper[0]) = (x[0], x[0]);
+        (self.lower[1], self.upper[1]) = (x[1], x[1]);
+        let keep = match self.mode {
+            MpcMode::DiscreteCbf { gamma } => 1.0 - gamma,
+            _ => 0.0,
+        };
+        if self.mode != MpcMode::Unconstrained {
+            for k in 2..=n {
+                let s_k = self.barrier.boundary(t + k as f64 * dt);
+                let s_prev = self.barrier.boundary(t + (k - 1) as f64 * dt);
+                self.lower[self.barrier_row + k - 2] = s_k - keep * s_prev;
+            }
+        }
+        let (status, iterations) =
+            catch_unwind(AssertUnwindSafe(|| self.run_osqp())).unwrap_or((QpStatus::SolverFault, 0));
+        if status == QpStatus::SolverFault {
+            self.problem = None;
+        }
+        if !matches!(
+            status,
+            QpStatus::Solved | QpStatus::SolvedInaccurate | QpStatus::MaxIterations | QpStatus::TimeLimit
+        ) {
+            return Err(CbfError::QpFailed { layer: "kinematic MPC", status: status.name() });
+        }
+        let (v0, v1) = (self.z[n + 1], self.z[n + 2]);
+        Ok(MpcOutput { desired_accel: (v1 - v0) / dt, status, iterations })
+    }
+
+    fn run_osqp(&mut self) -> (QpStatus, u32) {
+        if self.problem.is_none() {
+            match self.setup() {
+                Ok(p) => self.problem = Some(p),
+                Err(_) => return (QpStatus::SolverFault, 0),
+            }
+        }
+        let Some(problem) = self.problem.as_mut() else { return (QpStatus::SolverFault, 0) };
+        problem.update_bounds(&self.lower, &self.upper);
+        let result = problem.solve();
+        let iterations = result.iter();
+        let (status, iterate) = read(&result);
+        if let Some(z) = iterate {
+            self.z.copy_from_slice(z);
+        }
+        (status, iterations)
+    }
+
+    /// The last plan's positions `q_0..q_N` [m].
+    pub fn planned_positions(&self) -> &[f64] {
+        &self.z[..=self.settings.horizon]
+    }
+
+    /// The last plan's velocities `v_0..v_{N−1}` [m/s].
+    pub fn planned_velocities(&self) -> &[f64] {
+        &self.z[self.settings.horizon + 1..]
+    }
+}
