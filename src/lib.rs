@@ -14,6 +14,7 @@
 //! * [`filter`] — the ECBF-QP safety filter on OSQP: one allocation-free control update.
 //! * [`terrain`] — stairs as edge cuboids and floors; [`approach`] — a scripted drive to them.
 //! * [`sim`] — the closed-loop stair simulation (gait, filter, integration, CSV and figures).
+//! * [`lip`] — bipedal navigation: a 3D-LIP MPC with linear discrete CBFs around obstacles.
 //! * [`multilayer`] — a CBF in a low-rate MPC and in a high-rate QP, on the double integrator.
 
 pub mod approach;
@@ -22,6 +23,7 @@ pub mod error;
 pub mod filter;
 pub mod geometry;
 pub mod latency;
+pub mod lip;
 pub mod model;
 pub mod multilayer;
 pub mod sat;

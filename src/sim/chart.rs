@@ -1,5 +1,6 @@
-//! Minimal SVG line charts for the simulation figures. SVG keeps text as text for the
-//! viewer to render, so no font has to be found or shipped at run time.
+//! Minimal SVG charts for the simulation figures: lines, markers, filled rectangles, and
+//! optionally equal x/y scales for maps. SVG keeps text as text for the viewer to render,
+//! so no font has to be found or shipped at run time.
 
 use std::fmt::Write;
 
@@ -11,17 +12,32 @@ pub struct Series {
     pub points: Vec<(f64, f64)>,
     /// Drawn dashed (reference lines).
     pub dashed: bool,
+    /// Drawn as separate dots instead of a line (e.g. footsteps).
+    pub markers: bool,
 }
 
 impl Series {
     pub fn new(name: &str, color: &'static str, points: Vec<(f64, f64)>) -> Self {
-        Self { name: name.to_string(), color, points, dashed: false }
+        Self { name: name.to_string(), color, points, dashed: false, markers: false }
     }
 
     pub fn dashed(mut self) -> Self {
         self.dashed = true;
         self
     }
+
+    pub fn markers(mut self) -> Self {
+        self.markers = true;
+        self
+    }
+}
+
+/// A filled axis-aligned rectangle in data coordinates (e.g. an obstacle).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Area {
+    pub min: (f64, f64),
+    pub max: (f64, f64),
+    pub fill: &'static str,
 }
 
 /// A chart: title, axis labels, series.
@@ -31,6 +47,10 @@ pub struct Chart {
     pub x_label: String,
     pub y_label: String,
     pub series: Vec<Series>,
+    /// Drawn under the series.
+    pub areas: Vec<Area>,
+    /// One data unit is as long on x as on y (maps).
+    pub equal_axes: bool,
 }
 
 const WIDTH: f64 = 800.0;
@@ -44,7 +64,24 @@ const MAX_POINTS: usize = 4000;
 
 impl Chart {
     pub fn new(title: &str, x_label: &str, y_label: &str) -> Self {
-        Self { title: title.into(), x_label: x_label.into(), y_label: y_label.into(), series: Vec::new() }
+        Self {
+            title: title.into(),
+            x_label: x_label.into(),
+            y_label: y_label.into(),
+            series: Vec::new(),
+            areas: Vec::new(),
+            equal_axes: false,
+        }
+    }
+
+    pub fn with_area(mut self, area: Area) -> Self {
+        self.areas.push(area);
+        self
+    }
+
+    pub fn equal_axes(mut self) -> Self {
+        self.equal_axes = true;
+        self
     }
 
     pub fn with(mut self, series: Series) -> Self {
@@ -55,9 +92,10 @@ impl Chart {
     /// The chart as an SVG document. Non-finite points are skipped.
     pub fn to_svg(&self) -> String {
         let finite = |&(x, y): &(f64, f64)| x.is_finite() && y.is_finite();
-        let all = self.series.iter().flat_map(|s| s.points.iter().filter(|p| finite(p)));
+        let corners = self.areas.iter().flat_map(|a| [a.min, a.max]);
+        let all = self.series.iter().flat_map(|s| s.points.iter().copied()).chain(corners).filter(finite);
         let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
-        for &(x, y) in all {
+        for (x, y) in all {
             (x0, x1, y0, y1) = (x0.min(x), x1.max(x), y0.min(y), y1.max(y));
         }
         // No finite point, or all at one x: a unit range around it.
@@ -70,6 +108,12 @@ impl Chart {
         let pad = 0.05 * (y1 - y0);
         (y0, y1) = (y0 - pad, y1 + pad);
         let (pw, ph) = (WIDTH - LEFT - RIGHT, HEIGHT - TOP - BOTTOM);
+        if self.equal_axes {
+            // Widen the range that has more data per pixel, about its centre.
+            let scale = ((x1 - x0) / pw).max((y1 - y0) / ph);
+            let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+            (x0, x1, y0, y1) = (cx - 0.5 * scale * pw, cx + 0.5 * scale * pw, cy - 0.5 * scale * ph, cy + 0.5 * scale * ph);
+        }
         let sx = |x: f64| LEFT + (x - x0) / (x1 - x0) * pw;
         let sy = |y: f64| TOP + (1.0 - (y - y0) / (y1 - y0)) * ph;
 
@@ -97,7 +141,21 @@ impl Chart {
             TOP + ph / 2.0,
             escape(&self.y_label)
         );
+        for a in self.areas.iter().filter(|a| finite(&a.min) && finite(&a.max)) {
+            let (left, top) = (sx(a.min.0), sy(a.max.1));
+            let (w, h) = (sx(a.max.0) - left, sy(a.min.1) - top);
+            let _ = writeln!(svg, r#"<rect x="{left:.1}" y="{top:.1}" width="{w:.1}" height="{h:.1}" fill="{}"/>"#, a.fill);
+        }
         for (k, s) in self.series.iter().enumerate() {
+            if s.markers {
+                for (x, y) in s.points.iter().filter(|p| finite(p)) {
+                    let _ = writeln!(svg, r#"<circle cx="{:.1}" cy="{:.1}" r="3" fill="{}"/>"#, sx(*x), sy(*y), s.color);
+                }
+                let ly = TOP + 14.0 + 16.0 * k as f64;
+                let _ = writeln!(svg, r#"<circle cx="{}" cy="{}" r="3" fill="{}"/>"#, LEFT + 20.0, ly - 4.0, s.color);
+                let _ = writeln!(svg, r#"<text x="{}" y="{ly}">{}</text>"#, LEFT + 36.0, escape(&s.name));
+                continue;
+            }
             let stride = s.points.len().div_ceil(MAX_POINTS).max(1);
             let mut path = String::new();
             for (x, y) in s.points.iter().step_by(stride).filter(|p| finite(p)) {
@@ -142,5 +200,24 @@ mod tests {
         let high = format!("{:.1},{:.1}", LEFT + pw, TOP + ph * (0.05 / 1.1));
         assert!(svg.contains(&low) && svg.contains(&high), "{svg}");
         assert_eq!(svg.matches("<polyline").count(), 1);
+    }
+
+    #[test]
+    fn equal_axes_give_both_axes_one_scale_and_areas_and_markers_are_drawn() {
+        let svg = Chart::new("map", "x", "y")
+            .equal_axes()
+            .with_area(Area { min: (0.0, 0.0), max: (1.0, 1.0), fill: "gray" })
+            .with(Series::new("dots", "red", vec![(0.0, 0.0), (4.0, 1.0)]).markers())
+            .to_svg();
+        // The unit square must come out square in pixels.
+        let rect = svg.lines().find(|l| l.contains(r#"fill="gray""#)).expect("area drawn");
+        let attr = |name: &str| -> f64 {
+            let start = rect.find(&format!(r#" {name}=""#)).expect("attribute") + name.len() + 3;
+            rect[start..].split('"').next().and_then(|v| v.parse().ok()).expect("number")
+        };
+        assert!((attr("width") - attr("height")).abs() <= 0.2, "{rect}");
+        assert!(attr("width") > 10.0);
+        assert_eq!(svg.matches("<circle").count(), 3, "two dots and a legend dot");
+        assert_eq!(svg.matches("<polyline").count(), 0);
     }
 }
