@@ -126,12 +126,12 @@ impl Chart {
         let _ = writeln!(svg, r#"<rect width="100%" height="100%" fill="white"/>"#);
         let _ = writeln!(svg, r#"<text x="{}" y="22" font-size="15" text-anchor="middle">{}</text>"#, WIDTH / 2.0, escape(&self.title));
         let _ = writeln!(svg, r#"<rect x="{LEFT}" y="{TOP}" width="{pw}" height="{ph}" fill="none" stroke="black"/>"#);
-        for k in 0..=5 {
-            let f = k as f64 / 5.0;
-            let (x, y) = (x0 + f * (x1 - x0), y0 + f * (y1 - y0));
+        for x in round_ticks(x0, x1) {
             let _ = writeln!(svg, r##"<line x1="{0}" y1="{TOP}" x2="{0}" y2="{1}" stroke="#ddd"/>"##, sx(x), TOP + ph);
-            let _ = writeln!(svg, r##"<line x1="{LEFT}" y1="{0}" x2="{1}" y2="{0}" stroke="#ddd"/>"##, sy(y), LEFT + pw);
             let _ = writeln!(svg, r#"<text x="{}" y="{}" text-anchor="middle">{}</text>"#, sx(x), TOP + ph + 16.0, tick(x));
+        }
+        for y in round_ticks(y0, y1) {
+            let _ = writeln!(svg, r##"<line x1="{LEFT}" y1="{0}" x2="{1}" y2="{0}" stroke="#ddd"/>"##, sy(y), LEFT + pw);
             let _ = writeln!(svg, r#"<text x="{}" y="{}" text-anchor="end">{}</text>"#, LEFT - 6.0, sy(y) + 4.0, tick(y));
         }
         let _ = writeln!(svg, r#"<text x="{}" y="{}" text-anchor="middle">{}</text>"#, LEFT + pw / 2.0, HEIGHT - 10.0, escape(&self.x_label));
@@ -172,6 +172,18 @@ impl Chart {
     }
 }
 
+/// Tick positions inside `[lo, hi]` at the smallest round step (1, 2 or 5 × 10^k) giving at
+/// most about 8 ticks.
+fn round_ticks(lo: f64, hi: f64) -> impl Iterator<Item = f64> {
+    let raw = (hi - lo) / 8.0;
+    let magnitude = 10f64.powf(raw.log10().floor());
+    let step = [1.0, 2.0, 5.0, 10.0].into_iter().map(|m| m * magnitude).find(|&s| s >= raw).unwrap_or(raw);
+    let first = (lo / step).ceil() as i64;
+    let last = (hi / step).floor() as i64;
+    // Multiples of the step, snapped so that 0.1 * 3 prints as 0.3.
+    (first..=last).map(move |k| (k as f64 * step / magnitude).round() * magnitude)
+}
+
 fn tick(v: f64) -> String {
     if v == 0.0 || (1e-2..1e4).contains(&v.abs()) {
         format!("{v:.3}").trim_end_matches('0').trim_end_matches('.').to_string()
@@ -187,6 +199,16 @@ fn escape(s: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ticks_fall_on_round_steps_inside_the_range() {
+        let ticks: Vec<f64> = round_ticks(-0.205, 6.145).collect();
+        assert_eq!(ticks, [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
+        let ticks: Vec<f64> = round_ticks(-1.625, 1.125).collect();
+        assert_eq!(ticks, [-1.5, -1.0, -0.5, 0.0, 0.5, 1.0]);
+        let ticks: Vec<String> = round_ticks(0.0, 9.999).map(tick).collect();
+        assert_eq!(ticks, ["0", "2", "4", "6", "8"]);
+    }
 
     #[test]
     fn a_chart_maps_its_extremes_to_the_plot_corners() {
