@@ -33,6 +33,9 @@ pub struct RowSpec<'a> {
     pub slack_weight: f64,
 }
 
+/// OSQP's primal and dual iterates, borrowed from its workspace.
+pub(crate) type Iterate<'a> = (&'a [f64], &'a [f64]);
+
 /// How a solve ended, as OSQP reported it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum QpStatus {
@@ -53,6 +56,22 @@ impl QpStatus {
     /// Whether the returned iterate is an optimum to the set tolerances.
     pub fn is_solved(self) -> bool {
         matches!(self, QpStatus::Solved | QpStatus::SolvedInaccurate)
+    }
+
+    /// OSQP's report, with the primal and dual iterates where it returned them: an
+    /// optimum, or the point it stopped at on an iteration or time limit. Shared by every
+    /// OSQP problem in the crate.
+    pub(crate) fn of<'a>(result: &'a Status<'a>) -> (QpStatus, Option<Iterate<'a>>) {
+        match result {
+            Status::Solved(s) => (QpStatus::Solved, Some((s.x(), s.y()))),
+            Status::SolvedInaccurate(s) => (QpStatus::SolvedInaccurate, Some((s.x(), s.y()))),
+            Status::MaxIterationsReached(s) => (QpStatus::MaxIterations, Some((s.x(), s.y()))),
+            Status::TimeLimitReached(s) => (QpStatus::TimeLimit, Some((s.x(), s.y()))),
+            Status::PrimalInfeasible(_) | Status::PrimalInfeasibleInaccurate(_) => (QpStatus::PrimalInfeasible, None),
+            Status::DualInfeasible(_) | Status::DualInfeasibleInaccurate(_) => (QpStatus::DualInfeasible, None),
+            Status::NonConvex(_) => (QpStatus::NonConvex, None),
+            _ => (QpStatus::SolverFault, None),
+        }
     }
 
     /// Snake-case name, as shown in Python.
@@ -366,16 +385,7 @@ impl EcbfQp {
         problem.update_A(a);
         let result = problem.solve();
         self.iterations = result.iter();
-        let (status, iterate) = match &result {
-            Status::Solved(s) => (QpStatus::Solved, Some((s.x(), s.y()))),
-            Status::SolvedInaccurate(s) => (QpStatus::SolvedInaccurate, Some((s.x(), s.y()))),
-            Status::MaxIterationsReached(s) => (QpStatus::MaxIterations, Some((s.x(), s.y()))),
-            Status::TimeLimitReached(s) => (QpStatus::TimeLimit, Some((s.x(), s.y()))),
-            Status::PrimalInfeasible(_) | Status::PrimalInfeasibleInaccurate(_) => (QpStatus::PrimalInfeasible, None),
-            Status::DualInfeasible(_) | Status::DualInfeasibleInaccurate(_) => (QpStatus::DualInfeasible, None),
-            Status::NonConvex(_) => (QpStatus::NonConvex, None),
-            _ => (QpStatus::SolverFault, None),
-        };
+        let (status, iterate) = QpStatus::of(&result);
         if let Some((z, y)) = iterate {
             for ((u, z), w) in self.u.iter_mut().zip(z).zip(&self.sqrt_w) {
                 *u = z / w;

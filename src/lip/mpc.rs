@@ -54,7 +54,7 @@ use std::borrow::Cow;
 use std::f64::consts::PI;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
-use osqp::{CscMatrix, Problem, Status};
+use osqp::{CscMatrix, Problem};
 
 use super::model::{LipInput, LipState};
 use super::obstacles::HalfPlane;
@@ -534,17 +534,9 @@ impl LipMpc {
         problem.update_bounds(&self.lower, &self.upper);
         let result = problem.solve();
         self.iterations = result.iter();
-        let (status, z) = match &result {
-            Status::Solved(s) => (QpStatus::Solved, Some(s.x())),
-            Status::SolvedInaccurate(s) => (QpStatus::SolvedInaccurate, Some(s.x())),
-            Status::MaxIterationsReached(_) => (QpStatus::MaxIterations, None),
-            Status::TimeLimitReached(_) => (QpStatus::TimeLimit, None),
-            Status::PrimalInfeasible(_) | Status::PrimalInfeasibleInaccurate(_) => (QpStatus::PrimalInfeasible, None),
-            Status::DualInfeasible(_) | Status::DualInfeasibleInaccurate(_) => (QpStatus::DualInfeasible, None),
-            Status::NonConvex(_) => (QpStatus::NonConvex, None),
-            _ => (QpStatus::SolverFault, None),
-        };
-        if let Some(z) = z {
+        let (status, iterate) = QpStatus::of(&result);
+        // A plan is kept only when solved: an iterate stopped at a limit is not a plan.
+        if let Some((z, _)) = iterate.filter(|_| status.is_solved()) {
             self.store_plan(z);
         }
         self.problem = Some(problem);

@@ -16,7 +16,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use osqp::Problem;
 
 use super::barrier::BarrierRow;
-use super::solver::{read, Csc, LayerSolverSettings, INF};
+use super::solver::{Csc, LayerSolverSettings, INF};
 use crate::error::{finite, positive, CbfError};
 use crate::filter::QpStatus;
 
@@ -157,7 +157,8 @@ impl IdCbfQp {
         problem.update_bounds(&self.lower, &self.upper);
         problem.update_A(self.a.view());
         let result = problem.solve();
-        let (status, iterate) = read(&result);
+        let (status, iterate) = QpStatus::of(&result);
+        let iterate = iterate.map(|(x, _)| x);
         (status, result.iter(), iterate.map_or(f64::NAN, |z| z[0]))
     }
 }

@@ -25,7 +25,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use osqp::Problem;
 
 use super::barrier::{check_state, SineBarrier, State};
-use super::solver::{read, Csc, LayerSolverSettings, INF};
+use super::solver::{Csc, LayerSolverSettings, INF};
 use crate::error::{positive, CbfError};
 use crate::filter::QpStatus;
 
@@ -295,7 +295,8 @@ impl KinematicMpc {
         problem.update_bounds(&self.lower, &self.upper);
         let result = problem.solve();
         let iterations = result.iter();
-        let (status, iterate) = read(&result);
+        let (status, iterate) = QpStatus::of(&result);
+        let iterate = iterate.map(|(x, _)| x);
         if let Some(z) = iterate {
             self.z.copy_from_slice(z);
         }

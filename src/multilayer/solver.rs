@@ -1,11 +1,10 @@
 //! What the two layers share about OSQP: a sparse matrix built once from a dense
-//! description, the solver settings, and reading a result without allocating.
+//! description, and the solver settings (results are read by `QpStatus::of`).
 
 use std::borrow::Cow;
 
-use osqp::{CscMatrix, Status};
+use osqp::CscMatrix;
 
-use crate::filter::QpStatus;
 
 /// OSQP's infinity for `l`/`u`.
 pub(crate) const INF: f64 = 1e30;
@@ -77,20 +76,5 @@ impl LayerSolverSettings {
             .adaptive_rho(true)
             .adaptive_rho_interval(Some(25))
             .check_termination(Some(5))
-    }
-}
-
-/// The status, and the primal iterate when OSQP returned one (solved, inaccurate, or a
-/// limit reached: an iterate the caller may use, flagged by the status).
-pub(crate) fn read<'a>(result: &'a Status<'a>) -> (QpStatus, Option<&'a [f64]>) {
-    match result {
-        Status::Solved(s) => (QpStatus::Solved, Some(s.x())),
-        Status::SolvedInaccurate(s) => (QpStatus::SolvedInaccurate, Some(s.x())),
-        Status::MaxIterationsReached(s) => (QpStatus::MaxIterations, Some(s.x())),
-        Status::TimeLimitReached(s) => (QpStatus::TimeLimit, Some(s.x())),
-        Status::PrimalInfeasible(_) | Status::PrimalInfeasibleInaccurate(_) => (QpStatus::PrimalInfeasible, None),
-        Status::DualInfeasible(_) | Status::DualInfeasibleInaccurate(_) => (QpStatus::DualInfeasible, None),
-        Status::NonConvex(_) => (QpStatus::NonConvex, None),
-        _ => (QpStatus::SolverFault, None),
     }
 }
