@@ -1,7 +1,8 @@
 //! Counting allocators for the no-allocation tests: Rust's global allocator, and the C
 //! `malloc` family that OSQP (compiled C, statically linked) calls. A test binary
-//! includes this file with `#[path = "common/alloc_count.rs"] mod alloc_count;` and must
-//! hold a single test: the counters are process-wide.
+//! includes this file with `#[path = "common/alloc_count.rs"] mod alloc_count;`. The
+//! counters are process-wide, so such a binary runs without libtest (`harness = false`):
+//! its `main` is the only thread.
 #![allow(dead_code)]
 
 use std::alloc::{GlobalAlloc, Layout, System};
