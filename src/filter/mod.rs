@@ -55,7 +55,7 @@ mod settings;
 use std::time::{Duration, Instant};
 
 pub use qp::{EcbfQp, QpStatus, RowSpec};
-pub use settings::{FamilyParams, FilterSettings, SolverSettings};
+pub use settings::{ecbf_gains, FamilyParams, FilterSettings, SolverSettings};
 
 use crate::catalog::{Capacity, Catalog, Environment, Row, RowSlot};
 use crate::error::CbfError;

@@ -24,9 +24,14 @@ pub struct FamilyParams {
 impl FamilyParams {
     /// `[k0, k1]` of `L_f² h + k1 L_f h + k0 h ≥ 0`.
     pub fn gains(&self) -> [f64; 2] {
-        let [p1, p2] = self.poles;
-        [p1 * p2, p1 + p2]
+        ecbf_gains(self.poles)
     }
+}
+
+/// `[k0, k1] = [p1 p2, p1 + p2]`: the ECBF gains that place the closed-loop poles of `h`
+/// at `−p1, −p2`. Every ECBF row in the crate takes its gains from here.
+pub fn ecbf_gains([p1, p2]: [f64; 2]) -> [f64; 2] {
+    [p1 * p2, p1 + p2]
 }
 
 /// OSQP settings for this problem class, exposed as they are passed to the solver.

@@ -46,8 +46,7 @@ impl Default for CbfQpSettings {
 impl CbfQpSettings {
     /// `[k0, k1]`.
     pub fn gains(&self) -> [f64; 2] {
-        let [p1, p2] = self.poles;
-        [p1 * p2, p1 + p2]
+        crate::filter::ecbf_gains(self.poles)
     }
 }
 
