@@ -45,7 +45,7 @@ fn per_row(c: &mut Criterion) {
 
 fn whole_catalog(c: &mut Criterion) {
     let cap = Capacity::PAPER_WORST_CASE;
-    let mut env = Environment::new(cap);
+    let mut env = Environment::new(cap).unwrap();
     for e in staircase() {
         env.push_edge(e).expect("capacity");
     }
@@ -60,7 +60,7 @@ fn whole_catalog(c: &mut Criterion) {
         env.swing[leg] = true;
         env.stability[leg] = [Some(StabilityBound { a: 1.0, b: 0.3 }), Some(StabilityBound { a: -1.0, b: 0.3 })];
     }
-    let mut catalog = Catalog::new(cap);
+    let mut catalog = Catalog::new(cap).unwrap();
     let x = moving_posture();
     catalog.evaluate(&x, &env).expect("finite");
     assert_eq!(catalog.rows().iter().filter(|r| r.active).count(), 269);

@@ -13,9 +13,9 @@
 //! use cbfgen::model::standard_posture;
 //! use nalgebra::Vector3;
 //!
-//! let mut catalog = Catalog::new(Capacity::PAPER_WORST_CASE);
+//! let mut catalog = Catalog::new(Capacity::PAPER_WORST_CASE)?;
 //! assert_eq!(catalog.len(), 269);
-//! let mut env = Environment::new(Capacity::PAPER_WORST_CASE);
+//! let mut env = Environment::new(Capacity::PAPER_WORST_CASE)?;
 //! let step = cbfgen::OrientedBox::axis_aligned(Vector3::new(0.8, 0.0, 0.06), Vector3::new(0.02, 1.0, 0.02))?;
 //! env.push_edge(EdgeCuboid::from_box(&step))?;
 //! catalog.evaluate(&standard_posture(), &env)?;
@@ -111,6 +111,10 @@ impl Row {
 }
 
 /// How many obstacle and foothold rows the catalog reserves.
+///
+/// The fields are public; [`Capacity::validate`] (called by [`Catalog::new`],
+/// [`Environment::new`] and the filter) bounds them by [`Capacity::MAX_EDGES`] and
+/// [`Capacity::MAX_FOOTHOLD_EDGES`], so a typo cannot ask for gigabytes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Capacity {
     /// Edge cuboids: each brings 1 body row and 6 toe rows.
@@ -124,9 +128,33 @@ impl Capacity {
     /// 24 joint-limit, 6 foot-height, 12 stability and 87 foothold rows: 269 rows.
     pub const PAPER_WORST_CASE: Capacity = Capacity { edges: 20, foothold_edges: [15, 15, 15, 14, 14, 14] };
 
-    /// Rows a catalog of this capacity holds.
+    /// Most edge cuboids a catalog may reserve: 7 rows each, so 7175 collision rows,
+    /// far beyond what a 1 ms QP can take (the paper's worst case has 20).
+    pub const MAX_EDGES: usize = 1025;
+
+    /// Most foothold half-planes per leg.
+    pub const MAX_FOOTHOLD_EDGES: usize = 256;
+
+    /// # Errors
+    /// [`CbfError::TooLarge`] when a count is above its maximum.
+    pub fn validate(&self) -> Result<(), CbfError> {
+        if self.edges > Self::MAX_EDGES {
+            return Err(CbfError::TooLarge { what: "edge capacity", value: self.edges, max: Self::MAX_EDGES });
+        }
+        for &n in &self.foothold_edges {
+            if n > Self::MAX_FOOTHOLD_EDGES {
+                return Err(CbfError::TooLarge { what: "foothold edge capacity", value: n, max: Self::MAX_FOOTHOLD_EDGES });
+            }
+        }
+        Ok(())
+    }
+
+    /// Rows a catalog of this capacity holds (saturating, so an unvalidated capacity
+    /// cannot wrap the count).
     pub fn rows(&self) -> usize {
-        LEGS * (JOINT_ROWS_PER_LEG + 1 + 2) + self.edges * (1 + LEGS) + self.foothold_edges.iter().sum::<usize>()
+        let fixed = LEGS * (JOINT_ROWS_PER_LEG + 1 + 2);
+        let footholds = self.foothold_edges.iter().fold(0usize, |a, &n| a.saturating_add(n));
+        fixed.saturating_add(self.edges.saturating_mul(1 + LEGS)).saturating_add(footholds)
     }
 }
 
@@ -214,15 +242,20 @@ pub struct Environment {
 }
 
 impl Environment {
-    pub fn new(capacity: Capacity) -> Self {
-        Self {
+    /// An empty environment (no edges, no footholds, floors at 0, no swing legs).
+    ///
+    /// # Errors
+    /// A capacity above its maximum ([`Capacity::validate`]).
+    pub fn new(capacity: Capacity) -> Result<Self, CbfError> {
+        capacity.validate()?;
+        Ok(Self {
             capacity,
             edges: Vec::with_capacity(capacity.edges),
             floor_z: [0.0; LEGS],
             footholds: std::array::from_fn(|leg| Vec::with_capacity(capacity.foothold_edges[leg])),
             swing: [false; LEGS],
             stability: [[None; 2]; LEGS],
-        }
+        })
     }
 
     pub fn capacity(&self) -> Capacity {
@@ -275,7 +308,12 @@ pub struct Catalog {
 }
 
 impl Catalog {
-    pub fn new(capacity: Capacity) -> Self {
+    /// Lay out every row for `capacity`.
+    ///
+    /// # Errors
+    /// A capacity above its maximum ([`Capacity::validate`]).
+    pub fn new(capacity: Capacity) -> Result<Self, CbfError> {
+        capacity.validate()?;
         let mut slots = Vec::with_capacity(capacity.rows());
         for leg in 0..LEGS {
             for instance in 0..JOINT_ROWS_PER_LEG {
@@ -311,7 +349,7 @@ impl Catalog {
         }
         debug_assert_eq!(slots.len(), capacity.rows());
         let rows = vec![Row { lie: [0.0; RELATIVE_DEGREE + 1], lg: [0.0; NU], active: false }; slots.len()];
-        Self { capacity, slots, rows }
+        Ok(Self { capacity, slots, rows })
     }
 
     pub fn capacity(&self) -> Capacity {

@@ -14,6 +14,10 @@ pub enum CbfError {
     /// More obstacles or foothold edges than the catalog was sized for.
     #[error("too many {what}: capacity is {capacity}")]
     CapacityExceeded { what: &'static str, capacity: usize },
+    /// A capacity (or another count) above its documented maximum, e.g.
+    /// [`Capacity::MAX_EDGES`](crate::catalog::Capacity::MAX_EDGES).
+    #[error("{what} = {value} is above the maximum of {max}")]
+    TooLarge { what: &'static str, value: usize, max: usize },
     /// An environment sized for another catalog capacity.
     #[error("environment and catalog were built for different capacities")]
     CapacityMismatch,
@@ -40,8 +44,8 @@ pub enum CbfError {
     #[error("{layer}: QP not solved ({status})")]
     QpFailed { layer: &'static str, status: &'static str },
     /// A rotation matrix was not orthonormal with determinant +1.
-    #[error("rotation is not a proper rotation (|R^T R - I| = {deviation:.3e})")]
-    NotARotation { deviation: f64 },
+    #[error("rotation is not a proper rotation (|R^T R - I| = {deviation:.3e}, det R = {determinant:.6})")]
+    NotARotation { deviation: f64, determinant: f64 },
 }
 
 /// `Ok(value)` if finite, else [`CbfError::NonFinite`].
@@ -50,6 +54,16 @@ pub(crate) fn finite(what: &'static str, value: f64) -> Result<f64, CbfError> {
         Ok(value)
     } else {
         Err(CbfError::NonFinite { what, value })
+    }
+}
+
+/// `Ok(value)` if finite and within `[lo, hi]`, else [`CbfError::NonFinite`] or
+/// [`CbfError::OutOfRange`] naming `range` (the documented domain, for the message).
+pub(crate) fn within(what: &'static str, value: f64, lo: f64, hi: f64, range: &'static str) -> Result<f64, CbfError> {
+    if (lo..=hi).contains(&finite(what, value)?) {
+        Ok(value)
+    } else {
+        Err(CbfError::OutOfRange { what, value, range })
     }
 }
 

@@ -49,7 +49,7 @@ impl OrientedBox {
         }
         let deviation = (m.transpose() * m - Matrix3::identity()).abs().max();
         if deviation > ROTATION_TOLERANCE || m.determinant() < 0.0 {
-            return Err(CbfError::NotARotation { deviation });
+            return Err(CbfError::NotARotation { deviation, determinant: m.determinant() });
         }
         Ok(Self { center, rotation, half_extents })
     }

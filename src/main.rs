@@ -202,8 +202,8 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             Ok(())
         }
         Command::Rows => {
-            let env = Environment::new(Capacity::PAPER_WORST_CASE);
-            let mut catalog = Catalog::new(Capacity::PAPER_WORST_CASE);
+            let env = Environment::new(Capacity::PAPER_WORST_CASE)?;
+            let mut catalog = Catalog::new(Capacity::PAPER_WORST_CASE)?;
             catalog.evaluate(&model::standard_posture(), &env)?;
             writeln!(stdout, "joint-limit rows at the standard posture (body underside {} m up)", model::NOMINAL_CLEARANCE)?;
             writeln!(stdout, "{:<4} {:<9} {:>12} {:>12} {:>12}", "leg", "row", "h", "L_f h", "L_f^2 h")?;

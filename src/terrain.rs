@@ -106,7 +106,7 @@ pub fn worst_case_environment(
     foothold_radius: f64,
 ) -> Result<Environment, CbfError> {
     crate::error::positive("foothold radius", foothold_radius)?;
-    let mut env = Environment::new(capacity);
+    let mut env = Environment::new(capacity)?;
     for k in 0..capacity.edges {
         env.push_edge(stairs.edge(k)?)?;
     }

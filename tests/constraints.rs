@@ -229,7 +229,7 @@ fn toe_on_a_foothold_edge_and_on_the_floor_gives_zero() {
 
 fn full_environment(r: &mut impl Rng) -> Environment {
     let cap = Capacity::PAPER_WORST_CASE;
-    let mut env = Environment::new(cap);
+    let mut env = Environment::new(cap).unwrap();
     for _ in 0..cap.edges {
         let (c, rot, h) = random_edge(r);
         let m = nalgebra::Matrix3::from_row_slice(&rot);
@@ -255,7 +255,7 @@ fn full_environment(r: &mut impl Rng) -> Environment {
 fn the_paper_worst_case_has_269_rows_all_evaluated() {
     let mut r = rng(4);
     let env = full_environment(&mut r);
-    let mut catalog = Catalog::new(Capacity::PAPER_WORST_CASE);
+    let mut catalog = Catalog::new(Capacity::PAPER_WORST_CASE).unwrap();
     assert_eq!(catalog.len(), 269);
     let x = random_state(&mut r);
     catalog.evaluate(&x, &env).unwrap();
@@ -289,13 +289,13 @@ fn the_paper_worst_case_has_269_rows_all_evaluated() {
 fn bad_input_is_an_error_not_a_panic() {
     let mut r = rng(5);
     let env = full_environment(&mut r);
-    let mut catalog = Catalog::new(Capacity::PAPER_WORST_CASE);
+    let mut catalog = Catalog::new(Capacity::PAPER_WORST_CASE).unwrap();
     let mut x = model::standard_posture();
     x[7] = f64::NAN;
     assert!(catalog.evaluate(&x, &env).is_err());
     x[7] = f64::INFINITY;
     assert!(catalog.evaluate(&x, &env).is_err());
-    let mut small = Environment::new(Capacity { edges: 1, foothold_edges: [1; 6] });
+    let mut small = Environment::new(Capacity { edges: 1, foothold_edges: [1; 6] }).unwrap();
     assert!(catalog.evaluate(&model::standard_posture(), &small).is_err(), "capacity mismatch");
     let edge = env.edges()[0];
     small.push_edge(edge).unwrap();

@@ -321,7 +321,7 @@ fn nan_or_infinite_state_and_nominal_input_are_errors_that_change_nothing() {
     assert!(matches!(filter.update(&drive.x, &bad_u, &drive.env), Err(CbfError::NonFinite { .. })));
     assert_eq!(*filter.output(), before, "a rejected update must leave the last output");
     assert_eq!(filter.fallback_input(&bad_u), before.u);
-    let other = Environment::new(Capacity { edges: 1, foothold_edges: [1; 6] });
+    let other = Environment::new(Capacity { edges: 1, foothold_edges: [1; 6] }).unwrap();
     assert_eq!(filter.update(&drive.x, &u_ref, &other).err(), Some(CbfError::CapacityMismatch));
 }
 

@@ -39,7 +39,7 @@
 //! use nalgebra::Vector3;
 //!
 //! let mut filter = EcbfFilter::new(Capacity::PAPER_WORST_CASE, FilterSettings::default())?;
-//! let mut env = Environment::new(Capacity::PAPER_WORST_CASE);
+//! let mut env = Environment::new(Capacity::PAPER_WORST_CASE)?;
 //! let step = cbfgen::OrientedBox::axis_aligned(Vector3::new(0.8, 0.0, 0.15), Vector3::new(0.02, 1.0, 0.02))?;
 //! env.push_edge(EdgeCuboid::from_box(&step))?;
 //! let out = filter.update(&standard_posture(), &[0.0; NU], &env)?;
@@ -135,7 +135,7 @@ impl EcbfFilter {
     /// Invalid settings ([`FilterSettings::validate`]) or an OSQP set-up failure.
     pub fn new(capacity: Capacity, settings: FilterSettings) -> Result<Self, CbfError> {
         settings.validate()?;
-        let catalog = Catalog::new(capacity);
+        let catalog = Catalog::new(capacity)?;
         let specs: Vec<RowSpec<'_>> = catalog
             .slots()
             .iter()

@@ -42,8 +42,8 @@ pub struct PyEnvironment {
 impl PyEnvironment {
     #[new]
     #[pyo3(signature = (edges=20, foothold_edges=None))]
-    fn new(edges: usize, foothold_edges: Option<[usize; 6]>) -> Self {
-        Self { inner: Environment::new(capacity(edges, foothold_edges)) }
+    fn new(edges: usize, foothold_edges: Option<[usize; 6]>) -> PyResult<Self> {
+        Ok(Self { inner: Environment::new(capacity(edges, foothold_edges))? })
     }
 
     /// ``(edges, foothold_edges)`` this environment was sized for.

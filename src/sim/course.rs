@@ -47,7 +47,7 @@ impl Course {
     /// Degenerate stair dimensions.
     pub fn new(scenario: Scenario, gait: GaitParams) -> Result<Self, CbfError> {
         let stairs = scenario.stairs();
-        let mut env = Environment::new(Self::CAPACITY);
+        let mut env = Environment::new(Self::CAPACITY)?;
         let mut edges = Vec::with_capacity(stairs.count);
         for k in 0..stairs.count {
             let edge = stairs.edge(k)?;
