@@ -28,7 +28,7 @@
 use crate::error::{finite, CbfError};
 use crate::generated::tachyon3 as gen;
 use crate::geometry::OrientedBox;
-use crate::model::{State, NU};
+use crate::model::{self, State, NU};
 
 /// Every family of this model has relative degree 2; the row storage relies on it. A
 /// model change that alters a degree stops the build here instead of misreading rows.
@@ -196,24 +196,37 @@ pub struct HalfPlane {
 }
 
 impl HalfPlane {
+    /// The half-plane `normal · p_xy + offset ≥ 0`, stored with a unit normal (the same
+    /// set, so any positive scale of `(normal, offset)` is the same half-plane and an
+    /// extreme but finite scale is harmless).
+    ///
     /// # Errors
-    /// Non-finite values or a zero normal.
+    /// Non-finite values, a zero normal, or a boundary further than
+    /// [`model::STATE_LIMIT`] from the origin.
     pub fn new(normal: [f64; 2], offset: f64) -> Result<Self, CbfError> {
         finite("half-plane normal", normal[0])?;
         finite("half-plane normal", normal[1])?;
         finite("half-plane offset", offset)?;
-        if normal[0] == 0.0 && normal[1] == 0.0 {
+        // Divide by the larger component first: hypot of it and the scaled smaller one
+        // neither overflows nor underflows.
+        let big = normal[0].abs().max(normal[1].abs());
+        if big == 0.0 {
             return Err(CbfError::NotPositive { what: "half-plane normal length", value: 0.0 });
         }
-        Ok(Self { normal, offset })
+        let n = [normal[0] / big, normal[1] / big];
+        let length = n[0].hypot(n[1]);
+        let offset = offset / big / length;
+        let limit = model::STATE_LIMIT;
+        crate::error::within("half-plane distance from the origin", offset, -limit, limit, "[-1e6, 1e6] m")?;
+        Ok(Self { normal: [n[0] / length, n[1] / length], offset })
     }
 
-    /// The inward normal `a` (not necessarily unit).
+    /// The inward unit normal `a`.
     pub fn normal(&self) -> &[f64; 2] {
         &self.normal
     }
 
-    /// The offset `b` [m].
+    /// The offset `b` [m]: the signed distance of the origin from the boundary.
     pub fn offset(&self) -> f64 {
         self.offset
     }
@@ -375,16 +388,19 @@ impl Catalog {
     /// Evaluate every applicable row at state `x` in environment `env`. Does not
     /// allocate; rows that do not apply are marked inactive.
     ///
+    /// Rows can still come out non-finite where the geometry is singular (a toe exactly
+    /// at its hip joint) or an environment value is extreme; the filter checks every
+    /// active row before it solves.
+    ///
     /// # Errors
-    /// A non-finite state entry ([`CbfError::NonFinite`]), or an environment built for
-    /// another capacity. Rows are left as they were.
+    /// A state outside [`model::validate_state`]'s domain (non-finite, or an entry beyond
+    /// [`model::STATE_LIMIT`]), or an environment built for another capacity. Rows are
+    /// left as they were.
     pub fn evaluate(&mut self, x: &State, env: &Environment) -> Result<(), CbfError> {
         if env.capacity != self.capacity {
             return Err(CbfError::CapacityMismatch);
         }
-        for &v in x.iter() {
-            finite("state entry", v)?;
-        }
+        model::validate_state(x)?;
         // The slots laid out in `new` are the one source of row order. A leg's four
         // joint-limit rows come from one kernel call, kept while that leg's slots pass.
         let mut joint_rows: Option<(usize, JointRows)> = None;

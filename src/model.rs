@@ -5,6 +5,7 @@
 //! ground-moving origin (world position, yaw, speed, yaw rate), the origin-relative body
 //! (x, z, pitch and rates) and six toes (x, z and rates, each in its leg's lateral plane).
 
+use crate::error::CbfError;
 use crate::generated::tachyon3 as gen;
 pub use gen::{
     BODY_HALF_EXTENTS, ECBF_POLES, G_PATTERN, HIP_OUTWARD, HIP_POSITIONS, HIP_RANGES, INPUT_LIMITS, INPUT_NAMES, KNEE_RANGE,
@@ -22,6 +23,23 @@ pub const TOE_BLOCK: usize = 12;
 pub const BODY_X: usize = 6;
 pub const BODY_Z: usize = 7;
 pub const BODY_PITCH: usize = 8;
+
+/// Largest |state entry| the kernels are evaluated at (metres, radians and their rates):
+/// a kilometre-scale world times a thousand. Inside it every generated row is finite
+/// except where the geometry itself is singular (a toe exactly at its hip joint, where
+/// the knee length is zero), which the filter answers with a flagged fallback.
+pub const STATE_LIMIT: f64 = 1e6;
+
+/// `Ok(())` when every entry is finite with `|x_i| ≤` [`STATE_LIMIT`].
+///
+/// # Errors
+/// [`CbfError::NonFinite`] or [`CbfError::OutOfRange`] naming the first bad entry's kind.
+pub fn validate_state(x: &State) -> Result<(), CbfError> {
+    for &v in x {
+        crate::error::within("state entry", v, -STATE_LIMIT, STATE_LIMIT, "[-1e6, 1e6]")?;
+    }
+    Ok(())
+}
 
 /// Position of a named state in [`State`].
 pub fn state_index(name: &str) -> Option<usize> {

@@ -206,7 +206,7 @@ fn osqp_agrees_with_clarabel_and_satisfies_kkt_on_scenario_and_random_instances(
 /// tests the formulation, not the stopping rule.
 fn single_row_qp(columns: &[usize], slack_weight: f64, weights: &[f64; NU], limits: f64) -> EcbfQp {
     let spec = RowSpec { columns, gains: [6.0, 5.0], slack_weight };
-    let tight = SolverSettings { eps_abs: 1e-10, eps_rel: 1e-10, max_iter: 100_000, ..SolverSettings::default() };
+    let tight = SolverSettings { eps_abs: 1e-10, eps_rel: 1e-10, max_iter: SolverSettings::MAX_ITERATIONS, ..SolverSettings::default() };
     EcbfQp::new(&[spec], weights, &[-limits; NU], &[limits; NU], tight).expect("qp")
 }
 

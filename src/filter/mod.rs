@@ -14,23 +14,37 @@
 //! filter is built; after that an update allocates nothing (tested by counting every
 //! `malloc` over thousands of cycles).
 //!
-//! # Bad input and failure
-//! * `x` or `u_ref` with NaN/inf, or an environment of another capacity: `Err`, and the
-//!   filter is unchanged (the caller chooses; [`EcbfFilter::fallback_input`] is there).
+//! # The output contract
+//! **Every input `update` returns is finite and inside the input box**, whatever it is
+//! given, and no cycle's trouble carries into the next. Concretely:
+//! * Inputs outside the documented domain are typed errors, and the filter is unchanged
+//!   (the caller chooses; [`EcbfFilter::fallback_input`] is there): NaN/inf anywhere,
+//!   a state entry beyond [`model::STATE_LIMIT`](crate::model::STATE_LIMIT), a nominal
+//!   input beyond [`domain::MAX_INPUT`], an environment of another capacity. Extreme but
+//!   finite values are rejected, not rescaled: a nominal input of 10³⁰⁰ m/s² is a bug
+//!   upstream, and the filter says so instead of guessing.
+//! * Settings are checked once, in [`EcbfFilter::new`]: every weight, pole, limit and
+//!   solver setting has a documented range ([`domain`], [`SolverSettings::validate`]),
+//!   and capacities a maximum ([`Capacity::validate`]). Every accepted setting ends a
+//!   solve within [`SolverSettings::MAX_ITERATIONS`] iterations.
 //! * OSQP stops at its iteration or time limit: `Ok`, with the iterate it stopped at
 //!   ([`InputSource::Unconverged`]). It already reflects this cycle's rows, and the next
 //!   cycle continues from it (warm start), so a hard instance converges over a few cycles
 //!   instead of stalling one. This happens when rows conflict with the input limits (large
 //!   slacks), where ADMM needs hundreds of iterations.
-//! * An active row that evaluates to NaN/inf (degenerate geometry or state), an
-//!   infeasibility report or a solver fault: `Ok`, with a **fallback input**: the last
-//!   QP-solved input if there is one ([`InputSource::LastSafe`]), else the nominal input
-//!   ([`InputSource::NominalClipped`]).
+//! * An active row that evaluates to NaN/inf (degenerate geometry such as a toe exactly at
+//!   its hip joint, or an extreme environment value), an iterate or polish with a
+//!   non-finite entry ([`QpStatus::NonFinite`]: discarded, and OSQP's workspace, warm
+//!   start included, is rebuilt before the next solve), an infeasibility report or a
+//!   solver fault: `Ok`, with a **fallback input**: the last QP-solved input if there is
+//!   one ([`InputSource::LastSafe`]), else the nominal input
+//!   ([`InputSource::NominalClipped`]). Only a finite, clipped [`InputSource::Qp`] output
+//!   ever becomes the last safe input.
 //!
-//! Every returned input is clipped to the input box. [`FilterOutput::consecutive_fallbacks`]
-//! counts the cycles in a row whose source was not [`InputSource::Qp`]. The slacks make
-//! the QP feasible for any rows, so "infeasible" is a solver report, not a property of the
-//! problem.
+//! Every returned input is clipped to the input box (ADMM meets it only to its
+//! tolerance). [`FilterOutput::consecutive_fallbacks`] counts the cycles in a row whose
+//! source was not [`InputSource::Qp`]. The slacks make the QP feasible for any rows, so
+//! "infeasible" is a solver report, not a property of the problem.
 //!
 //! ```
 //! use cbfgen::catalog::{Capacity, EdgeCuboid, Environment};
@@ -55,7 +69,7 @@ mod settings;
 use std::time::{Duration, Instant};
 
 pub use qp::{EcbfQp, QpStatus, RowSpec};
-pub use settings::{ecbf_gains, FamilyParams, FilterSettings, SolverSettings};
+pub use settings::{domain, ecbf_gains, FamilyParams, FilterSettings, SolverSettings};
 
 use crate::catalog::{Capacity, Catalog, Environment, Row, RowSlot};
 use crate::error::CbfError;
@@ -132,7 +146,8 @@ impl EcbfFilter {
     /// allocations of the filter's life happen here.
     ///
     /// # Errors
-    /// Invalid settings ([`FilterSettings::validate`]) or an OSQP set-up failure.
+    /// Settings outside their domain ([`FilterSettings::validate`]), a capacity above its
+    /// maximum ([`Capacity::validate`]), or an OSQP set-up failure.
     pub fn new(capacity: Capacity, settings: FilterSettings) -> Result<Self, CbfError> {
         settings.validate()?;
         let catalog = Catalog::new(capacity)?;
@@ -173,12 +188,12 @@ impl EcbfFilter {
     /// cycle's environment. Allocation-free.
     ///
     /// # Errors
-    /// NaN/inf in `x` or `u_ref`, or `env` built for another capacity; the filter is then
+    /// `x` or `u_ref` outside its domain (NaN/inf, `|x_i| >`
+    /// [`model::STATE_LIMIT`](crate::model::STATE_LIMIT), `|u_ref_j| >`
+    /// [`domain::MAX_INPUT`]), or `env` built for another capacity; the filter is then
     /// unchanged. Solver trouble is not an error: see the [module docs](self).
     pub fn update(&mut self, x: &State, u_ref: &Input, env: &Environment) -> Result<&FilterOutput, CbfError> {
-        for &v in u_ref {
-            crate::error::finite("nominal input", v)?;
-        }
+        settings::validate_nominal(u_ref)?;
         let start = Instant::now();
         self.catalog.evaluate(x, env)?;
         let mut active_rows = 0;

@@ -17,7 +17,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use osqp::{CscMatrix, Problem, Status};
 
 use super::polish::{self, Held};
-use super::settings::{validate_inputs, SolverSettings};
+use super::settings::{domain, validate_inputs, validate_nominal, SolverSettings};
 use crate::catalog::Row;
 use crate::error::CbfError;
 use crate::model::{Input, NU};
@@ -50,6 +50,10 @@ pub enum QpStatus {
     /// The solver wrapper panicked (a violated internal invariant); the solver is rebuilt
     /// on the next call.
     SolverFault,
+    /// OSQP reported an iterate (or the polish a solution) with a NaN or infinite entry.
+    /// It is discarded like a fault: the caller falls back, and the workspace (warm
+    /// start, ρ) is rebuilt on the next call so the bad iterate cannot seed later cycles.
+    NonFinite,
 }
 
 impl QpStatus {
@@ -61,7 +65,24 @@ impl QpStatus {
     /// OSQP's report, with the primal and dual iterates where it returned them: an
     /// optimum, or the point it stopped at on an iteration or time limit. Shared by every
     /// OSQP problem in the crate.
+    ///
+    /// An iterate with a NaN or infinite entry is never handed on: it reads as
+    /// [`QpStatus::NonFinite`], without an iterate, whatever OSQP called it (OSQP's
+    /// residual check passes NaN).
     pub(crate) fn of<'a>(result: &'a Status<'a>) -> (QpStatus, Option<Iterate<'a>>) {
+        match Self::of_unchecked(result) {
+            (_, Some((x, y))) if !x.iter().chain(y).all(|v| v.is_finite()) => (QpStatus::NonFinite, None),
+            read => read,
+        }
+    }
+
+    /// Whether the solver's workspace must be rebuilt before the next solve: after a
+    /// fault, or after a non-finite iterate (its warm start and ρ may hold NaN).
+    pub(crate) fn needs_rebuild(self) -> bool {
+        matches!(self, QpStatus::SolverFault | QpStatus::NonFinite)
+    }
+
+    fn of_unchecked<'a>(result: &'a Status<'a>) -> (QpStatus, Option<Iterate<'a>>) {
         match result {
             Status::Solved(s) => (QpStatus::Solved, Some((s.x(), s.y()))),
             Status::SolvedInaccurate(s) => (QpStatus::SolvedInaccurate, Some((s.x(), s.y()))),
@@ -85,6 +106,7 @@ impl QpStatus {
             QpStatus::DualInfeasible => "dual_infeasible",
             QpStatus::NonConvex => "non_convex",
             QpStatus::SolverFault => "solver_fault",
+            QpStatus::NonFinite => "non_finite",
         }
     }
 }
@@ -155,8 +177,9 @@ impl EcbfQp {
     /// Lay out the QP for `rows` and set OSQP up once.
     ///
     /// # Errors
-    /// Invalid weights, limits or settings, a row naming an input column twice or beyond
-    /// `NU`, or OSQP refusing the set-up.
+    /// Weights, limits, gains (`0 ≤ k ≤` [`domain::MAX_GAIN`]) or settings outside their
+    /// documented domain ([`domain`], [`SolverSettings::validate`]), a row naming an input
+    /// column twice or beyond `NU`, or OSQP refusing the set-up.
     pub fn new(
         rows: &[RowSpec<'_>],
         input_weights: &[f64; NU],
@@ -178,10 +201,12 @@ impl EcbfQp {
                 }
                 seen[c] = true;
             }
-            crate::error::finite("ECBF gain", r.gains[0])?;
-            crate::error::finite("ECBF gain", r.gains[1])?;
+            for g in r.gains {
+                crate::error::within("ECBF gain", g, 0.0, domain::MAX_GAIN, "[0, 1e8]")?;
+            }
             gains.push(r.gains);
-            slack_coef.push(1.0 / crate::error::positive("slack weight", r.slack_weight)?.sqrt());
+            let [lo, hi] = domain::SLACK_WEIGHT_RANGE;
+            slack_coef.push(1.0 / crate::error::within("slack weight", r.slack_weight, lo, hi, "[1e-6, 1e12]")?.sqrt());
         }
 
         // A is (m ECBF rows + NU box rows) × (NU inputs + m slacks), column-major.
@@ -291,10 +316,12 @@ impl EcbfQp {
     /// allocate unless the previous call reported [`QpStatus::SolverFault`].
     ///
     /// On a status where OSQP has an iterate (solved, inaccurate, iteration or time limit)
-    /// [`EcbfQp::u`] and [`EcbfQp::delta`] hold it; otherwise they keep the last one.
+    /// [`EcbfQp::u`] and [`EcbfQp::delta`] hold it, always finite: an iterate with a NaN or
+    /// infinite entry is reported as [`QpStatus::NonFinite`] and they keep the last one.
     ///
     /// # Errors
-    /// `u_ref` or an active row not finite, or `rows`/`active` of the wrong length.
+    /// `u_ref` outside its domain (finite, `|u_j| ≤` [`domain::MAX_INPUT`]), an active row
+    /// whose values or ECBF bound are not finite, or `rows`/`active` of the wrong length.
     /// Nothing is changed then.
     pub fn solve(&mut self, u_ref: &Input, rows: &[Row], active: &[bool]) -> Result<QpStatus, CbfError> {
         if rows.len() != self.rows {
@@ -303,11 +330,10 @@ impl EcbfQp {
         if active.len() != self.rows {
             return Err(CbfError::LengthMismatch { what: "active flags", expected: self.rows, got: active.len() });
         }
-        for &v in u_ref {
-            crate::error::finite("nominal input", v)?;
-        }
+        validate_nominal(u_ref)?;
         for (i, (r, &on)) in rows.iter().zip(active).enumerate() {
-            if on && !(r.lie.iter().all(|v| v.is_finite()) && r.lg.iter().all(|v| v.is_finite())) {
+            // Finite values can still overflow in the bound b = L_f² h + k1 L_f h + k0 h.
+            if on && !(r.lg.iter().all(|v| v.is_finite()) && self.ecbf_bound(i, r).is_finite()) {
                 return Err(CbfError::NonFiniteRow { row: i });
             }
         }
@@ -325,15 +351,19 @@ impl EcbfQp {
                 self.lower[i] = -INF;
                 continue;
             }
-            let [k0, k1] = self.gains[i];
-            self.row_bound[i] = r.lie[2] + k1 * r.lie[1] + k0 * r.lie[0];
+            self.row_bound[i] = self.ecbf_bound(i, r);
             let bound = -self.row_bound[i];
-            let mut norm2 = self.slack_coef[i] * self.slack_coef[i];
+            // The row's 2-norm, computed relative to its largest entry so that squaring
+            // cannot overflow for any finite row.
+            let largest = entries
+                .iter()
+                .map(|&(_, c)| (r.lg[c] / self.sqrt_w[c]).abs())
+                .fold(self.slack_coef[i], f64::max);
+            let mut norm2 = (self.slack_coef[i] / largest).powi(2);
             for &(_, c) in entries {
-                let a = r.lg[c] / self.sqrt_w[c];
-                norm2 += a * a;
+                norm2 += (r.lg[c] / self.sqrt_w[c] / largest).powi(2);
             }
-            let scale = 1.0 / norm2.sqrt();
+            let scale = 1.0 / (largest * norm2.sqrt());
             for &(k, c) in entries {
                 self.a_data[k] = r.lg[c] / self.sqrt_w[c] * scale;
             }
@@ -342,8 +372,9 @@ impl EcbfQp {
             self.lower[i] = (bound * scale).clamp(-INF, INF);
         }
 
-        let status = catch_unwind(AssertUnwindSafe(|| self.run_osqp())).unwrap_or(QpStatus::SolverFault);
-        if status == QpStatus::SolverFault {
+        let last_u = self.u;
+        let mut status = catch_unwind(AssertUnwindSafe(|| self.run_osqp())).unwrap_or(QpStatus::SolverFault);
+        if status.needs_rebuild() {
             self.problem = None;
         }
         self.polished = self.settings.polish
@@ -366,8 +397,23 @@ impl EcbfQp {
             &mut self.u,
             &mut self.delta,
         );
+        if !(self.u.iter().all(|v| v.is_finite()) && self.delta.iter().all(|v| v.is_finite())) {
+            // Nothing non-finite may leave, nor stay behind as next cycle's warm start.
+            status = QpStatus::NonFinite;
+            self.polished = false;
+            self.problem = None;
+            self.u = last_u;
+            self.delta.fill(0.0);
+        }
         self.status = status;
         Ok(status)
+    }
+
+    /// `b = L_f² h + k1 L_f h + k0 h` of row `i` (≥ 0 when the ECBF condition holds at
+    /// `u = 0`).
+    fn ecbf_bound(&self, i: usize, r: &Row) -> f64 {
+        let [k0, k1] = self.gains[i];
+        r.lie[2] + k1 * r.lie[1] + k0 * r.lie[0]
     }
 
     fn run_osqp(&mut self) -> QpStatus {

@@ -4,7 +4,7 @@
 use std::time::Duration;
 
 use crate::catalog::Family;
-use crate::error::{positive, CbfError};
+use crate::error::{within, CbfError};
 use crate::model::{Input, ECBF_POLES, INPUT_LIMITS, NU};
 
 /// Per-family ECBF parameters.
@@ -93,23 +93,65 @@ impl Default for SolverSettings {
 }
 
 impl SolverSettings {
-    pub(crate) fn validate(&self) -> Result<(), CbfError> {
-        positive("eps_abs", self.eps_abs)?;
-        positive("eps_rel", self.eps_rel)?;
-        positive("rho", self.rho)?;
-        positive("sigma", self.sigma)?;
-        positive("alpha", self.alpha)?;
-        if self.alpha >= 2.0 {
-            return Err(CbfError::OutOfRange { what: "alpha", value: self.alpha, range: "(0, 2)" });
-        }
+    /// Most ADMM iterations one solve may take. With the time limit it bounds an update:
+    /// 10⁴ iterations of the 269-row QP take tens of milliseconds, never hours.
+    pub const MAX_ITERATIONS: u32 = 10_000;
+    /// Longest time limit accepted: a thousand 1 ms control periods.
+    pub const MAX_TIME_LIMIT: Duration = Duration::from_secs(1);
+    /// Tolerances below this are rounding noise in double precision (OSQP's residuals are
+    /// sums of hundreds of products), so they could only be met by running out of
+    /// iterations.
+    pub const MIN_TOLERANCE: f64 = 1e-12;
+    /// Tolerances above this accept any iterate (the polish still checks KKT exactly).
+    pub const MAX_TOLERANCE: f64 = 1e3;
+    /// ρ range: OSQP's own clamp for adaptive ρ (`RHO_MIN`, `RHO_MAX`).
+    pub const RHO_RANGE: [f64; 2] = [1e-6, 1e6];
+    /// σ range: a regularisation below 1e-12 is lost in rounding, above 1e3 it dominates
+    /// the cost.
+    pub const SIGMA_RANGE: [f64; 2] = [1e-12, 1e3];
+    /// Over-relaxation range: OSQP's open interval (0, 2), kept away from the ends where
+    /// ADMM stops making progress.
+    pub const ALPHA_RANGE: [f64; 2] = [0.01, 1.99];
+
+    /// # Errors
+    /// A value outside its documented range (the `MAX_*`, `MIN_*` and `*_RANGE` constants):
+    /// every accepted combination ends a solve after at most [`Self::MAX_ITERATIONS`]
+    /// iterations or [`Self::MAX_TIME_LIMIT`].
+    pub fn validate(&self) -> Result<(), CbfError> {
+        let tol = (Self::MIN_TOLERANCE, Self::MAX_TOLERANCE, "[1e-12, 1e3]");
+        within("eps_abs", self.eps_abs, tol.0, tol.1, tol.2)?;
+        within("eps_rel", self.eps_rel, tol.0, tol.1, tol.2)?;
+        within("rho", self.rho, Self::RHO_RANGE[0], Self::RHO_RANGE[1], "[1e-6, 1e6]")?;
+        within("sigma", self.sigma, Self::SIGMA_RANGE[0], Self::SIGMA_RANGE[1], "[1e-12, 1e3]")?;
+        within("alpha", self.alpha, Self::ALPHA_RANGE[0], Self::ALPHA_RANGE[1], "[0.01, 1.99]")?;
         for (what, v) in [
             ("max_iter", self.max_iter),
             ("adaptive_rho_interval", self.adaptive_rho_interval),
             ("check_termination", self.check_termination),
         ] {
-            positive(what, f64::from(v))?;
+            if v == 0 {
+                return Err(CbfError::NotPositive { what, value: 0.0 });
+            }
+            if v > Self::MAX_ITERATIONS {
+                return Err(CbfError::TooLarge { what, value: v as usize, max: Self::MAX_ITERATIONS as usize });
+            }
+        }
+        if let Some(limit) = self.time_limit {
+            if limit.is_zero() || limit > Self::MAX_TIME_LIMIT {
+                return Err(CbfError::OutOfRange { what: "time limit [s]", value: limit.as_secs_f64(), range: "(0, 1]" });
+            }
         }
         Ok(())
+    }
+
+    /// A time limit from seconds, checked: `(0, MAX_TIME_LIMIT]`, never a panic (for
+    /// callers holding seconds as a float, such as the Python bindings).
+    ///
+    /// # Errors
+    /// NaN, infinite, non-positive or above [`Self::MAX_TIME_LIMIT`].
+    pub fn time_limit_from_secs(secs: f64) -> Result<Duration, CbfError> {
+        within("time limit [s]", secs, f64::MIN_POSITIVE, Self::MAX_TIME_LIMIT.as_secs_f64(), "(0, 1]")?;
+        Ok(Duration::from_secs_f64(secs).max(Duration::from_nanos(1)))
     }
 
     pub(crate) fn to_osqp(self) -> osqp::Settings {
@@ -173,6 +215,36 @@ impl Default for FilterSettings {
     }
 }
 
+/// The documented domain of the filter's numbers. Inside it every product the QP forms
+/// stays far from overflow (input and weight bounds multiply to ≤ 1e15, pole products to
+/// ≤ 1e8), so a finite problem gives a finite answer; outside it, settings and inputs are
+/// typed errors rather than NaN.
+pub mod domain {
+    /// Largest |input limit| and the largest |nominal input| accepted, in the input's
+    /// units (m/s², rad/s²): 10⁶ is far past any actuator, and keeps `w·u²` finite.
+    pub const MAX_INPUT: f64 = 1e6;
+    /// Input weights `w_j` lie in `[1/W, W]` with `W` = this.
+    pub const MAX_WEIGHT_RATIO: f64 = 1e6;
+    /// Slack weights `w_δ` lie in `[1e-6, 1e12]`; above that the polish's `W + w_δ a aᵀ`
+    /// loses every digit of `W`.
+    pub const SLACK_WEIGHT_RANGE: [f64; 2] = [1e-6, 1e12];
+    /// ECBF poles lie in `[1e-6, 1e4]` 1/s; faster than 10 kHz is meaningless for a 1 kHz
+    /// loop, and the gains `p1 p2` stay ≤ 1e8.
+    pub const POLE_RANGE: [f64; 2] = [1e-6, 1e4];
+    /// Largest ECBF gain `k0 = p1 p2` or `k1 = p1 + p2` accepted by
+    /// [`EcbfQp::new`](crate::filter::EcbfQp::new).
+    pub const MAX_GAIN: f64 = 1e8;
+}
+
+/// `Ok(u)` when every entry is finite with `|u_j| ≤` [`domain::MAX_INPUT`]: the nominal
+/// input's domain, shared by the filter and [`EcbfQp::solve`](crate::filter::EcbfQp::solve).
+pub(crate) fn validate_nominal(u_ref: &Input) -> Result<(), CbfError> {
+    for &v in u_ref {
+        within("nominal input", v, -domain::MAX_INPUT, domain::MAX_INPUT, "[-1e6, 1e6]")?;
+    }
+    Ok(())
+}
+
 impl FilterSettings {
     pub fn family(&self, f: Family) -> &FamilyParams {
         &self.families[f.index()]
@@ -183,12 +255,16 @@ impl FilterSettings {
     }
 
     /// # Errors
-    /// Non-positive poles, weights or tolerances, a NaN activation, or `input_min > input_max`.
+    /// A pole, weight, input limit or solver setting outside its documented range
+    /// ([`domain`], [`SolverSettings::validate`]), a NaN activation, or
+    /// `input_min > input_max`.
     pub fn validate(&self) -> Result<(), CbfError> {
         for p in &self.families {
-            positive("ECBF pole", p.poles[0])?;
-            positive("ECBF pole", p.poles[1])?;
-            positive("slack weight", p.slack_weight)?;
+            let [lo, hi] = domain::POLE_RANGE;
+            within("ECBF pole", p.poles[0], lo, hi, "[1e-6, 1e4]")?;
+            within("ECBF pole", p.poles[1], lo, hi, "[1e-6, 1e4]")?;
+            let [lo, hi] = domain::SLACK_WEIGHT_RANGE;
+            within("slack weight", p.slack_weight, lo, hi, "[1e-6, 1e12]")?;
             if p.activation.is_nan() {
                 return Err(CbfError::NonFinite { what: "activation threshold", value: p.activation });
             }
@@ -198,13 +274,16 @@ impl FilterSettings {
     }
 }
 
-/// Input weights positive, box limits finite with `min ≤ max`: shared by
+/// Input weights in `[1/W, W]` ([`domain::MAX_WEIGHT_RATIO`]), box limits finite with
+/// `|limit| ≤` [`domain::MAX_INPUT`] and `min ≤ max`: shared by
 /// [`FilterSettings::validate`] and [`EcbfQp::new`](super::EcbfQp::new).
 pub(crate) fn validate_inputs(weights: &[f64; NU], min: &Input, max: &Input) -> Result<(), CbfError> {
+    let w = domain::MAX_WEIGHT_RATIO;
+    let m = domain::MAX_INPUT;
     for j in 0..NU {
-        positive("input weight", weights[j])?;
-        crate::error::finite("input limit", min[j])?;
-        crate::error::finite("input limit", max[j])?;
+        within("input weight", weights[j], 1.0 / w, w, "[1e-6, 1e6]")?;
+        within("input limit", min[j], -m, m, "[-1e6, 1e6]")?;
+        within("input limit", max[j], -m, m, "[-1e6, 1e6]")?;
         if min[j] > max[j] {
             return Err(CbfError::OutOfRange {
                 what: "input_min (must not exceed input_max)",

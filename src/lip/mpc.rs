@@ -59,7 +59,7 @@ use osqp::{CscMatrix, Problem};
 use super::model::{LipInput, LipState};
 use super::obstacles::HalfPlane;
 use super::LipParams;
-use crate::error::{finite, CbfError};
+use crate::error::{within, CbfError};
 use crate::filter::{QpStatus, SolverSettings};
 
 /// OSQP's infinity for `l`/`u`.
@@ -478,10 +478,12 @@ impl LipMpc {
     /// Returns OSQP's status. On `Solved`/`SolvedInaccurate` [`LipMpc::plan`] is the new
     /// plan; on any other status it keeps the last solved one, which was made in an
     /// earlier frame: the caller must not apply it as is. Does not allocate unless the
-    /// previous call reported [`QpStatus::SolverFault`] (the workspace is then rebuilt).
+    /// previous call reported [`QpStatus::SolverFault`] or [`QpStatus::NonFinite`] (the workspace
+    /// is then rebuilt).
     ///
     /// # Errors
-    /// NaN/inf in `x0`, `goal` or a plane, `stance_sign` not ±1, or more planes than the
+    /// NaN/inf in `x0`, `goal` or a plane, or an entry beyond
+    /// [`model::STATE_LIMIT`](crate::model::STATE_LIMIT); `stance_sign` not ±1, or more planes than the
     /// MPC was built for. Nothing is changed then.
     pub fn solve(
         &mut self,
@@ -490,11 +492,14 @@ impl LipMpc {
         stance_sign: f64,
         planes: &[HalfPlane],
     ) -> Result<QpStatus, CbfError> {
+        // The legged model's domain: no coordinate whose products in the condensed QP
+        // could overflow.
+        let limit = crate::model::STATE_LIMIT;
         for &v in x0 {
-            finite("LIP state", v)?;
+            within("LIP state", v, -limit, limit, "[-1e6, 1e6]")?;
         }
-        finite("goal x", goal[0])?;
-        finite("goal y", goal[1])?;
+        within("goal x", goal[0], -limit, limit, "[-1e6, 1e6]")?;
+        within("goal y", goal[1], -limit, limit, "[-1e6, 1e6]")?;
         if stance_sign != 1.0 && stance_sign != -1.0 {
             return Err(CbfError::OutOfRange { what: "stance sign", value: stance_sign, range: "{−1, +1}" });
         }
@@ -503,7 +508,7 @@ impl LipMpc {
         }
         for plane in planes {
             for v in plane.normal.into_iter().chain(plane.point).chain([plane.delta]) {
-                finite("obstacle half-plane", v)?;
+                within("obstacle half-plane", v, -limit, limit, "[-1e6, 1e6]")?;
             }
         }
 
@@ -514,7 +519,7 @@ impl LipMpc {
         }
         self.write_values();
         let status = catch_unwind(AssertUnwindSafe(|| self.run_osqp())).unwrap_or(QpStatus::SolverFault);
-        if status == QpStatus::SolverFault {
+        if status.needs_rebuild() {
             self.problem = None;
         }
         self.status = status;

@@ -8,7 +8,7 @@
 //! The values come from the generated kernel (`generated/double_integrator.rs`), whose
 //! Lie derivatives include ∂h/∂t: the boundary's own velocity and acceleration.
 
-use crate::error::{finite, CbfError};
+use crate::error::{finite, within, CbfError};
 use crate::generated::double_integrator as gen;
 
 /// The double integrator's state `[q, q̇]`.
@@ -66,10 +66,16 @@ impl SineBarrier {
     }
 }
 
-/// `Ok` if `t` and both state entries are finite.
+/// Longest |time| accepted [s]: beyond about 10⁹ s, `sin(ω t)` has lost its digits.
+pub const TIME_LIMIT: f64 = 1e9;
+
+/// `Ok` if `t` is finite with `|t| ≤` [`TIME_LIMIT`] and both state entries are finite
+/// with magnitude ≤ [`model::STATE_LIMIT`](crate::model::STATE_LIMIT) (the same domain as
+/// the legged model: no QP sees a number whose square overflows).
 pub(crate) fn check_state(x: &State, t: f64) -> Result<(), CbfError> {
-    finite("time", t)?;
-    finite("position", x[0])?;
-    finite("velocity", x[1])?;
+    let limit = crate::model::STATE_LIMIT;
+    within("time", t, -TIME_LIMIT, TIME_LIMIT, "[-1e9, 1e9] s")?;
+    within("position", x[0], -limit, limit, "[-1e6, 1e6]")?;
+    within("velocity", x[1], -limit, limit, "[-1e6, 1e6]")?;
     Ok(())
 }

@@ -17,7 +17,7 @@ use osqp::Problem;
 
 use super::barrier::BarrierRow;
 use super::solver::{Csc, LayerSolverSettings, INF};
-use crate::error::{finite, positive, CbfError};
+use crate::error::CbfError;
 use crate::filter::QpStatus;
 
 /// Gains, input bound and solver settings of the CBF-QP.
@@ -82,8 +82,11 @@ impl IdCbfQp {
     /// # Errors
     /// Non-positive poles or bound, or OSQP refusing the set-up.
     pub fn new(settings: CbfQpSettings) -> Result<Self, CbfError> {
-        positive("ECBF pole", settings.poles[0])?;
-        positive("ECBF pole", settings.poles[1])?;
+        settings.solver.validate()?;
+        let [lo, hi] = crate::filter::domain::POLE_RANGE;
+        for p in settings.poles {
+            crate::error::within("ECBF pole", p, lo, hi, "[1e-6, 1e4]")?;
+        }
         if settings.u_max.is_nan() || settings.u_max <= 0.0 {
             return Err(CbfError::NotPositive { what: "input bound", value: settings.u_max });
         }
@@ -118,7 +121,8 @@ impl IdCbfQp {
     /// act on it), or no usable iterate (infeasible against `u_max`, solver fault):
     /// [`CbfError::QpFailed`]. Nothing is applied then; the caller decides what to do.
     pub fn solve(&mut self, desired_accel: f64, row: &BarrierRow) -> Result<CbfQpOutput, CbfError> {
-        finite("desired acceleration", desired_accel)?;
+        let max = crate::filter::domain::MAX_INPUT;
+        crate::error::within("desired acceleration", desired_accel, -max, max, "[-1e6, 1e6]")?;
         if !(row.lie.iter().all(|v| v.is_finite()) && row.lg_lf.is_finite()) {
             return Err(CbfError::NonFiniteRow { row: 0 });
         }
@@ -131,7 +135,7 @@ impl IdCbfQp {
         self.lower[0] = (-row.ecbf_bound(self.gains) / scale).clamp(-INF, INF);
         let (status, iterations, u) =
             catch_unwind(AssertUnwindSafe(|| self.run_osqp())).unwrap_or((QpStatus::SolverFault, 0, f64::NAN));
-        if status == QpStatus::SolverFault {
+        if status.needs_rebuild() {
             self.problem = None;
         }
         if !matches!(

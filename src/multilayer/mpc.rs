@@ -26,8 +26,11 @@ use osqp::Problem;
 
 use super::barrier::{check_state, SineBarrier, State};
 use super::solver::{Csc, LayerSolverSettings, INF};
-use crate::error::{positive, CbfError};
+use crate::error::{within, CbfError};
 use crate::filter::QpStatus;
+
+/// Longest MPC horizon accepted (steps): the condensed QP grows with its square.
+pub const MAX_HORIZON: usize = 1000;
 
 /// What the MPC knows of the barrier.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -123,13 +126,19 @@ impl KinematicMpc {
     /// refusing the set-up.
     pub fn new(settings: MpcSettings, mode: MpcMode, barrier: SineBarrier) -> Result<Self, CbfError> {
         let s = settings;
-        positive("MPC sample time", s.dt)?;
-        positive("MPC position weight", s.w_q)?;
-        positive("MPC velocity weight", s.w_v)?;
-        positive("MPC acceleration weight", s.w_a)?;
-        crate::error::finite("MPC reference", s.q_ref)?;
+        s.solver.validate()?;
+        // Ranges that keep w/dt² and the condensed products finite.
+        within("MPC sample time", s.dt, 1e-4, 10.0, "[1e-4, 10] s")?;
+        within("MPC position weight", s.w_q, 1e-6, 1e6, "[1e-6, 1e6]")?;
+        within("MPC velocity weight", s.w_v, 1e-6, 1e6, "[1e-6, 1e6]")?;
+        within("MPC acceleration weight", s.w_a, 1e-6, 1e6, "[1e-6, 1e6]")?;
+        let limit = crate::model::STATE_LIMIT;
+        within("MPC reference", s.q_ref, -limit, limit, "[-1e6, 1e6]")?;
         if s.horizon < 2 {
             return Err(CbfError::OutOfRange { what: "MPC horizon", value: s.horizon as f64, range: "[2, ∞)" });
+        }
+        if s.horizon > MAX_HORIZON {
+            return Err(CbfError::TooLarge { what: "MPC horizon", value: s.horizon, max: MAX_HORIZON });
         }
         if let MpcMode::DiscreteCbf { gamma } = mode {
             if !(gamma > 0.0 && gamma <= 1.0) {
@@ -271,7 +280,7 @@ impl KinematicMpc {
         }
         let (status, iterations) =
             catch_unwind(AssertUnwindSafe(|| self.run_osqp())).unwrap_or((QpStatus::SolverFault, 0));
-        if status == QpStatus::SolverFault {
+        if status.needs_rebuild() {
             self.problem = None;
         }
         if !matches!(
@@ -281,7 +290,11 @@ impl KinematicMpc {
             return Err(CbfError::QpFailed { layer: "kinematic MPC", status: status.name() });
         }
         let (v0, v1) = (self.z[n + 1], self.z[n + 2]);
-        Ok(MpcOutput { desired_accel: (v1 - v0) / dt, status, iterations })
+        let desired_accel = (v1 - v0) / dt;
+        if !desired_accel.is_finite() {
+            return Err(CbfError::QpFailed { layer: "kinematic MPC", status: QpStatus::NonFinite.name() });
+        }
+        Ok(MpcOutput { desired_accel, status, iterations })
     }
 
     fn run_osqp(&mut self) -> (QpStatus, u32) {

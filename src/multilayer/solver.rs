@@ -5,6 +5,8 @@ use std::borrow::Cow;
 
 use osqp::CscMatrix;
 
+use crate::error::{within, CbfError};
+
 
 /// OSQP's infinity for `l`/`u`.
 pub(crate) const INF: f64 = 1e30;
@@ -64,6 +66,30 @@ pub struct LayerSolverSettings {
 }
 
 impl LayerSolverSettings {
+    /// Most Ruiz scaling passes (OSQP's default is 10).
+    pub const MAX_SCALING: u32 = 100;
+
+    /// The same ranges as the filter's [`SolverSettings`](crate::filter::SolverSettings):
+    /// tolerances in `[1e-12, 1e3]`, `1 ≤ max_iter ≤ MAX_ITERATIONS`, so a solve ends.
+    ///
+    /// # Errors
+    /// A value outside those ranges, or `scaling >` [`Self::MAX_SCALING`].
+    pub fn validate(&self) -> Result<(), CbfError> {
+        use crate::filter::SolverSettings as S;
+        within("eps_abs", self.eps_abs, S::MIN_TOLERANCE, S::MAX_TOLERANCE, "[1e-12, 1e3]")?;
+        within("eps_rel", self.eps_rel, S::MIN_TOLERANCE, S::MAX_TOLERANCE, "[1e-12, 1e3]")?;
+        if self.max_iter == 0 {
+            return Err(CbfError::NotPositive { what: "max_iter", value: 0.0 });
+        }
+        if self.max_iter > S::MAX_ITERATIONS {
+            return Err(CbfError::TooLarge { what: "max_iter", value: self.max_iter as usize, max: S::MAX_ITERATIONS as usize });
+        }
+        if self.scaling > Self::MAX_SCALING {
+            return Err(CbfError::TooLarge { what: "scaling", value: self.scaling as usize, max: Self::MAX_SCALING as usize });
+        }
+        Ok(())
+    }
+
     pub(crate) fn to_osqp(self) -> osqp::Settings {
         osqp::Settings::default()
             .verbose(false)

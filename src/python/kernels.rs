@@ -215,8 +215,11 @@ fn foothold<'py>(
     offset: f64,
 ) -> PyResult<Rows<'py>> {
     let leg = leg.index()?;
-    let plane = HalfPlane::new(fixed::<2>("normal", &normal)?, offset)?;
-    let rows = gen::FOOTHOLD[leg](&state(&x)?, plane.normal(), plane.offset());
+    // The kernel as generated, on the caller's (not normalised) normal: HalfPlane
+    // validates it but stores the unit normal, which would rescale h.
+    let normal = fixed::<2>("normal", &normal)?;
+    HalfPlane::new(normal, offset)?;
+    let rows = gen::FOOTHOLD[leg](&state(&x)?, &normal, offset);
     Ok(rows_out(py, rows, &gen::FOOTHOLD_INPUT_COLUMNS[leg]))
 }
 

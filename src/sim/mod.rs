@@ -27,6 +27,11 @@ use gait::GaitParams;
 /// Control period [s].
 pub const DT: f64 = 1e-3;
 
+/// Longest simulated time [s] a run accepts: 6·10⁵ cycles, about 250 MB of samples.
+/// The courses finish in under a minute; the limit only stops a typo from asking for
+/// terabytes.
+pub const MAX_SIM_TIME: f64 = 600.0;
+
 /// Which course the robot runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Scenario {
@@ -58,7 +63,7 @@ pub struct SimConfig {
     pub scenario: Scenario,
     /// With `false`, the body–edge SSAT rows never take part (the paper's comparison).
     pub body_cbf: bool,
-    /// Give up after this long [s].
+    /// Give up after this long [s], at most [`MAX_SIM_TIME`].
     pub max_time: f64,
     /// Start with the robot's foremost point this far from the first riser [m].
     pub start_gap: f64,
@@ -140,14 +145,17 @@ pub struct SimResult {
 /// Run `config` to completion or `max_time`, calling `progress(t)` every 100 cycles.
 ///
 /// # Errors
-/// Filter construction, or a state that became non-finite.
+/// `max_time` outside `(0, MAX_SIM_TIME]`, filter construction, or a state that left
+/// the model's domain.
 pub fn run(config: &SimConfig, mut progress: impl FnMut(f64)) -> Result<SimResult, CbfError> {
+    crate::error::within("max_time [s]", config.max_time, DT, MAX_SIM_TIME, "[0.001, 600]")?;
     let mut course = Course::new(config.scenario, config.gait)?;
     let mut filter = EcbfFilter::new(Course::CAPACITY, config.filter)?;
     let mut x = course.initial_state(config.start_gap);
 
     let steps = (config.max_time / DT).ceil() as usize;
-    let mut samples = Vec::with_capacity(steps);
+    // Grown as the run goes: a run that finishes early never holds max_time's worth.
+    let mut samples = Vec::new();
     let mut completed_at = None;
     for k in 0..steps {
         let t = k as f64 * DT;
