@@ -7,6 +7,8 @@
 #![allow(clippy::needless_range_loop)]
 
 mod common;
+#[path = "common/kkt.rs"]
+mod kkt;
 
 use cbfgen::approach::Approach;
 use cbfgen::catalog::{Capacity, Environment, Row};
@@ -14,118 +16,10 @@ use cbfgen::filter::{EcbfFilter, EcbfQp, FilterSettings, InputSource, QpStatus, 
 use cbfgen::model::{self, Input, State, NU, NX, TOE_BLOCK};
 use cbfgen::terrain::Stairs;
 use cbfgen::CbfError;
-use clarabel::algebra::CscMatrix;
-use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus};
+use kkt::{clarabel_reference, kkt_violation, KKT_TOLERANCE};
 use rand::Rng;
 
 const CAPACITY: Capacity = Capacity::PAPER_WORST_CASE;
-
-/// The filter's QP rebuilt from its rows and settings in original units — cost
-/// `Σ w (u − u_ref)² + Σ w_δ δ²`, rows `−(L_g L_f h · u + δ) ≤ L_f² h + k1 L_f h + k0 h`,
-/// the input box — and solved by Clarabel. Returns `u`.
-fn clarabel_reference(filter: &EcbfFilter, u_ref: &Input) -> Input {
-    let s = filter.settings();
-    let active: Vec<usize> = (0..filter.rows().len()).filter(|&i| filter.active()[i]).collect();
-    let n = NU + active.len();
-    // P = 2 diag(w, w_δ) (upper triangular CSC of a diagonal).
-    let mut p_diag: Vec<f64> = s.input_weights.iter().map(|w| 2.0 * w).collect();
-    for &i in &active {
-        p_diag.push(2.0 * s.family(filter.slots()[i].family).slack_weight);
-    }
-    let p = CscMatrix::new(n, n, (0..=n).collect(), (0..n).collect(), p_diag);
-    let mut q = vec![0.0; n];
-    for j in 0..NU {
-        q[j] = -2.0 * s.input_weights[j] * u_ref[j];
-    }
-    // Dense rows, then CSC: active ECBF rows, then u ≤ max, then −u ≤ −min.
-    let m = active.len() + 2 * NU;
-    let mut dense = vec![vec![0.0; n]; m];
-    let mut b = vec![0.0; m];
-    for (k, &i) in active.iter().enumerate() {
-        let row = &filter.rows()[i];
-        let [p1, p2] = s.family(filter.slots()[i].family).poles;
-        for j in 0..NU {
-            dense[k][j] = -row.lg[j];
-        }
-        dense[k][NU + k] = -1.0;
-        b[k] = row.lie[2] + (p1 + p2) * row.lie[1] + p1 * p2 * row.lie[0];
-    }
-    for j in 0..NU {
-        dense[active.len() + j][j] = 1.0;
-        b[active.len() + j] = s.input_max[j];
-        dense[active.len() + NU + j][j] = -1.0;
-        b[active.len() + NU + j] = -s.input_min[j];
-    }
-    let (mut colptr, mut rowval, mut nzval) = (vec![0], vec![], vec![]);
-    for c in 0..n {
-        for (r, row) in dense.iter().enumerate() {
-            if row[c] != 0.0 {
-                rowval.push(r);
-                nzval.push(row[c]);
-            }
-        }
-        colptr.push(rowval.len());
-    }
-    let a = CscMatrix::new(m, n, colptr, rowval, nzval);
-    let settings = DefaultSettings { verbose: false, ..DefaultSettings::default() };
-    let mut solver = DefaultSolver::new(&p, &q, &a, &b, &[NonnegativeConeT(m)], settings).expect("clarabel setup");
-    solver.solve();
-    assert_eq!(solver.solution.status, SolverStatus::Solved, "clarabel must solve the reference");
-    std::array::from_fn(|j| solver.solution.x[j])
-}
-
-/// What the KKT check allows (see `kkt_violation`): ten times the default `eps_abs`.
-/// OSQP stops once its residuals in the scaled problem (rows divided by their norms)
-/// are below `eps_abs` 1e-4 plus `eps_rel` 1e-5 times the size of the terms.
-const KKT_TOLERANCE: f64 = 1e-3;
-
-/// Worst violation of the KKT conditions by the filter's `u`, `δ`, with the multipliers
-/// recovered from the slacks (`λ_i = 2 w_δ δ_i`, from ∂/∂δ_i of the Lagrangian):
-/// primal feasibility, `δ ≥ 0`, complementarity `δ_i (row_i) = 0`, and stationarity in
-/// `u` (zero inside the box, signed at a bound). Row residuals are divided by the row's
-/// norm (the scale OSQP's tolerance applies to); stationarity by the size of the input
-/// terms.
-fn kkt_violation(filter: &EcbfFilter, u: &Input, u_ref: &Input) -> f64 {
-    let s = filter.settings();
-    let delta = filter.delta();
-    let mut worst: f64 = 0.0;
-    let mut stationarity: [f64; NU] = std::array::from_fn(|j| s.input_weights[j] * (u[j] - u_ref[j]));
-    for (i, row) in filter.rows().iter().enumerate() {
-        if !filter.active()[i] {
-            continue;
-        }
-        let f = s.family(filter.slots()[i].family);
-        let [p1, p2] = f.poles;
-        let b = row.lie[2] + (p1 + p2) * row.lie[1] + p1 * p2 * row.lie[0];
-        let lhs = (0..NU).map(|j| row.lg[j] * u[j]).sum::<f64>() + delta[i] + b;
-        // In the row's own scale, as OSQP sees it (each row divided by its norm).
-        let size = row.lg.iter().map(|v| v * v).sum::<f64>().sqrt().max(1.0);
-        worst = worst.max(-lhs / size); // primal
-        worst = worst.max(-delta[i] * f.slack_weight.sqrt()); // δ ≥ 0, in units of √w_δ δ
-        if delta[i] * f.slack_weight.sqrt() > 1e-3 {
-            worst = worst.max(lhs.abs() / size); // complementarity
-        }
-        for j in 0..NU {
-            stationarity[j] -= f.slack_weight * delta[i] * row.lg[j];
-        }
-    }
-    for j in 0..NU {
-        let (lo, hi) = (s.input_min[j], s.input_max[j]);
-        let size = 1.0 + s.input_weights[j] * (u[j].abs() + u_ref[j].abs());
-        worst = worst.max((u[j] - hi) / size).max((lo - u[j]) / size);
-        let r = stationarity[j] / size;
-        // "At a bound" to the solver's tolerance, in the same units.
-        let tol_bound = KKT_TOLERANCE * size;
-        worst = worst.max(if u[j] >= hi - tol_bound {
-            r.max(0.0) // at the upper bound the cost may still pull up
-        } else if u[j] <= lo + tol_bound {
-            (-r).max(0.0)
-        } else {
-            r.abs()
-        });
-    }
-    worst
-}
 
 /// States along the scripted drive into the stairs (approach, contact, pushing), plus
 /// random perturbations of them, with random nominal inputs for the latter.

@@ -150,7 +150,11 @@ impl SolverSettings {
     /// # Errors
     /// NaN, infinite, non-positive or above [`Self::MAX_TIME_LIMIT`].
     pub fn time_limit_from_secs(secs: f64) -> Result<Duration, CbfError> {
-        within("time limit [s]", secs, f64::MIN_POSITIVE, Self::MAX_TIME_LIMIT.as_secs_f64(), "(0, 1]")?;
+        let max = Self::MAX_TIME_LIMIT.as_secs_f64();
+        if within("time limit [s]", secs, 0.0, max, "(0, 1]")? == 0.0 {
+            return Err(CbfError::NotPositive { what: "time limit [s]", value: secs });
+        }
+        // Below a nanosecond, the shortest limit a Duration holds.
         Ok(Duration::from_secs_f64(secs).max(Duration::from_nanos(1)))
     }
 

@@ -1,0 +1,238 @@
+//! Regression tests for the filter's output contract (issue 12): each input below once
+//! gave NaN labelled as solved, a panic, an abort or an hours-long update. Now each is
+//! a typed error or a flagged fallback, and the cycles after it are exactly those of a
+//! filter that never saw it.
+
+use std::time::Duration;
+
+use cbfgen::approach::Approach;
+use cbfgen::catalog::{Capacity, Catalog, Environment, HalfPlane, Row};
+use cbfgen::filter::{domain, EcbfFilter, EcbfQp, FilterSettings, InputSource, RowSpec, SolverSettings};
+use cbfgen::model::{self, Input, State, HIP_POSITIONS, NU, TOE_BLOCK};
+use cbfgen::multilayer::{CbfQpSettings, IdCbfQp};
+use cbfgen::sim::{self, Scenario, SimConfig};
+use cbfgen::terrain::Stairs;
+use cbfgen::CbfError;
+
+const CAPACITY: Capacity = Capacity::PAPER_WORST_CASE;
+
+/// `cycles` updates along the scripted drive into the stairs: every output, in order.
+fn drive(filter: &mut EcbfFilter, cycles: usize) -> Vec<(Input, InputSource)> {
+    let mut drive = Approach::new(CAPACITY, Stairs::HARDWARE, 0.3, 0.4).expect("drive");
+    (0..cycles)
+        .map(|_| {
+            let out = *filter.update(&drive.x, &drive.nominal_input(), &drive.env).expect("update");
+            drive.advance(&out.u, 1e-3);
+            (out.u, out.source)
+        })
+        .collect()
+}
+
+/// After `poison` ran on a filter, its next 300 drive cycles equal a fresh filter's,
+/// bit for bit, and every one is a finite QP solution.
+fn assert_not_poisoned(poison: impl FnOnce(&mut EcbfFilter)) {
+    let mut exposed = EcbfFilter::new(CAPACITY, FilterSettings::default()).expect("filter");
+    poison(&mut exposed);
+    let mut fresh = EcbfFilter::new(CAPACITY, FilterSettings::default()).expect("filter");
+    let (after, reference) = (drive(&mut exposed, 300), drive(&mut fresh, 300));
+    assert_eq!(after, reference, "the filter's later cycles changed");
+    assert!(after.iter().all(|(u, s)| *s == InputSource::Qp && u.iter().all(|v| v.is_finite())));
+}
+
+#[test]
+fn a_nominal_input_of_f64_max_is_an_error_and_poisons_nothing() {
+    // Before: u = NaN labelled `qp`/solved, then NaN on 10–39 % of ordinary cycles.
+    let x = model::standard_posture();
+    let env = Environment::new(CAPACITY).expect("env");
+    for bad in [f64::MAX, -f64::MAX, 1e300, 2.0 * domain::MAX_INPUT] {
+        assert_not_poisoned(|filter| {
+            let mut u_ref = [0.0; NU];
+            u_ref[3] = bad;
+            let err = filter.update(&x, &u_ref, &env).expect_err("out of domain");
+            assert!(matches!(err, CbfError::OutOfRange { what: "nominal input", .. }), "{err}");
+            let fallback = filter.fallback_input(&[0.0; NU]);
+            assert!(fallback.iter().all(|v| v.is_finite()));
+        });
+    }
+    // The edge of the domain itself is served.
+    let mut filter = EcbfFilter::new(CAPACITY, FilterSettings::default()).expect("filter");
+    let out = filter.update(&x, &[domain::MAX_INPUT; NU], &env).expect("in domain");
+    let s = FilterSettings::default();
+    assert!((0..NU).all(|j| out.u[j].is_finite() && out.u[j] >= s.input_min[j] && out.u[j] <= s.input_max[j]));
+}
+
+#[test]
+fn input_limits_beyond_the_domain_are_rejected() {
+    // Before: accepted, and every update returned NaN labelled `qp`.
+    let mut s = FilterSettings::default();
+    s.input_min = [1e307; NU];
+    s.input_max = [1e307; NU];
+    assert!(matches!(EcbfFilter::new(CAPACITY, s), Err(CbfError::OutOfRange { what: "input limit", .. })));
+    let mut s = FilterSettings::default();
+    s.input_weights[0] = 1e300;
+    assert!(EcbfFilter::new(CAPACITY, s).is_err());
+    s = FilterSettings::default();
+    s.families[0].poles = [1e300, 1.0];
+    assert!(EcbfFilter::new(CAPACITY, s).is_err());
+}
+
+#[test]
+fn solver_settings_that_could_spin_for_hours_are_rejected() {
+    // Before: max_iter = 2³²−1 with tolerances of 5e-324 ran one update for hours.
+    let spinning: [(&str, fn(&mut SolverSettings)); 9] = [
+        ("max_iter", |s| s.max_iter = u32::MAX),
+        ("eps_abs", |s| s.eps_abs = 5e-324),
+        ("eps_rel", |s| s.eps_rel = 5e-324),
+        ("alpha", |s| s.alpha = 1e-300),
+        ("rho", |s| s.rho = 1e300),
+        ("sigma", |s| s.sigma = 5e-324),
+        ("check_termination", |s| s.check_termination = u32::MAX),
+        ("adaptive_rho_interval", |s| s.adaptive_rho_interval = u32::MAX),
+        ("time limit", |s| s.time_limit = Some(Duration::from_secs(3600))),
+    ];
+    for (name, spoil) in spinning {
+        let mut s = FilterSettings::default();
+        spoil(&mut s.solver);
+        let err = EcbfFilter::new(CAPACITY, s).expect_err(name);
+        assert!(err.to_string().contains(name.split(' ').next().unwrap_or(name)), "{name}: {err}");
+    }
+    // The largest accepted budget is a bounded one.
+    let mut s = FilterSettings::default();
+    s.solver.max_iter = SolverSettings::MAX_ITERATIONS;
+    s.solver.eps_abs = SolverSettings::MIN_TOLERANCE;
+    s.solver.eps_rel = SolverSettings::MIN_TOLERANCE;
+    assert!(EcbfFilter::new(CAPACITY, s).is_ok());
+}
+
+#[test]
+fn a_time_limit_from_seconds_never_panics() {
+    // Before: Duration::from_secs_f64(1e20) panicked across the Python boundary.
+    for secs in [1e20, f64::MAX, f64::INFINITY, f64::NAN, -1.0, 0.0, 1.5] {
+        assert!(SolverSettings::time_limit_from_secs(secs).is_err(), "{secs}");
+    }
+    assert_eq!(SolverSettings::time_limit_from_secs(1e-3), Ok(Duration::from_millis(1)));
+    assert_eq!(SolverSettings::time_limit_from_secs(5e-324), Ok(Duration::from_nanos(1)));
+}
+
+#[test]
+fn absurd_capacities_are_typed_errors_not_aborts() {
+    // Before: capacity overflow panics, and allocation failures that killed the process.
+    let huge = [1_000_000, 1_000_000_000, 1 << 62, usize::MAX / 7 + 1, usize::MAX];
+    for edges in huge {
+        let capacity = Capacity { edges, foothold_edges: [1; 6] };
+        assert!(matches!(Environment::new(capacity), Err(CbfError::TooLarge { .. })), "edges {edges}");
+        assert!(matches!(Catalog::new(capacity), Err(CbfError::TooLarge { .. })), "edges {edges}");
+        assert!(matches!(EcbfFilter::new(capacity, FilterSettings::default()), Err(CbfError::TooLarge { .. })));
+        let capacity = Capacity { edges: 1, foothold_edges: [edges; 6] };
+        assert!(matches!(EcbfFilter::new(capacity, FilterSettings::default()), Err(CbfError::TooLarge { .. })));
+        assert!(capacity.rows() >= edges, "the row count saturates instead of wrapping");
+    }
+    let largest = Capacity { edges: Capacity::MAX_EDGES, foothold_edges: [Capacity::MAX_FOOTHOLD_EDGES; 6] };
+    assert!(Environment::new(largest).is_ok());
+}
+
+#[test]
+fn a_simulation_longer_than_the_maximum_is_refused_before_it_reserves_anything() {
+    // Before: max_time = 1e300 panicked (capacity overflow) and 1e4 reserved 4 GB.
+    for max_time in [1e300, 1e4, sim::MAX_SIM_TIME * 1.01, f64::NAN, 0.0, -1.0] {
+        let mut config = SimConfig::new(Scenario::Step, true);
+        config.max_time = max_time;
+        assert!(matches!(sim::run(&config, |_| {}), Err(CbfError::OutOfRange { .. } | CbfError::NonFinite { .. })));
+    }
+}
+
+#[test]
+fn the_qp_refuses_negative_or_absurd_gains() {
+    // Before: EcbfQp::new accepted negative gains (a barrier that may grow towards 0).
+    let s = FilterSettings::default();
+    for gains in [[-1.0, 5.0], [6.0, -5.0], [1e300, 1.0]] {
+        let spec = RowSpec { columns: &[0, 1], gains, slack_weight: 1e4 };
+        let qp = EcbfQp::new(&[spec], &s.input_weights, &s.input_min, &s.input_max, s.solver);
+        assert!(matches!(qp, Err(CbfError::OutOfRange { what: "ECBF gain", .. })), "{gains:?}");
+    }
+}
+
+#[test]
+fn finite_but_overflowing_rows_never_reach_the_solver() {
+    // A row whose values are finite but whose ECBF bound b = L_f² h + k1 L_f h + k0 h
+    // overflows is reported like a NaN row; one with huge finite L_g L_f h is normalised
+    // without overflow and solved, with a finite answer.
+    let s = FilterSettings::default();
+    let spec = RowSpec { columns: &[0, 1], gains: [400.0, 40.0], slack_weight: 1e4 };
+    let mut qp = EcbfQp::new(&[spec], &s.input_weights, &s.input_min, &s.input_max, s.solver).expect("qp");
+    let overflowing = Row { lie: [1e307, 1e307, 1e307], lg: [0.0; NU], active: true };
+    assert_eq!(qp.solve(&[0.0; NU], &[overflowing], &[true]), Err(CbfError::NonFiniteRow { row: 0 }));
+    let mut lg = [0.0; NU];
+    (lg[0], lg[1]) = (1e300, -1e300);
+    let steep = Row { lie: [-1.0, 0.0, 0.0], lg, active: true };
+    let status = qp.solve(&[1.0; NU], &[steep], &[true]).expect("finite row");
+    assert!(status.is_solved(), "{status:?}");
+    assert!(qp.u().iter().chain(qp.delta()).all(|v| v.is_finite()));
+    // h = −1 needs a·u ≥ 400: u0 − u1 ≥ 4e-298, met by u0 = u1 = 1 only by rounding; the
+    // optimum keeps u close to u_ref.
+    assert!((qp.u()[0] - 1.0).abs() < 1e-3 && (qp.u()[2] - 1.0).abs() < 1e-3, "{:?}", qp.u());
+}
+
+/// The standard posture with leg `leg`'s toe exactly at its hip joint (knee length 0),
+/// where the joint-limit row's hip angle and its derivatives are 0/0.
+fn toe_at_hip(leg: usize) -> State {
+    let mut x = model::standard_posture();
+    x[TOE_BLOCK + 4 * leg] = x[model::BODY_X] + HIP_POSITIONS[leg][0];
+    x[TOE_BLOCK + 4 * leg + 1] = x[model::BODY_Z] + HIP_POSITIONS[leg][2];
+    x
+}
+
+#[test]
+fn a_toe_at_its_hip_falls_back_flagged_and_the_next_cycle_is_clean() {
+    let env = Environment::new(CAPACITY).expect("env");
+    assert_not_poisoned(|filter| {
+        let out = *filter.update(&toe_at_hip(1), &[0.0; NU], &env).expect("a flagged fallback, not an error");
+        assert_eq!(out.source, InputSource::NominalClipped);
+        assert!(out.nonfinite_row.is_some() && out.status.is_none());
+        assert!(out.u.iter().all(|v| v.is_finite()));
+    });
+}
+
+#[test]
+fn states_beyond_the_model_domain_are_errors_that_change_nothing() {
+    let env = Environment::new(CAPACITY).expect("env");
+    for (index, value) in [(0, 1e300), (4, -f64::MAX), (9, 2.0 * model::STATE_LIMIT)] {
+        assert_not_poisoned(|filter| {
+            let mut x = model::standard_posture();
+            x[index] = value;
+            let err = filter.update(&x, &[0.0; NU], &env).expect_err("out of domain");
+            assert!(matches!(err, CbfError::OutOfRange { what: "state entry", .. }), "{err}");
+        });
+    }
+}
+
+#[test]
+fn a_half_plane_of_extreme_scale_is_the_same_half_plane() {
+    // Scaling (normal, offset) by any positive factor describes the same set; the stored
+    // form is unit-normal, so 1e300 and 1e-300 scales give the same rows.
+    let reference = HalfPlane::new([3.0, 4.0], 5.0).expect("plane");
+    assert_eq!(reference.normal(), &[0.6, 0.8]);
+    assert_eq!(reference.offset(), 1.0);
+    // 1e-310 is subnormal: about 13 significant digits left.
+    for scale in [1e300, 1e-300, 1e-310] {
+        let p = HalfPlane::new([3.0 * scale, 4.0 * scale], 5.0 * scale).expect("scaled plane");
+        assert!((p.normal()[0] - 0.6).abs() < 1e-12 && (p.offset() - 1.0).abs() < 1e-12, "{scale}: {p:?}");
+    }
+    // A boundary 1e300 m away is outside the world's domain.
+    assert!(HalfPlane::new([1.0, 0.0], 1e300).is_err());
+}
+
+#[test]
+fn the_multilayer_qp_refuses_unbounded_solver_settings_and_inputs() {
+    let mut settings = CbfQpSettings::default();
+    settings.solver.max_iter = u32::MAX;
+    assert!(IdCbfQp::new(settings).is_err());
+    settings = CbfQpSettings::default();
+    settings.solver.eps_abs = 5e-324;
+    assert!(IdCbfQp::new(settings).is_err());
+    let mut qp = IdCbfQp::new(CbfQpSettings::default()).expect("qp");
+    let row = cbfgen::multilayer::SineBarrier::new(0.2, 1.0, 0.0).expect("barrier").row(&[1.0, 0.0], 0.0);
+    assert!(qp.solve(f64::MAX, &row).is_err());
+    let out = qp.solve(0.0, &row).expect("an ordinary cycle after the refused one");
+    assert!(out.u.is_finite());
+}
