@@ -64,9 +64,7 @@ fn a_nominal_input_of_f64_max_is_an_error_and_poisons_nothing() {
 #[test]
 fn input_limits_beyond_the_domain_are_rejected() {
     // Before: accepted, and every update returned NaN labelled `qp`.
-    let mut s = FilterSettings::default();
-    s.input_min = [1e307; NU];
-    s.input_max = [1e307; NU];
+    let s = FilterSettings { input_min: [1e307; NU], input_max: [1e307; NU], ..FilterSettings::default() };
     assert!(matches!(EcbfFilter::new(CAPACITY, s), Err(CbfError::OutOfRange { what: "input limit", .. })));
     let mut s = FilterSettings::default();
     s.input_weights[0] = 1e300;
@@ -79,7 +77,8 @@ fn input_limits_beyond_the_domain_are_rejected() {
 #[test]
 fn solver_settings_that_could_spin_for_hours_are_rejected() {
     // Before: max_iter = 2³²−1 with tolerances of 5e-324 ran one update for hours.
-    let spinning: [(&str, fn(&mut SolverSettings)); 9] = [
+    type Spoil = fn(&mut SolverSettings);
+    let spinning: [(&str, Spoil); 9] = [
         ("max_iter", |s| s.max_iter = u32::MAX),
         ("eps_abs", |s| s.eps_abs = 5e-324),
         ("eps_rel", |s| s.eps_rel = 5e-324),
