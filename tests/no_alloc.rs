@@ -1,6 +1,10 @@
-//! The control path allocates nothing: thousands of filter updates along the drive into
-//! the stairs, counted two ways — Rust's global allocator, and the C `malloc` family
-//! that OSQP (compiled C, linked into this binary) would call.
+//! The control path allocates nothing, on every way through `EcbfFilter::update`:
+//! thousands of updates along the drive into the stairs (the QP path), and beside them,
+//! a table of side paths, each on its own filter: OSQP stopped at its iteration or time
+//! limit, a non-finite row before and after a solve (the fallbacks), and the three
+//! rejected inputs. Counted two ways — Rust's global allocator, and the C `malloc`
+//! family that OSQP (compiled C, linked into this binary) calls — and each path must
+//! really have been taken, every time it ran.
 //!
 //! The counters are process-wide, so this binary has no test harness (`harness = false`
 //! in Cargo.toml): libtest's own thread allocates while a test runs, and once made this
@@ -9,46 +13,246 @@
 #[path = "common/alloc_count.rs"]
 mod alloc_count;
 
+use std::time::Duration;
+
 use cbfgen::approach::Approach;
-use cbfgen::catalog::Capacity;
-use cbfgen::filter::{EcbfFilter, FilterSettings, InputSource};
+use cbfgen::catalog::{Capacity, Environment, Family};
+use cbfgen::filter::{EcbfFilter, FilterSettings, InputSource, QpStatus, SolverSettings};
+use cbfgen::model::{self, Input, State, BODY_PITCH, BODY_X, BODY_Z, INPUT_LIMITS, TOE_BLOCK};
 use cbfgen::terrain::Stairs;
+use cbfgen::CbfError;
+
+/// Drive cycles (1 ms each).
+const CYCLES: usize = 3000;
+/// Every side path runs once per this many drive cycles.
+const SIDE_PATH_EVERY: usize = 10;
 
 fn main() {
-    thousands_of_filter_updates_allocate_nothing();
-    println!("thousands_of_filter_updates_allocate_nothing ... ok");
+    every_filter_update_path_allocates_nothing();
+    println!("every_filter_update_path_allocates_nothing ... ok");
 }
 
-fn thousands_of_filter_updates_allocate_nothing() {
+/// What one `update` did, in the terms the table's expectations are written in.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Outcome {
+    /// `Ok`: where the input came from, OSQP's report, and the first non-finite active row.
+    Output { source: InputSource, status: Option<QpStatus>, nonfinite_row: Option<usize> },
+    /// `Err` naming what was wrong, with the filter's last output left as it was and a
+    /// finite `fallback_input` for the caller.
+    Rejected(&'static str),
+    /// A documented property failed (named); never expected.
+    Broken(&'static str),
+}
+
+/// What a side path feeds `update`, derived from the drive's current cycle.
+#[derive(Debug, Clone, Copy)]
+enum Feed {
+    /// The drive's state with a full command whose sign flips every run: the warm start
+    /// is then always far from the answer, so a solve cut short cannot have converged.
+    FlippingFullCommand,
+    /// A state with the front-left toe exactly on its hip joint ([`toe_on_hip`]).
+    ToeOnHip,
+    NanState,
+    NanCommand,
+    /// The drive's state and command with an environment sized for another capacity.
+    ForeignEnvironment,
+}
+
+/// A side path's filter before the count: as built, or after one solved update (so it
+/// has a last safe input to fall back to, and an output an error must not change).
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Start {
+    Fresh,
+    AfterASolve,
+}
+
+/// Everything the feeds draw on.
+struct Scene {
+    drive: Approach,
+    toe_on_hip: State,
+    foreign_env: Environment,
+}
+
+impl Feed {
+    /// `(x, u_ref, env)` for this path's `run`-th call.
+    fn inputs(self, scene: &Scene, run: usize) -> (State, Input, &Environment) {
+        let (mut x, mut u_ref, mut env) = (scene.drive.x, scene.drive.nominal_input(), &scene.drive.env);
+        match self {
+            Feed::FlippingFullCommand => {
+                let sign = if run.is_multiple_of(2) { 1.0 } else { -1.0 };
+                u_ref = INPUT_LIMITS.map(|l| sign * l);
+            }
+            Feed::ToeOnHip => x = scene.toe_on_hip,
+            Feed::NanState => x[BODY_Z] = f64::NAN,
+            Feed::NanCommand => u_ref[0] = f64::NAN,
+            Feed::ForeignEnvironment => env = &scene.foreign_env,
+        }
+        (x, u_ref, env)
+    }
+}
+
+/// One side path: its own filter, what it is fed, and what every run must do.
+struct SidePath {
+    name: &'static str,
+    filter: EcbfFilter,
+    feed: Feed,
+    expect: Outcome,
+    runs: usize,
+    taken: usize,
+    /// The first outcome that was not `expect`, for the failure message.
+    first_miss: Option<Outcome>,
+}
+
+impl SidePath {
+    fn run(&mut self, scene: &Scene) {
+        let (x, u_ref, env) = self.feed.inputs(scene, self.runs);
+        let outcome = observe(&mut self.filter, &x, &u_ref, env);
+        self.runs += 1;
+        if outcome == self.expect {
+            self.taken += 1;
+        } else {
+            self.first_miss.get_or_insert(outcome);
+        }
+    }
+}
+
+/// One update, with the properties its path documents checked on the spot (all without
+/// allocating, since this runs inside the count).
+fn observe(filter: &mut EcbfFilter, x: &State, u_ref: &Input, env: &Environment) -> Outcome {
+    let before = *filter.output();
+    // Copied out, so the filter can be inspected in every arm.
+    match filter.update(x, u_ref, env).copied() {
+        Ok(out) => {
+            let fell_back = matches!(out.source, InputSource::LastSafe | InputSource::NominalClipped);
+            if fell_back && out.u != filter.fallback_input(u_ref) {
+                return Outcome::Broken("a fallback output differs from fallback_input()");
+            }
+            Outcome::Output { source: out.source, status: out.status, nonfinite_row: out.nonfinite_row }
+        }
+        Err(_) if *filter.output() != before => Outcome::Broken("an Err changed the filter's output"),
+        Err(_) if !filter.fallback_input(u_ref).iter().all(|u| u.is_finite()) => {
+            Outcome::Broken("fallback_input() after an Err is not finite")
+        }
+        Err(e) => Outcome::Rejected(error_subject(&e)),
+    }
+}
+
+/// What a rejected update complained about.
+fn error_subject(e: &CbfError) -> &'static str {
+    match e {
+        CbfError::NonFinite { what, .. } => what,
+        CbfError::CapacityMismatch => "environment capacity",
+        _ => "another error",
+    }
+}
+
+/// The standard posture with the front-left toe moved onto its hip joint (pitch 0, so
+/// the hip sits at body position + its mount). The knee length is then exactly 0: the
+/// knee-minimum row's `h` is finite (−0.08 m, active: joint limits always apply) but its
+/// derivatives divide 0 by 0. The toe is placed by adding the same terms the generated
+/// kernel subtracts, so the difference is exactly 0.0, not merely tiny.
+fn toe_on_hip() -> State {
+    let mut x = model::standard_posture();
+    x[BODY_PITCH] = 0.0;
+    let hip = model::HIP_POSITIONS[0];
+    x[TOE_BLOCK] = hip[0] + x[BODY_X];
+    x[TOE_BLOCK + 1] = hip[2] + x[BODY_Z];
+    x
+}
+
+fn every_filter_update_path_allocates_nothing() {
     let capacity = Capacity::PAPER_WORST_CASE;
     let mut filter = EcbfFilter::new(capacity, FilterSettings::default()).expect("filter");
-    let mut drive = Approach::new(capacity, Stairs::HARDWARE, 0.3, 0.4).expect("drive");
-    let mut broken = drive.x;
-    broken[7] = f64::NAN;
+    let mut scene = Scene {
+        drive: Approach::new(capacity, Stairs::HARDWARE, 0.3, 0.4).expect("drive"),
+        toe_on_hip: toe_on_hip(),
+        foreign_env: Environment::new(Capacity { edges: 1, foothold_edges: [1; 6] }).expect("environment"),
+    };
+    let knee_min_front_left = filter
+        .slots()
+        .iter()
+        .position(|s| s.family == Family::JointLimits && s.leg == Some(0) && s.instance == 0)
+        .expect("a knee-minimum row for leg 0");
 
     alloc_count::assert_counters_work(|| {
         EcbfFilter::new(Capacity { edges: 1, foothold_edges: [1; 6] }, FilterSettings::default())
     });
 
-    let (mut sources, mut solved) = ([0usize; 4], 0);
+    let one_iteration = SolverSettings { max_iter: 1, polish: false, ..SolverSettings::default() };
+    // No solve finishes within 1 ns, so OSQP stops after its first iteration whatever the
+    // load: the outcome does not depend on timing.
+    let one_nanosecond =
+        SolverSettings { time_limit: Some(Duration::from_nanos(1)), polish: false, ..SolverSettings::default() };
+    let default = SolverSettings::default();
+    let ok = |source, status, nonfinite_row| Outcome::Output { source, status, nonfinite_row };
+    let nonfinite = Some(knee_min_front_left);
+    use {InputSource::*, QpStatus::*, Start::*};
+    // One row per side path: name, solver settings, the filter's history, feed, what every run must do.
+    #[rustfmt::skip]
+    let table = [
+        ("iteration limit", one_iteration, Fresh, Feed::FlippingFullCommand,
+            ok(Unconverged, Some(MaxIterations), None)),
+        ("time limit", one_nanosecond, Fresh, Feed::FlippingFullCommand,
+            ok(Unconverged, Some(TimeLimit), None)),
+        ("non-finite row, nothing solved yet", default, Fresh, Feed::ToeOnHip,
+            ok(NominalClipped, None, nonfinite)),
+        ("non-finite row after a solve", default, AfterASolve, Feed::ToeOnHip,
+            ok(LastSafe, None, nonfinite)),
+        ("NaN state", default, AfterASolve, Feed::NanState,
+            Outcome::Rejected("state entry")),
+        ("NaN nominal input", default, AfterASolve, Feed::NanCommand,
+            Outcome::Rejected("nominal input")),
+        ("environment of another capacity", default, AfterASolve, Feed::ForeignEnvironment,
+            Outcome::Rejected("environment capacity")),
+    ];
+    // Construction allocates by design, so every filter is built (and primed) here.
+    let mut side_paths = table.map(|(name, solver, start, feed, expect)| {
+        let mut filter = EcbfFilter::new(capacity, FilterSettings { solver, ..FilterSettings::default() }).expect(name);
+        if start == AfterASolve {
+            let out = filter.update(&scene.drive.x, &scene.drive.nominal_input(), &scene.drive.env).expect(name);
+            assert_eq!(out.source, InputSource::Qp, "{name}: the priming update must solve the QP");
+        }
+        SidePath { name, filter, feed, expect, runs: 0, taken: 0, first_miss: None }
+    });
+
+    let (mut sources, mut polished) = ([0usize; InputSource::ALL.len()], 0);
     let ((), rust, c) = alloc_count::counting(|| {
-        for cycle in 0..3000 {
-            let u_ref = drive.nominal_input();
-            // Every 500th cycle a bad state: the error path must not allocate either.
-            if cycle % 500 == 250 {
-                let _ = filter.update(&broken, &u_ref, &drive.env);
+        for cycle in 0..CYCLES {
+            if cycle % SIDE_PATH_EVERY == SIDE_PATH_EVERY / 2 {
+                side_paths.iter_mut().for_each(|path| path.run(&scene));
             }
-            let out = match filter.update(&drive.x, &u_ref, &drive.env) {
+            let drive = &mut scene.drive;
+            let out = match filter.update(&drive.x, &drive.nominal_input(), &drive.env) {
                 Ok(out) => *out,
                 Err(_) => break,
             };
             sources[out.source as usize] += 1;
-            solved += usize::from(out.polished);
+            polished += usize::from(out.polished);
             drive.advance(&out.u, 1e-3);
         }
     });
-    assert_eq!((rust, c), (0, 0), "allocations during 3000 updates: Rust {rust}, C {c}");
-    assert_eq!(sources.iter().sum::<usize>(), 3000, "an update failed");
-    assert!(sources[InputSource::Qp as usize] > 2900 && solved > 2900, "the loop must really solve: {sources:?}");
-    assert!(drive.x[0] > 0.1, "the robot must have moved");
+
+    println!("  {:<36} {:>4} updates: {sources:?} by source {:?}, {polished} polished", "drive", CYCLES, InputSource::ALL);
+    for path in &side_paths {
+        println!("  {:<36} {:>4} runs, {:>4} as expected ({:?})", path.name, path.runs, path.taken, path.expect);
+    }
+    assert_eq!((rust, c), (0, 0), "allocations during {CYCLES} drive cycles and their side paths: Rust {rust}, C {c}");
+    assert_eq!(sources.iter().sum::<usize>(), CYCLES, "a drive update failed");
+    assert!(
+        sources[InputSource::Qp as usize] > CYCLES - 100 && polished > CYCLES - 100,
+        "the drive must really solve: sources {sources:?}, polished {polished}"
+    );
+    assert!(scene.drive.x[0] > 0.1, "the robot must have moved");
+    for path in &side_paths {
+        assert!(path.runs == CYCLES / SIDE_PATH_EVERY, "{}: ran {} times", path.name, path.runs);
+        assert!(
+            path.taken == path.runs,
+            "{}: {} of {} runs as expected; first other outcome {:?}, expected {:?}",
+            path.name,
+            path.taken,
+            path.runs,
+            path.first_miss,
+            path.expect
+        );
+    }
 }

@@ -1,6 +1,10 @@
 //! The LIP-MPC control path allocates nothing: a whole walk to the goal, one MPC step
 //! (half-planes, preprocessing, value update, OSQP solve, state advance) after another,
-//! counted on Rust's global allocator and on the C `malloc` family OSQP would call.
+//! with a NaN state injected before every step; and beside it, a table of side paths,
+//! each on its own MPC and fed from the walk: OSQP stopped at its iteration or time
+//! limit, and every input `LipMpc::solve` rejects. Counted on Rust's global allocator
+//! and on the C `malloc` family OSQP calls; each path must really have been taken, every
+//! time it ran.
 //!
 //! The counters are process-wide, so this binary has no test harness (`harness = false`
 //! in Cargo.toml): libtest's own thread allocates while a test runs, and once made this
@@ -9,41 +13,211 @@
 #[path = "common/alloc_count.rs"]
 mod alloc_count;
 
+use std::time::Duration;
+
+use cbfgen::filter::{QpStatus, SolverSettings};
 use cbfgen::lip::scenario::{Scenario, Walker};
-use cbfgen::lip::LipMpc;
+use cbfgen::lip::{HalfPlane, LipMpc, LipState};
+use cbfgen::CbfError;
+
+/// Half-planes a fed-in problem can hold: more than the standard course's obstacles, so
+/// one more than the MPC was built for fits.
+const MAX_PLANES: usize = 8;
 
 fn main() {
-    a_walk_of_mpc_steps_allocates_nothing();
-    println!("a_walk_of_mpc_steps_allocates_nothing ... ok");
+    every_mpc_step_path_allocates_nothing();
+    println!("every_mpc_step_path_allocates_nothing ... ok");
 }
 
-fn a_walk_of_mpc_steps_allocates_nothing() {
-    let mut walker = Walker::new(Scenario::standard()).expect("walker");
+/// What one `LipMpc::solve` did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Outcome {
+    /// `Ok` with this status.
+    Status(QpStatus),
+    /// `Err` naming what was wrong, with the MPC's status and plan left as they were.
+    Rejected(&'static str),
+    /// A documented property failed (named); never expected.
+    Broken(&'static str),
+}
+
+/// One MPC problem, as the walker posed it in its last step's frame.
+#[derive(Debug, Clone, Copy)]
+struct Problem<'a> {
+    x0: LipState,
+    goal: [f64; 2],
+    stance: f64,
+    planes: &'a [HalfPlane],
+}
+
+/// What a side path makes of the walker's last problem.
+#[derive(Debug, Clone, Copy)]
+enum Feed {
+    /// The problem as posed. The walk moves the frame every step, so a warm start is
+    /// never already the answer and a solve cut short cannot have converged.
+    Walk,
+    NanState,
+    NanGoal,
+    NanPlane,
+    /// A stance sign other than ±1.
+    StanceZero,
+    /// One half-plane more than the MPC was built for.
+    ExtraPlane,
+}
+
+impl Feed {
+    /// The problem to solve, with `scratch` holding its half-planes.
+    fn apply<'a>(self, walked: &Problem<'_>, scratch: &'a mut [HalfPlane; MAX_PLANES]) -> Problem<'a> {
+        let n = walked.planes.len();
+        scratch[..n].copy_from_slice(walked.planes);
+        let mut problem = Problem { x0: walked.x0, goal: walked.goal, stance: walked.stance, planes: &[] };
+        let mut planes = n;
+        match self {
+            Feed::Walk => {}
+            Feed::NanState => problem.x0[1] = f64::NAN,
+            Feed::NanGoal => problem.goal[0] = f64::NAN,
+            Feed::NanPlane => scratch[0].delta = f64::NAN,
+            Feed::StanceZero => problem.stance = 0.0,
+            Feed::ExtraPlane => {
+                scratch[n] = scratch[0];
+                planes += 1;
+            }
+        }
+        problem.planes = &scratch[..planes];
+        problem
+    }
+}
+
+/// One side path: its own MPC, what it is fed, and what every run must do.
+struct SidePath {
+    name: &'static str,
+    mpc: LipMpc,
+    feed: Feed,
+    expect: Outcome,
+    runs: usize,
+    taken: usize,
+    /// The first outcome that was not `expect`, for the failure message.
+    first_miss: Option<Outcome>,
+}
+
+impl SidePath {
+    fn run(&mut self, walked: &Problem<'_>, scratch: &mut [HalfPlane; MAX_PLANES]) {
+        let problem = self.feed.apply(walked, scratch);
+        let outcome = observe(&mut self.mpc, &problem);
+        self.runs += 1;
+        if outcome == self.expect {
+            self.taken += 1;
+        } else {
+            self.first_miss.get_or_insert(outcome);
+        }
+    }
+}
+
+/// One solve, with what `LipMpc::solve` documents checked on the spot (without
+/// allocating, since this runs inside the count): only a solved QP replaces the plan.
+fn observe(mpc: &mut LipMpc, p: &Problem<'_>) -> Outcome {
+    let (status_before, first_input_before) = (mpc.status(), mpc.plan().inputs()[0]);
+    let result = mpc.solve(&p.x0, p.goal, p.stance, p.planes);
+    let plan_kept = mpc.plan().inputs()[0] == first_input_before;
+    match result {
+        Ok(status) if !status.is_solved() && !plan_kept => Outcome::Broken("an unsolved QP replaced the plan"),
+        Ok(status) => Outcome::Status(status),
+        Err(_) if !plan_kept || mpc.status() != status_before => Outcome::Broken("an Err changed the MPC"),
+        Err(e) => Outcome::Rejected(error_subject(&e)),
+    }
+}
+
+/// What a rejected solve complained about.
+fn error_subject(e: &CbfError) -> &'static str {
+    match e {
+        CbfError::NonFinite { what, .. } | CbfError::OutOfRange { what, .. } | CbfError::CapacityExceeded { what, .. } => {
+            what
+        }
+        _ => "another error",
+    }
+}
+
+fn every_mpc_step_path_allocates_nothing() {
+    let scenario = Scenario::standard();
+    let obstacles = scenario.obstacles.len();
+    assert!(obstacles < MAX_PLANES, "the scratch must hold one half-plane more than the course has");
+    let mut walker = Walker::new(scenario.clone()).expect("walker");
     alloc_count::assert_counters_work(|| LipMpc::new(Default::default(), 2, LipMpc::default_solver_settings()));
+
+    let default = scenario.solver;
+    let one_iteration = SolverSettings { max_iter: 1, ..default };
+    // No solve finishes within 1 ns, so OSQP stops after its first iteration whatever the
+    // load: the outcome does not depend on timing.
+    let one_nanosecond = SolverSettings { time_limit: Some(Duration::from_nanos(1)), ..default };
+    use {Outcome::*, QpStatus::*};
+    // One row per side path: name, solver settings, feed, what every run must do.
+    #[rustfmt::skip]
+    let table = [
+        ("iteration limit", one_iteration, Feed::Walk, Status(MaxIterations)),
+        ("time limit", one_nanosecond, Feed::Walk, Status(TimeLimit)),
+        ("NaN state", default, Feed::NanState, Rejected("LIP state")),
+        ("NaN goal", default, Feed::NanGoal, Rejected("goal x")),
+        ("NaN half-plane", default, Feed::NanPlane, Rejected("obstacle half-plane")),
+        ("stance sign 0", default, Feed::StanceZero, Rejected("stance sign")),
+        ("one half-plane too many", default, Feed::ExtraPlane, Rejected("obstacles")),
+    ];
+    // Construction allocates by design, so every MPC is built here. Each solves the
+    // course's first problem (start frame, obstacles left out) once, so the plan a
+    // rejected call must keep is a real one; the limit paths cannot solve it and keep the
+    // empty plan, which no iterate may replace.
+    let mut side_paths = table.map(|(name, solver, feed, expect)| {
+        let mut mpc = LipMpc::new(scenario.params, obstacles, solver).expect(name);
+        let status = mpc.solve(&scenario.start, scenario.goal, scenario.first_stance, &[]).expect(name);
+        assert!(status.is_solved() || solver != default, "{name}: the first problem must solve, got {status:?}");
+        SidePath { name, mpc, feed, expect, runs: 0, taken: 0, first_miss: None }
+    });
+    let mut scratch = [HalfPlane { normal: [1.0, 0.0], point: [0.0; 2], delta: 0.0, inside: false }; MAX_PLANES];
 
     let mut broken = *walker.state();
     broken[1] = f64::NAN;
-    let ((advanced, errors), rust, c) = alloc_count::counting(|| {
-        let (mut advanced, mut errors) = (0, 0);
-        for step in 0..60 {
-            // Once, a bad state: the error path must not allocate either.
-            if step == 10 {
-                let good = *walker.state();
-                walker.set_state(broken);
-                errors += usize::from(walker.step().is_err());
-                walker.set_state(good);
-            }
-            match walker.step() {
-                Ok(outcome) if outcome.advanced => advanced += 1,
-                _ => break,
-            }
-            if walker.at_goal() {
-                break;
+    let ((steps, advanced, injected, errors), rust, c) = alloc_count::counting(|| {
+        let (mut steps, mut advanced, mut injected, mut errors) = (0, 0, 0, 0);
+        let mut stance = scenario.first_stance;
+        while steps < scenario.max_steps && !walker.at_goal() {
+            // A bad state first: the walker's error path must not allocate either.
+            let good = *walker.state();
+            walker.set_state(broken);
+            injected += 1;
+            errors += usize::from(walker.step().is_err());
+            walker.set_state(good);
+
+            let Ok(outcome) = walker.step() else { break };
+            steps += 1;
+            let walked = Problem {
+                x0: *walker.local_start(),
+                goal: walker.frame().point_to_local(scenario.goal),
+                stance,
+                planes: walker.planes(),
+            };
+            side_paths.iter_mut().for_each(|path| path.run(&walked, &mut scratch));
+            if outcome.advanced {
+                advanced += 1;
+                stance = -stance;
             }
         }
-        (advanced, errors)
+        (steps, advanced, injected, errors)
     });
-    assert_eq!((rust, c), (0, 0), "allocations during {advanced} MPC steps: Rust {rust}, C {c}");
-    assert_eq!(errors, 1, "the NaN state must be an error");
-    assert!(walker.at_goal() && advanced > 20, "the loop must really walk: {advanced} steps");
+
+    println!("  {:<24} {steps:>3} steps, {advanced} advanced, {errors} of {injected} NaN states rejected", "walk");
+    for path in &side_paths {
+        println!("  {:<24} {:>3} runs, {:>3} as expected ({:?})", path.name, path.runs, path.taken, path.expect);
+    }
+    assert_eq!((rust, c), (0, 0), "allocations during {steps} MPC steps and their side paths: Rust {rust}, C {c}");
+    assert!(injected > 0 && errors == injected, "every NaN state must be an error: {errors} of {injected}");
+    assert!(walker.at_goal() && advanced == steps && steps > 20, "the loop must really walk: {advanced} of {steps} steps");
+    for path in &side_paths {
+        assert!(
+            path.runs == steps && path.taken == path.runs,
+            "{}: {} of {} runs as expected (of {steps} steps); first other outcome {:?}, expected {:?}",
+            path.name,
+            path.taken,
+            path.runs,
+            path.first_miss,
+            path.expect
+        );
+    }
 }

@@ -1,6 +1,10 @@
 //! The multi-layer control path allocates nothing: MPC re-plans and CBF-QP solves over
-//! thousands of cycles, for all three MPC modes, bad inputs included. Counted for Rust's
-//! global allocator and for the C `malloc` family OSQP would call.
+//! thousands of cycles, for all three MPC modes, with a NaN state injected now and then;
+//! and beside them, a table of side paths, each on its own solver and fed from the first
+//! system's cycle: either layer stopped at its iteration limit, and the inputs and rows
+//! each rejects (the CBF-QP's `QpFailed` reports included). Counted for Rust's global
+//! allocator and for the C `malloc` family OSQP calls; each path must really have been
+//! taken, every time it ran.
 //!
 //! The counters are process-wide, so this binary has no test harness (`harness = false`
 //! in Cargo.toml): libtest's own thread allocates while a test runs, and once made this
@@ -9,14 +13,89 @@
 #[path = "common/alloc_count.rs"]
 mod alloc_count;
 
-use cbfgen::multilayer::{MultiLayerController, ScenarioConfig};
+use cbfgen::filter::QpStatus;
+use cbfgen::multilayer::{
+    BarrierRow, CbfQpSettings, IdCbfQp, KinematicMpc, LayerSolverSettings, MpcSettings, MultiLayerController,
+    ScenarioConfig, State,
+};
+use cbfgen::CbfError;
+
+/// Control cycles (1 ms each) per system.
+const CYCLES: usize = 4000;
+/// Every side path runs once per this many cycles.
+const SIDE_PATH_EVERY: usize = 10;
 
 fn main() {
-    thousands_of_multilayer_cycles_allocate_nothing();
-    println!("thousands_of_multilayer_cycles_allocate_nothing ... ok");
+    every_multilayer_path_allocates_nothing();
+    println!("every_multilayer_path_allocates_nothing ... ok");
 }
 
-fn thousands_of_multilayer_cycles_allocate_nothing() {
+/// What one call did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Outcome {
+    /// `Ok` with this status.
+    Status(QpStatus),
+    /// `Err` naming what was wrong: the non-finite value, "row", or the `QpFailed` status.
+    Rejected(&'static str),
+}
+
+fn outcome(result: Result<QpStatus, CbfError>) -> Outcome {
+    match result {
+        Ok(status) => Outcome::Status(status),
+        Err(CbfError::NonFinite { what, .. }) => Outcome::Rejected(what),
+        Err(CbfError::NonFiniteRow { .. }) => Outcome::Rejected("row"),
+        Err(CbfError::QpFailed { status, .. }) => Outcome::Rejected(status),
+        Err(_) => Outcome::Rejected("another error"),
+    }
+}
+
+/// The first system's cycle, which every side path is fed from.
+#[derive(Debug, Clone, Copy)]
+struct Cycle {
+    t: f64,
+    x: State,
+    /// How many times this side path ran before.
+    run: usize,
+}
+
+/// A side path's call: runs its own solver on one cycle.
+type Call = Box<dyn FnMut(&Cycle) -> Outcome>;
+
+/// One side path: a closure owning its own solver (the layers are different types, so
+/// the table holds calls rather than solvers), and what every run must do.
+struct SidePath {
+    name: &'static str,
+    expect: Outcome,
+    call: Call,
+    runs: usize,
+    taken: usize,
+    /// The first outcome that was not `expect`, for the failure message.
+    first_miss: Option<Outcome>,
+}
+
+impl SidePath {
+    fn run(&mut self, t: f64, x: State) {
+        let outcome = (self.call)(&Cycle { t, x, run: self.runs });
+        self.runs += 1;
+        if outcome == self.expect {
+            self.taken += 1;
+        } else {
+            self.first_miss.get_or_insert(outcome);
+        }
+    }
+}
+
+/// A command far from the last one every run (±50 m/s², alternating): a warm start is
+/// then never already the answer, so a solve cut short cannot have converged.
+fn flipping_command(run: usize) -> f64 {
+    if run.is_multiple_of(2) {
+        50.0
+    } else {
+        -50.0
+    }
+}
+
+fn every_multilayer_path_allocates_nothing() {
     let config = ScenarioConfig::default();
     let mut controllers: Vec<MultiLayerController> = config
         .modes()
@@ -29,15 +108,77 @@ fn thousands_of_multilayer_cycles_allocate_nothing() {
         MultiLayerController::new(config.barrier, config.modes()[0], config.mpc, config.qp, config.cycle_dt)
     });
 
-    let mut ok = 0usize;
-    let mut replans = 0usize;
+    // Construction allocates by design, so every solver and box is made here.
+    let barrier = config.barrier;
+    let mode = config.modes()[1];
+    let one_iteration = LayerSolverSettings { max_iter: 1, ..config.qp.solver };
+    let cbf_qp = |settings: CbfQpSettings| IdCbfQp::new(settings).expect("CBF-QP");
+    let one_iteration_qp = CbfQpSettings { solver: one_iteration, ..config.qp };
+    let one_iteration_mpc = MpcSettings { solver: LayerSolverSettings { max_iter: 1, ..config.mpc.solver }, ..config.mpc };
+    let controller = || MultiLayerController::new(barrier, mode, config.mpc, config.qp, config.cycle_dt).unwrap();
+    // A row the input bound cannot meet: h = −1 needs u ≥ k0 = 100 m/s², and |u| ≤ 1.
+    let out_of_reach = BarrierRow { lie: [-1.0, 0.0, 0.0], lg_lf: 1.0 };
+    use {Outcome::*, QpStatus::*};
+    // One row per side path: name, what every run must do, the call.
+    let table: [(&str, Outcome, Call); 9] = [
+        ("CBF-QP iteration limit", Status(MaxIterations), {
+            let mut qp = cbf_qp(one_iteration_qp);
+            Box::new(move |k| outcome(qp.solve(flipping_command(k.run), &barrier.row(&k.x, k.t)).map(|o| o.status)))
+        }),
+        ("CBF-QP NaN command", Rejected("desired acceleration"), {
+            let mut qp = cbf_qp(config.qp);
+            Box::new(move |k| outcome(qp.solve(f64::NAN, &barrier.row(&k.x, k.t)).map(|o| o.status)))
+        }),
+        ("CBF-QP NaN row", Rejected("row"), {
+            let mut qp = cbf_qp(config.qp);
+            Box::new(move |k| {
+                let row = BarrierRow { lg_lf: f64::NAN, ..barrier.row(&k.x, k.t) };
+                outcome(qp.solve(0.0, &row).map(|o| o.status))
+            })
+        }),
+        ("CBF-QP input cannot act", Rejected("input_cannot_act"), {
+            let mut qp = cbf_qp(config.qp);
+            Box::new(move |k| {
+                let row = BarrierRow { lg_lf: 0.0, ..barrier.row(&k.x, k.t) };
+                outcome(qp.solve(0.0, &row).map(|o| o.status))
+            })
+        }),
+        ("CBF-QP row beyond input bound", Rejected(PrimalInfeasible.name()), {
+            let mut qp = cbf_qp(CbfQpSettings { u_max: 1.0, ..config.qp });
+            Box::new(move |k| outcome(qp.solve(flipping_command(k.run), &out_of_reach).map(|o| o.status)))
+        }),
+        ("MPC iteration limit", Status(MaxIterations), {
+            let mut mpc = KinematicMpc::new(one_iteration_mpc, mode, barrier).expect("MPC");
+            Box::new(move |k| outcome(mpc.solve(k.t, &k.x).map(|o| o.status)))
+        }),
+        ("MPC NaN velocity", Rejected("velocity"), {
+            let mut mpc = KinematicMpc::new(config.mpc, mode, barrier).expect("MPC");
+            Box::new(move |k| outcome(mpc.solve(k.t, &[k.x[0], f64::NAN]).map(|o| o.status)))
+        }),
+        ("controller NaN time", Rejected("time"), {
+            let mut c = controller();
+            Box::new(move |k| outcome(c.control(f64::NAN, &k.x).map(|o| o.qp.status)))
+        }),
+        ("controller NaN velocity", Rejected("velocity"), {
+            let mut c = controller();
+            Box::new(move |k| outcome(c.control(k.t, &[k.x[0], f64::NAN]).map(|o| o.qp.status)))
+        }),
+    ];
+    let mut side_paths =
+        table.map(|(name, expect, call)| SidePath { name, expect, call, runs: 0, taken: 0, first_miss: None });
+
+    let (mut ok, mut replans, mut injected, mut rejected) = (0usize, 0usize, 0usize, 0usize);
     let ((), rust, c) = alloc_count::counting(|| {
-        for cycle in 0..4000 {
+        for cycle in 0..CYCLES {
             let t = cycle as f64 * config.cycle_dt;
+            if cycle % SIDE_PATH_EVERY == SIDE_PATH_EVERY / 2 {
+                side_paths.iter_mut().for_each(|path| path.run(t, states[0]));
+            }
             for (controller, x) in controllers.iter_mut().zip(states.iter_mut()) {
                 // Every 500th cycle a bad state first: the error path must not allocate either.
                 if cycle % 500 == 250 {
-                    let _ = controller.control(t, &[f64::NAN, x[1]]);
+                    injected += 1;
+                    rejected += usize::from(controller.control(t, &[f64::NAN, x[1]]).is_err());
                 }
                 let Ok(out) = controller.control(t, x) else { continue };
                 ok += 1;
@@ -47,8 +188,26 @@ fn thousands_of_multilayer_cycles_allocate_nothing() {
             }
         }
     });
-    assert_eq!((rust, c), (0, 0), "allocations during 12000 cycles: Rust {rust}, C {c}");
-    assert_eq!(ok, 12_000, "every cycle must solve");
-    assert_eq!(replans, 3 * 80, "the MPC re-plans every 50 cycles");
+
+    let systems = controllers.len();
+    println!("  {:<32} {ok:>5} cycles solved, {replans} re-plans, {rejected} of {injected} NaN states rejected", "systems");
+    for path in &side_paths {
+        println!("  {:<32} {:>5} runs, {:>3} as expected ({:?})", path.name, path.runs, path.taken, path.expect);
+    }
+    assert_eq!((rust, c), (0, 0), "allocations during {} cycles and their side paths: Rust {rust}, C {c}", systems * CYCLES);
+    assert_eq!(ok, systems * CYCLES, "every cycle must solve");
+    assert_eq!(replans, systems * 80, "the MPC re-plans every 50 cycles");
+    assert!(injected > 0 && rejected == injected, "every NaN state must be rejected: {rejected} of {injected}");
     assert!(states.iter().all(|x| x[0] < 0.9), "the systems must have moved: {states:?}");
+    for path in &side_paths {
+        assert!(
+            path.runs == CYCLES / SIDE_PATH_EVERY && path.taken == path.runs,
+            "{}: {} of {} runs as expected; first other outcome {:?}, expected {:?}",
+            path.name,
+            path.taken,
+            path.runs,
+            path.first_miss,
+            path.expect
+        );
+    }
 }
