@@ -54,6 +54,10 @@ enum Feed {
     ToeOnHip,
     NanState,
     NanCommand,
+    /// A finite state entry beyond `model::STATE_LIMIT`.
+    HugeState,
+    /// A finite nominal input of `f64::MAX` (once NaN labelled as solved).
+    HugeCommand,
     /// The drive's state and command with an environment sized for another capacity.
     ForeignEnvironment,
 }
@@ -85,6 +89,8 @@ impl Feed {
             Feed::ToeOnHip => x = scene.toe_on_hip,
             Feed::NanState => x[BODY_Z] = f64::NAN,
             Feed::NanCommand => u_ref[0] = f64::NAN,
+            Feed::HugeState => x[BODY_X] = 1e300,
+            Feed::HugeCommand => u_ref[3] = f64::MAX,
             Feed::ForeignEnvironment => env = &scene.foreign_env,
         }
         (x, u_ref, env)
@@ -140,7 +146,7 @@ fn observe(filter: &mut EcbfFilter, x: &State, u_ref: &Input, env: &Environment)
 /// What a rejected update complained about.
 fn error_subject(e: &CbfError) -> &'static str {
     match e {
-        CbfError::NonFinite { what, .. } => what,
+        CbfError::NonFinite { what, .. } | CbfError::OutOfRange { what, .. } => what,
         CbfError::CapacityMismatch => "environment capacity",
         _ => "another error",
     }
@@ -201,6 +207,10 @@ fn every_filter_update_path_allocates_nothing() {
         ("NaN state", default, AfterASolve, Feed::NanState,
             Outcome::Rejected("state entry")),
         ("NaN nominal input", default, AfterASolve, Feed::NanCommand,
+            Outcome::Rejected("nominal input")),
+        ("state beyond its domain", default, AfterASolve, Feed::HugeState,
+            Outcome::Rejected("state entry")),
+        ("nominal input beyond its domain", default, Fresh, Feed::HugeCommand,
             Outcome::Rejected("nominal input")),
         ("environment of another capacity", default, AfterASolve, Feed::ForeignEnvironment,
             Outcome::Rejected("environment capacity")),

@@ -62,6 +62,18 @@ fn a_nominal_input_of_f64_max_is_an_error_and_poisons_nothing() {
 }
 
 #[test]
+fn the_fallback_input_is_finite_even_for_a_nan_nominal_input() {
+    // Before: with nothing solved yet, fallback_input([NaN, ..]) returned NaN (clamp
+    // passes NaN through), the one input a caller reaches for after an Err.
+    let filter = EcbfFilter::new(CAPACITY, FilterSettings::default()).expect("filter");
+    let mut u_ref = [1.0; NU];
+    u_ref[0] = f64::NAN;
+    u_ref[1] = f64::INFINITY;
+    let u = filter.fallback_input(&u_ref);
+    assert_eq!((u[0], u[1], u[2]), (0.0, FilterSettings::default().input_max[1], 1.0));
+}
+
+#[test]
 fn input_limits_beyond_the_domain_are_rejected() {
     // Before: accepted, and every update returned NaN labelled `qp`.
     let s = FilterSettings { input_min: [1e307; NU], input_max: [1e307; NU], ..FilterSettings::default() };

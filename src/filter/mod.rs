@@ -240,9 +240,10 @@ impl EcbfFilter {
     }
 
     /// What the filter would fall back to now for nominal input `u_ref` (see the module
-    /// docs): for a caller whose update returned `Err`.
+    /// docs): for a caller whose update returned `Err`. Always finite and inside the
+    /// input box: a NaN entry of `u_ref` (which `update` would have refused) counts as 0.
     pub fn fallback_input(&self, u_ref: &Input) -> Input {
-        let mut u = self.last_safe.unwrap_or(*u_ref);
+        let mut u = self.last_safe.unwrap_or(u_ref.map(|v| if v.is_nan() { 0.0 } else { v }));
         clip(&mut u, &self.settings.input_min, &self.settings.input_max);
         u
     }
