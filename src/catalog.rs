@@ -275,6 +275,25 @@ impl Environment {
         self.capacity
     }
 
+    /// The public fields' domain, checked by [`Catalog::evaluate`] every cycle (edges and
+    /// half-planes are checked when they are made): floor heights and both stability
+    /// numbers finite with magnitude ≤ [`model::STATE_LIMIT`], so no row is built from
+    /// a number the state itself could not hold.
+    ///
+    /// # Errors
+    /// The first value outside that domain.
+    pub fn validate(&self) -> Result<(), CbfError> {
+        let limit = model::STATE_LIMIT;
+        for &z in &self.floor_z {
+            crate::error::within("floor height", z, -limit, limit, "[-1e6, 1e6] m")?;
+        }
+        for b in self.stability.iter().flatten().flatten() {
+            crate::error::within("stability slope", b.a, -limit, limit, "[-1e6, 1e6]")?;
+            crate::error::within("stability offset", b.b, -limit, limit, "[-1e6, 1e6] m")?;
+        }
+        Ok(())
+    }
+
     pub fn edges(&self) -> &[EdgeCuboid] {
         &self.edges
     }
@@ -394,13 +413,14 @@ impl Catalog {
     ///
     /// # Errors
     /// A state outside [`model::validate_state`]'s domain (non-finite, or an entry beyond
-    /// [`model::STATE_LIMIT`]), or an environment built for another capacity. Rows are
-    /// left as they were.
+    /// [`model::STATE_LIMIT`]), an environment outside [`Environment::validate`]'s, or one
+    /// built for another capacity. Rows are left as they were.
     pub fn evaluate(&mut self, x: &State, env: &Environment) -> Result<(), CbfError> {
         if env.capacity != self.capacity {
             return Err(CbfError::CapacityMismatch);
         }
         model::validate_state(x)?;
+        env.validate()?;
         // The slots laid out in `new` are the one source of row order. A leg's four
         // joint-limit rows come from one kernel call, kept while that leg's slots pass.
         let mut joint_rows: Option<(usize, JointRows)> = None;

@@ -71,6 +71,23 @@ pub(crate) fn polish(
     false
 }
 
+/// The size of the terms in each entry of the objective's gradient at `x`:
+/// `w_j (|x_j| + |r_j|) + Σ w_δ |a_i·x + b_i| |a_ij|` over binding rows (never 0). An
+/// entry's rounding error is a small multiple of ε times this, so a multiplier's sign is
+/// judged against it; a stiff row far from input `j` does not loosen input `j`'s test.
+fn gradient_scale(p: &Problem<'_>, x: &SVector<f64, NU>, binding: &[bool]) -> [f64; NU] {
+    let mut scale: [f64; NU] = std::array::from_fn(|j| p.weights[j] * (x[j].abs() + p.u_ref[j].abs()));
+    for (i, row) in p.rows.iter().enumerate() {
+        if p.active[i] && binding[i] {
+            let pull = p.slack_weights[i] * row_value(p, row, i, x).abs();
+            for j in 0..NU {
+                scale[j] += pull * row.lg[j].abs();
+            }
+        }
+    }
+    scale.map(|s| s.max(f64::MIN_POSITIVE))
+}
+
 /// `a·u + b` of row `i`: ≥ 0 when the row holds without slack.
 fn row_value(p: &Problem<'_>, row: &Row, i: usize, x: &SVector<f64, NU>) -> f64 {
     (0..NU).map(|j| row.lg[j] * x[j]).sum::<f64>() + p.bounds[i]
@@ -129,13 +146,21 @@ fn correct(p: &Problem<'_>, x: &SVector<f64, NU>, binding: &mut [bool], held: &m
             gradient.axpy(p.slack_weights[i] * row_value(p, row, i, x), &a, 1.0);
         }
     }
+    // Each test in its own units, so that no weight's size makes it loose: bounds in the
+    // input's units, multipliers relative to the largest term of the gradient (an
+    // absolute floor there would accept any active set once every weight is small).
+    let gradient_scale = gradient_scale(p, x, binding);
+    // The cost's own pull on the inputs, for the binding rows' multiplier test below.
+    let input_gradient_scale =
+        (0..NU).map(|j| p.weights[j] * (x[j].abs() + p.u_ref[j].abs())).fold(f64::MIN_POSITIVE, f64::max);
     for j in 0..NU {
-        let scale = 1.0 + p.weights[j] * (x[j].abs() + p.u_ref[j].abs());
+        let input_scale = 1.0 + x[j].abs() + p.input_min[j].abs().max(p.input_max[j].abs());
+        let (tol_u, tol_g) = (TOLERANCE * input_scale, TOLERANCE * gradient_scale[j]);
         let next = match held[j] {
-            Held::Free if x[j] > p.input_max[j] + TOLERANCE * scale => Held::Upper,
-            Held::Free if x[j] < p.input_min[j] - TOLERANCE * scale => Held::Lower,
-            Held::Upper if gradient[j] > TOLERANCE * scale => Held::Free,
-            Held::Lower if gradient[j] < -TOLERANCE * scale => Held::Free,
+            Held::Free if x[j] > p.input_max[j] + tol_u => Held::Upper,
+            Held::Free if x[j] < p.input_min[j] - tol_u => Held::Lower,
+            Held::Upper if gradient[j] > tol_g => Held::Free,
+            Held::Lower if gradient[j] < -tol_g => Held::Free,
             same => same,
         };
         moved += usize::from(next != held[j]);
@@ -147,9 +172,18 @@ fn correct(p: &Problem<'_>, x: &SVector<f64, NU>, binding: &mut [bool], held: &m
         }
         let value = row_value(p, row, i, x);
         let scale = 1.0 + p.bounds[i].abs() + row.lg.iter().zip(x.iter()).map(|(a, v)| (a * v).abs()).sum::<f64>();
-        // A binding row's slack −value must be ≥ 0 (its multiplier is 2 w_δ δ); a free
-        // row must hold on its own.
-        let flip = if binding[i] { value > TOLERANCE * scale } else { value < -TOLERANCE * scale };
+        // A free row must hold on its own (row units). A binding row's multiplier
+        // 2 w_δ δ = −2 w_δ value must be ≥ 0, judged in gradient units: a stiff row
+        // (large w_δ ‖a‖) turns a value within row rounding into a multiplier of the
+        // wrong sign large enough to move the optimum, so its tolerance shrinks with
+        // w_δ ‖a‖∞ (never looser than the row-unit one).
+        let flip = if binding[i] {
+            let stiffness = p.slack_weights[i] * row.lg.iter().fold(0.0, |m: f64, a| m.max(a.abs()));
+            let tol = (TOLERANCE * scale).min(TOLERANCE * input_gradient_scale / stiffness.max(f64::MIN_POSITIVE));
+            value > tol
+        } else {
+            value < -TOLERANCE * scale
+        };
         if flip {
             binding[i] = !binding[i];
             moved += 1;

@@ -206,7 +206,7 @@ impl EcbfQp {
             }
             gains.push(r.gains);
             let [lo, hi] = domain::SLACK_WEIGHT_RANGE;
-            slack_coef.push(1.0 / crate::error::within("slack weight", r.slack_weight, lo, hi, "[1e-6, 1e12]")?.sqrt());
+            slack_coef.push(1.0 / crate::error::within("slack weight", r.slack_weight, lo, hi, "[1e-3, 1e8]")?.sqrt());
         }
 
         // A is (m ECBF rows + NU box rows) × (NU inputs + m slacks), column-major.

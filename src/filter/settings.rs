@@ -227,11 +227,13 @@ pub mod domain {
     /// Largest |input limit| and the largest |nominal input| accepted, in the input's
     /// units (m/s², rad/s²): 10⁶ is far past any actuator, and keeps `w·u²` finite.
     pub const MAX_INPUT: f64 = 1e6;
-    /// Input weights `w_j` lie in `[1/W, W]` with `W` = this.
-    pub const MAX_WEIGHT_RATIO: f64 = 1e6;
-    /// Slack weights `w_δ` lie in `[1e-6, 1e12]`; above that the polish's `W + w_δ a aᵀ`
-    /// loses every digit of `W`.
-    pub const SLACK_WEIGHT_RANGE: [f64; 2] = [1e-6, 1e12];
+    /// Input weights `w_j` lie in `[1/W, W]` with `W` = this. The weights' spread is the
+    /// QP's condition number (with the slack weights'), and every digit of it is a digit
+    /// the exact solve and its KKT check lose: at most 10⁶ between inputs.
+    pub const MAX_WEIGHT_RATIO: f64 = 1e3;
+    /// Slack weights `w_δ` lie in `[1e-3, 1e8]`: at most 10¹¹ above the smallest input
+    /// weight, so the polish's `W + w_δ a aᵀ` keeps five digits of `W`.
+    pub const SLACK_WEIGHT_RANGE: [f64; 2] = [1e-3, 1e8];
     /// ECBF poles lie in `[1e-6, 1e4]` 1/s; faster than 10 kHz is meaningless for a 1 kHz
     /// loop, and the gains `p1 p2` stay ≤ 1e8.
     pub const POLE_RANGE: [f64; 2] = [1e-6, 1e4];
@@ -268,7 +270,7 @@ impl FilterSettings {
             within("ECBF pole", p.poles[0], lo, hi, "[1e-6, 1e4]")?;
             within("ECBF pole", p.poles[1], lo, hi, "[1e-6, 1e4]")?;
             let [lo, hi] = domain::SLACK_WEIGHT_RANGE;
-            within("slack weight", p.slack_weight, lo, hi, "[1e-6, 1e12]")?;
+            within("slack weight", p.slack_weight, lo, hi, "[1e-3, 1e8]")?;
             if p.activation.is_nan() {
                 return Err(CbfError::NonFinite { what: "activation threshold", value: p.activation });
             }
@@ -278,14 +280,14 @@ impl FilterSettings {
     }
 }
 
-/// Input weights in `[1/W, W]` ([`domain::MAX_WEIGHT_RATIO`]), box limits finite with
+/// Input weights in `[1e-3, 1e3]` ([`domain::MAX_WEIGHT_RATIO`]), box limits finite with
 /// `|limit| ≤` [`domain::MAX_INPUT`] and `min ≤ max`: shared by
 /// [`FilterSettings::validate`] and [`EcbfQp::new`](super::EcbfQp::new).
 pub(crate) fn validate_inputs(weights: &[f64; NU], min: &Input, max: &Input) -> Result<(), CbfError> {
     let w = domain::MAX_WEIGHT_RATIO;
     let m = domain::MAX_INPUT;
     for j in 0..NU {
-        within("input weight", weights[j], 1.0 / w, w, "[1e-6, 1e6]")?;
+        within("input weight", weights[j], 1.0 / w, w, "[1e-3, 1e3]")?;
         within("input limit", min[j], -m, m, "[-1e6, 1e6]")?;
         within("input limit", max[j], -m, m, "[-1e6, 1e6]")?;
         if min[j] > max[j] {

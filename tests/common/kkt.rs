@@ -14,6 +14,11 @@ use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, NonnegativeCone
 /// `Σ w (u − u_ref)² + Σ w_δ δ²`, rows `−(L_g L_f h · u + δ) ≤ L_f² h + k1 L_f h + k0 h`,
 /// the input box — and solved by Clarabel. Returns `u`.
 pub fn clarabel_reference(filter: &EcbfFilter, u_ref: &Input) -> Input {
+    clarabel_solution(filter, u_ref).expect("clarabel must solve the reference")
+}
+
+/// [`clarabel_reference`], or `None` where Clarabel does not report the problem solved.
+pub fn clarabel_solution(filter: &EcbfFilter, u_ref: &Input) -> Option<Input> {
     let s = filter.settings();
     let active: Vec<usize> = (0..filter.rows().len()).filter(|&i| filter.active()[i]).collect();
     let n = NU + active.len();
@@ -58,10 +63,27 @@ pub fn clarabel_reference(filter: &EcbfFilter, u_ref: &Input) -> Input {
     }
     let a = CscMatrix::new(m, n, colptr, rowval, nzval);
     let settings = DefaultSettings { verbose: false, ..DefaultSettings::default() };
-    let mut solver = DefaultSolver::new(&p, &q, &a, &b, &[NonnegativeConeT(m)], settings).expect("clarabel setup");
+    let mut solver = DefaultSolver::new(&p, &q, &a, &b, &[NonnegativeConeT(m)], settings).ok()?;
     solver.solve();
-    assert_eq!(solver.solution.status, SolverStatus::Solved, "clarabel must solve the reference");
-    std::array::from_fn(|j| solver.solution.x[j])
+    (solver.solution.status == SolverStatus::Solved).then(|| std::array::from_fn(|j| solver.solution.x[j]))
+}
+
+/// The filter's cost at `u` with every active row's slack at its optimum for that `u`
+/// (`δ_i = max(0, −(a_i·u + b_i))`): `Σ w (u − u_ref)² + Σ w_δ δ²`. Convex in `u`, so a
+/// `u` inside the box whose cost is no higher than another solver's is optimal too.
+pub fn objective(filter: &EcbfFilter, u: &Input, u_ref: &Input) -> f64 {
+    let s = filter.settings();
+    let mut cost = (0..NU).map(|j| s.input_weights[j] * (u[j] - u_ref[j]).powi(2)).sum::<f64>();
+    for (i, row) in filter.rows().iter().enumerate() {
+        if filter.active()[i] {
+            let f = s.family(filter.slots()[i].family);
+            let [p1, p2] = f.poles;
+            let b = row.lie[2] + (p1 + p2) * row.lie[1] + p1 * p2 * row.lie[0];
+            let value = (0..NU).map(|j| row.lg[j] * u[j]).sum::<f64>() + b;
+            cost += f.slack_weight * value.min(0.0).powi(2);
+        }
+    }
+    cost
 }
 
 /// What the KKT check allows (see `kkt_violation`): ten times the default `eps_abs`.
@@ -80,6 +102,9 @@ pub fn kkt_violation(filter: &EcbfFilter, u: &Input, u_ref: &Input) -> f64 {
     let delta = filter.delta();
     let mut worst: f64 = 0.0;
     let mut stationarity: [f64; NU] = std::array::from_fn(|j| s.input_weights[j] * (u[j] - u_ref[j]));
+    // The size of the rows' terms in each stationarity entry: the residual is judged
+    // relative to every term that enters it, rows included (stiff rows cancel).
+    let mut row_terms = [0.0; NU];
     for (i, row) in filter.rows().iter().enumerate() {
         if !filter.active()[i] {
             continue;
@@ -88,8 +113,9 @@ pub fn kkt_violation(filter: &EcbfFilter, u: &Input, u_ref: &Input) -> f64 {
         let [p1, p2] = f.poles;
         let b = row.lie[2] + (p1 + p2) * row.lie[1] + p1 * p2 * row.lie[0];
         let lhs = (0..NU).map(|j| row.lg[j] * u[j]).sum::<f64>() + delta[i] + b;
-        // In the row's own scale, as OSQP sees it (each row divided by its norm).
-        let size = row.lg.iter().map(|v| v * v).sum::<f64>().sqrt().max(1.0);
+        // In the row's own scale, as OSQP sees it (each row divided by its norm), and
+        // relative to the terms that cancel in it (a huge b met by a huge slack).
+        let size = row.lg.iter().map(|v| v * v).sum::<f64>().sqrt().max(1.0) + 1e-9 * (b.abs() + delta[i].abs());
         worst = worst.max(-lhs / size); // primal
         worst = worst.max(-delta[i] * f.slack_weight.sqrt()); // δ ≥ 0, in units of √w_δ δ
         if delta[i] * f.slack_weight.sqrt() > 1e-3 {
@@ -97,18 +123,24 @@ pub fn kkt_violation(filter: &EcbfFilter, u: &Input, u_ref: &Input) -> f64 {
         }
         for j in 0..NU {
             stationarity[j] -= f.slack_weight * delta[i] * row.lg[j];
+            row_terms[j] += (f.slack_weight * delta[i] * row.lg[j]).abs();
         }
     }
     for j in 0..NU {
         let (lo, hi) = (s.input_min[j], s.input_max[j]);
         let size = 1.0 + s.input_weights[j] * (u[j].abs() + u_ref[j].abs());
         worst = worst.max((u[j] - hi) / size).max((lo - u[j]) / size);
-        let r = stationarity[j] / size;
-        // "At a bound" to the solver's tolerance, in the same units.
-        let tol_bound = KKT_TOLERANCE * size;
-        worst = worst.max(if u[j] >= hi - tol_bound {
+        let r = stationarity[j] / (size + row_terms[j]);
+        // "At a bound" to the solver's tolerance in the input's own units (a tolerance in
+        // gradient units would exceed a small box and mistake one bound for the other);
+        // in a box narrower than that, either bound may hold the input.
+        let tol_bound = KKT_TOLERANCE * (1.0 + lo.abs().max(hi.abs()));
+        let (to_hi, to_lo) = (hi - u[j], u[j] - lo);
+        worst = worst.max(if hi - lo <= tol_bound {
+            0.0
+        } else if to_hi <= tol_bound && to_hi <= to_lo {
             r.max(0.0) // at the upper bound the cost may still pull up
-        } else if u[j] <= lo + tol_bound {
+        } else if to_lo <= tol_bound {
             (-r).max(0.0)
         } else {
             r.abs()
