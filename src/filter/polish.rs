@@ -80,8 +80,8 @@ fn gradient_scale(p: &Problem<'_>, x: &SVector<f64, NU>, binding: &[bool]) -> [f
     for (i, row) in p.rows.iter().enumerate() {
         if p.active[i] && binding[i] {
             let pull = p.slack_weights[i] * row_value(p, row, i, x).abs();
-            for j in 0..NU {
-                scale[j] += pull * row.lg[j].abs();
+            for (s, a) in scale.iter_mut().zip(&row.lg) {
+                *s += pull * a.abs();
             }
         }
     }
