@@ -198,6 +198,7 @@ fn environment(capacity: Capacity, draw: &EnvDraw) -> Environment {
 
 /// How one cycle's state departs from the standard posture.
 #[derive(Debug, Clone)]
+#[allow(clippy::large_enum_variant)] // test data, drawn once per cycle
 enum StateDraw {
     /// Every entry perturbed by up to `scale`.
     Perturbed(f64, [f64; NX]),
