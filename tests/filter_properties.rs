@@ -5,8 +5,8 @@
 //! as it was, and a `qp` input satisfies the KKT conditions (checked from the rows alone,
 //! independently of the filter's own polish).
 //!
-//! CI runs a few hundred cases; `PROPTEST_CASES=100000 cargo test --release --test
-//! filter_properties` is the long fuzz run.
+//! CI runs a few hundred cases with a fixed seed; the long fuzz run is
+//! `PROPTEST_CASES=100000 PROPTEST_RNG_SEED=<n> cargo test --release --test filter_properties`.
 
 #[path = "common/kkt.rs"]
 mod kkt;
@@ -19,14 +19,18 @@ use cbfgen::model::{self, Input, State, HIP_POSITIONS, INPUT_LIMITS, NU, NX, TOE
 use cbfgen::{CbfError, OrientedBox};
 use nalgebra::{Rotation3, Vector3};
 use proptest::prelude::*;
-use proptest::test_runner::Config;
+use proptest::test_runner::{Config, RngSeed};
 
 /// Cases per property unless `PROPTEST_CASES` says otherwise: a few seconds in CI.
 const CI_CASES: u32 = 300;
 
+/// `PROPTEST_CASES` and `PROPTEST_RNG_SEED` as proptest reads them; without a seed the
+/// draws are fixed, so CI runs the same cases every time (a campaign sets its own seed).
 fn config() -> Config {
+    let base = Config::default();
     let cases = std::env::var("PROPTEST_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(CI_CASES);
-    Config { cases, failure_persistence: None, ..Config::default() }
+    let rng_seed = if std::env::var_os("PROPTEST_RNG_SEED").is_some() { base.rng_seed } else { RngSeed::Fixed(12) };
+    Config { cases, rng_seed, failure_persistence: None, ..base }
 }
 
 /// A value log-uniform in `[lo, hi]`, with the ends themselves drawn often.

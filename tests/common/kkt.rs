@@ -115,7 +115,8 @@ pub fn kkt_violation(filter: &EcbfFilter, u: &Input, u_ref: &Input) -> f64 {
         let lhs = (0..NU).map(|j| row.lg[j] * u[j]).sum::<f64>() + delta[i] + b;
         // In the row's own scale, as OSQP sees it (each row divided by its norm), and
         // relative to the terms that cancel in it (a huge b met by a huge slack).
-        let size = row.lg.iter().map(|v| v * v).sum::<f64>().sqrt().max(1.0) + 1e-9 * (b.abs() + delta[i].abs());
+        let magnitude = b.abs() + delta[i].abs() + (0..NU).map(|j| (row.lg[j] * u[j]).abs()).sum::<f64>();
+        let size = row.lg.iter().map(|v| v * v).sum::<f64>().sqrt().max(1.0) + 1e-6 * magnitude;
         worst = worst.max(-lhs / size); // primal
         worst = worst.max(-delta[i] * f.slack_weight.sqrt()); // δ ≥ 0, in units of √w_δ δ
         if delta[i] * f.slack_weight.sqrt() > 1e-3 {
