@@ -23,8 +23,13 @@
 use crate::error::{finite, positive, within, CbfError};
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
-/// How far from orthonormal a rotation may be and still be accepted.
+/// How far from orthonormal (largest entry of `|RᵀR − I|`) a rotation may be and still be
+/// accepted; [`OrientedBox::new`] stores such a rotation as its nearest proper rotation.
 pub const ROTATION_TOLERANCE: f64 = 1e-9;
+
+/// Rotations built in f64 (from a quaternion, Euler angles, products) are orthonormal to
+/// a few ε; those are stored bit for bit, anything further off is projected.
+const ORTHONORMAL_TO_ROUNDING: f64 = 8.0 * f64::EPSILON;
 
 /// Largest accepted |centre coordinate|, in metres (see the [module docs](self#domain)).
 pub const MAX_COORDINATE: f64 = 1e6;
@@ -57,6 +62,12 @@ impl OrientedBox {
     /// [`MAX_HALF_EXTENT`]; [`CbfError::NotARotation`] for a rotation further than
     /// [`ROTATION_TOLERANCE`] from orthonormal or with det < 0 (a reflection).
     ///
+    /// A rotation that is accepted but further from orthonormal than rounding is stored
+    /// as its nearest proper rotation: the SAT and SSAT kernels assume `RᵀR = I`, and a
+    /// skew of 1e-9 would move a 10 km box's faces by ~1e-5 m, far more than the smooth
+    /// SAT's certified margin at large α. So every `OrientedBox` is a box, and the one
+    /// both kernels see.
+    ///
     /// ```
     /// use cbfgen::OrientedBox;
     /// use nalgebra::{Rotation3, Vector3};
@@ -82,10 +93,15 @@ impl OrientedBox {
         for &r in m.iter() {
             finite("rotation entry", r)?;
         }
-        let deviation = (m.transpose() * m - Matrix3::identity()).abs().max();
+        let deviation = orthonormality_error(m);
         if deviation > ROTATION_TOLERANCE || m.determinant() < 0.0 {
             return Err(CbfError::NotARotation { deviation, determinant: m.determinant() });
         }
+        let rotation = if deviation > ORTHONORMAL_TO_ROUNDING {
+            Rotation3::from_matrix_unchecked(nearest_rotation(*m))
+        } else {
+            rotation
+        };
         Ok(Self { center, rotation, half_extents })
     }
 
@@ -120,4 +136,23 @@ impl OrientedBox {
             [self.half_extents.x, self.half_extents.y, self.half_extents.z],
         )
     }
+}
+
+/// Largest entry of `|MᵀM − I|`.
+fn orthonormality_error(m: &Matrix3<f64>) -> f64 {
+    (m.transpose() * m - Matrix3::identity()).abs().max()
+}
+
+/// The orthogonal polar factor of `m` (its nearest orthogonal matrix, a rotation for
+/// det > 0) by Newton–Schulz steps `X ← X (3I − XᵀX) / 2`. They converge quadratically:
+/// from the 1e-9 of [`ROTATION_TOLERANCE`], one step reaches rounding.
+fn nearest_rotation(m: Matrix3<f64>) -> Matrix3<f64> {
+    let mut x = m;
+    for _ in 0..3 {
+        if orthonormality_error(&x) <= ORTHONORMAL_TO_ROUNDING {
+            break;
+        }
+        x = x * (Matrix3::identity() * 3.0 - x.transpose() * x) * 0.5;
+    }
+    x
 }

@@ -47,9 +47,11 @@
 //!   there; axes far below the max are damped by their weight). The smooth max passes
 //!   that on with a Lipschitz constant of 1 (LSE) or `≲ 2` (Boltzmann) and adds
 //!   `≲ 35u·S` of its own `exp`/`ln` or weighted-mean rounding;
-//! * the margin kernel `≲ 10u·m` and the final subtraction `u·|h − m|`.
+//! * the margin kernel `≲ 10u·m` and the final subtraction `u·|h − m|`;
+//! * stored rotations are orthonormal to `8·EPSILON` ([`OrientedBox::new`] projects
+//!   them), and the frame algebra that assumes `RᵀR = I` adds `≲ 16u·(‖Δp‖₁ + D)`.
 //!
-//! That is at most `≈ 215u·S ≈ 108·EPSILON·S`. The guard is [`ROUNDING_GUARD`]` · S`
+//! That is at most `≈ 230u·S ≈ 115·EPSILON·S`. The guard is [`ROUNDING_GUARD`]` · S`
 //! with `ROUNDING_GUARD = 256·EPSILON`, above the tally: [`certified_separated`] accepts
 //! only when `h − m − 256·EPSILON·S ≥ 0`, which is [`certified_clearance`] `≥ 0`. At robot
 //! scale (0.5 m boxes 1 m apart, `S ≈ 6` m) the guard is `≈ 3e-13` m; it only decides
