@@ -13,7 +13,9 @@
 //! # Certified margin
 //! A smooth `h ≥ 0` does not by itself prove the boxes are apart: the surrogates err.
 //! [`certified_margin`] returns `m` such that **`h − m ≥ 0` implies the exact boxes do
-//! not overlap**. Derivation, per axis `i` with exact (unnormalised) value `ŷ_i`:
+//! not overlap** in exact arithmetic ([`certified_separated`] also covers rounding, see
+//! [Rounding guard](#rounding-guard)). Derivation, per axis `i` with exact
+//! (unnormalised) value `ŷ_i`:
 //!
 //! * `|x| − x·tanh(αx) ∈ [0, c/α]` with `c = max_u u(1 − tanh u) ≈ 0.2785`, and
 //!   `√(x² + ε²) − |x| ∈ [0, ε]`. The centre term `|n·Δp|` enters `y_i` with a plus sign,
@@ -27,6 +29,53 @@
 //! and `m = o + max_i e_i` gives: `h ≥ m ⇒ ŷ_k ≥ 0` for some axis `k`, i.e. the boxes are
 //! separated (or touching) along that axis. The margin kernels are generated from the
 //! same per-axis bounds as the formula, so the two cannot drift apart.
+//!
+//! # Rounding guard
+//! That argument is about exact `h` and `m`; the kernels compute them in f64. With
+//! `u = f64::EPSILON / 2` (unit roundoff), `Δp = p_B − p_A`, `D` the sum of the six half
+//! extents and `S = ‖Δp‖₁ + D + |h| + m` the problem's scale, every quantity the kernels
+//! form is a short sum of products bounded by one of the terms of `S`, so the rounding
+//! error of the computed `h − m` is a multiple of `u·S`. Tallied per step, all errors
+//! aligned:
+//!
+//! * an axis's centre term: the projection `n·Δp` (at most two rotated products of
+//!   `Δp`) `≲ 18u·‖Δp‖₁`, then its smoothed `|·|` (Lipschitz ≤ 1.2) and that
+//!   surrogate's own rounding, `≲ 3.5u` of its size (√: `≲ 2.5u·(|x| + 1/α)`, `1/α ≤ m`);
+//! * its extent terms and the parallel-edge term `D·R⁸`: `≲ 45u·D`, plus `≲ 15u·|y_i|`
+//!   for the √ surrogate, whose extent terms can exceed `D` when `alpha_rot < 1`;
+//! * so each `y_i` is off by `≲ 85u·S` on the axes that carry weight (`|y_i| ≲ |h| + m`
+//!   there; axes far below the max are damped by their weight). The smooth max passes
+//!   that on with a Lipschitz constant of 1 (LSE) or `≲ 2` (Boltzmann) and adds
+//!   `≲ 35u·S` of its own `exp`/`ln` or weighted-mean rounding;
+//! * the margin kernel `≲ 10u·m` and the final subtraction `u·|h − m|`;
+//! * stored rotations are orthonormal to `8·EPSILON` ([`OrientedBox::new`] projects
+//!   them), and the frame algebra that assumes `RᵀR = I` adds `≲ 16u·(‖Δp‖₁ + D)`.
+//!
+//! That is at most `≈ 230u·S ≈ 115·EPSILON·S`. The guard is [`ROUNDING_GUARD`]` · S`
+//! with `ROUNDING_GUARD = 256·EPSILON`, above the tally: [`certified_separated`] accepts
+//! only when `h − m − 256·EPSILON·S ≥ 0`, which is [`certified_clearance`] `≥ 0`. At robot
+//! scale (0.5 m boxes 1 m apart, `S ≈ 6` m) the guard is `≈ 3e-13` m; it only decides
+//! near the edges of the [domain](#domain). The tests measure the real rounding with
+//! the swapped pair: `h(A, B) = h(B, A)` in exact arithmetic, computed along different
+//! paths.
+//!
+//! # Domain
+//! `alpha` [1/m] and `alpha_rot` [–] each lie between [`ALPHA_MIN`] and [`ALPHA_MAX`];
+//! boxes lie in the [`geometry` domain](crate::geometry#domain). Measured on that
+//! domain's corners (extreme extents, coordinates, touching and coincident placements,
+//! exact and generic rotations), all four variants' value, gradient, Hessian and margin
+//! stay finite for α from 1e-154 to 1e77 (√ overflows `1/α²` below; the Boltzmann-√
+//! Hessian's `α⁴`-sized terms overflow above) and α_rot from 1e-154 up. The domain sits
+//! far inside that and is chosen for meaning:
+//!
+//! * [`ALPHA_MIN`] = 1e-6 1/m: a smoothing length `1/α` of 10⁶ m, the size of the
+//!   coordinate domain; smoother than that, `h` carries no information about the boxes.
+//! * [`ALPHA_MAX`] = 1e9 1/m: a smoothing length of 1 nm, a thousandth of the smallest
+//!   box. For `alpha_rot`, 1e-9 is the rotation tolerance: sharper smoothing of rotation
+//!   entries than they are trusted to is meaningless.
+//! * Together with the box domain, `α·size ∈ [1e-12, 1e13]`, three decades from where
+//!   the unguarded certificate was measured to fail (see the
+//!   [`geometry` domain](crate::geometry#domain)).
 //!
 //! # Parallel edges and overflow
 //! An edge–edge axis `eᵢ × fⱼ` vanishes for parallel edges, which would pin its `y` at 0
@@ -46,10 +95,21 @@
 //! # Ok::<(), cbfgen::CbfError>(())
 //! ```
 
-use crate::error::{positive, CbfError};
+use crate::error::{positive, within, CbfError};
 use crate::generated::ssat as gen;
 use crate::geometry::OrientedBox;
 use nalgebra::{Matrix3, Vector3};
+
+/// Smallest accepted `alpha` [1/m] and `alpha_rot` [–] (see the [module docs](self#domain)).
+pub const ALPHA_MIN: f64 = 1e-6;
+
+/// Largest accepted `alpha` [1/m] and `alpha_rot` [–] (see the [module docs](self#domain)).
+pub const ALPHA_MAX: f64 = 1e9;
+const ALPHA_RANGE: &str = "[1e-6, 1e9]";
+
+/// The certificate's rounding guard relative to the problem's scale `S` (see the
+/// [module docs](self#rounding-guard)): above the tallied rounding error of `h − m`.
+pub const ROUNDING_GUARD: f64 = 256.0 * f64::EPSILON;
 
 /// The smooth replacement for `max(y_1..y_15)`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -86,11 +146,17 @@ impl SmoothParams {
     /// closer to the exact SAT (smaller margin) but more curved (stiffer barrier).
     ///
     /// # Errors
-    /// Either value not finite and strictly positive.
+    /// [`CbfError::NonFinite`] or [`CbfError::NotPositive`] for a value that is not a
+    /// positive number, [`CbfError::OutOfRange`] for one outside [`ALPHA_MIN`] ..=
+    /// [`ALPHA_MAX`] (see the [module docs](self#domain) for why).
     pub fn new(alpha: f64, alpha_rot: f64) -> Result<Self, CbfError> {
+        let sharpness = |what, value| {
+            positive(what, value)?;
+            within(what, value, ALPHA_MIN, ALPHA_MAX, ALPHA_RANGE)
+        };
         Ok(Self {
-            alpha: positive("SSAT alpha", alpha)?,
-            alpha_rot: positive("SSAT alpha_rot", alpha_rot)?,
+            alpha: sharpness("SSAT alpha", alpha)?,
+            alpha_rot: sharpness("SSAT alpha_rot", alpha_rot)?,
             max: SmoothMax::default(),
             abs: SmoothAbs::default(),
         })
@@ -125,7 +191,7 @@ impl Default for SmoothParams {
 /// The smooth SAT value with its gradient and Hessian with respect to box B's centre.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SsatDerivatives {
-    /// `h` [m].
+    /// `h`, in metres.
     pub value: f64,
     /// `∂h/∂p_B`, world frame.
     pub gradient: Vector3<f64>,
@@ -134,7 +200,8 @@ pub struct SsatDerivatives {
 }
 
 /// Smooth separation of `a` and `b`: > 0 reads as apart, < 0 as overlapping.
-/// Finite for any pair of valid boxes at any distance.
+/// Finite for any pair of boxes and any parameters (both are validated into their
+/// [domains](self#domain)).
 #[inline]
 pub fn ssat(a: &OrientedBox, b: &OrientedBox, params: &SmoothParams) -> f64 {
     let ((pa, ra, ha), (pb, rb, hb)) = (a.kernel_args(), b.kernel_args());
@@ -175,8 +242,9 @@ pub fn ssat_with_derivatives(a: &OrientedBox, b: &OrientedBox, params: &SmoothPa
     }
 }
 
-/// The certified margin `m` of [`ssat`] for these two boxes' sizes: `ssat − m ≥ 0`
-/// implies the exact boxes do not overlap (see the module docs for the derivation).
+/// The certified margin `m` of [`ssat`] for these two boxes' sizes: `ssat − m ≥ 0` in
+/// exact arithmetic implies the boxes do not overlap (see the module docs for the
+/// derivation). [`certified_clearance`] adds the guard against rounding.
 pub fn certified_margin(a: &OrientedBox, b: &OrientedBox, params: &SmoothParams) -> f64 {
     let (ha, hb) = (a.kernel_args().2, b.kernel_args().2);
     let (al, ar) = (params.alpha, params.alpha_rot);
@@ -188,7 +256,20 @@ pub fn certified_margin(a: &OrientedBox, b: &OrientedBox, params: &SmoothParams)
     }
 }
 
-/// `ssat(a, b) − certified_margin(a, b) ≥ 0`: a proof that the boxes do not overlap.
+/// `h − m − g`: the smooth SAT value less its certified margin less the rounding guard
+/// `g` = [`ROUNDING_GUARD`]` · (‖p_B − p_A‖₁ + D + |h| + m)` (see the
+/// [module docs](self#rounding-guard)). `≥ 0` proves the boxes do not overlap; the
+/// value is not a distance (edge–edge axes are unnormalised), only its sign is certified.
+pub fn certified_clearance(a: &OrientedBox, b: &OrientedBox, params: &SmoothParams) -> f64 {
+    let h = ssat(a, b, params);
+    let m = certified_margin(a, b, params);
+    let offset = (b.center() - a.center()).abs().sum();
+    let extents = a.half_extents().sum() + b.half_extents().sum();
+    h - m - ROUNDING_GUARD * (offset + extents + h.abs() + m)
+}
+
+/// [`certified_clearance`] `≥ 0`: a proof that the boxes do not overlap, rounding
+/// included.
 pub fn certified_separated(a: &OrientedBox, b: &OrientedBox, params: &SmoothParams) -> bool {
-    ssat(a, b, params) - certified_margin(a, b, params) >= 0.0
+    certified_clearance(a, b, params) >= 0.0
 }
