@@ -55,7 +55,17 @@ class RobotModel:
     input_limits: Tuple[float, ...]
 
 
-def _number(table: dict, key: str, where: str, positive: bool = False) -> float:
+# The runtime's documented domains (src/ssat.rs ALPHA_MIN/ALPHA_MAX, src/geometry.rs
+# MIN/MAX_HALF_EXTENT, src/filter/settings.rs POLE_RANGE and MAX_INPUT): a model outside
+# them would bake numbers into the kernels that the safe API refuses at run time.
+SSAT_ALPHA_RANGE = (1e-6, 1e9)
+HALF_EXTENT_RANGE = (1e-6, 1e4)
+POLE_RANGE = (1e-6, 1e4)
+INPUT_LIMIT_RANGE = (0.0, 1e6)
+
+
+def _number(table: dict, key: str, where: str, positive: bool = False,
+            within: Tuple[float, float] = (-math.inf, math.inf)) -> float:
     if key not in table:
         raise ModelError(f"{where}: missing '{key}'")
     v = table[key]
@@ -63,14 +73,17 @@ def _number(table: dict, key: str, where: str, positive: bool = False) -> float:
         raise ModelError(f"{where}.{key}: expected a finite number, got {v!r}")
     if positive and v <= 0:
         raise ModelError(f"{where}.{key}: must be > 0, got {v}")
+    if not within[0] <= v <= within[1]:
+        raise ModelError(f"{where}.{key}: must lie in [{within[0]:g}, {within[1]:g}], got {v}")
     return float(v)
 
 
-def _vector(table: dict, key: str, where: str, n: int, positive: bool = False) -> Tuple[float, ...]:
+def _vector(table: dict, key: str, where: str, n: int, positive: bool = False,
+            within: Tuple[float, float] = (-math.inf, math.inf)) -> Tuple[float, ...]:
     v = table.get(key)
     if not isinstance(v, list) or len(v) != n:
         raise ModelError(f"{where}.{key}: expected a list of {n} numbers, got {v!r}")
-    return tuple(_number({key: x}, key, where, positive) for x in v)
+    return tuple(_number({key: x}, key, where, positive, within) for x in v)
 
 
 def load_model(path: Path) -> RobotModel:
@@ -104,29 +117,30 @@ def load_model(path: Path) -> RobotModel:
         raise ModelError(f"{where}: smoothing.superellipsoid_n: expected an integer >= 1, got {n!r}")
     return RobotModel(
         name=path.stem,
-        body_half_extents=_vector(body, "half_extents", f"{where}: body", 3, positive=True),
+        body_half_extents=_vector(body, "half_extents", f"{where}: body", 3, positive=True,
+                                  within=HALF_EXTENT_RANGE),
         nominal_clearance=_number(body, "nominal_clearance", f"{where}: body", positive=True),
         toe_radius=_number(toe, "radius", f"{where}: toe", positive=True),
         knee_min=knee_min,
         knee_max=knee_min + _number(knee, "stroke", f"{where}: knee", positive=True),
         legs=tuple(legs),
-        ssat_alpha=_number(smoothing, "ssat_alpha", f"{where}: smoothing", positive=True),
-        ssat_alpha_rot=_number(smoothing, "ssat_alpha_rot", f"{where}: smoothing", positive=True),
+        ssat_alpha=_number(smoothing, "ssat_alpha", f"{where}: smoothing", within=SSAT_ALPHA_RANGE),
+        ssat_alpha_rot=_number(smoothing, "ssat_alpha_rot", f"{where}: smoothing", within=SSAT_ALPHA_RANGE),
         superellipsoid_n=n,
-        ecbf_poles=_vector(ecbf, "poles", f"{where}: ecbf", 2, positive=True),
+        ecbf_poles=_vector(ecbf, "poles", f"{where}: ecbf", 2, within=POLE_RANGE),
         input_limits=_input_limits(inputs, f"{where}: inputs"),
     )
 
 
 def _input_limits(inputs: dict, where: str) -> Tuple[float, ...]:
     """Magnitude limit of each input, in the order of ``input_names``."""
-    body = _vector(inputs, "body_accel", where, 2, positive=True)
-    toe = _vector(inputs, "toe_accel", where, 2, positive=True)
+    body = _vector(inputs, "body_accel", where, 2, positive=True, within=INPUT_LIMIT_RANGE)
+    toe = _vector(inputs, "toe_accel", where, 2, positive=True, within=INPUT_LIMIT_RANGE)
     return (
-        _number(inputs, "origin_accel", where, positive=True),
-        _number(inputs, "yaw_accel", where, positive=True),
+        _number(inputs, "origin_accel", where, positive=True, within=INPUT_LIMIT_RANGE),
+        _number(inputs, "yaw_accel", where, positive=True, within=INPUT_LIMIT_RANGE),
         *body,
-        _number(inputs, "pitch_accel", where, positive=True),
+        _number(inputs, "pitch_accel", where, positive=True, within=INPUT_LIMIT_RANGE),
         *(toe * 6),
     )
 

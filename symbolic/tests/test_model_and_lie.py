@@ -86,6 +86,12 @@ def test_editing_the_model_changes_the_inputs_hash(tmp_path):
     (("superellipsoid_n = 2", "superellipsoid_n = 1.5"), "superellipsoid_n"),
     (("toe_accel = [10.0, 10.0]", "toe_accel = [10.0]"), "inputs.toe_accel"),
     (("origin_accel = 3.0", "origin_accel = 0.0"), "inputs.origin_accel: must be > 0"),
+    # The runtime's domains: numbers the safe API would refuse are refused here too.
+    (("ssat_alpha = 200.0", "ssat_alpha = 1e300"), r"smoothing.ssat_alpha: must lie in \[1e-06, 1e\+09\]"),
+    (("ssat_alpha_rot = 200.0", "ssat_alpha_rot = 5e-324"), "smoothing.ssat_alpha_rot: must lie in"),
+    (("half_extents = [0.50, 0.30, 0.125]", "half_extents = [0.50, 0.30, 1e-17]"), "body.half_extents: must lie in"),
+    (("poles = [20.0, 20.0]", "poles = [20.0, 1e300]"), "ecbf.poles: must lie in"),
+    (("origin_accel = 3.0", "origin_accel = 1e307"), "inputs.origin_accel: must lie in"),
 ])
 def test_broken_model_files_are_rejected_with_the_key_named(tmp_path, edit, message):
     path = tmp_path / "broken.toml"
