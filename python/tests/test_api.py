@@ -135,7 +135,7 @@ def test_environment_round_trips():
     got_normals, got_offsets = env.foothold(3)
     np.testing.assert_array_equal(got_normals, normals)
     np.testing.assert_array_equal(got_offsets, [0.5, 0.25])
-    with pytest.raises(ValueError, match="normal values"):
+    with pytest.raises(ValueError, match="2 normals .* but 1 offsets"):
         env.set_foothold(0, normals, [0.5])
     env.swing = [True, False, True, False, True, False]
     assert env.swing == [True, False, True, False, True, False]

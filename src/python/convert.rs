@@ -2,28 +2,74 @@
 //! or name.
 
 use numpy::ndarray::Array2;
-use numpy::{AllowTypeChange, IntoPyArray, PyArray1, PyArray2, PyArrayLikeDyn};
+use numpy::{
+    IntoPyArray, PyArray1, PyArray2, PyArrayDescrMethods, PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn,
+    PyUntypedArray, PyUntypedArrayMethods,
+};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
+use pyo3::sync::PyOnceLock;
+use pyo3::{intern, Borrowed};
 
+use crate::error::CbfError;
 use crate::model::LEG_NAMES;
 
-/// Any array-like numpy accepts as float64.
-pub type ArrayIn<'py> = PyArrayLikeDyn<'py, f64, AllowTypeChange>;
+/// A real-valued array from anything numpy reads as booleans, integers or floats (lists,
+/// tuples, arrays of any such dtype), as float64.
+///
+/// numpy's own cast to float64 would also take complex values (dropping the imaginary
+/// part), strings ("1.5") and arbitrary objects; those are refused with a `ValueError`
+/// instead, by letting numpy infer the dtype first and checking its kind before the cast.
+pub struct ArrayIn<'py>(PyReadonlyArrayDyn<'py, f64>);
+
+impl<'a, 'py> FromPyObject<'a, 'py> for ArrayIn<'py> {
+    type Error = PyErr;
+
+    fn extract(ob: Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
+        if let Ok(array) = ob.cast::<PyArrayDyn<f64>>() {
+            return Ok(Self(array.try_readonly()?));
+        }
+        let py = ob.py();
+        let inferred = match ob.cast::<PyUntypedArray>() {
+            Ok(array) => array.to_owned(),
+            Err(_) => {
+                static ASARRAY: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
+                ASARRAY.import(py, "numpy", "asarray")?.call1((ob,))?.cast_into::<PyUntypedArray>()?
+            }
+        };
+        let dtype = inferred.dtype();
+        // numpy's kinds: b bool, i signed, u unsigned, f float; c complex, O object,
+        // U/S strings, M/m dates and times, V void are not real numbers.
+        if !matches!(dtype.kind(), b'b' | b'i' | b'u' | b'f') {
+            return Err(PyValueError::new_err(format!("expected real numbers (bool, int or float), got dtype {dtype}")));
+        }
+        let converted = inferred.call_method1(intern!(py, "astype"), (numpy::dtype::<f64>(py),))?;
+        Ok(Self(converted.cast_into::<PyArrayDyn<f64>>()?.try_readonly()?))
+    }
+}
 
 /// A new float64 numpy vector / matrix.
 pub type Array1Out<'py> = Bound<'py, PyArray1<f64>>;
 pub type Array2Out<'py> = Bound<'py, PyArray2<f64>>;
 
-/// Exactly `N` values, in row-major order, whatever the array's shape.
+fn shape_error(what: &str, expected: &str, shape: &[usize]) -> PyErr {
+    PyValueError::new_err(format!("{what}: expected {expected}, got shape {}", shape_text(shape)))
+}
+
+/// A shape as numpy prints it: (3,), (2, 3), ().
+fn shape_text(shape: &[usize]) -> String {
+    match shape {
+        [n] => format!("({n},)"),
+        _ => format!("({})", shape.iter().map(usize::to_string).collect::<Vec<_>>().join(", ")),
+    }
+}
+
+/// Exactly `N` values as a vector of shape (N,). Other shapes are refused even with N
+/// values, so that a (2, 3) array is never silently read as 6 values in some order.
 pub fn fixed<const N: usize>(what: &str, a: &ArrayIn<'_>) -> PyResult<[f64; N]> {
-    let view = a.as_array();
-    if view.len() != N {
-        return Err(PyValueError::new_err(format!(
-            "{what}: expected {N} values, got {} (shape {:?})",
-            view.len(),
-            view.shape()
-        )));
+    let view = a.0.as_array();
+    if view.shape() != [N] {
+        return Err(shape_error(what, &format!("{N} values in shape ({N},)"), view.shape()));
     }
     let mut out = [0.0; N];
     for (o, v) in out.iter_mut().zip(view.iter()) {
@@ -32,9 +78,54 @@ pub fn fixed<const N: usize>(what: &str, a: &ArrayIn<'_>) -> PyResult<[f64; N]> 
     Ok(out)
 }
 
-/// Every value, row-major, as a flat vector.
-pub fn flat(a: &ArrayIn<'_>) -> Vec<f64> {
-    a.as_array().iter().copied().collect()
+/// A 3×3 rotation given as 9 row-major values (shape (9,)) or as a 3×3 array.
+pub fn rotation(what: &str, a: &ArrayIn<'_>) -> PyResult<[f64; 9]> {
+    let view = a.0.as_array();
+    if view.shape() != [9] && view.shape() != [3, 3] {
+        return Err(shape_error(what, "9 row-major values (shape (9,)) or a 3×3 array", view.shape()));
+    }
+    let mut out = [0.0; 9];
+    // `iter` walks in logical row-major order whatever the memory layout.
+    for (o, v) in out.iter_mut().zip(view.iter()) {
+        *o = *v;
+    }
+    Ok(out)
+}
+
+/// At most `max` rows of `C` values: shape (k, C), or (0,) for none (what `[]` becomes).
+/// The count is checked before anything is copied.
+pub fn rows<const C: usize>(what: &'static str, a: &ArrayIn<'_>, max: usize) -> PyResult<Vec<[f64; C]>> {
+    let view = a.0.as_array();
+    let k = match *view.shape() {
+        [0] => 0,
+        [k, c] if c == C => k,
+        _ => return Err(shape_error(what, &format!("shape (k, {C})"), view.shape())),
+    };
+    if k > max {
+        return Err(CbfError::CapacityExceeded { what, capacity: max }.into());
+    }
+    let flat: Vec<f64> = view.iter().copied().collect();
+    Ok(flat
+        .chunks_exact(C)
+        .map(|row| {
+            let mut out = [0.0; C];
+            out.copy_from_slice(row);
+            out
+        })
+        .collect())
+}
+
+/// At most `max` values as a vector of shape (k,); the count is checked before anything
+/// is copied.
+pub fn values(what: &'static str, a: &ArrayIn<'_>, max: usize) -> PyResult<Vec<f64>> {
+    let view = a.0.as_array();
+    if view.ndim() != 1 {
+        return Err(shape_error(what, "a vector, shape (k,)", view.shape()));
+    }
+    if view.len() > max {
+        return Err(CbfError::CapacityExceeded { what, capacity: max }.into());
+    }
+    Ok(view.iter().copied().collect())
 }
 
 pub fn vector<'py>(py: Python<'py>, v: &[f64]) -> Array1Out<'py> {

@@ -7,10 +7,10 @@ use std::time::Duration;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 
-use super::convert::{choice, fixed, flat, matrix_from_fn, vector, Array1Out, Array2Out, ArrayIn, LegArg};
+use super::convert::{choice, fixed, matrix_from_fn, rows, values, vector, Array1Out, Array2Out, ArrayIn, LegArg};
 use super::kernels::{input, oriented_box, state};
 use crate::catalog::{Capacity, EdgeCuboid, Environment, Family, HalfPlane, StabilityBound};
-use crate::error::finite;
+use crate::error::{finite, positive, CbfError};
 use crate::filter::{EcbfFilter, FilterOutput, FilterSettings};
 use crate::model::NU;
 
@@ -23,6 +23,17 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 
 fn capacity(edges: usize, foothold_edges: Option<[usize; 6]>) -> Capacity {
     Capacity { edges, foothold_edges: foothold_edges.unwrap_or(Capacity::PAPER_WORST_CASE.foothold_edges) }
+}
+
+/// OSQP's time limit from microseconds: > 0 and representable as a `Duration` (checked,
+/// where `Duration::from_secs_f64` would panic on 1e26 µs).
+fn time_limit(us: f64) -> Result<Duration, CbfError> {
+    let us = positive("time_limit_us", us)?;
+    Duration::try_from_secs_f64(us * 1e-6).map_err(|_| CbfError::OutOfRange {
+        what: "time_limit_us",
+        value: us,
+        range: "(0, 1.8e25] (a Duration)",
+    })
 }
 
 fn family(name: &str) -> PyResult<Family> {
@@ -96,20 +107,21 @@ impl PyEnvironment {
         self.inner.swing = values;
     }
 
-    /// Replace ``leg``'s foothold polygon: row k is ``normals[k] . p_xy + offsets[k] >= 0``.
+    /// Replace ``leg``'s foothold polygon: row k is ``normals[k] . p_xy + offsets[k] >= 0``,
+    /// with ``normals`` of shape (k, 2) and ``offsets`` of shape (k,).
     fn set_foothold(&mut self, leg: LegArg, normals: ArrayIn<'_>, offsets: ArrayIn<'_>) -> PyResult<()> {
-        let (n, b) = (flat(&normals), flat(&offsets));
-        if n.len() != 2 * b.len() {
+        let leg = leg.index()?;
+        let capacity = self.inner.capacity().foothold_edges[leg];
+        let (n, b) = (rows::<2>("foothold edges", &normals, capacity)?, values("foothold edges", &offsets, capacity)?);
+        if n.len() != b.len() {
             return Err(PyValueError::new_err(format!(
-                "foothold: {} offsets need {} normal values (k × 2), got {}",
-                b.len(),
-                2 * b.len(),
-                n.len()
+                "foothold: {} normals (k × 2) but {} offsets",
+                n.len(),
+                b.len()
             )));
         }
-        let planes =
-            n.chunks_exact(2).zip(b).map(|(n, b)| HalfPlane::new([n[0], n[1]], b)).collect::<Result<Vec<_>, _>>()?;
-        Ok(self.inner.set_foothold(leg.index()?, &planes)?)
+        let planes = n.into_iter().zip(b).map(|(n, b)| HalfPlane::new(n, b)).collect::<Result<Vec<_>, _>>()?;
+        Ok(self.inner.set_foothold(leg, &planes)?)
     }
 
     /// ``(normals (k, 2), offsets (k,))`` of ``leg``'s foothold polygon.
@@ -289,8 +301,7 @@ impl PyEcbfFilter {
         solver.max_iter = max_iter.unwrap_or(solver.max_iter);
         solver.polish = polish.unwrap_or(solver.polish);
         if let Some(us) = time_limit_us {
-            let us = crate::error::positive("time limit [µs]", us)?;
-            solver.time_limit = Some(Duration::from_secs_f64(us * 1e-6));
+            solver.time_limit = Some(time_limit(us)?);
         }
         let filter = EcbfFilter::new(capacity(edges, foothold_edges), s)?;
         Ok(Self { inner: Mutex::new(filter) })
@@ -299,9 +310,18 @@ impl PyEcbfFilter {
     /// One control update for state ``x`` (NX,), nominal input ``u_ref`` (NU,) and this
     /// cycle's ``env``. Raises ``CbfError`` for NaN/inf input or an environment of another
     /// capacity (the filter is then unchanged); solver trouble is reported in the output.
-    fn update(&self, x: ArrayIn<'_>, u_ref: ArrayIn<'_>, env: PyRef<'_, PyEnvironment>) -> PyResult<PyFilterOutput> {
+    fn update(
+        &self,
+        py: Python<'_>,
+        x: ArrayIn<'_>,
+        u_ref: ArrayIn<'_>,
+        env: PyRef<'_, PyEnvironment>,
+    ) -> PyResult<PyFilterOutput> {
         let (x, u_ref) = (state(&x)?, input("u_ref", &u_ref)?);
-        let out = *self.lock()?.update(&x, &u_ref, &env.inner)?;
+        let env = &env.inner;
+        // Without the GIL: other Python threads run while the QP does (a solve may take
+        // up to its iteration or time limit).
+        let out = py.detach(|| -> PyResult<FilterOutput> { Ok(*self.lock()?.update(&x, &u_ref, env)?) })?;
         Ok(PyFilterOutput { out })
     }
 

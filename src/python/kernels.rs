@@ -7,7 +7,7 @@ use pyo3::prelude::*;
 
 use super::convert::{choice, fixed, matrix, matrix_from_fn, vector, Array1Out, Array2Out, ArrayIn, LegArg};
 use crate::catalog::{EdgeCuboid, HalfPlane, RELATIVE_DEGREE};
-use crate::error::finite;
+use crate::error::{finite, CbfError};
 use crate::generated::tachyon3 as gen;
 use crate::model::{self, State, NU, NX};
 use crate::ssat::{SmoothAbs, SmoothMax, SmoothParams};
@@ -64,7 +64,7 @@ pub fn input(what: &str, u: &ArrayIn<'_>) -> PyResult<model::Input> {
 /// A validated box from centre, rotation (9 values, row-major) and half extents.
 pub fn oriented_box(center: &ArrayIn<'_>, rotation: &ArrayIn<'_>, half: &ArrayIn<'_>) -> PyResult<OrientedBox> {
     let c = fixed::<3>("centre", center)?;
-    let r = fixed::<9>("rotation", rotation)?;
+    let r = super::convert::rotation("rotation", rotation)?;
     let h = fixed::<3>("half extents", half)?;
     Ok(OrientedBox::new(
         Vector3::from(c),
@@ -74,14 +74,27 @@ pub fn oriented_box(center: &ArrayIn<'_>, rotation: &ArrayIn<'_>, half: &ArrayIn
 }
 
 /// Kernel rows as numpy: `lie` (rows × 3: h, L_f h, L_f² h) and `lg_lf` scattered onto
-/// all NU input columns.
+/// all NU input columns. A row with a NaN or infinite entry (degenerate geometry such as
+/// a toe exactly at its hip, or a state far outside the model's range) raises
+/// [`CbfError::NonFiniteRow`] instead of reaching Python.
 fn rows_out<'py, const R: usize, const C: usize>(
     py: Python<'py>,
     (lie, lg): ([[f64; RELATIVE_DEGREE + 1]; R], [[f64; C]; R]),
     columns: &[usize; C],
-) -> Rows<'py> {
+) -> PyResult<Rows<'py>> {
+    for (row, (l, g)) in lie.iter().zip(&lg).enumerate() {
+        if !l.iter().chain(g).all(|v| v.is_finite()) {
+            return Err(CbfError::NonFiniteRow { row }.into());
+        }
+    }
     let dense = matrix_from_fn(py, R, NU, |i, j| columns.iter().position(|&c| c == j).map_or(0.0, |k| lg[i][k]));
-    (matrix(py, &lie), dense)
+    Ok((matrix(py, &lie), dense))
+}
+
+/// `values`, or [`CbfError::NonFinite`] naming `what` if any of them is NaN or infinite:
+/// no kernel output reaches Python unless it is finite.
+fn all_finite<'a>(what: &'static str, values: impl IntoIterator<Item = &'a f64>) -> Result<(), CbfError> {
+    values.into_iter().try_for_each(|&v| finite(what, v).map(drop))
 }
 
 fn ssat_params(variant: &str, alpha: f64, alpha_rot: f64) -> PyResult<SmoothParams> {
@@ -110,7 +123,7 @@ fn ssat(
     variant: &str,
 ) -> PyResult<f64> {
     let (a, b) = (oriented_box(&p_a, &r_a, &half_a)?, oriented_box(&p_b, &r_b, &half_b)?);
-    Ok(crate::ssat::ssat(&a, &b, &ssat_params(variant, alpha, alpha_rot)?))
+    Ok(finite("SSAT value", crate::ssat::ssat(&a, &b, &ssat_params(variant, alpha, alpha_rot)?))?)
 }
 
 /// ``(h, gradient, hessian)``: the smooth SAT value with its gradient (3,) and Hessian
@@ -132,6 +145,9 @@ fn ssat_derivatives<'py>(
 ) -> PyResult<(f64, Array1Out<'py>, Array2Out<'py>)> {
     let (a, b) = (oriented_box(&p_a, &r_a, &half_a)?, oriented_box(&p_b, &r_b, &half_b)?);
     let d = crate::ssat::ssat_with_derivatives(&a, &b, &ssat_params(variant, alpha, alpha_rot)?);
+    finite("SSAT value", d.value)?;
+    all_finite("SSAT gradient", d.gradient.iter())?;
+    all_finite("SSAT Hessian", d.hessian.iter())?;
     let hessian = matrix_from_fn(py, 3, 3, |i, j| d.hessian[(i, j)]);
     Ok((d.value, vector(py, d.gradient.as_slice()), hessian))
 }
@@ -145,7 +161,7 @@ fn ssat_margin(half_a: ArrayIn<'_>, half_b: ArrayIn<'_>, alpha: f64, alpha_rot: 
         Ok(OrientedBox::axis_aligned(Vector3::zeros(), Vector3::from(fixed::<3>("half extents", half)?))?)
     };
     let (a, b) = (box_of(&half_a)?, box_of(&half_b)?);
-    Ok(crate::ssat::certified_margin(&a, &b, &ssat_params(variant, alpha, alpha_rot)?))
+    Ok(finite("SSAT margin", crate::ssat::certified_margin(&a, &b, &ssat_params(variant, alpha, alpha_rot)?))?)
 }
 
 // -------------------------------------------------------------------- families
@@ -155,7 +171,7 @@ fn ssat_margin(half_a: ArrayIn<'_>, half_b: ArrayIn<'_>, alpha: f64, alpha_rot: 
 #[pyfunction]
 fn joint_limits<'py>(py: Python<'py>, leg: LegArg, x: ArrayIn<'py>) -> PyResult<Rows<'py>> {
     let leg = leg.index()?;
-    Ok(rows_out(py, gen::JOINT_LIMITS[leg](&state(&x)?), &gen::JOINT_LIMITS_INPUT_COLUMNS[leg]))
+    rows_out(py, gen::JOINT_LIMITS[leg](&state(&x)?), &gen::JOINT_LIMITS_INPUT_COLUMNS[leg])
 }
 
 /// Toe ``leg``'s wheel bottom above the floor plane at height ``floor_z``: one row.
@@ -163,7 +179,7 @@ fn joint_limits<'py>(py: Python<'py>, leg: LegArg, x: ArrayIn<'py>) -> PyResult<
 fn foot_height<'py>(py: Python<'py>, leg: LegArg, x: ArrayIn<'py>, floor_z: f64) -> PyResult<Rows<'py>> {
     let leg = leg.index()?;
     let floor_z = finite("floor height", floor_z)?;
-    Ok(rows_out(py, gen::FOOT_HEIGHT[leg](&state(&x)?, floor_z), &gen::FOOT_HEIGHT_INPUT_COLUMNS[leg]))
+    rows_out(py, gen::FOOT_HEIGHT[leg](&state(&x)?, floor_z), &gen::FOOT_HEIGHT_INPUT_COLUMNS[leg])
 }
 
 /// Static stability bound of eq. 13 for toe ``leg``: ``a (x_toe - x_body) + b >= 0``.
@@ -171,7 +187,7 @@ fn foot_height<'py>(py: Python<'py>, leg: LegArg, x: ArrayIn<'py>, floor_z: f64)
 fn stability<'py>(py: Python<'py>, leg: LegArg, x: ArrayIn<'py>, a: f64, b: f64) -> PyResult<Rows<'py>> {
     let leg = leg.index()?;
     let (a, b) = (finite("stability slope", a)?, finite("stability offset", b)?);
-    Ok(rows_out(py, gen::STABILITY[leg](&state(&x)?, a, b), &gen::STABILITY_INPUT_COLUMNS[leg]))
+    rows_out(py, gen::STABILITY[leg](&state(&x)?, a, b), &gen::STABILITY_INPUT_COLUMNS[leg])
 }
 
 /// The body vs one edge cuboid by the smooth SAT minus its certified margin: one row;
@@ -186,7 +202,7 @@ fn body_edge<'py>(
 ) -> PyResult<Rows<'py>> {
     let e = EdgeCuboid::from_box(&oriented_box(&edge_center, &edge_rotation, &edge_half)?);
     let rows = gen::body_edge_ssat(&state(&x)?, e.center(), e.rotation(), e.half_extents());
-    Ok(rows_out(py, rows, &gen::BODY_EDGE_SSAT_INPUT_COLUMNS))
+    rows_out(py, rows, &gen::BODY_EDGE_SSAT_INPUT_COLUMNS)
 }
 
 /// Toe ``leg``'s sphere vs one edge cuboid by the superellipsoid of eq. 11: one row.
@@ -202,7 +218,7 @@ fn toe_edge<'py>(
     let leg = leg.index()?;
     let e = EdgeCuboid::from_box(&oriented_box(&edge_center, &edge_rotation, &edge_half)?);
     let rows = gen::TOE_EDGE[leg](&state(&x)?, e.center(), e.rotation(), e.half_extents());
-    Ok(rows_out(py, rows, &gen::TOE_EDGE_INPUT_COLUMNS[leg]))
+    rows_out(py, rows, &gen::TOE_EDGE_INPUT_COLUMNS[leg])
 }
 
 /// Toe ``leg`` inside the foothold half-plane ``normal . p_xy + offset >= 0``: one row.
@@ -220,7 +236,7 @@ fn foothold<'py>(
     let normal = fixed::<2>("normal", &normal)?;
     HalfPlane::new(normal, offset)?;
     let rows = gen::FOOTHOLD[leg](&state(&x)?, &normal, offset);
-    Ok(rows_out(py, rows, &gen::FOOTHOLD_INPUT_COLUMNS[leg]))
+    rows_out(py, rows, &gen::FOOTHOLD_INPUT_COLUMNS[leg])
 }
 
 /// The double integrator's time-varying row ``h = q - A sin(w t) - c`` at state
@@ -237,6 +253,9 @@ fn sine_barrier(x: ArrayIn<'_>, t: f64, amplitude: f64, omega: f64, offset: f64)
         finite(what, v)?;
     }
     let ([lie], [[lg]]) = crate::generated::double_integrator::sine_barrier(&x, t, amplitude, omega, offset);
+    if !lie.iter().chain([&lg]).all(|v| v.is_finite()) {
+        return Err(CbfError::NonFiniteRow { row: 0 }.into());
+    }
     Ok((lie, lg))
 }
 
@@ -244,13 +263,16 @@ fn sine_barrier(x: ArrayIn<'_>, t: f64, amplitude: f64, omega: f64, offset: f64)
 /// The drift f(x) of x' = f(x) + g(x) u, shape (NX,).
 #[pyfunction]
 fn dynamics_f<'py>(py: Python<'py>, x: ArrayIn<'py>) -> PyResult<Array1Out<'py>> {
-    Ok(vector(py, &gen::dynamics_f(&state(&x)?)))
+    let f = gen::dynamics_f(&state(&x)?);
+    all_finite("drift f(x)", &f)?;
+    Ok(vector(py, &f))
 }
 
 /// The input matrix g(x), dense, shape (NX, NU).
 #[pyfunction]
 fn dynamics_g<'py>(py: Python<'py>, x: ArrayIn<'py>) -> PyResult<Array2Out<'py>> {
     let values = gen::dynamics_g(&state(&x)?);
+    all_finite("input matrix g(x)", &values)?;
     let at = |r: usize, c: usize| gen::G_PATTERN.iter().position(|&p| p == (r, c)).map_or(0.0, |k| values[k]);
     Ok(matrix_from_fn(py, NX, NU, at))
 }
@@ -258,7 +280,9 @@ fn dynamics_g<'py>(py: Python<'py>, x: ArrayIn<'py>) -> PyResult<Array2Out<'py>>
 /// x' = f(x) + g(x) u, shape (NX,).
 #[pyfunction]
 fn xdot<'py>(py: Python<'py>, x: ArrayIn<'py>, u: ArrayIn<'py>) -> PyResult<Array1Out<'py>> {
-    Ok(vector(py, &model::xdot(&state(&x)?, &input("u", &u)?)))
+    let xdot = model::xdot(&state(&x)?, &input("u", &u)?);
+    all_finite("xdot", &xdot)?;
+    Ok(vector(py, &xdot))
 }
 
 /// ``(body_center (3,), body_rotation (3, 3), toes (6, 3))`` in the world frame; toe rows
@@ -270,6 +294,7 @@ fn world_kinematics<'py>(
     x: ArrayIn<'py>,
 ) -> PyResult<(Array1Out<'py>, Array2Out<'py>, Array2Out<'py>)> {
     let (center, rotation, toes) = gen::world_kinematics(&state(&x)?);
+    all_finite("world kinematics", center.iter().chain(rotation.as_flattened()).chain(toes.as_flattened()))?;
     Ok((vector(py, &center), matrix(py, &rotation), matrix(py, &toes)))
 }
 

@@ -3,13 +3,21 @@
 //! `python/cbfgen/_native.pyi` carries the signatures for IDEs.
 //!
 //! Conventions at the boundary:
-//! * arrays in: anything numpy can turn into float64 (lists, tuples, arrays of any
-//!   float or int type), with exactly the documented number of values, in row-major
-//!   order (a 3×3 rotation may be given as 9 values or as a 3×3 array);
-//! * arrays out: new float64 numpy arrays, never views of Rust memory;
+//! * arrays in: anything numpy reads as booleans, integers or floats (lists, tuples,
+//!   arrays of those dtypes), converted to float64; complex, string and object arrays
+//!   are a `ValueError` (numpy's cast would drop the imaginary part or parse text);
+//! * shapes are exact: a vector of N values has shape (N,); a 3×3 rotation is 9
+//!   row-major values (9,) or a 3×3 array; a foothold polygon's normals are (k, 2) and
+//!   its offsets (k,). A (2, 3) array is never read as 6 values in some order;
+//! * arrays out: new float64 numpy arrays, never views of Rust memory; every kernel
+//!   output is finite (a NaN or infinite value raises `CbfError` instead);
 //! * errors: [`crate::CbfError`] becomes `cbfgen.CbfError` (a `ValueError`) with the
-//!   Rust message; wrong lengths, unknown names and out-of-range legs are `ValueError`
-//!   too. Nothing in this module panics on any input.
+//!   Rust message; wrong shapes, unknown names and out-of-range legs are `ValueError`
+//!   too; integers outside their Rust type (negative counts, > 2⁶⁴) are `OverflowError`.
+//!   Nothing in this module panics on any input: counts are checked before anything is
+//!   sized by them, and conversions that could panic (`Duration::from_secs_f64`) are
+//!   the checked ones.
+//! * `EcbfFilter.update` and `simulate` release the GIL while Rust works.
 
 mod convert;
 mod filter;

@@ -58,13 +58,19 @@ impl PyCourse {
     /// the first riser, shape (NX,).
     #[pyo3(signature = (start_gap=0.3))]
     fn initial_state<'py>(&self, py: Python<'py>, start_gap: f64) -> PyResult<Array1Out<'py>> {
-        Ok(vector(py, &self.inner.initial_state(finite("start gap", start_gap)?)))
+        let x = self.inner.initial_state(finite("start gap", start_gap)?);
+        // A finite but huge gap (1e308) would put the robot at -inf.
+        finite("initial position", x[0])?;
+        Ok(vector(py, &x))
     }
 
     /// The gait's nominal input at time ``t`` [s] for state ``x``, shape (NU,). Updates
     /// ``environment`` (floors under the toes, swing legs, their foothold strips).
     fn plan<'py>(&mut self, py: Python<'py>, t: f64, x: ArrayIn<'py>) -> PyResult<Array1Out<'py>> {
         let plan = self.inner.plan(finite("time", t)?, &state(&x)?)?;
+        for &v in &plan.u_ref {
+            finite("nominal input", v)?;
+        }
         self.nominal_body_height = plan.body_height;
         self.env.borrow_mut(py).inner.clone_from(self.inner.environment());
         Ok(vector(py, &plan.u_ref))
@@ -92,7 +98,7 @@ impl PyCourse {
     /// negative = penetration.
     fn clearance(&self, x: ArrayIn<'_>) -> PyResult<(f64, f64)> {
         let c = self.inner.clearance(&state(&x)?)?;
-        Ok((c.body, c.toe))
+        Ok((finite("body clearance", c.body)?, finite("toe clearance", c.toe)?))
     }
 
     /// Every toe on the top level, the body past the last riser, no tripod swinging.
