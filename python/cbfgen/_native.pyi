@@ -1,6 +1,10 @@
-# Type stubs for the Rust extension module (src/python/). Arrays are float64 numpy
-# arrays; "ArrayLike" inputs accept anything numpy converts to float64 with exactly the
-# stated number of values (row-major; a 3x3 rotation may be given as 9 values).
+# Type stubs for the Rust extension module (src/python/). Arrays out are new float64
+# numpy arrays, always finite: a kernel value that would be NaN or infinite raises
+# CbfError instead. "ArrayLike" inputs accept lists, tuples and arrays of booleans,
+# integers or floats, read as float64; complex, string and object arrays raise
+# ValueError. Shapes are exact: a vector of N values is (N,); a rotation is 9 row-major
+# values (9,) or a 3x3 array; foothold normals are (k, 2) and offsets (k,).
+# Counts outside their integer type (negative, >= 2**64) raise OverflowError.
 # python/tests/test_api.py checks that this file and the module list the same names.
 
 from typing import Literal, Optional, Sequence, Union
@@ -32,6 +36,10 @@ BODY_HALF_EXTENTS: list[float]
 RELATIVE_DEGREE: int
 FAMILIES: list[str]
 DT: float
+MAX_EDGES: int
+"""Most edge cuboids an Environment or EcbfFilter may be sized for."""
+MAX_FOOTHOLD_EDGES: int
+"""Most foothold half-planes per leg an Environment or EcbfFilter may be sized for."""
 SSAT_VARIANTS: list[str]
 JOINT_LIMIT_ROWS: list[str]
 SCENARIOS: list[str]
@@ -43,7 +51,10 @@ def ssat(
     p_b: ArrayLike, r_b: ArrayLike, half_b: ArrayLike,
     alpha: float = 200.0, alpha_rot: float = 200.0, variant: SsatVariant = "lse_xtanh",
 ) -> float:
-    """Smooth SAT value h of boxes A and B (> 0 apart, < 0 overlapping)."""
+    """Smooth SAT value h of boxes A and B (> 0 apart, < 0 overlapping).
+
+    Raises CbfError for non-finite input, non-positive sizes, an improper rotation, or a
+    smoothing so extreme that h would not be finite."""
 
 def ssat_derivatives(
     p_a: ArrayLike, r_a: ArrayLike, half_a: ArrayLike,
@@ -60,7 +71,11 @@ def ssat_margin(
 
 # ------------------------------------------------------------------- families
 def joint_limits(leg: Leg, x: ArrayLike) -> Rows:
-    """The four joint-limit rows of a leg, in JOINT_LIMIT_ROWS order."""
+    """The four joint-limit rows of a leg, in JOINT_LIMIT_ROWS order.
+
+    Like every row function, raises CbfError ("constraint row i is not finite") where a
+    row is not finite, e.g. with the toe exactly at its hip or a state far outside the
+    model's range."""
 
 def foot_height(leg: Leg, x: ArrayLike, floor_z: float) -> Rows:
     """Toe wheel bottom above the floor plane at height floor_z: one row."""
@@ -100,7 +115,8 @@ def standard_posture() -> Vector:
 class Environment:
     """Edge cuboids, floors, foothold polygons, swing legs and stability bounds, sized once."""
 
-    def __init__(self, edges: int = 20, foothold_edges: Optional[Sequence[int]] = None) -> None: ...
+    def __init__(self, edges: int = 20, foothold_edges: Optional[Sequence[int]] = None) -> None:
+        """Raises CbfError above MAX_EDGES / MAX_FOOTHOLD_EDGES, OverflowError below 0."""
     @property
     def capacity(self) -> tuple[int, list[int]]: ...
     def push_edge(self, center: ArrayLike, rotation: ArrayLike, half_extents: ArrayLike) -> None: ...
@@ -116,7 +132,10 @@ class Environment:
     @swing.setter
     def swing(self, values: Sequence[bool]) -> None: ...
     def set_foothold(self, leg: Leg, normals: ArrayLike, offsets: ArrayLike) -> None:
-        """Row k: normals[k] . p_xy + offsets[k] >= 0; normals is (k, 2)."""
+        """Row k: normals[k] . p_xy + offsets[k] >= 0; normals is (k, 2), offsets (k,).
+
+        Raises ValueError for other shapes and CbfError for more rows than the leg's
+        capacity or a zero or non-finite normal."""
     def foothold(self, leg: Leg) -> tuple[Matrix, Vector]: ...
     def set_stability(
         self, leg: Leg, lower: Optional[tuple[float, float]] = None, upper: Optional[tuple[float, float]] = None
@@ -165,8 +184,16 @@ class EcbfFilter:
         max_iter: Optional[int] = None,
         polish: Optional[bool] = None,
         time_limit_us: Optional[float] = None,
-    ) -> None: ...
-    def update(self, x: ArrayLike, u_ref: ArrayLike, env: Environment) -> FilterOutput: ...
+    ) -> None:
+        """Keyword arguments override the Rust defaults. Raises CbfError for capacities
+        above MAX_EDGES / MAX_FOOTHOLD_EDGES, for settings outside their domain (a
+        time_limit_us that is not > 0 or not representable, non-positive tolerances...),
+        ValueError for unknown family names, OverflowError for negative counts or a
+        max_iter outside 0..2**32."""
+    def update(self, x: ArrayLike, u_ref: ArrayLike, env: Environment) -> FilterOutput:
+        """One control cycle. Raises CbfError for non-finite x or u_ref or an environment
+        of another capacity (the filter is then unchanged). Releases the GIL while the
+        rows are evaluated and the QP solved."""
     def fallback_input(self, u_ref: ArrayLike) -> Vector: ...
     @property
     def output(self) -> FilterOutput: ...
@@ -196,7 +223,8 @@ class Course:
     @property
     def environment(self) -> Environment: ...
     @property
-    def nominal_body_height(self) -> float: ...
+    def nominal_body_height(self) -> Optional[float]:
+        """The gait's nominal body-centre height at the last plan [m]; None before."""
     @property
     def swinging(self) -> Optional[int]: ...
     def clearance(self, x: ArrayLike) -> tuple[float, float]: ...
@@ -206,4 +234,7 @@ class Course:
 def simulate(
     scenario: Literal["step", "stairs"] = "stairs", body_cbf: bool = True, max_time: Optional[float] = None
 ) -> dict[str, np.ndarray | dict]:
-    """The Rust closed loop's time series as numpy arrays, plus a "summary" dict."""
+    """The Rust closed loop's time series as numpy arrays, plus a "summary" dict.
+
+    ``min_h`` is inf where no row of a family applied; every other series is finite.
+    Raises CbfError for a max_time that is not > 0. Releases the GIL while it runs."""

@@ -57,6 +57,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("RELATIVE_DEGREE", RELATIVE_DEGREE)?;
     m.add("FAMILIES", Family::ALL.map(Family::name).to_vec())?;
     m.add("DT", crate::sim::DT)?;
+    m.add("MAX_EDGES", crate::catalog::Capacity::MAX_EDGES)?;
+    m.add("MAX_FOOTHOLD_EDGES", crate::catalog::Capacity::MAX_FOOTHOLD_EDGES)?;
     kernels::register(m)?;
     filter::register(m)?;
     sim::register(m)?;

@@ -41,7 +41,7 @@ fn scenario(name: &str) -> PyResult<Scenario> {
 pub struct PyCourse {
     inner: Course,
     env: Py<PyEnvironment>,
-    nominal_body_height: f64,
+    nominal_body_height: Option<f64>,
 }
 
 #[pymethods]
@@ -51,17 +51,14 @@ impl PyCourse {
     fn new(py: Python<'_>, scenario: &str) -> PyResult<Self> {
         let inner = Course::new(self::scenario(scenario)?, GaitParams::default())?;
         let env = Py::new(py, PyEnvironment { inner: inner.environment().clone() })?;
-        Ok(Self { inner, env, nominal_body_height: f64::NAN })
+        Ok(Self { inner, env, nominal_body_height: None })
     }
 
     /// The standard posture with the robot's foremost point ``start_gap`` metres before
     /// the first riser, shape (NX,).
     #[pyo3(signature = (start_gap=0.3))]
     fn initial_state<'py>(&self, py: Python<'py>, start_gap: f64) -> PyResult<Array1Out<'py>> {
-        let x = self.inner.initial_state(finite("start gap", start_gap)?);
-        // A finite but huge gap (1e308) would put the robot at -inf.
-        finite("initial position", x[0])?;
-        Ok(vector(py, &x))
+        Ok(vector(py, &self.inner.initial_state(finite("start gap", start_gap)?)))
     }
 
     /// The gait's nominal input at time ``t`` [s] for state ``x``, shape (NU,). Updates
@@ -71,7 +68,8 @@ impl PyCourse {
         for &v in &plan.u_ref {
             finite("nominal input", v)?;
         }
-        self.nominal_body_height = plan.body_height;
+        finite("nominal body height", plan.body_height)?;
+        self.nominal_body_height = Some(plan.body_height);
         self.env.borrow_mut(py).inner.clone_from(self.inner.environment());
         Ok(vector(py, &plan.u_ref))
     }
@@ -82,9 +80,10 @@ impl PyCourse {
         self.env.clone_ref(py)
     }
 
-    /// The gait's nominal body-centre height at the last ``plan`` [m] (NaN before).
+    /// The gait's nominal body-centre height at the last ``plan`` [m]; None before the
+    /// first (not NaN: no output of the module is NaN).
     #[getter]
-    fn nominal_body_height(&self) -> f64 {
+    fn nominal_body_height(&self) -> Option<f64> {
         self.nominal_body_height
     }
 
