@@ -40,6 +40,16 @@ MAX_EDGES: int
 """Most edge cuboids an Environment or EcbfFilter may be sized for."""
 MAX_FOOTHOLD_EDGES: int
 """Most foothold half-planes per leg an Environment or EcbfFilter may be sized for."""
+MAX_ITERATIONS: int
+"""Largest EcbfFilter max_iter."""
+MAX_TIME_LIMIT_US: float
+"""Largest EcbfFilter time_limit_us (1 s)."""
+MAX_INPUT: float
+"""Largest |nominal input| and |input limit| the filter accepts."""
+STATE_LIMIT: float
+"""Largest |state entry| accepted by the kernels, the filter and the course."""
+MAX_SIM_TIME: float
+"""Longest simulate max_time [s]."""
 SSAT_VARIANTS: list[str]
 JOINT_LIMIT_ROWS: list[str]
 SCENARIOS: list[str]
@@ -73,9 +83,9 @@ def ssat_margin(
 def joint_limits(leg: Leg, x: ArrayLike) -> Rows:
     """The four joint-limit rows of a leg, in JOINT_LIMIT_ROWS order.
 
-    Like every row function, raises CbfError ("constraint row i is not finite") where a
-    row is not finite, e.g. with the toe exactly at its hip or a state far outside the
-    model's range."""
+    Like every function taking a state, raises CbfError for an entry that is not finite
+    or beyond STATE_LIMIT; like every row function, raises CbfError ("constraint row i
+    is not finite") where the geometry is singular (a toe exactly at its hip)."""
 
 def foot_height(leg: Leg, x: ArrayLike, floor_z: float) -> Rows:
     """Toe wheel bottom above the floor plane at height floor_z: one row."""
@@ -186,14 +196,17 @@ class EcbfFilter:
         time_limit_us: Optional[float] = None,
     ) -> None:
         """Keyword arguments override the Rust defaults. Raises CbfError for capacities
-        above MAX_EDGES / MAX_FOOTHOLD_EDGES, for settings outside their domain (a
-        time_limit_us that is not > 0 or not representable, non-positive tolerances...),
-        ValueError for unknown family names, OverflowError for negative counts or a
-        max_iter outside 0..2**32."""
+        above MAX_EDGES / MAX_FOOTHOLD_EDGES and for settings outside their documented
+        domain: max_iter in 1..=MAX_ITERATIONS, eps_abs and eps_rel in [1e-12, 1e3],
+        time_limit_us in (0, MAX_TIME_LIMIT_US], |input limits| <= MAX_INPUT, input
+        weights in [1e-6, 1e6], poles in [1e-6, 1e4], slack weights in [1e-6, 1e12];
+        ValueError for unknown family names; OverflowError for negative counts or a
+        max_iter of 2**32 or more."""
     def update(self, x: ArrayLike, u_ref: ArrayLike, env: Environment) -> FilterOutput:
-        """One control cycle. Raises CbfError for non-finite x or u_ref or an environment
-        of another capacity (the filter is then unchanged). Releases the GIL while the
-        rows are evaluated and the QP solved."""
+        """One control cycle; ``u`` is always finite. Raises CbfError for x outside
+        STATE_LIMIT, u_ref outside MAX_INPUT (NaN and inf included) or an environment of
+        another capacity (the filter is then unchanged). Releases the GIL while the rows
+        are evaluated and the QP solved."""
     def fallback_input(self, u_ref: ArrayLike) -> Vector: ...
     @property
     def output(self) -> FilterOutput: ...
@@ -237,4 +250,6 @@ def simulate(
     """The Rust closed loop's time series as numpy arrays, plus a "summary" dict.
 
     ``min_h`` is inf where no row of a family applied; every other series is finite.
-    Raises CbfError for a max_time that is not > 0. Releases the GIL while it runs."""
+    Raises CbfError for a max_time outside [DT, MAX_SIM_TIME]. Samples are stored as the
+    run goes (a run that completes early holds only its own). Releases the GIL while it
+    runs."""

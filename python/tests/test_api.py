@@ -102,7 +102,7 @@ BOX = ([0, 0, 0], np.eye(3), [0.5, 0.5, 0.5])
     (lambda: cbfgen.ssat(*BOX, *BOX, alpha=-1.0), cbfgen.CbfError, "alpha"),
     (lambda: cbfgen.foothold(0, cbfgen.standard_posture(), [0, 0], 1.0), cbfgen.CbfError, "normal"),
     (lambda: cbfgen.EcbfFilter(activation={"nope": 1.0}), ValueError, "unknown family"),
-    (lambda: cbfgen.EcbfFilter(eps_abs=0.0), cbfgen.CbfError, "> 0"),
+    (lambda: cbfgen.EcbfFilter(eps_abs=0.0), cbfgen.CbfError, "eps_abs = 0 is outside"),
     (lambda: cbfgen.Course("moon"), ValueError, "unknown scenario"),
     (lambda: cbfgen.simulate("step", max_time=-1.0), cbfgen.CbfError, "max_time"),
 ])

@@ -10,8 +10,8 @@ use pyo3::prelude::*;
 use super::convert::{choice, fixed, matrix_from_fn, rows, values, vector, Array1Out, Array2Out, ArrayIn, LegArg};
 use super::kernels::{input, oriented_box, state};
 use crate::catalog::{Capacity, EdgeCuboid, Environment, Family, HalfPlane, StabilityBound};
-use crate::error::{finite, positive, CbfError};
-use crate::filter::{EcbfFilter, FilterOutput, FilterSettings};
+use crate::error::{finite, within, CbfError};
+use crate::filter::{EcbfFilter, FilterOutput, FilterSettings, SolverSettings};
 use crate::model::NU;
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -25,15 +25,15 @@ fn capacity(edges: usize, foothold_edges: Option<[usize; 6]>) -> Capacity {
     Capacity { edges, foothold_edges: foothold_edges.unwrap_or(Capacity::PAPER_WORST_CASE.foothold_edges) }
 }
 
-/// OSQP's time limit from microseconds: > 0 and representable as a `Duration` (checked,
-/// where `Duration::from_secs_f64` would panic on 1e26 µs).
+/// OSQP's time limit from microseconds, in `(0, SolverSettings::MAX_TIME_LIMIT]`, checked
+/// here in the unit the caller gave (where `Duration::from_secs_f64` would panic on
+/// 1e26 µs).
 fn time_limit(us: f64) -> Result<Duration, CbfError> {
-    let us = positive("time_limit_us", us)?;
-    Duration::try_from_secs_f64(us * 1e-6).map_err(|_| CbfError::OutOfRange {
-        what: "time_limit_us",
-        value: us,
-        range: "(0, 1.8e25] (a Duration)",
-    })
+    let max_us = SolverSettings::MAX_TIME_LIMIT.as_secs_f64() * 1e6;
+    if within("time_limit_us", us, 0.0, max_us, "(0, 1e6]")? == 0.0 {
+        return Err(CbfError::NotPositive { what: "time_limit_us", value: us });
+    }
+    SolverSettings::time_limit_from_secs(us * 1e-6)
 }
 
 fn family(name: &str) -> PyResult<Family> {

@@ -45,11 +45,10 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 }
 
 // ------------------------------------------------------------------ conversion
+/// A state in the kernels' domain: finite, every |entry| ≤ `model::STATE_LIMIT`.
 pub fn state(x: &ArrayIn<'_>) -> PyResult<State> {
     let x = fixed::<NX>("x", x)?;
-    for &v in &x {
-        finite("state entry", v)?;
-    }
+    model::validate_state(&x)?;
     Ok(x)
 }
 

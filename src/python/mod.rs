@@ -59,6 +59,11 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("DT", crate::sim::DT)?;
     m.add("MAX_EDGES", crate::catalog::Capacity::MAX_EDGES)?;
     m.add("MAX_FOOTHOLD_EDGES", crate::catalog::Capacity::MAX_FOOTHOLD_EDGES)?;
+    m.add("MAX_ITERATIONS", crate::filter::SolverSettings::MAX_ITERATIONS)?;
+    m.add("MAX_TIME_LIMIT_US", crate::filter::SolverSettings::MAX_TIME_LIMIT.as_secs_f64() * 1e6)?;
+    m.add("MAX_INPUT", crate::filter::domain::MAX_INPUT)?;
+    m.add("STATE_LIMIT", model::STATE_LIMIT)?;
+    m.add("MAX_SIM_TIME", crate::sim::MAX_SIM_TIME)?;
     kernels::register(m)?;
     filter::register(m)?;
     sim::register(m)?;
