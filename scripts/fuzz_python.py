@@ -57,8 +57,11 @@ FINDINGS = ("panic", "other_exception", "nonfinite", "abort", "hang")
 TYPED_ERRORS = (ValueError, TypeError, OverflowError)  # cbfgen.CbfError is a ValueError
 
 F64_MAX = float(np.finfo(np.float64).max)
-FINITE_EXTREMES = (0.0, -0.0, 5e-324, -5e-324, 2.2250738585072014e-308, 1e-300, 1e-12, 1e12, 1e26,
-                   1e300, -1e300, F64_MAX, -F64_MAX)
+# Finite extremes: of the float format, and at or just past the documented domains'
+# edges (STATE_LIMIT and MAX_INPUT 1e6, tolerances 1e-12 and 1e3, MAX_SIM_TIME 600).
+FINITE_EXTREMES = (0.0, -0.0, 5e-324, -5e-324, 2.2250738585072014e-308, 1e-300, 1e-12, 1e-12 * (1 - 1e-15),
+                   1e3, 600.0, 600.0000000000001, 1e6, -1e6, 1000000.0000000001, 1e12, 1e26, 1e300, -1e300,
+                   F64_MAX, -F64_MAX)
 NON_FINITE = (math.nan, math.inf, -math.inf)
 INT_EXTREMES = (-1, 0, 1, 2**31, 2**32 - 1, 2**32, 2**62, 2**63 - 1, 2**64 // 7 + 1, 2**64 - 1, 2**64,
                 10**6, 10**9, -(2**63))
@@ -81,6 +84,10 @@ class Case:
     def __init__(self, rng: np.random.Generator, verbose: bool = False):
         self.rng = rng
         self.verbose = verbose
+        # How hostile this case's draws are: a factor on every probability of an
+        # extreme, absurd or mangled value. Clean cases reach deep paths (solves,
+        # fallbacks) that a single bad argument would stop at the argument check.
+        self.hostility = float(rng.choice([0.0, 0.3, 1.0], p=[0.35, 0.4, 0.25]))
         self.calls: list[tuple[str, tuple, dict]] = []
         self.typed_errors: Counter[str] = Counter()
 
@@ -105,12 +112,16 @@ class Case:
     def chance(self, p: float) -> bool:
         return bool(self.rng.random() < p)
 
+    def hostile(self, p: float) -> bool:
+        """A bad draw: probability ``p`` in the most hostile cases, none in clean ones."""
+        return self.chance(p * self.hostility)
+
     def pick(self, options):
         return options[int(self.rng.integers(len(options)))]
 
     def scalar(self, lo: float, hi: float, p_extreme: float = 0.1, p_non_finite: float = 0.01) -> float:
         """Uniform in [lo, hi], or sometimes a finite extreme or (rarely) NaN / inf."""
-        u = self.rng.random()
+        u = self.rng.random() / max(self.hostility, 1e-300)
         if u < p_non_finite:
             return self.pick(NON_FINITE)
         if u < p_non_finite + p_extreme:
@@ -120,7 +131,7 @@ class Case:
     def count(self, typical: int, maximum: int, p_boundary: float = 0.05, p_absurd: float = 0.05) -> int:
         """0..typical mostly; sometimes the documented maximum or one above; sometimes an
         absurd integer (negative, > 2^64, the wrap-around of the row count)."""
-        u = self.rng.random()
+        u = self.rng.random() / max(self.hostility, 1e-300)
         if u < p_absurd:
             return self.pick(INT_EXTREMES)
         if u < p_absurd + p_boundary:
@@ -131,7 +142,7 @@ class Case:
         """A copy with a few entries replaced by extremes."""
         out = np.array(values, dtype=float)
         for i in range(out.size):
-            u = self.rng.random()
+            u = self.rng.random() / max(self.hostility, 1e-300)
             if u < p_non_finite:
                 out.flat[i] = self.pick(NON_FINITE)
             elif u < p_non_finite + p_extreme:
@@ -141,7 +152,7 @@ class Case:
     def array_like(self, values: np.ndarray, p_mangle: float = 0.03):
         """``values`` as a float64 array, or sometimes as another array-like: a list, an
         int or float32 array, or a refused form (complex, strings, a wrong shape)."""
-        if not self.chance(p_mangle):
+        if not self.chance(p_mangle * self.hostility):
             return values
         form = self.pick(("list", "float32", "int", "complex", "strings", "reshaped", "extra", "fortran"))
         if form == "list":
@@ -209,7 +220,7 @@ def rotation(case: Case):
         q, rr = np.linalg.qr(case.rng.normal(size=(3, 3)))
         q = q @ np.diag(np.sign(np.diag(rr)))
         r = q if np.linalg.det(q) > 0 else -q
-    u = case.rng.random()
+    u = case.rng.random() / max(case.hostility, 1e-300)
     if u < 0.03:
         r = r @ np.diag([1.0, 1.0, -1.0])
     elif u < 0.06:
@@ -223,7 +234,7 @@ def rotation(case: Case):
 def box(case: Case, center, spread: float):
     centre = case.perturbed(np.asarray(center) + case.rng.uniform(-spread, spread, 3), p_extreme=0.03)
     half = case.perturbed(case.rng.uniform(0.02, 0.6, 3), p_extreme=0.05)
-    if case.chance(0.03):
+    if case.hostile(0.03):
         half[int(case.rng.integers(3))] = case.pick((0.0, -0.1, 1e-300))
     return case.array_like(centre), rotation(case), case.array_like(half)
 
@@ -234,7 +245,7 @@ def state(case: Case, cbfgen) -> np.ndarray:
     x = np.array(cbfgen.standard_posture())
     x[0:2] = case.rng.uniform(-2.0, 2.0, 2)
     x[3] = case.rng.uniform(-3.0, 3.0)
-    mode = case.pick(("near", "near", "near", "wide", "toe_at_hip", "extreme"))
+    mode = case.pick(("near", "near", "near", "wide", "toe_at_hip", "extreme", "domain_edge"))
     scale = 1.0 if mode == "wide" else 0.02
     x = x + case.rng.normal(0.0, scale, x.size)
     if mode == "toe_at_hip":
@@ -244,6 +255,9 @@ def state(case: Case, cbfgen) -> np.ndarray:
         x[12 + 4 * leg + 1] = x[cbfgen.STATE_NAMES.index("bz")] + HIP_Z
     if mode == "extreme":
         x = case.perturbed(x, p_extreme=0.1)
+    if mode == "domain_edge":  # some entries at ±STATE_LIMIT: inside the domain, so finite results
+        edge = case.rng.random(x.size) < case.rng.uniform(0.05, 1.0)
+        x[edge] = case.rng.choice([-1.0, 1.0], edge.sum()) * cbfgen.STATE_LIMIT
     return x
 
 
@@ -274,13 +288,13 @@ def environment(case: Case, cbfgen, edges: int, foothold_edges, x=None):
         case.call("Environment.swing=", setattr, env, "swing", [bool(s) for s in case.rng.integers(0, 2, 6)])
     capacity = list(foothold_edges) if foothold_edges is not None else [15, 15, 15, 14, 14, 14]
     for _ in range(int(case.rng.integers(0, 3))):
-        leg = case.pick((0, 1, 2, 3, 4, 5, "LF", "mr", 6, -1, "XX")) if case.chance(0.1) else int(case.rng.integers(6))
+        leg = case.pick((0, 1, 2, 3, 4, 5, "LF", "mr", 6, -1, "XX")) if case.hostile(0.1) else int(case.rng.integers(6))
         k = int(case.rng.integers(0, min(max(capacity), 8) + 2))
         angles = case.rng.uniform(-np.pi, np.pi, k)
         normals = np.stack([np.cos(angles), np.sin(angles)], axis=1) * case.rng.uniform(0.5, 2.0, (k, 1))
         normals = case.perturbed(normals, p_extreme=0.03)
         offsets = case.perturbed(case.rng.uniform(-0.5, 1.0, k), p_extreme=0.03)
-        if case.chance(0.03):
+        if case.hostile(0.03):
             normals = normals.T  # (2, k): must be refused unless k == 2
         case.call("Environment.set_foothold", env.set_foothold, leg, case.array_like(normals), case.array_like(offsets))
     for _ in range(int(case.rng.integers(0, 3))):
@@ -300,7 +314,7 @@ def filter_settings(case: Case, cbfgen, p: float) -> dict:
 
     def per_family(draw):
         chosen = [f for f in families if case.chance(0.5)] or [case.pick(families)]
-        if case.chance(0.02):
+        if case.hostile(0.02):
             chosen.append("no_such_family")
         return {f: draw() for f in chosen}
 
@@ -317,18 +331,19 @@ def filter_settings(case: Case, cbfgen, p: float) -> dict:
         kw["input_min"] = case.array_like(case.perturbed(-limits * case.rng.uniform(0.2, 2.0), 0.05))
     if case.chance(p):
         kw["input_max"] = case.array_like(case.perturbed(limits * case.rng.uniform(0.2, 2.0), 0.05))
-    if case.chance(p / 3):  # a degenerate box: min = max (1e307 used to give NaN)
-        v = case.pick((0.0, 1.0, 1e307, -1e300, F64_MAX))
+    if case.hostile(p / 3):  # a degenerate box: min = max (1e307 used to give NaN)
+        v = case.pick((0.0, 1.0, cbfgen.MAX_INPUT, -cbfgen.MAX_INPUT, 1e307, -1e300, F64_MAX))
         kw["input_min"] = kw["input_max"] = [v] * cbfgen.NU
     for name in ("eps_abs", "eps_rel"):
         if case.chance(p):
             kw[name] = case.scalar(1e-6, 1e-2)
     if case.chance(p):
-        kw["max_iter"] = case.count(400, 2**32 - 1)
+        kw["max_iter"] = case.count(400, cbfgen.MAX_ITERATIONS, p_boundary=0.1)
     if case.chance(p):
         kw["polish"] = case.chance(0.5)
     if case.chance(p):
-        kw["time_limit_us"] = case.scalar(50.0, 5000.0)
+        kw["time_limit_us"] = case.scalar(50.0, 5000.0) if not case.chance(0.1) else case.pick(
+            (cbfgen.MAX_TIME_LIMIT_US, cbfgen.MAX_TIME_LIMIT_US * (1 + 1e-15)))
     return kw
 
 
@@ -357,7 +372,7 @@ def case_environment(case: Case, cbfgen) -> None:
     if case.chance(0.6):
         foothold_edges = [case.count(6, cbfgen.MAX_FOOTHOLD_EDGES, p_boundary=0.02, p_absurd=0.02)
                           for _ in range(6)]
-    if case.chance(0.05):
+    if case.hostile(0.05):
         foothold_edges = case.pick(([1, 2, 3], [1] * 7, "abcdef", [1.5] * 6))
     env = environment(case, cbfgen, edges, foothold_edges)
     if env is Case.FAILED or not case.chance(0.5):
@@ -396,7 +411,7 @@ def case_update(case: Case, cbfgen) -> None:
 def case_kernels(case: Case, cbfgen) -> None:
     kind = case.pick(("ssat", "ssat_derivatives", "ssat_margin", "rows", "rows", "rows", "dynamics", "sine_barrier"))
     if kind.startswith("ssat"):
-        variant = case.pick(cbfgen.SSAT_VARIANTS) if not case.chance(0.02) else "no_such_variant"
+        variant = case.pick(cbfgen.SSAT_VARIANTS) if not case.hostile(0.02) else "no_such_variant"
         smoothing = {"alpha": case.scalar(5.0, 300.0, p_extreme=0.15),
                      "alpha_rot": case.scalar(5.0, 300.0, p_extreme=0.15), "variant": variant}
         a, b = box(case, np.zeros(3), 1.0), box(case, np.zeros(3), 1.0)
@@ -406,7 +421,7 @@ def case_kernels(case: Case, cbfgen) -> None:
             case.call(kind, getattr(cbfgen, kind), *a, *b, **smoothing)
         return
     x = case.array_like(state(case, cbfgen))
-    leg = case.pick((6, -1, "XX", "rr")) if case.chance(0.03) else int(case.rng.integers(6))
+    leg = case.pick((6, -1, "XX", "rr")) if case.hostile(0.03) else int(case.rng.integers(6))
     if kind == "rows":
         family = case.pick(("joint_limits", "foot_height", "stability", "body_edge", "toe_edge", "foothold"))
         if family == "joint_limits":
@@ -436,15 +451,16 @@ def case_kernels(case: Case, cbfgen) -> None:
 
 
 def case_course(case: Case, cbfgen) -> None:
-    scenario = case.pick(cbfgen.SCENARIOS) if not case.chance(0.02) else "moon"
+    scenario = case.pick(cbfgen.SCENARIOS) if not case.hostile(0.02) else "moon"
     if case.chance(0.3):
         u = case.rng.random()
-        if u < 0.7:
+        if u < 1 - 0.3 * case.hostility:
             max_time = float(case.rng.uniform(0.001, 0.05))
         elif u < 0.98:
             max_time = case.pick(FINITE_EXTREMES + NON_FINITE + (-1.0,))
         else:
-            max_time = case.pick((30.0, 1e4))  # whole runs, that stop when the course is done
+            # whole runs, that stop when the course is done
+            max_time = case.pick((30.0, cbfgen.MAX_SIM_TIME, 1e4))
         case.call("simulate", cbfgen.simulate, scenario, case.chance(0.7), max_time)
         return
     course = case.call("Course", cbfgen.Course, scenario)
