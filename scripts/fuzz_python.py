@@ -112,6 +112,12 @@ class Case:
     def chance(self, p: float) -> bool:
         return bool(self.rng.random() < p)
 
+    def badness(self) -> float:
+        """A uniform draw divided by the hostility: a bad value is drawn where this falls
+        below the value's probability (never in a clean case)."""
+        u = self.rng.random()
+        return u / self.hostility if self.hostility > 0 else math.inf
+
     def hostile(self, p: float) -> bool:
         """A bad draw: probability ``p`` in the most hostile cases, none in clean ones."""
         return self.chance(p * self.hostility)
@@ -121,7 +127,7 @@ class Case:
 
     def scalar(self, lo: float, hi: float, p_extreme: float = 0.1, p_non_finite: float = 0.01) -> float:
         """Uniform in [lo, hi], or sometimes a finite extreme or (rarely) NaN / inf."""
-        u = self.rng.random() / max(self.hostility, 1e-300)
+        u = self.badness()
         if u < p_non_finite:
             return self.pick(NON_FINITE)
         if u < p_non_finite + p_extreme:
@@ -131,7 +137,7 @@ class Case:
     def count(self, typical: int, maximum: int, p_boundary: float = 0.05, p_absurd: float = 0.05) -> int:
         """0..typical mostly; sometimes the documented maximum or one above; sometimes an
         absurd integer (negative, > 2^64, the wrap-around of the row count)."""
-        u = self.rng.random() / max(self.hostility, 1e-300)
+        u = self.badness()
         if u < p_absurd:
             return self.pick(INT_EXTREMES)
         if u < p_absurd + p_boundary:
@@ -142,7 +148,7 @@ class Case:
         """A copy with a few entries replaced by extremes."""
         out = np.array(values, dtype=float)
         for i in range(out.size):
-            u = self.rng.random() / max(self.hostility, 1e-300)
+            u = self.badness()
             if u < p_non_finite:
                 out.flat[i] = self.pick(NON_FINITE)
             elif u < p_non_finite + p_extreme:
@@ -220,7 +226,7 @@ def rotation(case: Case):
         q, rr = np.linalg.qr(case.rng.normal(size=(3, 3)))
         q = q @ np.diag(np.sign(np.diag(rr)))
         r = q if np.linalg.det(q) > 0 else -q
-    u = case.rng.random() / max(case.hostility, 1e-300)
+    u = case.badness()
     if u < 0.03:
         r = r @ np.diag([1.0, 1.0, -1.0])
     elif u < 0.06:

@@ -163,3 +163,36 @@ def test_type_stubs_list_exactly_the_module_names():
         obj = getattr(cbfgen, name)
         if callable(obj):
             assert obj.__doc__, name
+
+
+def test_updates_on_threads_match_sequential_ones():
+    # update() releases the GIL: filters on other threads then run concurrently, and one
+    # filter shared by threads is serialised by its lock. Either way every result must
+    # be the one a single thread computes.
+    import threading
+
+    course = cbfgen.Course("step")
+    rng = np.random.default_rng(5)
+    x0 = course.initial_state()
+    states = [x0 + rng.normal(0.0, 0.01, cbfgen.NX) for _ in range(100)]
+    inputs = [course.plan(0.0, x) for x in states]
+    env = course.environment
+
+    def run(safety):
+        return np.array([safety.update(x, u, env).u for x, u in zip(states, inputs)])
+
+    expected = run(cbfgen.EcbfFilter())
+    results = {}
+    shared = cbfgen.EcbfFilter()
+    threads = [threading.Thread(target=lambda i=i: results.__setitem__(i, run(cbfgen.EcbfFilter())))
+               for i in range(3)]
+    threads += [threading.Thread(target=lambda i=i: results.__setitem__(i, [shared.update(x, u, env).source
+                                                                           for x, u in zip(states, inputs)]))
+                for i in (3, 4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    for i in range(3):
+        np.testing.assert_array_equal(results[i], expected)
+    assert all(len(results[i]) == len(states) for i in (3, 4))
