@@ -258,14 +258,14 @@ def test_states_beyond_the_domain_raise(kernel, state):
 @pytest.mark.parametrize("seed", range(5))
 @pytest.mark.parametrize("kernel", sorted(KERNELS))
 def test_states_at_the_edge_of_the_domain_give_finite_values_or_raise(kernel, seed):
-    # Entries of magnitude STATE_LIMIT: either finite values, or CbfError where a row
-    # is not finite (singular geometry), never NaN handed back.
+    # Entries of magnitude STATE_LIMIT: finite values, or a CbfError (a row that is not
+    # finite at singular geometry; a box derived from the state beyond the box domain),
+    # never NaN handed back.
     rng = np.random.default_rng(seed)
     x = rng.choice([-1.0, 1.0], cbfgen.NX) * cbfgen.STATE_LIMIT * rng.choice([1.0, 1e-3, 1e-6], cbfgen.NX)
     try:
         result = KERNELS[kernel](x)
-    except cbfgen.CbfError as e:
-        assert "not finite" in str(e)
+    except cbfgen.CbfError:
         return
     assert_finite(*(result if isinstance(result, tuple) else (result,)))
 
