@@ -58,10 +58,11 @@ TYPED_ERRORS = (ValueError, TypeError, OverflowError)  # cbfgen.CbfError is a Va
 
 F64_MAX = float(np.finfo(np.float64).max)
 # Finite extremes: of the float format, and at or just past the documented domains'
-# edges (STATE_LIMIT and MAX_INPUT 1e6, tolerances 1e-12 and 1e3, MAX_SIM_TIME 600).
+# edges (STATE_LIMIT, MAX_INPUT and MAX_COORDINATE 1e6, tolerances 1e-12 and 1e3,
+# MAX_SIM_TIME 600, SSAT alpha 1e-6 and 1e9, half extents 1e-6 and 1e4).
 FINITE_EXTREMES = (0.0, -0.0, 5e-324, -5e-324, 2.2250738585072014e-308, 1e-300, 1e-12, 1e-12 * (1 - 1e-15),
-                   1e3, 600.0, 600.0000000000001, 1e6, -1e6, 1000000.0000000001, 1e12, 1e26, 1e300, -1e300,
-                   F64_MAX, -F64_MAX)
+                   1e-6, 1e-6 * (1 - 1e-15), 1e3, 600.0, 600.0000000000001, 1e4, 1e6, -1e6, 1000000.0000000001,
+                   1e9, 1e12, 1e26, 1e300, -1e300, F64_MAX, -F64_MAX)
 NON_FINITE = (math.nan, math.inf, -math.inf)
 INT_EXTREMES = (-1, 0, 1, 2**31, 2**32 - 1, 2**32, 2**62, 2**63 - 1, 2**64 // 7 + 1, 2**64 - 1, 2**64,
                 10**6, 10**9, -(2**63))

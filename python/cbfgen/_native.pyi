@@ -50,6 +50,12 @@ STATE_LIMIT: float
 """Largest |state entry| accepted by the kernels, the filter and the course."""
 MAX_SIM_TIME: float
 """Longest simulate max_time [s]."""
+SSAT_ALPHA_RANGE: tuple[float, float]
+"""Accepted SSAT alpha and alpha_rot, inclusive."""
+MAX_COORDINATE: float
+"""Largest |box centre coordinate| [m] (ssat boxes, edge cuboids)."""
+HALF_EXTENT_RANGE: tuple[float, float]
+"""Accepted box half extents [m], inclusive."""
 SSAT_VARIANTS: list[str]
 JOINT_LIMIT_ROWS: list[str]
 SCENARIOS: list[str]
@@ -63,8 +69,9 @@ def ssat(
 ) -> float:
     """Smooth SAT value h of boxes A and B (> 0 apart, < 0 overlapping).
 
-    Raises CbfError for non-finite input, non-positive sizes, an improper rotation, or a
-    smoothing so extreme that h would not be finite."""
+    Raises CbfError for a centre beyond MAX_COORDINATE, half extents outside
+    HALF_EXTENT_RANGE, an improper rotation (a reflection, or not orthonormal within
+    1e-9), alpha or alpha_rot outside SSAT_ALPHA_RANGE, or a value that is not finite."""
 
 def ssat_derivatives(
     p_a: ArrayLike, r_a: ArrayLike, half_a: ArrayLike,

@@ -270,16 +270,38 @@ def test_states_at_the_edge_of_the_domain_give_finite_values_or_raise(kernel, se
     assert_finite(*(result if isinstance(result, tuple) else (result,)))
 
 
+SSAT_BOXES = (*BOX, [1.5, 0.2, 0.1], np.eye(3), [0.5, 0.5, 0.5])
+
+
 @pytest.mark.parametrize("alpha", [F64_TINY, 1e-300, 1e-12, 1e12, 1e300, F64_MAX])
-@pytest.mark.parametrize("function", ["ssat", "ssat_derivatives"])
-def test_ssat_with_extreme_smoothing_raises_or_returns_finite_values(function, alpha):
-    boxes = (*BOX, [1.5, 0.2, 0.1], np.eye(3), [0.5, 0.5, 0.5])
-    try:
-        result = getattr(cbfgen, function)(*boxes, alpha=alpha, alpha_rot=alpha)
-        margin = cbfgen.ssat_margin(BOX[2], boxes[5], alpha=alpha, alpha_rot=alpha)
-    except cbfgen.CbfError:
-        return
-    assert_finite(margin, *(result if isinstance(result, tuple) else (result,)))
+@pytest.mark.parametrize("function", ["ssat", "ssat_derivatives", "ssat_margin"])
+def test_ssat_smoothing_beyond_the_domain_raises(function, alpha):
+    # Such alphas used to give inf or NaN without an error.
+    args = SSAT_BOXES if function != "ssat_margin" else (SSAT_BOXES[2], SSAT_BOXES[5])
+    for smoothing in ({"alpha": alpha}, {"alpha_rot": alpha}):
+        with pytest.raises(cbfgen.CbfError, match="alpha"):
+            getattr(cbfgen, function)(*args, **smoothing)
+
+
+@pytest.mark.parametrize("alpha", cbfgen.SSAT_ALPHA_RANGE)
+@pytest.mark.parametrize("variant", cbfgen.SSAT_VARIANTS)
+def test_ssat_at_the_edges_of_its_domain_is_finite(variant, alpha):
+    lo, hi = cbfgen.HALF_EXTENT_RANGE
+    smoothing = {"alpha": alpha, "alpha_rot": alpha, "variant": variant}
+    for half_b in ([0.5, 0.5, 0.5], [lo, lo, lo], [hi, hi, hi]):
+        for p_b in ([1.5, 0.2, 0.1], [cbfgen.MAX_COORDINATE] * 3, [-cbfgen.MAX_COORDINATE, 0.0, 0.0]):
+            boxes = (*BOX, p_b, np.eye(3), half_b)
+            assert_finite(cbfgen.ssat(*boxes, **smoothing), *cbfgen.ssat_derivatives(*boxes, **smoothing),
+                          cbfgen.ssat_margin(BOX[2], half_b, **smoothing))
+
+
+def test_boxes_beyond_the_domain_raise():
+    lo, hi = cbfgen.HALF_EXTENT_RANGE
+    for p_b, half_b, message in [([cbfgen.MAX_COORDINATE * 1.01, 0, 0], [0.5] * 3, "centre"),
+                                 ([1.5, 0, 0], [lo / 2] * 3, "half extent"),
+                                 ([1.5, 0, 0], [hi * 2] * 3, "half extent")]:
+        with pytest.raises(cbfgen.CbfError, match=message):
+            cbfgen.ssat(*BOX, p_b, np.eye(3), half_b)
 
 
 # ------------------------------------------------------------ arrays in

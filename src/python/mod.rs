@@ -64,6 +64,9 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("MAX_INPUT", crate::filter::domain::MAX_INPUT)?;
     m.add("STATE_LIMIT", model::STATE_LIMIT)?;
     m.add("MAX_SIM_TIME", crate::sim::MAX_SIM_TIME)?;
+    m.add("SSAT_ALPHA_RANGE", (crate::ssat::ALPHA_MIN, crate::ssat::ALPHA_MAX))?;
+    m.add("MAX_COORDINATE", crate::geometry::MAX_COORDINATE)?;
+    m.add("HALF_EXTENT_RANGE", (crate::geometry::MIN_HALF_EXTENT, crate::geometry::MAX_HALF_EXTENT))?;
     kernels::register(m)?;
     filter::register(m)?;
     sim::register(m)?;
