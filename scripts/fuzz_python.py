@@ -58,7 +58,7 @@ TYPED_ERRORS = (ValueError, TypeError, OverflowError)  # cbfgen.CbfError is a Va
 
 F64_MAX = float(np.finfo(np.float64).max)
 # Finite extremes: of the float format, and at or just past the documented domains'
-# edges (STATE_LIMIT, MAX_INPUT and MAX_COORDINATE 1e6, tolerances 1e-12 and 1e3,
+# edges (STATE_LIMIT 1e5, MAX_INPUT and MAX_COORDINATE 1e6, tolerances 1e-12 and 1e3,
 # MAX_SIM_TIME 600, SSAT alpha 1e-6 and 1e9, half extents 1e-6 and 1e4).
 FINITE_EXTREMES = (0.0, -0.0, 5e-324, -5e-324, 2.2250738585072014e-308, 1e-300, 1e-12, 1e-12 * (1 - 1e-15),
                    1e-6, 1e-6 * (1 - 1e-15), 1e3, 600.0, 600.0000000000001, 1e4, 1e6, -1e6, 1000000.0000000001,

@@ -217,7 +217,7 @@ impl HalfPlane {
         let length = n[0].hypot(n[1]);
         let offset = offset / big / length;
         let limit = model::STATE_LIMIT;
-        crate::error::within("half-plane distance from the origin", offset, -limit, limit, "[-1e6, 1e6] m")?;
+        crate::error::within("half-plane distance from the origin", offset, -limit, limit, model::STATE_RANGE)?;
         Ok(Self { normal: [n[0] / length, n[1] / length], offset })
     }
 
@@ -285,11 +285,11 @@ impl Environment {
     pub fn validate(&self) -> Result<(), CbfError> {
         let limit = model::STATE_LIMIT;
         for &z in &self.floor_z {
-            crate::error::within("floor height", z, -limit, limit, "[-1e6, 1e6] m")?;
+            crate::error::within("floor height", z, -limit, limit, model::STATE_RANGE)?;
         }
         for b in self.stability.iter().flatten().flatten() {
-            crate::error::within("stability slope", b.a, -limit, limit, "[-1e6, 1e6]")?;
-            crate::error::within("stability offset", b.b, -limit, limit, "[-1e6, 1e6] m")?;
+            crate::error::within("stability slope", b.a, -limit, limit, model::STATE_RANGE)?;
+            crate::error::within("stability offset", b.b, -limit, limit, model::STATE_RANGE)?;
         }
         Ok(())
     }

@@ -25,10 +25,16 @@ pub const BODY_Z: usize = 7;
 pub const BODY_PITCH: usize = 8;
 
 /// Largest |state entry| the kernels are evaluated at (metres, radians and their rates):
-/// a kilometre-scale world times a thousand. Inside it every generated row is finite
-/// except where the geometry itself is singular (a toe exactly at its hip joint, where
-/// the knee length is zero), which the filter answers with a flagged fallback.
-pub const STATE_LIMIT: f64 = 1e6;
+/// 100 km, far past any course. Inside it every generated row is finite except where the
+/// geometry itself is singular (a toe exactly at its hip joint, where the knee length is
+/// zero), which the filter answers with a flagged fallback. World points built from a
+/// state (origin + body offset + hip + toe) stay within a few times this, inside the box
+/// domain ([`MAX_COORDINATE`](crate::geometry::MAX_COORDINATE)), so the exact clearance
+/// checks accept every state the filter does.
+pub const STATE_LIMIT: f64 = 1e5;
+
+/// [`STATE_LIMIT`] as the range named in error messages.
+pub const STATE_RANGE: &str = "[-1e5, 1e5]";
 
 /// `Ok(())` when every entry is finite with `|x_i| ≤` [`STATE_LIMIT`].
 ///
@@ -36,7 +42,7 @@ pub const STATE_LIMIT: f64 = 1e6;
 /// [`CbfError::NonFinite`] or [`CbfError::OutOfRange`] naming the first bad entry's kind.
 pub fn validate_state(x: &State) -> Result<(), CbfError> {
     for &v in x {
-        crate::error::within("state entry", v, -STATE_LIMIT, STATE_LIMIT, "[-1e6, 1e6]")?;
+        crate::error::within("state entry", v, -STATE_LIMIT, STATE_LIMIT, STATE_RANGE)?;
     }
     Ok(())
 }

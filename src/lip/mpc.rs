@@ -496,10 +496,10 @@ impl LipMpc {
         // could overflow.
         let limit = crate::model::STATE_LIMIT;
         for &v in x0 {
-            within("LIP state", v, -limit, limit, "[-1e6, 1e6]")?;
+            within("LIP state", v, -limit, limit, crate::model::STATE_RANGE)?;
         }
-        within("goal x", goal[0], -limit, limit, "[-1e6, 1e6]")?;
-        within("goal y", goal[1], -limit, limit, "[-1e6, 1e6]")?;
+        within("goal x", goal[0], -limit, limit, crate::model::STATE_RANGE)?;
+        within("goal y", goal[1], -limit, limit, crate::model::STATE_RANGE)?;
         if stance_sign != 1.0 && stance_sign != -1.0 {
             return Err(CbfError::OutOfRange { what: "stance sign", value: stance_sign, range: "{−1, +1}" });
         }
@@ -508,7 +508,7 @@ impl LipMpc {
         }
         for plane in planes {
             for v in plane.normal.into_iter().chain(plane.point).chain([plane.delta]) {
-                within("obstacle half-plane", v, -limit, limit, "[-1e6, 1e6]")?;
+                within("obstacle half-plane", v, -limit, limit, crate::model::STATE_RANGE)?;
             }
         }
 

@@ -75,7 +75,7 @@ pub const TIME_LIMIT: f64 = 1e9;
 pub(crate) fn check_state(x: &State, t: f64) -> Result<(), CbfError> {
     let limit = crate::model::STATE_LIMIT;
     within("time", t, -TIME_LIMIT, TIME_LIMIT, "[-1e9, 1e9] s")?;
-    within("position", x[0], -limit, limit, "[-1e6, 1e6]")?;
-    within("velocity", x[1], -limit, limit, "[-1e6, 1e6]")?;
+    within("position", x[0], -limit, limit, crate::model::STATE_RANGE)?;
+    within("velocity", x[1], -limit, limit, crate::model::STATE_RANGE)?;
     Ok(())
 }

@@ -133,7 +133,7 @@ impl KinematicMpc {
         within("MPC velocity weight", s.w_v, 1e-6, 1e6, "[1e-6, 1e6]")?;
         within("MPC acceleration weight", s.w_a, 1e-6, 1e6, "[1e-6, 1e6]")?;
         let limit = crate::model::STATE_LIMIT;
-        within("MPC reference", s.q_ref, -limit, limit, "[-1e6, 1e6]")?;
+        within("MPC reference", s.q_ref, -limit, limit, crate::model::STATE_RANGE)?;
         if s.horizon < 2 {
             return Err(CbfError::OutOfRange { what: "MPC horizon", value: s.horizon as f64, range: "[2, ∞)" });
         }
