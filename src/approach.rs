@@ -87,7 +87,7 @@ impl Approach {
         self.update_floors();
     }
 
-    /// Distance from the origin to the robot's foremost point [m].
+    /// Distance from the origin to the robot's foremost point \[m\].
     pub fn front_reach(&self) -> f64 {
         model::front_reach(&self.x)
     }

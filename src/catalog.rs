@@ -172,7 +172,7 @@ impl EdgeCuboid {
         Self { center, rotation, half }
     }
 
-    /// Centre, world frame [m].
+    /// Centre, world frame \[m\].
     pub fn center(&self) -> &[f64; 3] {
         &self.center
     }
@@ -182,7 +182,7 @@ impl EdgeCuboid {
         &self.rotation
     }
 
-    /// Half extents [m].
+    /// Half extents \[m\].
     pub fn half_extents(&self) -> &[f64; 3] {
         &self.half
     }
@@ -226,7 +226,7 @@ impl HalfPlane {
         &self.normal
     }
 
-    /// The offset `b` [m]: the signed distance of the origin from the boundary.
+    /// The offset `b` \[m\]: the signed distance of the origin from the boundary.
     pub fn offset(&self) -> f64 {
         self.offset
     }
@@ -245,7 +245,7 @@ pub struct StabilityBound {
 pub struct Environment {
     capacity: Capacity,
     edges: Vec<EdgeCuboid>,
-    /// Floor height under each toe, world frame [m].
+    /// Floor height under each toe, world frame \[m\].
     pub floor_z: [f64; LEGS],
     footholds: [Vec<HalfPlane>; LEGS],
     /// Which legs swing; foothold rows apply to swinging legs only.

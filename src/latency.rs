@@ -12,7 +12,7 @@ use crate::error::CbfError;
 use crate::filter::{EcbfFilter, FilterSettings, InputSource};
 use crate::terrain::Stairs;
 
-/// Control period [s].
+/// Control period \[s\].
 pub const DT: f64 = 1e-3;
 
 /// Percentiles of one timed quantity.
@@ -52,7 +52,7 @@ pub struct LatencyReport {
     pub fallbacks: usize,
     /// Cycles whose input is the polished (KKT-verified) optimum.
     pub polished: usize,
-    /// Travel from start to end [m], and the robot front's final gap to the first riser.
+    /// Travel from start to end \[m\], and the robot front's final gap to the first riser.
     pub travel: f64,
     pub final_gap: f64,
 }

@@ -25,10 +25,10 @@ enum Command {
     /// Smooth SAT between a robot body and a stair-edge cuboid below it: value,
     /// certified margin, exact SAT and gradient, for a body height you choose.
     Ssat {
-        /// Height of the body's underside above the step's top face [m].
+        /// Height of the body's underside above the step's top face \[m\].
         #[arg(long, default_value_t = 0.075, allow_negative_numbers = true)]
         clearance: f64,
-        /// Body pitch [rad].
+        /// Body pitch \[rad\].
         #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
         pitch: f64,
         /// Smooth-max / smooth-|x| sharpness α [1/m] (α_rot uses the same value).
@@ -47,7 +47,7 @@ enum Command {
         /// Commanded forward speed [m/s].
         #[arg(long, default_value_t = 0.3)]
         speed: f64,
-        /// Start with the robot's front (body or toe) this far from the first riser [m].
+        /// Start with the robot's front (body or toe) this far from the first riser \[m\].
         #[arg(long, default_value_t = 0.6)]
         gap: f64,
         #[command(flatten)]

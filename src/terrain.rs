@@ -11,13 +11,13 @@ use crate::geometry::OrientedBox;
 /// Steps of equal `rise` × `run` going up in +x, spanning y ∈ [−half_width, half_width].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Stairs {
-    /// x of the first riser [m].
+    /// x of the first riser \[m\].
     pub start_x: f64,
     pub rise: f64,
     pub run: f64,
     pub count: usize,
     pub half_width: f64,
-    /// Half side of the square section of each nosing's edge cuboid [m].
+    /// Half side of the square section of each nosing's edge cuboid \[m\].
     pub edge_half_section: f64,
 }
 
@@ -26,7 +26,7 @@ impl Stairs {
     pub const HARDWARE: Stairs =
         Stairs { start_x: 1.0, rise: 0.165, run: 0.35, count: 5, half_width: 1.0, edge_half_section: 0.025 };
 
-    /// Ground height at world `x` [m].
+    /// Ground height at world `x` \[m\].
     pub fn height_at(&self, x: f64) -> f64 {
         if x < self.start_x {
             return 0.0;
@@ -35,7 +35,7 @@ impl Stairs {
         steps.min(self.count) as f64 * self.rise
     }
 
-    /// Ground height under each toe centre (world positions, `LEG_NAMES` order) [m].
+    /// Ground height under each toe centre (world positions, `LEG_NAMES` order) \[m\].
     pub fn floors_under(&self, toes: &[[f64; 3]; 6]) -> [f64; 6] {
         toes.map(|toe| self.height_at(toe[0]))
     }
@@ -55,7 +55,7 @@ impl Stairs {
         (begin, end)
     }
 
-    /// Height of the top landing [m].
+    /// Height of the top landing \[m\].
     pub fn top(&self) -> f64 {
         self.count as f64 * self.rise
     }

@@ -15,7 +15,7 @@ from typing import Callable, Dict, List, Tuple, Union
 from .families import double_integrator, ssat, tachyon3
 from .inputs_hash import inputs_hash
 from .kernel import Kernel
-from .rust_emitter import RawRust, emit_kernel
+from .rust_emitter import RawRust, emit_kernel, rustdoc_text
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 HASH_PREFIX = "// inputs-sha256: "
@@ -45,7 +45,7 @@ def render(repo_root: Path = REPO_ROOT) -> Dict[str, str]:
     for name, (doc, build) in MODULES.items():
         body = "\n".join(item.text if isinstance(item, RawRust) else emit_kernel(item)
                           for item in build())
-        module_doc = "".join(f"//! {line}".rstrip() + "\n" for line in doc.strip().splitlines())
+        module_doc = "".join(f"//! {rustdoc_text(line)}".rstrip() + "\n" for line in doc.strip().splitlines())
         lint = ("#![allow(clippy::all, clippy::pedantic, unused_parens, unused_variables)]\n"
                 "#![allow(clippy::excessive_precision, clippy::too_many_arguments)]\n")
         files[f"{name}.rs"] = _header(digest) + module_doc + lint + "\n" + body

@@ -32,6 +32,16 @@ _METHODS = {
 }
 
 
+
+_BRACKETS = str.maketrans({"[": "\\[", "]": "\\]"})
+
+
+def rustdoc_text(text: str) -> str:
+    """Doc text as rustdoc reads it: square brackets outside code spans are escaped, so
+    units such as ``[m]`` or ``[1/s]`` are not taken for intra-doc links."""
+    parts = text.split("`")
+    return "`".join(part if i % 2 else part.translate(_BRACKETS) for i, part in enumerate(parts))
+
 def float_literal(value: float) -> str:
     """A Rust f64 literal that round-trips ``value`` exactly."""
     if value != value or value in (float("inf"), float("-inf")):
@@ -254,17 +264,17 @@ def emit_kernel(kernel: Kernel) -> str:
     p = RustPrinter(names)
     lines: List[str] = []
     for line in kernel.doc.strip().splitlines():
-        lines.append(f"/// {line}".rstrip())
+        lines.append(f"/// {rustdoc_text(line)}".rstrip())
     lines.append("///")
     lines.append("/// # Arguments")
     for inp in kernel.inputs:
         comps = ", ".join(str(s) for s in inp.symbols) if inp.is_array else ""
         suffix = f" (components {comps})" if comps else ""
-        lines.append(f"/// * `{inp.name}` - {inp.doc}{suffix}")
+        lines.append(f"/// * `{inp.name}` - {rustdoc_text(inp.doc)}{suffix}")
     lines.append("///")
     lines.append("/// # Returns")
     for out in kernel.outputs:
-        lines.append(f"/// * `{out.name}` - {out.doc}")
+        lines.append(f"/// * `{out.name}` - {rustdoc_text(out.doc)}")
 
     args = ", ".join(
         f"{inp.name}: &[f64; {len(inp.symbols)}]" if inp.is_array else f"{inp.name}: f64"
@@ -317,6 +327,6 @@ def emit_kernel(kernel: Kernel) -> str:
 
     consts: List[str] = []
     for c in kernel.constants:
-        consts.append(f"/// {c.doc}")
+        consts.append(f"/// {rustdoc_text(c.doc)}")
         consts.append(f"pub const {c.name}: {c.rust_type} = {c.value};")
     return "\n".join(consts + lines) + "\n"

@@ -48,7 +48,7 @@ pub struct LipParams {
     /// sways over each new stance foot.
     pub vy_bounds: [f64; 2],
     /// Leg reachability `l_max`: the CoM's largest move per step along and across the
-    /// heading [m]: 0.5 (assumed).
+    /// heading \[m\]: 0.5 (assumed).
     pub leg_reach: f64,
     /// Turning-rate bounds `[ω_min, ω_max]` [rad/s]: ±π/4 (assumed; ≤ 18° per step).
     pub omega_bounds: [f64; 2],
@@ -57,7 +57,7 @@ pub struct LipParams {
     pub alpha: f64,
     /// CBF decay `γ` in (0, 1]: 0.3 (assumed).
     pub gamma: f64,
-    /// CBF margin `δ`: the least CoM distance to any obstacle [m]: 0.3 (assumed; room for
+    /// CBF margin `δ`: the least CoM distance to any obstacle \[m\]: 0.3 (assumed; room for
     /// a foot beside the CoM).
     pub delta: f64,
 }

@@ -30,9 +30,9 @@ pub const GRAVITY: f64 = 9.81;
 /// A 3D-LIP: CoM height and step duration, and the closed-form step matrices they give.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Lip {
-    /// CoM height `H` [m].
+    /// CoM height `H` \[m\].
     pub height: f64,
-    /// Step duration `T` [s].
+    /// Step duration `T` \[s\].
     pub step_time: f64,
     /// `β = √(g/H)` [1/s].
     pub beta: f64,
@@ -81,9 +81,9 @@ impl Lip {
 /// with the rotation alone, and headings add.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Frame {
-    /// Origin in global coordinates [m].
+    /// Origin in global coordinates \[m\].
     pub origin: [f64; 2],
-    /// Angle of the frame's x-axis from the global x-axis [rad].
+    /// Angle of the frame's x-axis from the global x-axis \[rad\].
     pub heading: f64,
 }
 

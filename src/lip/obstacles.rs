@@ -23,9 +23,9 @@ use crate::error::{finite, CbfError};
 /// An axis-aligned rectangle in the global frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Rectangle {
-    /// Lower-left corner [m].
+    /// Lower-left corner \[m\].
     pub min: [f64; 2],
-    /// Upper-right corner [m].
+    /// Upper-right corner \[m\].
     pub max: [f64; 2],
 }
 
@@ -44,7 +44,7 @@ impl Rectangle {
         Ok(Self { min: [x0, y0], max: [x1, y1] })
     }
 
-    /// Centre [m].
+    /// Centre \[m\].
     pub fn center(&self) -> [f64; 2] {
         [0.5 * (self.min[0] + self.max[0]), 0.5 * (self.min[1] + self.max[1])]
     }
@@ -88,9 +88,9 @@ impl Rectangle {
 pub struct HalfPlane {
     /// Unit normal `η`, pointing away from the obstacle.
     pub normal: [f64; 2],
-    /// Boundary point `c` [m].
+    /// Boundary point `c` \[m\].
     pub point: [f64; 2],
-    /// Margin `δ` [m].
+    /// Margin `δ` \[m\].
     pub delta: f64,
     /// The CoM was on or inside the obstacle when this was built.
     pub inside: bool,

@@ -20,9 +20,9 @@ use crate::filter::{QpStatus, SolverSettings};
 pub struct Scenario {
     /// Global start state `[p_x, v_x, p_y, v_y, θ]`.
     pub start: LipState,
-    /// Global goal [m].
+    /// Global goal \[m\].
     pub goal: [f64; 2],
-    /// Reached when the CoM is this close to the goal [m].
+    /// Reached when the CoM is this close to the goal \[m\].
     pub goal_tolerance: f64,
     /// Obstacles (global, axis-aligned).
     pub obstacles: Vec<Rectangle>,
@@ -61,7 +61,7 @@ pub struct StepOutcome {
     pub solve_time: Duration,
     /// Whether the state advanced (only when the QP was solved).
     pub advanced: bool,
-    /// The stance foot placed this step, global [m] (meaningful when `advanced`).
+    /// The stance foot placed this step, global \[m\] (meaningful when `advanced`).
     pub foot: [f64; 2],
     /// Some obstacle's half-plane was built with the CoM on or inside it.
     pub inside: bool,
@@ -212,7 +212,7 @@ impl Walker {
 #[derive(Debug, Clone, PartialEq)]
 pub struct StepRecord {
     pub outcome: StepOutcome,
-    /// Global CoM after the step [m].
+    /// Global CoM after the step \[m\].
     pub com: [f64; 2],
     /// `h_j` after the step, per obstacle.
     pub h: Vec<f64>,
@@ -222,7 +222,7 @@ pub struct StepRecord {
 #[derive(Debug, Clone, PartialEq)]
 pub struct RunResult {
     pub scenario: Scenario,
-    /// Global CoM at the start and after every step [m].
+    /// Global CoM at the start and after every step \[m\].
     pub com_path: Vec<[f64; 2]>,
     pub steps: Vec<StepRecord>,
     pub reached_goal: bool,
@@ -236,7 +236,7 @@ impl RunResult {
         self.steps.iter().filter(|s| s.outcome.advanced).map(|s| s.outcome.foot)
     }
 
-    /// Smallest Euclidean distance from the CoM path to any obstacle [m].
+    /// Smallest Euclidean distance from the CoM path to any obstacle \[m\].
     pub fn min_clearance(&self) -> f64 {
         self.com_path
             .iter()
@@ -244,7 +244,7 @@ impl RunResult {
             .fold(f64::INFINITY, f64::min)
     }
 
-    /// Solve times, sorted ascending [µs].
+    /// Solve times, sorted ascending \[µs\].
     pub fn sorted_solve_micros(&self) -> Vec<f64> {
         let mut t: Vec<f64> = self.steps.iter().map(|s| s.outcome.solve_time.as_secs_f64() * 1e6).collect();
         t.sort_by(f64::total_cmp);

@@ -66,7 +66,7 @@ impl SineBarrier {
     }
 }
 
-/// Longest |time| accepted [s]: beyond about 10⁹ s, `sin(ω t)` has lost its digits.
+/// Longest |time| accepted \[s\]: beyond about 10⁹ s, `sin(ω t)` has lost its digits.
 pub const TIME_LIMIT: f64 = 1e9;
 
 /// `Ok` if `t` is finite with `|t| ≤` [`TIME_LIMIT`] and both state entries are finite

@@ -57,11 +57,11 @@ impl MpcMode {
 /// Horizon, weights and solver settings of the MPC.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MpcSettings {
-    /// Sample time `δt` [s], also the re-planning period.
+    /// Sample time `δt` \[s\], also the re-planning period.
     pub dt: f64,
     /// Number of steps `N` (≥ 2).
     pub horizon: usize,
-    /// The position it drives to [m].
+    /// The position it drives to \[m\].
     pub q_ref: f64,
     pub w_q: f64,
     pub w_v: f64,
@@ -316,7 +316,7 @@ impl KinematicMpc {
         (status, iterations)
     }
 
-    /// The last plan's positions `q_0..q_N` [m].
+    /// The last plan's positions `q_0..q_N` \[m\].
     pub fn planned_positions(&self) -> &[f64] {
         &self.z[..=self.settings.horizon]
     }

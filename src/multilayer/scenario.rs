@@ -18,9 +18,9 @@ use crate::sim::chart::{Chart, Series};
 pub struct ScenarioConfig {
     pub barrier: SineBarrier,
     pub x0: State,
-    /// Simulated time [s].
+    /// Simulated time \[s\].
     pub duration: f64,
-    /// High-rate period [s] (1 kHz).
+    /// High-rate period \[s\] (1 kHz).
     pub cycle_dt: f64,
     pub mpc: MpcSettings,
     pub qp: CbfQpSettings,
@@ -71,7 +71,7 @@ pub struct VariantResult {
     /// max |u| [m/s²] and when.
     pub peak_u: f64,
     pub peak_u_time: f64,
-    /// min h over the run [m], and when.
+    /// min h over the run \[m\], and when.
     pub min_h: f64,
     pub min_h_time: f64,
 }

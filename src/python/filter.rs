@@ -80,7 +80,7 @@ impl PyEnvironment {
         self.inner.edges().len()
     }
 
-    /// Floor height under each toe, world frame [m], ``LEG_NAMES`` order.
+    /// Floor height under each toe, world frame \[m\], ``LEG_NAMES`` order.
     #[getter]
     fn get_floor_z<'py>(&self, py: Python<'py>) -> Array1Out<'py> {
         vector(py, &self.inner.floor_z)
@@ -209,13 +209,13 @@ impl PyFilterOutput {
         self.out.consecutive_fallbacks
     }
 
-    /// Row evaluation time [µs].
+    /// Row evaluation time \[µs\].
     #[getter]
     fn eval_time_us(&self) -> f64 {
         self.out.eval_time.as_secs_f64() * 1e6
     }
 
-    /// QP update and solve time [µs].
+    /// QP update and solve time \[µs\].
     #[getter]
     fn solve_time_us(&self) -> f64 {
         self.out.solve_time.as_secs_f64() * 1e6

@@ -61,7 +61,7 @@ impl PyCourse {
         Ok(vector(py, &self.inner.initial_state(finite("start gap", start_gap)?)))
     }
 
-    /// The gait's nominal input at time ``t`` [s] for state ``x``, shape (NU,). Updates
+    /// The gait's nominal input at time ``t`` \[s\] for state ``x``, shape (NU,). Updates
     /// ``environment`` (floors under the toes, swing legs, their foothold strips).
     fn plan<'py>(&mut self, py: Python<'py>, t: f64, x: ArrayIn<'py>) -> PyResult<Array1Out<'py>> {
         let plan = self.inner.plan(finite("time", t)?, &state(&x)?)?;
@@ -80,7 +80,7 @@ impl PyCourse {
         self.env.clone_ref(py)
     }
 
-    /// The gait's nominal body-centre height at the last ``plan`` [m]; None before the
+    /// The gait's nominal body-centre height at the last ``plan`` \[m\]; None before the
     /// first (not NaN: no output of the module is NaN).
     #[getter]
     fn nominal_body_height(&self) -> Option<f64> {
@@ -93,7 +93,7 @@ impl PyCourse {
         self.inner.swinging()
     }
 
-    /// Exact ``(body, toe)`` clearance at ``x`` to the nearest edge cuboid [m];
+    /// Exact ``(body, toe)`` clearance at ``x`` to the nearest edge cuboid \[m\];
     /// negative = penetration.
     fn clearance(&self, x: ArrayIn<'_>) -> PyResult<(f64, f64)> {
         let c = self.inner.clearance(&state(&x)?)?;
@@ -105,7 +105,7 @@ impl PyCourse {
         Ok(self.inner.finished(&state(&x)?))
     }
 
-    /// Ground height at world ``x`` [m].
+    /// Ground height at world ``x`` \[m\].
     fn floor_height(&self, x: f64) -> PyResult<f64> {
         Ok(self.inner.stairs().height_at(finite("x", x)?))
     }

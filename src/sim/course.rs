@@ -17,7 +17,7 @@ use crate::model::{self, State, TOE_RADIUS};
 use crate::terrain::Stairs;
 
 /// Each toe within this distance (x) of its hip, relative to the body: the stability
-/// bounds of eq. 13 [m].
+/// bounds of eq. 13 \[m\].
 const STABILITY_REACH: f64 = 0.45;
 
 /// The stairs, their edge cuboids as filter obstacles, and the gait.
@@ -30,7 +30,7 @@ pub struct Course {
     gait: Gait,
 }
 
-/// Exact clearances of the robot to the nearest edge cuboid [m]; negative = penetration.
+/// Exact clearances of the robot to the nearest edge cuboid \[m\]; negative = penetration.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Clearance {
     /// Body box to the nearest edge, by the exact SAT.

@@ -38,24 +38,24 @@ pub struct GaitParams {
     pub speed: f64,
     /// Speed while a tripod swings [m/s].
     pub step_speed: f64,
-    /// Duration of one swing [s].
+    /// Duration of one swing \[s\].
     pub swing_time: f64,
-    /// Minimum time on all six wheels between swings [s].
+    /// Minimum time on all six wheels between swings \[s\].
     pub stance_time: f64,
-    /// Height of the swing apex above the higher of the two floors [m].
+    /// Height of the swing apex above the higher of the two floors \[m\].
     pub clearance: f64,
-    /// A toe steps when a riser is within this distance of its front [m].
+    /// A toe steps when a riser is within this distance of its front \[m\].
     pub lookahead: f64,
-    /// When the robot has been stalled (speed below 2 cm/s) for `stall_time` [s], toes
-    /// with a riser within `stall_lookahead` [m] step too: the filter may be holding the
+    /// When the robot has been stalled (speed below 2 cm/s) for `stall_time` \[s\], toes
+    /// with a riser within `stall_lookahead` \[m\] step too: the filter may be holding the
     /// body back until the rear legs climb.
     pub stall_time: f64,
     pub stall_lookahead: f64,
-    /// How far a swing carries the toe forward relative to the body on flat ground [m];
+    /// How far a swing carries the toe forward relative to the body on flat ground \[m\];
     /// over a riser it aims one toe radius past the riser instead.
     pub reach: f64,
     /// While a tripod swings, the body is held at least this far above the swing apex
-    /// less the hip height, so the lifted leg keeps room to reach forward [m].
+    /// less the hip height, so the lifted leg keeps room to reach forward \[m\].
     pub leg_room: f64,
 }
 
@@ -96,7 +96,7 @@ pub struct Plan {
     /// For swinging legs: the convex strip from the flat region it lifts off to the one
     /// it lands on.
     pub footholds: [Option<[HalfPlane; 4]>; 6],
-    /// The nominal body centre height, world frame [m].
+    /// The nominal body centre height, world frame \[m\].
     pub body_height: f64,
 }
 
@@ -121,7 +121,7 @@ impl Gait {
         self.swing.map(|s| s.tripod)
     }
 
-    /// The nominal input at time `t` [s] for state `x`.
+    /// The nominal input at time `t` \[s\] for state `x`.
     ///
     /// # Errors
     /// Only if the stairs are degenerate (no room for a foothold).

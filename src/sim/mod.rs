@@ -24,10 +24,10 @@ use crate::model::{self, State};
 use crate::terrain::Stairs;
 use gait::GaitParams;
 
-/// Control period [s].
+/// Control period \[s\].
 pub const DT: f64 = 1e-3;
 
-/// Longest simulated time [s] a run accepts: 6·10⁵ cycles, about 250 MB of samples.
+/// Longest simulated time \[s\] a run accepts: 6·10⁵ cycles, about 250 MB of samples.
 /// The courses finish in under a minute; the limit only stops a typo from asking for
 /// terabytes.
 pub const MAX_SIM_TIME: f64 = 600.0;
@@ -63,9 +63,9 @@ pub struct SimConfig {
     pub scenario: Scenario,
     /// With `false`, the body–edge SSAT rows never take part (the paper's comparison).
     pub body_cbf: bool,
-    /// Give up after this long [s], at most [`MAX_SIM_TIME`].
+    /// Give up after this long \[s\], at most [`MAX_SIM_TIME`].
     pub max_time: f64,
-    /// Start with the robot's foremost point this far from the first riser [m].
+    /// Start with the robot's foremost point this far from the first riser \[m\].
     pub start_gap: f64,
     pub gait: GaitParams,
     pub filter: FilterSettings,
@@ -96,15 +96,15 @@ pub struct Sample {
     pub active_rows: usize,
     pub iterations: u32,
     pub source: InputSource,
-    /// Row evaluation, QP, and the whole update [µs].
+    /// Row evaluation, QP, and the whole update \[µs\].
     pub eval_us: f64,
     pub solve_us: f64,
     pub update_us: f64,
-    /// Exact clearance to the nearest edge cuboid [m]: body (SAT separation) and the
+    /// Exact clearance to the nearest edge cuboid \[m\]: body (SAT separation) and the
     /// closest toe (sphere–box distance). Negative = penetration.
     pub body_clearance: f64,
     pub toe_clearance: f64,
-    /// Body centre height above the gait's nominal [m].
+    /// Body centre height above the gait's nominal \[m\].
     pub body_raise: f64,
     /// Which tripod swings (-1: none).
     pub swinging: i8,
@@ -129,7 +129,7 @@ pub struct Summary {
 }
 
 impl Summary {
-    /// Penetration beyond `tolerance` [m] by body or toes.
+    /// Penetration beyond `tolerance` \[m\] by body or toes.
     pub fn collided(&self, tolerance: f64) -> bool {
         self.min_body_clearance < -tolerance || self.min_toe_clearance < -tolerance
     }

@@ -5,13 +5,13 @@
 //!
 //! | column | meaning |
 //! |---|---|
-//! | `t` | time [s] |
+//! | `t` | time \[s\] |
 //! | `px` … `rr_vz` | the 36 states, `model::STATE_NAMES` order (origin-relative body and toes) |
-//! | `body_z_world`, `body_raise` | body centre height, and its excess over the gait's nominal [m] |
+//! | `body_z_world`, `body_raise` | body centre height, and its excess over the gait's nominal \[m\] |
 //! | `min_h_<family>` | minimum `h` over that family's applicable rows (empty if none) |
 //! | `active_rows`, `iterations`, `source` | rows in the QP, ADMM iterations, where `u` came from (`InputSource::name`: qp, unconverged, last_safe, nominal_clipped) |
-//! | `eval_us`, `solve_us`, `update_us` | row evaluation, QP, whole filter update [µs] |
-//! | `body_clearance`, `toe_clearance` | exact distance of body / nearest toe to the nearest edge cuboid [m]; negative = penetration |
+//! | `eval_us`, `solve_us`, `update_us` | row evaluation, QP, whole filter update \[µs\] |
+//! | `body_clearance`, `toe_clearance` | exact distance of body / nearest toe to the nearest edge cuboid \[m\]; negative = penetration |
 //! | `swinging` | tripod in swing: 0 = (LR, RR, MF), 1 = (MR, LF, RF), -1 = none |
 
 use std::fmt::{self, Write as _};

@@ -59,3 +59,12 @@ def test_kernel_signature_and_unpacking():
     assert "pub fn probe(v: &[f64; 2], s: f64) -> [f64; 2] {" in text
     assert "let v_x = v[0];" in text and "let v_y = v[1];" in text
     assert ".tanh()" in text and ".ln()" in text and "powf" not in text
+
+
+def test_doc_text_escapes_brackets_outside_code_spans_only():
+    """Units such as [m] would be rustdoc intra-doc links; code spans stay verbatim."""
+    from symbolic.rust_emitter import rustdoc_text
+
+    assert rustdoc_text("height [m], rate [1/s]") == "height \\[m\\], rate \\[1/s\\]"
+    assert rustdoc_text("`lie[i]` is [h, L_f h]") == "`lie[i]` is \\[h, L_f h\\]"
+    assert rustdoc_text("no brackets") == "no brackets"
