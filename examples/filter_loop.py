@@ -18,10 +18,9 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")  # files only: no display needed
+import cbfgen  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-
-import cbfgen  # noqa: E402
 
 
 def run(scenario: str, body_cbf: bool, max_time: float) -> dict:

@@ -496,7 +496,9 @@ def draw_category(rng: np.random.Generator) -> str:
     return CATEGORIES[int(rng.choice(len(CATEGORIES), p=CATEGORY_WEIGHTS))]
 
 
-def run_case(seed: int, index: int, verbose: bool = False, inject: tuple[str, int] | None = None) -> tuple[str, str, str]:
+def run_case(
+    seed: int, index: int, verbose: bool = False, inject: tuple[str, int] | None = None
+) -> tuple[str, str, str]:
     """``(category, outcome, detail)`` of case ``index``. ``inject`` = (kind, case) makes
     that case abort, hang, panic or return NaN instead: the harness's own check that it
     attributes each kind of finding (python/tests/test_fuzz_python.py)."""
@@ -585,7 +587,9 @@ def campaign(seed: int, cases: int, chunk: int, case_timeout: float, progress: b
                     if running is None:
                         if index < stop:  # died between cases: at import, or in the harness
                             stderr.seek(0)
-                            raise RuntimeError(f"the fuzz worker exited early ({child.returncode}):\n{stderr.read()[-3000:]}")
+                            raise RuntimeError(
+                                f"the fuzz worker exited early ({child.returncode}):\n{stderr.read()[-3000:]}"
+                            )
                         outcome = None
                         break
                     stderr.seek(0)

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable, Dict, List, Tuple, Union
 
 from .families import double_integrator, ssat, tachyon3
 from .inputs_hash import inputs_hash
@@ -22,7 +22,7 @@ HASH_PREFIX = "// inputs-sha256: "
 REGENERATE = "scripts/cbf generate  (or: python -m symbolic.generate)"
 
 # module name -> (doc, kernel builder). Order is the order in generated/mod.rs.
-MODULES: Dict[str, Tuple[str, Callable[[], List[Union[Kernel, RawRust]]]]] = {
+MODULES: dict[str, tuple[str, Callable[[], list[Kernel | RawRust]]]] = {
     "ssat": (ssat.MODULE_DOC, ssat.kernels),
     "tachyon3": (tachyon3.MODULE_DOC, tachyon3.kernels),
     "double_integrator": (double_integrator.MODULE_DOC, double_integrator.kernels),
@@ -37,10 +37,10 @@ def _header(digest: str) -> str:
     )
 
 
-def render(repo_root: Path = REPO_ROOT) -> Dict[str, str]:
+def render(repo_root: Path = REPO_ROOT) -> dict[str, str]:
     """File name -> contents for the whole of generated/."""
     digest = inputs_hash(repo_root)
-    files: Dict[str, str] = {}
+    files: dict[str, str] = {}
     mod_lines = [_header(digest), "//! Kernels emitted by the symbolic stage.\n"]
     for name, (doc, build) in MODULES.items():
         body = "\n".join(item.text if isinstance(item, RawRust) else emit_kernel(item)
@@ -54,7 +54,7 @@ def render(repo_root: Path = REPO_ROOT) -> Dict[str, str]:
     return files
 
 
-def main(argv: List[str] | None = None) -> int:
+def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m symbolic.generate", description=__doc__)
     parser.add_argument("--out", type=Path, default=REPO_ROOT / "generated",
                         help="directory to write (default: generated/)")

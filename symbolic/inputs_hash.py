@@ -11,13 +11,12 @@ from __future__ import annotations
 
 import hashlib
 from pathlib import Path
-from typing import List
 
 HASHED_SUFFIXES = (".py", ".toml", ".txt")
 SKIPPED_DIRS = ("tests", "__pycache__")
 
 
-def input_files(repo_root: Path) -> List[Path]:
+def input_files(repo_root: Path) -> list[Path]:
     found = []
     for path in (repo_root / "symbolic").rglob("*"):
         rel = path.relative_to(repo_root)

@@ -18,8 +18,8 @@ Three kinds of named intermediate exist besides inputs and outputs:
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Dict, List, Optional, Sequence, Tuple, Union
 
 import symengine as se
 
@@ -31,7 +31,7 @@ _CSE_TEMP = re.compile(r"^x\d+$")
 @dataclass(frozen=True)
 class Input:
     name: str
-    symbols: Tuple[se.Symbol, ...]
+    symbols: tuple[se.Symbol, ...]
     is_array: bool
     doc: str
 
@@ -45,7 +45,7 @@ class Let:
 @dataclass(frozen=True)
 class RuntimeMax:
     symbol: se.Symbol
-    exprs: Tuple[se.Expr, ...]
+    exprs: tuple[se.Expr, ...]
 
 
 @dataclass(frozen=True)
@@ -56,7 +56,7 @@ class Output:
 
     name: str
     kind: str
-    exprs: Tuple[se.Expr, ...]
+    exprs: tuple[se.Expr, ...]
     dim: int
     doc: str
     cols: int = 1
@@ -70,7 +70,7 @@ class Constant:
     doc: str
 
 
-def symmetric_upper(matrix: Sequence[Sequence[se.Expr]]) -> Tuple[se.Expr, ...]:
+def symmetric_upper(matrix: Sequence[Sequence[se.Expr]]) -> tuple[se.Expr, ...]:
     n = len(matrix)
     return tuple(matrix[i][j] for i in range(n) for j in range(i, n))
 
@@ -79,14 +79,14 @@ def symmetric_upper(matrix: Sequence[Sequence[se.Expr]]) -> Tuple[se.Expr, ...]:
 class Kernel:
     name: str
     doc: str
-    inputs: List[Input] = field(default_factory=list)
-    lets: List[Let] = field(default_factory=list)
-    reductions: List[RuntimeMax] = field(default_factory=list)
-    outputs: List[Output] = field(default_factory=list)
-    constants: List[Constant] = field(default_factory=list)
+    inputs: list[Input] = field(default_factory=list)
+    lets: list[Let] = field(default_factory=list)
+    reductions: list[RuntimeMax] = field(default_factory=list)
+    outputs: list[Output] = field(default_factory=list)
+    constants: list[Constant] = field(default_factory=list)
     # Lets and runtime maxima interleave (a max over lets, lets over that max), so their
     # declaration order is the evaluation order.
-    definitions: List[Union[Let, RuntimeMax]] = field(default_factory=list)
+    definitions: list[Let | RuntimeMax] = field(default_factory=list)
     _names: set = field(default_factory=set)
 
     def _claim(self, name: str) -> str:
@@ -103,7 +103,7 @@ class Kernel:
         self.inputs.append(Input(name, (sym,), False, doc))
         return sym
 
-    def array_input(self, name: str, components: Sequence[str], doc: str) -> List[se.Symbol]:
+    def array_input(self, name: str, components: Sequence[str], doc: str) -> list[se.Symbol]:
         """An ``&[f64; n]`` argument; component ``c`` becomes the local ``{name}_{c}``."""
         self._claim(name)
         syms = tuple(se.Symbol(self._claim(f"{name}_{c}")) for c in components)
@@ -151,19 +151,19 @@ class Kernel:
         self.constants.append(Constant(name, rust_type, value, doc))
 
     # ------------------------------------------------------------- evaluation
-    def evaluate(self, values: Dict[str, Union[float, Sequence[float]]]) -> Dict[str, List[float]]:
+    def evaluate(self, values: dict[str, float | Sequence[float]]) -> dict[str, list[float]]:
         """Evaluate the kernel's definitions with SymEngine, independently of any
         emitted code: the reference the cross-validation tests compare Rust against.
 
         ``values`` maps each input name to a float or a sequence of floats.
         """
-        subs: Dict[se.Symbol, se.Expr] = {}
+        subs: dict[se.Symbol, se.Expr] = {}
         for inp in self.inputs:
             given = values[inp.name]
             seq = list(given) if inp.is_array else [given]
             if len(seq) != len(inp.symbols):
                 raise ValueError(f"input {inp.name}: expected {len(inp.symbols)} values")
-            for sym, v in zip(inp.symbols, seq):
+            for sym, v in zip(inp.symbols, seq, strict=False):
                 subs[sym] = se.RealDouble(float(v))
         for d in self.definitions:
             if isinstance(d, Let):
@@ -175,15 +175,15 @@ class Kernel:
         }
 
 
-def gradient(expr: se.Expr, wrt: Sequence[se.Symbol]) -> List[se.Expr]:
+def gradient(expr: se.Expr, wrt: Sequence[se.Symbol]) -> list[se.Expr]:
     return [se.diff(expr, v) for v in wrt]
 
 
-def hessian(expr: se.Expr, wrt: Sequence[se.Symbol]) -> List[List[se.Expr]]:
+def hessian(expr: se.Expr, wrt: Sequence[se.Symbol]) -> list[list[se.Expr]]:
     """Full symmetric Hessian; the lower triangle reuses the upper one's expressions."""
     grad = gradient(expr, wrt)
     n = len(wrt)
-    upper: Dict[Tuple[int, int], se.Expr] = {}
+    upper: dict[tuple[int, int], se.Expr] = {}
     for i in range(n):
         for j in range(i, n):
             upper[(i, j)] = se.diff(grad[i], wrt[j])
@@ -192,16 +192,16 @@ def hessian(expr: se.Expr, wrt: Sequence[se.Symbol]) -> List[List[se.Expr]]:
 
 def chain_linear(
     grad_inner: Sequence[se.Expr],
-    hess_inner: Optional[Sequence[Sequence[se.Expr]]],
+    hess_inner: Sequence[Sequence[se.Expr]] | None,
     jacobian: Sequence[Sequence[se.Expr]],
-) -> Tuple[List[se.Expr], Optional[List[List[se.Expr]]]]:
+) -> tuple[list[se.Expr], list[list[se.Expr]] | None]:
     """Gradient and Hessian with respect to z when the inner variables are u = J z + c
     with J constant: grad_z = J^T grad_u and H_z = J^T H_u J."""
     rows, cols = len(jacobian), len(jacobian[0])
     grad = [se.Add(*[jacobian[k][i] * grad_inner[k] for k in range(rows)]) for i in range(cols)]
     if hess_inner is None:
         return grad, None
-    hj = [[se.Add(*[hess_inner[k][l] * jacobian[l][j] for l in range(rows)])
+    hj = [[se.Add(*[hess_inner[k][m] * jacobian[m][j] for m in range(rows)])
            for j in range(cols)] for k in range(rows)]
     hess_upper = {}
     for i in range(cols):

@@ -26,8 +26,8 @@ are constants here, which is exact for the shift-invariant smooth maxima.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Dict, List, Optional, Sequence, Tuple
 
 import symengine as se
 
@@ -46,13 +46,13 @@ class LieRow:
     ``lg`` maps each structurally non-zero input column u to L_g_u L_f^(r-1) h."""
 
     degree: int
-    lf: Tuple[se.Expr, ...]
-    lg: Dict[int, se.Expr]
+    lf: tuple[se.Expr, ...]
+    lg: dict[int, se.Expr]
 
 
 class LieEngine:
     def __init__(self, kernel: Kernel, x: Sequence[se.Symbol], f: Sequence[se.Expr],
-                 g: Sequence[Sequence[se.Expr]], time: Optional[se.Symbol] = None):
+                 g: Sequence[Sequence[se.Expr]], time: se.Symbol | None = None):
         self.kernel = kernel
         self.time = time
         self.x = list(x)
@@ -61,8 +61,8 @@ class LieEngine:
         self.nu = len(self.g[0])
         self._f_support = [k for k, fk in enumerate(self.f) if fk != 0]
         self._g_support = [[k for k in range(len(self.x)) if self.g[k][u] != 0] for u in range(self.nu)]
-        self._defs: Dict[se.Symbol, se.Expr] = {}
-        self._rates: Dict[Tuple[se.Symbol, Optional[int]], se.Expr] = {}
+        self._defs: dict[se.Symbol, se.Expr] = {}
+        self._rates: dict[tuple[se.Symbol, int | None], se.Expr] = {}
 
     def let_(self, name: str, expr: se.Expr) -> se.Symbol:
         """A named intermediate the engine may differentiate through."""
@@ -70,14 +70,14 @@ class LieEngine:
         self._defs[sym] = se.sympify(expr)
         return sym
 
-    def along(self, e: se.Expr, column: Optional[int]) -> se.Expr:
+    def along(self, e: se.Expr, column: int | None) -> se.Expr:
         """D_f e (``column=None``, with d/dt when the engine has a time symbol) or
         D_{g_u} e (``column=u``)."""
         if column is None:
             field = [(k, self.f[k]) for k in self._f_support]
         else:
             field = [(k, self.g[k][column]) for k in self._g_support[column]]
-        terms: List[se.Expr] = []
+        terms: list[se.Expr] = []
         if column is None and self.time is not None:
             d = se.diff(e, self.time)  # t' = 1: the augmented drift's time component
             if d != 0:
@@ -94,7 +94,7 @@ class LieEngine:
                     terms.append(d * rate)
         return se.Add(*terms) if terms else se.Integer(0)
 
-    def _rate(self, sym: se.Symbol, column: Optional[int]) -> se.Expr:
+    def _rate(self, sym: se.Symbol, column: int | None) -> se.Expr:
         key = (sym, column)
         if key not in self._rates:
             rate = self.along(self._defs[sym], column)

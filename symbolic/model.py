@@ -19,7 +19,6 @@ import math
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Dict, List, Sequence, Tuple
 
 import symengine as se
 
@@ -33,7 +32,7 @@ class ModelError(ValueError):
 @dataclass(frozen=True)
 class Leg:
     name: str
-    hip: Tuple[float, float, float]
+    hip: tuple[float, float, float]
     outward: float  # +1: outward is forward (front legs); -1: backward (rear legs)
     hip_min: float  # [rad]
     hip_max: float  # [rad]
@@ -42,17 +41,17 @@ class Leg:
 @dataclass(frozen=True)
 class RobotModel:
     name: str
-    body_half_extents: Tuple[float, float, float]
+    body_half_extents: tuple[float, float, float]
     nominal_clearance: float
     toe_radius: float
     knee_min: float
     knee_max: float
-    legs: Tuple[Leg, ...]
+    legs: tuple[Leg, ...]
     ssat_alpha: float
     ssat_alpha_rot: float
     superellipsoid_n: int
-    ecbf_poles: Tuple[float, ...]
-    input_limits: Tuple[float, ...]
+    ecbf_poles: tuple[float, ...]
+    input_limits: tuple[float, ...]
 
 
 # The runtime's documented domains (src/ssat.rs ALPHA_MIN/ALPHA_MAX, src/geometry.rs
@@ -65,7 +64,7 @@ INPUT_LIMIT_RANGE = (0.0, 1e6)
 
 
 def _number(table: dict, key: str, where: str, positive: bool = False,
-            within: Tuple[float, float] = (-math.inf, math.inf)) -> float:
+            within: tuple[float, float] = (-math.inf, math.inf)) -> float:
     if key not in table:
         raise ModelError(f"{where}: missing '{key}'")
     v = table[key]
@@ -79,7 +78,7 @@ def _number(table: dict, key: str, where: str, positive: bool = False,
 
 
 def _vector(table: dict, key: str, where: str, n: int, positive: bool = False,
-            within: Tuple[float, float] = (-math.inf, math.inf)) -> Tuple[float, ...]:
+            within: tuple[float, float] = (-math.inf, math.inf)) -> tuple[float, ...]:
     v = table.get(key)
     if not isinstance(v, list) or len(v) != n:
         raise ModelError(f"{where}.{key}: expected a list of {n} numbers, got {v!r}")
@@ -132,7 +131,7 @@ def load_model(path: Path) -> RobotModel:
     )
 
 
-def _input_limits(inputs: dict, where: str) -> Tuple[float, ...]:
+def _input_limits(inputs: dict, where: str) -> tuple[float, ...]:
     """Magnitude limit of each input, in the order of ``input_names``."""
     body = _vector(inputs, "body_accel", where, 2, positive=True, within=INPUT_LIMIT_RANGE)
     toe = _vector(inputs, "toe_accel", where, 2, positive=True, within=INPUT_LIMIT_RANGE)
@@ -154,26 +153,26 @@ BODY_INPUTS = ["bax", "baz", "pitch_acc"]
 TOE_INPUTS = ["ax", "az"]
 
 
-def state_names(model: RobotModel) -> List[str]:
+def state_names(model: RobotModel) -> list[str]:
     names = ORIGIN_STATES + BODY_STATES
     for leg in model.legs:
         names += [f"{leg.name.lower()}_{s}" for s in TOE_STATES]
     return names
 
 
-def input_names(model: RobotModel) -> List[str]:
+def input_names(model: RobotModel) -> list[str]:
     names = ORIGIN_INPUTS + BODY_INPUTS
     for leg in model.legs:
         names += [f"{leg.name.lower()}_{s}" for s in TOE_INPUTS]
     return names
 
 
-def rot_z(a: se.Expr) -> List[List[se.Expr]]:
+def rot_z(a: se.Expr) -> list[list[se.Expr]]:
     c, s = se.cos(a), se.sin(a)
     return [[c, -s, 0], [s, c, 0], [0, 0, 1]]
 
 
-def rot_y(a: se.Expr) -> List[List[se.Expr]]:
+def rot_y(a: se.Expr) -> list[list[se.Expr]]:
     c, s = se.cos(a), se.sin(a)
     return [[c, 0, s], [0, 1, 0], [-s, 0, c]]
 
@@ -197,11 +196,11 @@ class Tachyon3:
         self.state_names = state_names(self.model)
         self.input_names = input_names(self.model)
         self.x = [se.Symbol(f"x_{n}") for n in self.state_names]
-        self.s: Dict[str, se.Symbol] = dict(zip(self.state_names, self.x))
+        self.s: dict[str, se.Symbol] = dict(zip(self.state_names, self.x, strict=False))
         nx, nu = len(self.x), len(self.input_names)
         s = self.s
         # Drift f(x) and input matrix g (constant here; kept general for the engine).
-        f: Dict[str, se.Expr] = {n: se.Integer(0) for n in self.state_names}
+        f: dict[str, se.Expr] = {n: se.Integer(0) for n in self.state_names}
         f["px"] = s["v"] * se.cos(s["yaw"])
         f["py"] = s["v"] * se.sin(s["yaw"])
         f["yaw"] = s["yaw_rate"]
@@ -220,24 +219,24 @@ class Tachyon3:
         assert (nx, nu) == (36, 17)
 
     # ------------------------------------------------------------ kinematics
-    def body_position_world(self) -> List[se.Expr]:
+    def body_position_world(self) -> list[se.Expr]:
         s = self.s
         rel = matvec(rot_z(s["yaw"]), [s["bx"], 0, s["bz"]])
         return [s["px"] + rel[0], s["py"] + rel[1], s["pz"] + rel[2]]
 
-    def body_rotation_world(self) -> List[List[se.Expr]]:
+    def body_rotation_world(self) -> list[list[se.Expr]]:
         return matmul(rot_z(self.s["yaw"]), rot_y(self.s["pitch"]))
 
-    def toe_origin(self, leg: Leg) -> List[se.Expr]:
+    def toe_origin(self, leg: Leg) -> list[se.Expr]:
         t = leg.name.lower()
         return [self.s[f"{t}_x"], se.RealDouble(leg.hip[1]), self.s[f"{t}_z"]]
 
-    def toe_world(self, leg: Leg) -> List[se.Expr]:
+    def toe_world(self, leg: Leg) -> list[se.Expr]:
         rel = matvec(rot_z(self.s["yaw"]), self.toe_origin(leg))
         s = self.s
         return [s["px"] + rel[0], s["py"] + rel[1], s["pz"] + rel[2]]
 
-    def leg_vector(self, leg: Leg) -> Tuple[se.Expr, se.Expr]:
+    def leg_vector(self, leg: Leg) -> tuple[se.Expr, se.Expr]:
         """Hip-to-toe vector (x, z) in the origin frame; its y is 0 because the toe
         moves in the hip's lateral plane."""
         s = self.s

@@ -9,8 +9,8 @@ arithmetic: no loops, no heap, integer powers as products, ``sqrt`` for half pow
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from fractions import Fraction
-from typing import Dict, List, Sequence, Tuple
 
 import symengine as se
 
@@ -67,7 +67,7 @@ def _is_number(e: se.Expr) -> bool:
 class RustPrinter:
     """Prints SymEngine expressions as Rust f64 expressions over named locals."""
 
-    def __init__(self, names: Dict[se.Symbol, str]):
+    def __init__(self, names: dict[se.Symbol, str]):
         self.names = names
 
     def __call__(self, e: se.Expr) -> str:
@@ -77,7 +77,7 @@ class RustPrinter:
         text, prec = self._p(e)
         return text if prec >= level else f"({text})"
 
-    def _p(self, e: se.Expr) -> Tuple[str, int]:
+    def _p(self, e: se.Expr) -> tuple[str, int]:
         if isinstance(e, se.Symbol):
             try:
                 return self.names[e], _ATOM
@@ -101,10 +101,10 @@ class RustPrinter:
             return f"{self._at(y, _ATOM)}.atan2({self(x)})", _ATOM
         raise ValueError(f"cannot emit '{fname}' ({e}) as Rust")
 
-    def _add(self, e: se.Expr) -> Tuple[str, int]:
+    def _add(self, e: se.Expr) -> tuple[str, int]:
         # Sorted for a stable text whatever order SymEngine keeps terms in.
         terms = sorted(e.args, key=lambda t: (_is_number(t), str(t)))
-        parts: List[str] = []
+        parts: list[str] = []
         for i, term in enumerate(terms):
             negated = _negated(term)
             if i == 0:
@@ -115,10 +115,10 @@ class RustPrinter:
                 parts.append(" + " + self._at(term, _MUL if _is_negative(term) else _ADD))
         return "".join(parts), _ADD
 
-    def _mul(self, e: se.Expr) -> Tuple[str, int]:
+    def _mul(self, e: se.Expr) -> tuple[str, int]:
         coeff = 1.0
-        num: List[se.Expr] = []
-        den: List[se.Expr] = []
+        num: list[se.Expr] = []
+        den: list[se.Expr] = []
         for f in sorted(e.args, key=str):
             if _is_number(f):
                 coeff *= _number(f)
@@ -140,7 +140,7 @@ class RustPrinter:
             return "-" + (text if (len(factors) == 1 and not den) else f"({text})"), _UNARY
         return text, (_ATOM if len(factors) == 1 and not den and num else _MUL)
 
-    def _pow(self, base: se.Expr, exp: se.Expr) -> Tuple[str, int]:
+    def _pow(self, base: se.Expr, exp: se.Expr) -> tuple[str, int]:
         if base == se.E:
             return f"{self._at(exp, _ATOM)}.exp()", _ATOM
         if isinstance(exp, se.Integer):
@@ -160,7 +160,7 @@ class RustPrinter:
             return (text, _ATOM) if n > 0 else (f"1.0 / {text}", _MUL)
         return f"{self._at(base, _ATOM)}.powf({self(exp)})", _ATOM
 
-    def _integer_power(self, base: se.Expr, n: int) -> Tuple[str, int]:
+    def _integer_power(self, base: se.Expr, n: int) -> tuple[str, int]:
         """b^n by repeated squaring; a compound base is bound once in a block."""
         if n == 0:
             return "1.0", _ATOM
@@ -207,7 +207,7 @@ def _rust_type(kind: str, dim: int, cols: int) -> str:
 
 def emit_kernel(kernel: Kernel) -> str:
     """The Rust text of one kernel: constants, then the function."""
-    flat: List[se.Expr] = [let.expr for let in kernel.lets]
+    flat: list[se.Expr] = [let.expr for let in kernel.lets]
     for red in kernel.reductions:
         flat.extend(red.exprs)
     for out in kernel.outputs:
@@ -215,8 +215,8 @@ def emit_kernel(kernel: Kernel) -> str:
     replacements, reduced = se.cse(flat)
 
     # Every symbol the body may define, with the expression(s) defining it.
-    defs: Dict[se.Symbol, Tuple[str, Sequence[se.Expr]]] = {}
-    order: Dict[se.Symbol, int] = {}
+    defs: dict[se.Symbol, tuple[str, Sequence[se.Expr]]] = {}
+    order: dict[se.Symbol, int] = {}
     pos = 0
     for let in kernel.lets:
         defs[let.symbol] = ("let", [reduced[pos]])
@@ -227,11 +227,11 @@ def emit_kernel(kernel: Kernel) -> str:
     out_exprs = reduced[pos:]
     for sym, rhs in replacements:
         defs[sym] = ("tmp", [rhs])
-    for i, sym in enumerate([l.symbol for l in kernel.lets] + [r.symbol for r in kernel.reductions]
+    for i, sym in enumerate([let.symbol for let in kernel.lets] + [r.symbol for r in kernel.reductions]
                             + [s for s, _ in replacements]):
         order[sym] = i
 
-    names: Dict[se.Symbol, str] = {}
+    names: dict[se.Symbol, str] = {}
     for inp in kernel.inputs:
         for sym in inp.symbols:
             names[sym] = str(sym)
@@ -239,7 +239,7 @@ def emit_kernel(kernel: Kernel) -> str:
         if kind != "tmp":
             names[sym] = str(sym)
 
-    emitted: List[Tuple[se.Symbol, str, Sequence[se.Expr]]] = []
+    emitted: list[tuple[se.Symbol, str, Sequence[se.Expr]]] = []
     done: set = set()
     used_inputs: set = set()
 
@@ -262,7 +262,7 @@ def emit_kernel(kernel: Kernel) -> str:
         visit(e)
 
     p = RustPrinter(names)
-    lines: List[str] = []
+    lines: list[str] = []
     for line in kernel.doc.strip().splitlines():
         lines.append(f"/// {rustdoc_text(line)}".rstrip())
     lines.append("///")
@@ -297,7 +297,7 @@ def emit_kernel(kernel: Kernel) -> str:
             text = p(rhs[0])
         lines.append(f"    let {names[sym]} = {text};")
 
-    results: List[str] = []
+    results: list[str] = []
     pos = 0
     for out in kernel.outputs:
         parts = [p(e) for e in out_exprs[pos:pos + len(out.exprs)]]
@@ -325,7 +325,7 @@ def emit_kernel(kernel: Kernel) -> str:
     lines.append(f"    {body}")
     lines.append("}")
 
-    consts: List[str] = []
+    consts: list[str] = []
     for c in kernel.constants:
         consts.append(f"/// {rustdoc_text(c.doc)}")
         consts.append(f"pub const {c.name}: {c.rust_type} = {c.value};")

@@ -11,8 +11,8 @@ Sharpness is always a positive "alpha": larger is closer to the exact function.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Callable, Sequence
 
 import symengine as se
 
@@ -112,9 +112,9 @@ def _boltzmann(ys: Sequence[se.Expr], alpha: se.Expr, shift: se.Expr, let_=None)
     weights = [se.exp(alpha * (y - shift)) for y in ys]
     if let_ is not None:  # as for the LSE: weights and both sums as named intermediates
         weights = [let_(f"boltzmann_w{i}", w) for i, w in enumerate(weights)]
-        numerator = let_("boltzmann_num", se.Add(*[y * w for y, w in zip(ys, weights)]))
+        numerator = let_("boltzmann_num", se.Add(*[y * w for y, w in zip(ys, weights, strict=False)]))
         return numerator / let_("boltzmann_den", se.Add(*weights))
-    return se.Add(*[y * w for y, w in zip(ys, weights)]) / se.Add(*weights)
+    return se.Add(*[y * w for y, w in zip(ys, weights, strict=False)]) / se.Add(*weights)
 
 
 LSE = SmoothMax(

@@ -7,7 +7,8 @@
 # Counts outside their integer type (negative, >= 2**64) raise OverflowError.
 # python/tests/test_api.py checks that this file and the module list the same names.
 
-from typing import Literal, Optional, Sequence, Union
+from collections.abc import Sequence
+from typing import Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -15,7 +16,7 @@ import numpy.typing as npt
 ArrayLike = npt.ArrayLike
 Vector = npt.NDArray[np.float64]
 Matrix = npt.NDArray[np.float64]
-Leg = Union[int, str]
+Leg = int | str
 """A leg: its index in LEG_NAMES order (0..6) or its name ("LF", "mf", ...)."""
 Rows = tuple[Matrix, Matrix]
 """(lie, lg_lf): lie[i] = [h, L_f h, L_f^2 h] (rows x 3); lg_lf[i] = L_g L_f h (rows x NU)."""
@@ -132,7 +133,7 @@ def standard_posture() -> Vector:
 class Environment:
     """Edge cuboids, floors, foothold polygons, swing legs and stability bounds, sized once."""
 
-    def __init__(self, edges: int = 20, foothold_edges: Optional[Sequence[int]] = None) -> None:
+    def __init__(self, edges: int = 20, foothold_edges: Sequence[int] | None = None) -> None:
         """Raises CbfError above MAX_EDGES / MAX_FOOTHOLD_EDGES, OverflowError below 0."""
     @property
     def capacity(self) -> tuple[int, list[int]]: ...
@@ -155,7 +156,7 @@ class Environment:
         capacity or a zero or non-finite normal."""
     def foothold(self, leg: Leg) -> tuple[Matrix, Vector]: ...
     def set_stability(
-        self, leg: Leg, lower: Optional[tuple[float, float]] = None, upper: Optional[tuple[float, float]] = None
+        self, leg: Leg, lower: tuple[float, float] | None = None, upper: tuple[float, float] | None = None
     ) -> None: ...
 
 class FilterOutput:
@@ -166,9 +167,9 @@ class FilterOutput:
     @property
     def source(self) -> Literal["qp", "unconverged", "last_safe", "nominal_clipped"]: ...
     @property
-    def status(self) -> Optional[str]: ...
+    def status(self) -> str | None: ...
     @property
-    def nonfinite_row(self) -> Optional[int]: ...
+    def nonfinite_row(self) -> int | None: ...
     @property
     def iterations(self) -> int: ...
     @property
@@ -188,19 +189,19 @@ class EcbfFilter:
     def __init__(
         self,
         edges: int = 20,
-        foothold_edges: Optional[Sequence[int]] = None,
+        foothold_edges: Sequence[int] | None = None,
         *,
-        activation: Optional[dict[str, float]] = None,
-        slack_weight: Optional[dict[str, float]] = None,
-        poles: Optional[dict[str, tuple[float, float]]] = None,
-        input_weights: Optional[ArrayLike] = None,
-        input_min: Optional[ArrayLike] = None,
-        input_max: Optional[ArrayLike] = None,
-        eps_abs: Optional[float] = None,
-        eps_rel: Optional[float] = None,
-        max_iter: Optional[int] = None,
-        polish: Optional[bool] = None,
-        time_limit_us: Optional[float] = None,
+        activation: dict[str, float] | None = None,
+        slack_weight: dict[str, float] | None = None,
+        poles: dict[str, tuple[float, float]] | None = None,
+        input_weights: ArrayLike | None = None,
+        input_min: ArrayLike | None = None,
+        input_max: ArrayLike | None = None,
+        eps_abs: float | None = None,
+        eps_rel: float | None = None,
+        max_iter: int | None = None,
+        polish: bool | None = None,
+        time_limit_us: float | None = None,
     ) -> None:
         """Keyword arguments override the Rust defaults. Raises CbfError for capacities
         above MAX_EDGES / MAX_FOOTHOLD_EDGES and for settings outside their documented
@@ -220,7 +221,7 @@ class EcbfFilter:
     @property
     def row_count(self) -> int: ...
     @property
-    def slots(self) -> list[tuple[str, Optional[int], int]]: ...
+    def slots(self) -> list[tuple[str, int | None, int]]: ...
     @property
     def lie(self) -> Matrix: ...
     @property
@@ -243,16 +244,16 @@ class Course:
     @property
     def environment(self) -> Environment: ...
     @property
-    def nominal_body_height(self) -> Optional[float]:
+    def nominal_body_height(self) -> float | None:
         """The gait's nominal body-centre height at the last plan [m]; None before."""
     @property
-    def swinging(self) -> Optional[int]: ...
+    def swinging(self) -> int | None: ...
     def clearance(self, x: ArrayLike) -> tuple[float, float]: ...
     def finished(self, x: ArrayLike) -> bool: ...
     def floor_height(self, x: float) -> float: ...
 
 def simulate(
-    scenario: Literal["step", "stairs"] = "stairs", body_cbf: bool = True, max_time: Optional[float] = None
+    scenario: Literal["step", "stairs"] = "stairs", body_cbf: bool = True, max_time: float | None = None
 ) -> dict[str, np.ndarray | dict]:
     """The Rust closed loop's time series as numpy arrays, plus a "summary" dict.
 

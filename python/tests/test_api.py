@@ -74,10 +74,10 @@ def test_rows_match_the_filter_catalog():
     lie = safety.lie
     for leg in range(6):
         rows, _ = cbfgen.joint_limits(leg, x)
-        mine = [i for i, (f, l, _) in enumerate(slots) if f == "joint_limits" and l == leg]
+        mine = [i for i, (f, at, _) in enumerate(slots) if f == "joint_limits" and at == leg]
         np.testing.assert_array_equal(lie[mine], rows)
         (height,), _ = cbfgen.foot_height(leg, x, 0.0)
-        (i,) = [i for i, (f, l, _) in enumerate(slots) if f == "foot_height" and l == leg]
+        (i,) = [i for i, (f, at, _) in enumerate(slots) if f == "foot_height" and at == leg]
         np.testing.assert_array_equal(lie[i], height)
 
 
@@ -179,16 +179,18 @@ def test_updates_on_threads_match_sequential_ones():
     env = course.environment
 
     def run(safety):
-        return np.array([safety.update(x, u, env).u for x, u in zip(states, inputs)])
+        return np.array([safety.update(x, u, env).u for x, u in zip(states, inputs, strict=False)])
 
     expected = run(cbfgen.EcbfFilter())
     results = {}
     shared = cbfgen.EcbfFilter()
     threads = [threading.Thread(target=lambda i=i: results.__setitem__(i, run(cbfgen.EcbfFilter())))
                for i in range(3)]
-    threads += [threading.Thread(target=lambda i=i: results.__setitem__(i, [shared.update(x, u, env).source
-                                                                           for x, u in zip(states, inputs)]))
-                for i in (3, 4)]
+
+    def shared_run(i):
+        results[i] = [shared.update(x, u, env).source for x, u in zip(states, inputs, strict=True)]
+
+    threads += [threading.Thread(target=shared_run, args=(i,)) for i in (3, 4)]
     for t in threads:
         t.start()
     for t in threads:

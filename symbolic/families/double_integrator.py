@@ -17,14 +17,12 @@ same path a moving obstacle's pose would take.
 
 from __future__ import annotations
 
-from typing import List
-
 import symengine as se
 
 from ..kernel import Kernel
 from ..lie import LieEngine
 from ..rust_emitter import RawRust
-from .rows import rust_str_array, row_kernel
+from .rows import row_kernel, rust_str_array
 
 STATE_NAMES = ("q", "qd")
 INPUT_NAMES = ("u",)
@@ -49,7 +47,7 @@ def sine_barrier() -> Kernel:
                       time_input=("t", "time t [s]"))
 
 
-def kernels() -> List[Kernel | RawRust]:
+def kernels() -> list[Kernel | RawRust]:
     constants = RawRust(
         f"/// State layout of the double integrator.\n"
         f"pub const STATE_NAMES: [&str; {len(STATE_NAMES)}] = {rust_str_array(STATE_NAMES)};\n"

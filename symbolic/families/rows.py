@@ -9,14 +9,14 @@ listed in the kernel's ``*_INPUT_COLUMNS`` constant.
 
 from __future__ import annotations
 
-from typing import Callable, List, Optional, Sequence, Tuple
+from collections.abc import Callable, Sequence
 
 import symengine as se
 
 from ..kernel import Kernel
 from ..lie import LieEngine
 
-RowBuilder = Callable[[Kernel, LieEngine], List[Tuple[str, se.Expr]]]
+RowBuilder = Callable[[Kernel, LieEngine], list[tuple[str, se.Expr]]]
 
 
 def rust_str_array(items) -> str:
@@ -25,7 +25,7 @@ def rust_str_array(items) -> str:
 
 def row_kernel(name: str, doc: str, state_names: Sequence[str], x: Sequence[se.Symbol],
                f: Sequence[se.Expr], g: Sequence[Sequence[se.Expr]], build: RowBuilder,
-               time_input: Optional[Tuple[str, str]] = None) -> Kernel:
+               time_input: tuple[str, str] | None = None) -> Kernel:
     """``time_input = (name, doc)`` makes the rows time-varying: a scalar input t that the
     engine differentiates as a clock (t' = 1), so L_f^k h include the dh/dt terms."""
     k = Kernel(name, doc)

@@ -26,7 +26,7 @@ Formulation choices (they decide whether the barrier is safe and fast):
 
 from __future__ import annotations
 
-from typing import List, Sequence, Tuple
+from collections.abc import Sequence
 
 import symengine as se
 
@@ -52,7 +52,7 @@ def separating_axes(
     alpha: se.Expr,
     alpha_rot: se.Expr,
     let_=None,
-) -> List[Tuple[se.Expr, se.Expr]]:
+) -> list[tuple[se.Expr, se.Expr]]:
     """The 15 (y, overshoot bound) pairs in box A's frame.
 
     ``t`` is B's centre in A's frame, ``rot[i][j]`` = e_i . f_j (A axis i, B axis j).
@@ -66,7 +66,7 @@ def separating_axes(
     centre_over = sabs.over(alpha)
     extent_under = sabs.under(alpha_rot)
     penalty_scale = se.Add(*half_a) + se.Add(*half_b)
-    axes: List[Tuple[se.Expr, se.Expr]] = []
+    axes: list[tuple[se.Expr, se.Expr]] = []
 
     for i in range(3):  # face normals of A
         y = sabs(t[i], alpha) - half_a[i] - se.Add(*[half_b[j] * abs_rot[i][j] for j in range(3)])
@@ -96,7 +96,7 @@ def separating_axes(
     return axes
 
 
-def matrix(row_major: Sequence[se.Expr]) -> List[List[se.Expr]]:
+def matrix(row_major: Sequence[se.Expr]) -> list[list[se.Expr]]:
     """3x3 nested list from nine row-major entries."""
     return [[row_major[3 * i + j] for j in range(3)] for i in range(3)]
 
@@ -199,8 +199,8 @@ def margin_kernel(smax: SmoothMax, sabs: SmoothAbs) -> Kernel:
 VARIANTS = [(SMOOTH_MAX[m], SMOOTH_ABS[a]) for m in ("lse", "boltzmann") for a in ("xtanh", "sqrt")]
 
 
-def kernels() -> List[Kernel]:
-    out: List[Kernel] = []
+def kernels() -> list[Kernel]:
+    out: list[Kernel] = []
     for smax, sabs in VARIANTS:
         out += [value_kernel(smax, sabs), derivatives_kernel(smax, sabs), margin_kernel(smax, sabs)]
     return out

@@ -11,7 +11,6 @@ foothold edges, stability bounds) is a kernel argument.
 from __future__ import annotations
 
 import math
-from typing import List
 
 import symengine as se
 
@@ -23,16 +22,17 @@ from ..smoothing import LSE, XTANH
 from .rows import RowBuilder, row_kernel, rust_str_array
 from .ssat import AXES, ROT, certified_margin, matrix, relative_pose, separating_axes
 
+
 def _row_kernel(system: Tachyon3, name: str, doc: str, build: RowBuilder) -> Kernel:
     return row_kernel(name, doc, system.state_names, system.x, system.f, system.g, build)
 
 
-def _vec_input(k: Kernel, name: str, doc: str) -> List[se.Symbol]:
+def _vec_input(k: Kernel, name: str, doc: str) -> list[se.Symbol]:
     return k.array_input(name, AXES, doc)
 
 
-def _toe_world_lets(system: Tachyon3, engine: LieEngine, leg: Leg) -> List[se.Symbol]:
-    return [engine.let_(f"toe_{c}", e) for c, e in zip(AXES, system.toe_world(leg))]
+def _toe_world_lets(system: Tachyon3, engine: LieEngine, leg: Leg) -> list[se.Symbol]:
+    return [engine.let_(f"toe_{c}", e) for c, e in zip(AXES, system.toe_world(leg), strict=False)]
 
 
 # -------------------------------------------------------------------- families
@@ -67,7 +67,7 @@ def body_edge_ssat(system: Tachyon3) -> Kernel:
 
     def build(k: Kernel, eng: LieEngine):
         center, ra, half = _edge_inputs(k)
-        pos = [eng.let_(f"body_{c}", e) for c, e in zip(AXES, system.body_position_world())]
+        pos = [eng.let_(f"body_{c}", e) for c, e in zip(AXES, system.body_position_world(), strict=False)]
         rb = system.body_rotation_world()
         rb = [[eng.let_(f"body_r{i}{j}", rb[i][j]) for j in range(3)] for i in range(3)]
         # Box A = the edge cuboid, box B = the body: the SSAT formulation in A's frame.
@@ -140,7 +140,7 @@ def stability(system: Tachyon3, leg: Leg) -> Kernel:
 
 
 # -------------------------------------------------------------------- dynamics
-def dynamics(system: Tachyon3) -> List[Kernel]:
+def dynamics(system: Tachyon3) -> list[Kernel]:
     m = system.model
     f = Kernel("dynamics_f", "Drift f(x) of x' = f(x) + g(x) u (paper eq. 1-3).")
     f.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
@@ -155,26 +155,29 @@ def dynamics(system: Tachyon3) -> List[Kernel]:
         ("NU", "usize", str(len(system.input_names)), "Input dimension."),
         ("STATE_NAMES", f"[&str; {len(system.x)}]", rust_str_array(system.state_names), "State layout."),
         ("INPUT_NAMES", f"[&str; {len(system.input_names)}]", rust_str_array(system.input_names), "Input layout."),
-        ("LEG_NAMES", "[&str; 6]", rust_str_array(l.name for l in m.legs), "Legs, in the order of the toe blocks."),
+        ("LEG_NAMES", "[&str; 6]", rust_str_array(leg.name for leg in m.legs), "Legs, in the order of the toe blocks."),
         ("G_PATTERN", f"[(usize, usize); {len(pattern)}]", str(pattern), "(row, column) of each non-zero of g."),
         ("BODY_HALF_EXTENTS", "[f64; 3]", str(list(m.body_half_extents)), "Body box half extents [m]."),
-        ("NOMINAL_CLEARANCE", "f64", repr(m.nominal_clearance), "Body underside above ground in the standard posture [m]."),
+        ("NOMINAL_CLEARANCE", "f64", repr(m.nominal_clearance),
+         "Body underside above ground in the standard posture [m]."),
         ("TOE_RADIUS", "f64", repr(m.toe_radius), "Toe sphere radius [m]."),
         ("KNEE_RANGE", "[f64; 2]", str([m.knee_min, m.knee_max]), "Knee length limits [m]."),
-        ("HIP_POSITIONS", "[[f64; 3]; 6]", str([list(l.hip) for l in m.legs]), "Hip mounts, body frame [m]."),
-        ("HIP_RANGES", "[[f64; 2]; 6]", str([[l.hip_min, l.hip_max] for l in m.legs]), "Hip angle limits [rad], positive outward."),
-        ("HIP_OUTWARD", "[f64; 6]", str([l.outward for l in m.legs]), "+1 where outward is forward, -1 backward."),
+        ("HIP_POSITIONS", "[[f64; 3]; 6]", str([list(leg.hip) for leg in m.legs]), "Hip mounts, body frame [m]."),
+        ("HIP_RANGES", "[[f64; 2]; 6]", str([[leg.hip_min, leg.hip_max] for leg in m.legs]),
+         "Hip angle limits [rad], positive outward."),
+        ("HIP_OUTWARD", "[f64; 6]", str([leg.outward for leg in m.legs]), "+1 where outward is forward, -1 backward."),
         ("SSAT_ALPHA", "[f64; 2]", str([m.ssat_alpha, m.ssat_alpha_rot]), "Body SSAT sharpness (alpha, alpha_rot)."),
         ("SUPERELLIPSOID_N", "u32", str(m.superellipsoid_n), "Toe-edge superellipsoid exponent is 2N."),
         ("ECBF_POLES", "[f64; 2]", str(list(m.ecbf_poles)), "Default ECBF poles [1/s]."),
-        ("INPUT_LIMITS", f"[f64; {len(m.input_limits)}]", str(list(m.input_limits)), "Input magnitude limits, INPUT_NAMES order."),
+        ("INPUT_LIMITS", f"[f64; {len(m.input_limits)}]", str(list(m.input_limits)),
+         "Input magnitude limits, INPUT_NAMES order."),
     ]
     for name, ty, value, doc in consts:
         f.constant(name, ty, value, doc)
     return [f, g]
 
 
-def _leg_table(family: str, per_leg: List[Kernel]) -> RawRust:
+def _leg_table(family: str, per_leg: list[Kernel]) -> RawRust:
     """``FAMILY: [fn; 6]`` and ``FAMILY_INPUT_COLUMNS: [[usize; n]; 6]`` in leg order, so the
     runtime can treat the six legs' kernels of one family alike."""
     signatures = {tuple((i.name, len(i.symbols), i.is_array) for i in k.inputs) for k in per_leg}
@@ -207,9 +210,9 @@ def world_kinematics(system: Tachyon3) -> Kernel:
     return k
 
 
-def kernels(system: Tachyon3 | None = None) -> List[Kernel | RawRust]:
+def kernels(system: Tachyon3 | None = None) -> list[Kernel | RawRust]:
     system = system or load_tachyon3()
-    out: List[Kernel | RawRust] = dynamics(system)
+    out: list[Kernel | RawRust] = dynamics(system)
     out.append(world_kinematics(system))
     out.append(body_edge_ssat(system))
     for family in (joint_limits, toe_edge, foothold, foot_height, stability):

@@ -13,21 +13,21 @@ emitter's own CSE pass, its Rust text and the compiler are what this checks.
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from decimal import Decimal
-from typing import Dict, List, Mapping, Sequence, Union
 
 import numpy as np
 import symengine as se
 
 from symbolic.kernel import Kernel, Let
 
-Values = Mapping[str, Union[float, Sequence[float], np.ndarray]]
+Values = Mapping[str, float | Sequence[float] | np.ndarray]
 
 
 class SymEngineReference:
     def __init__(self, kernel: Kernel):
         self.kernel = kernel
-        known: List[se.Symbol] = [s for inp in kernel.inputs for s in inp.symbols]
+        known: list[se.Symbol] = [s for inp in kernel.inputs for s in inp.symbols]
         self._steps = []
         for d in kernel.definitions:
             exprs = [d.expr] if isinstance(d, Let) else list(d.exprs)
@@ -37,8 +37,8 @@ class SymEngineReference:
         self._splits = np.cumsum([len(out.exprs) for out in kernel.outputs])[:-1]
         self._cse = None
 
-    def flat_inputs(self, values: Values) -> List[float]:
-        flat: List[float] = []
+    def flat_inputs(self, values: Values) -> list[float]:
+        flat: list[float] = []
         for inp in self.kernel.inputs:
             v = np.asarray(values[inp.name], dtype=float).ravel()
             if v.size != len(inp.symbols):
@@ -46,16 +46,16 @@ class SymEngineReference:
             flat.extend(v.tolist())
         return flat
 
-    def __call__(self, values: Values) -> Dict[str, np.ndarray]:
+    def __call__(self, values: Values) -> dict[str, np.ndarray]:
         """Output name -> its values (flat, in the kernel's output layout)."""
         v = self.flat_inputs(values)
         for is_let, f in self._steps:
             r = np.asarray(f(v), dtype=float).ravel()
             v.append(float(r[0]) if is_let else float(r.max()))
         flat = np.asarray(self._outputs(v), dtype=float).ravel()
-        return {out.name: part for out, part in zip(self.kernel.outputs, np.split(flat, self._splits))}
+        return {out.name: part for out, part in zip(self.kernel.outputs, np.split(flat, self._splits), strict=False)}
 
-    def high_precision(self, values: Values, bits: int = 256) -> Dict[str, np.ndarray]:
+    def high_precision(self, values: Values, bits: int = 256) -> dict[str, np.ndarray]:
         """The same outputs computed in ``bits``-bit MPFR arithmetic from the exact double
         inputs (and the model's double constants, taken exactly): the truth that tells a
         well-conditioned value from a cancelling one. Slow; for a few samples."""
@@ -63,7 +63,7 @@ class SymEngineReference:
             self._cse = se.cse([e for out in self.kernel.outputs for e in out.exprs])
         exact = lambda v: se.RealMPFR(str(Decimal(float(v))), bits)  # noqa: E731
         symbols = [s for inp in self.kernel.inputs for s in inp.symbols]
-        subs = {s: exact(v) for s, v in zip(symbols, self.flat_inputs(values))}
+        subs = {s: exact(v) for s, v in zip(symbols, self.flat_inputs(values), strict=False)}
         for d in self.kernel.definitions:
             if isinstance(d, Let):
                 subs[d.symbol] = d.expr.xreplace(subs)
@@ -73,4 +73,4 @@ class SymEngineReference:
         for sym, expr in replacements:
             subs[sym] = expr.xreplace(subs)
         flat = np.array([float(e.xreplace(subs)) for e in reduced])
-        return {out.name: part for out, part in zip(self.kernel.outputs, np.split(flat, self._splits))}
+        return {out.name: part for out, part in zip(self.kernel.outputs, np.split(flat, self._splits), strict=False)}

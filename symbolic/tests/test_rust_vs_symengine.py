@@ -26,7 +26,7 @@ from __future__ import annotations
 import ast
 import os
 import zlib
-from typing import Callable, Dict, List, Tuple
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -49,12 +49,12 @@ WELL_CONDITIONED = 1e-12
 CANCELLING = 1e-10
 MAX_SECOND_LOOKS = 0.5
 
-Inputs = Dict[str, np.ndarray]
+Inputs = dict[str, np.ndarray]
 # inputs -> {output name: flat values in the kernel's output layout}
-RustCall = Callable[[Inputs], Dict[str, np.ndarray]]
+RustCall = Callable[[Inputs], dict[str, np.ndarray]]
 
 
-def all_kernels() -> Dict[str, Kernel]:
+def all_kernels() -> dict[str, Kernel]:
     """Every kernel the generator emits, by name."""
     out = {}
     for _, build in MODULES.values():
@@ -142,8 +142,8 @@ def family_inputs(family: str, leg: int, rng: np.random.Generator) -> Inputs:
 
 
 # ------------------------------------------------------------ the Rust side
-def family_rows(family: str, leg: int, columns: List[int]) -> RustCall:
-    def call(v: Inputs) -> Dict[str, np.ndarray]:
+def family_rows(family: str, leg: int, columns: list[int]) -> RustCall:
+    def call(v: Inputs) -> dict[str, np.ndarray]:
         if family == "body_edge_ssat":
             lie, lg = cbfgen.body_edge(v["x"], v["edge_center"], v["edge_rotation"], v["edge_half"])
         elif family == "joint_limits":
@@ -164,7 +164,7 @@ def family_rows(family: str, leg: int, columns: List[int]) -> RustCall:
 
 
 def ssat_call(kind: str, variant: str) -> RustCall:
-    def call(v: Inputs) -> Dict[str, np.ndarray]:
+    def call(v: Inputs) -> dict[str, np.ndarray]:
         s = (v["alpha"], v["alpha_rot"], variant)
         if kind == "margin":
             return {"margin": np.array([cbfgen.ssat_margin(v["half_a"], v["half_b"], *s)])}
@@ -177,7 +177,7 @@ def ssat_call(kind: str, variant: str) -> RustCall:
     return call
 
 
-def dynamics_g_call(v: Inputs) -> Dict[str, np.ndarray]:
+def dynamics_g_call(v: Inputs) -> dict[str, np.ndarray]:
     dense = cbfgen.dynamics_g(v["x"])
     pattern = constant("G_PATTERN")
     mask = np.zeros_like(dense, dtype=bool)
@@ -187,7 +187,7 @@ def dynamics_g_call(v: Inputs) -> Dict[str, np.ndarray]:
     return {"g": np.array([dense[r, c] for r, c in pattern])}
 
 
-def world_kinematics_call(v: Inputs) -> Dict[str, np.ndarray]:
+def world_kinematics_call(v: Inputs) -> dict[str, np.ndarray]:
     center, rotation, toes = cbfgen.world_kinematics(v["x"])
     return {"body_center": center, "body_rotation": rotation.ravel(), "toes": toes.ravel()}
 
@@ -197,12 +197,12 @@ def sine_barrier_inputs(rng: np.random.Generator) -> Inputs:
             "omega": rng.uniform(0.1, 5), "offset": rng.uniform(-1, 1)}
 
 
-def sine_barrier_call(v: Inputs) -> Dict[str, np.ndarray]:
+def sine_barrier_call(v: Inputs) -> dict[str, np.ndarray]:
     lie, lg = cbfgen.sine_barrier(v["x"], v["t"], v["amplitude"], v["omega"], v["offset"])
     return {"lie": np.asarray(lie), "lg_lf": np.array([lg])}
 
 
-def cases() -> Dict[str, Tuple[Callable[[np.random.Generator], Inputs], RustCall]]:
+def cases() -> dict[str, tuple[Callable[[np.random.Generator], Inputs], RustCall]]:
     """Kernel name -> (random inputs, the Rust call through the bindings)."""
     out = {}
     for smax, sabs in ssat_family.VARIANTS:
@@ -220,7 +220,7 @@ def cases() -> Dict[str, Tuple[Callable[[np.random.Generator], Inputs], RustCall
     for family in ("joint_limits", "toe_edge", "foothold", "foot_height", "stability"):
         for leg, leg_name in enumerate(constant("LEG_NAMES")):
             name = f"{family}_{leg_name.lower()}"
-            out[name] = (lambda rng, f=family, l=leg: family_inputs(f, l, rng),
+            out[name] = (lambda rng, f=family, at=leg: family_inputs(f, at, rng),
                          family_rows(family, leg, columns(name)))
     out["sine_barrier"] = (sine_barrier_inputs, sine_barrier_call)
     return out
@@ -242,7 +242,7 @@ def compare(name: str, ref: np.ndarray, got: np.ndarray, truth_of: Callable[[int
     assert len(suspects) <= MAX_SECOND_LOOKS * nonzero, (
         f"{name}: {len(suspects)} of {nonzero} values differ by more than {RELATIVE:g} relative")
     typical = np.sqrt(np.mean(ref ** 2, axis=0))
-    truths: Dict[int, np.ndarray] = {}
+    truths: dict[int, np.ndarray] = {}
     for i, j in suspects:
         if i not in truths:
             truths[i] = truth_of(i)
@@ -263,8 +263,8 @@ def test_rust_kernel_matches_symengine(name):
     reference = SymEngineReference(KERNELS[name])
     rng = np.random.default_rng(zlib.crc32(name.encode()))
     inputs = [draw(rng) for _ in range(SAMPLES)]
-    refs: Dict[str, List[np.ndarray]] = {}
-    gots: Dict[str, List[np.ndarray]] = {}
+    refs: dict[str, list[np.ndarray]] = {}
+    gots: dict[str, list[np.ndarray]] = {}
     for v in inputs:
         for store, values in ((refs, reference(v)), (gots, rust(v))):
             for out, vals in values.items():

@@ -37,7 +37,7 @@ def test_smooth_max_bounds_and_shift_invariance(smax):
     for _ in range(300):
         vals = rng.normal(size=15) * 10 ** rng.uniform(-3, 0)
         a = float(10 ** rng.uniform(0, 3))
-        subs = {**{y: float(v) for y, v in zip(ys, vals)}, alpha: a}
+        subs = {**{y: float(v) for y, v in zip(ys, vals, strict=False)}, alpha: a}
         at_max = float(expr.subs({**subs, shift: float(vals.max())}))
         at_other = float(expr.subs({**subs, shift: float(vals.max()) - 0.05 / a}))
         assert at_max == pytest.approx(at_other, rel=1e-12, abs=1e-15)
@@ -57,7 +57,7 @@ def test_every_derivative_with_respect_to_the_shift_vanishes(smax):
     first = se.diff(expr, shift)
     mixed = se.diff(first, ys[0])
     for _ in range(50):
-        subs = {**{y: float(v) for y, v in zip(ys, rng.normal(size=4))},
+        subs = {**{y: float(v) for y, v in zip(ys, rng.normal(size=4), strict=False)},
                 alpha: float(rng.uniform(1, 50)), shift: float(rng.normal())}
         assert abs(float(first.subs(subs))) < 1e-12
         assert abs(float(mixed.subs(subs))) < 1e-10

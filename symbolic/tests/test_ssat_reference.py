@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 
 from symbolic.families import ssat
-from symbolic.smoothing import SMOOTH_ABS, SMOOTH_MAX
 
 rng = np.random.default_rng(2)
 _u = np.linspace(1e-6, 10.0, 2_000_001)
@@ -26,9 +25,11 @@ def reference_axes(pa, ra, ha, pb, rb, hb, sabs_name, alpha, alpha_rot):
     """(y_i) for the 15 axes, world frame. Projections that are exactly 0 or 1 by
     construction (an axis on its own box's faces) are taken exactly, as in the kernel."""
     if sabs_name == "xtanh":
-        sabs = lambda v, a: v * np.tanh(a * v)
+        def sabs(v, a):
+            return v * np.tanh(a * v)
     else:
-        sabs = lambda v, a: np.sqrt(v * v + 1.0 / (a * a))
+        def sabs(v, a):
+            return np.sqrt(v * v + 1.0 / (a * a))
     d = pb - pa
     ys = []
     for i in range(3):

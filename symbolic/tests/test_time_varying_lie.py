@@ -44,11 +44,11 @@ def expand(kernel, e):
 
 
 def augmented_lf(e):
-    return se.diff(e, T) + se.Add(*[se.diff(e, x) * f for x, f in zip(X, F)])
+    return se.diff(e, T) + se.Add(*[se.diff(e, x) * f for x, f in zip(X, F, strict=False)])
 
 
 def lg(e):
-    return se.Add(*[se.diff(e, x) * g[0] for x, g in zip(X, G)])
+    return se.Add(*[se.diff(e, x) * g[0] for x, g in zip(X, G, strict=False)])
 
 
 @pytest.fixture(scope="module")
@@ -62,7 +62,7 @@ def points(n=50):
 
 
 def value(e, point):
-    return float(e.xreplace(dict(zip(X + [T], [se.RealDouble(v) for v in point]))))
+    return float(e.xreplace(dict(zip(X + [T], [se.RealDouble(v) for v in point], strict=False))))
 
 
 def test_degrees_are_found_with_time(probe):
