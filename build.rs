@@ -105,9 +105,7 @@ fn stale_files(generated: &Path, digest: &str) -> Vec<String> {
     let want = format!("{HASH_PREFIX}{digest}");
     generated_files(generated)
         .into_iter()
-        .filter(|f| {
-            fs::read_to_string(f).map_or(true, |text| !text.lines().take(3).any(|l| l == want))
-        })
+        .filter(|f| fs::read_to_string(f).map_or(true, |text| !text.lines().take(3).any(|l| l == want)))
         .map(|f| f.display().to_string())
         .collect()
 }

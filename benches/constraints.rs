@@ -15,7 +15,11 @@ fn staircase() -> Vec<EdgeCuboid> {
     (0..20)
         .map(|i| {
             let c = Vector3::new(0.8 + 0.35 * i as f64, 0.0, 0.165 * (i + 1) as f64 - 0.025);
-            let b = OrientedBox::new(c, Rotation3::from_euler_angles(0.0, 0.0, 0.02 * i as f64), Vector3::new(0.025, 1.0, 0.025));
+            let b = OrientedBox::new(
+                c,
+                Rotation3::from_euler_angles(0.0, 0.0, 0.02 * i as f64),
+                Vector3::new(0.025, 1.0, 0.025),
+            );
             EdgeCuboid::from_box(&b.expect("valid edge"))
         })
         .collect()

@@ -42,17 +42,18 @@ fn table_one(c: &mut Criterion) {
         });
         group.bench_function(BenchmarkId::new("evaluate+grad+hess", name), |bench| {
             bench.iter(|| {
-                pairs.iter().map(|(a, b)| ssat::ssat_with_derivatives(black_box(a), black_box(b), &p).hessian[(0, 0)]).sum::<f64>()
+                pairs
+                    .iter()
+                    .map(|(a, b)| ssat::ssat_with_derivatives(black_box(a), black_box(b), &p).hessian[(0, 0)])
+                    .sum::<f64>()
             })
         });
     }
     group.bench_function("exact_sat", |bench| {
         bench.iter(|| pairs.iter().map(|(a, b)| sat::separation(black_box(a), black_box(b))).sum::<f64>())
     });
-    let parry: Vec<_> = pairs
-        .iter()
-        .map(|(a, b)| (parry_pose(a).inv_mul(&parry_pose(b)), parry_cuboid(a), parry_cuboid(b)))
-        .collect();
+    let parry: Vec<_> =
+        pairs.iter().map(|(a, b)| (parry_pose(a).inv_mul(&parry_pose(b)), parry_cuboid(a), parry_cuboid(b))).collect();
     group.bench_function("parry3d_gjk_distance", |bench| {
         bench.iter(|| {
             parry.iter().map(|(pos12, ca, cb)| distance_support_map_support_map(black_box(pos12), ca, cb)).sum::<f64>()

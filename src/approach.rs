@@ -97,4 +97,3 @@ impl Approach {
         self.env.floor_z = self.stairs.floors_under(&toes);
     }
 }
-

@@ -64,8 +64,14 @@ pub enum Family {
 
 impl Family {
     /// Every family, in [`Family::index`] order.
-    pub const ALL: [Family; 6] =
-        [Family::JointLimits, Family::FootHeight, Family::Stability, Family::BodyEdge, Family::ToeEdge, Family::Foothold];
+    pub const ALL: [Family; 6] = [
+        Family::JointLimits,
+        Family::FootHeight,
+        Family::Stability,
+        Family::BodyEdge,
+        Family::ToeEdge,
+        Family::Foothold,
+    ];
 
     /// Position in [`Family::ALL`], for per-family tables.
     pub const fn index(self) -> usize {
@@ -143,7 +149,11 @@ impl Capacity {
         }
         for &n in &self.foothold_edges {
             if n > Self::MAX_FOOTHOLD_EDGES {
-                return Err(CbfError::TooLarge { what: "foothold edge capacity", value: n, max: Self::MAX_FOOTHOLD_EDGES });
+                return Err(CbfError::TooLarge {
+                    what: "foothold edge capacity",
+                    value: n,
+                    max: Self::MAX_FOOTHOLD_EDGES,
+                });
             }
         }
         Ok(())

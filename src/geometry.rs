@@ -77,11 +77,7 @@ impl OrientedBox {
     /// assert_eq!(body.half_extents().x, 0.45);
     /// # Ok::<(), cbfgen::CbfError>(())
     /// ```
-    pub fn new(
-        center: Vector3<f64>,
-        rotation: Rotation3<f64>,
-        half_extents: Vector3<f64>,
-    ) -> Result<Self, CbfError> {
+    pub fn new(center: Vector3<f64>, rotation: Rotation3<f64>, half_extents: Vector3<f64>) -> Result<Self, CbfError> {
         for &c in center.iter() {
             within("box centre coordinate", c, -MAX_COORDINATE, MAX_COORDINATE, COORDINATE_RANGE)?;
         }

@@ -107,17 +107,30 @@ pub fn run(cycles: usize, speed: f64, start_gap: f64, settings: FilterSettings) 
 impl fmt::Display for LatencyReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let us = |d: Duration| d.as_secs_f64() * 1e6;
-        writeln!(f, "{} consecutive updates of {} rows at 1 kHz (drive into a 5-step staircase)", self.cycles, self.rows)?;
+        writeln!(
+            f,
+            "{} consecutive updates of {} rows at 1 kHz (drive into a 5-step staircase)",
+            self.cycles, self.rows
+        )?;
         writeln!(f, "{:<22}{:>10}{:>10}{:>10}", "time per update [µs]", "median", "p99", "max")?;
-        for (name, p) in [("whole update", self.total), ("row evaluation", self.eval), ("QP update + solve", self.solve)]
+        for (name, p) in
+            [("whole update", self.total), ("row evaluation", self.eval), ("QP update + solve", self.solve)]
         {
             writeln!(f, "{:<22}{:>10.1}{:>10.1}{:>10.1}", name, us(p.median), us(p.p99), us(p.max))?;
         }
         let [im, i99, imax] = self.iterations;
         writeln!(f, "ADMM iterations: median {im}, p99 {i99}, max {imax}")?;
         writeln!(f, "active rows: {} to {}", self.active_rows[0], self.active_rows[1])?;
-        writeln!(f, "polished (KKT-verified) cycles: {}; cycles not solved to tolerance: {}", self.polished, self.fallbacks)?;
-        write!(f, "travel {:.3} m; the robot's front stopped {:.3} m before the first riser", self.travel, self.final_gap)
+        writeln!(
+            f,
+            "polished (KKT-verified) cycles: {}; cycles not solved to tolerance: {}",
+            self.polished, self.fallbacks
+        )?;
+        write!(
+            f,
+            "travel {:.3} m; the robot's front stopped {:.3} m before the first riser",
+            self.travel, self.final_gap
+        )
     }
 }
 

@@ -3,9 +3,9 @@
 use cbfgen::catalog::{Capacity, Catalog, Environment, Family};
 use cbfgen::filter::FilterSettings;
 use cbfgen::lip;
-use cbfgen::sim::{self, output, Scenario, SimConfig, SimResult};
 use cbfgen::model;
 use cbfgen::multilayer;
+use cbfgen::sim::{self, output, Scenario, SimConfig, SimResult};
 use cbfgen::ssat::{self, SmoothParams};
 use cbfgen::{sat, OrientedBox};
 use clap::{Parser, Subcommand};
@@ -197,23 +197,42 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             writeln!(stdout, "  certified margin m    {:.6} m", margin)?;
             // The certificate is h − m beyond a rounding guard (ssat::certified_clearance).
             let certified = ssat::certified_separated(&edge, &body, &params);
-            writeln!(stdout, "  h - m                 {:+.6} m  ({})", d.value - margin,
-                     if certified { "certified apart" } else { "not certified" })?;
+            writeln!(
+                stdout,
+                "  h - m                 {:+.6} m  ({})",
+                d.value - margin,
+                if certified { "certified apart" } else { "not certified" }
+            )?;
             writeln!(stdout, "  exact SAT separation  {:+.6} m", sat::separation(&edge, &body))?;
-            writeln!(stdout, "  dh/dp_body            [{:+.4}, {:+.4}, {:+.4}]", d.gradient.x, d.gradient.y, d.gradient.z)?;
+            writeln!(
+                stdout,
+                "  dh/dp_body            [{:+.4}, {:+.4}, {:+.4}]",
+                d.gradient.x, d.gradient.y, d.gradient.z
+            )?;
             Ok(())
         }
         Command::Rows => {
             let env = Environment::new(Capacity::PAPER_WORST_CASE)?;
             let mut catalog = Catalog::new(Capacity::PAPER_WORST_CASE)?;
             catalog.evaluate(&model::standard_posture(), &env)?;
-            writeln!(stdout, "joint-limit rows at the standard posture (body underside {} m up)", model::NOMINAL_CLEARANCE)?;
+            writeln!(
+                stdout,
+                "joint-limit rows at the standard posture (body underside {} m up)",
+                model::NOMINAL_CLEARANCE
+            )?;
             writeln!(stdout, "{:<4} {:<9} {:>12} {:>12} {:>12}", "leg", "row", "h", "L_f h", "L_f^2 h")?;
             let names = cbfgen::generated::tachyon3::JOINT_LIMITS_LF_ROW_NAMES;
             for (slot, row) in catalog.slots().iter().zip(catalog.rows()) {
                 if let (Family::JointLimits, Some(leg)) = (slot.family, slot.leg) {
-                    writeln!(stdout, "{:<4} {:<9} {:>12.6} {:>12.6} {:>12.6}", model::LEG_NAMES[leg], names[slot.instance],
-                             row.lie[0], row.lie[1], row.lie[2])?;
+                    writeln!(
+                        stdout,
+                        "{:<4} {:<9} {:>12.6} {:>12.6} {:>12.6}",
+                        model::LEG_NAMES[leg],
+                        names[slot.instance],
+                        row.lie[0],
+                        row.lie[1],
+                        row.lie[2]
+                    )?;
                 }
             }
             Ok(())
@@ -235,7 +254,11 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 writeln!(stdout, "{}", run.summary)?;
             }
             let written = output::write_all(&out, &main, comparison.as_ref(), csv_every)?;
-            writeln!(stdout, "wrote {}", written.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "))?;
+            writeln!(
+                stdout,
+                "wrote {}",
+                written.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ")
+            )?;
             Ok(())
         }
         Command::Lip { out, steps } => {
@@ -243,29 +266,43 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             let result = lip::scenario::run(&scenario)?;
             writeln!(stdout, "{}", result.summary())?;
             let written = lip::figure::write_all(&out, &result)?;
-            writeln!(stdout, "wrote {}", written.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "))?;
+            writeln!(
+                stdout,
+                "wrote {}",
+                written.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ")
+            )?;
             Ok(())
         }
         Command::Multilayer { out } => {
             let config = multilayer::ScenarioConfig::default();
             let results = multilayer::scenario::run_all(&config)?;
             let [a, omega, c] = config.barrier.parameters();
-            writeln!(stdout, "double integrator above {a} sin({omega} t) + ({c}) m, from q = {} m at rest, {} s", config.x0[0], config.duration)?;
+            writeln!(
+                stdout,
+                "double integrator above {a} sin({omega} t) + ({c}) m, from q = {} m at rest, {} s",
+                config.x0[0], config.duration
+            )?;
             write!(stdout, "{}", multilayer::scenario::table(&results))?;
             let written = multilayer::scenario::write_figures(&out, &config, &results)?;
-            writeln!(stdout, "wrote {}", written.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "))?;
+            writeln!(
+                stdout,
+                "wrote {}",
+                written.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ")
+            )?;
             Ok(())
         }
         Command::Generate => {
             let root = env!("CARGO_MANIFEST_DIR");
             let python = std::env::var("CBFGEN_PYTHON").unwrap_or_else(|_| {
                 let venv = format!("{root}/.venv/bin/python");
-                if std::path::Path::new(&venv).is_file() { venv } else { "python3".into() }
+                if std::path::Path::new(&venv).is_file() {
+                    venv
+                } else {
+                    "python3".into()
+                }
             });
-            let status = std::process::Command::new(&python)
-                .args(["-m", "symbolic.generate"])
-                .current_dir(root)
-                .status()?;
+            let status =
+                std::process::Command::new(&python).args(["-m", "symbolic.generate"]).current_dir(root).status()?;
             if !status.success() {
                 return Err(format!("`{python} -m symbolic.generate` failed; run `scripts/cbf setup` first").into());
             }

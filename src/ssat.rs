@@ -209,12 +209,8 @@ pub fn ssat(a: &OrientedBox, b: &OrientedBox, params: &SmoothParams) -> f64 {
     match (params.max, params.abs) {
         (SmoothMax::Lse, SmoothAbs::XTanh) => gen::ssat_lse_xtanh(&pa, &ra, &ha, &pb, &rb, &hb, al, ar),
         (SmoothMax::Lse, SmoothAbs::Sqrt) => gen::ssat_lse_sqrt(&pa, &ra, &ha, &pb, &rb, &hb, al, ar),
-        (SmoothMax::Boltzmann, SmoothAbs::XTanh) => {
-            gen::ssat_boltzmann_xtanh(&pa, &ra, &ha, &pb, &rb, &hb, al, ar)
-        }
-        (SmoothMax::Boltzmann, SmoothAbs::Sqrt) => {
-            gen::ssat_boltzmann_sqrt(&pa, &ra, &ha, &pb, &rb, &hb, al, ar)
-        }
+        (SmoothMax::Boltzmann, SmoothAbs::XTanh) => gen::ssat_boltzmann_xtanh(&pa, &ra, &ha, &pb, &rb, &hb, al, ar),
+        (SmoothMax::Boltzmann, SmoothAbs::Sqrt) => gen::ssat_boltzmann_sqrt(&pa, &ra, &ha, &pb, &rb, &hb, al, ar),
     }
 }
 
@@ -224,9 +220,7 @@ pub fn ssat_with_derivatives(a: &OrientedBox, b: &OrientedBox, params: &SmoothPa
     let ((pa, ra, ha), (pb, rb, hb)) = (a.kernel_args(), b.kernel_args());
     let (al, ar) = (params.alpha, params.alpha_rot);
     let (value, g, h) = match (params.max, params.abs) {
-        (SmoothMax::Lse, SmoothAbs::XTanh) => {
-            gen::ssat_lse_xtanh_derivatives(&pa, &ra, &ha, &pb, &rb, &hb, al, ar)
-        }
+        (SmoothMax::Lse, SmoothAbs::XTanh) => gen::ssat_lse_xtanh_derivatives(&pa, &ra, &ha, &pb, &rb, &hb, al, ar),
         (SmoothMax::Lse, SmoothAbs::Sqrt) => gen::ssat_lse_sqrt_derivatives(&pa, &ra, &ha, &pb, &rb, &hb, al, ar),
         (SmoothMax::Boltzmann, SmoothAbs::XTanh) => {
             gen::ssat_boltzmann_xtanh_derivatives(&pa, &ra, &ha, &pb, &rb, &hb, al, ar)
@@ -235,11 +229,7 @@ pub fn ssat_with_derivatives(a: &OrientedBox, b: &OrientedBox, params: &SmoothPa
             gen::ssat_boltzmann_sqrt_derivatives(&pa, &ra, &ha, &pb, &rb, &hb, al, ar)
         }
     };
-    SsatDerivatives {
-        value,
-        gradient: Vector3::from(g),
-        hessian: Matrix3::from_fn(|i, j| h[i][j]),
-    }
+    SsatDerivatives { value, gradient: Vector3::from(g), hessian: Matrix3::from_fn(|i, j| h[i][j]) }
 }
 
 /// The certified margin `m` of [`ssat`] for these two boxes' sizes: `ssat − m ≥ 0` in

@@ -117,7 +117,10 @@ pub fn worst_case_environment(
                 let a = std::f64::consts::TAU * k as f64 / n as f64;
                 // Inward normal −(cos a, sin a): n · (p − c) + r ≥ 0.
                 let normal = [-a.cos(), -a.sin()];
-                HalfPlane::new(normal, foothold_radius - normal[0] * foothold_center[0] - normal[1] * foothold_center[1])
+                HalfPlane::new(
+                    normal,
+                    foothold_radius - normal[0] * foothold_center[0] - normal[1] * foothold_center[1],
+                )
             })
             .collect::<Result<Vec<_>, _>>()?;
         env.set_foothold(leg, &planes)?;

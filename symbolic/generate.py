@@ -8,6 +8,8 @@ whether generation must run again.
 from __future__ import annotations
 
 import argparse
+import shutil
+import subprocess
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -37,6 +39,21 @@ def _header(digest: str) -> str:
     )
 
 
+def rustfmt(text: str, repo_root: Path = REPO_ROOT) -> str:
+    """``text`` formatted by rustfmt with the repository's rustfmt.toml, so generated code
+    passes the same ``cargo fmt --check`` as the hand-written code. rustfmt ships with
+    every rustup toolchain; its absence stops generation with the fix named."""
+    exe = shutil.which("rustfmt")
+    if exe is None:
+        raise SystemExit("symbolic.generate: rustfmt not found on PATH; install it with "
+                         "'rustup component add rustfmt'")
+    done = subprocess.run([exe, "--edition", "2021", "--config-path", str(repo_root / "rustfmt.toml")],
+                          input=text, capture_output=True, text=True, check=False)
+    if done.returncode != 0:
+        raise SystemExit(f"symbolic.generate: rustfmt rejected the generated code:\n{done.stderr}")
+    return done.stdout
+
+
 def render(repo_root: Path = REPO_ROOT) -> dict[str, str]:
     """File name -> contents for the whole of generated/."""
     digest = inputs_hash(repo_root)
@@ -48,9 +65,9 @@ def render(repo_root: Path = REPO_ROOT) -> dict[str, str]:
         module_doc = "".join(f"//! {rustdoc_text(line)}".rstrip() + "\n" for line in doc.strip().splitlines())
         lint = ("#![allow(clippy::all, clippy::pedantic, unused_parens, unused_variables)]\n"
                 "#![allow(clippy::excessive_precision, clippy::too_many_arguments)]\n")
-        files[f"{name}.rs"] = _header(digest) + module_doc + lint + "\n" + body
+        files[f"{name}.rs"] = rustfmt(_header(digest) + module_doc + lint + "\n" + body, repo_root)
         mod_lines.append(f"pub mod {name};\n")
-    files["mod.rs"] = "".join(mod_lines)
+    files["mod.rs"] = rustfmt("".join(mod_lines), repo_root)
     return files
 
 

@@ -65,8 +65,10 @@ fn random_edge(r: &mut impl Rng) -> ([f64; 3], [f64; 9], [f64; 3]) {
 fn kernels_with_random_params(r: &mut impl Rng) -> Vec<(String, RowFn)> {
     let mut out: Vec<(String, RowFn)> = Vec::new();
     let (ca, ra, ha) = random_edge(r);
-    out.push(("body_edge_ssat".into(),
-              Box::new(move |x| rows_of(gen::body_edge_ssat(x, &ca, &ra, &ha), &gen::BODY_EDGE_SSAT_INPUT_COLUMNS))));
+    out.push((
+        "body_edge_ssat".into(),
+        Box::new(move |x| rows_of(gen::body_edge_ssat(x, &ca, &ra, &ha), &gen::BODY_EDGE_SSAT_INPUT_COLUMNS)),
+    ));
     let normal = {
         let a: f64 = r.random_range(-3.2..3.2);
         [a.cos(), a.sin()]
@@ -76,16 +78,26 @@ fn kernels_with_random_params(r: &mut impl Rng) -> Vec<(String, RowFn)> {
     let (sa, sb) = (if r.random_bool(0.5) { 1.0 } else { -1.0 }, r.random_range(-0.5..0.5));
     for leg in 0..6 {
         let name = gen::LEG_NAMES[leg];
-        out.push((format!("joint_limits[{name}]"),
-                  Box::new(move |x| rows_of(gen::JOINT_LIMITS[leg](x), &gen::JOINT_LIMITS_INPUT_COLUMNS[leg]))));
-        out.push((format!("toe_edge[{name}]"),
-                  Box::new(move |x| rows_of(gen::TOE_EDGE[leg](x, &ca, &ra, &ha), &gen::TOE_EDGE_INPUT_COLUMNS[leg]))));
-        out.push((format!("foothold[{name}]"),
-                  Box::new(move |x| rows_of(gen::FOOTHOLD[leg](x, &normal, offset), &gen::FOOTHOLD_INPUT_COLUMNS[leg]))));
-        out.push((format!("foot_height[{name}]"),
-                  Box::new(move |x| rows_of(gen::FOOT_HEIGHT[leg](x, floor), &gen::FOOT_HEIGHT_INPUT_COLUMNS[leg]))));
-        out.push((format!("stability[{name}]"),
-                  Box::new(move |x| rows_of(gen::STABILITY[leg](x, sa, sb), &gen::STABILITY_INPUT_COLUMNS[leg]))));
+        out.push((
+            format!("joint_limits[{name}]"),
+            Box::new(move |x| rows_of(gen::JOINT_LIMITS[leg](x), &gen::JOINT_LIMITS_INPUT_COLUMNS[leg])),
+        ));
+        out.push((
+            format!("toe_edge[{name}]"),
+            Box::new(move |x| rows_of(gen::TOE_EDGE[leg](x, &ca, &ra, &ha), &gen::TOE_EDGE_INPUT_COLUMNS[leg])),
+        ));
+        out.push((
+            format!("foothold[{name}]"),
+            Box::new(move |x| rows_of(gen::FOOTHOLD[leg](x, &normal, offset), &gen::FOOTHOLD_INPUT_COLUMNS[leg])),
+        ));
+        out.push((
+            format!("foot_height[{name}]"),
+            Box::new(move |x| rows_of(gen::FOOT_HEIGHT[leg](x, floor), &gen::FOOT_HEIGHT_INPUT_COLUMNS[leg])),
+        ));
+        out.push((
+            format!("stability[{name}]"),
+            Box::new(move |x| rows_of(gen::STABILITY[leg](x, sa, sb), &gen::STABILITY_INPUT_COLUMNS[leg])),
+        ));
     }
     out
 }
@@ -164,12 +176,18 @@ fn lie_derivatives_match_finite_differences_along_f_and_g() {
             ("stability", &gen::STABILITY_INPUT_COLUMNS[leg][..]),
         ] {
             for &u in cols {
-                assert!(nonzero_seen.contains_key(&(format!("{family}[{n}]"), u)), "{family}[{n}] column {u} never non-zero");
+                assert!(
+                    nonzero_seen.contains_key(&(format!("{family}[{n}]"), u)),
+                    "{family}[{n}] column {u} never non-zero"
+                );
             }
         }
     }
     for &u in &gen::BODY_EDGE_SSAT_INPUT_COLUMNS {
-        assert!(nonzero_seen.contains_key(&("body_edge_ssat".to_string(), u)), "body_edge_ssat column {u} never non-zero");
+        assert!(
+            nonzero_seen.contains_key(&("body_edge_ssat".to_string(), u)),
+            "body_edge_ssat column {u} never non-zero"
+        );
     }
 }
 
@@ -324,7 +342,11 @@ fn world_kinematics_matches_an_independent_pose_and_the_body_row() {
             }
         }
         for (leg, toe) in toes.iter().enumerate() {
-            let rel = nalgebra::Vector3::new(x[TOE_BLOCK + 4 * leg], model::HIP_POSITIONS[leg][1], x[TOE_BLOCK + 4 * leg + 1]);
+            let rel = nalgebra::Vector3::new(
+                x[TOE_BLOCK + 4 * leg],
+                model::HIP_POSITIONS[leg][1],
+                x[TOE_BLOCK + 4 * leg + 1],
+            );
             let want = p + rz * rel;
             assert!((0..3).all(|i| (toe[i] - want[i]).abs() < 1e-12), "toe {leg}");
         }
@@ -337,8 +359,9 @@ fn world_kinematics_matches_an_independent_pose_and_the_body_row() {
         .expect("valid edge");
         let rot = nalgebra::Matrix3::from_fn(|i, j| rotation[i][j]);
         let half = nalgebra::Vector3::from(model::BODY_HALF_EXTENTS);
-        let body = cbfgen::OrientedBox::new(nalgebra::Vector3::from(center), Rotation3::from_matrix_unchecked(rot), half)
-            .expect("valid body");
+        let body =
+            cbfgen::OrientedBox::new(nalgebra::Vector3::from(center), Rotation3::from_matrix_unchecked(rot), half)
+                .expect("valid body");
         let params = cbfgen::ssat::SmoothParams::default();
         let want_h = cbfgen::ssat::ssat(&edge, &body, &params) - cbfgen::ssat::certified_margin(&edge, &body, &params);
         let (lie, _) = gen::body_edge_ssat(&x, &ec, &er, &eh);

@@ -100,7 +100,12 @@ fn osqp_agrees_with_clarabel_and_satisfies_kkt_on_scenario_and_random_instances(
 /// tests the formulation, not the stopping rule.
 fn single_row_qp(columns: &[usize], slack_weight: f64, weights: &[f64; NU], limits: f64) -> EcbfQp {
     let spec = RowSpec { columns, gains: [6.0, 5.0], slack_weight };
-    let tight = SolverSettings { eps_abs: 1e-10, eps_rel: 1e-10, max_iter: SolverSettings::MAX_ITERATIONS, ..SolverSettings::default() };
+    let tight = SolverSettings {
+        eps_abs: 1e-10,
+        eps_rel: 1e-10,
+        max_iter: SolverSettings::MAX_ITERATIONS,
+        ..SolverSettings::default()
+    };
     EcbfQp::new(&[spec], weights, &[-limits; NU], &[limits; NU], tight).expect("qp")
 }
 
@@ -151,7 +156,8 @@ fn a_nominal_input_that_satisfies_every_row_passes_unchanged() {
         // Small accelerations, toes lifting (they stand on the floor, h = 0).
         let u_ref: Input = std::array::from_fn(|j| {
             let lifting = j >= 5 && (j - 5) % 2 == 1;
-            0.1 * model::INPUT_LIMITS[j] * if lifting { rng.random_range(0.2..1.0) } else { rng.random_range(-1.0..1.0) }
+            0.1 * model::INPUT_LIMITS[j]
+                * if lifting { rng.random_range(0.2..1.0) } else { rng.random_range(-1.0..1.0) }
         });
         let mut out = *filter.update(&drive.x, &u_ref, &drive.env).expect("finite");
         for _ in 0..5 {

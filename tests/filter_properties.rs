@@ -50,8 +50,10 @@ fn family_params() -> impl Strategy<Value = FamilyParams> {
     let activation = prop_oneof![Just(f64::INFINITY), Just(f64::NEG_INFINITY), -1.0..20.0];
     let anywhere = (log_range(p_lo, p_hi), log_range(p_lo, p_hi), log_range(w_lo, w_hi));
     let near_defaults = (log_range(1.0, 100.0), log_range(1.0, 100.0), log_range(1e2, 1e6));
-    (prop_oneof![anywhere, near_defaults], activation).prop_map(|((p1, p2, slack_weight), activation)| {
-        FamilyParams { poles: [p1, p2], slack_weight, activation }
+    (prop_oneof![anywhere, near_defaults], activation).prop_map(|((p1, p2, slack_weight), activation)| FamilyParams {
+        poles: [p1, p2],
+        slack_weight,
+        activation,
     })
 }
 
@@ -114,18 +116,17 @@ fn input_box() -> impl Strategy<Value = (Input, Input)> {
 
 fn settings() -> impl Strategy<Value = FilterSettings> {
     let r = domain::MAX_WEIGHT_RATIO;
-    let weights = prop_oneof![
-        prop::array::uniform17(log_range(1.0 / r, r)),
-        prop::array::uniform17(log_range(0.3, 3.0)),
-    ];
-    (prop::array::uniform6(family_params()), weights, input_box(), solver_settings())
-        .prop_map(|(families, input_weights, (input_min, input_max), solver)| FilterSettings {
+    let weights =
+        prop_oneof![prop::array::uniform17(log_range(1.0 / r, r)), prop::array::uniform17(log_range(0.3, 3.0)),];
+    (prop::array::uniform6(family_params()), weights, input_box(), solver_settings()).prop_map(
+        |(families, input_weights, (input_min, input_max), solver)| FilterSettings {
             families,
             input_weights,
             input_min,
             input_max,
             solver,
-        })
+        },
+    )
 }
 
 fn capacity() -> impl Strategy<Value = Capacity> {
@@ -149,13 +150,9 @@ fn edge() -> impl Strategy<Value = Option<EdgeCuboid>> {
         prop::array::uniform3(log_range(1e-3, 2.0)),
     )
         .prop_map(|((x, y, z), (roll, pitch, yaw), half)| {
-            OrientedBox::new(
-                Vector3::new(x, y, z),
-                Rotation3::from_euler_angles(roll, pitch, yaw),
-                Vector3::from(half),
-            )
-            .ok()
-            .map(|b| EdgeCuboid::from_box(&b))
+            OrientedBox::new(Vector3::new(x, y, z), Rotation3::from_euler_angles(roll, pitch, yaw), Vector3::from(half))
+                .ok()
+                .map(|b| EdgeCuboid::from_box(&b))
         })
 }
 
@@ -178,7 +175,13 @@ fn env_draw() -> impl Strategy<Value = EnvDraw> {
             .prop_map(|v| v.into_iter().map(|(a, b)| ([a.cos(), a.sin()], b)).collect()),
         prop::collection::vec((sometimes_extreme(-2.0..2.0), sometimes_extreme(-1.0..1.0)), 0..12),
     )
-        .prop_map(|(edges, floor_z, swing, footholds, stability)| EnvDraw { edges, floor_z, swing, footholds, stability })
+        .prop_map(|(edges, floor_z, swing, footholds, stability)| EnvDraw {
+            edges,
+            floor_z,
+            swing,
+            footholds,
+            stability,
+        })
 }
 
 fn environment(capacity: Capacity, draw: &EnvDraw) -> Environment {
@@ -188,8 +191,7 @@ fn environment(capacity: Capacity, draw: &EnvDraw) -> Environment {
     }
     env.floor_z = draw.floor_z;
     env.swing = draw.swing;
-    let planes: Vec<HalfPlane> =
-        draw.footholds.iter().filter_map(|&(n, b)| HalfPlane::new(n, b).ok()).collect();
+    let planes: Vec<HalfPlane> = draw.footholds.iter().filter_map(|&(n, b)| HalfPlane::new(n, b).ok()).collect();
     for leg in 0..6 {
         let n = planes.len().min(capacity.foothold_edges[leg]);
         env.set_foothold(leg, &planes[..n]).expect("within capacity");
@@ -323,10 +325,7 @@ fn check_update(filter: &mut EcbfFilter, x: &State, u_ref: &Input, env: &Environ
             }
         }
         Err(e) => {
-            prop_assert!(
-                matches!(e, CbfError::OutOfRange { .. } | CbfError::NonFinite { .. }),
-                "unexpected error {e}"
-            );
+            prop_assert!(matches!(e, CbfError::OutOfRange { .. } | CbfError::NonFinite { .. }), "unexpected error {e}");
             prop_assert!(!in_domain(x, u_ref, env), "an in-domain update was refused: {e}");
             prop_assert_eq!(*filter.output(), before, "an Err changed the filter");
             prop_assert!(filter.fallback_input(u_ref).iter().all(|v| v.is_finite()));

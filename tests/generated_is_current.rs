@@ -12,17 +12,18 @@ fn python(root: &Path) -> PathBuf {
         return p.into();
     }
     let venv = root.join(".venv/bin/python");
-    if venv.is_file() { venv } else { "python3".into() }
+    if venv.is_file() {
+        venv
+    } else {
+        "python3".into()
+    }
 }
 
 #[test]
 fn generator_reproduces_committed_files() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let py = python(root);
-    let has_symengine = Command::new(&py)
-        .args(["-c", "import symengine"])
-        .status()
-        .is_ok_and(|s| s.success());
+    let has_symengine = Command::new(&py).args(["-c", "import symengine"]).status().is_ok_and(|s| s.success());
     if !has_symengine {
         assert!(
             std::env::var_os("CBFGEN_REQUIRE_SYMENGINE").is_none(),

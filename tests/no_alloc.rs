@@ -242,7 +242,12 @@ fn every_filter_update_path_allocates_nothing() {
         }
     });
 
-    println!("  {:<36} {:>4} updates: {sources:?} by source {:?}, {polished} polished", "drive", CYCLES, InputSource::ALL);
+    println!(
+        "  {:<36} {:>4} updates: {sources:?} by source {:?}, {polished} polished",
+        "drive",
+        CYCLES,
+        InputSource::ALL
+    );
     for path in &side_paths {
         println!("  {:<36} {:>4} runs, {:>4} as expected ({:?})", path.name, path.runs, path.taken, path.expect);
     }

@@ -129,9 +129,9 @@ fn observe(mpc: &mut LipMpc, p: &Problem<'_>) -> Outcome {
 /// What a rejected solve complained about.
 fn error_subject(e: &CbfError) -> &'static str {
     match e {
-        CbfError::NonFinite { what, .. } | CbfError::OutOfRange { what, .. } | CbfError::CapacityExceeded { what, .. } => {
-            what
-        }
+        CbfError::NonFinite { what, .. }
+        | CbfError::OutOfRange { what, .. }
+        | CbfError::CapacityExceeded { what, .. } => what,
         _ => "another error",
     }
 }
@@ -208,7 +208,10 @@ fn every_mpc_step_path_allocates_nothing() {
     }
     assert_eq!((rust, c), (0, 0), "allocations during {steps} MPC steps and their side paths: Rust {rust}, C {c}");
     assert!(injected > 0 && errors == injected, "every NaN state must be an error: {errors} of {injected}");
-    assert!(walker.at_goal() && advanced == steps && steps > 20, "the loop must really walk: {advanced} of {steps} steps");
+    assert!(
+        walker.at_goal() && advanced == steps && steps > 20,
+        "the loop must really walk: {advanced} of {steps} steps"
+    );
     for path in &side_paths {
         assert!(
             path.runs == steps && path.taken == path.runs,

@@ -114,7 +114,8 @@ fn every_multilayer_path_allocates_nothing() {
     let one_iteration = LayerSolverSettings { max_iter: 1, ..config.qp.solver };
     let cbf_qp = |settings: CbfQpSettings| IdCbfQp::new(settings).expect("CBF-QP");
     let one_iteration_qp = CbfQpSettings { solver: one_iteration, ..config.qp };
-    let one_iteration_mpc = MpcSettings { solver: LayerSolverSettings { max_iter: 1, ..config.mpc.solver }, ..config.mpc };
+    let one_iteration_mpc =
+        MpcSettings { solver: LayerSolverSettings { max_iter: 1, ..config.mpc.solver }, ..config.mpc };
     let controller = || MultiLayerController::new(barrier, mode, config.mpc, config.qp, config.cycle_dt).unwrap();
     // A row the input bound cannot meet: h = −1 needs u ≥ k0 = 100 m/s², and |u| ≤ 1.
     let out_of_reach = BarrierRow { lie: [-1.0, 0.0, 0.0], lg_lf: 1.0 };
@@ -190,11 +191,19 @@ fn every_multilayer_path_allocates_nothing() {
     });
 
     let systems = controllers.len();
-    println!("  {:<32} {ok:>5} cycles solved, {replans} re-plans, {rejected} of {injected} NaN states rejected", "systems");
+    println!(
+        "  {:<32} {ok:>5} cycles solved, {replans} re-plans, {rejected} of {injected} NaN states rejected",
+        "systems"
+    );
     for path in &side_paths {
         println!("  {:<32} {:>5} runs, {:>3} as expected ({:?})", path.name, path.runs, path.taken, path.expect);
     }
-    assert_eq!((rust, c), (0, 0), "allocations during {} cycles and their side paths: Rust {rust}, C {c}", systems * CYCLES);
+    assert_eq!(
+        (rust, c),
+        (0, 0),
+        "allocations during {} cycles and their side paths: Rust {rust}, C {c}",
+        systems * CYCLES
+    );
     assert_eq!(ok, systems * CYCLES, "every cycle must solve");
     assert_eq!(replans, systems * 80, "the MPC re-plans every 50 cycles");
     assert!(injected > 0 && rejected == injected, "every NaN state must be rejected: {rejected} of {injected}");

@@ -43,8 +43,10 @@ fn exact_sat_matches_parry_on_random_pairs() {
 fn exact_sat_separation_is_the_gap_for_axis_aligned_boxes() {
     // Hand-computed: boxes of half size 1 and 0.5, centres 2 m apart along x: gap 0.5.
     let a = OrientedBox::axis_aligned(nalgebra::Vector3::zeros(), nalgebra::Vector3::new(1.0, 1.0, 1.0)).unwrap();
-    let b = OrientedBox::axis_aligned(nalgebra::Vector3::new(2.0, 0.2, 0.0), nalgebra::Vector3::new(0.5, 0.5, 0.5)).unwrap();
+    let b = OrientedBox::axis_aligned(nalgebra::Vector3::new(2.0, 0.2, 0.0), nalgebra::Vector3::new(0.5, 0.5, 0.5))
+        .unwrap();
     assert!((sat::separation(&a, &b) - 0.5).abs() < 1e-12);
-    let c = OrientedBox::axis_aligned(nalgebra::Vector3::new(1.2, 0.0, 0.0), nalgebra::Vector3::new(0.5, 0.5, 0.5)).unwrap();
+    let c = OrientedBox::axis_aligned(nalgebra::Vector3::new(1.2, 0.0, 0.0), nalgebra::Vector3::new(0.5, 0.5, 0.5))
+        .unwrap();
     assert!((sat::separation(&a, &c) + 0.3).abs() < 1e-12);
 }

@@ -13,7 +13,12 @@ fn the_filter_gets_the_robot_over_the_step_without_penetration() {
     let result = sim::run(&SimConfig::new(Scenario::Step, true), |_| {}).expect("simulation");
     let s = result.summary;
     assert!(s.completed, "the robot must cross the step: {s}");
-    assert!(!s.collided(PENETRATION_TOLERANCE), "exact clearance body {:.4} m, toes {:.4} m", s.min_body_clearance, s.min_toe_clearance);
+    assert!(
+        !s.collided(PENETRATION_TOLERANCE),
+        "exact clearance body {:.4} m, toes {:.4} m",
+        s.min_body_clearance,
+        s.min_toe_clearance
+    );
     assert!(s.min_h[Family::JointLimits.index()] >= -1e-3, "joint limits: {}", s.min_h[Family::JointLimits.index()]);
     // Crossed: every toe ends on the step's top, the body centre beyond the riser.
     let last = result.samples.last().expect("samples");
@@ -26,7 +31,11 @@ fn the_filter_gets_the_robot_over_the_step_without_penetration() {
 fn without_the_body_cbf_the_body_hits_the_step_edge() {
     let result = sim::run(&SimConfig::new(Scenario::Step, false), |_| {}).expect("simulation");
     let s = result.summary;
-    assert!(s.min_body_clearance < -PENETRATION_TOLERANCE, "expected penetration, clearance {:.4} m", s.min_body_clearance);
+    assert!(
+        s.min_body_clearance < -PENETRATION_TOLERANCE,
+        "expected penetration, clearance {:.4} m",
+        s.min_body_clearance
+    );
     assert!(s.min_toe_clearance >= -PENETRATION_TOLERANCE, "the toes are still protected: {:.4}", s.min_toe_clearance);
 }
 
@@ -53,7 +62,15 @@ fn figures_and_the_documented_csv_are_written() {
     let families: Vec<String> = Family::ALL.iter().map(|f| format!("min_h_{}", f.name())).collect();
     documented.extend(families.iter().map(String::as_str));
     documented.extend([
-        "active_rows", "iterations", "source", "eval_us", "solve_us", "update_us", "body_clearance", "toe_clearance", "swinging",
+        "active_rows",
+        "iterations",
+        "source",
+        "eval_us",
+        "solve_us",
+        "update_us",
+        "body_clearance",
+        "toe_clearance",
+        "swinging",
     ]);
     assert_eq!(header, documented);
     assert_eq!(csv.lines().count(), 1 + result.samples.len().div_ceil(10));
@@ -69,11 +86,21 @@ fn the_filter_gets_the_robot_up_all_five_stairs_without_penetration() {
     let top = Scenario::Stairs.stairs().top();
     let (_, _, toes) = cbfgen::generated::tachyon3::world_kinematics(&result.samples.last().expect("samples").x);
     assert!(toes.iter().all(|t| t[2] > top), "toes {toes:?} below the top landing {top}");
-    assert!(!s.collided(PENETRATION_TOLERANCE), "exact clearance body {:.4} m, toes {:.4} m", s.min_body_clearance, s.min_toe_clearance);
+    assert!(
+        !s.collided(PENETRATION_TOLERANCE),
+        "exact clearance body {:.4} m, toes {:.4} m",
+        s.min_body_clearance,
+        s.min_toe_clearance
+    );
     // The body CBF is what lifts the body over the nosings: at the same time into the
     // run, the body stands well above where the same gait puts it without that CBF.
     let without = sim::run(&SimConfig::new(Scenario::Stairs, false), |_| {}).expect("simulation");
     let height = |x: &sim::Sample| x.x[2] + x.x[cbfgen::model::BODY_Z];
-    let lift = result.samples.iter().zip(&without.samples).map(|(a, b)| height(a) - height(b)).fold(f64::NEG_INFINITY, f64::max);
+    let lift = result
+        .samples
+        .iter()
+        .zip(&without.samples)
+        .map(|(a, b)| height(a) - height(b))
+        .fold(f64::NEG_INFINITY, f64::max);
     assert!(lift > 0.05, "the body CBF lifted the body by at most {lift:.3} m");
 }

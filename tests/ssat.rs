@@ -17,9 +17,9 @@ const VARIANTS: [(SmoothMax, SmoothAbs); 4] = [
 const ALPHAS: [f64; 3] = [20.0, 200.0, 2000.0];
 
 fn all_params() -> impl Iterator<Item = SmoothParams> {
-    ALPHAS.into_iter().flat_map(|a| {
-        VARIANTS.into_iter().map(move |(m, s)| SmoothParams::new(a, a).unwrap().with_variant(m, s))
-    })
+    ALPHAS
+        .into_iter()
+        .flat_map(|a| VARIANTS.into_iter().map(move |(m, s)| SmoothParams::new(a, a).unwrap().with_variant(m, s)))
 }
 
 fn boxed(center: Vector3<f64>, rotation: Rotation3<f64>, half: Vector3<f64>) -> OrientedBox {
@@ -38,7 +38,11 @@ fn assert_never_certifies_overlap(pairs: &[(OrientedBox, OrientedBox)], set: &st
         for p in all_params() {
             let (h, m) = (ssat::ssat(a, b, &p), ssat::certified_margin(a, b, &p));
             assert!(h.is_finite() && m > 0.0);
-            assert!(h - m < 0.0, "{set}: {:?} certifies an overlap (exact {exact}, h {h}, m {m})\n{a:?}\n{b:?}", p.variant());
+            assert!(
+                h - m < 0.0,
+                "{set}: {:?} certifies an overlap (exact {exact}, h {h}, m {m})\n{a:?}\n{b:?}",
+                p.variant()
+            );
         }
     }
     overlapping
@@ -55,7 +59,11 @@ fn assert_face_separated_pairs_are_certified(pairs: &[(OrientedBox, OrientedBox)
             let m = ssat::certified_margin(a, b, &p);
             if face_gap > 2.0 * m + 10.0 / p.alpha() {
                 checked += 1;
-                assert!(ssat::certified_separated(a, b, &p), "{:?} fails to certify a face gap {face_gap}", p.variant());
+                assert!(
+                    ssat::certified_separated(a, b, &p),
+                    "{:?} fails to certify a face gap {face_gap}",
+                    p.variant()
+                );
             }
         }
     }
@@ -91,8 +99,10 @@ fn degenerate_sets() -> Vec<(&'static str, Vec<(OrientedBox, OrientedBox)>)> {
     let identical: Vec<_> = (0..n)
         .map(|_| {
             let rot = random_rotation(&mut r);
-            (boxed(random_vector(&mut r, -0.6, 0.6), rot, random_vector(&mut r, 0.05, 0.6)),
-             boxed(random_vector(&mut r, -0.6, 0.6), rot, random_vector(&mut r, 0.05, 0.6)))
+            (
+                boxed(random_vector(&mut r, -0.6, 0.6), rot, random_vector(&mut r, 0.05, 0.6)),
+                boxed(random_vector(&mut r, -0.6, 0.6), rot, random_vector(&mut r, 0.05, 0.6)),
+            )
         })
         .collect();
     sets.push(("identical orientations", identical));
@@ -103,8 +113,10 @@ fn degenerate_sets() -> Vec<(&'static str, Vec<(OrientedBox, OrientedBox)>)> {
             let pitch = r.random_range(-0.5..0.5);
             let ra = Rotation3::from_euler_angles(0.0, 0.0, yaw);
             let rb = ra * Rotation3::from_euler_angles(0.0, pitch, 0.0);
-            (boxed(random_vector(&mut r, -0.6, 0.6), ra, random_vector(&mut r, 0.05, 0.6)),
-             boxed(random_vector(&mut r, -0.6, 0.6), rb, random_vector(&mut r, 0.05, 0.6)))
+            (
+                boxed(random_vector(&mut r, -0.6, 0.6), ra, random_vector(&mut r, 0.05, 0.6)),
+                boxed(random_vector(&mut r, -0.6, 0.6), rb, random_vector(&mut r, 0.05, 0.6)),
+            )
         })
         .collect();
     sets.push(("yaw-aligned, pitched", shared_axis));

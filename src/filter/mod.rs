@@ -159,7 +159,8 @@ impl EcbfFilter {
                 RowSpec { columns: s.columns, gains: p.gains(), slack_weight: p.slack_weight }
             })
             .collect();
-        let qp = EcbfQp::new(&specs, &settings.input_weights, &settings.input_min, &settings.input_max, settings.solver)?;
+        let qp =
+            EcbfQp::new(&specs, &settings.input_weights, &settings.input_min, &settings.input_max, settings.solver)?;
         let activation = catalog.slots().iter().map(|s| settings.family(s.family).activation).collect();
         let rows = catalog.len();
         Ok(Self {

@@ -58,8 +58,7 @@ pub(crate) fn polish(
         match solve_active_set(p, binding, held) {
             Some(x) if correct(p, &x, binding, held) == 0 => {
                 for (i, row) in p.rows.iter().enumerate() {
-                    delta[i] =
-                        if p.active[i] && binding[i] { (-row_value(p, row, i, &x)).max(0.0) } else { 0.0 };
+                    delta[i] = if p.active[i] && binding[i] { (-row_value(p, row, i, &x)).max(0.0) } else { 0.0 };
                 }
                 u.copy_from_slice(x.as_slice());
                 return true;
@@ -191,4 +190,3 @@ fn correct(p: &Problem<'_>, x: &SVector<f64, NU>, binding: &mut [bool], held: &m
     }
     moved
 }
-

@@ -355,10 +355,8 @@ impl EcbfQp {
             let bound = -self.row_bound[i];
             // The row's 2-norm, computed relative to its largest entry so that squaring
             // cannot overflow for any finite row.
-            let largest = entries
-                .iter()
-                .map(|&(_, c)| (r.lg[c] / self.sqrt_w[c]).abs())
-                .fold(self.slack_coef[i], f64::max);
+            let largest =
+                entries.iter().map(|&(_, c)| (r.lg[c] / self.sqrt_w[c]).abs()).fold(self.slack_coef[i], f64::max);
             let mut norm2 = (self.slack_coef[i] / largest).powi(2);
             for &(_, c) in entries {
                 norm2 += (r.lg[c] / self.sqrt_w[c] / largest).powi(2);
@@ -379,24 +377,25 @@ impl EcbfQp {
         }
         self.polished = self.settings.polish
             && matches!(
-            status,
-            QpStatus::Solved | QpStatus::SolvedInaccurate | QpStatus::MaxIterations | QpStatus::TimeLimit
-        ) && polish::polish(
-            &polish::Problem {
-                weights: &self.input_weights,
-                u_ref,
-                input_min: &self.input_min,
-                input_max: &self.input_max,
-                rows,
-                active,
-                bounds: &self.row_bound,
-                slack_weights: &self.slack_weight,
-            },
-            &mut self.binding,
-            &mut self.held,
-            &mut self.u,
-            &mut self.delta,
-        );
+                status,
+                QpStatus::Solved | QpStatus::SolvedInaccurate | QpStatus::MaxIterations | QpStatus::TimeLimit
+            )
+            && polish::polish(
+                &polish::Problem {
+                    weights: &self.input_weights,
+                    u_ref,
+                    input_min: &self.input_min,
+                    input_max: &self.input_max,
+                    rows,
+                    active,
+                    bounds: &self.row_bound,
+                    slack_weights: &self.slack_weight,
+                },
+                &mut self.binding,
+                &mut self.held,
+                &mut self.u,
+                &mut self.delta,
+            );
         if !(self.u.iter().all(|v| v.is_finite()) && self.delta.iter().all(|v| v.is_finite())) {
             // Nothing non-finite may leave, nor stay behind as next cycle's warm start.
             status = QpStatus::NonFinite;

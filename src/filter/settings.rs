@@ -138,7 +138,11 @@ impl SolverSettings {
         }
         if let Some(limit) = self.time_limit {
             if limit.is_zero() || limit > Self::MAX_TIME_LIMIT {
-                return Err(CbfError::OutOfRange { what: "time limit [s]", value: limit.as_secs_f64(), range: "(0, 1]" });
+                return Err(CbfError::OutOfRange {
+                    what: "time limit [s]",
+                    value: limit.as_secs_f64(),
+                    range: "(0, 1]",
+                });
             }
         }
         Ok(())

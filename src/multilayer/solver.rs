@@ -7,7 +7,6 @@ use osqp::CscMatrix;
 
 use crate::error::{within, CbfError};
 
-
 /// OSQP's infinity for `l`/`u`.
 pub(crate) const INF: f64 = 1e30;
 
@@ -82,10 +81,18 @@ impl LayerSolverSettings {
             return Err(CbfError::NotPositive { what: "max_iter", value: 0.0 });
         }
         if self.max_iter > S::MAX_ITERATIONS {
-            return Err(CbfError::TooLarge { what: "max_iter", value: self.max_iter as usize, max: S::MAX_ITERATIONS as usize });
+            return Err(CbfError::TooLarge {
+                what: "max_iter",
+                value: self.max_iter as usize,
+                max: S::MAX_ITERATIONS as usize,
+            });
         }
         if self.scaling > Self::MAX_SCALING {
-            return Err(CbfError::TooLarge { what: "scaling", value: self.scaling as usize, max: Self::MAX_SCALING as usize });
+            return Err(CbfError::TooLarge {
+                what: "scaling",
+                value: self.scaling as usize,
+                max: Self::MAX_SCALING as usize,
+            });
         }
         Ok(())
     }

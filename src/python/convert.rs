@@ -41,7 +41,9 @@ impl<'a, 'py> FromPyObject<'a, 'py> for ArrayIn<'py> {
         // numpy's kinds: b bool, i signed, u unsigned, f float; c complex, O object,
         // U/S strings, M/m dates and times, V void are not real numbers.
         if !matches!(dtype.kind(), b'b' | b'i' | b'u' | b'f') {
-            return Err(PyValueError::new_err(format!("expected real numbers (bool, int or float), got dtype {dtype}")));
+            return Err(PyValueError::new_err(format!(
+                "expected real numbers (bool, int or float), got dtype {dtype}"
+            )));
         }
         let converted = inferred.call_method1(intern!(py, "astype"), (numpy::dtype::<f64>(py),))?;
         Ok(Self(converted.cast_into::<PyArrayDyn<f64>>()?.try_readonly()?))

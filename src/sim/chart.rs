@@ -112,7 +112,8 @@ impl Chart {
             // Widen the range that has more data per pixel, about its centre.
             let scale = ((x1 - x0) / pw).max((y1 - y0) / ph);
             let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
-            (x0, x1, y0, y1) = (cx - 0.5 * scale * pw, cx + 0.5 * scale * pw, cy - 0.5 * scale * ph, cy + 0.5 * scale * ph);
+            (x0, x1, y0, y1) =
+                (cx - 0.5 * scale * pw, cx + 0.5 * scale * pw, cy - 0.5 * scale * ph, cy + 0.5 * scale * ph);
         }
         let sx = |x: f64| LEFT + (x - x0) / (x1 - x0) * pw;
         let sy = |y: f64| TOP + (1.0 - (y - y0) / (y1 - y0)) * ph;
@@ -124,17 +125,31 @@ impl Chart {
             r#"<svg xmlns="http://www.w3.org/2000/svg" width="{WIDTH}" height="{HEIGHT}" font-family="sans-serif" font-size="12">"#
         );
         let _ = writeln!(svg, r#"<rect width="100%" height="100%" fill="white"/>"#);
-        let _ = writeln!(svg, r#"<text x="{}" y="22" font-size="15" text-anchor="middle">{}</text>"#, WIDTH / 2.0, escape(&self.title));
+        let _ = writeln!(
+            svg,
+            r#"<text x="{}" y="22" font-size="15" text-anchor="middle">{}</text>"#,
+            WIDTH / 2.0,
+            escape(&self.title)
+        );
         let _ = writeln!(svg, r#"<rect x="{LEFT}" y="{TOP}" width="{pw}" height="{ph}" fill="none" stroke="black"/>"#);
         for x in round_ticks(x0, x1) {
             let _ = writeln!(svg, r##"<line x1="{0}" y1="{TOP}" x2="{0}" y2="{1}" stroke="#ddd"/>"##, sx(x), TOP + ph);
-            let _ = writeln!(svg, r#"<text x="{}" y="{}" text-anchor="middle">{}</text>"#, sx(x), TOP + ph + 16.0, tick(x));
+            let _ =
+                writeln!(svg, r#"<text x="{}" y="{}" text-anchor="middle">{}</text>"#, sx(x), TOP + ph + 16.0, tick(x));
         }
         for y in round_ticks(y0, y1) {
-            let _ = writeln!(svg, r##"<line x1="{LEFT}" y1="{0}" x2="{1}" y2="{0}" stroke="#ddd"/>"##, sy(y), LEFT + pw);
-            let _ = writeln!(svg, r#"<text x="{}" y="{}" text-anchor="end">{}</text>"#, LEFT - 6.0, sy(y) + 4.0, tick(y));
+            let _ =
+                writeln!(svg, r##"<line x1="{LEFT}" y1="{0}" x2="{1}" y2="{0}" stroke="#ddd"/>"##, sy(y), LEFT + pw);
+            let _ =
+                writeln!(svg, r#"<text x="{}" y="{}" text-anchor="end">{}</text>"#, LEFT - 6.0, sy(y) + 4.0, tick(y));
         }
-        let _ = writeln!(svg, r#"<text x="{}" y="{}" text-anchor="middle">{}</text>"#, LEFT + pw / 2.0, HEIGHT - 10.0, escape(&self.x_label));
+        let _ = writeln!(
+            svg,
+            r#"<text x="{}" y="{}" text-anchor="middle">{}</text>"#,
+            LEFT + pw / 2.0,
+            HEIGHT - 10.0,
+            escape(&self.x_label)
+        );
         let _ = writeln!(
             svg,
             r#"<text x="16" y="{0}" text-anchor="middle" transform="rotate(-90 16 {0})">{1}</text>"#,
@@ -144,12 +159,14 @@ impl Chart {
         for a in self.areas.iter().filter(|a| finite(&a.min) && finite(&a.max)) {
             let (left, top) = (sx(a.min.0), sy(a.max.1));
             let (w, h) = (sx(a.max.0) - left, sy(a.min.1) - top);
-            let _ = writeln!(svg, r#"<rect x="{left:.1}" y="{top:.1}" width="{w:.1}" height="{h:.1}" fill="{}"/>"#, a.fill);
+            let _ =
+                writeln!(svg, r#"<rect x="{left:.1}" y="{top:.1}" width="{w:.1}" height="{h:.1}" fill="{}"/>"#, a.fill);
         }
         for (k, s) in self.series.iter().enumerate() {
             if s.markers {
                 for (x, y) in s.points.iter().filter(|p| finite(p)) {
-                    let _ = writeln!(svg, r#"<circle cx="{:.1}" cy="{:.1}" r="3" fill="{}"/>"#, sx(*x), sy(*y), s.color);
+                    let _ =
+                        writeln!(svg, r#"<circle cx="{:.1}" cy="{:.1}" r="3" fill="{}"/>"#, sx(*x), sy(*y), s.color);
                 }
                 let ly = TOP + 14.0 + 16.0 * k as f64;
                 let _ = writeln!(svg, r#"<circle cx="{}" cy="{}" r="3" fill="{}"/>"#, LEFT + 20.0, ly - 4.0, s.color);
@@ -162,9 +179,20 @@ impl Chart {
                 let _ = write!(path, "{:.1},{:.1} ", sx(*x), sy(*y));
             }
             let dash = if s.dashed { r#" stroke-dasharray="6 4""# } else { "" };
-            let _ = writeln!(svg, r#"<polyline fill="none" stroke="{}" stroke-width="1.5"{dash} points="{path}"/>"#, s.color);
+            let _ = writeln!(
+                svg,
+                r#"<polyline fill="none" stroke="{}" stroke-width="1.5"{dash} points="{path}"/>"#,
+                s.color
+            );
             let ly = TOP + 14.0 + 16.0 * k as f64;
-            let _ = writeln!(svg, r#"<line x1="{0}" y1="{1}" x2="{2}" y2="{1}" stroke="{3}" stroke-width="2"{dash}/>"#, LEFT + 10.0, ly - 4.0, LEFT + 30.0, s.color);
+            let _ = writeln!(
+                svg,
+                r#"<line x1="{0}" y1="{1}" x2="{2}" y2="{1}" stroke="{3}" stroke-width="2"{dash}/>"#,
+                LEFT + 10.0,
+                ly - 4.0,
+                LEFT + 30.0,
+                s.color
+            );
             let _ = writeln!(svg, r#"<text x="{}" y="{ly}">{}</text>"#, LEFT + 36.0, escape(&s.name));
         }
         svg.push_str("</svg>\n");

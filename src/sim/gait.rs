@@ -161,7 +161,10 @@ impl Gait {
         let low = floor.iter().sum::<f64>() / 6.0 + model::NOMINAL_CLEARANCE + model::BODY_HALF_EXTENTS[2];
         let hip_z = model::HIP_POSITIONS[0][2];
         let room = self.swing.map_or(f64::NEG_INFINITY, |s| {
-            TRIPODS[s.tripod].iter().map(|&leg| s.apex[leg] + x[2] - hip_z + p.leg_room).fold(f64::NEG_INFINITY, f64::max)
+            TRIPODS[s.tripod]
+                .iter()
+                .map(|&leg| s.apex[leg] + x[2] - hip_z + p.leg_room)
+                .fold(f64::NEG_INFINITY, f64::max)
         });
         let body_height = low.max(room);
         // Nose up along the line from the rear toes' floor to the front toes' (pitch > 0 is

@@ -70,7 +70,12 @@ pub fn csv(samples: &[Sample], every: usize) -> String {
 ///
 /// # Errors
 /// Any I/O error.
-pub fn write_all(dir: &Path, main: &SimResult, comparison: Option<&SimResult>, every: usize) -> io::Result<Vec<PathBuf>> {
+pub fn write_all(
+    dir: &Path,
+    main: &SimResult,
+    comparison: Option<&SimResult>,
+    every: usize,
+) -> io::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir)?;
     let mut written = Vec::new();
     let mut put = |name: String, text: String| -> io::Result<()> {
@@ -104,19 +109,26 @@ fn series(samples: &[Sample], f: impl Fn(&Sample) -> f64) -> Vec<(f64, f64)> {
 pub fn figures(main: &SimResult, comparison: Option<&SimResult>) -> Vec<(&'static str, Chart)> {
     let body_z = |s: &Sample| s.x[2] + s.x[BODY_Z];
     let label = |r: &SimResult| if r.summary.body_cbf { "with body SSAT CBF" } else { "without body SSAT CBF" };
-    let mut fig7 = Chart::new("Body height (Fig. 7)", "time [s]", "body centre height [m]")
-        .with(Series::new(label(main), "#1f77b4", series(&main.samples, body_z)));
+    let mut fig7 = Chart::new("Body height (Fig. 7)", "time [s]", "body centre height [m]").with(Series::new(
+        label(main),
+        "#1f77b4",
+        series(&main.samples, body_z),
+    ));
     if let Some(other) = comparison {
         fig7 = fig7.with(Series::new(label(other), "#d62728", series(&other.samples, body_z)));
     }
-    fig7 = fig7.with(Series::new("nominal (gait)", "#555", series(&main.samples, |s| body_z(s) - s.body_raise)).dashed());
+    fig7 =
+        fig7.with(Series::new("nominal (gait)", "#555", series(&main.samples, |s| body_z(s) - s.body_raise)).dashed());
     let min_h = |f: Family| move |s: &Sample| s.min_h[f.index()];
     let fig8 = Chart::new("Minimum h (Fig. 8)", "time [s]", "h")
         .with(Series::new("body–edge SSAT [m]", "#1f77b4", series(&main.samples, min_h(Family::BodyEdge))))
         .with(Series::new("joint limits [m, rad]", "#2ca02c", series(&main.samples, min_h(Family::JointLimits))))
         .with(Series::new("h = 0", "#555", series(&main.samples, |_| 0.0)).dashed());
-    let fig9 = Chart::new("Active CBF rows (Fig. 9)", "time [s]", "rows in the QP")
-        .with(Series::new("active rows", "#9467bd", series(&main.samples, |s| s.active_rows as f64)));
+    let fig9 = Chart::new("Active CBF rows (Fig. 9)", "time [s]", "rows in the QP").with(Series::new(
+        "active rows",
+        "#9467bd",
+        series(&main.samples, |s| s.active_rows as f64),
+    ));
     let fig10 = Chart::new("Computation time per cycle (Fig. 10)", "time [s]", "µs")
         .with(Series::new("whole update", "#1f77b4", series(&main.samples, |s| s.update_us)))
         .with(Series::new("row evaluation", "#2ca02c", series(&main.samples, |s| s.eval_us)))
