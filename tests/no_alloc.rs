@@ -12,6 +12,8 @@
 
 #[path = "common/alloc_count.rs"]
 mod alloc_count;
+#[path = "common/tally.rs"]
+mod tally;
 
 use std::time::Duration;
 
@@ -99,26 +101,16 @@ impl Feed {
 
 /// One side path: its own filter, what it is fed, and what every run must do.
 struct SidePath {
-    name: &'static str,
     filter: EcbfFilter,
     feed: Feed,
-    expect: Outcome,
-    runs: usize,
-    taken: usize,
-    /// The first outcome that was not `expect`, for the failure message.
-    first_miss: Option<Outcome>,
+    tally: tally::Tally<Outcome>,
 }
 
 impl SidePath {
     fn run(&mut self, scene: &Scene) {
-        let (x, u_ref, env) = self.feed.inputs(scene, self.runs);
+        let (x, u_ref, env) = self.feed.inputs(scene, self.tally.runs);
         let outcome = observe(&mut self.filter, &x, &u_ref, env);
-        self.runs += 1;
-        if outcome == self.expect {
-            self.taken += 1;
-        } else {
-            self.first_miss.get_or_insert(outcome);
-        }
+        self.tally.record(outcome);
     }
 }
 
@@ -222,7 +214,7 @@ fn every_filter_update_path_allocates_nothing() {
             let out = filter.update(&scene.drive.x, &scene.drive.nominal_input(), &scene.drive.env).expect(name);
             assert_eq!(out.source, InputSource::Qp, "{name}: the priming update must solve the QP");
         }
-        SidePath { name, filter, feed, expect, runs: 0, taken: 0, first_miss: None }
+        SidePath { filter, feed, tally: tally::Tally::new(name, expect) }
     });
 
     let (mut sources, mut polished) = ([0usize; InputSource::ALL.len()], 0);
@@ -249,7 +241,7 @@ fn every_filter_update_path_allocates_nothing() {
         InputSource::ALL
     );
     for path in &side_paths {
-        println!("  {:<36} {:>4} runs, {:>4} as expected ({:?})", path.name, path.runs, path.taken, path.expect);
+        path.tally.print(36);
     }
     assert_eq!((rust, c), (0, 0), "allocations during {CYCLES} drive cycles and their side paths: Rust {rust}, C {c}");
     assert_eq!(sources.iter().sum::<usize>(), CYCLES, "a drive update failed");
@@ -259,15 +251,6 @@ fn every_filter_update_path_allocates_nothing() {
     );
     assert!(scene.drive.x[0] > 0.1, "the robot must have moved");
     for path in &side_paths {
-        assert!(path.runs == CYCLES / SIDE_PATH_EVERY, "{}: ran {} times", path.name, path.runs);
-        assert!(
-            path.taken == path.runs,
-            "{}: {} of {} runs as expected; first other outcome {:?}, expected {:?}",
-            path.name,
-            path.taken,
-            path.runs,
-            path.first_miss,
-            path.expect
-        );
+        path.tally.assert_every_run_taken(CYCLES / SIDE_PATH_EVERY);
     }
 }

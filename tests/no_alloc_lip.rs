@@ -12,6 +12,8 @@
 
 #[path = "common/alloc_count.rs"]
 mod alloc_count;
+#[path = "common/tally.rs"]
+mod tally;
 
 use std::time::Duration;
 
@@ -89,26 +91,16 @@ impl Feed {
 
 /// One side path: its own MPC, what it is fed, and what every run must do.
 struct SidePath {
-    name: &'static str,
     mpc: LipMpc,
     feed: Feed,
-    expect: Outcome,
-    runs: usize,
-    taken: usize,
-    /// The first outcome that was not `expect`, for the failure message.
-    first_miss: Option<Outcome>,
+    tally: tally::Tally<Outcome>,
 }
 
 impl SidePath {
     fn run(&mut self, walked: &Problem<'_>, scratch: &mut [HalfPlane; MAX_PLANES]) {
         let problem = self.feed.apply(walked, scratch);
         let outcome = observe(&mut self.mpc, &problem);
-        self.runs += 1;
-        if outcome == self.expect {
-            self.taken += 1;
-        } else {
-            self.first_miss.get_or_insert(outcome);
-        }
+        self.tally.record(outcome);
     }
 }
 
@@ -168,7 +160,7 @@ fn every_mpc_step_path_allocates_nothing() {
         let mut mpc = LipMpc::new(scenario.params, obstacles, solver).expect(name);
         let status = mpc.solve(&scenario.start, scenario.goal, scenario.first_stance, &[]).expect(name);
         assert!(status.is_solved() || solver != default, "{name}: the first problem must solve, got {status:?}");
-        SidePath { name, mpc, feed, expect, runs: 0, taken: 0, first_miss: None }
+        SidePath { mpc, feed, tally: tally::Tally::new(name, expect) }
     });
     let mut scratch = [HalfPlane { normal: [1.0, 0.0], point: [0.0; 2], delta: 0.0, inside: false }; MAX_PLANES];
 
@@ -204,7 +196,7 @@ fn every_mpc_step_path_allocates_nothing() {
 
     println!("  {:<24} {steps:>3} steps, {advanced} advanced, {errors} of {injected} NaN states rejected", "walk");
     for path in &side_paths {
-        println!("  {:<24} {:>3} runs, {:>3} as expected ({:?})", path.name, path.runs, path.taken, path.expect);
+        path.tally.print(24);
     }
     assert_eq!((rust, c), (0, 0), "allocations during {steps} MPC steps and their side paths: Rust {rust}, C {c}");
     assert!(injected > 0 && errors == injected, "every NaN state must be an error: {errors} of {injected}");
@@ -213,14 +205,6 @@ fn every_mpc_step_path_allocates_nothing() {
         "the loop must really walk: {advanced} of {steps} steps"
     );
     for path in &side_paths {
-        assert!(
-            path.runs == steps && path.taken == path.runs,
-            "{}: {} of {} runs as expected (of {steps} steps); first other outcome {:?}, expected {:?}",
-            path.name,
-            path.taken,
-            path.runs,
-            path.first_miss,
-            path.expect
-        );
+        path.tally.assert_every_run_taken(steps);
     }
 }

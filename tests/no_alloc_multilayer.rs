@@ -12,6 +12,8 @@
 
 #[path = "common/alloc_count.rs"]
 mod alloc_count;
+#[path = "common/tally.rs"]
+mod tally;
 
 use cbfgen::filter::QpStatus;
 use cbfgen::multilayer::{
@@ -64,24 +66,14 @@ type Call = Box<dyn FnMut(&Cycle) -> Outcome>;
 /// One side path: a closure owning its own solver (the layers are different types, so
 /// the table holds calls rather than solvers), and what every run must do.
 struct SidePath {
-    name: &'static str,
-    expect: Outcome,
     call: Call,
-    runs: usize,
-    taken: usize,
-    /// The first outcome that was not `expect`, for the failure message.
-    first_miss: Option<Outcome>,
+    tally: tally::Tally<Outcome>,
 }
 
 impl SidePath {
     fn run(&mut self, t: f64, x: State) {
-        let outcome = (self.call)(&Cycle { t, x, run: self.runs });
-        self.runs += 1;
-        if outcome == self.expect {
-            self.taken += 1;
-        } else {
-            self.first_miss.get_or_insert(outcome);
-        }
+        let outcome = (self.call)(&Cycle { t, x, run: self.tally.runs });
+        self.tally.record(outcome);
     }
 }
 
@@ -165,8 +157,7 @@ fn every_multilayer_path_allocates_nothing() {
             Box::new(move |k| outcome(c.control(k.t, &[k.x[0], f64::NAN]).map(|o| o.qp.status)))
         }),
     ];
-    let mut side_paths =
-        table.map(|(name, expect, call)| SidePath { name, expect, call, runs: 0, taken: 0, first_miss: None });
+    let mut side_paths = table.map(|(name, expect, call)| SidePath { call, tally: tally::Tally::new(name, expect) });
 
     let (mut ok, mut replans, mut injected, mut rejected) = (0usize, 0usize, 0usize, 0usize);
     let ((), rust, c) = alloc_count::counting(|| {
@@ -196,7 +187,7 @@ fn every_multilayer_path_allocates_nothing() {
         "systems"
     );
     for path in &side_paths {
-        println!("  {:<32} {:>5} runs, {:>3} as expected ({:?})", path.name, path.runs, path.taken, path.expect);
+        path.tally.print(32);
     }
     assert_eq!(
         (rust, c),
@@ -209,14 +200,6 @@ fn every_multilayer_path_allocates_nothing() {
     assert!(injected > 0 && rejected == injected, "every NaN state must be rejected: {rejected} of {injected}");
     assert!(states.iter().all(|x| x[0] < 0.9), "the systems must have moved: {states:?}");
     for path in &side_paths {
-        assert!(
-            path.runs == CYCLES / SIDE_PATH_EVERY && path.taken == path.runs,
-            "{}: {} of {} runs as expected; first other outcome {:?}, expected {:?}",
-            path.name,
-            path.taken,
-            path.runs,
-            path.first_miss,
-            path.expect
-        );
+        path.tally.assert_every_run_taken(CYCLES / SIDE_PATH_EVERY);
     }
 }
