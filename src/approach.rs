@@ -24,7 +24,10 @@ const KV: f64 = 2.0;
 /// The closed-loop workload: state, environment and nominal controller.
 #[derive(Debug, Clone)]
 pub struct Approach {
+    /// The robot's current state; [`Approach::advance`] integrates it.
     pub x: State,
+    /// What the filter sees: every catalog row filled ([`worst_case_environment`]), with
+    /// the floor heights under the toes refreshed on each [`Approach::advance`].
     pub env: Environment,
     stairs: Stairs,
     posture: State,

@@ -95,9 +95,15 @@ impl Family {
 /// slot, foothold edge, joint row…) and the input columns its `L_g L_f h` can touch.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct RowSlot {
+    /// The constraint family the row belongs to.
     pub family: Family,
+    /// The leg, in [`LEG_NAMES`](crate::model::LEG_NAMES) order; `None` for body–edge rows.
     pub leg: Option<usize>,
+    /// Index within the family and leg: joint row (knee min, knee max, hip min, hip max),
+    /// stability bound (0 lower, 1 upper), edge slot or foothold edge; 0 for foot height.
     pub instance: usize,
+    /// Input columns (indices into [`Input`](crate::model::Input)) where `L_g L_f h` can be
+    /// non-zero: the row's fixed sparsity pattern in the QP.
     pub columns: &'static [usize],
 }
 
@@ -105,12 +111,23 @@ pub struct RowSlot {
 /// the inputs; zero outside the slot's columns). Inactive rows keep stale values.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Row {
+    /// `[h, L_f h, L_f² h]`: the barrier and its first two time derivatives along the
+    /// drift (units of `h`, `h`/s, `h`/s²; see [`Row::h`]).
     pub lie: [f64; RELATIVE_DEGREE + 1],
+    /// `L_g L_f h`: the inputs' effect on `ḧ = L_f² h + L_g L_f h · u`, dense in
+    /// [`Input`](crate::model::Input) order.
     pub lg: [f64; NU],
+    /// Whether the row applies this cycle, as set by [`Catalog::evaluate`]: joint-limit
+    /// and foot-height rows always, the others while their edge slot, stability bound or
+    /// (swinging leg's) foothold edge is filled. The filter's activation threshold on `h`
+    /// narrows it further.
     pub active: bool,
 }
 
 impl Row {
+    /// The barrier value `h = lie[0]`, safe when ≥ 0. Its units depend on the family:
+    /// \[m\] for most rows, \[rad\] for the hip-angle limits, \[–\] for the toe–edge
+    /// superellipsoid.
     pub fn h(&self) -> f64 {
         self.lie[0]
     }
@@ -177,6 +194,7 @@ pub struct EdgeCuboid {
 }
 
 impl EdgeCuboid {
+    /// The edge cuboid of box `b` (already validated, so this cannot fail).
     pub fn from_box(b: &OrientedBox) -> Self {
         let (center, rotation, half) = b.kernel_args();
         Self { center, rotation, half }
@@ -245,7 +263,11 @@ impl HalfPlane {
 /// Eq. 13's `a (x_toe − x_body) + b ≥ 0`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StabilityBound {
+    /// Slope \[–\]: +1 for a lower bound on the toe's x relative to the body's (origin
+    /// frame), −1 for an upper bound.
     pub a: f64,
+    /// Offset \[m\]: with `a = ±1` the row allows `x_toe − x_body ≥ −b` (lower bound) or
+    /// `x_toe − x_body ≤ b` (upper).
     pub b: f64,
 }
 
@@ -281,6 +303,7 @@ impl Environment {
         })
     }
 
+    /// The capacity this environment is sized for; it must be the catalog's.
     pub fn capacity(&self) -> Capacity {
         self.capacity
     }
@@ -304,6 +327,7 @@ impl Environment {
         Ok(())
     }
 
+    /// The edge cuboids pushed so far; edge `i` fills body–edge and toe–edge instance `i`.
     pub fn edges(&self) -> &[EdgeCuboid] {
         &self.edges
     }
@@ -318,6 +342,7 @@ impl Environment {
         Ok(())
     }
 
+    /// Remove every edge cuboid, so their rows go inactive; keeps the storage.
     pub fn clear_edges(&mut self) {
         self.edges.clear();
     }
@@ -336,6 +361,10 @@ impl Environment {
         Ok(())
     }
 
+    /// Leg `leg`'s foothold half-planes.
+    ///
+    /// # Panics
+    /// If `leg >= 6`.
     pub fn foothold(&self, leg: usize) -> &[HalfPlane] {
         &self.footholds[leg]
     }
@@ -394,22 +423,29 @@ impl Catalog {
         Ok(Self { capacity, slots, rows })
     }
 
+    /// The capacity the rows were laid out for.
     pub fn capacity(&self) -> Capacity {
         self.capacity
     }
 
+    /// Number of rows, active or not ([`Capacity::rows`]).
     pub fn len(&self) -> usize {
         self.slots.len()
     }
 
+    /// Always `false`: the 42 joint-limit, foot-height and stability rows are always there.
     pub fn is_empty(&self) -> bool {
         self.slots.is_empty()
     }
 
+    /// Where each row sits (family, leg, instance, input columns), in row order; fixed at
+    /// construction.
     pub fn slots(&self) -> &[RowSlot] {
         &self.slots
     }
 
+    /// The rows as last evaluated, in [`Catalog::slots`] order (inactive rows hold stale
+    /// values).
     pub fn rows(&self) -> &[Row] {
         &self.rows
     }

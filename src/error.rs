@@ -7,45 +7,107 @@ use thiserror::Error;
 pub enum CbfError {
     /// A value that must be finite was NaN or infinite.
     #[error("{what} must be finite, got {value}")]
-    NonFinite { what: &'static str, value: f64 },
+    NonFinite {
+        /// Which value, as named in the message.
+        what: &'static str,
+        /// The value given (NaN or ±∞).
+        value: f64,
+    },
     /// A value that must be strictly positive was not.
     #[error("{what} must be > 0, got {value}")]
-    NotPositive { what: &'static str, value: f64 },
+    NotPositive {
+        /// Which value, as named in the message.
+        what: &'static str,
+        /// The value given (≤ 0; 0 for a count or a zero-length normal).
+        value: f64,
+    },
     /// More obstacles or foothold edges than the catalog was sized for.
     #[error("too many {what}: capacity is {capacity}")]
-    CapacityExceeded { what: &'static str, capacity: usize },
+    CapacityExceeded {
+        /// What ran out of slots (e.g. `"edge cuboids"`, `"foothold edges"`).
+        what: &'static str,
+        /// How many slots were reserved for it.
+        capacity: usize,
+    },
     /// A capacity (or another count) above its documented maximum, e.g.
     /// [`Capacity::MAX_EDGES`](crate::catalog::Capacity::MAX_EDGES).
     #[error("{what} = {value} is above the maximum of {max}")]
-    TooLarge { what: &'static str, value: usize, max: usize },
+    TooLarge {
+        /// Which count, as named in the message.
+        what: &'static str,
+        /// The count given.
+        value: usize,
+        /// Its documented maximum.
+        max: usize,
+    },
     /// An environment sized for another catalog capacity.
     #[error("environment and catalog were built for different capacities")]
     CapacityMismatch,
     /// A leg index outside 0..6.
     #[error("no leg {leg}: legs are 0..6 in LEG_NAMES order")]
-    NoSuchLeg { leg: usize },
+    NoSuchLeg {
+        /// The leg index given.
+        leg: usize,
+    },
     /// A setting outside its allowed range.
     #[error("{what} = {value} is outside {range}")]
-    OutOfRange { what: &'static str, value: f64, range: &'static str },
+    OutOfRange {
+        /// Which value, as named in the message.
+        what: &'static str,
+        /// The value given.
+        value: f64,
+        /// The allowed range, as text for the message (e.g. `"[1e-6, 1e4]"`).
+        range: &'static str,
+    },
     /// A slice of the wrong length for what it was passed to.
     #[error("{what}: expected length {expected}, got {got}")]
-    LengthMismatch { what: &'static str, expected: usize, got: usize },
+    LengthMismatch {
+        /// Which slice, as named in the message.
+        what: &'static str,
+        /// The length required.
+        expected: usize,
+        /// The length given.
+        got: usize,
+    },
     /// A constraint row named an input column twice or beyond the input dimension.
     #[error("constraint row {row}: input column {column} is repeated or out of range")]
-    BadRowPattern { row: usize, column: usize },
+    BadRowPattern {
+        /// Index of the offending row among the rows given.
+        row: usize,
+        /// The input column it repeats, or names at or beyond the input dimension.
+        column: usize,
+    },
     /// An active constraint row evaluated to NaN or infinity (degenerate geometry or state).
     #[error("constraint row {row} is not finite")]
-    NonFiniteRow { row: usize },
+    NonFiniteRow {
+        /// Index of the first such row in the QP's row order (the catalog's, for the
+        /// ECBF filter; 0 for the single-row QPs).
+        row: usize,
+    },
     /// OSQP refused the problem at set-up.
     #[error("QP solver set-up failed: {reason}")]
-    SolverSetup { reason: String },
+    SolverSetup {
+        /// OSQP's set-up error, as text.
+        reason: String,
+    },
     /// A QP of the multi-layer controller ended without a usable iterate (infeasible,
     /// non-convex or a solver fault); `status` is [`QpStatus::name`](crate::filter::QpStatus::name).
     #[error("{layer}: QP not solved ({status})")]
-    QpFailed { layer: &'static str, status: &'static str },
+    QpFailed {
+        /// Which QP failed (e.g. `"kinematic MPC"`, `"ID-CBF-QP"`).
+        layer: &'static str,
+        /// How it ended: a [`QpStatus::name`](crate::filter::QpStatus::name), or
+        /// `"input_cannot_act"` when the input has no effect on the barrier row.
+        status: &'static str,
+    },
     /// A rotation matrix was not orthonormal with determinant +1.
     #[error("rotation is not a proper rotation (|R^T R - I| = {deviation:.3e}, det R = {determinant:.6})")]
-    NotARotation { deviation: f64, determinant: f64 },
+    NotARotation {
+        /// Largest entry of `|RᵀR − I|`.
+        deviation: f64,
+        /// `det R` (negative for a reflection).
+        determinant: f64,
+    },
 }
 
 /// `Ok(value)` if finite, else [`CbfError::NonFinite`].

@@ -106,14 +106,18 @@ impl OrientedBox {
         Self::new(center, Rotation3::identity(), half_extents)
     }
 
+    /// Centre, world frame \[m\].
     pub fn center(&self) -> &Vector3<f64> {
         &self.center
     }
 
+    /// Orientation: its columns are the box's axes in the world frame (a proper rotation,
+    /// orthonormal to rounding).
     pub fn rotation(&self) -> &Rotation3<f64> {
         &self.rotation
     }
 
+    /// Half extents along the box's own axes \[m\].
     pub fn half_extents(&self) -> &Vector3<f64> {
         &self.half_extents
     }

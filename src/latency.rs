@@ -18,8 +18,11 @@ pub const DT: f64 = 1e-3;
 /// Percentiles of one timed quantity.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Percentiles {
+    /// The 50th percentile (nearest rank).
     pub median: Duration,
+    /// The 99th percentile (nearest rank).
     pub p99: Duration,
+    /// The slowest sample.
     pub max: Duration,
 }
 
@@ -40,20 +43,31 @@ impl Percentiles {
 /// What a harness run measured.
 #[derive(Debug, Clone)]
 pub struct LatencyReport {
+    /// Consecutive filter updates run.
     pub cycles: usize,
+    /// Rows of the filter's catalog (all evaluated every cycle).
     pub rows: usize,
+    /// Wall-clock time of a whole [`EcbfFilter::update`] call.
     pub total: Percentiles,
+    /// Time in row evaluation and activation
+    /// ([`FilterOutput::eval_time`](crate::filter::FilterOutput::eval_time)).
     pub eval: Percentiles,
+    /// Time in the QP update and solve
+    /// ([`FilterOutput::solve_time`](crate::filter::FilterOutput::solve_time)).
     pub solve: Percentiles,
     /// ADMM iterations per cycle: median, p99, max.
     pub iterations: [u32; 3],
     /// Active rows per cycle: min, max.
     pub active_rows: [usize; 2],
+    /// Cycles whose input did not come from a solved QP (source other than
+    /// [`InputSource::Qp`]: unconverged iterates and fallbacks).
     pub fallbacks: usize,
     /// Cycles whose input is the polished (KKT-verified) optimum.
     pub polished: usize,
     /// Travel from start to end \[m\], and the robot front's final gap to the first riser.
     pub travel: f64,
+    /// Gap from the robot's foremost point to the first riser at the end \[m\] (negative
+    /// past it).
     pub final_gap: f64,
 }
 

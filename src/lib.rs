@@ -17,6 +17,8 @@
 //! * [`lip`] — bipedal navigation: a 3D-LIP MPC with linear discrete CBFs around obstacles.
 //! * [`multilayer`] — a CBF in a low-rate MPC and in a high-rate QP, on the double integrator.
 
+#![warn(missing_docs)]
+
 pub mod approach;
 pub mod catalog;
 pub mod error;

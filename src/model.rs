@@ -21,7 +21,9 @@ pub type Input = [f64; NU];
 pub const TOE_BLOCK: usize = 12;
 /// Body states: x, z, pitch at 6, 7, 8.
 pub const BODY_X: usize = 6;
+/// Index of the body centre's height relative to the origin \[m\]; its rate is at `BODY_Z + 3`.
 pub const BODY_Z: usize = 7;
+/// Index of the body's pitch \[rad\]; its rate is at `BODY_PITCH + 3`.
 pub const BODY_PITCH: usize = 8;
 
 /// Largest |state entry| the kernels are evaluated at (metres, radians and their rates):

@@ -167,14 +167,17 @@ impl SmoothParams {
         Self { max, abs, ..self }
     }
 
+    /// Sharpness of the smooth max and of the smooth `|·|` of distances \[1/m\].
     pub fn alpha(&self) -> f64 {
         self.alpha
     }
 
+    /// Sharpness of the smooth `|·|` of rotation-matrix entries \[–\].
     pub fn alpha_rot(&self) -> f64 {
         self.alpha_rot
     }
 
+    /// The Table I variant: which smooth max and which smooth `|·|`.
     pub fn variant(&self) -> (SmoothMax, SmoothAbs) {
         (self.max, self.abs)
     }

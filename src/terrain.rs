@@ -13,9 +13,13 @@ use crate::geometry::OrientedBox;
 pub struct Stairs {
     /// x of the first riser \[m\].
     pub start_x: f64,
+    /// Height of each step \[m\].
     pub rise: f64,
+    /// Depth of each tread, riser to riser \[m\].
     pub run: f64,
+    /// Number of steps; the top landing is at `count · rise`.
     pub count: usize,
+    /// Half the stairs' width, centred on y = 0 \[m\].
     pub half_width: f64,
     /// Half side of the square section of each nosing's edge cuboid \[m\].
     pub edge_half_section: f64,

@@ -109,11 +109,14 @@ impl InputSource {
 pub struct FilterOutput {
     /// The input to apply.
     pub u: Input,
+    /// Where `u` came from: the QP's optimum, an unconverged iterate, or a fallback.
     pub source: InputSource,
     /// OSQP's report; `None` when no solve was attempted (a non-finite row).
     pub status: Option<QpStatus>,
     /// The first active row that was not finite, if any.
     pub nonfinite_row: Option<usize>,
+    /// ADMM iterations of the last OSQP solve: this cycle's, or the previous one's when
+    /// `status` is `None` (no solve attempted).
     pub iterations: u32,
     /// Whether `u` is the polished optimum (exact for the active set OSQP found, KKT
     /// verified); an unconverged OSQP iterate that polishes is reported as `Qp`.
@@ -269,6 +272,7 @@ impl EcbfFilter {
         self.qp.delta()
     }
 
+    /// The settings the filter was built with.
     pub fn settings(&self) -> &FilterSettings {
         &self.settings
     }

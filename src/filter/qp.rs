@@ -39,13 +39,20 @@ pub(crate) type Iterate<'a> = (&'a [f64], &'a [f64]);
 /// How a solve ended, as OSQP reported it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum QpStatus {
+    /// Met the tolerances (`eps_abs`, `eps_rel`).
     Solved,
     /// Met the tolerances ×10 only (OSQP's "solved inaccurate").
     SolvedInaccurate,
+    /// Stopped at `max_iter` before meeting the tolerances, with the iterate it reached.
     MaxIterations,
+    /// Stopped at `time_limit` before meeting the tolerances, with the iterate it reached.
     TimeLimit,
+    /// OSQP reported the constraints infeasible (accurately or not); no iterate. For the
+    /// ECBF QP, whose slacks make it feasible, this is a solver report, not a property.
     PrimalInfeasible,
+    /// OSQP reported the cost unbounded below (accurately or not); no iterate.
     DualInfeasible,
+    /// OSQP reported the cost matrix not positive semidefinite; no iterate.
     NonConvex,
     /// The solver wrapper panicked (a violated internal invariant); the solver is rebuilt
     /// on the next call.
@@ -475,6 +482,8 @@ impl EcbfQp {
         &self.delta
     }
 
+    /// How the last solve ended ([`QpStatus::Solved`] before the first; a call that
+    /// returned `Err` leaves it unchanged).
     pub fn status(&self) -> QpStatus {
         self.status
     }

@@ -54,14 +54,24 @@ pub fn ecbf_gains([p1, p2]: [f64; 2]) -> [f64; 2] {
 ///   checking every iteration costs 40 % more instructions than it saves.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SolverSettings {
+    /// OSQP's absolute tolerance, in the scaled problem's units (\[m/s²\] for an input of
+    /// weight 1); within [`SolverSettings::MIN_TOLERANCE`] ..=
+    /// [`SolverSettings::MAX_TOLERANCE`].
     pub eps_abs: f64,
+    /// OSQP's relative tolerance \[–\]; same range as `eps_abs`.
     pub eps_rel: f64,
+    /// Most ADMM iterations per solve, 1 ..= [`SolverSettings::MAX_ITERATIONS`]; a solve
+    /// that reaches it hands back its iterate, flagged
+    /// [`QpStatus::MaxIterations`](super::QpStatus::MaxIterations).
     pub max_iter: u32,
     /// Initial ADMM step.
     pub rho: f64,
+    /// ADMM's regularisation of the variables (OSQP's σ), within
+    /// [`SolverSettings::SIGMA_RANGE`].
     pub sigma: f64,
     /// Over-relaxation, in (0, 2).
     pub alpha: f64,
+    /// Whether OSQP adapts ρ during a solve, every `adaptive_rho_interval` iterations.
     pub adaptive_rho: bool,
     /// Iterations between ρ adaptations (each one refactorises).
     pub adaptive_rho_interval: u32,
@@ -195,7 +205,10 @@ pub struct FilterSettings {
     pub input_weights: [f64; NU],
     /// Box limits `input_min ≤ u ≤ input_max`.
     pub input_min: Input,
+    /// Upper box limits, in each input's units (\[m/s²\] or \[rad/s²\]); the default is
+    /// [`INPUT_LIMITS`](crate::model::INPUT_LIMITS) and `input_min` its negative.
     pub input_max: Input,
+    /// OSQP's settings for the QP.
     pub solver: SolverSettings,
 }
 
@@ -256,10 +269,12 @@ pub(crate) fn validate_nominal(u_ref: &Input) -> Result<(), CbfError> {
 }
 
 impl FilterSettings {
+    /// The parameters of family `f`.
     pub fn family(&self, f: Family) -> &FamilyParams {
         &self.families[f.index()]
     }
 
+    /// The parameters of family `f`, to tune one family in place.
     pub fn family_mut(&mut self, f: Family) -> &mut FamilyParams {
         &mut self.families[f.index()]
     }
