@@ -607,14 +607,23 @@ impl LipMpc {
 /// column-major (CSC).
 #[derive(Debug, Clone, PartialEq)]
 pub struct QpView<'a> {
+    /// Column pointers of `P` (one per variable, plus one).
     pub p_indptr: &'a [usize],
+    /// Row index of each stored entry of `P`.
     pub p_indices: &'a [usize],
+    /// Value of each stored entry of `P` (upper triangle).
     pub p_data: &'a [f64],
+    /// The linear cost `q`, one entry per variable (the feet, `f_x,0, f_y,0, …`).
     pub q: &'a [f64],
+    /// Column pointers of `A` (one per variable, plus one).
     pub a_indptr: &'a [usize],
+    /// Row index of each stored entry of `A`.
     pub a_indices: &'a [usize],
+    /// Value of each stored entry of `A` (each row divided by its norm).
     pub a_data: &'a [f64],
+    /// Lower bound `l` of each row; [`QpView::infinity`] negated for none.
     pub lower: &'a [f64],
+    /// Upper bound `u` of each row; [`QpView::infinity`] for none.
     pub upper: &'a [f64],
     /// The value standing for ±∞ in `lower`/`upper`.
     pub infinity: f64,

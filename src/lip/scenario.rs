@@ -30,7 +30,9 @@ pub struct Scenario {
     pub first_stance: f64,
     /// Steps allowed before giving up.
     pub max_steps: usize,
+    /// The MPC's model, horizon, limits and CBF settings.
     pub params: LipParams,
+    /// OSQP settings of the MPC.
     pub solver: SolverSettings,
 }
 
@@ -55,7 +57,9 @@ impl Scenario {
 /// What one step did.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StepOutcome {
+    /// OSQP's status for this step's MPC solve.
     pub status: QpStatus,
+    /// OSQP's ADMM iterations in that solve.
     pub iterations: u32,
     /// Preprocessing, value update and OSQP solve.
     pub solve_time: Duration,
@@ -203,6 +207,7 @@ impl Walker {
         &self.planes
     }
 
+    /// The scenario it walks.
     pub fn scenario(&self) -> &Scenario {
         &self.scenario
     }
@@ -211,6 +216,7 @@ impl Walker {
 /// One recorded step.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StepRecord {
+    /// What the step did.
     pub outcome: StepOutcome,
     /// Global CoM after the step \[m\].
     pub com: [f64; 2],
@@ -221,10 +227,13 @@ pub struct StepRecord {
 /// A whole run.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RunResult {
+    /// The scenario that was run.
     pub scenario: Scenario,
     /// Global CoM at the start and after every step \[m\].
     pub com_path: Vec<[f64; 2]>,
+    /// One record per MPC step taken, the failed one included if the MPC failed.
     pub steps: Vec<StepRecord>,
+    /// Whether the CoM ended within `goal_tolerance` of the goal.
     pub reached_goal: bool,
     /// The status that stopped the run, if the MPC failed.
     pub failure: Option<QpStatus>,

@@ -27,6 +27,7 @@ pub struct CbfQpSettings {
     pub poles: [f64; 2],
     /// `|u| ≤ u_max` [m/s²]; `f64::INFINITY` for none.
     pub u_max: f64,
+    /// OSQP settings of this layer.
     pub solver: LayerSolverSettings,
 }
 
@@ -57,6 +58,7 @@ pub struct CbfQpOutput {
     pub u: f64,
     /// `Solved`, `SolvedInaccurate`, or a limit (its iterate, flagged).
     pub status: QpStatus,
+    /// OSQP's ADMM iterations in this solve.
     pub iterations: u32,
 }
 
@@ -109,6 +111,7 @@ impl IdCbfQp {
             .map_err(|e| CbfError::SolverSetup { reason: e.to_string() })
     }
 
+    /// The settings it was built with.
     pub fn settings(&self) -> &CbfQpSettings {
         &self.settings
     }

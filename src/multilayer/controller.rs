@@ -17,6 +17,7 @@ pub struct ControlOutput {
     pub row: BarrierRow,
     /// `Some` on the cycles where the MPC re-planned.
     pub mpc: Option<MpcOutput>,
+    /// The CBF-QP's solution this cycle; its `u` is the input applied.
     pub qp: CbfQpOutput,
 }
 
@@ -64,6 +65,7 @@ impl MultiLayerController {
         })
     }
 
+    /// The low-rate layer (its last plan, mode and settings).
     pub fn mpc(&self) -> &KinematicMpc {
         &self.mpc
     }

@@ -36,7 +36,11 @@ pub const MAX_HORIZON: usize = 1000;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum MpcMode {
     /// The discrete-time CBF `h_{k} ≥ (1 − γ) h_{k−1}`, `γ ∈ (0, 1]` (the paper's proposal).
-    DiscreteCbf { gamma: f64 },
+    DiscreteCbf {
+        /// Decay `γ ∈ (0, 1]` per MPC step: `h` may shrink by at most this fraction of itself
+        /// from one step to the next (1: only `h_k ≥ 0`).
+        gamma: f64,
+    },
     /// The state constraint `h(q_k, t_k) ≥ 0`.
     StateConstraint,
     /// No barrier information: only the high-rate CBF-QP keeps the system safe.
@@ -63,9 +67,13 @@ pub struct MpcSettings {
     pub horizon: usize,
     /// The position it drives to \[m\].
     pub q_ref: f64,
+    /// Weight `w_q` of the squared position error `(q_k − q_ref)²`.
     pub w_q: f64,
+    /// Weight `w_v` of the squared planned velocity `v_k²`.
     pub w_v: f64,
+    /// Weight `w_a` of the squared planned acceleration `((v_k − v_{k−1}) / δt)²`.
     pub w_a: f64,
+    /// OSQP settings of this layer.
     pub solver: LayerSolverSettings,
 }
 
@@ -92,6 +100,7 @@ pub struct MpcOutput {
     pub desired_accel: f64,
     /// `Solved`, `SolvedInaccurate`, or a limit (its iterate, flagged).
     pub status: QpStatus,
+    /// OSQP's ADMM iterations in this solve.
     pub iterations: u32,
 }
 
@@ -247,10 +256,12 @@ impl KinematicMpc {
         .map_err(|e| CbfError::SolverSetup { reason: e.to_string() })
     }
 
+    /// What the MPC knows of the barrier.
     pub fn mode(&self) -> MpcMode {
         self.mode
     }
 
+    /// The settings it was built with.
     pub fn settings(&self) -> &MpcSettings {
         &self.settings
     }

@@ -16,13 +16,17 @@ use crate::sim::chart::{Chart, Series};
 /// reference its crests violate) is the paper's.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ScenarioConfig {
+    /// The moving lower bound `s(t) = A sin(ω t) + c`.
     pub barrier: SineBarrier,
+    /// Initial state `[q, q̇]` \[m, m/s\].
     pub x0: State,
     /// Simulated time \[s\].
     pub duration: f64,
     /// High-rate period \[s\] (1 kHz).
     pub cycle_dt: f64,
+    /// The low-rate MPC's settings; its `dt` must be a whole number of `cycle_dt`.
     pub mpc: MpcSettings,
+    /// The high-rate CBF-QP's settings.
     pub qp: CbfQpSettings,
     /// γ of the discrete-time CBF in [`MpcMode::DiscreteCbf`].
     pub gamma: f64,
@@ -55,24 +59,34 @@ impl ScenarioConfig {
 /// Time series of one run, one entry per control cycle.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Trace {
+    /// Time at the start of each cycle \[s\].
     pub t: Vec<f64>,
+    /// Position `q` at the start of each cycle \[m\].
     pub q: Vec<f64>,
+    /// Velocity `q̇` at the start of each cycle \[m/s\].
     pub v: Vec<f64>,
+    /// The input applied, an acceleration \[m/s²\].
     pub u: Vec<f64>,
+    /// The MPC's acceleration held in each cycle \[m/s²\].
     pub desired_accel: Vec<f64>,
+    /// The barrier `h = q − s(t)` at the start of each cycle \[m\].
     pub h: Vec<f64>,
 }
 
 /// One variant's run and its figures of merit.
 #[derive(Debug, Clone, PartialEq)]
 pub struct VariantResult {
+    /// What the MPC knew of the barrier in this run.
     pub mode: MpcMode,
+    /// The run's time series.
     pub trace: Trace,
     /// max |u| [m/s²] and when.
     pub peak_u: f64,
+    /// When `peak_u` first occurred \[s\].
     pub peak_u_time: f64,
     /// min h over the run \[m\], and when.
     pub min_h: f64,
+    /// When `min_h` first occurred \[s\].
     pub min_h_time: f64,
 }
 

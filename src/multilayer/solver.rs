@@ -56,8 +56,11 @@ impl Csc {
 /// reproducible; warm start carries each cycle's solution into the next.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LayerSolverSettings {
+    /// OSQP's absolute tolerance.
     pub eps_abs: f64,
+    /// OSQP's relative tolerance.
     pub eps_rel: f64,
+    /// OSQP's limit on ADMM iterations per solve.
     pub max_iter: u32,
     /// OSQP's own Ruiz scaling iterations: right when the matrices are constant (the MPC),
     /// off (0) when they change every cycle (the CBF-QP normalises its row itself).

@@ -7,8 +7,11 @@ use std::fmt::Write;
 /// One line of a chart.
 #[derive(Debug, Clone)]
 pub struct Series {
+    /// Legend text.
     pub name: String,
+    /// SVG colour: a name or `#rrggbb`.
     pub color: &'static str,
+    /// Data points `(x, y)` in data units; non-finite ones are skipped when drawn.
     pub points: Vec<(f64, f64)>,
     /// Drawn dashed (reference lines).
     pub dashed: bool,
@@ -17,15 +20,18 @@ pub struct Series {
 }
 
 impl Series {
+    /// A solid line named `name` in `color` through `points`.
     pub fn new(name: &str, color: &'static str, points: Vec<(f64, f64)>) -> Self {
         Self { name: name.to_string(), color, points, dashed: false, markers: false }
     }
 
+    /// Draw this series dashed.
     pub fn dashed(mut self) -> Self {
         self.dashed = true;
         self
     }
 
+    /// Draw this series as separate dots.
     pub fn markers(mut self) -> Self {
         self.markers = true;
         self
@@ -35,17 +41,24 @@ impl Series {
 /// A filled axis-aligned rectangle in data coordinates (e.g. an obstacle).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Area {
+    /// Lower-left corner `(x, y)` in data units.
     pub min: (f64, f64),
+    /// Upper-right corner `(x, y)` in data units.
     pub max: (f64, f64),
+    /// SVG fill colour: a name or `#rrggbb`.
     pub fill: &'static str,
 }
 
 /// A chart: title, axis labels, series.
 #[derive(Debug, Clone)]
 pub struct Chart {
+    /// Title above the plot.
     pub title: String,
+    /// Label under the x-axis (put the unit in it).
     pub x_label: String,
+    /// Label along the y-axis (put the unit in it).
     pub y_label: String,
+    /// Lines and dot sets, drawn in order and listed in the legend in that order.
     pub series: Vec<Series>,
     /// Drawn under the series.
     pub areas: Vec<Area>,
@@ -63,6 +76,7 @@ const BOTTOM: f64 = 50.0;
 const MAX_POINTS: usize = 4000;
 
 impl Chart {
+    /// An empty chart with its title and axis labels.
     pub fn new(title: &str, x_label: &str, y_label: &str) -> Self {
         Self {
             title: title.into(),
@@ -74,16 +88,19 @@ impl Chart {
         }
     }
 
+    /// Add a filled rectangle, drawn under the series.
     pub fn with_area(mut self, area: Area) -> Self {
         self.areas.push(area);
         self
     }
 
+    /// Give x and y one scale, so that shapes keep their proportions (maps).
     pub fn equal_axes(mut self) -> Self {
         self.equal_axes = true;
         self
     }
 
+    /// Add a series.
     pub fn with(mut self, series: Series) -> Self {
         self.series.push(series);
         self

@@ -99,6 +99,7 @@ impl Course {
         &self.env
     }
 
+    /// The stairs of this course.
     pub fn stairs(&self) -> &Stairs {
         &self.stairs
     }

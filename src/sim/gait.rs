@@ -50,6 +50,8 @@ pub struct GaitParams {
     /// with a riser within `stall_lookahead` \[m\] step too: the filter may be holding the
     /// body back until the rear legs climb.
     pub stall_time: f64,
+    /// The step lookahead \[m\] that replaces `lookahead` once the robot has stalled for
+    /// `stall_time`.
     pub stall_lookahead: f64,
     /// How far a swing carries the toe forward relative to the body on flat ground \[m\];
     /// over a riser it aims one toe radius past the riser instead.
@@ -91,7 +93,9 @@ struct Swing {
 /// What the gait asks for this cycle.
 #[derive(Debug, Clone, Copy)]
 pub struct Plan {
+    /// The nominal input, before the safety filter.
     pub u_ref: Input,
+    /// Per leg, `LEG_NAMES` order: whether it swings this cycle.
     pub swing: [bool; 6],
     /// For swinging legs: the convex strip from the flat region it lifts off to the one
     /// it lands on.
@@ -112,6 +116,8 @@ pub struct Gait {
 }
 
 impl Gait {
+    /// The gait for `params` over `stairs`, at t = 0 with all six wheels down; the first swing
+    /// starts no earlier than `stance_time`.
     pub fn new(params: GaitParams, stairs: Stairs) -> Self {
         Self { params, stairs, swing: None, last_tripod: 1, stance_since: 0.0, moving_since: 0.0 }
     }

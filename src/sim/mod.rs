@@ -42,6 +42,7 @@ pub enum Scenario {
 }
 
 impl Scenario {
+    /// The stairs of this course: [`Stairs::SINGLE_STEP`] or [`Stairs::HARDWARE`].
     pub fn stairs(self) -> Stairs {
         match self {
             Scenario::Step => Stairs::SINGLE_STEP,
@@ -49,6 +50,7 @@ impl Scenario {
         }
     }
 
+    /// Short name, as used in file names and printouts: `step` or `stairs`.
     pub fn name(self) -> &'static str {
         match self {
             Scenario::Step => "step",
@@ -60,6 +62,7 @@ impl Scenario {
 /// One simulation run's set-up.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SimConfig {
+    /// The course to run.
     pub scenario: Scenario,
     /// With `false`, the body–edge SSAT rows never take part (the paper's comparison).
     pub body_cbf: bool,
@@ -67,11 +70,16 @@ pub struct SimConfig {
     pub max_time: f64,
     /// Start with the robot's foremost point this far from the first riser \[m\].
     pub start_gap: f64,
+    /// The nominal gait's speeds, timings and step geometry.
     pub gait: GaitParams,
+    /// The ECBF-QP filter's settings (gains, weights, activation thresholds, OSQP).
     pub filter: FilterSettings,
 }
 
 impl SimConfig {
+    /// The standard run of `scenario`: default gait and filter settings, 0.3 m start gap, and
+    /// 25 s (step) or 60 s (stairs) to finish. With `body_cbf == false` the body–edge family's
+    /// activation threshold is set to −∞, so its rows never take part.
     pub fn new(scenario: Scenario, body_cbf: bool) -> Self {
         let mut filter = FilterSettings::default();
         if !body_cbf {
@@ -88,21 +96,30 @@ impl SimConfig {
 /// One control cycle's record.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sample {
+    /// Time at the start of the cycle \[s\].
     pub t: f64,
+    /// State at the start of the cycle, before this cycle's input is applied.
     pub x: State,
     /// Minimum `h` over each family's applicable rows, [`Family::index`] order
     /// (`f64::INFINITY` where none applies).
     pub min_h: [f64; 6],
+    /// Rows that took part in the QP (applicable and below their family's activation threshold).
     pub active_rows: usize,
+    /// OSQP's ADMM iterations in this cycle's solve.
     pub iterations: u32,
+    /// Where the applied input came from: the QP's optimum or one of the fallbacks.
     pub source: InputSource,
-    /// Row evaluation, QP, and the whole update \[µs\].
+    /// Time in row evaluation and activation \[µs\].
     pub eval_us: f64,
+    /// Time in the QP update and solve \[µs\].
     pub solve_us: f64,
+    /// The whole filter update, timed around the call \[µs\].
     pub update_us: f64,
     /// Exact clearance to the nearest edge cuboid \[m\]: body (SAT separation) and the
     /// closest toe (sphere–box distance). Negative = penetration.
     pub body_clearance: f64,
+    /// Exact signed distance of the closest toe sphere to the nearest edge cuboid \[m\];
+    /// negative = penetration.
     pub toe_clearance: f64,
     /// Body centre height above the gait's nominal \[m\].
     pub body_raise: f64,
@@ -113,18 +130,31 @@ pub struct Sample {
 /// What a run established.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Summary {
+    /// The course that was run.
     pub scenario: Scenario,
+    /// Whether the body–edge SSAT rows could take part (see [`SimConfig::body_cbf`]).
     pub body_cbf: bool,
     /// Every toe stands on the top level, and the body centre is past the last riser.
     pub completed: bool,
+    /// Time of the last recorded cycle \[s\] (a completed run goes on 1 s past completion).
     pub duration: f64,
+    /// Smallest [`Sample::body_clearance`] over the run \[m\]; negative = penetration.
     pub min_body_clearance: f64,
+    /// Smallest [`Sample::toe_clearance`] over the run \[m\]; negative = penetration.
     pub min_toe_clearance: f64,
+    /// Minimum `h` of each family over the run, [`Family::index`] order, in each family's own
+    /// units (`f64::INFINITY` where no row ever applied).
     pub min_h: [f64; 6],
+    /// Largest excess of the body centre height over the gait's nominal \[m\].
     pub max_body_raise: f64,
+    /// Slowest filter update \[µs\].
     pub max_update_us: f64,
+    /// 99th-percentile filter update time (nearest rank) \[µs\].
     pub p99_update_us: f64,
+    /// Median filter update time (nearest rank) \[µs\].
     pub median_update_us: f64,
+    /// Cycles whose input was not a QP optimum ([`InputSource::Qp`]): unconverged iterates and
+    /// fallbacks.
     pub fallback_cycles: usize,
 }
 
@@ -138,7 +168,9 @@ impl Summary {
 /// A finished run.
 #[derive(Debug, Clone)]
 pub struct SimResult {
+    /// One record per control cycle, in time order.
     pub samples: Vec<Sample>,
+    /// What the run established.
     pub summary: Summary,
 }
 
