@@ -115,8 +115,8 @@ pub struct FilterOutput {
     pub status: Option<QpStatus>,
     /// The first active row that was not finite, if any.
     pub nonfinite_row: Option<usize>,
-    /// ADMM iterations of the last OSQP solve: this cycle's, or the previous one's when
-    /// `status` is `None` (no solve attempted).
+    /// ADMM iterations of this cycle's solve; 0 when `status` is `None` (no solve
+    /// attempted).
     pub iterations: u32,
     /// Whether `u` is the polished optimum (exact for the active set OSQP found, KKT
     /// verified); an unconverged OSQP iterate that polishes is reported as `Qp`.
@@ -211,7 +211,7 @@ impl EcbfFilter {
         out.eval_time = evaluated - start;
         out.solve_time = evaluated.elapsed();
         out.active_rows = active_rows;
-        out.iterations = self.qp.iterations();
+        out.iterations = if solved.is_ok() { self.qp.iterations() } else { 0 };
         out.polished = solved.is_ok() && self.qp.polished();
         (out.status, out.nonfinite_row) = match solved {
             Ok(status) => (Some(status), None),
