@@ -28,6 +28,7 @@ pub mod latency;
 pub mod lip;
 pub mod model;
 pub mod multilayer;
+mod osqp_workspace;
 pub mod sat;
 pub mod sim;
 pub mod ssat;

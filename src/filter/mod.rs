@@ -68,6 +68,7 @@ mod settings;
 
 use std::time::{Duration, Instant};
 
+pub(crate) use qp::Iterate;
 pub use qp::{EcbfQp, QpStatus, RowSpec};
 pub use settings::{domain, ecbf_gains, FamilyParams, FilterSettings, SolverSettings};
 

@@ -12,7 +12,6 @@
 //! Inactive rows keep their place with bounds `(−∞, ∞)` and zero coefficients.
 
 use std::borrow::Cow;
-use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use osqp::{CscMatrix, Problem, Status};
 
@@ -21,6 +20,7 @@ use super::settings::{domain, validate_inputs, validate_nominal, SolverSettings}
 use crate::catalog::Row;
 use crate::error::CbfError;
 use crate::model::{Input, NU};
+use crate::osqp_workspace::{self, OsqpQp};
 
 /// One ECBF row's fixed description.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -290,22 +290,8 @@ impl EcbfQp {
             iterations: 0,
             polished: false,
         };
-        qp.problem = Some(qp.setup()?);
+        osqp_workspace::set_up(&mut qp)?;
         Ok(qp)
-    }
-
-    fn setup(&self) -> Result<Problem, CbfError> {
-        let n = NU + self.rows;
-        let p = CscMatrix {
-            nrows: n,
-            ncols: n,
-            indptr: Cow::Owned((0..=n).collect()),
-            indices: Cow::Owned((0..n).collect()),
-            data: Cow::Owned(vec![1.0; n]),
-        };
-        let a = constraint_matrix(self.rows, &self.a_indptr, &self.a_indices, &self.a_data);
-        Problem::new(p, &self.q, a, &self.lower, &self.upper, &self.settings.to_osqp())
-            .map_err(|e| CbfError::SolverSetup { reason: e.to_string() })
     }
 
     /// Number of ECBF rows.
@@ -378,10 +364,7 @@ impl EcbfQp {
         }
 
         let last_u = self.u;
-        let mut status = catch_unwind(AssertUnwindSafe(|| self.run_osqp())).unwrap_or(QpStatus::SolverFault);
-        if status.needs_rebuild() {
-            self.problem = None;
-        }
+        let mut status = osqp_workspace::solve(self);
         self.polished = self.settings.polish
             && matches!(
                 status,
@@ -420,35 +403,6 @@ impl EcbfQp {
     fn ecbf_bound(&self, i: usize, r: &Row) -> f64 {
         let [k0, k1] = self.gains[i];
         r.lie[2] + k1 * r.lie[1] + k0 * r.lie[0]
-    }
-
-    fn run_osqp(&mut self) -> QpStatus {
-        if self.problem.is_none() {
-            match self.setup() {
-                Ok(p) => self.problem = Some(p),
-                Err(_) => return QpStatus::SolverFault,
-            }
-        }
-        let a = constraint_matrix(self.rows, &self.a_indptr, &self.a_indices, &self.a_data);
-        // Taken out for the solve so the iterate it lends can be read alongside `self`.
-        let Some(mut problem) = self.problem.take() else { return QpStatus::SolverFault };
-        problem.update_lin_cost(&self.q);
-        problem.update_bounds(&self.lower, &self.upper);
-        problem.update_A(a);
-        let result = problem.solve();
-        self.iterations = result.iter();
-        let (status, iterate) = QpStatus::of(&result);
-        if let Some((z, y)) = iterate {
-            for ((u, z), w) in self.u.iter_mut().zip(z).zip(&self.sqrt_w) {
-                *u = z / w;
-            }
-            for i in 0..self.rows {
-                self.delta[i] = z[NU + i] * self.slack_coef[i];
-            }
-            self.guess_active_set(z, y);
-        }
-        self.problem = Some(problem);
-        status
     }
 
     /// OSQP's own polish rule: a constraint binds at its lower bound when
@@ -497,5 +451,44 @@ impl EcbfQp {
     /// ADMM iterations of the last solve.
     pub fn iterations(&self) -> u32 {
         self.iterations
+    }
+}
+
+impl OsqpQp for EcbfQp {
+    fn workspace(&mut self) -> &mut Option<Problem> {
+        &mut self.problem
+    }
+
+    fn setup(&self) -> Result<Problem, CbfError> {
+        let n = NU + self.rows;
+        let p = CscMatrix {
+            nrows: n,
+            ncols: n,
+            indptr: Cow::Owned((0..=n).collect()),
+            indices: Cow::Owned((0..n).collect()),
+            data: Cow::Owned(vec![1.0; n]),
+        };
+        let a = constraint_matrix(self.rows, &self.a_indptr, &self.a_indices, &self.a_data);
+        Problem::new(p, &self.q, a, &self.lower, &self.upper, &self.settings.to_osqp())
+            .map_err(|e| CbfError::SolverSetup { reason: e.to_string() })
+    }
+
+    fn update(&self, problem: &mut Problem) {
+        problem.update_lin_cost(&self.q);
+        problem.update_bounds(&self.lower, &self.upper);
+        problem.update_A(constraint_matrix(self.rows, &self.a_indptr, &self.a_indices, &self.a_data));
+    }
+
+    fn read(&mut self, _status: QpStatus, iterate: Option<Iterate<'_>>, iterations: u32) {
+        self.iterations = iterations;
+        if let Some((z, y)) = iterate {
+            for ((u, z), w) in self.u.iter_mut().zip(z).zip(&self.sqrt_w) {
+                *u = z / w;
+            }
+            for i in 0..self.rows {
+                self.delta[i] = z[NU + i] * self.slack_coef[i];
+            }
+            self.guess_active_set(z, y);
+        }
     }
 }

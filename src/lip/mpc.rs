@@ -52,7 +52,6 @@
 
 use std::borrow::Cow;
 use std::f64::consts::PI;
-use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use osqp::{CscMatrix, Problem};
 
@@ -60,7 +59,8 @@ use super::model::{LipInput, LipState};
 use super::obstacles::HalfPlane;
 use super::LipParams;
 use crate::error::{within, CbfError};
-use crate::filter::{QpStatus, SolverSettings};
+use crate::filter::{Iterate, QpStatus, SolverSettings};
+use crate::osqp_workspace::{self, OsqpQp};
 
 /// OSQP's infinity for `l`/`u`.
 const INF: f64 = 1e30;
@@ -430,21 +430,8 @@ impl LipMpc {
             iterations: 0,
         };
         mpc.write_values();
-        mpc.problem = Some(mpc.setup()?);
+        osqp_workspace::set_up(&mut mpc)?;
         Ok(mpc)
-    }
-
-    fn setup(&self) -> Result<Problem, CbfError> {
-        let vars = self.lin.layout.vars();
-        let p = CscMatrix {
-            nrows: vars,
-            ncols: vars,
-            indptr: Cow::Borrowed(&self.p_indptr),
-            indices: Cow::Borrowed(&self.p_indices),
-            data: Cow::Borrowed(&self.p_data),
-        };
-        Problem::new(p, &self.q, self.constraint_matrix(), &self.lower, &self.upper, &self.settings.to_osqp())
-            .map_err(|e| CbfError::SolverSetup { reason: e.to_string() })
     }
 
     fn constraint_matrix(&self) -> CscMatrix<'_> {
@@ -518,34 +505,9 @@ impl LipMpc {
             *slot = *plane;
         }
         self.write_values();
-        let status = catch_unwind(AssertUnwindSafe(|| self.run_osqp())).unwrap_or(QpStatus::SolverFault);
-        if status.needs_rebuild() {
-            self.problem = None;
-        }
+        let status = osqp_workspace::solve(self);
         self.status = status;
         Ok(status)
-    }
-
-    fn run_osqp(&mut self) -> QpStatus {
-        if self.problem.is_none() {
-            match self.setup() {
-                Ok(p) => self.problem = Some(p),
-                Err(_) => return QpStatus::SolverFault,
-            }
-        }
-        let Some(mut problem) = self.problem.take() else { return QpStatus::SolverFault };
-        problem.update_lin_cost(&self.q);
-        problem.update_A(self.constraint_matrix());
-        problem.update_bounds(&self.lower, &self.upper);
-        let result = problem.solve();
-        self.iterations = result.iter();
-        let (status, iterate) = QpStatus::of(&result);
-        // A plan is kept only when solved: an iterate stopped at a limit is not a plan.
-        if let Some((z, _)) = iterate.filter(|_| status.is_solved()) {
-            self.store_plan(z);
-        }
-        self.problem = Some(problem);
-        status
     }
 
     fn store_plan(&mut self, z: &[f64]) {
@@ -627,4 +589,37 @@ pub struct QpView<'a> {
     pub upper: &'a [f64],
     /// The value standing for ±∞ in `lower`/`upper`.
     pub infinity: f64,
+}
+
+impl OsqpQp for LipMpc {
+    fn workspace(&mut self) -> &mut Option<Problem> {
+        &mut self.problem
+    }
+
+    fn setup(&self) -> Result<Problem, CbfError> {
+        let vars = self.lin.layout.vars();
+        let p = CscMatrix {
+            nrows: vars,
+            ncols: vars,
+            indptr: Cow::Borrowed(&self.p_indptr),
+            indices: Cow::Borrowed(&self.p_indices),
+            data: Cow::Borrowed(&self.p_data),
+        };
+        Problem::new(p, &self.q, self.constraint_matrix(), &self.lower, &self.upper, &self.settings.to_osqp())
+            .map_err(|e| CbfError::SolverSetup { reason: e.to_string() })
+    }
+
+    fn update(&self, problem: &mut Problem) {
+        problem.update_lin_cost(&self.q);
+        problem.update_A(self.constraint_matrix());
+        problem.update_bounds(&self.lower, &self.upper);
+    }
+
+    fn read(&mut self, status: QpStatus, iterate: Option<Iterate<'_>>, iterations: u32) {
+        self.iterations = iterations;
+        // A plan is kept only when solved: an iterate stopped at a limit is not a plan.
+        if let Some((z, _)) = iterate.filter(|_| status.is_solved()) {
+            self.store_plan(z);
+        }
+    }
 }

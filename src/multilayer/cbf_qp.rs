@@ -11,14 +11,13 @@
 //! `|L_g L_f h|` each cycle (so OSQP sees a unit row whatever the kernel returns); the
 //! matrices' pattern is fixed at construction, and a cycle updates values only.
 
-use std::panic::{catch_unwind, AssertUnwindSafe};
-
 use osqp::Problem;
 
 use super::barrier::BarrierRow;
 use super::solver::{Csc, LayerSolverSettings, INF};
 use crate::error::CbfError;
-use crate::filter::QpStatus;
+use crate::filter::{Iterate, QpStatus};
+use crate::osqp_workspace::{self, OsqpQp};
 
 /// Gains, input bound and solver settings of the CBF-QP.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -72,6 +71,9 @@ pub struct IdCbfQp {
     lower: [f64; 2],
     upper: [f64; 2],
     problem: Option<Problem>,
+    /// The last solve's input (NaN when it returned no iterate) and ADMM iterations.
+    u: f64,
+    iterations: u32,
 }
 
 impl std::fmt::Debug for IdCbfQp {
@@ -101,14 +103,12 @@ impl IdCbfQp {
             lower: [-INF, -u_max],
             upper: [INF, u_max],
             problem: None,
+            u: f64::NAN,
+            iterations: 0,
         };
-        Ok(Self { problem: Some(qp.setup()?), ..qp })
-    }
-
-    fn setup(&self) -> Result<Problem, CbfError> {
-        let p = Csc::new(1, 1, |_, _| true, |_, _| 1.0);
-        Problem::new(p.view(), &self.q_lin, self.a.view(), &self.lower, &self.upper, &self.settings.solver.to_osqp())
-            .map_err(|e| CbfError::SolverSetup { reason: e.to_string() })
+        let mut qp = qp;
+        osqp_workspace::set_up(&mut qp)?;
+        Ok(qp)
     }
 
     /// The settings it was built with.
@@ -136,11 +136,8 @@ impl IdCbfQp {
         self.q_lin[0] = -desired_accel;
         self.a.data[0] = row.lg_lf / scale;
         self.lower[0] = (-row.ecbf_bound(self.gains) / scale).clamp(-INF, INF);
-        let (status, iterations, u) =
-            catch_unwind(AssertUnwindSafe(|| self.run_osqp())).unwrap_or((QpStatus::SolverFault, 0, f64::NAN));
-        if status.needs_rebuild() {
-            self.problem = None;
-        }
+        let status = osqp_workspace::solve(self);
+        let (iterations, u) = (self.iterations, self.u);
         if !matches!(
             status,
             QpStatus::Solved | QpStatus::SolvedInaccurate | QpStatus::MaxIterations | QpStatus::TimeLimit
@@ -150,21 +147,27 @@ impl IdCbfQp {
         }
         Ok(CbfQpOutput { u, status, iterations })
     }
+}
 
-    fn run_osqp(&mut self) -> (QpStatus, u32, f64) {
-        if self.problem.is_none() {
-            match self.setup() {
-                Ok(p) => self.problem = Some(p),
-                Err(_) => return (QpStatus::SolverFault, 0, f64::NAN),
-            }
-        }
-        let Some(problem) = self.problem.as_mut() else { return (QpStatus::SolverFault, 0, f64::NAN) };
+impl OsqpQp for IdCbfQp {
+    fn workspace(&mut self) -> &mut Option<Problem> {
+        &mut self.problem
+    }
+
+    fn setup(&self) -> Result<Problem, CbfError> {
+        let p = Csc::new(1, 1, |_, _| true, |_, _| 1.0);
+        Problem::new(p.view(), &self.q_lin, self.a.view(), &self.lower, &self.upper, &self.settings.solver.to_osqp())
+            .map_err(|e| CbfError::SolverSetup { reason: e.to_string() })
+    }
+
+    fn update(&self, problem: &mut Problem) {
         problem.update_lin_cost(&self.q_lin);
         problem.update_bounds(&self.lower, &self.upper);
         problem.update_A(self.a.view());
-        let result = problem.solve();
-        let (status, iterate) = QpStatus::of(&result);
-        let iterate = iterate.map(|(x, _)| x);
-        (status, result.iter(), iterate.map_or(f64::NAN, |z| z[0]))
+    }
+
+    fn read(&mut self, _status: QpStatus, iterate: Option<Iterate<'_>>, iterations: u32) {
+        self.iterations = iterations;
+        self.u = iterate.map_or(f64::NAN, |(z, _)| z[0]);
     }
 }

@@ -20,14 +20,13 @@
 //! Both matrices are constant (the barrier is linear in `q` and its time dependence is in
 //! the bounds), so a cycle only updates `l`/`u` and OSQP keeps its factorisation.
 
-use std::panic::{catch_unwind, AssertUnwindSafe};
-
 use osqp::Problem;
 
 use super::barrier::{check_state, SineBarrier, State};
 use super::solver::{Csc, LayerSolverSettings, INF};
 use crate::error::{within, CbfError};
-use crate::filter::QpStatus;
+use crate::filter::{Iterate, QpStatus};
+use crate::osqp_workspace::{self, OsqpQp};
 
 /// Longest MPC horizon accepted (steps): the condensed QP grows with its square.
 pub const MAX_HORIZON: usize = 1000;
@@ -116,6 +115,8 @@ pub struct KinematicMpc {
     upper: Vec<f64>,
     problem: Option<Problem>,
     z: Vec<f64>,
+    /// ADMM iterations of the last solve.
+    iterations: u32,
     /// First barrier row.
     barrier_row: usize,
 }
@@ -238,22 +239,11 @@ impl KinematicMpc {
             upper,
             problem: None,
             z: vec![0.0; vars],
+            iterations: 0,
             barrier_row: 2 + n,
         };
-        mpc.problem = Some(mpc.setup()?);
+        osqp_workspace::set_up(&mut mpc)?;
         Ok(mpc)
-    }
-
-    fn setup(&self) -> Result<Problem, CbfError> {
-        Problem::new(
-            self.p.view(),
-            &self.q_lin,
-            self.a.view(),
-            &self.lower,
-            &self.upper,
-            &self.settings.solver.to_osqp(),
-        )
-        .map_err(|e| CbfError::SolverSetup { reason: e.to_string() })
     }
 
     /// What the MPC knows of the barrier.
@@ -289,11 +279,8 @@ impl KinematicMpc {
                 self.lower[self.barrier_row + k - 2] = s_k - keep * s_prev;
             }
         }
-        let (status, iterations) =
-            catch_unwind(AssertUnwindSafe(|| self.run_osqp())).unwrap_or((QpStatus::SolverFault, 0));
-        if status.needs_rebuild() {
-            self.problem = None;
-        }
+        let status = osqp_workspace::solve(self);
+        let iterations = self.iterations;
         if !matches!(
             status,
             QpStatus::Solved | QpStatus::SolvedInaccurate | QpStatus::MaxIterations | QpStatus::TimeLimit
@@ -308,25 +295,6 @@ impl KinematicMpc {
         Ok(MpcOutput { desired_accel, status, iterations })
     }
 
-    fn run_osqp(&mut self) -> (QpStatus, u32) {
-        if self.problem.is_none() {
-            match self.setup() {
-                Ok(p) => self.problem = Some(p),
-                Err(_) => return (QpStatus::SolverFault, 0),
-            }
-        }
-        let Some(problem) = self.problem.as_mut() else { return (QpStatus::SolverFault, 0) };
-        problem.update_bounds(&self.lower, &self.upper);
-        let result = problem.solve();
-        let iterations = result.iter();
-        let (status, iterate) = QpStatus::of(&result);
-        let iterate = iterate.map(|(x, _)| x);
-        if let Some(z) = iterate {
-            self.z.copy_from_slice(z);
-        }
-        (status, iterations)
-    }
-
     /// The last plan's positions `q_0..q_N` \[m\].
     pub fn planned_positions(&self) -> &[f64] {
         &self.z[..=self.settings.horizon]
@@ -335,5 +303,34 @@ impl KinematicMpc {
     /// The last plan's velocities `v_0..v_{N−1}` [m/s].
     pub fn planned_velocities(&self) -> &[f64] {
         &self.z[self.settings.horizon + 1..]
+    }
+}
+
+impl OsqpQp for KinematicMpc {
+    fn workspace(&mut self) -> &mut Option<Problem> {
+        &mut self.problem
+    }
+
+    fn setup(&self) -> Result<Problem, CbfError> {
+        Problem::new(
+            self.p.view(),
+            &self.q_lin,
+            self.a.view(),
+            &self.lower,
+            &self.upper,
+            &self.settings.solver.to_osqp(),
+        )
+        .map_err(|e| CbfError::SolverSetup { reason: e.to_string() })
+    }
+
+    fn update(&self, problem: &mut Problem) {
+        problem.update_bounds(&self.lower, &self.upper);
+    }
+
+    fn read(&mut self, _status: QpStatus, iterate: Option<Iterate<'_>>, iterations: u32) {
+        self.iterations = iterations;
+        if let Some((z, _)) = iterate {
+            self.z.copy_from_slice(z);
+        }
     }
 }
