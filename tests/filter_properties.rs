@@ -79,12 +79,13 @@ fn solver_settings() -> impl Strategy<Value = SolverSettings> {
             1u32..400,
             time_limit,
             prop::bool::weighted(0.8),
+            prop_oneof![3 => Just(0u32), 1 => 1u32..=SolverSettings::MAX_SCALING],
         ),
     )
         .prop_map(
             |(
                 (eps_abs, eps_rel, max_iter, rho, sigma),
-                (alpha, adaptive_rho, adaptive_rho_interval, check_termination, time_limit, polish),
+                (alpha, adaptive_rho, adaptive_rho_interval, check_termination, time_limit, polish, scaling),
             )| SolverSettings {
                 eps_abs,
                 eps_rel,
@@ -97,6 +98,7 @@ fn solver_settings() -> impl Strategy<Value = SolverSettings> {
                 check_termination,
                 time_limit,
                 polish,
+                scaling,
             },
         )
 }

@@ -15,10 +15,9 @@ mod alloc_count;
 #[path = "common/tally.rs"]
 mod tally;
 
-use cbfgen::filter::QpStatus;
+use cbfgen::filter::{QpStatus, SolverSettings};
 use cbfgen::multilayer::{
-    BarrierRow, CbfQpSettings, IdCbfQp, KinematicMpc, LayerSolverSettings, MpcSettings, MultiLayerController,
-    ScenarioConfig, State,
+    BarrierRow, CbfQpSettings, IdCbfQp, KinematicMpc, MpcSettings, MultiLayerController, ScenarioConfig, State,
 };
 use cbfgen::CbfError;
 
@@ -103,11 +102,10 @@ fn every_multilayer_path_allocates_nothing() {
     // Construction allocates by design, so every solver and box is made here.
     let barrier = config.barrier;
     let mode = config.modes()[1];
-    let one_iteration = LayerSolverSettings { max_iter: 1, ..config.qp.solver };
+    let one_iteration = SolverSettings { max_iter: 1, ..config.qp.solver };
     let cbf_qp = |settings: CbfQpSettings| IdCbfQp::new(settings).expect("CBF-QP");
     let one_iteration_qp = CbfQpSettings { solver: one_iteration, ..config.qp };
-    let one_iteration_mpc =
-        MpcSettings { solver: LayerSolverSettings { max_iter: 1, ..config.mpc.solver }, ..config.mpc };
+    let one_iteration_mpc = MpcSettings { solver: SolverSettings { max_iter: 1, ..config.mpc.solver }, ..config.mpc };
     let controller = || MultiLayerController::new(barrier, mode, config.mpc, config.qp, config.cycle_dt).unwrap();
     // A row the input bound cannot meet: h = −1 needs u ≥ k0 = 100 m/s², and |u| ≤ 1.
     let out_of_reach = BarrierRow { lie: [-1.0, 0.0, 0.0], lg_lf: 1.0 };

@@ -80,8 +80,12 @@ pub struct SolverSettings {
     /// Give up (flagged, with a fallback input) after this long; `None` = no limit.
     pub time_limit: Option<Duration>,
     /// Solve ADMM's active set exactly and keep it when it passes the KKT test (this
-    /// crate's allocation-free polish; OSQP's own stays off).
+    /// crate's allocation-free polish, used by the ECBF filter; OSQP's own stays off).
     pub polish: bool,
+    /// OSQP's own Ruiz scaling passes, computed once at set-up: 0 (off) for a QP whose
+    /// matrices change every cycle (the filter scales its rows itself), about 10 where
+    /// they are constant (the multi-layer MPC). At most [`Self::MAX_SCALING`].
+    pub scaling: u32,
 }
 
 impl Default for SolverSettings {
@@ -98,6 +102,7 @@ impl Default for SolverSettings {
             check_termination: 5,
             time_limit: None,
             polish: true,
+            scaling: 0,
         }
     }
 }
@@ -122,6 +127,8 @@ impl SolverSettings {
     /// Over-relaxation range: OSQP's open interval (0, 2), kept away from the ends where
     /// ADMM stops making progress.
     pub const ALPHA_RANGE: [f64; 2] = [0.01, 1.99];
+    /// Most Ruiz scaling passes (OSQP's default is 10).
+    pub const MAX_SCALING: u32 = 100;
 
     /// # Errors
     /// A value outside its documented range (the `MAX_*`, `MIN_*` and `*_RANGE` constants):
@@ -145,6 +152,13 @@ impl SolverSettings {
             if v > Self::MAX_ITERATIONS {
                 return Err(CbfError::TooLarge { what, value: v as usize, max: Self::MAX_ITERATIONS as usize });
             }
+        }
+        if self.scaling > Self::MAX_SCALING {
+            return Err(CbfError::TooLarge {
+                what: "scaling",
+                value: self.scaling as usize,
+                max: Self::MAX_SCALING as usize,
+            });
         }
         if let Some(limit) = self.time_limit {
             if limit.is_zero() || limit > Self::MAX_TIME_LIMIT {
@@ -176,7 +190,7 @@ impl SolverSettings {
         osqp::Settings::default()
             .verbose(false)
             .polish(false)
-            .scaling(None)
+            .scaling(if self.scaling == 0 { None } else { Some(self.scaling) })
             .warm_start(true)
             .eps_abs(self.eps_abs)
             .eps_rel(self.eps_rel)

@@ -14,9 +14,9 @@
 use osqp::Problem;
 
 use super::barrier::BarrierRow;
-use super::solver::{Csc, LayerSolverSettings, INF};
+use super::solver::{Csc, INF};
 use crate::error::CbfError;
-use crate::filter::{Iterate, QpStatus};
+use crate::filter::{Iterate, QpStatus, SolverSettings};
 use crate::osqp_workspace::{self, OsqpQp};
 
 /// Gains, input bound and solver settings of the CBF-QP.
@@ -27,7 +27,7 @@ pub struct CbfQpSettings {
     /// `|u| ≤ u_max` [m/s²]; `f64::INFINITY` for none.
     pub u_max: f64,
     /// OSQP settings of this layer.
-    pub solver: LayerSolverSettings,
+    pub solver: SolverSettings,
 }
 
 impl Default for CbfQpSettings {
@@ -38,7 +38,7 @@ impl Default for CbfQpSettings {
         Self {
             poles: [10.0, 10.0],
             u_max: f64::INFINITY,
-            solver: LayerSolverSettings { eps_abs: 1e-8, eps_rel: 1e-8, max_iter: 4000, scaling: 0 },
+            solver: SolverSettings { eps_abs: 1e-8, eps_rel: 1e-8, max_iter: 4000, ..SolverSettings::default() },
         }
     }
 }

@@ -33,4 +33,3 @@ pub use cbf_qp::{CbfQpOutput, CbfQpSettings, IdCbfQp};
 pub use controller::{ControlOutput, MultiLayerController};
 pub use mpc::{KinematicMpc, MpcMode, MpcOutput, MpcSettings};
 pub use scenario::{ScenarioConfig, Trace, VariantResult};
-pub use solver::LayerSolverSettings;

@@ -23,9 +23,9 @@
 use osqp::Problem;
 
 use super::barrier::{check_state, SineBarrier, State};
-use super::solver::{Csc, LayerSolverSettings, INF};
+use super::solver::{Csc, INF};
 use crate::error::{within, CbfError};
-use crate::filter::{Iterate, QpStatus};
+use crate::filter::{Iterate, QpStatus, SolverSettings};
 use crate::osqp_workspace::{self, OsqpQp};
 
 /// Longest MPC horizon accepted (steps): the condensed QP grows with its square.
@@ -73,7 +73,7 @@ pub struct MpcSettings {
     /// Weight `w_a` of the squared planned acceleration `((v_k − v_{k−1}) / δt)²`.
     pub w_a: f64,
     /// OSQP settings of this layer.
-    pub solver: LayerSolverSettings,
+    pub solver: SolverSettings,
 }
 
 impl Default for MpcSettings {
@@ -87,7 +87,13 @@ impl Default for MpcSettings {
             w_q: 10.0,
             w_v: 1.0,
             w_a: 2.0,
-            solver: LayerSolverSettings { eps_abs: 1e-6, eps_rel: 1e-6, max_iter: 4000, scaling: 10 },
+            solver: SolverSettings {
+                eps_abs: 1e-6,
+                eps_rel: 1e-6,
+                max_iter: 4000,
+                scaling: 10,
+                ..SolverSettings::default()
+            },
         }
     }
 }
