@@ -244,8 +244,7 @@ impl HalfPlane {
         let n = [normal[0] / big, normal[1] / big];
         let length = n[0].hypot(n[1]);
         let offset = offset / big / length;
-        let limit = model::STATE_LIMIT;
-        crate::error::within("half-plane distance from the origin", offset, -limit, limit, model::STATE_RANGE)?;
+        crate::model::coordinate("half-plane distance from the origin", offset)?;
         Ok(Self { normal: [n[0] / length, n[1] / length], offset })
     }
 
@@ -316,13 +315,12 @@ impl Environment {
     /// # Errors
     /// The first value outside that domain.
     pub fn validate(&self) -> Result<(), CbfError> {
-        let limit = model::STATE_LIMIT;
         for &z in &self.floor_z {
-            crate::error::within("floor height", z, -limit, limit, model::STATE_RANGE)?;
+            crate::model::coordinate("floor height", z)?;
         }
         for b in self.stability.iter().flatten().flatten() {
-            crate::error::within("stability slope", b.a, -limit, limit, model::STATE_RANGE)?;
-            crate::error::within("stability offset", b.b, -limit, limit, model::STATE_RANGE)?;
+            crate::model::coordinate("stability slope", b.a)?;
+            crate::model::coordinate("stability offset", b.b)?;
         }
         Ok(())
     }

@@ -36,7 +36,13 @@ pub const BODY_PITCH: usize = 8;
 pub const STATE_LIMIT: f64 = 1e5;
 
 /// [`STATE_LIMIT`] as the range named in error messages.
-pub const STATE_RANGE: &str = "[-1e5, 1e5]";
+const STATE_RANGE: &str = "[-1e5, 1e5]";
+
+/// `Ok(value)` when it is finite with `|value| ≤` [`STATE_LIMIT`]: the check for a state
+/// entry and for every world number measured in the same units (floors, goals, planes).
+pub(crate) fn coordinate(what: &'static str, value: f64) -> Result<f64, CbfError> {
+    crate::error::within(what, value, -STATE_LIMIT, STATE_LIMIT, STATE_RANGE)
+}
 
 /// `Ok(())` when every entry is finite with `|x_i| ≤` [`STATE_LIMIT`].
 ///
@@ -44,7 +50,7 @@ pub const STATE_RANGE: &str = "[-1e5, 1e5]";
 /// [`CbfError::NonFinite`] or [`CbfError::OutOfRange`] naming the first bad entry's kind.
 pub fn validate_state(x: &State) -> Result<(), CbfError> {
     for &v in x {
-        crate::error::within("state entry", v, -STATE_LIMIT, STATE_LIMIT, STATE_RANGE)?;
+        coordinate("state entry", v)?;
     }
     Ok(())
 }

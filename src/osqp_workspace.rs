@@ -38,8 +38,7 @@ pub(crate) fn set_up(qp: &mut impl OsqpQp) -> Result<(), CbfError> {
 /// a non-finite iterate is rebuilt first. A panic inside OSQP's wrapper (a violated
 /// invariant) reads as [`QpStatus::SolverFault`].
 pub(crate) fn solve(qp: &mut impl OsqpQp) -> QpStatus {
-    let taken = qp.workspace().take();
-    let mut slot = taken;
+    let mut slot = qp.workspace().take();
     let status = catch_unwind(AssertUnwindSafe(|| {
         if slot.is_none() {
             slot = Some(qp.setup().ok()?);

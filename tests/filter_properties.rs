@@ -10,12 +10,14 @@
 
 #[path = "common/kkt.rs"]
 mod kkt;
+#[path = "common/singular.rs"]
+mod singular;
 
 use std::time::Duration;
 
 use cbfgen::catalog::{Capacity, Catalog, EdgeCuboid, Environment, Family, HalfPlane, StabilityBound};
 use cbfgen::filter::{domain, EcbfFilter, FamilyParams, FilterSettings, InputSource, SolverSettings};
-use cbfgen::model::{self, Input, State, HIP_POSITIONS, INPUT_LIMITS, NU, NX, TOE_BLOCK};
+use cbfgen::model::{self, Input, State, INPUT_LIMITS, NU, NX};
 use cbfgen::{CbfError, OrientedBox};
 use nalgebra::{Rotation3, Vector3};
 use proptest::prelude::*;
@@ -241,10 +243,7 @@ fn state(draw: &StateDraw) -> State {
     match *draw {
         StateDraw::Perturbed(scale, d) => x.iter_mut().zip(d).for_each(|(v, d)| *v += scale * d),
         StateDraw::OneExtreme(i, v) | StateDraw::NonFinite(i, v) => x[i] = v,
-        StateDraw::ToeAtHip(leg) => {
-            x[TOE_BLOCK + 4 * leg] = x[model::BODY_X] + HIP_POSITIONS[leg][0];
-            x[TOE_BLOCK + 4 * leg + 1] = x[model::BODY_Z] + HIP_POSITIONS[leg][2];
-        }
+        StateDraw::ToeAtHip(leg) => x = singular::toe_at_hip(leg),
     }
     x
 }

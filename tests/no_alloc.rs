@@ -12,6 +12,8 @@
 
 #[path = "common/alloc_count.rs"]
 mod alloc_count;
+#[path = "common/singular.rs"]
+mod singular;
 #[path = "common/tally.rs"]
 mod tally;
 
@@ -20,7 +22,7 @@ use std::time::Duration;
 use cbfgen::approach::Approach;
 use cbfgen::catalog::{Capacity, Environment, Family};
 use cbfgen::filter::{EcbfFilter, FilterSettings, InputSource, QpStatus, SolverSettings};
-use cbfgen::model::{self, Input, State, BODY_PITCH, BODY_X, BODY_Z, INPUT_LIMITS, TOE_BLOCK};
+use cbfgen::model::{Input, State, BODY_X, BODY_Z, INPUT_LIMITS};
 use cbfgen::terrain::Stairs;
 use cbfgen::CbfError;
 
@@ -52,7 +54,7 @@ enum Feed {
     /// The drive's state with a full command whose sign flips every run: the warm start
     /// is then always far from the answer, so a solve cut short cannot have converged.
     FlippingFullCommand,
-    /// A state with the front-left toe exactly on its hip joint ([`toe_on_hip`]).
+    /// A state with the front-left toe exactly on its hip joint (`singular::toe_at_hip(0)`).
     ToeOnHip,
     NanState,
     NanCommand,
@@ -144,26 +146,12 @@ fn error_subject(e: &CbfError) -> &'static str {
     }
 }
 
-/// The standard posture with the front-left toe moved onto its hip joint (pitch 0, so
-/// the hip sits at body position + its mount). The knee length is then exactly 0: the
-/// knee-minimum row's `h` is finite (−0.08 m, active: joint limits always apply) but its
-/// derivatives divide 0 by 0. The toe is placed by adding the same terms the generated
-/// kernel subtracts, so the difference is exactly 0.0, not merely tiny.
-fn toe_on_hip() -> State {
-    let mut x = model::standard_posture();
-    x[BODY_PITCH] = 0.0;
-    let hip = model::HIP_POSITIONS[0];
-    x[TOE_BLOCK] = hip[0] + x[BODY_X];
-    x[TOE_BLOCK + 1] = hip[2] + x[BODY_Z];
-    x
-}
-
 fn every_filter_update_path_allocates_nothing() {
     let capacity = Capacity::PAPER_WORST_CASE;
     let mut filter = EcbfFilter::new(capacity, FilterSettings::default()).expect("filter");
     let mut scene = Scene {
         drive: Approach::new(capacity, Stairs::HARDWARE, 0.3, 0.4).expect("drive"),
-        toe_on_hip: toe_on_hip(),
+        toe_on_hip: singular::toe_at_hip(0),
         foreign_env: Environment::new(Capacity { edges: 1, foothold_edges: [1; 6] }).expect("environment"),
     };
     let knee_min_front_left = filter

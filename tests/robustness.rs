@@ -5,10 +5,13 @@
 
 use std::time::Duration;
 
+#[path = "common/singular.rs"]
+mod singular;
+
 use cbfgen::approach::Approach;
 use cbfgen::catalog::{Capacity, Catalog, Environment, HalfPlane, Row};
 use cbfgen::filter::{domain, EcbfFilter, EcbfQp, FilterSettings, InputSource, RowSpec, SolverSettings};
-use cbfgen::model::{self, Input, State, HIP_POSITIONS, NU, TOE_BLOCK};
+use cbfgen::model::{self, Input, NU};
 use cbfgen::multilayer::{CbfQpSettings, IdCbfQp};
 use cbfgen::sim::{self, Scenario, SimConfig};
 use cbfgen::terrain::Stairs;
@@ -184,20 +187,11 @@ fn finite_but_overflowing_rows_never_reach_the_solver() {
     assert!((qp.u()[0] - 1.0).abs() < 1e-3 && (qp.u()[2] - 1.0).abs() < 1e-3, "{:?}", qp.u());
 }
 
-/// The standard posture with leg `leg`'s toe exactly at its hip joint (knee length 0),
-/// where the joint-limit row's hip angle and its derivatives are 0/0.
-fn toe_at_hip(leg: usize) -> State {
-    let mut x = model::standard_posture();
-    x[TOE_BLOCK + 4 * leg] = x[model::BODY_X] + HIP_POSITIONS[leg][0];
-    x[TOE_BLOCK + 4 * leg + 1] = x[model::BODY_Z] + HIP_POSITIONS[leg][2];
-    x
-}
-
 #[test]
 fn a_toe_at_its_hip_falls_back_flagged_and_the_next_cycle_is_clean() {
     let env = Environment::new(CAPACITY).expect("env");
     assert_not_poisoned(|filter| {
-        let out = *filter.update(&toe_at_hip(1), &[0.0; NU], &env).expect("a flagged fallback, not an error");
+        let out = *filter.update(&singular::toe_at_hip(1), &[0.0; NU], &env).expect("a flagged fallback, not an error");
         assert_eq!(out.source, InputSource::NominalClipped);
         assert!(out.nonfinite_row.is_some() && out.status.is_none() && out.iterations == 0);
         assert!(out.u.iter().all(|v| v.is_finite()));

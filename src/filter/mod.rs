@@ -33,9 +33,10 @@
 //!   instead of stalling one. This happens when rows conflict with the input limits (large
 //!   slacks), where ADMM needs hundreds of iterations.
 //! * An active row that evaluates to NaN/inf (degenerate geometry such as a toe exactly at
-//!   its hip joint, or an extreme environment value), an iterate or polish with a
-//!   non-finite entry ([`QpStatus::NonFinite`]: discarded, and OSQP's workspace, warm
-//!   start included, is rebuilt before the next solve), an infeasibility report or a
+//!   its hip joint), an OSQP iterate with a non-finite entry ([`QpStatus::NonFinite`]:
+//!   discarded, and OSQP's workspace, warm start included, is rebuilt before the next
+//!   solve; a polish whose rows are not finite is simply not accepted), an infeasibility
+//!   report or a
 //!   solver fault: `Ok`, with a **fallback input**: the last QP-solved input if there is
 //!   one ([`InputSource::LastSafe`]), else the nominal input
 //!   ([`InputSource::NominalClipped`]). Only a finite, clipped [`InputSource::Qp`] output

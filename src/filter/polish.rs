@@ -57,6 +57,13 @@ pub(crate) fn polish(
     for _ in 0..=MAX_CORRECTIONS {
         match solve_active_set(p, binding, held) {
             Some(x) if correct(p, &x, binding, held) == 0 => {
+                // A solution whose rows do not evaluate finitely is not verified (the KKT
+                // comparisons pass NaN), and its slacks would not be finite.
+                let finite =
+                    p.rows.iter().enumerate().all(|(i, row)| !p.active[i] || row_value(p, row, i, &x).is_finite());
+                if !finite {
+                    return false;
+                }
                 for (i, row) in p.rows.iter().enumerate() {
                     delta[i] = if p.active[i] && binding[i] { (-row_value(p, row, i, &x)).max(0.0) } else { 0.0 };
                 }
@@ -71,11 +78,12 @@ pub(crate) fn polish(
 }
 
 /// The size of the terms in each entry of the objective's gradient at `x`:
-/// `w_j (|x_j| + |r_j|) + Σ w_δ |a_i·x + b_i| |a_ij|` over binding rows (never 0). An
+/// `input_pull_j = w_j (|x_j| + |r_j|)` plus `Σ w_δ |a_i·x + b_i| |a_ij|` over binding rows
+/// (never 0). An
 /// entry's rounding error is a small multiple of ε times this, so a multiplier's sign is
 /// judged against it; a stiff row far from input `j` does not loosen input `j`'s test.
-fn gradient_scale(p: &Problem<'_>, x: &SVector<f64, NU>, binding: &[bool]) -> [f64; NU] {
-    let mut scale: [f64; NU] = std::array::from_fn(|j| p.weights[j] * (x[j].abs() + p.u_ref[j].abs()));
+fn gradient_scale(p: &Problem<'_>, x: &SVector<f64, NU>, binding: &[bool], input_pull: &[f64; NU]) -> [f64; NU] {
+    let mut scale = *input_pull;
     for (i, row) in p.rows.iter().enumerate() {
         if p.active[i] && binding[i] {
             let pull = p.slack_weights[i] * row_value(p, row, i, x).abs();
@@ -148,10 +156,11 @@ fn correct(p: &Problem<'_>, x: &SVector<f64, NU>, binding: &mut [bool], held: &m
     // Each test in its own units, so that no weight's size makes it loose: bounds in the
     // input's units, multipliers relative to the largest term of the gradient (an
     // absolute floor there would accept any active set once every weight is small).
-    let gradient_scale = gradient_scale(p, x, binding);
-    // The cost's own pull on the inputs, for the binding rows' multiplier test below.
-    let input_gradient_scale =
-        (0..NU).map(|j| p.weights[j] * (x[j].abs() + p.u_ref[j].abs())).fold(f64::MIN_POSITIVE, f64::max);
+    // The cost's own pull on each input, `w_j (|x_j| + |r_j|)`; its largest entry also
+    // scales the binding rows' multiplier test below.
+    let input_pull: [f64; NU] = std::array::from_fn(|j| p.weights[j] * (x[j].abs() + p.u_ref[j].abs()));
+    let input_gradient_scale = input_pull.iter().copied().fold(f64::MIN_POSITIVE, f64::max);
+    let gradient_scale = gradient_scale(p, x, binding, &input_pull);
     for j in 0..NU {
         let input_scale = 1.0 + x[j].abs() + p.input_min[j].abs().max(p.input_max[j].abs());
         let (tol_u, tol_g) = (TOLERANCE * input_scale, TOLERANCE * gradient_scale[j]);

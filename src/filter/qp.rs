@@ -209,11 +209,10 @@ impl EcbfQp {
                 seen[c] = true;
             }
             for g in r.gains {
-                crate::error::within("ECBF gain", g, 0.0, domain::MAX_GAIN, "[0, 1e8]")?;
+                domain::gain(g)?;
             }
             gains.push(r.gains);
-            let [lo, hi] = domain::SLACK_WEIGHT_RANGE;
-            slack_coef.push(1.0 / crate::error::within("slack weight", r.slack_weight, lo, hi, "[1e-3, 1e8]")?.sqrt());
+            slack_coef.push(1.0 / domain::slack_weight(r.slack_weight)?.sqrt());
         }
 
         // A is (m ECBF rows + NU box rows) × (NU inputs + m slacks), column-major.
@@ -363,8 +362,7 @@ impl EcbfQp {
             self.lower[i] = (bound * scale).clamp(-INF, INF);
         }
 
-        let last_u = self.u;
-        let mut status = osqp_workspace::solve(self);
+        let status = osqp_workspace::solve(self);
         self.polished = self.settings.polish
             && matches!(
                 status,
@@ -386,14 +384,8 @@ impl EcbfQp {
                 &mut self.u,
                 &mut self.delta,
             );
-        if !(self.u.iter().all(|v| v.is_finite()) && self.delta.iter().all(|v| v.is_finite())) {
-            // Nothing non-finite may leave, nor stay behind as next cycle's warm start.
-            status = QpStatus::NonFinite;
-            self.polished = false;
-            self.problem = None;
-            self.u = last_u;
-            self.delta.fill(0.0);
-        }
+        // `u` and `δ` are finite by construction: OSQP's iterate is read only when finite
+        // (`QpStatus::of`), and the polish accepts only solutions whose rows are finite.
         self.status = status;
         Ok(status)
     }

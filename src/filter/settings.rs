@@ -271,13 +271,42 @@ pub mod domain {
     /// Largest ECBF gain `k0 = p1 p2` or `k1 = p1 + p2` accepted by
     /// [`EcbfQp::new`](crate::filter::EcbfQp::new).
     pub const MAX_GAIN: f64 = 1e8;
+
+    use crate::error::{within, CbfError};
+
+    // One check per kind of number, so each range and its message live in one place.
+
+    /// An input value (limit, nominal input, commanded acceleration) within ±[`MAX_INPUT`].
+    pub(crate) fn input(what: &'static str, value: f64) -> Result<f64, CbfError> {
+        within(what, value, -MAX_INPUT, MAX_INPUT, "[-1e6, 1e6]")
+    }
+
+    /// An ECBF pole within [`POLE_RANGE`].
+    pub(crate) fn pole(value: f64) -> Result<f64, CbfError> {
+        within("ECBF pole", value, POLE_RANGE[0], POLE_RANGE[1], "[1e-6, 1e4]")
+    }
+
+    /// A slack weight within [`SLACK_WEIGHT_RANGE`].
+    pub(crate) fn slack_weight(value: f64) -> Result<f64, CbfError> {
+        within("slack weight", value, SLACK_WEIGHT_RANGE[0], SLACK_WEIGHT_RANGE[1], "[1e-3, 1e8]")
+    }
+
+    /// An input weight within `[1/MAX_WEIGHT_RATIO, MAX_WEIGHT_RATIO]`.
+    pub(crate) fn input_weight(value: f64) -> Result<f64, CbfError> {
+        within("input weight", value, 1.0 / MAX_WEIGHT_RATIO, MAX_WEIGHT_RATIO, "[1e-3, 1e3]")
+    }
+
+    /// An ECBF gain within `[0, MAX_GAIN]`.
+    pub(crate) fn gain(value: f64) -> Result<f64, CbfError> {
+        within("ECBF gain", value, 0.0, MAX_GAIN, "[0, 1e8]")
+    }
 }
 
 /// `Ok(u)` when every entry is finite with `|u_j| ≤` [`domain::MAX_INPUT`]: the nominal
 /// input's domain, shared by the filter and [`EcbfQp::solve`](crate::filter::EcbfQp::solve).
 pub(crate) fn validate_nominal(u_ref: &Input) -> Result<(), CbfError> {
     for &v in u_ref {
-        within("nominal input", v, -domain::MAX_INPUT, domain::MAX_INPUT, "[-1e6, 1e6]")?;
+        domain::input("nominal input", v)?;
     }
     Ok(())
 }
@@ -299,11 +328,9 @@ impl FilterSettings {
     /// `input_min > input_max`.
     pub fn validate(&self) -> Result<(), CbfError> {
         for p in &self.families {
-            let [lo, hi] = domain::POLE_RANGE;
-            within("ECBF pole", p.poles[0], lo, hi, "[1e-6, 1e4]")?;
-            within("ECBF pole", p.poles[1], lo, hi, "[1e-6, 1e4]")?;
-            let [lo, hi] = domain::SLACK_WEIGHT_RANGE;
-            within("slack weight", p.slack_weight, lo, hi, "[1e-3, 1e8]")?;
+            domain::pole(p.poles[0])?;
+            domain::pole(p.poles[1])?;
+            domain::slack_weight(p.slack_weight)?;
             if p.activation.is_nan() {
                 return Err(CbfError::NonFinite { what: "activation threshold", value: p.activation });
             }
@@ -317,12 +344,10 @@ impl FilterSettings {
 /// `|limit| ≤` [`domain::MAX_INPUT`] and `min ≤ max`: shared by
 /// [`FilterSettings::validate`] and [`EcbfQp::new`](super::EcbfQp::new).
 pub(crate) fn validate_inputs(weights: &[f64; NU], min: &Input, max: &Input) -> Result<(), CbfError> {
-    let w = domain::MAX_WEIGHT_RATIO;
-    let m = domain::MAX_INPUT;
     for j in 0..NU {
-        within("input weight", weights[j], 1.0 / w, w, "[1e-3, 1e3]")?;
-        within("input limit", min[j], -m, m, "[-1e6, 1e6]")?;
-        within("input limit", max[j], -m, m, "[-1e6, 1e6]")?;
+        domain::input_weight(weights[j])?;
+        domain::input("input limit", min[j])?;
+        domain::input("input limit", max[j])?;
         if min[j] > max[j] {
             return Err(CbfError::OutOfRange {
                 what: "input_min (must not exceed input_max)",

@@ -58,7 +58,7 @@ use osqp::{CscMatrix, Problem};
 use super::model::{LipInput, LipState};
 use super::obstacles::HalfPlane;
 use super::LipParams;
-use crate::error::{within, CbfError};
+use crate::error::CbfError;
 use crate::filter::{Iterate, QpStatus, SolverSettings};
 use crate::osqp_workspace::{self, OsqpQp};
 
@@ -481,12 +481,11 @@ impl LipMpc {
     ) -> Result<QpStatus, CbfError> {
         // The legged model's domain: no coordinate whose products in the condensed QP
         // could overflow.
-        let limit = crate::model::STATE_LIMIT;
         for &v in x0 {
-            within("LIP state", v, -limit, limit, crate::model::STATE_RANGE)?;
+            crate::model::coordinate("LIP state", v)?;
         }
-        within("goal x", goal[0], -limit, limit, crate::model::STATE_RANGE)?;
-        within("goal y", goal[1], -limit, limit, crate::model::STATE_RANGE)?;
+        crate::model::coordinate("goal x", goal[0])?;
+        crate::model::coordinate("goal y", goal[1])?;
         if stance_sign != 1.0 && stance_sign != -1.0 {
             return Err(CbfError::OutOfRange { what: "stance sign", value: stance_sign, range: "{−1, +1}" });
         }
@@ -495,7 +494,7 @@ impl LipMpc {
         }
         for plane in planes {
             for v in plane.normal.into_iter().chain(plane.point).chain([plane.delta]) {
-                within("obstacle half-plane", v, -limit, limit, crate::model::STATE_RANGE)?;
+                crate::model::coordinate("obstacle half-plane", v)?;
             }
         }
 

@@ -73,9 +73,8 @@ pub const TIME_LIMIT: f64 = 1e9;
 /// with magnitude ≤ [`model::STATE_LIMIT`](crate::model::STATE_LIMIT) (the same domain as
 /// the legged model: no QP sees a number whose square overflows).
 pub(crate) fn check_state(x: &State, t: f64) -> Result<(), CbfError> {
-    let limit = crate::model::STATE_LIMIT;
     within("time", t, -TIME_LIMIT, TIME_LIMIT, "[-1e9, 1e9] s")?;
-    within("position", x[0], -limit, limit, crate::model::STATE_RANGE)?;
-    within("velocity", x[1], -limit, limit, crate::model::STATE_RANGE)?;
+    crate::model::coordinate("position", x[0])?;
+    crate::model::coordinate("velocity", x[1])?;
     Ok(())
 }

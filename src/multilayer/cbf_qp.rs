@@ -87,9 +87,8 @@ impl IdCbfQp {
     /// Non-positive poles or bound, or OSQP refusing the set-up.
     pub fn new(settings: CbfQpSettings) -> Result<Self, CbfError> {
         settings.solver.validate()?;
-        let [lo, hi] = crate::filter::domain::POLE_RANGE;
         for p in settings.poles {
-            crate::error::within("ECBF pole", p, lo, hi, "[1e-6, 1e4]")?;
+            crate::filter::domain::pole(p)?;
         }
         if settings.u_max.is_nan() || settings.u_max <= 0.0 {
             return Err(CbfError::NotPositive { what: "input bound", value: settings.u_max });
@@ -124,8 +123,7 @@ impl IdCbfQp {
     /// act on it), or no usable iterate (infeasible against `u_max`, solver fault):
     /// [`CbfError::QpFailed`]. Nothing is applied then; the caller decides what to do.
     pub fn solve(&mut self, desired_accel: f64, row: &BarrierRow) -> Result<CbfQpOutput, CbfError> {
-        let max = crate::filter::domain::MAX_INPUT;
-        crate::error::within("desired acceleration", desired_accel, -max, max, "[-1e6, 1e6]")?;
+        crate::filter::domain::input("desired acceleration", desired_accel)?;
         if !(row.lie.iter().all(|v| v.is_finite()) && row.lg_lf.is_finite()) {
             return Err(CbfError::NonFiniteRow { row: 0 });
         }
