@@ -32,6 +32,7 @@ mod osqp_workspace;
 pub mod sat;
 pub mod sim;
 pub mod ssat;
+pub mod system;
 pub mod terrain;
 
 /// Kernels emitted by `python -m symbolic.generate`. Never edited by hand: change

@@ -1,0 +1,380 @@
+//! The contract between a system's code and the generic runtime.
+//!
+//! A *system* is a control-affine model `ẋ = f(x) + g(x) u` with `NX` states and `NU`
+//! inputs ([`ControlAffine`]) and a set of barrier families ([`BarrierSet`]): each family
+//! is one constraint `h(x, params[, t]) ≥ 0`, differentiated to its relative degree `r`,
+//! and instantiated a fixed number of times or up to a capacity filled at run time.
+//! `python -m symbolic generate SPEC --out DIR` writes both implementations from a spec
+//! file; the generic [`EcbfFilter`](crate::filter::EcbfFilter) needs nothing else.
+//!
+//! Sizes live in types (`[f64; NX]`, `[f64; NU]`, as nalgebra's `SVector` does), so a row
+//! of one system cannot reach another system's filter. Families of different relative
+//! degrees share one QP: a row stores `[h, L_f h, …, L_f^r h]` in a fixed array of
+//! [`MAX_RELATIVE_DEGREE`]` + 1` entries and its family says how many are used.
+
+use crate::error::{within, CbfError};
+
+/// Highest relative degree a family may have (the symbolic stage stops looking there).
+pub const MAX_RELATIVE_DEGREE: usize = 4;
+
+/// Largest capacity of one capacity-sized family: a bound on rows laid out, so an absurd
+/// capacity is a typed error instead of an allocation failure.
+pub const MAX_INSTANCES: usize = 10_000;
+
+/// Largest |runtime parameter| a generated barrier set accepts (positions, sizes, gains of
+/// a boundary, in the parameter's own units); parameters are checked every evaluation.
+pub const PARAM_LIMIT: f64 = 1e6;
+
+/// Largest |t| \[s\] a time-varying barrier accepts: about 30 years of run time, and far
+/// below where `sin(ω t)` loses every digit.
+pub const TIME_LIMIT: f64 = 1e9;
+
+/// One evaluated ECBF row.
+///
+/// The row enforces `L_f^r h + Σ_{i<r} k_i L_f^i h + L_g L_f^{r−1} h · u ≥ 0`, with the
+/// gains `k_i` of its family's poles ([`Gains::from_poles`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Row<const NU: usize> {
+    /// `[h, L_f h, …, L_f^r h]`, then zeros: the barrier and its time derivatives along
+    /// the drift (units of `h`, `h`/s, …).
+    pub lie: [f64; MAX_RELATIVE_DEGREE + 1],
+    /// `L_g L_f^{r−1} h`: the inputs' effect on `h⁽ʳ⁾`, dense in input order (zero outside
+    /// the row's columns).
+    pub lg: [f64; NU],
+    /// Whether the row applies this cycle (its instance is filled, its condition holds);
+    /// set by [`BarrierSet::evaluate`]. An inactive row keeps stale values.
+    pub active: bool,
+}
+
+impl<const NU: usize> Row<NU> {
+    /// An inactive row of zeros: the value storage starts from.
+    pub const ZERO: Self = Self { lie: [0.0; MAX_RELATIVE_DEGREE + 1], lg: [0.0; NU], active: false };
+
+    /// The barrier value `h = lie[0]`, safe when ≥ 0.
+    pub fn h(&self) -> f64 {
+        self.lie[0]
+    }
+
+    /// Store one kernel row: `lie` (`r + 1` entries) and `lg_lf` on `columns`, and mark the
+    /// row active. Used by every barrier set, hand-written or generated.
+    pub fn store(&mut self, lie: &[f64], lg_lf: &[f64], columns: &[usize]) {
+        self.lie = [0.0; MAX_RELATIVE_DEGREE + 1];
+        self.lie[..lie.len()].copy_from_slice(lie);
+        self.lg = [0.0; NU];
+        for (&col, &v) in columns.iter().zip(lg_lf) {
+            self.lg[col] = v;
+        }
+        self.active = true;
+    }
+}
+
+/// ECBF poles `p_1 … p_r > 0` \[1/s\] of one family: `h` decays no faster than the slowest
+/// `e^{−p t}` towards the boundary. `Copy`, so settings stay plain data.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Poles {
+    values: [f64; MAX_RELATIVE_DEGREE],
+    len: usize,
+}
+
+impl Poles {
+    /// `degree` poles, all at `pole`; `degree` is clamped to `1..=MAX_RELATIVE_DEGREE`.
+    pub const fn repeated(pole: f64, degree: usize) -> Self {
+        let len = if degree == 0 {
+            1
+        } else if degree > MAX_RELATIVE_DEGREE {
+            MAX_RELATIVE_DEGREE
+        } else {
+            degree
+        };
+        Self { values: [pole; MAX_RELATIVE_DEGREE], len }
+    }
+
+    /// These poles, one per derivative.
+    ///
+    /// # Errors
+    /// No poles, or more than [`MAX_RELATIVE_DEGREE`].
+    pub fn new(poles: &[f64]) -> Result<Self, CbfError> {
+        if poles.is_empty() || poles.len() > MAX_RELATIVE_DEGREE {
+            return Err(CbfError::OutOfRange {
+                what: "number of ECBF poles",
+                value: poles.len() as f64,
+                range: "[1, 4]",
+            });
+        }
+        let mut values = [0.0; MAX_RELATIVE_DEGREE];
+        values[..poles.len()].copy_from_slice(poles);
+        Ok(Self { values, len: poles.len() })
+    }
+
+    /// The poles, `p_1 … p_r`.
+    pub fn as_slice(&self) -> &[f64] {
+        &self.values[..self.len]
+    }
+
+    /// How many poles there are: the relative degree they are for.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Always `false`: a `Poles` holds at least one pole.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+}
+
+impl<const N: usize> From<[f64; N]> for Poles {
+    /// `N` poles; `N` must be in `1..=MAX_RELATIVE_DEGREE` (checked when compiled).
+    fn from(poles: [f64; N]) -> Self {
+        const { assert!(N >= 1 && N <= MAX_RELATIVE_DEGREE, "1 to 4 ECBF poles") };
+        let mut values = [0.0; MAX_RELATIVE_DEGREE];
+        values[..N].copy_from_slice(&poles);
+        Self { values, len: N }
+    }
+}
+
+/// ECBF gains `k_0 … k_{r−1}` of `L_f^r h + Σ k_i L_f^i h ≥ 0` (with the input term).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Gains {
+    k: [f64; MAX_RELATIVE_DEGREE],
+    degree: usize,
+}
+
+impl Gains {
+    /// The gains that place the poles of `h`'s closed loop at `−p_i`: the coefficients of
+    /// `∏ (s + p_i) = s^r + k_{r−1} s^{r−1} + … + k_0`. For two poles, `k_0 = p_1 p_2` and
+    /// `k_1 = p_1 + p_2`. Every ECBF row in the crate takes its gains from here.
+    pub fn from_poles(poles: &Poles) -> Self {
+        // c holds the monic polynomial's coefficients, lowest first; multiply in each root.
+        let mut c = [0.0; MAX_RELATIVE_DEGREE + 1];
+        c[0] = 1.0;
+        for (n, &p) in poles.as_slice().iter().enumerate() {
+            // (s + p) · Σ c_i s^i: new c_i = c_{i−1} + p c_i, from the top down.
+            c[n + 1] = c[n];
+            for i in (1..=n).rev() {
+                c[i] = c[i - 1] + p * c[i];
+            }
+            c[0] *= p;
+        }
+        let mut k = [0.0; MAX_RELATIVE_DEGREE];
+        k[..poles.len()].copy_from_slice(&c[..poles.len()]);
+        Self { k, degree: poles.len() }
+    }
+
+    /// The gains, `k_0 … k_{r−1}`.
+    pub fn as_slice(&self) -> &[f64] {
+        &self.k[..self.degree]
+    }
+
+    /// The relative degree `r` these gains are for.
+    pub fn degree(&self) -> usize {
+        self.degree
+    }
+
+    /// `b = L_f^r h + k_{r−1} L_f^{r−1} h + … + k_0 h` of a row (≥ 0 when the ECBF condition
+    /// holds at `u = 0`), summed from the highest derivative down.
+    pub fn bound(&self, lie: &[f64; MAX_RELATIVE_DEGREE + 1]) -> f64 {
+        let r = self.degree;
+        (0..r).rev().fold(lie[r], |b, i| b + self.k[i] * lie[i])
+    }
+}
+
+/// One family's ECBF tuning: its poles, slack weight and activation threshold.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FamilyParams {
+    /// One pole per derivative, as many as the family's relative degree.
+    pub poles: Poles,
+    /// `w_δ` of this family's slacks, relative to an input weight of 1. Larger is harder.
+    pub slack_weight: f64,
+    /// The row takes part only while `h` is below this (in `h`'s own units;
+    /// `f64::INFINITY` = always). Rows above it are relaxed through their bounds, not
+    /// removed.
+    pub activation: f64,
+}
+
+impl FamilyParams {
+    /// The ECBF gains of [`FamilyParams::poles`].
+    pub fn gains(&self) -> Gains {
+        Gains::from_poles(&self.poles)
+    }
+}
+
+/// A barrier family's fixed description.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FamilyInfo {
+    /// The family's name (snake case), as in the spec.
+    pub name: &'static str,
+    /// The relative degree `r`, found symbolically.
+    pub relative_degree: usize,
+    /// What each row of one instance constrains.
+    pub row_names: &'static [&'static str],
+    /// The spec's defaults for poles, slack weight and activation.
+    pub defaults: FamilyParams,
+}
+
+/// Where one row sits: its family, the instance of that family, the row within the
+/// instance, and the input columns its `L_g L_f^{r−1} h` can touch (the QP's fixed
+/// sparsity pattern).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RowLayout {
+    /// Index into [`BarrierSet::families`].
+    pub family: usize,
+    /// Which instance of the family (an obstacle slot, a leg…).
+    pub instance: usize,
+    /// Which row of the instance, indexing [`FamilyInfo::row_names`].
+    pub row: usize,
+    /// Input columns where `L_g L_f^{r−1} h` can be non-zero.
+    pub columns: &'static [usize],
+}
+
+/// A control-affine system `ẋ = f(x) + g(x) u`.
+pub trait ControlAffine<const NX: usize, const NU: usize> {
+    /// The system's name, as in its spec.
+    const NAME: &'static str;
+    /// What each state is.
+    const STATE_NAMES: [&'static str; NX];
+    /// What each input is.
+    const INPUT_NAMES: [&'static str; NU];
+    /// Default lower input limits (the spec's).
+    const INPUT_MIN: [f64; NU];
+    /// Default upper input limits (the spec's).
+    const INPUT_MAX: [f64; NU];
+
+    /// The drift `f(x)`.
+    fn drift(x: &[f64; NX]) -> [f64; NX];
+
+    /// The input matrix `g(x)`, row by state.
+    fn input_matrix(x: &[f64; NX]) -> [[f64; NU]; NX];
+
+    /// `ẋ = f(x) + g(x) u`.
+    fn xdot(x: &[f64; NX], u: &[f64; NU]) -> [f64; NX] {
+        let (mut dx, g) = (Self::drift(x), Self::input_matrix(x));
+        for (d, row) in dx.iter_mut().zip(&g) {
+            *d += row.iter().zip(u).map(|(a, b)| a * b).sum::<f64>();
+        }
+        dx
+    }
+}
+
+/// A system's barrier rows, laid out once and evaluated each cycle into preallocated
+/// storage. Generated for every spec; hand-written implementations follow the same rules.
+///
+/// The row layout is fixed at construction (from the capacities), so the QP's sparsity
+/// is too; rows that do not apply this cycle (an empty obstacle slot) are flagged
+/// inactive, not removed.
+pub trait BarrierSet<const NU: usize> {
+    /// The state the rows are evaluated at (`[f64; NX]` for generated systems).
+    type State;
+    /// Everything the rows read at run time besides the state: each family's instances.
+    type Params;
+
+    /// The families, indexed by [`RowLayout::family`].
+    fn families(&self) -> &[FamilyInfo];
+    /// Where each row sits, in row order.
+    fn layout(&self) -> &[RowLayout];
+    /// The rows as last evaluated, in [`BarrierSet::layout`] order.
+    fn rows(&self) -> &[Row<NU>];
+    /// Evaluate every row at time `t` (read by time-varying families only), state `x`
+    /// and `params`. Must not allocate.
+    ///
+    /// # Errors
+    /// A state, time or parameter outside its domain, or `params` laid out for another
+    /// capacity. Rows are left as they were.
+    fn evaluate(&mut self, t: f64, x: &Self::State, params: &Self::Params) -> Result<(), CbfError>;
+}
+
+/// Instances of one capacity-sized family, filled at run time up to a capacity fixed at
+/// construction: pushing never allocates, and a full set is a typed error.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Instances<T> {
+    what: &'static str,
+    items: Vec<T>,
+    capacity: usize,
+}
+
+impl<T> Instances<T> {
+    /// Room for `capacity` instances of `what` (the family's name, for error messages).
+    ///
+    /// # Errors
+    /// `capacity` above [`MAX_INSTANCES`].
+    pub fn with_capacity(what: &'static str, capacity: usize) -> Result<Self, CbfError> {
+        if capacity > MAX_INSTANCES {
+            return Err(CbfError::TooLarge { what, value: capacity, max: MAX_INSTANCES });
+        }
+        Ok(Self { what, items: Vec::with_capacity(capacity), capacity })
+    }
+
+    /// Add one instance.
+    ///
+    /// # Errors
+    /// [`CbfError::CapacityExceeded`] when all slots are filled.
+    pub fn push(&mut self, item: T) -> Result<(), CbfError> {
+        if self.items.len() == self.capacity {
+            return Err(CbfError::CapacityExceeded { what: self.what, capacity: self.capacity });
+        }
+        self.items.push(item);
+        Ok(())
+    }
+
+    /// Remove every instance (the capacity stays).
+    pub fn clear(&mut self) {
+        self.items.clear();
+    }
+
+    /// The filled instances.
+    pub fn as_slice(&self) -> &[T] {
+        &self.items
+    }
+
+    /// The capacity fixed at construction.
+    pub fn capacity(&self) -> usize {
+        self.capacity
+    }
+}
+
+/// `Ok(())` when every state entry is finite with `|x_i| ≤`
+/// [`STATE_LIMIT`](crate::model::STATE_LIMIT).
+///
+/// # Errors
+/// [`CbfError::NonFinite`] or [`CbfError::OutOfRange`].
+pub fn validate_state(x: &[f64]) -> Result<(), CbfError> {
+    for &v in x {
+        crate::model::coordinate("state entry", v)?;
+    }
+    Ok(())
+}
+
+/// `Ok(())` when every runtime parameter is finite with `|p| ≤` [`PARAM_LIMIT`].
+///
+/// # Errors
+/// [`CbfError::NonFinite`] or [`CbfError::OutOfRange`] naming `what`.
+pub fn validate_params(what: &'static str, values: &[f64]) -> Result<(), CbfError> {
+    for &v in values {
+        within(what, v, -PARAM_LIMIT, PARAM_LIMIT, "[-1e6, 1e6]")?;
+    }
+    Ok(())
+}
+
+/// `Ok(())` when `t` is finite with `|t| ≤` [`TIME_LIMIT`].
+///
+/// # Errors
+/// [`CbfError::NonFinite`] or [`CbfError::OutOfRange`].
+pub fn validate_time(t: f64) -> Result<(), CbfError> {
+    within("time", t, -TIME_LIMIT, TIME_LIMIT, "[-1e9, 1e9]").map(|_| ())
+}
+
+/// One generated kernel behind a uniform signature, for tools that iterate over every
+/// kernel of a system (the SymEngine cross-check, Python's `call_kernel`).
+#[derive(Debug, Clone, Copy)]
+pub struct KernelEntry {
+    /// The kernel's function name.
+    pub name: &'static str,
+    /// Inputs in argument order: name and number of scalars (1 for a scalar).
+    pub inputs: &'static [(&'static str, usize)],
+    /// Outputs in return order: name and number of scalars, flattened as the symbolic
+    /// stage lists them (matrices row by row, symmetric matrices by upper triangle).
+    pub outputs: &'static [(&'static str, usize)],
+    /// Call with every input flattened in order into one slice and receive every output
+    /// flattened likewise; lengths must equal the sums of `inputs` and `outputs` (the
+    /// call panics otherwise: a tool's bug, never a control-path one).
+    pub call: fn(&[f64], &mut [f64]),
+}
