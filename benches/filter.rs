@@ -3,15 +3,15 @@
 //! warm-started from the previous cycle as in the control loop. For percentiles over a
 //! moving trajectory run `cbfgen latency`.
 use cbfgen::approach::Approach;
-use cbfgen::catalog::Capacity;
-use cbfgen::filter::{EcbfFilter, FilterSettings};
+use cbfgen::catalog::{self, Capacity};
+use cbfgen::filter::EcbfFilter;
 use cbfgen::terrain::Stairs;
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
 
 fn update(c: &mut Criterion) {
     let capacity = Capacity::PAPER_WORST_CASE;
-    let mut filter = EcbfFilter::new(capacity, FilterSettings::default()).expect("filter");
+    let mut filter = EcbfFilter::with_capacity(capacity, catalog::default_settings()).expect("filter");
     let mut drive = Approach::new(capacity, Stairs::HARDWARE, 0.1, 0.3).expect("drive");
     // 1.5 s of closed loop: the front toes reach the first nosing and the filter holds them.
     for _ in 0..1500 {

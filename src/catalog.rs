@@ -26,12 +26,16 @@
 //! ```
 
 use crate::error::{finite, CbfError};
+use crate::filter::{EcbfFilter, FilterSettings};
 use crate::generated::tachyon3 as gen;
 use crate::geometry::OrientedBox;
-use crate::model::{self, State, NU};
+use crate::model::{self, State, ECBF_POLES, INPUT_LIMITS, LEG_NAMES, NU};
+use crate::system::{self, BarrierSet, FamilyInfo, FamilyParams, Poles, RowLayout};
 
-/// Every family of this model has relative degree 2; the row storage relies on it. A
-/// model change that alters a degree stops the build here instead of misreading rows.
+/// Every family of this model has relative degree 2, as [`FAMILIES`] declares to the
+/// filter. A model change that alters a degree stops the build here instead of
+/// misreading rows.
+
 pub const RELATIVE_DEGREE: usize = 2;
 const _: () = assert!(
     gen::BODY_EDGE_SSAT_RELATIVE_DEGREE == RELATIVE_DEGREE
@@ -97,7 +101,7 @@ impl Family {
 pub struct RowSlot {
     /// The constraint family the row belongs to.
     pub family: Family,
-    /// The leg, in [`LEG_NAMES`](crate::model::LEG_NAMES) order; `None` for body–edge rows.
+    /// The leg, in [`LEG_NAMES`] order; `None` for body–edge rows.
     pub leg: Option<usize>,
     /// Index within the family and leg: joint row (knee min, knee max, hip min, hip max),
     /// stability bound (0 lower, 1 upper), edge slot or foothold edge; 0 for foot height.
@@ -107,30 +111,64 @@ pub struct RowSlot {
     pub columns: &'static [usize],
 }
 
-/// One evaluated ECBF row: `lie = [h, L_f h, L_f² h]` and `lg = L_g L_f h` (dense over
-/// the inputs; zero outside the slot's columns). Inactive rows keep stale values.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Row {
-    /// `[h, L_f h, L_f² h]`: the barrier and its first two time derivatives along the
-    /// drift (units of `h`, `h`/s, `h`/s²; see [`Row::h`]).
-    pub lie: [f64; RELATIVE_DEGREE + 1],
-    /// `L_g L_f h`: the inputs' effect on `ḧ = L_f² h + L_g L_f h · u`, dense in
-    /// [`Input`](crate::model::Input) order.
-    pub lg: [f64; NU],
-    /// Whether the row applies this cycle, as set by [`Catalog::evaluate`]: joint-limit
-    /// and foot-height rows always, the others while their edge slot, stability bound or
-    /// (swinging leg's) foothold edge is filled. The filter's activation threshold on `h`
-    /// narrows it further.
-    pub active: bool,
+/// One evaluated ECBF row of the Tachyon 3 model: `lie = [h, L_f h, L_f² h, 0, 0]` and
+/// `lg = L_g L_f h` (dense over the 17 inputs; zero outside the slot's columns).
+/// Inactive rows keep stale values.
+pub type Row = system::Row<NU>;
+
+/// The ECBF filter on the Tachyon 3 catalog.
+pub type Tachyon3Filter = EcbfFilter<Catalog, NU>;
+
+/// Each family's fixed description, in [`Family::index`] order, with the defaults of
+/// [`default_settings`].
+pub const FAMILIES: [FamilyInfo; 6] = {
+    const fn info(family: Family, row_names: &'static [&'static str], activation: f64) -> FamilyInfo {
+        FamilyInfo {
+            name: family.name(),
+            relative_degree: RELATIVE_DEGREE,
+            row_names,
+            defaults: FamilyParams { poles: Poles::repeated(0.0, RELATIVE_DEGREE), slack_weight: 1e4, activation },
+        }
+    }
+    let mut families = [
+        info(Family::JointLimits, &["knee_min", "knee_max", "hip_min", "hip_max"], f64::INFINITY),
+        info(Family::FootHeight, &["foot_height"], f64::INFINITY),
+        info(Family::Stability, &["lower", "upper"], f64::INFINITY),
+        // h of the body–edge SSAT is a lower bound on the distance [m].
+        info(Family::BodyEdge, &["body_edge"], 0.5),
+        // Toe within twice the inflated edge half-extent.
+        info(Family::ToeEdge, &LEG_NAMES, 15.0),
+        info(Family::Foothold, &["half_space"], f64::INFINITY),
+    ];
+    let mut i = 0;
+    while i < families.len() {
+        families[i].defaults.poles = Poles::from_array(ECBF_POLES);
+        i += 1;
+    }
+    families
+};
+
+impl EcbfFilter<Catalog, NU> {
+    /// The filter on a catalog laid out for `capacity`:
+    /// `EcbfFilter::new(Catalog::new(capacity)?, settings)`.
+    ///
+    /// # Errors
+    /// As [`Catalog::new`] and [`EcbfFilter::new`].
+    pub fn with_capacity(capacity: Capacity, settings: FilterSettings<NU>) -> Result<Self, CbfError> {
+        EcbfFilter::new(Catalog::new(capacity)?, settings)
+    }
+
+    /// Where each row sits in the model's terms (family, leg, instance, input columns).
+    pub fn slots(&self) -> &[RowSlot] {
+        self.barriers().slots()
+    }
 }
 
-impl Row {
-    /// The barrier value `h = lie[0]`, safe when ≥ 0. Its units depend on the family:
-    /// \[m\] for most rows, \[rad\] for the hip-angle limits, \[–\] for the toe–edge
-    /// superellipsoid.
-    pub fn h(&self) -> f64 {
-        self.lie[0]
-    }
+/// The filter settings of the model file: its poles and input limits, slack weight 10⁴,
+/// activation 0.5 m for the body–edge SSAT and 15 for the toe superellipsoid (every other
+/// family always applies), unit input weights and [`SolverSettings::default`](crate::filter::SolverSettings::default).
+pub fn default_settings() -> FilterSettings<NU> {
+    FilterSettings::defaults(&FAMILIES, INPUT_LIMITS.map(|l| -l), INPUT_LIMITS)
 }
 
 /// How many obstacle and foothold rows the catalog reserves.
@@ -373,6 +411,7 @@ impl Environment {
 pub struct Catalog {
     capacity: Capacity,
     slots: Vec<RowSlot>,
+    layout: Vec<RowLayout>,
     rows: Vec<Row>,
 }
 
@@ -417,8 +456,9 @@ impl Catalog {
             }
         }
         debug_assert_eq!(slots.len(), capacity.rows());
-        let rows = vec![Row { lie: [0.0; RELATIVE_DEGREE + 1], lg: [0.0; NU], active: false }; slots.len()];
-        Ok(Self { capacity, slots, rows })
+        let layout = slots.iter().map(RowSlot::layout).collect();
+        let rows = vec![Row::ZERO; slots.len()];
+        Ok(Self { capacity, slots, layout, rows })
     }
 
     /// The capacity the rows were laid out for.
@@ -480,37 +520,37 @@ impl Catalog {
                             rows
                         }
                     };
-                    store(row, &lie[i], &lg[i], slot.columns);
+                    row.store(&lie[i], &lg[i], slot.columns);
                 }
                 Family::FootHeight => {
                     let (lie, lg) = gen::FOOT_HEIGHT[leg](x, env.floor_z[leg]);
-                    store(row, &lie[0], &lg[0], slot.columns);
+                    row.store(&lie[0], &lg[0], slot.columns);
                 }
                 Family::Stability => match env.stability[leg][i] {
                     Some(b) => {
                         let (lie, lg) = gen::STABILITY[leg](x, b.a, b.b);
-                        store(row, &lie[0], &lg[0], slot.columns);
+                        row.store(&lie[0], &lg[0], slot.columns);
                     }
                     None => row.active = false,
                 },
                 Family::BodyEdge => match env.edges.get(i) {
                     Some(e) => {
                         let (lie, lg) = gen::body_edge_ssat(x, &e.center, &e.rotation, &e.half);
-                        store(row, &lie[0], &lg[0], slot.columns);
+                        row.store(&lie[0], &lg[0], slot.columns);
                     }
                     None => row.active = false,
                 },
                 Family::ToeEdge => match env.edges.get(i) {
                     Some(e) => {
                         let (lie, lg) = gen::TOE_EDGE[leg](x, &e.center, &e.rotation, &e.half);
-                        store(row, &lie[0], &lg[0], slot.columns);
+                        row.store(&lie[0], &lg[0], slot.columns);
                     }
                     None => row.active = false,
                 },
                 Family::Foothold => match env.footholds[leg].get(i).filter(|_| env.swing[leg]) {
                     Some(p) => {
                         let (lie, lg) = gen::FOOTHOLD[leg](x, &p.normal, p.offset);
-                        store(row, &lie[0], &lg[0], slot.columns);
+                        row.store(&lie[0], &lg[0], slot.columns);
                     }
                     None => row.active = false,
                 },
@@ -520,18 +560,46 @@ impl Catalog {
     }
 }
 
+impl RowSlot {
+    /// The slot in the generic layout: instance = leg (edge slot for the edge families,
+    /// foothold edge for footholds), row = the row within it.
+    fn layout(&self) -> RowLayout {
+        let leg = self.leg.unwrap_or(0);
+        let (instance, row) = match self.family {
+            Family::JointLimits | Family::Stability => (leg, self.instance),
+            Family::FootHeight => (leg, 0),
+            Family::BodyEdge => (self.instance, 0),
+            Family::ToeEdge => (self.instance, leg),
+            Family::Foothold => (leg * Capacity::MAX_FOOTHOLD_EDGES + self.instance, 0),
+        };
+        RowLayout { family: self.family.index(), instance, row, columns: self.columns }
+    }
+}
+
 /// One joint-limit kernel call: four rows of [h, L_f h, L_f² h] and their L_g L_f h.
 type JointRows = (
     [[f64; RELATIVE_DEGREE + 1]; JOINT_ROWS_PER_LEG],
     [[f64; gen::JOINT_LIMITS_LF_INPUT_COLUMNS.len()]; JOINT_ROWS_PER_LEG],
 );
 
-/// Copy one kernel row into `row`, scattering `lg_lf` onto the slot's input columns.
-fn store<const C: usize>(row: &mut Row, lie: &[f64; 3], lg_lf: &[f64; C], columns: &[usize]) {
-    row.lie = *lie;
-    row.lg = [0.0; NU];
-    for (&col, &v) in columns.iter().zip(lg_lf) {
-        row.lg[col] = v;
+impl BarrierSet<NU> for Catalog {
+    type State = State;
+    type Params = Environment;
+
+    fn families(&self) -> &[FamilyInfo] {
+        &FAMILIES
     }
-    row.active = true;
+
+    fn layout(&self) -> &[RowLayout] {
+        &self.layout
+    }
+
+    fn rows(&self) -> &[Row] {
+        &self.rows
+    }
+
+    /// [`Catalog::evaluate`]; no family of the model depends on time.
+    fn evaluate(&mut self, _t: f64, x: &State, params: &Environment) -> Result<(), CbfError> {
+        Catalog::evaluate(self, x, params)
+    }
 }

@@ -7,9 +7,10 @@ use std::fmt;
 use std::time::{Duration, Instant};
 
 use crate::approach::Approach;
-use crate::catalog::Capacity;
+use crate::catalog::{Capacity, Catalog};
 use crate::error::CbfError;
 use crate::filter::{EcbfFilter, FilterSettings, InputSource};
+use crate::model::NU;
 use crate::terrain::Stairs;
 
 /// Control period \[s\].
@@ -75,10 +76,10 @@ pub struct LatencyReport {
 ///
 /// # Errors
 /// Filter construction or an update returning an error (bad state).
-pub fn run(cycles: usize, speed: f64, start_gap: f64, settings: FilterSettings) -> Result<LatencyReport, CbfError> {
+pub fn run(cycles: usize, speed: f64, start_gap: f64, settings: FilterSettings<NU>) -> Result<LatencyReport, CbfError> {
     let capacity = Capacity::PAPER_WORST_CASE;
     let stairs = Stairs::HARDWARE;
-    let mut filter = EcbfFilter::new(capacity, settings)?;
+    let mut filter = EcbfFilter::new(Catalog::new(capacity)?, settings)?;
     let mut drive = Approach::new(capacity, stairs, start_gap, speed)?;
     let start_x = drive.x[0];
     let (mut total, mut eval, mut solve) =

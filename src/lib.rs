@@ -5,13 +5,21 @@
 //! API. Data flows one way: model → symbolic expressions → derivatives → CSE → Rust →
 //! [`generated`] → the modules below.
 //!
+//! The generic core serves any control-affine system:
+//!
+//! * [`system`] — the contract a system's code implements (generated from a spec by
+//!   `python -m symbolic generate`, or by the `cbfgen-build` helper from a build script).
+//! * [`filter`] — the ECBF-QP safety filter on OSQP over any [`system::BarrierSet`]: one
+//!   allocation-free control update.
+//!
+//! Geometry and the Tachyon 3 system:
+//!
 //! * [`ssat`] — Smooth Separating Axis Theorem between oriented boxes, with a certified
 //!   margin that turns a smooth barrier into an exact no-overlap proof.
 //! * [`sat`] — the exact SAT, the reference the smooth one is tested against.
 //! * [`geometry`] — validated oriented boxes.
 //! * [`model`] — the Tachyon 3 state/input layout and dynamics (generated from the model file).
 //! * [`catalog`] — every ECBF row of the model, evaluated into preallocated storage.
-//! * [`filter`] — the ECBF-QP safety filter on OSQP: one allocation-free control update.
 //! * [`terrain`] — stairs as edge cuboids and floors; [`approach`] — a scripted drive to them.
 //! * [`sim`] — the closed-loop stair simulation (gait, filter, integration, CSV and figures).
 //! * [`lip`] — bipedal navigation: a 3D-LIP MPC with linear discrete CBFs around obstacles.
@@ -43,6 +51,21 @@ pub mod generated;
 
 pub use error::CbfError;
 pub use geometry::OrientedBox;
+
+/// Include a system module that `cbfgen-build` generated into `OUT_DIR`, inside the module
+/// that should hold it:
+///
+/// ```ignore
+/// pub mod planar_robot {
+///     cbfgen::include_system!("planar_robot");
+/// }
+/// ```
+#[macro_export]
+macro_rules! include_system {
+    ($name:literal) => {
+        include!(concat!(env!("OUT_DIR"), "/", $name, ".rs"));
+    };
+}
 
 /// The README's examples compile and run as doctests.
 #[cfg(doctest)]

@@ -3,7 +3,7 @@
 use cbfgen::catalog::{Capacity, Catalog, Environment, Family};
 use cbfgen::filter::FilterSettings;
 use cbfgen::lip;
-use cbfgen::model;
+use cbfgen::model::{self, NU};
 use cbfgen::multilayer;
 use cbfgen::sim::{self, output, Scenario, SimConfig, SimResult};
 use cbfgen::ssat::{self, SmoothParams};
@@ -128,7 +128,7 @@ struct SolverArgs {
 }
 
 impl SolverArgs {
-    fn apply(&self, s: &mut FilterSettings) {
+    fn apply(&self, s: &mut FilterSettings<NU>) {
         let o = &mut s.solver;
         o.eps_abs = self.eps_abs.unwrap_or(o.eps_abs);
         o.eps_rel = self.eps_rel.unwrap_or(o.eps_rel);
@@ -238,7 +238,7 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             Ok(())
         }
         Command::Latency { cycles, speed, gap, solver } => {
-            let mut settings = FilterSettings::default();
+            let mut settings = cbfgen::catalog::default_settings();
             solver.apply(&mut settings);
             writeln!(stdout, "{}", cbfgen::latency::run(cycles, speed, gap, settings)?)?;
             Ok(())

@@ -89,6 +89,19 @@ impl Poles {
         Self { values: [pole; MAX_RELATIVE_DEGREE], len }
     }
 
+    /// `N` poles, one per derivative; `N` must be in `1..=MAX_RELATIVE_DEGREE` (checked
+    /// when compiled).
+    pub const fn from_array<const N: usize>(poles: [f64; N]) -> Self {
+        const { assert!(N >= 1 && N <= MAX_RELATIVE_DEGREE, "1 to 4 ECBF poles") };
+        let mut values = [0.0; MAX_RELATIVE_DEGREE];
+        let mut i = 0;
+        while i < N {
+            values[i] = poles[i];
+            i += 1;
+        }
+        Self { values, len: N }
+    }
+
     /// These poles, one per derivative.
     ///
     /// # Errors
@@ -123,12 +136,9 @@ impl Poles {
 }
 
 impl<const N: usize> From<[f64; N]> for Poles {
-    /// `N` poles; `N` must be in `1..=MAX_RELATIVE_DEGREE` (checked when compiled).
+    /// [`Poles::from_array`].
     fn from(poles: [f64; N]) -> Self {
-        const { assert!(N >= 1 && N <= MAX_RELATIVE_DEGREE, "1 to 4 ECBF poles") };
-        let mut values = [0.0; MAX_RELATIVE_DEGREE];
-        values[..N].copy_from_slice(&poles);
-        Self { values, len: N }
+        Self::from_array(poles)
     }
 }
 
@@ -158,6 +168,16 @@ impl Gains {
         let mut k = [0.0; MAX_RELATIVE_DEGREE];
         k[..poles.len()].copy_from_slice(&c[..poles.len()]);
         Self { k, degree: poles.len() }
+    }
+
+    /// Gains given directly, `k_0 … k_{r−1}` (their count is the relative degree). Their
+    /// range is checked where they are used ([`EcbfQp::new`](crate::filter::EcbfQp::new)).
+    ///
+    /// # Errors
+    /// No gains, or more than [`MAX_RELATIVE_DEGREE`].
+    pub fn new(gains: &[f64]) -> Result<Self, CbfError> {
+        let poles = Poles::new(gains)?; // the same count rule
+        Ok(Self { k: poles.values, degree: poles.len })
     }
 
     /// The gains, `k_0 … k_{r−1}`.

@@ -11,9 +11,10 @@ mod common;
 mod kkt;
 
 use cbfgen::approach::Approach;
-use cbfgen::catalog::{Capacity, Environment, Row};
+use cbfgen::catalog::{self, Capacity, Environment, Row, Tachyon3Filter};
 use cbfgen::filter::{EcbfFilter, EcbfQp, FilterSettings, InputSource, QpStatus, RowSpec, SolverSettings};
 use cbfgen::model::{self, Input, State, NU, NX, TOE_BLOCK};
+use cbfgen::system::{Gains, Poles};
 use cbfgen::terrain::Stairs;
 use cbfgen::CbfError;
 use kkt::{clarabel_reference, kkt_violation, KKT_TOLERANCE};
@@ -26,7 +27,7 @@ const CAPACITY: Capacity = Capacity::PAPER_WORST_CASE;
 fn instances(seed: u64) -> Vec<(State, Input, Environment)> {
     let mut out = Vec::new();
     let mut drive = Approach::new(CAPACITY, Stairs::HARDWARE, 0.3, 0.4).expect("drive");
-    let mut filter = EcbfFilter::new(CAPACITY, FilterSettings::default()).expect("filter");
+    let mut filter = EcbfFilter::with_capacity(CAPACITY, catalog::default_settings()).expect("filter");
     for k in 0..3000 {
         let u_ref = drive.nominal_input();
         if k % 20 == 0 {
@@ -63,7 +64,7 @@ fn recoverable_perturbation(rng: &mut impl Rng, x: &mut State) {
 fn osqp_agrees_with_clarabel_and_satisfies_kkt_on_scenario_and_random_instances() {
     let cases = instances(11);
     assert!(cases.len() >= 200);
-    let mut filter = EcbfFilter::new(CAPACITY, FilterSettings::default()).expect("filter");
+    let mut filter = EcbfFilter::with_capacity(CAPACITY, catalog::default_settings()).expect("filter");
     let (mut worst_du, mut worst_kkt, mut corrected, mut continued, mut polished) = (0.0f64, 0.0f64, 0, 0, 0);
     for (k, (x, u_ref, env)) in cases.iter().enumerate() {
         // Each instance starts from the previous one's warm start. One that needs more
@@ -98,8 +99,8 @@ fn osqp_agrees_with_clarabel_and_satisfies_kkt_on_scenario_and_random_instances(
 
 /// A QP of a single ECBF row over all 17 inputs, tolerances tightened so the comparison
 /// tests the formulation, not the stopping rule.
-fn single_row_qp(columns: &[usize], slack_weight: f64, weights: &[f64; NU], limits: f64) -> EcbfQp {
-    let spec = RowSpec { columns, gains: [6.0, 5.0], slack_weight };
+fn single_row_qp(columns: &[usize], slack_weight: f64, weights: &[f64; NU], limits: f64) -> EcbfQp<NU> {
+    let spec = RowSpec { columns, gains: Gains::from_poles(&Poles::from([2.0, 3.0])), slack_weight };
     let tight = SolverSettings {
         eps_abs: 1e-10,
         eps_rel: 1e-10,
@@ -125,7 +126,7 @@ fn one_row_is_the_weighted_projection_onto_its_half_space_by_hand() {
         let b = lie[2] + 5.0 * lie[1] + 6.0 * lie[0];
         let a_r = (0..NU).map(|j| lg[j] * u_ref[j]).sum::<f64>() + b;
         let lambda = (-a_r).max(0.0) / ((0..NU).map(|j| lg[j] * lg[j] / weights[j]).sum::<f64>() + 1.0 / slack_weight);
-        let row = Row { lie, lg, active: true };
+        let row = Row { lie: [lie[0], lie[1], lie[2], 0.0, 0.0], lg, active: true };
         assert_eq!(qp.solve(&u_ref, &[row], &[true]), Ok(QpStatus::Solved));
         for j in 0..NU {
             let want = u_ref[j] + lambda * lg[j] / weights[j];
@@ -139,7 +140,7 @@ fn one_row_is_the_weighted_projection_onto_its_half_space_by_hand() {
 fn without_binding_rows_the_input_box_is_a_clip_by_hand() {
     let mut qp = single_row_qp(&[0, 3], 1e4, &[1.0; NU], 2.0);
     let u_ref: Input = std::array::from_fn(|j| 4.0 * ((j as f64) / 8.0 - 1.0)); // −4 … 4
-    let row = Row { lie: [1.0, 0.0, 0.0], lg: [0.0; NU], active: true };
+    let row = Row { lie: [1.0, 0.0, 0.0, 0.0, 0.0], lg: [0.0; NU], active: true };
     assert_eq!(qp.solve(&u_ref, &[row], &[false]), Ok(QpStatus::Solved));
     for j in 0..NU {
         assert!((qp.u()[j] - u_ref[j].clamp(-2.0, 2.0)).abs() <= 1e-6, "u[{j}]");
@@ -148,7 +149,7 @@ fn without_binding_rows_the_input_box_is_a_clip_by_hand() {
 
 #[test]
 fn a_nominal_input_that_satisfies_every_row_passes_unchanged() {
-    let mut filter = EcbfFilter::new(CAPACITY, FilterSettings::default()).expect("filter");
+    let mut filter = EcbfFilter::with_capacity(CAPACITY, catalog::default_settings()).expect("filter");
     let drive = Approach::new(CAPACITY, Stairs::HARDWARE, 0.4, 0.2).expect("drive");
     let mut rng = common::rng(9);
     let mut checked = 0;
@@ -169,7 +170,7 @@ fn a_nominal_input_that_satisfies_every_row_passes_unchanged() {
         // Independent check that u_ref satisfies every active ECBF row with margin.
         let s = filter.settings();
         let satisfied = filter.rows().iter().zip(filter.active()).zip(filter.slots()).all(|((row, &on), slot)| {
-            let [p1, p2] = s.family(slot.family).poles;
+            let &[p1, p2] = s.family(slot.family.index()).poles.as_slice() else { panic!("two poles") };
             let b = row.lie[2] + (p1 + p2) * row.lie[1] + p1 * p2 * row.lie[0];
             !on || (0..NU).map(|j| row.lg[j] * u_ref[j]).sum::<f64>() + b > 1e-3
         });
@@ -187,14 +188,14 @@ fn a_nominal_input_that_satisfies_every_row_passes_unchanged() {
     assert!(checked >= 25, "only {checked} nominal inputs satisfied every row");
 }
 
-fn drive_and_filter(settings: FilterSettings) -> (Approach, EcbfFilter) {
+fn drive_and_filter(settings: FilterSettings<NU>) -> (Approach, Tachyon3Filter) {
     let drive = Approach::new(CAPACITY, Stairs::HARDWARE, 0.05, 0.3).expect("drive");
-    (drive, EcbfFilter::new(CAPACITY, settings).expect("filter"))
+    (drive, EcbfFilter::with_capacity(CAPACITY, settings).expect("filter"))
 }
 
 /// Update on the drive's state until the QP converges (a cold start may take a few
 /// cycles' iteration budgets).
-fn converged_update(filter: &mut EcbfFilter, drive: &Approach) -> cbfgen::filter::FilterOutput {
+fn converged_update(filter: &mut Tachyon3Filter, drive: &Approach) -> cbfgen::filter::FilterOutput<NU> {
     for _ in 0..20 {
         let out = *filter.update(&drive.x, &drive.nominal_input(), &drive.env).expect("finite");
         if out.source == InputSource::Qp {
@@ -206,7 +207,7 @@ fn converged_update(filter: &mut EcbfFilter, drive: &Approach) -> cbfgen::filter
 
 #[test]
 fn nan_or_infinite_state_and_nominal_input_are_errors_that_change_nothing() {
-    let (drive, mut filter) = drive_and_filter(FilterSettings::default());
+    let (drive, mut filter) = drive_and_filter(catalog::default_settings());
     let u_ref = drive.nominal_input();
     let before = converged_update(&mut filter, &drive);
     for i in [0, 7, 13, NX - 1] {
@@ -227,7 +228,7 @@ fn nan_or_infinite_state_and_nominal_input_are_errors_that_change_nothing() {
 
 #[test]
 fn a_degenerate_leg_falls_back_to_the_last_safe_input_with_a_flag() {
-    let (drive, mut filter) = drive_and_filter(FilterSettings::default());
+    let (drive, mut filter) = drive_and_filter(catalog::default_settings());
     // Toe exactly at its hip: knee length 0, whose derivative is 0/0.
     let mut broken = drive.x;
     let hip = model::HIP_POSITIONS[0];
@@ -251,7 +252,7 @@ fn a_degenerate_leg_falls_back_to_the_last_safe_input_with_a_flag() {
 
 #[test]
 fn an_iteration_or_time_limit_hands_back_the_clipped_iterate_and_the_next_cycle_continues() {
-    let mut settings = FilterSettings::default();
+    let mut settings = catalog::default_settings();
     settings.solver.max_iter = 25;
     settings.solver.polish = false; // the polish would rescue the iterate: see the next test
     let (drive, mut filter) = drive_and_filter(settings);
@@ -268,7 +269,7 @@ fn an_iteration_or_time_limit_hands_back_the_clipped_iterate_and_the_next_cycle_
     }
     assert_eq!(filter.output().consecutive_fallbacks, 0);
 
-    let mut settings = FilterSettings::default();
+    let mut settings = catalog::default_settings();
     settings.solver.time_limit = Some(std::time::Duration::from_nanos(1));
     settings.solver.polish = false;
     let (drive, mut filter) = drive_and_filter(settings);
@@ -280,7 +281,7 @@ fn an_iteration_or_time_limit_hands_back_the_clipped_iterate_and_the_next_cycle_
 fn the_polish_turns_a_cut_short_iterate_into_the_verified_optimum() {
     // Two ADMM iterations from a cold start are far from tolerance; the active set they
     // suggest, corrected, gives the optimum, which Clarabel confirms.
-    let mut settings = FilterSettings::default();
+    let mut settings = catalog::default_settings();
     settings.solver.max_iter = 2;
     let (drive, mut filter) = drive_and_filter(settings);
     let u_ref = [50.0; NU];
@@ -294,20 +295,20 @@ fn the_polish_turns_a_cut_short_iterate_into_the_verified_optimum() {
 
 #[test]
 fn invalid_settings_are_rejected_at_construction() {
-    let edits: [fn(&mut FilterSettings); 6] = [
+    let edits: [fn(&mut FilterSettings<NU>); 6] = [
         |s| s.input_weights[2] = 0.0,
-        |s| s.families[1].poles[0] = -1.0,
+        |s| s.families[1].poles = Poles::from([-1.0, 20.0]),
         |s| s.families[3].slack_weight = f64::NAN,
         |s| s.input_min[4] = s.input_max[4] + 1.0,
         |s| s.solver.alpha = 2.5,
         |s| s.solver.eps_abs = 0.0,
     ];
     for (k, edit) in edits.iter().enumerate() {
-        let mut s = FilterSettings::default();
+        let mut s = catalog::default_settings();
         edit(&mut s);
-        assert!(EcbfFilter::new(CAPACITY, s).is_err(), "edit {k} was accepted");
+        assert!(EcbfFilter::with_capacity(CAPACITY, s).is_err(), "edit {k} was accepted");
     }
-    let bad_row = RowSpec { columns: &[3, 3], gains: [1.0, 1.0], slack_weight: 1.0 };
+    let bad_row = RowSpec { columns: &[3, 3], gains: Gains::new(&[1.0, 1.0]).expect("two gains"), slack_weight: 1.0 };
     let err = EcbfQp::new(&[bad_row], &[1.0; NU], &[-1.0; NU], &[1.0; NU], SolverSettings::default());
     assert_eq!(err.err(), Some(CbfError::BadRowPattern { row: 0, column: 3 }));
 }

@@ -15,9 +15,10 @@ mod singular;
 
 use std::time::Duration;
 
-use cbfgen::catalog::{Capacity, Catalog, EdgeCuboid, Environment, Family, HalfPlane, StabilityBound};
-use cbfgen::filter::{domain, EcbfFilter, FamilyParams, FilterSettings, InputSource, SolverSettings};
+use cbfgen::catalog::{Capacity, Catalog, EdgeCuboid, Environment, Family, HalfPlane, StabilityBound, Tachyon3Filter};
+use cbfgen::filter::{domain, EcbfFilter, FilterSettings, InputSource, SolverSettings};
 use cbfgen::model::{self, Input, State, INPUT_LIMITS, NU, NX};
+use cbfgen::system::{FamilyParams, Poles};
 use cbfgen::{CbfError, OrientedBox};
 use nalgebra::{Rotation3, Vector3};
 use proptest::prelude::*;
@@ -53,7 +54,7 @@ fn family_params() -> impl Strategy<Value = FamilyParams> {
     let anywhere = (log_range(p_lo, p_hi), log_range(p_lo, p_hi), log_range(w_lo, w_hi));
     let near_defaults = (log_range(1.0, 100.0), log_range(1.0, 100.0), log_range(1e2, 1e6));
     (prop_oneof![anywhere, near_defaults], activation).prop_map(|((p1, p2, slack_weight), activation)| FamilyParams {
-        poles: [p1, p2],
+        poles: Poles::from([p1, p2]),
         slack_weight,
         activation,
     })
@@ -118,13 +119,13 @@ fn input_box() -> impl Strategy<Value = (Input, Input)> {
     ]
 }
 
-fn settings() -> impl Strategy<Value = FilterSettings> {
+fn settings() -> impl Strategy<Value = FilterSettings<NU>> {
     let r = domain::MAX_WEIGHT_RATIO;
     let weights =
         prop_oneof![prop::array::uniform17(log_range(1.0 / r, r)), prop::array::uniform17(log_range(0.3, 3.0)),];
     (prop::array::uniform6(family_params()), weights, input_box(), solver_settings()).prop_map(
         |(families, input_weights, (input_min, input_max), solver)| FilterSettings {
-            families,
+            families: families.to_vec(),
             input_weights,
             input_min,
             input_max,
@@ -275,12 +276,12 @@ fn in_domain(x: &State, u_ref: &Input, env: &Environment) -> bool {
 const CERTIFIABLE_CONDITION: f64 = 1e8;
 
 /// The condition estimate of the last update's QP (see [`CERTIFIABLE_CONDITION`]).
-fn condition(filter: &EcbfFilter) -> f64 {
+fn condition(filter: &Tachyon3Filter) -> f64 {
     let s = filter.settings();
     let w_min = s.input_weights.iter().copied().fold(f64::INFINITY, f64::min);
     let rows = filter.rows().iter().zip(filter.slots()).zip(filter.active());
     rows.filter(|(_, &on)| on)
-        .map(|((row, slot), _)| s.family(slot.family).slack_weight * row.lg.iter().map(|a| a * a).sum::<f64>())
+        .map(|((row, slot), _)| s.family(slot.family.index()).slack_weight * row.lg.iter().map(|a| a * a).sum::<f64>())
         .fold(1.0, f64::max)
         / w_min
 }
@@ -288,7 +289,7 @@ fn condition(filter: &EcbfFilter) -> f64 {
 /// A polished `qp` input of a certifiable QP is the optimum, by one of two independent
 /// truths: the KKT conditions checked from the rows alone, or — where those residuals
 /// drown in the rows' own rounding — a cost no higher than Clarabel's for the same QP.
-fn optimal(filter: &EcbfFilter, u: &Input, u_ref: &Input) -> Result<(), TestCaseError> {
+fn optimal(filter: &Tachyon3Filter, u: &Input, u_ref: &Input) -> Result<(), TestCaseError> {
     if condition(filter) > CERTIFIABLE_CONDITION {
         return Ok(());
     }
@@ -308,9 +309,9 @@ fn optimal(filter: &EcbfFilter, u: &Input, u_ref: &Input) -> Result<(), TestCase
 }
 
 /// One update checked against the contract.
-fn check_update(filter: &mut EcbfFilter, x: &State, u_ref: &Input, env: &Environment) -> Result<(), TestCaseError> {
+fn check_update(filter: &mut Tachyon3Filter, x: &State, u_ref: &Input, env: &Environment) -> Result<(), TestCaseError> {
     let before = *filter.output();
-    let s = *filter.settings();
+    let s = filter.settings().clone();
     match filter.update(x, u_ref, env).copied() {
         Ok(out) => {
             prop_assert!(in_domain(x, u_ref, env), "an out-of-domain update was accepted");
@@ -347,7 +348,7 @@ proptest! {
         env in env_draw(),
         cycles in prop::collection::vec((state_draw(), nominal_input()), 3),
     ) {
-        let mut filter = match EcbfFilter::new(capacity, settings) {
+        let mut filter = match EcbfFilter::with_capacity(capacity, settings) {
             Ok(f) => f,
             // Every draw is inside the documented ranges, so construction must succeed.
             Err(e) => return Err(TestCaseError::fail(format!("valid settings refused: {e}"))),

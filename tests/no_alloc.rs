@@ -20,7 +20,7 @@ mod tally;
 use std::time::Duration;
 
 use cbfgen::approach::Approach;
-use cbfgen::catalog::{Capacity, Environment, Family};
+use cbfgen::catalog::{self, Capacity, Environment, Family, Tachyon3Filter};
 use cbfgen::filter::{EcbfFilter, FilterSettings, InputSource, QpStatus, SolverSettings};
 use cbfgen::model::{Input, State, BODY_X, BODY_Z, INPUT_LIMITS};
 use cbfgen::terrain::Stairs;
@@ -103,7 +103,7 @@ impl Feed {
 
 /// One side path: its own filter, what it is fed, and what every run must do.
 struct SidePath {
-    filter: EcbfFilter,
+    filter: Tachyon3Filter,
     feed: Feed,
     tally: tally::Tally<Outcome>,
 }
@@ -118,7 +118,7 @@ impl SidePath {
 
 /// One update, with the properties its path documents checked on the spot (all without
 /// allocating, since this runs inside the count).
-fn observe(filter: &mut EcbfFilter, x: &State, u_ref: &Input, env: &Environment) -> Outcome {
+fn observe(filter: &mut Tachyon3Filter, x: &State, u_ref: &Input, env: &Environment) -> Outcome {
     let before = *filter.output();
     // Copied out, so the filter can be inspected in every arm.
     match filter.update(x, u_ref, env).copied() {
@@ -148,7 +148,7 @@ fn error_subject(e: &CbfError) -> &'static str {
 
 fn every_filter_update_path_allocates_nothing() {
     let capacity = Capacity::PAPER_WORST_CASE;
-    let mut filter = EcbfFilter::new(capacity, FilterSettings::default()).expect("filter");
+    let mut filter = EcbfFilter::with_capacity(capacity, catalog::default_settings()).expect("filter");
     let mut scene = Scene {
         drive: Approach::new(capacity, Stairs::HARDWARE, 0.3, 0.4).expect("drive"),
         toe_on_hip: singular::toe_at_hip(0),
@@ -161,7 +161,7 @@ fn every_filter_update_path_allocates_nothing() {
         .expect("a knee-minimum row for leg 0");
 
     alloc_count::assert_counters_work(|| {
-        EcbfFilter::new(Capacity { edges: 1, foothold_edges: [1; 6] }, FilterSettings::default())
+        EcbfFilter::with_capacity(Capacity { edges: 1, foothold_edges: [1; 6] }, catalog::default_settings())
     });
 
     let one_iteration = SolverSettings { max_iter: 1, polish: false, ..SolverSettings::default() };
@@ -197,7 +197,8 @@ fn every_filter_update_path_allocates_nothing() {
     ];
     // Construction allocates by design, so every filter is built (and primed) here.
     let mut side_paths = table.map(|(name, solver, start, feed, expect)| {
-        let mut filter = EcbfFilter::new(capacity, FilterSettings { solver, ..FilterSettings::default() }).expect(name);
+        let mut filter =
+            EcbfFilter::with_capacity(capacity, FilterSettings { solver, ..catalog::default_settings() }).expect(name);
         if start == AfterASolve {
             let out = filter.update(&scene.drive.x, &scene.drive.nominal_input(), &scene.drive.env).expect(name);
             assert_eq!(out.source, InputSource::Qp, "{name}: the priming update must solve the QP");

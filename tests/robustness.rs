@@ -9,18 +9,19 @@ use std::time::Duration;
 mod singular;
 
 use cbfgen::approach::Approach;
-use cbfgen::catalog::{Capacity, Catalog, Environment, HalfPlane, Row};
+use cbfgen::catalog::{self, Capacity, Catalog, Environment, HalfPlane, Row, Tachyon3Filter};
 use cbfgen::filter::{domain, EcbfFilter, EcbfQp, FilterSettings, InputSource, RowSpec, SolverSettings};
 use cbfgen::model::{self, Input, NU};
 use cbfgen::multilayer::{CbfQpSettings, IdCbfQp};
 use cbfgen::sim::{self, Scenario, SimConfig};
+use cbfgen::system::{Gains, Poles};
 use cbfgen::terrain::Stairs;
 use cbfgen::CbfError;
 
 const CAPACITY: Capacity = Capacity::PAPER_WORST_CASE;
 
 /// `cycles` updates along the scripted drive into the stairs: every output, in order.
-fn drive(filter: &mut EcbfFilter, cycles: usize) -> Vec<(Input, InputSource)> {
+fn drive(filter: &mut Tachyon3Filter, cycles: usize) -> Vec<(Input, InputSource)> {
     let mut drive = Approach::new(CAPACITY, Stairs::HARDWARE, 0.3, 0.4).expect("drive");
     (0..cycles)
         .map(|_| {
@@ -33,10 +34,10 @@ fn drive(filter: &mut EcbfFilter, cycles: usize) -> Vec<(Input, InputSource)> {
 
 /// After `poison` ran on a filter, its next 300 drive cycles equal a fresh filter's,
 /// bit for bit, and every one is a finite QP solution.
-fn assert_not_poisoned(poison: impl FnOnce(&mut EcbfFilter)) {
-    let mut exposed = EcbfFilter::new(CAPACITY, FilterSettings::default()).expect("filter");
+fn assert_not_poisoned(poison: impl FnOnce(&mut Tachyon3Filter)) {
+    let mut exposed = EcbfFilter::with_capacity(CAPACITY, catalog::default_settings()).expect("filter");
     poison(&mut exposed);
-    let mut fresh = EcbfFilter::new(CAPACITY, FilterSettings::default()).expect("filter");
+    let mut fresh = EcbfFilter::with_capacity(CAPACITY, catalog::default_settings()).expect("filter");
     let (after, reference) = (drive(&mut exposed, 300), drive(&mut fresh, 300));
     assert_eq!(after, reference, "the filter's later cycles changed");
     assert!(after.iter().all(|(u, s)| *s == InputSource::Qp && u.iter().all(|v| v.is_finite())));
@@ -58,9 +59,9 @@ fn a_nominal_input_of_f64_max_is_an_error_and_poisons_nothing() {
         });
     }
     // The edge of the domain itself is served.
-    let mut filter = EcbfFilter::new(CAPACITY, FilterSettings::default()).expect("filter");
+    let mut filter = EcbfFilter::with_capacity(CAPACITY, catalog::default_settings()).expect("filter");
     let out = filter.update(&x, &[domain::MAX_INPUT; NU], &env).expect("in domain");
-    let s = FilterSettings::default();
+    let s = catalog::default_settings();
     assert!((0..NU).all(|j| out.u[j].is_finite() && out.u[j] >= s.input_min[j] && out.u[j] <= s.input_max[j]));
 }
 
@@ -68,25 +69,25 @@ fn a_nominal_input_of_f64_max_is_an_error_and_poisons_nothing() {
 fn the_fallback_input_is_finite_even_for_a_nan_nominal_input() {
     // Before: with nothing solved yet, fallback_input([NaN, ..]) returned NaN (clamp
     // passes NaN through), the one input a caller reaches for after an Err.
-    let filter = EcbfFilter::new(CAPACITY, FilterSettings::default()).expect("filter");
+    let filter = EcbfFilter::with_capacity(CAPACITY, catalog::default_settings()).expect("filter");
     let mut u_ref = [1.0; NU];
     u_ref[0] = f64::NAN;
     u_ref[1] = f64::INFINITY;
     let u = filter.fallback_input(&u_ref);
-    assert_eq!((u[0], u[1], u[2]), (0.0, FilterSettings::default().input_max[1], 1.0));
+    assert_eq!((u[0], u[1], u[2]), (0.0, catalog::default_settings().input_max[1], 1.0));
 }
 
 #[test]
 fn input_limits_beyond_the_domain_are_rejected() {
     // Before: accepted, and every update returned NaN labelled `qp`.
-    let s = FilterSettings { input_min: [1e307; NU], input_max: [1e307; NU], ..FilterSettings::default() };
-    assert!(matches!(EcbfFilter::new(CAPACITY, s), Err(CbfError::OutOfRange { what: "input limit", .. })));
-    let mut s = FilterSettings::default();
+    let s = FilterSettings { input_min: [1e307; NU], input_max: [1e307; NU], ..catalog::default_settings() };
+    assert!(matches!(EcbfFilter::with_capacity(CAPACITY, s), Err(CbfError::OutOfRange { what: "input limit", .. })));
+    let mut s = catalog::default_settings();
     s.input_weights[0] = 1e300;
-    assert!(EcbfFilter::new(CAPACITY, s).is_err());
-    s = FilterSettings::default();
-    s.families[0].poles = [1e300, 1.0];
-    assert!(EcbfFilter::new(CAPACITY, s).is_err());
+    assert!(EcbfFilter::with_capacity(CAPACITY, s).is_err());
+    s = catalog::default_settings();
+    s.families[0].poles = Poles::from([1e300, 1.0]);
+    assert!(EcbfFilter::with_capacity(CAPACITY, s).is_err());
 }
 
 #[test]
@@ -105,17 +106,17 @@ fn solver_settings_that_could_spin_for_hours_are_rejected() {
         ("time limit", |s| s.time_limit = Some(Duration::from_secs(3600))),
     ];
     for (name, spoil) in spinning {
-        let mut s = FilterSettings::default();
+        let mut s = catalog::default_settings();
         spoil(&mut s.solver);
-        let err = EcbfFilter::new(CAPACITY, s).expect_err(name);
+        let err = EcbfFilter::with_capacity(CAPACITY, s).expect_err(name);
         assert!(err.to_string().contains(name.split(' ').next().unwrap_or(name)), "{name}: {err}");
     }
     // The largest accepted budget is a bounded one.
-    let mut s = FilterSettings::default();
+    let mut s = catalog::default_settings();
     s.solver.max_iter = SolverSettings::MAX_ITERATIONS;
     s.solver.eps_abs = SolverSettings::MIN_TOLERANCE;
     s.solver.eps_rel = SolverSettings::MIN_TOLERANCE;
-    assert!(EcbfFilter::new(CAPACITY, s).is_ok());
+    assert!(EcbfFilter::with_capacity(CAPACITY, s).is_ok());
 }
 
 #[test]
@@ -136,9 +137,15 @@ fn absurd_capacities_are_typed_errors_not_aborts() {
         let capacity = Capacity { edges, foothold_edges: [1; 6] };
         assert!(matches!(Environment::new(capacity), Err(CbfError::TooLarge { .. })), "edges {edges}");
         assert!(matches!(Catalog::new(capacity), Err(CbfError::TooLarge { .. })), "edges {edges}");
-        assert!(matches!(EcbfFilter::new(capacity, FilterSettings::default()), Err(CbfError::TooLarge { .. })));
+        assert!(matches!(
+            EcbfFilter::with_capacity(capacity, catalog::default_settings()),
+            Err(CbfError::TooLarge { .. })
+        ));
         let capacity = Capacity { edges: 1, foothold_edges: [edges; 6] };
-        assert!(matches!(EcbfFilter::new(capacity, FilterSettings::default()), Err(CbfError::TooLarge { .. })));
+        assert!(matches!(
+            EcbfFilter::with_capacity(capacity, catalog::default_settings()),
+            Err(CbfError::TooLarge { .. })
+        ));
         assert!(capacity.rows() >= edges, "the row count saturates instead of wrapping");
     }
     let largest = Capacity { edges: Capacity::MAX_EDGES, foothold_edges: [Capacity::MAX_FOOTHOLD_EDGES; 6] };
@@ -158,9 +165,9 @@ fn a_simulation_longer_than_the_maximum_is_refused_before_it_reserves_anything()
 #[test]
 fn the_qp_refuses_negative_or_absurd_gains() {
     // Before: EcbfQp::new accepted negative gains (a barrier that may grow towards 0).
-    let s = FilterSettings::default();
+    let s = catalog::default_settings();
     for gains in [[-1.0, 5.0], [6.0, -5.0], [1e300, 1.0]] {
-        let spec = RowSpec { columns: &[0, 1], gains, slack_weight: 1e4 };
+        let spec = RowSpec { columns: &[0, 1], gains: Gains::new(&gains).expect("two gains"), slack_weight: 1e4 };
         let qp = EcbfQp::new(&[spec], &s.input_weights, &s.input_min, &s.input_max, s.solver);
         assert!(matches!(qp, Err(CbfError::OutOfRange { what: "ECBF gain", .. })), "{gains:?}");
     }
@@ -171,14 +178,14 @@ fn finite_but_overflowing_rows_never_reach_the_solver() {
     // A row whose values are finite but whose ECBF bound b = L_f² h + k1 L_f h + k0 h
     // overflows is reported like a NaN row; one with huge finite L_g L_f h is normalised
     // without overflow and solved, with a finite answer.
-    let s = FilterSettings::default();
-    let spec = RowSpec { columns: &[0, 1], gains: [400.0, 40.0], slack_weight: 1e4 };
+    let s = catalog::default_settings();
+    let spec = RowSpec { columns: &[0, 1], gains: Gains::new(&[400.0, 40.0]).expect("two gains"), slack_weight: 1e4 };
     let mut qp = EcbfQp::new(&[spec], &s.input_weights, &s.input_min, &s.input_max, s.solver).expect("qp");
-    let overflowing = Row { lie: [1e307, 1e307, 1e307], lg: [0.0; NU], active: true };
+    let overflowing = Row { lie: [1e307, 1e307, 1e307, 0.0, 0.0], lg: [0.0; NU], active: true };
     assert_eq!(qp.solve(&[0.0; NU], &[overflowing], &[true]), Err(CbfError::NonFiniteRow { row: 0 }));
     let mut lg = [0.0; NU];
     (lg[0], lg[1]) = (1e300, -1e300);
-    let steep = Row { lie: [-1.0, 0.0, 0.0], lg, active: true };
+    let steep = Row { lie: [-1.0, 0.0, 0.0, 0.0, 0.0], lg, active: true };
     let status = qp.solve(&[1.0; NU], &[steep], &[true]).expect("finite row");
     assert!(status.is_solved(), "{status:?}");
     assert!(qp.u().iter().chain(qp.delta()).all(|v| v.is_finite()));

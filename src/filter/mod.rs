@@ -1,14 +1,19 @@
-//! The ECBF safety filter: one real-time control update (Tachyon 3 paper, section III-C).
+//! The ECBF safety filter: one real-time control update (Tachyon 3 paper, section III-C),
+//! for any system that implements [`BarrierSet`].
 //!
-//! Each cycle [`EcbfFilter::update`] evaluates every catalog row at the state, decides
-//! which rows take part (the catalog's own flags, then each family's activation
+//! Each cycle [`EcbfFilter::update`] evaluates every barrier row at the state, decides
+//! which rows take part (the barrier set's own flags, then each family's activation
 //! threshold on `h`), and solves
 //!
 //! ```text
 //! min Σ_j w_j (u_j − u_ref,j)² + Σ_i w_δ,i δ_i²
-//! s.t. L_g L_f h_i · u + δ_i ≥ −(L_f² h_i + k1 L_f h_i + k0 h_i)   (active rows)
+//! s.t. L_g L_f^{r−1} h_i · u + δ_i ≥ −(L_f^r h_i + Σ_k k_k L_f^k h_i)   (active rows)
 //!      input_min ≤ u ≤ input_max
 //! ```
+//!
+//! where `r` is row `i`'s relative degree and the gains `k` place its poles
+//! ([`Gains::from_poles`](crate::system::Gains::from_poles)); rows of different degrees
+//! share the QP.
 //!
 //! on OSQP, warm-started from the previous cycle. The sparsity pattern is fixed when the
 //! filter is built; after that an update allocates nothing (tested by counting every
@@ -20,12 +25,12 @@
 //! * Inputs outside the documented domain are typed errors, and the filter is unchanged
 //!   (the caller chooses; [`EcbfFilter::fallback_input`] is there): NaN/inf anywhere,
 //!   a state entry beyond [`model::STATE_LIMIT`](crate::model::STATE_LIMIT), a nominal
-//!   input beyond [`domain::MAX_INPUT`], an environment of another capacity. Extreme but
+//!   input beyond [`domain::MAX_INPUT`], parameters (an environment) of another capacity. Extreme but
 //!   finite values are rejected, not rescaled: a nominal input of 10³⁰⁰ m/s² is a bug
 //!   upstream, and the filter says so instead of guessing.
 //! * Settings are checked once, in [`EcbfFilter::new`]: every weight, pole, limit and
 //!   solver setting has a documented range ([`domain`], [`SolverSettings::validate`]),
-//!   and capacities a maximum ([`Capacity::validate`]). Every accepted setting ends a
+//!   and capacities a maximum (for Tachyon 3, [`Capacity::validate`](crate::catalog::Capacity::validate); for a generated system, [`system::MAX_INSTANCES`](crate::system::MAX_INSTANCES)). Every accepted setting ends a
 //!   solve within [`SolverSettings::MAX_ITERATIONS`] iterations.
 //! * OSQP stops at its iteration or time limit: `Ok`, with the iterate it stopped at
 //!   ([`InputSource::Unconverged`]). It already reflects this cycle's rows, and the next
@@ -48,12 +53,12 @@
 //! "infeasible" is a solver report, not a property of the problem.
 //!
 //! ```
-//! use cbfgen::catalog::{Capacity, EdgeCuboid, Environment};
-//! use cbfgen::filter::{EcbfFilter, FilterSettings, InputSource};
+//! use cbfgen::catalog::{self, Capacity, Catalog, EdgeCuboid, Environment};
+//! use cbfgen::filter::{EcbfFilter, InputSource};
 //! use cbfgen::model::{standard_posture, NU};
 //! use nalgebra::Vector3;
 //!
-//! let mut filter = EcbfFilter::new(Capacity::PAPER_WORST_CASE, FilterSettings::default())?;
+//! let mut filter = EcbfFilter::new(Catalog::new(Capacity::PAPER_WORST_CASE)?, catalog::default_settings())?;
 //! let mut env = Environment::new(Capacity::PAPER_WORST_CASE)?;
 //! let step = cbfgen::OrientedBox::axis_aligned(Vector3::new(0.8, 0.0, 0.15), Vector3::new(0.02, 1.0, 0.02))?;
 //! env.push_edge(EdgeCuboid::from_box(&step))?;
@@ -71,11 +76,10 @@ use std::time::{Duration, Instant};
 
 pub(crate) use qp::Iterate;
 pub use qp::{EcbfQp, QpStatus, RowSpec};
-pub use settings::{domain, ecbf_gains, FamilyParams, FilterSettings, SolverSettings};
+pub use settings::{domain, FilterSettings, SolverSettings};
 
-use crate::catalog::{Capacity, Catalog, Environment, Row, RowSlot};
 use crate::error::CbfError;
-use crate::model::{Input, State, NU};
+use crate::system::{BarrierSet, Row};
 
 /// Where this cycle's input came from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -108,9 +112,9 @@ impl InputSource {
 
 /// One update's result (rows, their `h` and slacks are read through the filter).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FilterOutput {
+pub struct FilterOutput<const NU: usize> {
     /// The input to apply.
-    pub u: Input,
+    pub u: [f64; NU],
     /// Where `u` came from: the QP's optimum, an unconverged iterate, or a fallback.
     pub source: InputSource,
     /// OSQP's report; `None` when no solve was attempted (a non-finite row).
@@ -133,43 +137,47 @@ pub struct FilterOutput {
     pub solve_time: Duration,
 }
 
-/// The ECBF-QP safety filter for the Tachyon 3 model.
+/// The ECBF-QP safety filter over the barrier set `B` of a system with `NU` inputs.
+///
+/// Generated systems name it `Filter` (`EcbfFilter<Barriers, NU>`).
 #[derive(Debug)]
-pub struct EcbfFilter {
-    catalog: Catalog,
-    settings: FilterSettings,
-    qp: EcbfQp,
+pub struct EcbfFilter<B: BarrierSet<NU>, const NU: usize> {
+    barriers: B,
+    settings: FilterSettings<NU>,
+    qp: EcbfQp<NU>,
     /// Per row: the family's activation threshold on `h`.
     activation: Vec<f64>,
     active: Vec<bool>,
-    last_safe: Option<Input>,
-    output: FilterOutput,
+    last_safe: Option<[f64; NU]>,
+    output: FilterOutput<NU>,
 }
 
-impl EcbfFilter {
-    /// Lay out the catalog and the QP for `capacity` and set OSQP up. The only
-    /// allocations of the filter's life happen here.
+impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
+    /// Lay out the QP for `barriers`' rows and set OSQP up. The only allocations of the
+    /// filter's life happen here (and in building `barriers`).
     ///
     /// # Errors
-    /// Settings outside their domain ([`FilterSettings::validate`]), a capacity above its
-    /// maximum ([`Capacity::validate`]), or an OSQP set-up failure.
-    pub fn new(capacity: Capacity, settings: FilterSettings) -> Result<Self, CbfError> {
-        settings.validate()?;
-        let catalog = Catalog::new(capacity)?;
-        let specs: Vec<RowSpec<'_>> = catalog
-            .slots()
+    /// Settings outside their domain or not matching the families
+    /// ([`FilterSettings::validate`]), a row naming an input column twice, or an OSQP
+    /// set-up failure.
+    pub fn new(barriers: B, settings: FilterSettings<NU>) -> Result<Self, CbfError> {
+        settings.validate(barriers.families())?;
+        let gains: Vec<_> = settings.families.iter().map(|p| p.gains()).collect();
+        let specs: Vec<RowSpec<'_>> = barriers
+            .layout()
             .iter()
-            .map(|s| {
-                let p = settings.family(s.family);
-                RowSpec { columns: s.columns, gains: p.gains(), slack_weight: p.slack_weight }
+            .map(|s| RowSpec {
+                columns: s.columns,
+                gains: gains[s.family],
+                slack_weight: settings.families[s.family].slack_weight,
             })
             .collect();
         let qp =
             EcbfQp::new(&specs, &settings.input_weights, &settings.input_min, &settings.input_max, settings.solver)?;
-        let activation = catalog.slots().iter().map(|s| settings.family(s.family).activation).collect();
-        let rows = catalog.len();
+        let activation = barriers.layout().iter().map(|s| settings.families[s.family].activation).collect();
+        let rows = barriers.layout().len();
         Ok(Self {
-            catalog,
+            barriers,
             settings,
             qp,
             activation,
@@ -190,25 +198,46 @@ impl EcbfFilter {
         })
     }
 
-    /// One control update: the safe input for state `x`, nominal input `u_ref` and this
-    /// cycle's environment. Allocation-free.
+    /// One control update of a time-invariant system: [`EcbfFilter::update_at`] at
+    /// `t = 0`.
     ///
     /// # Errors
-    /// `x` or `u_ref` outside its domain (NaN/inf, `|x_i| >`
+    /// As [`EcbfFilter::update_at`].
+    pub fn update(
+        &mut self,
+        x: &B::State,
+        u_ref: &[f64; NU],
+        params: &B::Params,
+    ) -> Result<&FilterOutput<NU>, CbfError> {
+        self.update_at(0.0, x, u_ref, params)
+    }
+
+    /// One control update: the safe input at time `t` (read by time-varying families
+    /// only), state `x`, nominal input `u_ref` and this cycle's runtime parameters.
+    /// Allocation-free.
+    ///
+    /// # Errors
+    /// `x`, `t`, `u_ref` or `params` outside their domain (NaN/inf, `|x_i| >`
     /// [`model::STATE_LIMIT`](crate::model::STATE_LIMIT), `|u_ref_j| >`
-    /// [`domain::MAX_INPUT`]), or `env` built for another capacity; the filter is then
+    /// [`domain::MAX_INPUT`], parameters of another capacity); the filter is then
     /// unchanged. Solver trouble is not an error: see the [module docs](self).
-    pub fn update(&mut self, x: &State, u_ref: &Input, env: &Environment) -> Result<&FilterOutput, CbfError> {
+    pub fn update_at(
+        &mut self,
+        t: f64,
+        x: &B::State,
+        u_ref: &[f64; NU],
+        params: &B::Params,
+    ) -> Result<&FilterOutput<NU>, CbfError> {
         settings::validate_nominal(u_ref)?;
         let start = Instant::now();
-        self.catalog.evaluate(x, env)?;
+        self.barriers.evaluate(t, x, params)?;
         let mut active_rows = 0;
-        for ((on, row), &threshold) in self.active.iter_mut().zip(self.catalog.rows()).zip(&self.activation) {
+        for ((on, row), &threshold) in self.active.iter_mut().zip(self.barriers.rows()).zip(&self.activation) {
             *on = row.active && row.h() < threshold;
             active_rows += usize::from(*on);
         }
         let evaluated = Instant::now();
-        let solved = self.qp.solve(u_ref, self.catalog.rows(), &self.active);
+        let solved = self.qp.solve(u_ref, self.barriers.rows(), &self.active);
         let out = &mut self.output;
         out.eval_time = evaluated - start;
         out.solve_time = evaluated.elapsed();
@@ -241,27 +270,27 @@ impl EcbfFilter {
     }
 
     /// The last update's result.
-    pub fn output(&self) -> &FilterOutput {
+    pub fn output(&self) -> &FilterOutput<NU> {
         &self.output
     }
 
     /// What the filter would fall back to now for nominal input `u_ref` (see the module
     /// docs): for a caller whose update returned `Err`. Always finite and inside the
     /// input box: a NaN entry of `u_ref` (which `update` would have refused) counts as 0.
-    pub fn fallback_input(&self, u_ref: &Input) -> Input {
+    pub fn fallback_input(&self, u_ref: &[f64; NU]) -> [f64; NU] {
         let mut u = self.last_safe.unwrap_or(u_ref.map(|v| if v.is_nan() { 0.0 } else { v }));
         clip(&mut u, &self.settings.input_min, &self.settings.input_max);
         u
     }
 
-    /// Row layout (family, leg, instance, input columns), fixed at construction.
-    pub fn slots(&self) -> &[RowSlot] {
-        self.catalog.slots()
+    /// The barrier set: its families, row layout and the rows as last evaluated.
+    pub fn barriers(&self) -> &B {
+        &self.barriers
     }
 
-    /// This cycle's rows: `h`, `L_f h`, `L_f² h`, `L_g L_f h`.
-    pub fn rows(&self) -> &[Row] {
-        self.catalog.rows()
+    /// This cycle's rows: `[h, L_f h, …, L_f^r h]` and `L_g L_f^{r−1} h`.
+    pub fn rows(&self) -> &[Row<NU>] {
+        self.barriers.rows()
     }
 
     /// Which rows took part in the last QP.
@@ -275,17 +304,17 @@ impl EcbfFilter {
     }
 
     /// The settings the filter was built with.
-    pub fn settings(&self) -> &FilterSettings {
+    pub fn settings(&self) -> &FilterSettings<NU> {
         &self.settings
     }
 
     /// The QP underneath (for inspection: non-zeros, last status).
-    pub fn qp(&self) -> &EcbfQp {
+    pub fn qp(&self) -> &EcbfQp<NU> {
         &self.qp
     }
 }
 
-fn clip(u: &mut Input, lo: &Input, hi: &Input) {
+fn clip<const NU: usize>(u: &mut [f64; NU], lo: &[f64; NU], hi: &[f64; NU]) {
     for j in 0..NU {
         u[j] = u[j].clamp(lo[j], hi[j]);
     }

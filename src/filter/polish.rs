@@ -1,8 +1,8 @@
 //! Exact solution from ADMM's active set, allocation-free.
 //!
 //! OSQP's iterate tells which rows bind; given that set the ECBF QP is an unconstrained
-//! least-squares problem in the 17 inputs (binding rows' slacks are `δ = −(a·u + b)`),
-//! plus inputs held at a box bound. One dense 17×17 Cholesky solves it. The result is
+//! least-squares problem in the `NU` inputs (binding rows' slacks are `δ = −(a·u + b)`),
+//! plus inputs held at a box bound. One dense `NU`×`NU` Cholesky solves it. The result is
 //! accepted only if it satisfies every KKT condition — feasible rows, non-negative
 //! slacks, correctly signed box multipliers — so an accepted polish is the optimum, not
 //! an approximation, whatever ADMM's tolerance. OSQP has a polish step of its own, but it
@@ -10,8 +10,7 @@
 
 use nalgebra::{SMatrix, SVector};
 
-use crate::catalog::Row;
-use crate::model::{Input, NU};
+use crate::system::Row;
 
 /// Which bound an input is held at.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -22,20 +21,20 @@ pub(crate) enum Held {
 }
 
 /// The problem data the polish needs, in original units.
-pub(crate) struct Problem<'a> {
+pub(crate) struct Problem<'a, const NU: usize> {
     pub weights: &'a [f64; NU],
-    pub u_ref: &'a Input,
-    pub input_min: &'a Input,
-    pub input_max: &'a Input,
-    pub rows: &'a [Row],
+    pub u_ref: &'a [f64; NU],
+    pub input_min: &'a [f64; NU],
+    pub input_max: &'a [f64; NU],
+    pub rows: &'a [Row<NU>],
     pub active: &'a [bool],
-    /// `b_i = L_f² h + k1 L_f h + k0 h` per row (only read for active rows).
+    /// `b_i = L_f^r h + Σ k_i L_f^i h` per row (only read for active rows).
     pub bounds: &'a [f64],
     pub slack_weights: &'a [f64],
 }
 
 /// Relative tolerance of the KKT acceptance test: loose enough for rounding in a
-/// 17×17 solve, far tighter than any ADMM stopping rule.
+/// small dense solve, far tighter than any ADMM stopping rule.
 const TOLERANCE: f64 = 1e-9;
 
 /// Active-set corrections tried after ADMM's guess before giving up.
@@ -47,11 +46,11 @@ const MAX_CORRECTIONS: usize = 6;
 /// past its bound is held there, a held input pulled inward is freed — and the solve is
 /// repeated, a few times at most. Writes `u` and `delta` and returns `true` only for a
 /// solution that satisfies every KKT condition.
-pub(crate) fn polish(
-    p: &Problem<'_>,
+pub(crate) fn polish<const NU: usize>(
+    p: &Problem<'_, NU>,
     binding: &mut [bool],
     held: &mut [Held; NU],
-    u: &mut Input,
+    u: &mut [f64; NU],
     delta: &mut [f64],
 ) -> bool {
     for _ in 0..=MAX_CORRECTIONS {
@@ -82,7 +81,12 @@ pub(crate) fn polish(
 /// (never 0). An
 /// entry's rounding error is a small multiple of ε times this, so a multiplier's sign is
 /// judged against it; a stiff row far from input `j` does not loosen input `j`'s test.
-fn gradient_scale(p: &Problem<'_>, x: &SVector<f64, NU>, binding: &[bool], input_pull: &[f64; NU]) -> [f64; NU] {
+fn gradient_scale<const NU: usize>(
+    p: &Problem<'_, NU>,
+    x: &SVector<f64, NU>,
+    binding: &[bool],
+    input_pull: &[f64; NU],
+) -> [f64; NU] {
     let mut scale = *input_pull;
     for (i, row) in p.rows.iter().enumerate() {
         if p.active[i] && binding[i] {
@@ -96,12 +100,16 @@ fn gradient_scale(p: &Problem<'_>, x: &SVector<f64, NU>, binding: &[bool], input
 }
 
 /// `a·u + b` of row `i`: ≥ 0 when the row holds without slack.
-fn row_value(p: &Problem<'_>, row: &Row, i: usize, x: &SVector<f64, NU>) -> f64 {
+fn row_value<const NU: usize>(p: &Problem<'_, NU>, row: &Row<NU>, i: usize, x: &SVector<f64, NU>) -> f64 {
     (0..NU).map(|j| row.lg[j] * x[j]).sum::<f64>() + p.bounds[i]
 }
 
 /// The optimum for a fixed active set, or `None` if the system is singular or not finite.
-fn solve_active_set(p: &Problem<'_>, binding: &[bool], held: &[Held; NU]) -> Option<SVector<f64, NU>> {
+fn solve_active_set<const NU: usize>(
+    p: &Problem<'_, NU>,
+    binding: &[bool],
+    held: &[Held; NU],
+) -> Option<SVector<f64, NU>> {
     // H u = g with H = W + Σ w_δ a aᵀ, g = W u_ref − Σ w_δ b a over binding rows.
     let mut h = SMatrix::<f64, NU, NU>::zeros();
     let mut g = SVector::<f64, NU>::zeros();
@@ -139,7 +147,12 @@ fn solve_active_set(p: &Problem<'_>, binding: &[bool], held: &[Held; NU]) -> Opt
 
 /// Check the KKT conditions at `x` (stationarity holds by construction) and move every
 /// row and input that breaks one to the other side. Returns how many moved.
-fn correct(p: &Problem<'_>, x: &SVector<f64, NU>, binding: &mut [bool], held: &mut [Held; NU]) -> usize {
+fn correct<const NU: usize>(
+    p: &Problem<'_, NU>,
+    x: &SVector<f64, NU>,
+    binding: &mut [bool],
+    held: &mut [Held; NU],
+) -> usize {
     let mut moved = 0;
     // Gradient of the objective with the binding rows' slacks eliminated; on a held
     // input it is minus that bound's multiplier.

@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! minimise   Σ_j w_j (u_j − u_ref,j)² + Σ_i w_δ,i δ_i²
-//! subject to L_g L_f h_i · u + δ_i ≥ −(L_f² h_i + k1_i L_f h_i + k0_i h_i)   (active rows)
+//! subject to L_g L_f^{r−1} h_i · u + δ_i ≥ −(L_f^r h_i + Σ_k k_{i,k} L_f^k h_i)   (active rows)
 //!            u_min ≤ u ≤ u_max
 //! ```
 //!
@@ -17,18 +17,17 @@ use osqp::{CscMatrix, Problem, Status};
 
 use super::polish::{self, Held};
 use super::settings::{domain, validate_inputs, validate_nominal, SolverSettings};
-use crate::catalog::Row;
 use crate::error::CbfError;
-use crate::model::{Input, NU};
 use crate::osqp_workspace::{self, OsqpQp};
+use crate::system::{Gains, Row};
 
 /// One ECBF row's fixed description.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RowSpec<'a> {
     /// Input columns `L_g L_f h` may touch (structural non-zeros).
     pub columns: &'a [usize],
-    /// `[k0, k1]`.
-    pub gains: [f64; 2],
+    /// The ECBF gains; their count is the row's relative degree.
+    pub gains: Gains,
     /// `w_δ` of this row's slack.
     pub slack_weight: f64,
 }
@@ -119,7 +118,12 @@ impl QpStatus {
 }
 
 /// A borrowed view of the constraint matrix (no copy, no allocation).
-fn constraint_matrix<'a>(rows: usize, indptr: &'a [usize], indices: &'a [usize], data: &'a [f64]) -> CscMatrix<'a> {
+fn constraint_matrix<'a, const NU: usize>(
+    rows: usize,
+    indptr: &'a [usize],
+    indices: &'a [usize],
+    data: &'a [f64],
+) -> CscMatrix<'a> {
     CscMatrix {
         nrows: rows + NU,
         ncols: NU + rows,
@@ -133,10 +137,10 @@ fn constraint_matrix<'a>(rows: usize, indptr: &'a [usize], indices: &'a [usize],
 const INF: f64 = 1e30;
 
 /// The QP, its OSQP workspace, and the last solution.
-pub struct EcbfQp {
+pub struct EcbfQp<const NU: usize> {
     rows: usize,
     sqrt_w: [f64; NU],
-    gains: Vec<[f64; 2]>,
+    gains: Vec<Gains>,
     /// `1/√w_δ,i`: the slack's coefficient in its row, in scaled variables.
     slack_coef: Vec<f64>,
     a_indptr: Vec<usize>,
@@ -147,28 +151,28 @@ pub struct EcbfQp {
     row_start: Vec<usize>,
     row_entries: Vec<(usize, usize)>,
     slack_entry: Vec<usize>,
-    /// Per row: `w_δ`, and this cycle's `b = L_f² h + k1 L_f h + k0 h` (original units).
+    /// Per row: `w_δ`, and this cycle's `b = L_f^r h + Σ k_i L_f^i h` (original units).
     slack_weight: Vec<f64>,
     row_bound: Vec<f64>,
     /// Polish scratch: rows ADMM reports binding, inputs held at a bound.
     binding: Vec<bool>,
     held: [Held; NU],
     input_weights: [f64; NU],
-    input_min: Input,
-    input_max: Input,
+    input_min: [f64; NU],
+    input_max: [f64; NU],
     q: Vec<f64>,
     lower: Vec<f64>,
     upper: Vec<f64>,
     settings: SolverSettings,
     problem: Option<Problem>,
-    u: Input,
+    u: [f64; NU],
     delta: Vec<f64>,
     status: QpStatus,
     iterations: u32,
     polished: bool,
 }
 
-impl std::fmt::Debug for EcbfQp {
+impl<const NU: usize> std::fmt::Debug for EcbfQp<NU> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("EcbfQp")
             .field("rows", &self.rows)
@@ -180,7 +184,7 @@ impl std::fmt::Debug for EcbfQp {
     }
 }
 
-impl EcbfQp {
+impl<const NU: usize> EcbfQp<NU> {
     /// Lay out the QP for `rows` and set OSQP up once.
     ///
     /// # Errors
@@ -190,8 +194,8 @@ impl EcbfQp {
     pub fn new(
         rows: &[RowSpec<'_>],
         input_weights: &[f64; NU],
-        input_min: &Input,
-        input_max: &Input,
+        input_min: &[f64; NU],
+        input_max: &[f64; NU],
         settings: SolverSettings,
     ) -> Result<Self, CbfError> {
         settings.validate()?;
@@ -208,7 +212,7 @@ impl EcbfQp {
                 }
                 seen[c] = true;
             }
-            for g in r.gains {
+            for &g in r.gains.as_slice() {
                 domain::gain(g)?;
             }
             gains.push(r.gains);
@@ -315,7 +319,7 @@ impl EcbfQp {
     /// `u_ref` outside its domain (finite, `|u_j| ≤` [`domain::MAX_INPUT`]), an active row
     /// whose values or ECBF bound are not finite, or `rows`/`active` of the wrong length.
     /// Nothing is changed then.
-    pub fn solve(&mut self, u_ref: &Input, rows: &[Row], active: &[bool]) -> Result<QpStatus, CbfError> {
+    pub fn solve(&mut self, u_ref: &[f64; NU], rows: &[Row<NU>], active: &[bool]) -> Result<QpStatus, CbfError> {
         if rows.len() != self.rows {
             return Err(CbfError::LengthMismatch { what: "constraint rows", expected: self.rows, got: rows.len() });
         }
@@ -324,7 +328,7 @@ impl EcbfQp {
         }
         validate_nominal(u_ref)?;
         for (i, (r, &on)) in rows.iter().zip(active).enumerate() {
-            // Finite values can still overflow in the bound b = L_f² h + k1 L_f h + k0 h.
+            // Finite values can still overflow in the bound b = L_f^r h + Σ k_i L_f^i h.
             if on && !(r.lg.iter().all(|v| v.is_finite()) && self.ecbf_bound(i, r).is_finite()) {
                 return Err(CbfError::NonFiniteRow { row: i });
             }
@@ -390,11 +394,10 @@ impl EcbfQp {
         Ok(status)
     }
 
-    /// `b = L_f² h + k1 L_f h + k0 h` of row `i` (≥ 0 when the ECBF condition holds at
+    /// `b = L_f^r h + Σ k_i L_f^i h` of row `i` (≥ 0 when the ECBF condition holds at
     /// `u = 0`).
-    fn ecbf_bound(&self, i: usize, r: &Row) -> f64 {
-        let [k0, k1] = self.gains[i];
-        r.lie[2] + k1 * r.lie[1] + k0 * r.lie[0]
+    fn ecbf_bound(&self, i: usize, r: &Row<NU>) -> f64 {
+        self.gains[i].bound(&r.lie)
     }
 
     /// OSQP's own polish rule: a constraint binds at its lower bound when
@@ -419,7 +422,7 @@ impl EcbfQp {
     }
 
     /// The input of the last iterate OSQP returned.
-    pub fn u(&self) -> &Input {
+    pub fn u(&self) -> &[f64; NU] {
         &self.u
     }
 
@@ -446,7 +449,7 @@ impl EcbfQp {
     }
 }
 
-impl OsqpQp for EcbfQp {
+impl<const NU: usize> OsqpQp for EcbfQp<NU> {
     fn workspace(&mut self) -> &mut Option<Problem> {
         &mut self.problem
     }
@@ -460,7 +463,7 @@ impl OsqpQp for EcbfQp {
             indices: Cow::Owned((0..n).collect()),
             data: Cow::Owned(vec![1.0; n]),
         };
-        let a = constraint_matrix(self.rows, &self.a_indptr, &self.a_indices, &self.a_data);
+        let a = constraint_matrix::<NU>(self.rows, &self.a_indptr, &self.a_indices, &self.a_data);
         Problem::new(p, &self.q, a, &self.lower, &self.upper, &self.settings.to_osqp())
             .map_err(|e| CbfError::SolverSetup { reason: e.to_string() })
     }
@@ -468,7 +471,7 @@ impl OsqpQp for EcbfQp {
     fn update(&self, problem: &mut Problem) {
         problem.update_lin_cost(&self.q);
         problem.update_bounds(&self.lower, &self.upper);
-        problem.update_A(constraint_matrix(self.rows, &self.a_indptr, &self.a_indices, &self.a_data));
+        problem.update_A(constraint_matrix::<NU>(self.rows, &self.a_indptr, &self.a_indices, &self.a_data));
     }
 
     fn read(&mut self, _status: QpStatus, iterate: Option<Iterate<'_>>, iterations: u32) {

@@ -1,38 +1,10 @@
-//! What the ECBF filter can be tuned with: gains, weights and activation per family,
-//! input limits, and the OSQP settings. Defaults come from the model file.
+//! What the ECBF filter can be tuned with: poles, slack weight and activation per family,
+//! input weights and limits, and the OSQP settings. Defaults come from the system's spec.
 
 use std::time::Duration;
 
-use crate::catalog::Family;
 use crate::error::{within, CbfError};
-use crate::model::{Input, ECBF_POLES, INPUT_LIMITS, NU};
-
-/// Per-family ECBF parameters.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FamilyParams {
-    /// Real poles `p1, p2 > 0` [1/s]: rows enforce `L_f² h + (p1 + p2) L_f h + p1 p2 h ≥ 0`,
-    /// so `h` decays no faster than `e^{-p t}` towards the boundary.
-    pub poles: [f64; 2],
-    /// `w_δ` of this family's slacks, relative to an input weight of 1. Larger is
-    /// harder; see [`FilterSettings`] for the trade-off.
-    pub slack_weight: f64,
-    /// The row takes part only while `h` is below this (in `h`'s own units; `f64::INFINITY`
-    /// = always). Rows above it are relaxed through their bounds, not removed.
-    pub activation: f64,
-}
-
-impl FamilyParams {
-    /// `[k0, k1]` of `L_f² h + k1 L_f h + k0 h ≥ 0`.
-    pub fn gains(&self) -> [f64; 2] {
-        ecbf_gains(self.poles)
-    }
-}
-
-/// `[k0, k1] = [p1 p2, p1 + p2]`: the ECBF gains that place the closed-loop poles of `h`
-/// at `−p1, −p2`. Every ECBF row in the crate takes its gains from here.
-pub fn ecbf_gains([p1, p2]: [f64; 2]) -> [f64; 2] {
-    [p1 * p2, p1 + p2]
-}
+use crate::system::{FamilyInfo, FamilyParams};
 
 /// OSQP settings for this problem class, exposed as they are passed to the solver.
 ///
@@ -208,45 +180,89 @@ impl SolverSettings {
 /// Everything the [`EcbfFilter`](super::EcbfFilter) is built with.
 ///
 /// Cost: `Σ_j w_j (u_j − u_ref,j)² + Σ_i w_δ,i δ_i²`. A slack weight of `w_δ` makes one
-/// unit of ECBF violation (m/s² of `ḧ`) cost as much as `√w_δ` units of input change:
-/// with the default 10⁴ the filter bends the input a hundred times further before it
+/// unit of ECBF violation (units of `h⁽ʳ⁾`) cost as much as `√w_δ` units of input change:
+/// with a weight of 10⁴ the filter bends the input a hundred times further before it
 /// lets a row slip. Much larger weights make the QP stiffer and slower to converge.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FilterSettings {
-    /// Indexed by [`Family::index`].
-    pub families: [FamilyParams; 6],
-    /// `w_j` per input (> 0).
+///
+/// Start from a system's defaults ([`FilterSettings::defaults`], which generated code
+/// wraps as `default_settings()`) and tune from there.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FilterSettings<const NU: usize> {
+    /// Per family, indexed like the barrier set's
+    /// [`families`](crate::system::BarrierSet::families).
+    pub families: Vec<FamilyParams>,
+    /// `w_j` per input, within `[1e-3, 1e3]`.
     pub input_weights: [f64; NU],
-    /// Box limits `input_min ≤ u ≤ input_max`.
-    pub input_min: Input,
-    /// Upper box limits, in each input's units (\[m/s²\] or \[rad/s²\]); the default is
-    /// [`INPUT_LIMITS`](crate::model::INPUT_LIMITS) and `input_min` its negative.
-    pub input_max: Input,
+    /// Lower box limits `input_min ≤ u`, in each input's units.
+    pub input_min: [f64; NU],
+    /// Upper box limits `u ≤ input_max`, in each input's units.
+    pub input_max: [f64; NU],
     /// OSQP's settings for the QP.
     pub solver: SolverSettings,
 }
 
-impl Default for FilterSettings {
-    /// Poles and input limits from the model file; activation 0.5 m for the body–edge SSAT
-    /// (its `h` is a lower bound on the distance) and 15 for the toe superellipsoid (toe
-    /// within twice the inflated edge half-extent); every other family always applies.
-    fn default() -> Self {
-        let family = |f: Family| FamilyParams {
-            poles: ECBF_POLES,
-            slack_weight: 1e4,
-            activation: match f {
-                Family::BodyEdge => 0.5,
-                Family::ToeEdge => 15.0,
-                _ => f64::INFINITY,
-            },
-        };
+impl<const NU: usize> FilterSettings<NU> {
+    /// The families' own defaults (from their spec), unit input weights, these input
+    /// limits and [`SolverSettings::default`].
+    pub fn defaults(families: &[FamilyInfo], input_min: [f64; NU], input_max: [f64; NU]) -> Self {
         Self {
-            families: Family::ALL.map(family),
+            families: families.iter().map(|f| f.defaults).collect(),
             input_weights: [1.0; NU],
-            input_min: INPUT_LIMITS.map(|l| -l),
-            input_max: INPUT_LIMITS,
+            input_min,
+            input_max,
             solver: SolverSettings::default(),
         }
+    }
+
+    /// The parameters of family `index`.
+    ///
+    /// # Panics
+    /// `index` beyond the families (a programming error: indices come from a row layout).
+    pub fn family(&self, index: usize) -> &FamilyParams {
+        &self.families[index]
+    }
+
+    /// The parameters of family `index`, to tune one family in place.
+    ///
+    /// # Panics
+    /// `index` beyond the families.
+    pub fn family_mut(&mut self, index: usize) -> &mut FamilyParams {
+        &mut self.families[index]
+    }
+
+    /// Check the settings against `families` (the barrier set they are for).
+    ///
+    /// # Errors
+    /// Another number of families than `families`, a family with another number of
+    /// poles than its relative degree, a pole, weight, input limit or solver setting
+    /// outside its documented range ([`domain`], [`SolverSettings::validate`]), a NaN
+    /// activation, or `input_min > input_max`.
+    pub fn validate(&self, families: &[FamilyInfo]) -> Result<(), CbfError> {
+        if self.families.len() != families.len() {
+            return Err(CbfError::LengthMismatch {
+                what: "family settings",
+                expected: families.len(),
+                got: self.families.len(),
+            });
+        }
+        for (p, info) in self.families.iter().zip(families) {
+            if p.poles.len() != info.relative_degree {
+                return Err(CbfError::LengthMismatch {
+                    what: "ECBF poles (one per relative degree)",
+                    expected: info.relative_degree,
+                    got: p.poles.len(),
+                });
+            }
+            for &pole in p.poles.as_slice() {
+                domain::pole(pole)?;
+            }
+            domain::slack_weight(p.slack_weight)?;
+            if p.activation.is_nan() {
+                return Err(CbfError::NonFinite { what: "activation threshold", value: p.activation });
+            }
+        }
+        validate_inputs(&self.input_weights, &self.input_min, &self.input_max)?;
+        self.solver.validate()
     }
 }
 
@@ -268,8 +284,9 @@ pub mod domain {
     /// ECBF poles lie in `[1e-6, 1e4]` 1/s; faster than 10 kHz is meaningless for a 1 kHz
     /// loop, and the gains `p1 p2` stay ≤ 1e8.
     pub const POLE_RANGE: [f64; 2] = [1e-6, 1e4];
-    /// Largest ECBF gain `k0 = p1 p2` or `k1 = p1 + p2` accepted by
-    /// [`EcbfQp::new`](crate::filter::EcbfQp::new).
+    /// Largest ECBF gain accepted by [`EcbfQp::new`](crate::filter::EcbfQp::new): the
+    /// coefficients of `∏ (s + p_i)` (for two poles `k0 = p1 p2`, `k1 = p1 + p2`). Fast poles
+    /// on a high relative degree reach it first (four poles of 100/s give `k0 = 10⁸`).
     pub const MAX_GAIN: f64 = 1e8;
 
     use crate::error::{within, CbfError};
@@ -304,46 +321,21 @@ pub mod domain {
 
 /// `Ok(u)` when every entry is finite with `|u_j| ≤` [`domain::MAX_INPUT`]: the nominal
 /// input's domain, shared by the filter and [`EcbfQp::solve`](crate::filter::EcbfQp::solve).
-pub(crate) fn validate_nominal(u_ref: &Input) -> Result<(), CbfError> {
+pub(crate) fn validate_nominal<const NU: usize>(u_ref: &[f64; NU]) -> Result<(), CbfError> {
     for &v in u_ref {
         domain::input("nominal input", v)?;
     }
     Ok(())
 }
 
-impl FilterSettings {
-    /// The parameters of family `f`.
-    pub fn family(&self, f: Family) -> &FamilyParams {
-        &self.families[f.index()]
-    }
-
-    /// The parameters of family `f`, to tune one family in place.
-    pub fn family_mut(&mut self, f: Family) -> &mut FamilyParams {
-        &mut self.families[f.index()]
-    }
-
-    /// # Errors
-    /// A pole, weight, input limit or solver setting outside its documented range
-    /// ([`domain`], [`SolverSettings::validate`]), a NaN activation, or
-    /// `input_min > input_max`.
-    pub fn validate(&self) -> Result<(), CbfError> {
-        for p in &self.families {
-            domain::pole(p.poles[0])?;
-            domain::pole(p.poles[1])?;
-            domain::slack_weight(p.slack_weight)?;
-            if p.activation.is_nan() {
-                return Err(CbfError::NonFinite { what: "activation threshold", value: p.activation });
-            }
-        }
-        validate_inputs(&self.input_weights, &self.input_min, &self.input_max)?;
-        self.solver.validate()
-    }
-}
-
 /// Input weights in `[1e-3, 1e3]` ([`domain::MAX_WEIGHT_RATIO`]), box limits finite with
 /// `|limit| ≤` [`domain::MAX_INPUT`] and `min ≤ max`: shared by
 /// [`FilterSettings::validate`] and [`EcbfQp::new`](super::EcbfQp::new).
-pub(crate) fn validate_inputs(weights: &[f64; NU], min: &Input, max: &Input) -> Result<(), CbfError> {
+pub(crate) fn validate_inputs<const NU: usize>(
+    weights: &[f64; NU],
+    min: &[f64; NU],
+    max: &[f64; NU],
+) -> Result<(), CbfError> {
     for j in 0..NU {
         domain::input_weight(weights[j])?;
         domain::input("input limit", min[j])?;

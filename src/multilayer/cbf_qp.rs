@@ -46,7 +46,8 @@ impl Default for CbfQpSettings {
 impl CbfQpSettings {
     /// `[k0, k1]`.
     pub fn gains(&self) -> [f64; 2] {
-        crate::filter::ecbf_gains(self.poles)
+        let gains = crate::system::Gains::from_poles(&self.poles.into());
+        [gains.as_slice()[0], gains.as_slice()[1]]
     }
 }
 

@@ -9,10 +9,11 @@ use pyo3::prelude::*;
 
 use super::convert::{choice, fixed, matrix_from_fn, rows, values, vector, Array1Out, Array2Out, ArrayIn, LegArg};
 use super::kernels::{input, oriented_box, state};
-use crate::catalog::{Capacity, EdgeCuboid, Environment, Family, HalfPlane, StabilityBound};
+use crate::catalog::{self, Capacity, EdgeCuboid, Environment, Family, HalfPlane, StabilityBound, Tachyon3Filter};
 use crate::error::{finite, within, CbfError};
-use crate::filter::{EcbfFilter, FilterOutput, FilterSettings, SolverSettings};
+use crate::filter::{EcbfFilter, FilterOutput, SolverSettings};
 use crate::model::NU;
+use crate::system::Poles;
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyEnvironment>()?;
@@ -158,7 +159,7 @@ impl PyEnvironment {
 /// One update's result.
 #[pyclass(name = "FilterOutput", module = "cbfgen", frozen)]
 pub struct PyFilterOutput {
-    out: FilterOutput,
+    out: FilterOutput<NU>,
 }
 
 #[pymethods]
@@ -241,18 +242,18 @@ impl PyFilterOutput {
 pub struct PyEcbfFilter {
     // OSQP's workspace may move between threads but not be shared; the lock makes the
     // filter usable from any Python thread.
-    inner: Mutex<EcbfFilter>,
+    inner: Mutex<Tachyon3Filter>,
 }
 
 impl PyEcbfFilter {
-    fn lock(&self) -> PyResult<MutexGuard<'_, EcbfFilter>> {
+    fn lock(&self) -> PyResult<MutexGuard<'_, Tachyon3Filter>> {
         self.inner.lock().map_err(|_| PyRuntimeError::new_err("the filter was poisoned by an earlier failure"))
     }
 }
 
 #[pymethods]
 impl PyEcbfFilter {
-    /// Keyword arguments override ``FilterSettings::default()``:
+    /// Keyword arguments override ``catalog::default_settings()``:
     /// ``activation``, ``slack_weight`` and ``poles`` map family names (``FAMILIES``) to
     /// values; ``input_weights``, ``input_min``, ``input_max`` have NU values;
     /// ``eps_abs``, ``eps_rel``, ``max_iter``, ``polish`` and ``time_limit_us`` tune OSQP.
@@ -276,15 +277,15 @@ impl PyEcbfFilter {
         polish: Option<bool>,
         time_limit_us: Option<f64>,
     ) -> PyResult<Self> {
-        let mut s = FilterSettings::default();
+        let mut s = catalog::default_settings();
         for (name, v) in activation.unwrap_or_default() {
-            s.family_mut(family(&name)?).activation = v;
+            s.family_mut(family(&name)?.index()).activation = v;
         }
         for (name, v) in slack_weight.unwrap_or_default() {
-            s.family_mut(family(&name)?).slack_weight = v;
+            s.family_mut(family(&name)?.index()).slack_weight = v;
         }
         for (name, v) in poles.unwrap_or_default() {
-            s.family_mut(family(&name)?).poles = v;
+            s.family_mut(family(&name)?.index()).poles = Poles::from(v);
         }
         if let Some(w) = input_weights {
             s.input_weights = fixed::<NU>("input_weights", &w)?;
@@ -303,7 +304,7 @@ impl PyEcbfFilter {
         if let Some(us) = time_limit_us {
             solver.time_limit = Some(time_limit(us)?);
         }
-        let filter = EcbfFilter::new(capacity(edges, foothold_edges), s)?;
+        let filter = EcbfFilter::with_capacity(capacity(edges, foothold_edges), s)?;
         Ok(Self { inner: Mutex::new(filter) })
     }
 
@@ -321,7 +322,7 @@ impl PyEcbfFilter {
         let env = &env.inner;
         // Without the GIL: other Python threads run while the QP does (a solve may take
         // up to its iteration or time limit).
-        let out = py.detach(|| -> PyResult<FilterOutput> { Ok(*self.lock()?.update(&x, &u_ref, env)?) })?;
+        let out = py.detach(|| -> PyResult<FilterOutput<NU>> { Ok(*self.lock()?.update(&x, &u_ref, env)?) })?;
         Ok(PyFilterOutput { out })
     }
 

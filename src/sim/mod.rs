@@ -16,11 +16,11 @@ pub use course::{Clearance, Course};
 
 use std::time::Instant;
 
-use crate::catalog::Family;
+use crate::catalog::{self, Catalog, Family};
 use crate::error::CbfError;
 use crate::filter::{EcbfFilter, FilterSettings, InputSource};
 use crate::generated::tachyon3 as gen;
-use crate::model::{self, State};
+use crate::model::{self, State, NU};
 use crate::terrain::Stairs;
 use gait::GaitParams;
 
@@ -60,7 +60,7 @@ impl Scenario {
 }
 
 /// One simulation run's set-up.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct SimConfig {
     /// The course to run.
     pub scenario: Scenario,
@@ -73,7 +73,7 @@ pub struct SimConfig {
     /// The nominal gait's speeds, timings and step geometry.
     pub gait: GaitParams,
     /// The ECBF-QP filter's settings (gains, weights, activation thresholds, OSQP).
-    pub filter: FilterSettings,
+    pub filter: FilterSettings<NU>,
 }
 
 impl SimConfig {
@@ -81,9 +81,9 @@ impl SimConfig {
     /// 25 s (step) or 60 s (stairs) to finish. With `body_cbf == false` the body–edge family's
     /// activation threshold is set to −∞, so its rows never take part.
     pub fn new(scenario: Scenario, body_cbf: bool) -> Self {
-        let mut filter = FilterSettings::default();
+        let mut filter = catalog::default_settings();
         if !body_cbf {
-            filter.family_mut(Family::BodyEdge).activation = f64::NEG_INFINITY;
+            filter.family_mut(Family::BodyEdge.index()).activation = f64::NEG_INFINITY;
         }
         let max_time = match scenario {
             Scenario::Step => 25.0,
@@ -182,7 +182,7 @@ pub struct SimResult {
 pub fn run(config: &SimConfig, mut progress: impl FnMut(f64)) -> Result<SimResult, CbfError> {
     crate::error::within("max_time [s]", config.max_time, DT, MAX_SIM_TIME, "[0.001, 600]")?;
     let mut course = Course::new(config.scenario, config.gait)?;
-    let mut filter = EcbfFilter::new(Course::CAPACITY, config.filter)?;
+    let mut filter = EcbfFilter::new(Catalog::new(Course::CAPACITY)?, config.filter.clone())?;
     let mut x = course.initial_state(config.start_gap);
 
     let steps = (config.max_time / DT).ceil() as usize;
@@ -198,7 +198,7 @@ pub fn run(config: &SimConfig, mut progress: impl FnMut(f64)) -> Result<SimResul
 
         let clearance = course.clearance(&x)?;
         let mut min_h = [f64::INFINITY; 6];
-        for (row, slot) in filter.rows().iter().zip(filter.slots()) {
+        for (row, slot) in filter.rows().iter().zip(filter.barriers().slots()) {
             if row.active {
                 let m = &mut min_h[slot.family.index()];
                 *m = m.min(row.h());

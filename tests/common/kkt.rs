@@ -5,7 +5,7 @@
 // Index loops mirror the formulas (rows × inputs).
 #![allow(clippy::needless_range_loop)]
 
-use cbfgen::filter::EcbfFilter;
+use cbfgen::catalog::Tachyon3Filter;
 use cbfgen::model::{Input, NU};
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus};
@@ -13,19 +13,19 @@ use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, NonnegativeCone
 /// The filter's QP rebuilt from its rows and settings in original units — cost
 /// `Σ w (u − u_ref)² + Σ w_δ δ²`, rows `−(L_g L_f h · u + δ) ≤ L_f² h + k1 L_f h + k0 h`,
 /// the input box — and solved by Clarabel. Returns `u`.
-pub fn clarabel_reference(filter: &EcbfFilter, u_ref: &Input) -> Input {
+pub fn clarabel_reference(filter: &Tachyon3Filter, u_ref: &Input) -> Input {
     clarabel_solution(filter, u_ref).expect("clarabel must solve the reference")
 }
 
 /// [`clarabel_reference`], or `None` where Clarabel does not report the problem solved.
-pub fn clarabel_solution(filter: &EcbfFilter, u_ref: &Input) -> Option<Input> {
+pub fn clarabel_solution(filter: &Tachyon3Filter, u_ref: &Input) -> Option<Input> {
     let s = filter.settings();
     let active: Vec<usize> = (0..filter.rows().len()).filter(|&i| filter.active()[i]).collect();
     let n = NU + active.len();
     // P = 2 diag(w, w_δ) (upper triangular CSC of a diagonal).
     let mut p_diag: Vec<f64> = s.input_weights.iter().map(|w| 2.0 * w).collect();
     for &i in &active {
-        p_diag.push(2.0 * s.family(filter.slots()[i].family).slack_weight);
+        p_diag.push(2.0 * s.family(filter.slots()[i].family.index()).slack_weight);
     }
     let p = CscMatrix::new(n, n, (0..=n).collect(), (0..n).collect(), p_diag);
     let mut q = vec![0.0; n];
@@ -38,7 +38,7 @@ pub fn clarabel_solution(filter: &EcbfFilter, u_ref: &Input) -> Option<Input> {
     let mut b = vec![0.0; m];
     for (k, &i) in active.iter().enumerate() {
         let row = &filter.rows()[i];
-        let [p1, p2] = s.family(filter.slots()[i].family).poles;
+        let &[p1, p2] = s.family(filter.slots()[i].family.index()).poles.as_slice() else { panic!("two poles") };
         for j in 0..NU {
             dense[k][j] = -row.lg[j];
         }
@@ -71,13 +71,13 @@ pub fn clarabel_solution(filter: &EcbfFilter, u_ref: &Input) -> Option<Input> {
 /// The filter's cost at `u` with every active row's slack at its optimum for that `u`
 /// (`δ_i = max(0, −(a_i·u + b_i))`): `Σ w (u − u_ref)² + Σ w_δ δ²`. Convex in `u`, so a
 /// `u` inside the box whose cost is no higher than another solver's is optimal too.
-pub fn objective(filter: &EcbfFilter, u: &Input, u_ref: &Input) -> f64 {
+pub fn objective(filter: &Tachyon3Filter, u: &Input, u_ref: &Input) -> f64 {
     let s = filter.settings();
     let mut cost = (0..NU).map(|j| s.input_weights[j] * (u[j] - u_ref[j]).powi(2)).sum::<f64>();
     for (i, row) in filter.rows().iter().enumerate() {
         if filter.active()[i] {
-            let f = s.family(filter.slots()[i].family);
-            let [p1, p2] = f.poles;
+            let f = s.family(filter.slots()[i].family.index());
+            let &[p1, p2] = f.poles.as_slice() else { panic!("two poles") };
             let b = row.lie[2] + (p1 + p2) * row.lie[1] + p1 * p2 * row.lie[0];
             let value = (0..NU).map(|j| row.lg[j] * u[j]).sum::<f64>() + b;
             cost += f.slack_weight * value.min(0.0).powi(2);
@@ -97,7 +97,7 @@ pub const KKT_TOLERANCE: f64 = 1e-3;
 /// `u` (zero inside the box, signed at a bound). Row residuals are divided by the row's
 /// norm (the scale OSQP's tolerance applies to); stationarity by the size of the input
 /// terms.
-pub fn kkt_violation(filter: &EcbfFilter, u: &Input, u_ref: &Input) -> f64 {
+pub fn kkt_violation(filter: &Tachyon3Filter, u: &Input, u_ref: &Input) -> f64 {
     let s = filter.settings();
     let delta = filter.delta();
     let mut worst: f64 = 0.0;
@@ -109,8 +109,8 @@ pub fn kkt_violation(filter: &EcbfFilter, u: &Input, u_ref: &Input) -> f64 {
         if !filter.active()[i] {
             continue;
         }
-        let f = s.family(filter.slots()[i].family);
-        let [p1, p2] = f.poles;
+        let f = s.family(filter.slots()[i].family.index());
+        let &[p1, p2] = f.poles.as_slice() else { panic!("two poles") };
         let b = row.lie[2] + (p1 + p2) * row.lie[1] + p1 * p2 * row.lie[0];
         let lhs = (0..NU).map(|j| row.lg[j] * u[j]).sum::<f64>() + delta[i] + b;
         // In the row's own scale, as OSQP sees it (each row divided by its norm), and
