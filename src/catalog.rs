@@ -35,7 +35,6 @@ use crate::system::{self, BarrierSet, FamilyInfo, FamilyParams, Poles, RowLayout
 /// Every family of this model has relative degree 2, as [`FAMILIES`] declares to the
 /// filter. A model change that alters a degree stops the build here instead of
 /// misreading rows.
-
 pub const RELATIVE_DEGREE: usize = 2;
 const _: () = assert!(
     gen::BODY_EDGE_SSAT_RELATIVE_DEGREE == RELATIVE_DEGREE
