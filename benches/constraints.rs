@@ -2,9 +2,9 @@
 //! and the whole catalog at the paper's worst case (269 rows), on the standard posture
 //! in front of a staircase of 20 edge cuboids.
 
-use cbfgen::catalog::{Capacity, Catalog, EdgeCuboid, Environment, HalfPlane, StabilityBound};
 use cbfgen::generated::tachyon3 as gen;
-use cbfgen::model::{self, State};
+use cbfgen::systems::tachyon3::catalog::{Capacity, Catalog, EdgeCuboid, Environment, HalfPlane, StabilityBound};
+use cbfgen::systems::tachyon3::model::{self, State};
 use cbfgen::OrientedBox;
 use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::{Rotation3, Vector3};

@@ -2,10 +2,10 @@
 //! polished — on the robot pressed against a stair nosing (toe and body rows binding),
 //! warm-started from the previous cycle as in the control loop. For percentiles over a
 //! moving trajectory run `cbfgen latency`.
-use cbfgen::approach::Approach;
-use cbfgen::catalog::{self, Capacity};
 use cbfgen::filter::EcbfFilter;
-use cbfgen::terrain::Stairs;
+use cbfgen::systems::tachyon3::approach::Approach;
+use cbfgen::systems::tachyon3::catalog::{self, Capacity};
+use cbfgen::systems::tachyon3::terrain::Stairs;
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
 

@@ -30,7 +30,7 @@ pub enum CbfError {
         capacity: usize,
     },
     /// A capacity (or another count) above its documented maximum, e.g.
-    /// [`Capacity::MAX_EDGES`](crate::catalog::Capacity::MAX_EDGES).
+    /// [`Capacity::MAX_EDGES`](crate::systems::tachyon3::catalog::Capacity::MAX_EDGES).
     #[error("{what} = {value} is above the maximum of {max}")]
     TooLarge {
         /// Which count, as named in the message.

@@ -12,36 +12,27 @@
 //! * [`filter`] — the ECBF-QP safety filter on OSQP over any [`system::BarrierSet`]: one
 //!   allocation-free control update.
 //!
-//! Geometry and the Tachyon 3 system:
+//! Geometry every system can build barriers from:
 //!
 //! * [`ssat`] — Smooth Separating Axis Theorem between oriented boxes, with a certified
 //!   margin that turns a smooth barrier into an exact no-overlap proof.
 //! * [`sat`] — the exact SAT, the reference the smooth one is tested against.
 //! * [`geometry`] — validated oriented boxes.
-//! * [`model`] — the Tachyon 3 state/input layout and dynamics (generated from the model file).
-//! * [`catalog`] — every ECBF row of the model, evaluated into preallocated storage.
-//! * [`terrain`] — stairs as edge cuboids and floors; [`approach`] — a scripted drive to them.
-//! * [`sim`] — the closed-loop stair simulation (gait, filter, integration, CSV and figures).
-//! * [`lip`] — bipedal navigation: a 3D-LIP MPC with linear discrete CBFs around obstacles.
-//! * [`multilayer`] — a CBF in a low-rate MPC and in a high-rate QP, on the double integrator.
+//!
+//! The systems, each beside its scenario code, in [`systems`]: Tachyon 3 (the paper's
+//! robot: catalog, stairs, gait, simulation), the 3D-LIP footstep MPC and the multi-layer
+//! MPC + CBF-QP.
 
 #![warn(missing_docs)]
 
-pub mod approach;
-pub mod catalog;
 pub mod error;
 pub mod filter;
 pub mod geometry;
-pub mod latency;
-pub mod lip;
-pub mod model;
-pub mod multilayer;
 mod osqp_workspace;
 pub mod sat;
-pub mod sim;
 pub mod ssat;
 pub mod system;
-pub mod terrain;
+pub mod systems;
 
 /// Kernels emitted by `python -m symbolic.generate`. Never edited by hand: change
 /// `symbolic/` and rebuild (build.rs regenerates when the inputs' hash changes).

@@ -1,12 +1,12 @@
 //! `cbfgen` command line.
 
-use cbfgen::catalog::{Capacity, Catalog, Environment, Family};
 use cbfgen::filter::FilterSettings;
-use cbfgen::lip;
-use cbfgen::model::{self, NU};
-use cbfgen::multilayer;
-use cbfgen::sim::{self, output, Scenario, SimConfig, SimResult};
 use cbfgen::ssat::{self, SmoothParams};
+use cbfgen::systems::lip;
+use cbfgen::systems::multilayer;
+use cbfgen::systems::tachyon3::catalog::{Capacity, Catalog, Environment, Family};
+use cbfgen::systems::tachyon3::model::{self, NU};
+use cbfgen::systems::tachyon3::sim::{self, output, Scenario, SimConfig, SimResult};
 use cbfgen::{sat, OrientedBox};
 use clap::{Parser, Subcommand};
 use nalgebra::{Rotation3, Vector3};
@@ -238,9 +238,9 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             Ok(())
         }
         Command::Latency { cycles, speed, gap, solver } => {
-            let mut settings = cbfgen::catalog::default_settings();
+            let mut settings = cbfgen::systems::tachyon3::catalog::default_settings();
             solver.apply(&mut settings);
-            writeln!(stdout, "{}", cbfgen::latency::run(cycles, speed, gap, settings)?)?;
+            writeln!(stdout, "{}", cbfgen::systems::tachyon3::latency::run(cycles, speed, gap, settings)?)?;
             Ok(())
         }
         Command::Simulate { scenario, no_body_cbf, out, csv_every } => {

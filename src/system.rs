@@ -352,13 +352,13 @@ impl<T> Instances<T> {
 }
 
 /// `Ok(())` when every state entry is finite with `|x_i| ≤`
-/// [`STATE_LIMIT`](crate::model::STATE_LIMIT).
+/// [`STATE_LIMIT`](crate::systems::tachyon3::model::STATE_LIMIT).
 ///
 /// # Errors
 /// [`CbfError::NonFinite`] or [`CbfError::OutOfRange`].
 pub fn validate_state(x: &[f64]) -> Result<(), CbfError> {
     for &v in x {
-        crate::model::coordinate("state entry", v)?;
+        crate::systems::tachyon3::model::coordinate("state entry", v)?;
     }
     Ok(())
 }

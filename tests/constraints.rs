@@ -2,9 +2,11 @@
 
 mod common;
 
-use cbfgen::catalog::{Capacity, Catalog, EdgeCuboid, Environment, Family, HalfPlane, StabilityBound};
 use cbfgen::generated::tachyon3 as gen;
-use cbfgen::model::{self, State, BODY_PITCH, BODY_X, BODY_Z, NU, NX, TOE_BLOCK};
+use cbfgen::systems::tachyon3::catalog::{
+    Capacity, Catalog, EdgeCuboid, Environment, Family, HalfPlane, StabilityBound,
+};
+use cbfgen::systems::tachyon3::model::{self, State, BODY_PITCH, BODY_X, BODY_Z, NU, NX, TOE_BLOCK};
 use common::{random_rotation, random_vector, rng};
 use nalgebra::Rotation3;
 use rand::Rng;

@@ -10,12 +10,12 @@ mod common;
 #[path = "common/kkt.rs"]
 mod kkt;
 
-use cbfgen::approach::Approach;
-use cbfgen::catalog::{self, Capacity, Environment, Row, Tachyon3Filter};
 use cbfgen::filter::{EcbfFilter, EcbfQp, FilterSettings, InputSource, QpStatus, RowSpec, SolverSettings};
-use cbfgen::model::{self, Input, State, NU, NX, TOE_BLOCK};
 use cbfgen::system::{Gains, Poles};
-use cbfgen::terrain::Stairs;
+use cbfgen::systems::tachyon3::approach::Approach;
+use cbfgen::systems::tachyon3::catalog::{self, Capacity, Environment, Row, Tachyon3Filter};
+use cbfgen::systems::tachyon3::model::{self, Input, State, NU, NX, TOE_BLOCK};
+use cbfgen::systems::tachyon3::terrain::Stairs;
 use cbfgen::CbfError;
 use kkt::{clarabel_reference, kkt_violation, KKT_TOLERANCE};
 use rand::Rng;

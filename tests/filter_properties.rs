@@ -15,10 +15,12 @@ mod singular;
 
 use std::time::Duration;
 
-use cbfgen::catalog::{Capacity, Catalog, EdgeCuboid, Environment, Family, HalfPlane, StabilityBound, Tachyon3Filter};
 use cbfgen::filter::{domain, EcbfFilter, FilterSettings, InputSource, SolverSettings};
-use cbfgen::model::{self, Input, State, INPUT_LIMITS, NU, NX};
 use cbfgen::system::{FamilyParams, Poles};
+use cbfgen::systems::tachyon3::catalog::{
+    Capacity, Catalog, EdgeCuboid, Environment, Family, HalfPlane, StabilityBound, Tachyon3Filter,
+};
+use cbfgen::systems::tachyon3::model::{self, Input, State, INPUT_LIMITS, NU, NX};
 use cbfgen::{CbfError, OrientedBox};
 use nalgebra::{Rotation3, Vector3};
 use proptest::prelude::*;

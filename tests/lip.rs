@@ -2,7 +2,7 @@
 //! step matrices, hand-computed frames, exact point–rectangle distances for safety, and
 //! every MPC row recomputed from the applied plan.
 
-use cbfgen::lip::{Frame, Lip};
+use cbfgen::systems::lip::{Frame, Lip};
 
 /// `p̈ = β²(p − f)` integrated over `T` with classical RK4 in 20 000 sub-steps.
 fn integrate_axis(beta: f64, t: f64, p0: f64, v0: f64, f: f64) -> (f64, f64) {
@@ -67,9 +67,9 @@ fn frames_match_a_hand_computed_case_and_round_trip() {
     assert!(Frame::new([f64::NAN, 0.0], 0.0).is_err());
 }
 
-use cbfgen::lip::mpc::{wrap_angle, QpView};
-use cbfgen::lip::scenario::{run, Scenario, Walker};
-use cbfgen::lip::{LipMpc, Rectangle};
+use cbfgen::systems::lip::mpc::{wrap_angle, QpView};
+use cbfgen::systems::lip::scenario::{run, Scenario, Walker};
+use cbfgen::systems::lip::{LipMpc, Rectangle};
 use cbfgen::CbfError;
 
 /// Distance from `p` to the rectangle, by cases on the nine regions around it (written
@@ -268,7 +268,7 @@ fn non_finite_input_is_an_error_and_an_obstacle_overlap_is_handled() {
     let x0 = [0.0; 5];
     assert!(matches!(mpc.solve(&x0, [f64::INFINITY, 0.0], 1.0, &[]), Err(CbfError::NonFinite { .. })));
     let plane = Rectangle::new(1.0, 2.0, -1.0, 1.0).expect("rect").half_plane([0.0, 0.0], 0.3);
-    let bad = cbfgen::lip::HalfPlane { normal: [f64::NAN, 0.0], ..plane };
+    let bad = cbfgen::systems::lip::HalfPlane { normal: [f64::NAN, 0.0], ..plane };
     assert!(mpc.solve(&x0, [3.0, 0.0], 1.0, &[bad]).is_err());
     assert!(mpc.solve(&x0, [3.0, 0.0], 0.5, &[plane]).is_err(), "stance sign must be ±1");
     assert!(mpc.solve(&x0, [3.0, 0.0], 1.0, &[plane, plane]).is_err(), "capacity 1");

@@ -2,8 +2,8 @@
 //! finite differences of the hand-written barrier, the CBF-QP against its closed-form
 //! optimum, the MPC plan against its own constraints, and the paper's qualitative result.
 
-use cbfgen::multilayer::scenario::{self, run_all};
-use cbfgen::multilayer::{
+use cbfgen::systems::multilayer::scenario::{self, run_all};
+use cbfgen::systems::multilayer::{
     BarrierRow, CbfQpSettings, IdCbfQp, KinematicMpc, MpcMode, MpcSettings, MultiLayerController, ScenarioConfig,
     SineBarrier,
 };

@@ -19,11 +19,11 @@ mod tally;
 
 use std::time::Duration;
 
-use cbfgen::approach::Approach;
-use cbfgen::catalog::{self, Capacity, Environment, Family, Tachyon3Filter};
 use cbfgen::filter::{EcbfFilter, FilterSettings, InputSource, QpStatus, SolverSettings};
-use cbfgen::model::{Input, State, BODY_X, BODY_Z, INPUT_LIMITS};
-use cbfgen::terrain::Stairs;
+use cbfgen::systems::tachyon3::approach::Approach;
+use cbfgen::systems::tachyon3::catalog::{self, Capacity, Environment, Family, Tachyon3Filter};
+use cbfgen::systems::tachyon3::model::{Input, State, BODY_X, BODY_Z, INPUT_LIMITS};
+use cbfgen::systems::tachyon3::terrain::Stairs;
 use cbfgen::CbfError;
 
 /// Drive cycles (1 ms each).

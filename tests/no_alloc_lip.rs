@@ -18,8 +18,8 @@ mod tally;
 use std::time::Duration;
 
 use cbfgen::filter::{QpStatus, SolverSettings};
-use cbfgen::lip::scenario::{Scenario, Walker};
-use cbfgen::lip::{HalfPlane, LipMpc, LipState};
+use cbfgen::systems::lip::scenario::{Scenario, Walker};
+use cbfgen::systems::lip::{HalfPlane, LipMpc, LipState};
 use cbfgen::CbfError;
 
 /// Half-planes a fed-in problem can hold: more than the standard course's obstacles, so

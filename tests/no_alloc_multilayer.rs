@@ -16,7 +16,7 @@ mod alloc_count;
 mod tally;
 
 use cbfgen::filter::{QpStatus, SolverSettings};
-use cbfgen::multilayer::{
+use cbfgen::systems::multilayer::{
     BarrierRow, CbfQpSettings, IdCbfQp, KinematicMpc, MpcSettings, MultiLayerController, ScenarioConfig, State,
 };
 use cbfgen::CbfError;

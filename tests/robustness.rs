@@ -8,14 +8,14 @@ use std::time::Duration;
 #[path = "common/singular.rs"]
 mod singular;
 
-use cbfgen::approach::Approach;
-use cbfgen::catalog::{self, Capacity, Catalog, Environment, HalfPlane, Row, Tachyon3Filter};
 use cbfgen::filter::{domain, EcbfFilter, EcbfQp, FilterSettings, InputSource, RowSpec, SolverSettings};
-use cbfgen::model::{self, Input, NU};
-use cbfgen::multilayer::{CbfQpSettings, IdCbfQp};
-use cbfgen::sim::{self, Scenario, SimConfig};
 use cbfgen::system::{Gains, Poles};
-use cbfgen::terrain::Stairs;
+use cbfgen::systems::multilayer::{CbfQpSettings, IdCbfQp};
+use cbfgen::systems::tachyon3::approach::Approach;
+use cbfgen::systems::tachyon3::catalog::{self, Capacity, Catalog, Environment, HalfPlane, Row, Tachyon3Filter};
+use cbfgen::systems::tachyon3::model::{self, Input, NU};
+use cbfgen::systems::tachyon3::sim::{self, Scenario, SimConfig};
+use cbfgen::systems::tachyon3::terrain::Stairs;
 use cbfgen::CbfError;
 
 const CAPACITY: Capacity = Capacity::PAPER_WORST_CASE;
@@ -243,7 +243,7 @@ fn the_multilayer_qp_refuses_unbounded_solver_settings_and_inputs() {
     settings.solver.eps_abs = 5e-324;
     assert!(IdCbfQp::new(settings).is_err());
     let mut qp = IdCbfQp::new(CbfQpSettings::default()).expect("qp");
-    let row = cbfgen::multilayer::SineBarrier::new(0.2, 1.0, 0.0).expect("barrier").row(&[1.0, 0.0], 0.0);
+    let row = cbfgen::systems::multilayer::SineBarrier::new(0.2, 1.0, 0.0).expect("barrier").row(&[1.0, 0.0], 0.0);
     assert!(qp.solve(f64::MAX, &row).is_err());
     let out = qp.solve(0.0, &row).expect("an ordinary cycle after the refused one");
     assert!(out.u.is_finite());

@@ -2,9 +2,9 @@
 //! robot over the step and up five stairs without penetration, and without the body SSAT CBF the same
 //! gait drives the body into the edge (so the scenario really tests the CBF).
 
-use cbfgen::catalog::Family;
-use cbfgen::model::STATE_NAMES;
-use cbfgen::sim::{self, output, Scenario, SimConfig};
+use cbfgen::systems::tachyon3::catalog::Family;
+use cbfgen::systems::tachyon3::model::STATE_NAMES;
+use cbfgen::systems::tachyon3::sim::{self, output, Scenario, SimConfig};
 
 const PENETRATION_TOLERANCE: f64 = 1e-3;
 
@@ -95,7 +95,7 @@ fn the_filter_gets_the_robot_up_all_five_stairs_without_penetration() {
     // The body CBF is what lifts the body over the nosings: at the same time into the
     // run, the body stands well above where the same gait puts it without that CBF.
     let without = sim::run(&SimConfig::new(Scenario::Stairs, false), |_| {}).expect("simulation");
-    let height = |x: &sim::Sample| x.x[2] + x.x[cbfgen::model::BODY_Z];
+    let height = |x: &sim::Sample| x.x[2] + x.x[cbfgen::systems::tachyon3::model::BODY_Z];
     let lift = result
         .samples
         .iter()

@@ -24,13 +24,13 @@
 //! given, and no cycle's trouble carries into the next. Concretely:
 //! * Inputs outside the documented domain are typed errors, and the filter is unchanged
 //!   (the caller chooses; [`EcbfFilter::fallback_input`] is there): NaN/inf anywhere,
-//!   a state entry beyond [`model::STATE_LIMIT`](crate::model::STATE_LIMIT), a nominal
+//!   a state entry beyond [`model::STATE_LIMIT`](crate::systems::tachyon3::model::STATE_LIMIT), a nominal
 //!   input beyond [`domain::MAX_INPUT`], parameters (an environment) of another capacity. Extreme but
 //!   finite values are rejected, not rescaled: a nominal input of 10³⁰⁰ m/s² is a bug
 //!   upstream, and the filter says so instead of guessing.
 //! * Settings are checked once, in [`EcbfFilter::new`]: every weight, pole, limit and
 //!   solver setting has a documented range ([`domain`], [`SolverSettings::validate`]),
-//!   and capacities a maximum (for Tachyon 3, [`Capacity::validate`](crate::catalog::Capacity::validate); for a generated system, [`system::MAX_INSTANCES`](crate::system::MAX_INSTANCES)). Every accepted setting ends a
+//!   and capacities a maximum (for Tachyon 3, [`Capacity::validate`](crate::systems::tachyon3::catalog::Capacity::validate); for a generated system, [`system::MAX_INSTANCES`](crate::system::MAX_INSTANCES)). Every accepted setting ends a
 //!   solve within [`SolverSettings::MAX_ITERATIONS`] iterations.
 //! * OSQP stops at its iteration or time limit: `Ok`, with the iterate it stopped at
 //!   ([`InputSource::Unconverged`]). It already reflects this cycle's rows, and the next
@@ -53,9 +53,9 @@
 //! "infeasible" is a solver report, not a property of the problem.
 //!
 //! ```
-//! use cbfgen::catalog::{self, Capacity, Catalog, EdgeCuboid, Environment};
+//! use cbfgen::systems::tachyon3::catalog::{self, Capacity, Catalog, EdgeCuboid, Environment};
 //! use cbfgen::filter::{EcbfFilter, InputSource};
-//! use cbfgen::model::{standard_posture, NU};
+//! use cbfgen::systems::tachyon3::model::{standard_posture, NU};
 //! use nalgebra::Vector3;
 //!
 //! let mut filter = EcbfFilter::new(Catalog::new(Capacity::PAPER_WORST_CASE)?, catalog::default_settings())?;
@@ -218,7 +218,7 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
     ///
     /// # Errors
     /// `x`, `t`, `u_ref` or `params` outside their domain (NaN/inf, `|x_i| >`
-    /// [`model::STATE_LIMIT`](crate::model::STATE_LIMIT), `|u_ref_j| >`
+    /// [`model::STATE_LIMIT`](crate::systems::tachyon3::model::STATE_LIMIT), `|u_ref_j| >`
     /// [`domain::MAX_INPUT`], parameters of another capacity); the filter is then
     /// unchanged. Solver trouble is not an error: see the [module docs](self).
     pub fn update_at(

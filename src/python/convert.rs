@@ -12,7 +12,7 @@ use pyo3::sync::PyOnceLock;
 use pyo3::{intern, Borrowed};
 
 use crate::error::CbfError;
-use crate::model::LEG_NAMES;
+use crate::systems::tachyon3::model::LEG_NAMES;
 
 /// A real-valued array from anything numpy reads as booleans, integers or floats (lists,
 /// tuples, arrays of any such dtype), as float64.

@@ -9,11 +9,13 @@ use pyo3::prelude::*;
 
 use super::convert::{choice, fixed, matrix_from_fn, rows, values, vector, Array1Out, Array2Out, ArrayIn, LegArg};
 use super::kernels::{input, oriented_box, state};
-use crate::catalog::{self, Capacity, EdgeCuboid, Environment, Family, HalfPlane, StabilityBound, Tachyon3Filter};
 use crate::error::{finite, within, CbfError};
 use crate::filter::{EcbfFilter, FilterOutput, SolverSettings};
-use crate::model::NU;
 use crate::system::Poles;
+use crate::systems::tachyon3::catalog::{
+    self, Capacity, EdgeCuboid, Environment, Family, HalfPlane, StabilityBound, Tachyon3Filter,
+};
+use crate::systems::tachyon3::model::NU;
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyEnvironment>()?;
@@ -146,7 +148,8 @@ impl PyEnvironment {
     }
 
     fn __repr__(&self) -> String {
-        let swinging: Vec<&str> = (0..6).filter(|&l| self.inner.swing[l]).map(|l| crate::model::LEG_NAMES[l]).collect();
+        let swinging: Vec<&str> =
+            (0..6).filter(|&l| self.inner.swing[l]).map(|l| crate::systems::tachyon3::model::LEG_NAMES[l]).collect();
         format!(
             "Environment(edges={}/{}, floor_z={:?}, swinging={swinging:?})",
             self.inner.edges().len(),

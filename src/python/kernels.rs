@@ -6,11 +6,11 @@ use nalgebra::{Matrix3, Rotation3, Vector3};
 use pyo3::prelude::*;
 
 use super::convert::{choice, fixed, matrix, matrix_from_fn, vector, Array1Out, Array2Out, ArrayIn, LegArg};
-use crate::catalog::{EdgeCuboid, HalfPlane, RELATIVE_DEGREE};
 use crate::error::{finite, CbfError};
 use crate::generated::tachyon3 as gen;
-use crate::model::{self, State, NU, NX};
 use crate::ssat::{SmoothAbs, SmoothMax, SmoothParams};
+use crate::systems::tachyon3::catalog::{EdgeCuboid, HalfPlane, RELATIVE_DEGREE};
+use crate::systems::tachyon3::model::{self, State, NU, NX};
 use crate::OrientedBox;
 
 /// The SSAT variants by name (Table I of the paper: smooth max × smooth |.|).

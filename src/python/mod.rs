@@ -26,8 +26,8 @@ mod sim;
 
 use pyo3::prelude::*;
 
-use crate::catalog::{Family, RELATIVE_DEGREE};
-use crate::model;
+use crate::systems::tachyon3::catalog::{Family, RELATIVE_DEGREE};
+use crate::systems::tachyon3::model;
 
 pyo3::create_exception!(
     cbfgen,
@@ -56,14 +56,14 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("BODY_HALF_EXTENTS", model::BODY_HALF_EXTENTS.to_vec())?;
     m.add("RELATIVE_DEGREE", RELATIVE_DEGREE)?;
     m.add("FAMILIES", Family::ALL.map(Family::name).to_vec())?;
-    m.add("DT", crate::sim::DT)?;
-    m.add("MAX_EDGES", crate::catalog::Capacity::MAX_EDGES)?;
-    m.add("MAX_FOOTHOLD_EDGES", crate::catalog::Capacity::MAX_FOOTHOLD_EDGES)?;
+    m.add("DT", crate::systems::tachyon3::sim::DT)?;
+    m.add("MAX_EDGES", crate::systems::tachyon3::catalog::Capacity::MAX_EDGES)?;
+    m.add("MAX_FOOTHOLD_EDGES", crate::systems::tachyon3::catalog::Capacity::MAX_FOOTHOLD_EDGES)?;
     m.add("MAX_ITERATIONS", crate::filter::SolverSettings::MAX_ITERATIONS)?;
     m.add("MAX_TIME_LIMIT_US", crate::filter::SolverSettings::MAX_TIME_LIMIT.as_secs_f64() * 1e6)?;
     m.add("MAX_INPUT", crate::filter::domain::MAX_INPUT)?;
     m.add("STATE_LIMIT", model::STATE_LIMIT)?;
-    m.add("MAX_SIM_TIME", crate::sim::MAX_SIM_TIME)?;
+    m.add("MAX_SIM_TIME", crate::systems::tachyon3::sim::MAX_SIM_TIME)?;
     m.add("SSAT_ALPHA_RANGE", (crate::ssat::ALPHA_MIN, crate::ssat::ALPHA_MAX))?;
     m.add("MAX_COORDINATE", crate::geometry::MAX_COORDINATE)?;
     m.add("HALF_EXTENT_RANGE", (crate::geometry::MIN_HALF_EXTENT, crate::geometry::MAX_HALF_EXTENT))?;

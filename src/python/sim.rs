@@ -7,12 +7,12 @@ use pyo3::types::PyDict;
 use super::convert::{choice, matrix_from_fn, vector, Array1Out, ArrayIn};
 use super::filter::PyEnvironment;
 use super::kernels::state;
-use crate::catalog::Family;
 use crate::error::finite;
 use crate::filter::InputSource;
-use crate::model::NX;
-use crate::sim::gait::GaitParams;
-use crate::sim::{self, Course, Scenario, SimConfig};
+use crate::systems::tachyon3::catalog::Family;
+use crate::systems::tachyon3::model::NX;
+use crate::systems::tachyon3::sim::gait::GaitParams;
+use crate::systems::tachyon3::sim::{self, Course, Scenario, SimConfig};
 
 const SCENARIOS: [Scenario; 2] = [Scenario::Step, Scenario::Stairs];
 
@@ -137,7 +137,7 @@ fn simulate<'py>(
     let out = PyDict::new(py);
     out.set_item("t", vector(py, &column(&|s| s.t)))?;
     out.set_item("x", matrix_from_fn(py, s.len(), NX, |i, j| s[i].x[j]))?;
-    out.set_item("body_z_world", vector(py, &column(&|s| s.x[2] + s.x[crate::model::BODY_Z])))?;
+    out.set_item("body_z_world", vector(py, &column(&|s| s.x[2] + s.x[crate::systems::tachyon3::model::BODY_Z])))?;
     out.set_item("body_raise", vector(py, &column(&|s| s.body_raise)))?;
     out.set_item("min_h", matrix_from_fn(py, s.len(), Family::ALL.len(), |i, j| s[i].min_h[j]))?;
     out.set_item("active_rows", vector(py, &column(&|s| s.active_rows as f64)))?;

@@ -5,8 +5,8 @@
 // Index loops mirror the formulas (rows × inputs).
 #![allow(clippy::needless_range_loop)]
 
-use cbfgen::catalog::Tachyon3Filter;
-use cbfgen::model::{Input, NU};
+use cbfgen::systems::tachyon3::catalog::Tachyon3Filter;
+use cbfgen::systems::tachyon3::model::{Input, NU};
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus};
 

@@ -2,7 +2,7 @@
 //! filter's non-finite-row fallback (included by path).
 #![allow(dead_code)]
 
-use cbfgen::model::{self, State, HIP_POSITIONS, TOE_BLOCK};
+use cbfgen::systems::tachyon3::model::{self, State, HIP_POSITIONS, TOE_BLOCK};
 
 /// The standard posture with leg `leg`'s toe exactly on its hip joint: the knee length is
 /// 0, so the joint-limit rows' hip angle and derivatives divide 0 by 0. The pitch is 0,

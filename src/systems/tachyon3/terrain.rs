@@ -4,9 +4,9 @@
 
 use nalgebra::Vector3;
 
-use crate::catalog::{Capacity, EdgeCuboid, Environment, HalfPlane, StabilityBound};
 use crate::error::CbfError;
 use crate::geometry::OrientedBox;
+use crate::systems::tachyon3::catalog::{Capacity, EdgeCuboid, Environment, HalfPlane, StabilityBound};
 
 /// Steps of equal `rise` × `run` going up in +x, spanning y ∈ [−half_width, half_width].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -129,7 +129,7 @@ pub fn worst_case_environment(
             .collect::<Result<Vec<_>, _>>()?;
         env.set_foothold(leg, &planes)?;
         env.swing[leg] = true;
-        let hip_x = crate::model::HIP_POSITIONS[leg][0];
+        let hip_x = crate::systems::tachyon3::model::HIP_POSITIONS[leg][0];
         env.stability[leg] =
             [Some(StabilityBound { a: 1.0, b: 0.25 - hip_x }), Some(StabilityBound { a: -1.0, b: 0.25 + hip_x })];
     }

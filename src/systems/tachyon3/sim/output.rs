@@ -20,8 +20,8 @@ use std::path::{Path, PathBuf};
 
 use super::chart::{Chart, Series};
 use super::{Sample, SimResult, Summary};
-use crate::catalog::Family;
-use crate::model::{BODY_Z, STATE_NAMES};
+use crate::systems::tachyon3::catalog::Family;
+use crate::systems::tachyon3::model::{BODY_Z, STATE_NAMES};
 
 /// The CSV text of `samples`, every `every`-th cycle.
 pub fn csv(samples: &[Sample], every: usize) -> String {

@@ -6,12 +6,12 @@
 use std::fmt;
 use std::time::{Duration, Instant};
 
-use crate::approach::Approach;
-use crate::catalog::{Capacity, Catalog};
 use crate::error::CbfError;
 use crate::filter::{EcbfFilter, FilterSettings, InputSource};
-use crate::model::NU;
-use crate::terrain::Stairs;
+use crate::systems::tachyon3::approach::Approach;
+use crate::systems::tachyon3::catalog::{Capacity, Catalog};
+use crate::systems::tachyon3::model::NU;
+use crate::systems::tachyon3::terrain::Stairs;
 
 /// Control period \[s\].
 pub const DT: f64 = 1e-3;

@@ -8,11 +8,11 @@
 //! nothing here knows about the body's extent or the edges. Keeping the body off the nosings, the toes off the risers and the legs within
 //! their limits is the safety filter's job.
 
-use crate::catalog::HalfPlane;
 use crate::error::CbfError;
 use crate::generated::tachyon3 as gen;
-use crate::model::{self, Input, State, BODY_PITCH, BODY_X, BODY_Z, NU, TOE_BLOCK, TOE_RADIUS};
-use crate::terrain::{foothold_strip, Stairs};
+use crate::systems::tachyon3::catalog::HalfPlane;
+use crate::systems::tachyon3::model::{self, Input, State, BODY_PITCH, BODY_X, BODY_Z, NU, TOE_BLOCK, TOE_RADIUS};
+use crate::systems::tachyon3::terrain::{foothold_strip, Stairs};
 
 /// Legs of the two tripods, in `LEG_NAMES` indices: (LR, RR, MF) and (MR, LF, RF).
 pub const TRIPODS: [[usize; 3]; 2] = [[3, 5, 1], [4, 0, 2]];

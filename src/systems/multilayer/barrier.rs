@@ -70,11 +70,11 @@ impl SineBarrier {
 pub const TIME_LIMIT: f64 = 1e9;
 
 /// `Ok` if `t` is finite with `|t| ≤` [`TIME_LIMIT`] and both state entries are finite
-/// with magnitude ≤ [`model::STATE_LIMIT`](crate::model::STATE_LIMIT) (the same domain as
+/// with magnitude ≤ [`model::STATE_LIMIT`](crate::systems::tachyon3::model::STATE_LIMIT) (the same domain as
 /// the legged model: no QP sees a number whose square overflows).
 pub(crate) fn check_state(x: &State, t: f64) -> Result<(), CbfError> {
     within("time", t, -TIME_LIMIT, TIME_LIMIT, "[-1e9, 1e9] s")?;
-    crate::model::coordinate("position", x[0])?;
-    crate::model::coordinate("velocity", x[1])?;
+    crate::systems::tachyon3::model::coordinate("position", x[0])?;
+    crate::systems::tachyon3::model::coordinate("velocity", x[1])?;
     Ok(())
 }

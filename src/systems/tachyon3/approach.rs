@@ -7,10 +7,10 @@
 //! about the stairs: the filter has to stop the toes and body at the first nosing.
 //! Every row of the catalog is evaluated each cycle ([`worst_case_environment`]).
 
-use crate::catalog::{Capacity, Environment};
 use crate::error::CbfError;
-use crate::model::{self, Input, State, BODY_PITCH, BODY_X, BODY_Z, NU, TOE_BLOCK};
-use crate::terrain::{worst_case_environment, Stairs};
+use crate::systems::tachyon3::catalog::{Capacity, Environment};
+use crate::systems::tachyon3::model::{self, Input, State, BODY_PITCH, BODY_X, BODY_Z, NU, TOE_BLOCK};
+use crate::systems::tachyon3::terrain::{worst_case_environment, Stairs};
 
 /// State indices of the origin's speed and yaw rate.
 const SPEED: usize = 4;

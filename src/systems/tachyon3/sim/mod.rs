@@ -16,12 +16,12 @@ pub use course::{Clearance, Course};
 
 use std::time::Instant;
 
-use crate::catalog::{self, Catalog, Family};
 use crate::error::CbfError;
 use crate::filter::{EcbfFilter, FilterSettings, InputSource};
 use crate::generated::tachyon3 as gen;
-use crate::model::{self, State, NU};
-use crate::terrain::Stairs;
+use crate::systems::tachyon3::catalog::{self, Catalog, Family};
+use crate::systems::tachyon3::model::{self, State, NU};
+use crate::systems::tachyon3::terrain::Stairs;
 use gait::GaitParams;
 
 /// Control period \[s\].
@@ -242,7 +242,7 @@ pub fn run(config: &SimConfig, mut progress: impl FnMut(f64)) -> Result<SimResul
 fn summarize(config: &SimConfig, samples: &[Sample], completed: bool) -> Summary {
     let mut times: Vec<f64> = samples.iter().map(|s| s.update_us).collect();
     times.sort_unstable_by(f64::total_cmp);
-    let pick = |p: f64| crate::latency::nearest_rank(&times, p);
+    let pick = |p: f64| crate::systems::tachyon3::latency::nearest_rank(&times, p);
     let fold = |f: fn(&Sample) -> f64| samples.iter().map(f).fold(f64::INFINITY, f64::min);
     let mut min_h = [f64::INFINITY; 6];
     for s in samples {

@@ -9,12 +9,12 @@ use nalgebra::{Matrix3, Rotation3, Vector3};
 
 use super::gait::{Gait, GaitParams, Plan};
 use super::Scenario;
-use crate::catalog::{Capacity, EdgeCuboid, Environment, StabilityBound};
 use crate::error::CbfError;
 use crate::generated::tachyon3 as gen;
 use crate::geometry::OrientedBox;
-use crate::model::{self, State, TOE_RADIUS};
-use crate::terrain::Stairs;
+use crate::systems::tachyon3::catalog::{Capacity, EdgeCuboid, Environment, StabilityBound};
+use crate::systems::tachyon3::model::{self, State, TOE_RADIUS};
+use crate::systems::tachyon3::terrain::Stairs;
 
 /// Each toe within this distance (x) of its hip, relative to the body: the stability
 /// bounds of eq. 13 \[m\].

@@ -9,8 +9,8 @@
 //! (6 per edge slot), foothold half-spaces (per leg, its capacity).
 //!
 //! ```
-//! use cbfgen::catalog::{Capacity, Catalog, EdgeCuboid, Environment};
-//! use cbfgen::model::standard_posture;
+//! use cbfgen::systems::tachyon3::catalog::{Capacity, Catalog, EdgeCuboid, Environment};
+//! use cbfgen::systems::tachyon3::model::standard_posture;
 //! use nalgebra::Vector3;
 //!
 //! let mut catalog = Catalog::new(Capacity::PAPER_WORST_CASE)?;
@@ -20,7 +20,7 @@
 //! env.push_edge(EdgeCuboid::from_box(&step))?;
 //! catalog.evaluate(&standard_posture(), &env)?;
 //! let body_edge = catalog.rows().iter().zip(catalog.slots())
-//!     .find(|(_, s)| s.family == cbfgen::catalog::Family::BodyEdge && s.instance == 0).unwrap().0;
+//!     .find(|(_, s)| s.family == cbfgen::systems::tachyon3::catalog::Family::BodyEdge && s.instance == 0).unwrap().0;
 //! assert!(body_edge.active && body_edge.h() > 0.0);
 //! # Ok::<(), cbfgen::CbfError>(())
 //! ```
@@ -29,8 +29,8 @@ use crate::error::{finite, CbfError};
 use crate::filter::{EcbfFilter, FilterSettings};
 use crate::generated::tachyon3 as gen;
 use crate::geometry::OrientedBox;
-use crate::model::{self, State, ECBF_POLES, INPUT_LIMITS, LEG_NAMES, NU};
 use crate::system::{self, BarrierSet, FamilyInfo, FamilyParams, Poles, RowLayout};
+use crate::systems::tachyon3::model::{self, State, ECBF_POLES, INPUT_LIMITS, LEG_NAMES, NU};
 
 /// Every family of this model has relative degree 2, as [`FAMILIES`] declares to the
 /// filter. A model change that alters a degree stops the build here instead of
@@ -105,7 +105,7 @@ pub struct RowSlot {
     /// Index within the family and leg: joint row (knee min, knee max, hip min, hip max),
     /// stability bound (0 lower, 1 upper), edge slot or foothold edge; 0 for foot height.
     pub instance: usize,
-    /// Input columns (indices into [`Input`](crate::model::Input)) where `L_g L_f h` can be
+    /// Input columns (indices into [`Input`](crate::systems::tachyon3::model::Input)) where `L_g L_f h` can be
     /// non-zero: the row's fixed sparsity pattern in the QP.
     pub columns: &'static [usize],
 }
@@ -281,7 +281,7 @@ impl HalfPlane {
         let n = [normal[0] / big, normal[1] / big];
         let length = n[0].hypot(n[1]);
         let offset = offset / big / length;
-        crate::model::coordinate("half-plane distance from the origin", offset)?;
+        crate::systems::tachyon3::model::coordinate("half-plane distance from the origin", offset)?;
         Ok(Self { normal: [n[0] / length, n[1] / length], offset })
     }
 
@@ -353,11 +353,11 @@ impl Environment {
     /// The first value outside that domain.
     pub fn validate(&self) -> Result<(), CbfError> {
         for &z in &self.floor_z {
-            crate::model::coordinate("floor height", z)?;
+            crate::systems::tachyon3::model::coordinate("floor height", z)?;
         }
         for b in self.stability.iter().flatten().flatten() {
-            crate::model::coordinate("stability slope", b.a)?;
-            crate::model::coordinate("stability offset", b.b)?;
+            crate::systems::tachyon3::model::coordinate("stability slope", b.a)?;
+            crate::systems::tachyon3::model::coordinate("stability offset", b.b)?;
         }
         Ok(())
     }
