@@ -89,7 +89,8 @@ impl Poles {
         Self { values: [pole; MAX_RELATIVE_DEGREE], len }
     }
 
-    /// `N` poles, one per derivative; `N` must be in `1..=MAX_RELATIVE_DEGREE` (checked
+    /// `N` poles, in a constant: what generated `FAMILIES` tables use (`From<[f64; N]>`
+    /// is the same for run-time code). `N` must be in `1..=MAX_RELATIVE_DEGREE` (checked
     /// when compiled).
     pub const fn from_array<const N: usize>(poles: [f64; N]) -> Self {
         const { assert!(N >= 1 && N <= MAX_RELATIVE_DEGREE, "1 to 4 ECBF poles") };
@@ -397,4 +398,17 @@ pub struct KernelEntry {
     /// flattened likewise; lengths must equal the sums of `inputs` and `outputs` (the
     /// call panics otherwise: a tool's bug, never a control-path one).
     pub call: fn(&[f64], &mut [f64]),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn poles_from_array_in_a_constant_equal_the_run_time_conversion() {
+        const POLES: Poles = Poles::from_array([3.0, 4.0, 5.0]);
+        assert_eq!(POLES, Poles::from([3.0, 4.0, 5.0]));
+        assert_eq!(POLES.as_slice(), &[3.0, 4.0, 5.0]);
+        assert_eq!(Gains::from_poles(&POLES).as_slice(), &[60.0, 47.0, 12.0]);
+    }
 }

@@ -14,10 +14,11 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
+from .codegen.backends.rust.emitter import RawRust, emit_kernel, rustdoc_text
+from .codegen.backends.rust.kernel_table import emit_kernel_table
 from .families import double_integrator, ssat, tachyon3
 from .inputs_hash import inputs_hash
 from .kernel import Kernel
-from .rust_emitter import RawRust, emit_kernel, rustdoc_text
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 HASH_PREFIX = "// inputs-sha256: "
@@ -60,8 +61,9 @@ def render(repo_root: Path = REPO_ROOT) -> dict[str, str]:
     files: dict[str, str] = {}
     mod_lines = [_header(digest), "//! Kernels emitted by the symbolic stage.\n"]
     for name, (doc, build) in MODULES.items():
-        body = "\n".join(item.text if isinstance(item, RawRust) else emit_kernel(item)
-                          for item in build())
+        items = build()
+        body = "\n".join(item.text if isinstance(item, RawRust) else emit_kernel(item) for item in items)
+        body += "\n" + emit_kernel_table([i for i in items if isinstance(i, Kernel)], "crate", f"`{name}`")
         module_doc = "".join(f"//! {rustdoc_text(line)}".rstrip() + "\n" for line in doc.strip().splitlines())
         lint = ("#![allow(clippy::all, clippy::pedantic, unused_parens, unused_variables)]\n"
                 "#![allow(clippy::excessive_precision, clippy::too_many_arguments)]\n")

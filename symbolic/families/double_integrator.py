@@ -19,9 +19,9 @@ from __future__ import annotations
 
 import symengine as se
 
+from ..codegen.backends.rust.emitter import RawRust
 from ..kernel import Kernel
 from ..lie import LieEngine
-from ..rust_emitter import RawRust
 from .rows import row_kernel, rust_str_array
 
 STATE_NAMES = ("q", "qd")

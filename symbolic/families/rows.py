@@ -10,6 +10,7 @@ listed in the kernel's ``*_INPUT_COLUMNS`` constant.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 
 import symengine as se
 
@@ -23,11 +24,28 @@ def rust_str_array(items) -> str:
     return "[" + ", ".join(f'"{i}"' for i in items) + "]"
 
 
+@dataclass(frozen=True)
+class RowKernel:
+    """A row kernel with what was found building it."""
+
+    kernel: Kernel
+    degree: int
+    columns: tuple[int, ...]
+    row_names: tuple[str, ...]
+
+
 def row_kernel(name: str, doc: str, state_names: Sequence[str], x: Sequence[se.Symbol],
                f: Sequence[se.Expr], g: Sequence[Sequence[se.Expr]], build: RowBuilder,
                time_input: tuple[str, str] | None = None) -> Kernel:
     """``time_input = (name, doc)`` makes the rows time-varying: a scalar input t that the
     engine differentiates as a clock (t' = 1), so L_f^k h include the dh/dt terms."""
+    return build_row_kernel(name, doc, state_names, x, f, g, build, time_input).kernel
+
+
+def build_row_kernel(name: str, doc: str, state_names: Sequence[str], x: Sequence[se.Symbol],
+                     f: Sequence[se.Expr], g: Sequence[Sequence[se.Expr]], build: RowBuilder,
+                     time_input: tuple[str, str] | None = None) -> RowKernel:
+    """:func:`row_kernel`, also returning the degree, input columns and row names."""
     k = Kernel(name, doc)
     k.array_input("x", state_names, "state, laid out as `STATE_NAMES`")
     time = k.scalar_input(*time_input) if time_input else None
@@ -49,4 +67,4 @@ def row_kernel(name: str, doc: str, state_names: Sequence[str], x: Sequence[se.S
     k.output_matrix("lie", [list(r.lf) for r in lie], "per row: h, L_f h, ..., L_f^r h")
     k.output_matrix("lg_lf", [[r.lg.get(u, se.Integer(0)) for u in columns] for r in lie],
                     f"per row: L_g L_f^(r-1) h on the columns `{upper}_INPUT_COLUMNS`")
-    return k
+    return RowKernel(k, degree, tuple(columns), tuple(r for r, _ in rows))

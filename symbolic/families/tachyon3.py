@@ -14,10 +14,10 @@ import math
 
 import symengine as se
 
+from ..codegen.backends.rust.emitter import RawRust
 from ..kernel import Kernel
 from ..lie import LieEngine
 from ..model import Leg, Tachyon3, load_tachyon3
-from ..rust_emitter import RawRust
 from ..smoothing import LSE, XTANH
 from .rows import RowBuilder, row_kernel, rust_str_array
 from .ssat import AXES, ROT, certified_margin, matrix, relative_pose, separating_axes

@@ -7,10 +7,10 @@ import sys
 import numpy as np
 import symengine as se
 
+from symbolic.codegen.backends.rust.emitter import RustPrinter, emit_kernel, float_literal
 from symbolic.generate import REPO_ROOT, render
 from symbolic.inputs_hash import input_files, inputs_hash
 from symbolic.kernel import Kernel
-from symbolic.rust_emitter import RustPrinter, emit_kernel, float_literal
 
 
 def _render_in_subprocess(seed: str) -> str:
@@ -62,7 +62,7 @@ def test_kernel_signature_and_unpacking():
 
 def test_doc_text_escapes_brackets_outside_code_spans_only():
     """Units such as [m] would be rustdoc intra-doc links; code spans stay verbatim."""
-    from symbolic.rust_emitter import rustdoc_text
+    from symbolic.codegen.backends.rust.emitter import rustdoc_text
 
     assert rustdoc_text("height [m], rate [1/s]") == "height \\[m\\], rate \\[1/s\\]"
     assert rustdoc_text("`lie[i]` is [h, L_f h]") == "`lie[i]` is \\[h, L_f h\\]"

@@ -5,13 +5,13 @@ import shutil
 import pytest
 import symengine as se
 
+from symbolic.codegen.backends.rust.emitter import emit_kernel
 from symbolic.families import tachyon3
 from symbolic.generate import REPO_ROOT
 from symbolic.inputs_hash import inputs_hash
 from symbolic.kernel import Kernel
 from symbolic.lie import LieEngine, RelativeDegreeError
 from symbolic.model import MODELS_DIR, ModelError, Tachyon3, load_model
-from symbolic.rust_emitter import emit_kernel
 
 MODEL = MODELS_DIR / "tachyon3.toml"
 

@@ -14,7 +14,7 @@ from fractions import Fraction
 
 import symengine as se
 
-from .kernel import Kernel
+from ....kernel import Kernel
 
 
 class RawRust:
@@ -205,8 +205,9 @@ def _rust_type(kind: str, dim: int, cols: int) -> str:
             "symmetric": f"[[f64; {dim}]; {dim}]", "matrix": f"[[f64; {cols}]; {dim}]"}[kind]
 
 
-def emit_kernel(kernel: Kernel) -> str:
-    """The Rust text of one kernel: constants, then the function."""
+def emit_kernel(kernel: Kernel, attributes: Sequence[str] = ()) -> str:
+    """The Rust text of one kernel: constants, then the function. ``attributes`` (outer
+    attributes such as ``#[allow(...)]``) go on the function, before its ``#[inline]``."""
     flat: list[se.Expr] = [let.expr for let in kernel.lets]
     for red in kernel.reductions:
         flat.extend(red.exprs)
@@ -281,6 +282,7 @@ def emit_kernel(kernel: Kernel) -> str:
         for inp in kernel.inputs)
     types = [_rust_type(o.kind, o.dim, o.cols) for o in kernel.outputs]
     ret = types[0] if len(types) == 1 else "(" + ", ".join(types) + ")"
+    lines.extend(attributes)
     lines.append("#[inline]")
     lines.append(f"pub fn {kernel.name}({args}) -> {ret} {{")
     # Scalar inputs are already locals under their own name; arrays are unpacked.

@@ -1,0 +1,1 @@
+"""One package per target language: the expression printer and the module templates."""

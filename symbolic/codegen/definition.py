@@ -1,0 +1,210 @@
+"""A :class:`~symbolic.spec.System` made concrete: kernels, degrees, layouts, defaults.
+
+This is the language-neutral half of generation. Per family it builds one row kernel
+(:func:`symbolic.families.rows.row_kernel`): outputs ``lie`` = per row
+``[h, L_f h, ..., L_f^r h]`` and ``lg_lf`` = per row ``L_g L_f^(r-1) h`` on the family's
+input columns, with the degree, columns and row names as constants. The dynamics become
+two kernels, ``drift(x) -> f`` and ``input_matrix(x) -> g``. A backend prints the result;
+nothing here knows a target language.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import symengine as se
+
+from ..families.rows import build_row_kernel
+from ..kernel import Kernel, RuntimeMax
+from ..lie import MAX_RELATIVE_DEGREE, LieEngine
+from ..spec import DEFAULT_POLE, Family, FamilyContext, Limits, Param, SpecError, System, check_identifier
+
+
+@dataclass(frozen=True)
+class FamilyDefinition:
+    name: str
+    doc: str
+    kernel: Kernel
+    degree: int
+    row_names: tuple[str, ...]
+    columns: tuple[int, ...]
+    params: tuple[Param, ...]
+    count: int | None  # fixed instances; None for a capacity family
+    capacity: bool
+    time: bool
+    poles: tuple[float, ...]
+    slack_weight: float
+    activation: float
+
+
+@dataclass(frozen=True)
+class SystemDefinition:
+    name: str
+    doc: str
+    state_names: tuple[str, ...]
+    state_docs: tuple[str, ...]
+    input_names: tuple[str, ...]
+    input_docs: tuple[str, ...]
+    input_limits: tuple[Limits, ...]
+    drift: Kernel
+    input_matrix: Kernel
+    families: tuple[FamilyDefinition, ...]
+    source: Path | None
+
+    @property
+    def time_varying(self) -> bool:
+        return any(f.time for f in self.families)
+
+    def kernels(self) -> list[Kernel]:
+        """Every kernel, in the order a backend emits them."""
+        return [self.drift, self.input_matrix] + [f.kernel for f in self.families]
+
+
+def _base_symbols(kernel: Kernel):
+    """expr -> the inputs it reads, every let and runtime max expanded."""
+    defs: dict[se.Symbol, tuple[se.Expr, ...]] = {}
+    for d in kernel.definitions:
+        defs[d.symbol] = d.exprs if isinstance(d, RuntimeMax) else (d.expr,)
+    memo: dict[se.Symbol, frozenset] = {}
+
+    def of_symbol(sym: se.Symbol) -> frozenset:
+        if sym not in memo:
+            if sym in defs:
+                memo[sym] = frozenset().union(*(of_expr(e) for e in defs[sym]))
+            else:
+                memo[sym] = frozenset([sym])
+        return memo[sym]
+
+    def of_expr(e: se.Expr) -> frozenset:
+        return frozenset().union(*(of_symbol(s) for s in e.free_symbols))
+
+    return of_expr
+
+
+def _rows(where: str, family: Family, result: object) -> list[tuple[str, se.Expr]]:
+    if isinstance(result, (list, tuple)):
+        if not result:
+            raise SpecError(f"{where}: h returned no rows")
+        rows = []
+        for item in result:
+            if not (isinstance(item, (list, tuple)) and len(item) == 2 and isinstance(item[0], str)):
+                raise SpecError(f"{where}: h must return one expression or a list of (row_name, expr) "
+                                f"pairs, got an item {item!r}")
+            check_identifier(where, "row name", item[0], local=False)
+            rows.append((item[0], item[1]))
+        names = [r for r, _ in rows]
+        if len(set(names)) != len(names):
+            raise SpecError(f"{where}: row names {names} repeat a name")
+    else:
+        rows = [(family.name, result)]
+    out = []
+    for row, e in rows:
+        try:
+            out.append((row, se.sympify(e)))
+        except Exception as exc:
+            raise SpecError(f"{where}: row {row!r} is not a symbolic expression: {e!r}") from exc
+    return out
+
+
+def _declare_params(k: Kernel, family: Family) -> tuple[dict[str, object], dict[str, frozenset]]:
+    values: dict[str, object] = {}
+    symbols: dict[str, frozenset] = {}
+    for p in family.params:
+        doc = p.doc or f"parameter `{p.name}` of the {family.name} family"
+        if p.shape == ():
+            sym = k.scalar_input(p.name, doc)
+            values[p.name] = sym
+            symbols[p.name] = frozenset([sym])
+            continue
+        flat = k.array_input(p.name, p.components(), doc + (" (row-major)" if len(p.shape) == 2 else ""))
+        symbols[p.name] = frozenset(flat)
+        if len(p.shape) == 1:
+            values[p.name] = flat
+        else:
+            cols = p.shape[1]
+            values[p.name] = [flat[r * cols:(r + 1) * cols] for r in range(p.shape[0])]
+    return values, symbols
+
+
+def _family(system: System, family: Family) -> FamilyDefinition:
+    where = f"{system.where}, family {family.name!r}"
+    state_set = frozenset(system.x)
+    time_sym = system.time
+
+    def build(k: Kernel, eng: LieEngine):
+        try:
+            values, param_symbols = _declare_params(k, family)
+        except ValueError as exc:
+            raise SpecError(f"{where}: {exc}") from exc
+        ctx = FamilyContext(where, k, eng, values, eng.time)
+        rows = _rows(where, family, family.h(ctx))
+        base = _base_symbols(k)
+        allowed = state_set | frozenset().union(*param_symbols.values())
+        if family.time:
+            allowed |= {time_sym}
+        used: frozenset = frozenset()
+        for row, e in rows:
+            syms = base(e)
+            used |= syms
+            stray = syms - allowed
+            if stray:
+                names = sorted(map(str, stray))
+                hint = ""
+                if time_sym in stray:
+                    hint = " (declare the family with time=True to use t)"
+                elif any(s in system.u for s in stray):
+                    hint = " (barriers depend on states, parameters and time, never on inputs)"
+                raise SpecError(f"{where}: row {row!r} uses {names}, which are not states or declared "
+                                f"parameters{hint}")
+            if not syms & state_set:
+                raise SpecError(f"{where}: row {row!r} depends on no state; no input can change it")
+        if family.time and time_sym not in used:
+            raise SpecError(f"{where}: declared time=True but h does not depend on t")
+        unused = [p.name for p in family.params if not used & param_symbols[p.name]]
+        if unused:
+            raise SpecError(f"{where}: parameters {unused} are declared but h does not use them")
+        return rows
+
+    time_input = ("t", "time t [s]") if family.time else None
+    try:
+        built = build_row_kernel(family.name, family.doc or f"The {family.name} family of {system.name}.",
+                            system.state_names, system.x, system.f, system.g, build, time_input=time_input)
+    except SpecError:
+        raise
+    except ValueError as exc:  # the Lie engine's: degree > MAX_RELATIVE_DEGREE, mixed degrees
+        text = str(exc)
+        if "identically zero" in text:
+            text = (f"relative degree > {MAX_RELATIVE_DEGREE}: L_g L_f^k h is identically zero for every "
+                    f"k < {MAX_RELATIVE_DEGREE}, so no input can enforce it ({text})")
+        elif "share a relative degree" in text:
+            text = f"its rows have different relative degrees; split them into families ({text})"
+        raise SpecError(f"{where}: {text}") from exc
+
+    degree = built.degree
+    if family.poles is None:
+        poles = (DEFAULT_POLE,) * degree
+    elif len(family.poles) != degree:
+        raise SpecError(f"{where}: poles has {len(family.poles)} entries but the relative degree found is "
+                        f"{degree}; give {degree} poles (or omit poles for {degree} x {DEFAULT_POLE:g})")
+    else:
+        poles = tuple(family.poles)
+    return FamilyDefinition(family.name, family.doc, built.kernel, degree, built.row_names, built.columns,
+                            tuple(family.params),
+                            family.count, family.capacity, family.time, poles, family.slack_weight,
+                            family.activation)
+
+
+def define(system: System) -> SystemDefinition:
+    """Differentiate every family of ``system`` and build its dynamics kernels."""
+    system.check_complete()
+    drift = Kernel("drift", f"The drift f(x) of {system.name}: x' = f(x) + g(x) u.")
+    drift.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
+    drift.output_vector("f", system.f, "f(x), one entry per state")
+    g = Kernel("input_matrix", f"The input matrix g(x) of {system.name}: x' = f(x) + g(x) u.")
+    g.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
+    g.output_matrix("g", system.g, "g(x), one row per state, one column per input")
+    families = tuple(_family(system, f) for f in system.families)
+    return SystemDefinition(system.name, system.doc, tuple(system.state_names), tuple(system.state_docs),
+                            tuple(system.input_names), tuple(system.input_docs), tuple(system.input_limits),
+                            drift, g, families, system.source)

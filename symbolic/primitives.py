@@ -1,0 +1,109 @@
+"""The library's building blocks for barrier functions, in one place for spec authors.
+
+Everything here is a re-export or a thin wrapper over what the built-in families use
+(:mod:`symbolic.smoothing`, :mod:`symbolic.families.ssat`, :mod:`symbolic.model`), so a
+user's barrier is the same mathematics as the library's own. Helpers that build named
+intermediates take the family context ``p`` (the argument of a family's ``h``) first:
+its ``let`` / ``runtime_max`` keep the expressions the size of the formula and let the
+Lie engine differentiate through them.
+
+Conventions: a rotation is a 3x3 nested list whose columns are the body's axes in the
+world frame; a box is ``Box(center, rotation, half_extents)`` with 3, 3x3 and 3 entries
+(symbols, numbers or expressions).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import NamedTuple
+
+import symengine as se
+
+from .families.ssat import AXIS_COUNT, certified_margin, relative_pose, separating_axes
+from .model import matmul, matvec, rot_y, rot_z
+from .smoothing import (
+    BOLTZMANN,
+    LSE,
+    SMOOTH_ABS,
+    SMOOTH_MAX,
+    SQRT,
+    XTANH,
+    XTANH_ABS_GAP,
+    SmoothAbs,
+    SmoothMax,
+)
+from .spec import FamilyContext
+
+__all__ = [
+    "AXIS_COUNT", "BOLTZMANN", "LSE", "SMOOTH_ABS", "SMOOTH_MAX", "SQRT", "XTANH", "XTANH_ABS_GAP",
+    "Box", "SmoothAbs", "SmoothMax", "half_space", "identity", "matmul", "matvec", "rot_x", "rot_y",
+    "rot_z", "ssat", "superellipsoid", "transpose",
+]
+
+
+class Box(NamedTuple):
+    """An oriented box: centre (3), rotation (3x3, columns = the box's axes in the world
+    frame) and half extents along its own axes (3)."""
+
+    center: Sequence[se.Expr]
+    rotation: Sequence[Sequence[se.Expr]]
+    half_extents: Sequence[se.Expr]
+
+
+# ------------------------------------------------------------------- rotations
+def rot_x(a: se.Expr) -> list[list[se.Expr]]:
+    """Rotation by ``a`` [rad] about x."""
+    c, s = se.cos(a), se.sin(a)
+    return [[1, 0, 0], [0, c, -s], [0, s, c]]
+
+
+def identity() -> list[list[se.Expr]]:
+    """The 3x3 identity rotation."""
+    return [[se.Integer(int(i == j)) for j in range(3)] for i in range(3)]
+
+
+def transpose(m: Sequence[Sequence[se.Expr]]) -> list[list[se.Expr]]:
+    return [[m[i][j] for i in range(len(m))] for j in range(len(m[0]))]
+
+
+# ------------------------------------------------------------------ primitives
+def half_space(point: Sequence[se.Expr], normal: Sequence[se.Expr], offset: se.Expr) -> se.Expr:
+    """``normal . point + offset``: >= 0 on the side the normal points to (the convex
+    foothold constraint of the Tachyon 3 paper, eq. 12, in any dimension)."""
+    if len(point) != len(normal):
+        raise ValueError(f"half_space: point has {len(point)} entries, normal {len(normal)}")
+    return se.Add(*[n * q for n, q in zip(normal, point, strict=True)]) + offset
+
+
+def superellipsoid(p: FamilyContext, point: Sequence[se.Expr], box: Box, n: int = 2,
+                   inflate: se.Expr = 0, name: str = "rel") -> se.Expr:
+    """``sum_i (r_i / (a_i + inflate))^(2n) - 1`` with ``r = R^T (point - centre)``: >= 0
+    outside the superellipsoid inscribed in ``box`` grown by ``inflate`` (a sphere's
+    radius, as the paper's eq. 11 folds the toe sphere into the edge cuboid). ``r`` is
+    a named intermediate ``<name>_x/y/z``. Inscribed: not conservative at the corners."""
+    if not isinstance(n, int) or n < 1:
+        raise ValueError(f"superellipsoid: n must be a positive integer, got {n!r}")
+    c, rot, half = box
+    rel = [p.let(f"{name}_{'xyz'[i]}", se.Add(*[rot[q][i] * (point[q] - c[q]) for q in range(3)]))
+           for i in range(3)]
+    return se.Add(*[(rel[i] / (half[i] + inflate)) ** (2 * n) for i in range(3)]) - 1
+
+
+def ssat(p: FamilyContext, a: Box, b: Box, alpha: se.Expr = 100.0, alpha_rot: se.Expr = 100.0,
+         smax: SmoothMax = LSE, sabs: SmoothAbs = XTANH, certified: bool = True) -> se.Expr:
+    """The smooth SAT separation of two oriented boxes (Tachyon 3 paper, eq. 7-10), in
+    box A's frame as :mod:`symbolic.families.ssat` formulates it: > 0 separated, < 0
+    overlapping. ``alpha`` [1/m] sharpens the smooth max and |.| on distances,
+    ``alpha_rot`` the |.| on rotation entries. With ``certified`` (the default) the
+    certified margin is subtracted, so h >= 0 proves the exact boxes do not overlap.
+
+    The relative pose, the smoothed |R_ij|, every axis value and the smooth max's pieces
+    are named intermediates: L_f^2 h then costs O(15) instead of a dense Hessian.
+    """
+    alpha, alpha_rot = se.sympify(alpha), se.sympify(alpha_rot)
+    t, rot = relative_pose(p.let, a.center, a.rotation, b.center, b.rotation)
+    axes = separating_axes(t, rot, a.half_extents, b.half_extents, sabs, alpha, alpha_rot, p.let)
+    ys = [p.let(f"y_{i}", y) for i, (y, _) in enumerate(axes)]
+    shift = p.runtime_max("y_max", ys)
+    h = smax(ys, alpha, shift, p.let)
+    return h - certified_margin(p, smax, axes, alpha) if certified else h

@@ -1,0 +1,435 @@
+"""The system spec users write: a control-affine model and its barrier families.
+
+A spec is a Python file with a ``build()`` that returns a :class:`System`::
+
+    import symengine as se
+    from symbolic.spec import System
+
+    def build() -> System:
+        s = System("planar_robot", doc="A planar point robot.")
+        px, py, vx, vy = s.states(["px", "py", "vx", "vy"])
+        s.inputs(["ax", "ay"], limits=[(-4.0, 4.0), (-4.0, 4.0)])
+        s.dynamics(f=[vx, vy, 0, 0], g=[[0, 0], [0, 0], [1, 0], [0, 1]])
+        s.family("speed_limit", lambda p: p.vmax**2 - vx**2 - vy**2, params={"vmax": ()},
+                 poles=[5.0], doc="Speed below vmax.")
+        return s
+
+Nothing here knows a target language: :mod:`symbolic.codegen` turns the system into
+kernels (differentiating every family to its relative degree, which is *found*, never
+given) and a backend prints them.
+
+**Families.** ``h`` is called once with a :class:`FamilyContext` ``p``: its parameters as
+attributes (a scalar is a symbol, a vector a list of symbols, a matrix a list of rows),
+``p.t`` the time symbol (``time=True`` only), and ``p.let`` / ``p.runtime_max`` to build
+named intermediates the Lie engine differentiates through (what the helpers of
+:mod:`symbolic.primitives` use). It returns one expression, or a list of
+``(row_name, expr)`` pairs: several rows per instance, all of one relative degree.
+A family has ``count=N`` fixed instances (all always active), or ``capacity=True``:
+instances filled at run time up to a capacity fixed when the barrier set is built.
+
+Every mistake is a :class:`SpecError` naming the system, the family and the key.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import keyword
+import math
+import re
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import symengine as se
+
+# Bounds the runtime enforces too (src/system.rs, src/filter): checked here so a spec fails
+# when it is generated, not when the filter is built.
+MAX_INPUT = 1e6
+MAX_INSTANCES = 10_000
+POLE_RANGE = (1e-6, 1e4)
+SLACK_WEIGHT_RANGE = (1e-3, 1e8)
+DEFAULT_POLE = 10.0
+DEFAULT_SLACK_WEIGHT = 1e4
+
+_IDENT = re.compile(r"^[a-z][a-z0-9_]*$")
+# Names the generated code uses for its own locals and items (SymEngine's CSE temporaries
+# x0.., the emitter's t0.. and pw.., the time argument t and the state argument x).
+_RESERVED_PATTERN = re.compile(r"^(x\d+|t\d+|pw\d*|x|t)$")
+# Rust keywords, reserved words and names the Rust backend's module defines itself.
+_RUST_WORDS = frozenset("""
+    as async await break const continue crate dyn else enum extern false fn for gen if impl in let
+    loop match mod move mut pub ref return self static struct super trait true type unsafe use
+    where while abstract become box do final macro override priv try typeof unsized virtual yield
+    union
+""".split())
+_MODULE_ITEMS = frozenset({"state", "input", "drift", "input_matrix", "default_settings", "core", "std",
+                           "nalgebra", "alloc"})
+
+
+class SpecError(ValueError):
+    """A system spec that cannot be generated; the message names system, family and key."""
+
+
+def _camel(name: str) -> str:
+    return "".join(part.capitalize() for part in name.split("_"))
+
+
+def check_identifier(where: str, key: str, name: object, *, module_item: bool = False,
+                     local: bool = True) -> str:
+    """``name`` as a snake_case identifier usable in every generated language. ``local``:
+    the name becomes a variable or function of generated code (parameters, intermediates,
+    families), so the generator's own locals and the target's keywords are excluded;
+    state and input names only ever appear prefixed or upper-cased."""
+    if not isinstance(name, str) or not _IDENT.match(name) or "__" in name or name.endswith("_"):
+        raise SpecError(f"{where}: {key} {name!r} is not a snake_case identifier "
+                        "(lower-case letters, digits and single underscores, starting with a letter)")
+    if local and (name in _RUST_WORDS or keyword.iskeyword(name) or _RESERVED_PATTERN.match(name)):
+        raise SpecError(f"{where}: {key} {name!r} is reserved in generated code; choose another name")
+    if module_item and name in _MODULE_ITEMS:
+        raise SpecError(f"{where}: {key} {name!r} is the name of an item every generated module "
+                        "defines; choose another name")
+    return name
+
+
+def _number(where: str, key: str, value: object) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise SpecError(f"{where}: {key} must be a number, got {value!r}")
+    return float(value)
+
+
+def _expr(where: str, key: str, value: object) -> se.Expr:
+    try:
+        return se.sympify(value)
+    except Exception as exc:  # SymEngine raises several types for junk
+        raise SpecError(f"{where}: {key} is not a symbolic expression: {value!r}") from exc
+
+
+# ------------------------------------------------------------------ parameters
+Shape = tuple[()] | tuple[int] | tuple[int, int]
+
+
+@dataclass(frozen=True)
+class Param:
+    """A runtime parameter of a family: ``shape`` is ``()`` (scalar), ``(n,)`` (vector)
+    or ``(rows, cols)`` (matrix, flattened row-major for the kernel)."""
+
+    name: str
+    shape: Shape
+    doc: str
+
+    @property
+    def size(self) -> int:
+        return math.prod(self.shape)
+
+    def components(self) -> list[str]:
+        """Component suffixes of the flattened parameter, in kernel argument order."""
+        if self.shape == ():
+            return []
+        if len(self.shape) == 1:
+            return [str(i) for i in range(self.shape[0])]
+        rows, cols = self.shape
+        sep = "" if rows <= 10 and cols <= 10 else "_"
+        return [f"{i}{sep}{j}" for i in range(rows) for j in range(cols)]
+
+
+def _param(where: str, name: object, spec: object) -> Param:
+    """``spec`` is a shape, or ``(shape, doc)``."""
+    check_identifier(where, "parameter", name)
+    if name in ("let", "runtime_max"):
+        raise SpecError(f"{where}: parameter {name!r} is a method of the family context; choose another name")
+    doc = ""
+    if isinstance(spec, tuple) and len(spec) == 2 and isinstance(spec[1], str):
+        spec, doc = spec
+    if not isinstance(spec, tuple) or len(spec) > 2 or any(
+            isinstance(n, bool) or not isinstance(n, int) or n < 1 for n in spec):
+        raise SpecError(f"{where}: parameter {name!r} has shape {spec!r}; use () for a scalar, (n,) "
+                        "for a vector or (rows, cols) for a matrix, sizes >= 1 (optionally "
+                        "(shape, 'doc'))")
+    if math.prod(spec) > 1024:
+        raise SpecError(f"{where}: parameter {name!r} has {math.prod(spec)} entries; at most 1024")
+    return Param(name, spec, doc)
+
+
+class FamilyContext:
+    """What ``h`` receives: the family's parameters as attributes, the time symbol, and
+    named intermediates the Lie engine differentiates through.
+
+    ``let`` and ``runtime_max`` make a name unique by appending ``_2``, ``_3``, ... when it
+    is taken, so a helper may be used twice in one family.
+    """
+
+    def __init__(self, where: str, kernel, engine, params: dict[str, object], time: se.Symbol | None):
+        self._where = where
+        self._kernel = kernel
+        self._engine = engine
+        self._params = params
+        self._time = time
+
+    def __getattr__(self, name: str):
+        params = self.__dict__.get("_params", {})
+        if name in params:
+            return params[name]
+        raise SpecError(f"{self.__dict__.get('_where', 'family')}: no parameter {name!r} "
+                        f"(declared: {sorted(params) or 'none'})")
+
+    def __getitem__(self, name: str):
+        return self.__getattr__(name)
+
+    @property
+    def t(self) -> se.Symbol:
+        if self._time is None:
+            raise SpecError(f"{self._where}: uses time, but the family was declared without time=True")
+        return self._time
+
+    def _fresh(self, name: str) -> str:
+        check_identifier(self._where, "intermediate", name)
+        taken = self._kernel._names
+        if name not in taken:
+            return name
+        n = 2
+        while f"{name}_{n}" in taken:
+            n += 1
+        return f"{name}_{n}"
+
+    def let(self, name: str, expr: se.Expr) -> se.Symbol:
+        """A named intermediate (a relative pose, a smooth max's sum): computed once, and
+        differentiated by the chain rule through its own rate."""
+        return self._engine.let_(self._fresh(name), expr)
+
+    # The name the library's helpers (symbolic.families.ssat) expect of a let factory.
+    let_ = let
+
+    def runtime_max(self, name: str, exprs: Sequence[se.Expr]) -> se.Symbol:
+        """max() over ``exprs`` evaluated at run time; a constant for differentiation, so
+        only for shifts the result does not depend on (a log-sum-exp's overflow guard)."""
+        return self._kernel.runtime_max(self._fresh(name), exprs)
+
+
+# -------------------------------------------------------------------- families
+@dataclass
+class Family:
+    """One barrier family as declared; :mod:`symbolic.codegen` differentiates it."""
+
+    name: str
+    h: Callable[[FamilyContext], object]
+    params: list[Param]
+    count: int | None
+    capacity: bool
+    time: bool
+    poles: list[float] | None
+    slack_weight: float
+    activation: float
+    doc: str
+
+    @property
+    def instances_doc(self) -> str:
+        return "up to a capacity chosen at run time" if self.capacity else f"{self.count} fixed"
+
+
+@dataclass
+class Limits:
+    lower: float
+    upper: float
+
+
+@dataclass
+class System:
+    """A control-affine system x' = f(x) + g(x) u and its barrier families."""
+
+    name: str
+    doc: str = ""
+    state_names: list[str] = field(default_factory=list)
+    state_docs: list[str] = field(default_factory=list)
+    input_names: list[str] = field(default_factory=list)
+    input_docs: list[str] = field(default_factory=list)
+    input_limits: list[Limits] = field(default_factory=list)
+    x: list[se.Symbol] = field(default_factory=list)
+    u: list[se.Symbol] = field(default_factory=list)
+    f: list[se.Expr] | None = None
+    g: list[list[se.Expr]] | None = None
+    families: list[Family] = field(default_factory=list)
+    source: Path | None = None
+
+    def __post_init__(self):
+        check_identifier("system", "name", self.name, module_item=True)
+        if _camel(self.name) in ("Params", "Barriers", "Capacity", "Filter"):
+            raise SpecError(f"system {self.name!r}: name clashes with a generated item ({_camel(self.name)})")
+        if not isinstance(self.doc, str):
+            raise SpecError(f"system {self.name!r}: doc must be a string")
+
+    @property
+    def where(self) -> str:
+        return f"system {self.name!r}"
+
+    @property
+    def time(self) -> se.Symbol:
+        """The time symbol t [s], usable in families declared with ``time=True``."""
+        return se.Symbol("t")
+
+    # ----------------------------------------------------------------- layout
+    def _names(self, key: str, names: object, docs: object) -> tuple[list[str], list[str]]:
+        if isinstance(names, str) or not isinstance(names, Sequence) or not names:
+            raise SpecError(f"{self.where}: {key} must be a non-empty list of names, got {names!r}")
+        for n in names:
+            check_identifier(self.where, key[:-1], n, local=False)
+        if len(set(names)) != len(names):
+            raise SpecError(f"{self.where}: {key} {list(names)} repeat a name")
+        docs = list(docs) if docs is not None else [""] * len(names)
+        if len(docs) != len(names) or not all(isinstance(d, str) for d in docs):
+            raise SpecError(f"{self.where}: {key} docs must be {len(names)} strings")
+        return list(names), docs
+
+    def states(self, names: Sequence[str], docs: Sequence[str] | None = None) -> list[se.Symbol]:
+        """Declare the states, in order; returns their symbols."""
+        if self.state_names:
+            raise SpecError(f"{self.where}: states declared twice")
+        self.state_names, self.state_docs = self._names("states", names, docs)
+        clash = set(self.state_names) & set(self.input_names)
+        if clash:
+            raise SpecError(f"{self.where}: {sorted(clash)} named both state and input")
+        self.x = [se.Symbol(f"x_{n}") for n in self.state_names]
+        return list(self.x)
+
+    def inputs(self, names: Sequence[str], limits: Sequence[tuple[float, float]],
+               docs: Sequence[str] | None = None) -> list[se.Symbol]:
+        """Declare the inputs, in order, each with its (lower, upper) limit: finite, lower <
+        upper, within +-MAX_INPUT. The symbols are returned for symmetry; f, g and h must
+        not use them (the system is control-affine through g)."""
+        if self.input_names:
+            raise SpecError(f"{self.where}: inputs declared twice")
+        names, docs = self._names("inputs", names, docs)
+        if isinstance(limits, str) or not isinstance(limits, Sequence) or len(limits) != len(names):
+            raise SpecError(f"{self.where}: limits must hold one (lower, upper) pair per input "
+                            f"({len(names)}), got {limits!r}")
+        parsed = []
+        for n, lim in zip(names, limits, strict=True):
+            key = f"limits of input {n!r}"
+            if not isinstance(lim, Sequence) or len(lim) != 2:
+                raise SpecError(f"{self.where}: {key} must be a (lower, upper) pair, got {lim!r}")
+            lo, hi = (_number(self.where, key, v) for v in lim)
+            if not all(math.isfinite(v) and abs(v) <= MAX_INPUT for v in (lo, hi)) or not lo < hi:
+                raise SpecError(f"{self.where}: {key} are ({lo}, {hi}); they must be finite, within "
+                                f"+-{MAX_INPUT:g} and lower < upper")
+            parsed.append(Limits(lo, hi))
+        clash = set(names) & set(self.state_names)
+        if clash:
+            raise SpecError(f"{self.where}: {sorted(clash)} named both state and input")
+        self.input_names, self.input_docs, self.input_limits = names, docs, parsed
+        self.u = [se.Symbol(f"u_{n}") for n in names]
+        return list(self.u)
+
+    def dynamics(self, f: Sequence[object], g: Sequence[Sequence[object]]) -> None:
+        """x' = f(x) + g(x) u: ``f`` one entry per state, ``g`` one row per state with one
+        entry per input. Both may depend on the states only."""
+        if not self.state_names or not self.input_names:
+            raise SpecError(f"{self.where}: declare states and inputs before dynamics")
+        nx, nu = len(self.state_names), len(self.input_names)
+        if isinstance(f, str) or not isinstance(f, Sequence) or len(f) != nx:
+            raise SpecError(f"{self.where}: dynamics f must have one entry per state ({nx}), got "
+                            f"{len(f) if isinstance(f, Sequence) else f!r}")
+        if (isinstance(g, str) or not isinstance(g, Sequence) or len(g) != nx
+                or any(isinstance(r, str) or not isinstance(r, Sequence) or len(r) != nu for r in g)):
+            raise SpecError(f"{self.where}: dynamics g must be {nx} rows (states) of {nu} entries "
+                            "(inputs)")
+        fx = [_expr(self.where, f"dynamics f[{i}]", e) for i, e in enumerate(f)]
+        gx = [[_expr(self.where, f"dynamics g[{i}][{j}]", e) for j, e in enumerate(r)]
+              for i, r in enumerate(g)]
+        allowed = set(self.x)
+        for key, e in [(f"f[{i}]", e) for i, e in enumerate(fx)] + [
+                (f"g[{i}][{j}]", e) for i, r in enumerate(gx) for j, e in enumerate(r)]:
+            stray = e.free_symbols - allowed
+            if stray:
+                raise SpecError(f"{self.where}: dynamics {key} = {e} uses {sorted(map(str, stray))}; "
+                                "f and g may depend on the states only")
+        if all(e == 0 for r in gx for e in r):
+            raise SpecError(f"{self.where}: dynamics g is identically zero; no input acts on the system")
+        self.f, self.g = fx, gx
+
+    # --------------------------------------------------------------- families
+    def family(self, name: str, h: Callable[[FamilyContext], object], *,
+               params: dict[str, object] | None = None, count: int | None = None,
+               capacity: bool = False, time: bool = False, poles: Sequence[float] | None = None,
+               slack_weight: float = DEFAULT_SLACK_WEIGHT, activation: float = math.inf,
+               doc: str = "") -> None:
+        """Declare a barrier family h(x, params[, t]) >= 0.
+
+        ``params`` maps names to shapes (``()``, ``(n,)``, ``(rows, cols)``), or to
+        ``(shape, doc)``. ``count`` (default 1) fixes the number of instances; ``capacity=True``
+        instead fills them at run time. ``poles`` must have one entry per derivative (the
+        relative degree the Lie engine finds); omitted, they default to DEFAULT_POLE.
+        ``activation``: the row takes part only while h is below it (inf = always).
+        """
+        where = f"{self.where}, family {name!r}"
+        check_identifier(self.where, "family name", name, module_item=True)
+        if any(fam.name == name for fam in self.families):
+            raise SpecError(f"{where}: declared twice")
+        if not callable(h):
+            raise SpecError(f"{where}: h must be a function of the parameters (lambda p: ...)")
+        params = {} if params is None else params
+        if not isinstance(params, dict):
+            raise SpecError(f"{where}: params must be a dict of name -> shape")
+        parsed = [_param(where, n, shape) for n, shape in params.items()]
+        if not isinstance(capacity, bool) or not isinstance(time, bool):
+            raise SpecError(f"{where}: capacity and time are True or False")
+        if capacity:
+            if count is not None:
+                raise SpecError(f"{where}: give count or capacity=True, not both")
+            if not parsed:
+                raise SpecError(f"{where}: capacity=True needs params (instances differ only in them)")
+        else:
+            count = 1 if count is None else count
+            if isinstance(count, bool) or not isinstance(count, int) or not 1 <= count <= MAX_INSTANCES:
+                raise SpecError(f"{where}: count must be an integer in [1, {MAX_INSTANCES}], got {count!r}")
+            if count > 1 and not parsed:
+                raise SpecError(f"{where}: count={count} without params gives {count} identical rows")
+        pole_list = None
+        if poles is not None:
+            if isinstance(poles, str) or not isinstance(poles, Sequence) or not poles:
+                raise SpecError(f"{where}: poles must be a non-empty list of numbers, got {poles!r}")
+            pole_list = [_number(where, "poles", p) for p in poles]
+            lo, hi = POLE_RANGE
+            bad = [p for p in pole_list if not lo <= p <= hi]
+            if bad:
+                raise SpecError(f"{where}: poles {bad} outside [{lo:g}, {hi:g}] 1/s")
+        slack_weight = _number(where, "slack_weight", slack_weight)
+        lo, hi = SLACK_WEIGHT_RANGE
+        if not lo <= slack_weight <= hi:
+            raise SpecError(f"{where}: slack_weight {slack_weight} outside [{lo:g}, {hi:g}]")
+        activation = _number(where, "activation", activation)
+        if not activation > 0:
+            raise SpecError(f"{where}: activation {activation} must be > 0 (inf = always active)")
+        if not isinstance(doc, str):
+            raise SpecError(f"{where}: doc must be a string")
+        self.families.append(Family(name, h, parsed, None if capacity else count, capacity, time,
+                                    pole_list, slack_weight, activation, doc))
+
+    def check_complete(self) -> None:
+        if not self.state_names:
+            raise SpecError(f"{self.where}: no states declared")
+        if not self.input_names:
+            raise SpecError(f"{self.where}: no inputs declared")
+        if self.f is None:
+            raise SpecError(f"{self.where}: no dynamics declared")
+        if not self.families:
+            raise SpecError(f"{self.where}: no barrier families declared")
+
+
+def load(path: str | Path) -> System:
+    """Import the spec file at ``path`` and call its ``build()``."""
+    path = Path(path)
+    if not path.is_file():
+        raise SpecError(f"spec {path}: no such file")
+    module_name = f"cbfgen_spec_{re.sub(r'[^0-9a-zA-Z_]', '_', path.stem)}"
+    loader_spec = importlib.util.spec_from_file_location(module_name, path)
+    if loader_spec is None or loader_spec.loader is None:
+        raise SpecError(f"spec {path}: cannot be imported as a Python file")
+    module = importlib.util.module_from_spec(loader_spec)
+    loader_spec.loader.exec_module(module)
+    build = getattr(module, "build", None)
+    if not callable(build):
+        raise SpecError(f"spec {path}: defines no build() function")
+    system = build()
+    if not isinstance(system, System):
+        raise SpecError(f"spec {path}: build() returned {type(system).__name__}, not a System")
+    system.source = path
+    return system

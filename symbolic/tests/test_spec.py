@@ -1,0 +1,298 @@
+"""The spec API and the system generator: degrees found, mistakes named, output
+deterministic, include!-able and compiling against the runtime's traits."""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+import symengine as se
+
+from symbolic import primitives as prim
+from symbolic.codegen.definition import define
+from symbolic.codegen.generate import render
+from symbolic.generate import REPO_ROOT
+from symbolic.spec import MAX_INPUT, SpecError, System, load
+
+SPECS = Path(__file__).resolve().parent / "specs"
+PLANAR = SPECS / "planar_robot.py"
+TRIPLE = SPECS / "triple_integrator.py"
+DOUBLE = REPO_ROOT / "symbolic" / "systems" / "double_integrator.py"
+
+
+# ------------------------------------------------------------------ definitions
+def test_relative_degrees_are_found_per_family():
+    planar = define(load(PLANAR))
+    assert {f.name: f.degree for f in planar.families} == {"speed_limit": 1, "wall": 2}
+    assert planar.families[0].columns == (0, 1) and planar.families[1].columns == (0, 1)
+    assert not planar.time_varying
+    triple = define(load(TRIPLE))
+    assert [(f.name, f.degree, f.poles) for f in triple.families] == [("position_limit", 3, (3.0, 4.0, 5.0))]
+    double = define(load(DOUBLE))
+    assert [(f.name, f.degree, f.time) for f in double.families] == [("sine_barrier", 2, True)]
+    assert double.input_limits[0].upper == MAX_INPUT
+
+
+def test_the_double_integrator_spec_is_the_legacy_family():
+    """Same mathematics, same kernel: the spec can replace families/double_integrator.py."""
+    from symbolic.codegen.backends.rust.emitter import emit_kernel
+    from symbolic.families.double_integrator import sine_barrier
+
+    new = define(load(DOUBLE)).families[0].kernel
+    assert emit_kernel(new).split("#[inline]")[1] == emit_kernel(sine_barrier()).split("#[inline]")[1]
+
+
+def _demo(**family) -> System:
+    s = System("demo")
+    p, v = s.states(["p", "v"])
+    s.inputs(["u"], limits=[(-1.0, 1.0)])
+    s.dynamics(f=[v, 0], g=[[0], [1]])
+    s.family("limit", family.pop("h", lambda prm: 1 - p), **family)
+    return s
+
+
+def test_default_poles_repeat_to_the_degree_found():
+    fam = define(_demo()).families[0]
+    assert fam.degree == 2 and fam.poles == (10.0, 10.0)
+
+
+def test_several_rows_per_instance_and_let_names_made_unique():
+    s = System("boxes")
+    px, py, vx, vy = s.states(["px", "py", "vx", "vy"])
+    s.inputs(["ax", "ay"], limits=[(-1, 1), (-1, 1)])
+    s.dynamics(f=[vx, vy, 0, 0], g=[[0, 0], [0, 0], [1, 0], [0, 1]])
+    robot = prim.Box([px, py, 0], prim.identity(), [0.1, 0.1, 0.1])
+
+    def two_walls(p):
+        a = prim.Box(p.a, prim.identity(), [1, 1, 1])
+        b = prim.Box(p.b, prim.rot_z(p.yaw), [1, 1, 1])
+        return [("a", prim.ssat(p, a, robot)), ("b", prim.ssat(p, b, robot)),
+                ("floor", prim.half_space([px, py], [0, 1], -p.yaw))]
+
+    s.family("walls", two_walls, params={"a": (3,), "b": (3,), "yaw": ()}, count=2)
+    fam = define(s).families[0]
+    assert fam.row_names == ("a", "b", "floor") and fam.degree == 2 and fam.count == 2
+    names = [str(d.symbol) for d in fam.kernel.definitions]
+    assert "t_x" in names and "t_x_2" in names and "y_max_2" in names
+
+
+@pytest.mark.parametrize("build, message", [
+    (lambda: System("Demo"), "system: name 'Demo' is not a snake_case identifier"),
+    (lambda: System("state"), "system: name 'state' is the name of an item"),
+    (lambda: _demo(poles=[1.0]), "family 'limit': poles has 1 entries but the relative degree found is 2"),
+    (lambda: _demo(poles=[1.0, 1e5]), "family 'limit': poles [100000.0] outside [1e-06, 10000] 1/s"),
+    (lambda: _demo(slack_weight=1e9), "family 'limit': slack_weight 1000000000.0 outside [0.001, 1e+08]"),
+    (lambda: _demo(activation=0.0), "family 'limit': activation 0.0 must be > 0"),
+    (lambda: _demo(h=lambda p: se.Integer(3)), "family 'limit': row 'limit' depends on no state"),
+    (lambda: _demo(h=lambda p: p.q), "family 'limit': no parameter 'q' (declared: none)"),
+    (lambda: _demo(h=lambda p: se.Symbol("x_p") - se.Symbol("t")), "uses ['t'], which are not states or "
+     "declared parameters (declare the family with time=True to use t)"),
+    (lambda: _demo(h=lambda p: se.Symbol("x_p") - se.Symbol("u_u")), "never on inputs"),
+    (lambda: _demo(time=True), "declared time=True but h does not depend on t"),
+    (lambda: _demo(params={"q": ()}), "parameters ['q'] are declared but h does not use them"),
+    (lambda: _demo(params={"x": ()}), "family 'limit': parameter 'x' is reserved in generated code"),
+    (lambda: _demo(params={"fn": ()}), "parameter 'fn' is reserved"),
+    (lambda: _demo(params={"q": (0,)}), "parameter 'q' has shape (0,)"),
+    (lambda: _demo(count=2), "count=2 without params gives 2 identical rows"),
+    (lambda: _demo(capacity=True), "capacity=True needs params"),
+    (lambda: _demo(params={"q": ()}, capacity=True, count=1), "give count or capacity=True, not both"),
+    (lambda: _demo(count=20_000, params={"q": ()}), "count must be an integer in [1, 10000]"),
+    (lambda: _demo(h=lambda p: [("a", se.Symbol("x_p")), ("b", se.Symbol("x_v"))]),
+     "family 'limit': its rows have different relative degrees"),
+    (lambda: _demo(h=lambda p: [("a", se.Symbol("x_p")), ("a", se.Symbol("x_p"))]), "row names ['a', 'a'] repeat"),
+])
+def test_spec_errors_name_system_family_and_key(build, message):
+    with pytest.raises(SpecError) as err:
+        define(build())
+    assert message in str(err.value)
+    assert "system 'demo'" in str(err.value) or message.startswith("system: ")
+
+
+def test_layout_errors():
+    s = System("demo")
+    s.states(["p", "v"])
+    with pytest.raises(SpecError, match="limits of input 'u' are \\(1.0, -1.0\\)"):
+        s.inputs(["u"], limits=[(1.0, -1.0)])
+    with pytest.raises(SpecError, match="within \\+-1e\\+06"):
+        s.inputs(["u"], limits=[(-2e6, 1.0)])
+    with pytest.raises(SpecError, match="must be finite"):
+        s.inputs(["u"], limits=[(-float("inf"), 1.0)])
+    with pytest.raises(SpecError, match="one \\(lower, upper\\) pair per input"):
+        s.inputs(["u", "w"], limits=[(-1.0, 1.0)])
+    with pytest.raises(SpecError, match="system 'other': state 'a b' is not a snake_case"):
+        System("other").states(["a b"])
+    s.inputs(["u"], limits=[(-1.0, 1.0)])
+    with pytest.raises(SpecError, match="dynamics f must have one entry per state \\(2\\)"):
+        s.dynamics(f=[0], g=[[0], [1]])
+    with pytest.raises(SpecError, match="dynamics g must be 2 rows \\(states\\) of 1 entries"):
+        s.dynamics(f=[0, 0], g=[[0, 1], [1, 0]])
+    with pytest.raises(SpecError, match="dynamics f\\[0\\] = t uses \\['t'\\]"):
+        s.dynamics(f=[se.Symbol("t"), 0], g=[[0], [1]])
+    with pytest.raises(SpecError, match="no dynamics declared"):
+        define(s)
+
+
+def test_relative_degree_above_four_is_an_error():
+    s = System("chain")
+    xs = s.states([f"s{i}" for i in range(6)])
+    s.inputs(["u"], limits=[(-1.0, 1.0)])
+    s.dynamics(f=xs[1:] + [0], g=[[0]] * 5 + [[1]])
+    s.family("far", lambda p: xs[0])
+    with pytest.raises(SpecError, match="family 'far': relative degree > 4"):
+        define(s)
+
+
+def test_spec_file_errors(tmp_path):
+    bad = tmp_path / "bad.py"
+    bad.write_text("x = 1\n")
+    with pytest.raises(SpecError, match="defines no build\\(\\) function"):
+        load(bad)
+    bad.write_text("def build():\n    return 3\n")
+    with pytest.raises(SpecError, match="returned int, not a System"):
+        load(bad)
+    with pytest.raises(SpecError, match="no such file"):
+        load(tmp_path / "missing.py")
+
+
+# ---------------------------------------------------------------------- output
+def _render_in_subprocess(seed: str) -> str:
+    code = (f"import sys; from symbolic.codegen.generate import render; "
+            f"sys.stdout.write(render({str(PLANAR)!r})[1])")
+    env = {**os.environ, "PYTHONHASHSEED": seed}
+    return subprocess.run([sys.executable, "-c", code], cwd=REPO_ROOT, env=env,
+                          capture_output=True, text=True, check=True).stdout
+
+
+def test_generation_is_byte_deterministic():
+    name, text = render(PLANAR)
+    assert name == "planar_robot.rs"
+    assert render(PLANAR)[1] == text == _render_in_subprocess("1") == _render_in_subprocess("4242")
+
+
+def test_output_is_includable_and_headed_by_its_inputs_hash(tmp_path):
+    _, text = render(PLANAR)
+    lines = text.splitlines()
+    assert lines[0].startswith("// @generated")
+    assert re.fullmatch(r"// inputs-sha256: [0-9a-f]{64}", lines[1])
+    assert lines[2] == ("// Spec: symbolic/tests/specs/planar_robot.py (system `planar_robot`, "
+                        "runtime crate `cbfgen`)")
+    assert "#![" not in text and "//!" not in text
+    for item in ["pub struct PlanarRobot;", "pub struct WallParams {", "pub struct SpeedLimitParams {",
+                 "pub speed_limit: [SpeedLimitParams; 1],", "pub wall: cbfgen::system::Instances<WallParams>,",
+                 "pub rotation: nalgebra::SMatrix<f64, 3, 3>,", "pub center: nalgebra::SVector<f64, 3>,",
+                 "pub const KERNELS: &[cbfgen::system::KernelEntry]", "pub type Filter =",
+                 "pub fn default_settings() -> cbfgen::filter::FilterSettings<NU>",
+                 "pub const PX: usize = 0;", "pub const AY: usize = 1;"]:
+        assert item in text, item
+    # Another spec text or runtime path: another hash.
+    copy = tmp_path / "planar_robot.py"
+    copy.write_text(PLANAR.read_text() + "\n# edited\n")
+    assert render(copy)[1].splitlines()[1] != lines[1]
+    inside = render(PLANAR, "crate")[1]
+    assert inside.splitlines()[1] != lines[1]
+    assert "crate::system::BarrierSet<NU>" in inside and "cbfgen::" not in inside
+    with pytest.raises(SpecError, match="not a Rust path"):
+        render(PLANAR, "my crate")
+
+
+def test_command_line_writes_and_checks(tmp_path):
+    run = [sys.executable, "-m", "symbolic", "generate", str(TRIPLE), "--out", str(tmp_path)]
+    done = subprocess.run(run, cwd=REPO_ROOT, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    target = tmp_path / "triple_integrator.rs"
+    assert target.read_text() == render(TRIPLE)[1]
+    assert subprocess.run(run + ["--check"], cwd=REPO_ROOT).returncode == 0
+    target.write_text(target.read_text() + "// edited\n")
+    assert subprocess.run(run + ["--check"], cwd=REPO_ROOT, capture_output=True).returncode == 1
+    bad = tmp_path / "bad.py"
+    bad.write_text("def build():\n    return 3\n")
+    done = subprocess.run([sys.executable, "-m", "symbolic", "generate", str(bad), "--out", str(tmp_path)],
+                          cwd=REPO_ROOT, capture_output=True, text=True)
+    assert done.returncode == 2 and "error: spec" in done.stderr
+
+
+# ------------------------------------------------------------------ it compiles
+def _runtime_has_generic_filter() -> bool:
+    """Whether src/filter has the generic filter the modules' last two items name."""
+    text = "".join(p.read_text() for p in (REPO_ROOT / "src" / "filter").rglob("*.rs"))
+    return "pub struct EcbfFilter" in text and "fn defaults" in text
+
+
+def _without_filter_items(text: str) -> str:
+    text = re.sub(r"/// The spec's defaults.*?\n}\n", "", text, flags=re.S)
+    return re.sub(r"/// The ECBF-QP safety filter.*?;\n", "", text, flags=re.S)
+
+
+SMOKE_TEST = """
+use cbfgen::system::{BarrierSet, ControlAffine};
+use scratch::{planar_robot as pr, triple_integrator as ti};
+
+#[test]
+fn rows_are_laid_out_and_evaluated() {
+    let cap = pr::Capacity { wall: 2 };
+    let mut b = pr::Barriers::new(cap).unwrap();
+    let mut p = pr::Params::new(cap).unwrap();
+    p.speed_limit[0].vmax = 2.0;
+    p.wall.push(pr::WallParams {
+        center: nalgebra::SVector::<f64, 3>::new(2.0, 0.5, 0.0),
+        rotation: nalgebra::SMatrix::<f64, 3, 3>::identity(),
+        half_extents: nalgebra::SVector::<f64, 3>::new(0.5, 1.0, 1.0),
+    }).unwrap();
+    let x = [0.1, 0.2, 0.7, -0.4];
+    b.evaluate(0.0, &x, &p).unwrap();
+    let active: Vec<bool> = b.rows().iter().map(|r| r.active).collect();
+    assert_eq!(active, [true, true, false]);
+    assert_eq!(b.rows()[0].lg, [-1.4, 0.8]);
+    assert_eq!(b.families()[1].relative_degree, 2);
+    assert!(b.evaluate(0.0, &x, &pr::Params::new(pr::Capacity { wall: 1 }).unwrap()).is_err());
+    assert!(pr::Barriers::new(pr::Capacity { wall: 10_001 }).is_err());
+    assert_eq!(pr::PlanarRobot::xdot(&x, &[1.0, 2.0]), [0.7, -0.4, 1.0, 2.0]);
+    let mut out = [0.0; 3];
+    (ti::KERNELS[1].call)(&[0.0, 0.0, 0.0], &mut out);
+    assert_eq!(out, [0.0, 0.0, 1.0]);
+}
+"""
+
+
+@pytest.mark.skipif(shutil.which("cargo") is None, reason="needs cargo")
+def test_generated_modules_compile_in_an_outside_crate(tmp_path):
+    """planar_robot, triple_integrator and the double integrator in a scratch crate that
+    depends on cbfgen by path, with warnings denied; the target dir is shared across runs."""
+    crate = tmp_path / "scratch"
+    (crate / "src").mkdir(parents=True)
+    (crate / "tests").mkdir()
+    (crate / "Cargo.toml").write_text(textwrap.dedent(f"""\
+        [package]
+        name = "scratch"
+        version = "0.0.0"
+        edition = "2021"
+        publish = false
+
+        [dependencies]
+        cbfgen = {{ path = {str(REPO_ROOT)!r}, default-features = false }}
+        nalgebra = "0.35"
+
+        [workspace]
+        """))
+    generic = _runtime_has_generic_filter()
+    lib = ["//! Generated systems.", "#![deny(warnings, missing_docs)]"]
+    for spec in (PLANAR, TRIPLE, DOUBLE):
+        name, text = render(spec)
+        (crate / "src" / name).write_text(text if generic else _without_filter_items(text))
+        lib += [f"/// The `{name[:-3]}` system.", f"pub mod {name[:-3]} {{", f'    include!("{name}");', "}"]
+    (crate / "src" / "lib.rs").write_text("\n".join(lib) + "\n")
+    (crate / "tests" / "smoke.rs").write_text(SMOKE_TEST)
+    env = {**os.environ, "CARGO_TARGET_DIR": str(REPO_ROOT / "target" / "spec-crates"),
+           "CMAKE_POLICY_VERSION_MINIMUM": "3.5"}
+    venv_bin = REPO_ROOT / ".venv" / "bin"
+    if venv_bin.is_dir():
+        env["PATH"] = f"{venv_bin}{os.pathsep}{env.get('PATH', '')}"  # cmake for osqp
+    env.setdefault("CBFGEN_PYTHON", sys.executable)
+    done = subprocess.run(["cargo", "test", "--quiet"], cwd=crate, env=env, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[-6000:]
