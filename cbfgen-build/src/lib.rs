@@ -209,8 +209,9 @@ impl Generator {
             if !done.status.success() {
                 return Err(Error::Generator { spec: spec.clone(), message: last_line(&done.stderr) });
             }
-            // The generator prints the file it wrote as its last line.
-            written.push(PathBuf::from(last_line(&done.stdout)));
+            // The generator's last line is `generated <file>`.
+            let line = last_line(&done.stdout);
+            written.push(PathBuf::from(line.strip_prefix("generated ").unwrap_or(&line)));
         }
         Ok(written)
     }

@@ -5,10 +5,8 @@ from __future__ import annotations
 
 import os
 import re
-import shutil
 import subprocess
 import sys
-import textwrap
 from pathlib import Path
 
 import pytest
@@ -217,82 +215,3 @@ def test_command_line_writes_and_checks(tmp_path):
     assert done.returncode == 2 and "error: spec" in done.stderr
 
 
-# ------------------------------------------------------------------ it compiles
-def _runtime_has_generic_filter() -> bool:
-    """Whether src/filter has the generic filter the modules' last two items name."""
-    text = "".join(p.read_text() for p in (REPO_ROOT / "src" / "filter").rglob("*.rs"))
-    return "pub struct EcbfFilter" in text and "fn defaults" in text
-
-
-def _without_filter_items(text: str) -> str:
-    text = re.sub(r"/// The spec's defaults.*?\n}\n", "", text, flags=re.S)
-    return re.sub(r"/// The ECBF-QP safety filter.*?;\n", "", text, flags=re.S)
-
-
-SMOKE_TEST = """
-use cbfgen::system::{BarrierSet, ControlAffine};
-use scratch::{planar_robot as pr, triple_integrator as ti};
-
-#[test]
-fn rows_are_laid_out_and_evaluated() {
-    let cap = pr::Capacity { wall: 2 };
-    let mut b = pr::Barriers::new(cap).unwrap();
-    let mut p = pr::Params::new(cap).unwrap();
-    p.speed_limit[0].vmax = 2.0;
-    p.wall.push(pr::WallParams {
-        center: nalgebra::SVector::<f64, 3>::new(2.0, 0.5, 0.0),
-        rotation: nalgebra::SMatrix::<f64, 3, 3>::identity(),
-        half_extents: nalgebra::SVector::<f64, 3>::new(0.5, 1.0, 1.0),
-    }).unwrap();
-    let x = [0.1, 0.2, 0.7, -0.4];
-    b.evaluate(0.0, &x, &p).unwrap();
-    let active: Vec<bool> = b.rows().iter().map(|r| r.active).collect();
-    assert_eq!(active, [true, true, false]);
-    assert_eq!(b.rows()[0].lg, [-1.4, 0.8]);
-    assert_eq!(b.families()[1].relative_degree, 2);
-    assert!(b.evaluate(0.0, &x, &pr::Params::new(pr::Capacity { wall: 1 }).unwrap()).is_err());
-    assert!(pr::Barriers::new(pr::Capacity { wall: 10_001 }).is_err());
-    assert_eq!(pr::PlanarRobot::xdot(&x, &[1.0, 2.0]), [0.7, -0.4, 1.0, 2.0]);
-    let mut out = [0.0; 3];
-    (ti::KERNELS[1].call)(&[0.0, 0.0, 0.0], &mut out);
-    assert_eq!(out, [0.0, 0.0, 1.0]);
-}
-"""
-
-
-@pytest.mark.skipif(shutil.which("cargo") is None, reason="needs cargo")
-def test_generated_modules_compile_in_an_outside_crate(tmp_path):
-    """planar_robot, triple_integrator and the double integrator in a scratch crate that
-    depends on cbfgen by path, with warnings denied; the target dir is shared across runs."""
-    crate = tmp_path / "scratch"
-    (crate / "src").mkdir(parents=True)
-    (crate / "tests").mkdir()
-    (crate / "Cargo.toml").write_text(textwrap.dedent(f"""\
-        [package]
-        name = "scratch"
-        version = "0.0.0"
-        edition = "2021"
-        publish = false
-
-        [dependencies]
-        cbfgen = {{ path = {str(REPO_ROOT)!r}, default-features = false }}
-        nalgebra = "0.35"
-
-        [workspace]
-        """))
-    generic = _runtime_has_generic_filter()
-    lib = ["//! Generated systems.", "#![deny(warnings, missing_docs)]"]
-    for spec in (PLANAR, TRIPLE, DOUBLE):
-        name, text = render(spec)
-        (crate / "src" / name).write_text(text if generic else _without_filter_items(text))
-        lib += [f"/// The `{name[:-3]}` system.", f"pub mod {name[:-3]} {{", f'    include!("{name}");', "}"]
-    (crate / "src" / "lib.rs").write_text("\n".join(lib) + "\n")
-    (crate / "tests" / "smoke.rs").write_text(SMOKE_TEST)
-    env = {**os.environ, "CARGO_TARGET_DIR": str(REPO_ROOT / "target" / "spec-crates"),
-           "CMAKE_POLICY_VERSION_MINIMUM": "3.5"}
-    venv_bin = REPO_ROOT / ".venv" / "bin"
-    if venv_bin.is_dir():
-        env["PATH"] = f"{venv_bin}{os.pathsep}{env.get('PATH', '')}"  # cmake for osqp
-    env.setdefault("CBFGEN_PYTHON", sys.executable)
-    done = subprocess.run(["cargo", "test", "--quiet"], cwd=crate, env=env, capture_output=True, text=True)
-    assert done.returncode == 0, done.stderr[-6000:]

@@ -46,12 +46,14 @@ def _str(text: str) -> str:
     return json.dumps(text, ensure_ascii=False)
 
 
-def _param_type(shape: tuple[int, ...]) -> str:
+def _param_type(shape: tuple[int, ...], rt: str) -> str:
+    """Through the runtime's re-export of nalgebra, so a user crate needs no nalgebra
+    dependency of its own (and cannot pick a mismatched version)."""
     if shape == ():
         return "f64"
     if len(shape) == 1:
-        return f"nalgebra::SVector<f64, {shape[0]}>"
-    return f"nalgebra::SMatrix<f64, {shape[0]}, {shape[1]}>"
+        return f"{rt}::nalgebra::SVector<f64, {shape[0]}>"
+    return f"{rt}::nalgebra::SMatrix<f64, {shape[0]}, {shape[1]}>"
 
 
 def _param_arg(var: str, name: str, shape: tuple[int, ...]) -> str:
@@ -192,7 +194,7 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
             if len(p.shape) == 2:
                 pdoc += f" ({p.shape[0]} x {p.shape[1]})"
             out.extend(_doc(pdoc, "    "))
-            w(f"    pub {p.name}: {_param_type(p.shape)},")
+            w(f"    pub {p.name}: {_param_type(p.shape, rt)},")
         w("}")
         w("")
         w(f"impl {ty} {{")

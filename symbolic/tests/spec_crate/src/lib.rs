@@ -1,0 +1,11 @@
+//! Two systems generated at build time by cbfgen-build.
+
+/// A planar robot with a speed limit (degree 1) and box walls (degree 2).
+pub mod planar_robot {
+    cbfgen::include_system!("planar_robot");
+}
+
+/// The triple integrator below a position limit (degree 3).
+pub mod triple_integrator {
+    cbfgen::include_system!("triple_integrator");
+}
