@@ -183,7 +183,7 @@ def test_output_is_includable_and_headed_by_its_inputs_hash(tmp_path):
     assert "#![" not in text and "//!" not in text
     for item in ["pub struct PlanarRobot;", "pub struct WallParams {", "pub struct SpeedLimitParams {",
                  "pub speed_limit: [SpeedLimitParams; 1],", "pub wall: cbfgen::system::Instances<WallParams>,",
-                 "pub rotation: nalgebra::SMatrix<f64, 3, 3>,", "pub center: nalgebra::SVector<f64, 3>,",
+                 "pub rotation: cbfgen::nalgebra::SMatrix<f64, 3, 3>,", "pub center: cbfgen::nalgebra::SVector<f64, 3>,",
                  "pub const KERNELS: &[cbfgen::system::KernelEntry]", "pub type Filter =",
                  "pub fn default_settings() -> cbfgen::filter::FilterSettings<NU>",
                  "pub const PX: usize = 0;", "pub const AY: usize = 1;"]:
