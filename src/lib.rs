@@ -41,10 +41,10 @@ pub mod systems;
 pub mod generated;
 
 pub use error::CbfError;
+pub use geometry::OrientedBox;
 /// The nalgebra this crate is built with: generated parameter structs name their vector
 /// and matrix fields through it, so a user crate needs no nalgebra dependency of its own.
 pub use nalgebra;
-pub use geometry::OrientedBox;
 
 /// Include a system module that `cbfgen-build` generated into `OUT_DIR`, inside the module
 /// that should hold it:

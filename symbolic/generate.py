@@ -16,20 +16,39 @@ from pathlib import Path
 
 from .codegen.backends.rust.emitter import RawRust, emit_kernel, rustdoc_text
 from .codegen.backends.rust.kernel_table import emit_kernel_table
-from .families import double_integrator, ssat, tachyon3
+from .codegen.backends.rust.system_module import emit_system
+from .codegen.definition import define
+from .families import ssat, tachyon3
 from .inputs_hash import inputs_hash
 from .kernel import Kernel
+from .spec import load
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 HASH_PREFIX = "// inputs-sha256: "
 REGENERATE = "scripts/cbf generate  (or: python -m symbolic.generate)"
 
-# module name -> (doc, kernel builder). Order is the order in generated/mod.rs.
+# Kernel modules not (yet) written as system specs: module name -> (doc, kernel builder).
 MODULES: dict[str, tuple[str, Callable[[], list[Kernel | RawRust]]]] = {
     "ssat": (ssat.MODULE_DOC, ssat.kernels),
     "tachyon3": (tachyon3.MODULE_DOC, tachyon3.kernels),
-    "double_integrator": (double_integrator.MODULE_DOC, double_integrator.kernels),
 }
+# Built-in systems: every spec file here becomes a module of generated/, by its system name.
+SYSTEMS_DIR = Path(__file__).resolve().parent / "systems"
+
+
+def builtin_specs() -> list[Path]:
+    """The built-in spec files, in name order."""
+    return sorted(p for p in SYSTEMS_DIR.glob("*.py") if not p.name.startswith("_"))
+
+
+def all_kernels() -> dict[str, list[Kernel]]:
+    """Module name -> every kernel generated/ holds for it: the generator's own list, which
+    the SymEngine cross-check iterates (adding a system adds no test code)."""
+    out = {name: [k for k in build() if isinstance(k, Kernel)] for name, (_, build) in MODULES.items()}
+    for spec in builtin_specs():
+        definition = define(load(spec))
+        out[definition.name] = definition.kernels()
+    return out
 
 
 def _header(digest: str) -> str:
@@ -69,6 +88,17 @@ def render(repo_root: Path = REPO_ROOT) -> dict[str, str]:
                 "#![allow(clippy::excessive_precision, clippy::too_many_arguments)]\n")
         files[f"{name}.rs"] = rustfmt(_header(digest) + module_doc + lint + "\n" + body, repo_root)
         mod_lines.append(f"pub mod {name};\n")
+    for spec in builtin_specs():
+        definition = define(load(spec))
+        name = definition.name
+        files[f"{name}.rs"] = rustfmt(_header(digest) + "\n" + emit_system(definition, "crate"), repo_root)
+        doc = definition.doc or f"The `{name}` system."
+        mod_lines.append("".join(f"/// {rustdoc_text(line)}".rstrip() + "\n" for line in doc.splitlines())
+                         + f"pub mod {name};\n")
+    names = [line.split()[-1].rstrip(";") for line in "".join(mod_lines).splitlines() if line.startswith("pub mod ")]
+    mod_lines.append("/// Every module's uniform kernel table, by module name (for cross-checks and tools).\n"
+                     "pub const KERNELS: &[(&str, &[crate::system::KernelEntry])] = &["
+                     + "".join(f'("{n}", {n}::KERNELS),' for n in names) + "];\n")
     files["mod.rs"] = rustfmt("".join(mod_lines), repo_root)
     return files
 

@@ -5,10 +5,8 @@
 //! is called for `.proto` files:
 //!
 //! ```no_run
-//! // build.rs
-//! fn main() {
-//!     cbfgen_build::Generator::new().spec("spec/planar_robot.py").build();
-//! }
+//! // in build.rs's `fn main`
+//! cbfgen_build::Generator::new().spec("spec/planar_robot.py").build();
 //! ```
 //!
 //! and includes the result where it wants the module:

@@ -113,6 +113,14 @@ def foothold(leg: Leg, x: ArrayLike, normal: ArrayLike, offset: float) -> Rows:
 def sine_barrier(x: ArrayLike, t: float, amplitude: float, omega: float, offset: float) -> tuple[list[float], float]:
     """Double integrator x = [q, q'] above A sin(w t) + c: ([h, L_f h, L_f^2 h] with the dh/dt terms, L_g L_f h)."""
 
+def kernel_table() -> list[tuple[str, str, list[tuple[str, int]], list[tuple[str, int]]]]:
+    """Every generated kernel of every built-in system: (module, name, inputs, outputs), each
+    input and output as (name, number of values), in the kernel's order."""
+
+def call_kernel(module: str, name: str, inputs: ArrayLike) -> Vector:
+    """Kernel ``module::name`` with every input flattened in order into one vector; every
+    output flattened likewise (matrices row by row, symmetric ones by upper triangle)."""
+
 # ------------------------------------------------------------------- dynamics
 def dynamics_f(x: ArrayLike) -> Vector:
     """Drift f(x), shape (NX,)."""

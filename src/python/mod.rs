@@ -21,6 +21,7 @@
 
 mod convert;
 mod filter;
+mod kernel_table;
 mod kernels;
 mod sim;
 
@@ -68,6 +69,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("MAX_COORDINATE", crate::geometry::MAX_COORDINATE)?;
     m.add("HALF_EXTENT_RANGE", (crate::geometry::MIN_HALF_EXTENT, crate::geometry::MAX_HALF_EXTENT))?;
     kernels::register(m)?;
+    kernel_table::register(m)?;
     filter::register(m)?;
     sim::register(m)?;
     Ok(())

@@ -37,15 +37,6 @@ def test_relative_degrees_are_found_per_family():
     assert double.input_limits[0].upper == MAX_INPUT
 
 
-def test_the_double_integrator_spec_is_the_legacy_family():
-    """Same mathematics, same kernel: the spec can replace families/double_integrator.py."""
-    from symbolic.codegen.backends.rust.emitter import emit_kernel
-    from symbolic.families.double_integrator import sine_barrier
-
-    new = define(load(DOUBLE)).families[0].kernel
-    assert emit_kernel(new).split("#[inline]")[1] == emit_kernel(sine_barrier()).split("#[inline]")[1]
-
-
 def _demo(**family) -> System:
     s = System("demo")
     p, v = s.states(["p", "v"])
@@ -183,7 +174,8 @@ def test_output_is_includable_and_headed_by_its_inputs_hash(tmp_path):
     assert "#![" not in text and "//!" not in text
     for item in ["pub struct PlanarRobot;", "pub struct WallParams {", "pub struct SpeedLimitParams {",
                  "pub speed_limit: [SpeedLimitParams; 1],", "pub wall: cbfgen::system::Instances<WallParams>,",
-                 "pub rotation: cbfgen::nalgebra::SMatrix<f64, 3, 3>,", "pub center: cbfgen::nalgebra::SVector<f64, 3>,",
+                 "pub rotation: cbfgen::nalgebra::SMatrix<f64, 3, 3>,",
+                 "pub center: cbfgen::nalgebra::SVector<f64, 3>,",
                  "pub const KERNELS: &[cbfgen::system::KernelEntry]", "pub type Filter =",
                  "pub fn default_settings() -> cbfgen::filter::FilterSettings<NU>",
                  "pub const PX: usize = 0;", "pub const AY: usize = 1;"]:

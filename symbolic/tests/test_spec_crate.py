@@ -16,20 +16,76 @@ REPO_ROOT = Path(__file__).resolve().parents[2]
 FIXTURE = Path(__file__).resolve().parent / "spec_crate"
 
 
-@pytest.mark.skipif(shutil.which("cargo") is None, reason="needs cargo")
-def test_an_outside_crate_builds_its_specs_and_filters_safely(tmp_path):
+def _crate(tmp_path: Path, build_rs: str | None = None, lib_rs: str | None = None,
+           keep_tests: bool = False) -> Path:
+    """The fixture crate in ``tmp_path``, optionally with another build.rs / lib.rs."""
     crate = tmp_path / "spec_crate"
     shutil.copytree(FIXTURE, crate)
     for template in crate.glob("*.in"):
         template.with_suffix("").write_text(template.read_text().replace("@REPO@", str(REPO_ROOT)))
         template.unlink()
-    env = {**os.environ, "CARGO_TARGET_DIR": str(REPO_ROOT / "target" / "spec-crates"),
-           "CBFGEN_PYTHON": sys.executable}
+    if build_rs is not None:
+        (crate / "build.rs").write_text(build_rs.replace("@REPO@", str(REPO_ROOT)))
+    if lib_rs is not None:
+        (crate / "src" / "lib.rs").write_text(lib_rs)
+    if not keep_tests:
+        shutil.rmtree(crate / "tests")
+    return crate
+
+
+def _cargo(crate: Path, python: str, *args: str) -> subprocess.CompletedProcess:
+    """Cargo in ``crate`` with ``python`` as the generator's interpreter; the target dir is
+    shared across runs (a cold build of cbfgen takes about a minute, a warm one seconds)."""
+    env = {**os.environ, "CARGO_TARGET_DIR": str(REPO_ROOT / "target" / "spec-crates"), "CBFGEN_PYTHON": python}
     venv_bin = REPO_ROOT / ".venv" / "bin"
     if venv_bin.is_dir():
         env["PATH"] = f"{venv_bin}{os.pathsep}{env.get('PATH', '')}"  # cmake, for OSQP's C sources
-    done = subprocess.run(["cargo", "test", "--release", "--quiet"], cwd=crate, env=env,
-                          capture_output=True, text=True)
+    return subprocess.run(["cargo", *args], cwd=crate, env=env, capture_output=True, text=True)
+
+
+@pytest.mark.skipif(shutil.which("cargo") is None, reason="needs cargo")
+def test_without_python_the_build_fails_with_one_line_naming_the_fix(tmp_path):
+    done = _cargo(_crate(tmp_path), str(tmp_path / "no-such-python"), "build", "--release")
+    assert done.returncode != 0
+    errors = [line for line in done.stderr.splitlines() if line.startswith("error")]
+    assert errors and "cbfgen-build: cannot start Python" in errors[0], done.stderr[-3000:]
+    assert "pip install symengine==" in errors[0] and "CBFGEN_PYTHON" in errors[0]
+
+
+CHECKED_IN_BUILD = """
+fn main() {
+    cbfgen_build::Generator::new()
+        .spec("@REPO@/symbolic/tests/specs/triple_integrator.py")
+        .checked_in("generated")
+        .build();
+}
+"""
+CHECKED_IN_LIB = """//! A checked-in system.
+
+/// The triple integrator, from the committed file.
+pub mod triple_integrator {
+    include!("../generated/triple_integrator.rs");
+}
+"""
+
+
+@pytest.mark.skipif(shutil.which("cargo") is None, reason="needs cargo")
+def test_checked_in_mode_writes_beside_the_crate_and_builds_without_python(tmp_path):
+    crate = _crate(tmp_path, CHECKED_IN_BUILD, CHECKED_IN_LIB)
+    first = _cargo(crate, sys.executable, "build", "--release")
+    assert first.returncode == 0, first.stderr[-3000:]
+    written = crate / "generated" / "triple_integrator.rs"
+    assert written.read_text().startswith("// @generated")
+    # Without Python the committed file is used as it is, with a warning saying so.
+    second = _cargo(crate, str(tmp_path / "no-such-python"), "build", "--release")
+    assert second.returncode == 0, second.stderr[-3000:]
+    assert "using the checked-in files" in second.stderr
+
+
+@pytest.mark.skipif(shutil.which("cargo") is None, reason="needs cargo")
+def test_an_outside_crate_builds_its_specs_and_filters_safely(tmp_path):
+    crate = _crate(tmp_path, keep_tests=True)
+    done = _cargo(crate, sys.executable, "test", "--release", "--quiet")
     assert done.returncode == 0, (done.stdout + done.stderr)[-6000:]
     # Both generated modules went to OUT_DIR only: nothing was written beside the crate.
     assert sorted(p.name for p in crate.iterdir()) == ["Cargo.lock", "Cargo.toml", "build.rs", "src", "tests"]
