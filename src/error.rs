@@ -94,10 +94,9 @@ pub enum CbfError {
     /// non-convex or a solver fault); `status` is [`QpStatus::name`](crate::filter::QpStatus::name).
     #[error("{layer}: QP not solved ({status})")]
     QpFailed {
-        /// Which QP failed (e.g. `"kinematic MPC"`, `"ID-CBF-QP"`).
+        /// Which QP failed (e.g. `"kinematic MPC"`).
         layer: &'static str,
-        /// How it ended: a [`QpStatus::name`](crate::filter::QpStatus::name), or
-        /// `"input_cannot_act"` when the input has no effect on the barrier row.
+        /// How it ended: a [`QpStatus::name`](crate::filter::QpStatus::name).
         status: &'static str,
     },
     /// A rotation matrix was not orthonormal with determinant +1.

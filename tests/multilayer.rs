@@ -2,10 +2,10 @@
 //! finite differences of the hand-written barrier, the CBF-QP against its closed-form
 //! optimum, the MPC plan against its own constraints, and the paper's qualitative result.
 
+use cbfgen::filter::InputSource;
 use cbfgen::systems::multilayer::scenario::{self, run_all};
 use cbfgen::systems::multilayer::{
-    BarrierRow, CbfQpSettings, IdCbfQp, KinematicMpc, MpcMode, MpcSettings, MultiLayerController, ScenarioConfig,
-    SineBarrier,
+    CbfQpSettings, IdCbfQp, KinematicMpc, MpcMode, MpcSettings, MultiLayerController, ScenarioConfig, SineBarrier,
 };
 use cbfgen::CbfError;
 use rand::{Rng, SeedableRng};
@@ -77,23 +77,27 @@ fn without_barrier_information_the_mpc_leaves_a_large_input_peak_to_the_qp() {
 
 #[test]
 fn the_cbf_qp_returns_the_closed_form_optimum() {
-    let mut qp = IdCbfQp::new(CbfQpSettings::default()).unwrap();
-    let gains = CbfQpSettings::default().gains();
+    // Against the row written out by hand (h = q − A sin ωt − c, L_f h = q̇ − Aω cos ωt,
+    // L_f² h = Aω² sin ωt, L_g L_f h = 1) and gains expanded by hand (k0 = p², k1 = 2p):
+    // one variable, one half-line, so the optimum is a_des projected onto it.
+    let [a, w, c] = [1.0, 2.0, -0.5];
+    let mut qp = IdCbfQp::new(CbfQpSettings::default(), SineBarrier::new(a, w, c).unwrap()).unwrap();
+    let (k0, k1) = (100.0, 20.0);
     let mut rng = rand::rngs::StdRng::seed_from_u64(3);
     let mut binding = 0;
     for _ in 0..2000 {
-        let row = BarrierRow {
-            lie: [rng.random_range(-0.1..1.0), rng.random_range(-3.0..3.0), rng.random_range(-5.0..5.0)],
-            lg_lf: rng.random_range(0.2..3.0) * if rng.random_bool(0.2) { -1.0 } else { 1.0 },
-        };
+        let (q, v, t) = (rng.random_range(-1.5..2.5), rng.random_range(-3.0..3.0), rng.random_range(0.0..20.0));
         let a_des = rng.random_range(-20.0..20.0);
-        let out = qp.solve(a_des, &row).unwrap();
-        // One variable, one half-line: the optimum is a_des projected onto it.
-        let limit = -row.ecbf_bound(gains) / row.lg_lf;
-        let want = if row.lg_lf > 0.0 { a_des.max(limit) } else { a_des.min(limit) };
+        let out = qp.solve(t, &[q, v], a_des).unwrap();
+        let b = a * w * w * (w * t).sin() + k1 * (v - a * w * (w * t).cos()) + k0 * h_by_hand(q, t, [a, w, c]);
+        let want = a_des.max(-b);
         binding += usize::from(want != a_des);
-        assert!((out.u - want).abs() < 1e-5 * (1.0 + want.abs()), "u {} vs {want}", out.u);
-        assert!(row.lg_lf * out.u + row.ecbf_bound(gains) >= -1e-5, "ECBF row violated");
+        assert_eq!(out.source, InputSource::Qp);
+        // Exact but for the slack's give, (want − a_des)/(1 + w_δ) with w_δ = 1e8.
+        let give = (want - a_des).abs() / (1.0 + 1e8);
+        assert!((out.u - want).abs() <= 1e-9 * (1.0 + want.abs()) + 1.01 * give, "u {} vs {want}", out.u);
+        assert!(out.u + b >= -1e-5 * (1.0 + b.abs()), "ECBF row violated");
+        assert!(out.slack < 1e-6 * (1.0 + b.abs()), "slack {} on a row the input can meet", out.slack);
     }
     assert!(binding > 200 && binding < 1800, "both cases must occur: {binding} binding");
 }
@@ -140,28 +144,28 @@ fn bad_numbers_give_errors_not_panics() {
         assert!(matches!(controller.control(t, &x), Err(CbfError::NonFinite { .. })));
     }
     assert!(controller.control(0.0, &[1.0, 0.0]).unwrap().u.is_finite(), "a good cycle still works after bad ones");
-    let mut qp = IdCbfQp::new(CbfQpSettings::default()).unwrap();
-    let row = config.barrier.row(&[1.0, 0.0], 0.0);
-    assert!(matches!(qp.solve(f64::NAN, &row), Err(CbfError::NonFinite { .. })));
-    let broken = BarrierRow { lie: [f64::NAN, 0.0, 0.0], lg_lf: 1.0 };
-    assert!(matches!(qp.solve(0.0, &broken), Err(CbfError::NonFiniteRow { .. })));
-    let deaf = BarrierRow { lie: [0.1, 0.0, 0.0], lg_lf: 0.0 };
-    assert!(matches!(qp.solve(0.0, &deaf), Err(CbfError::QpFailed { .. })));
+    let mut qp = IdCbfQp::new(CbfQpSettings::default(), config.barrier).unwrap();
+    assert!(matches!(qp.solve(0.0, &[1.0, 0.0], f64::NAN), Err(CbfError::NonFinite { .. })));
+    assert!(matches!(qp.solve(f64::INFINITY, &[1.0, 0.0], 0.0), Err(CbfError::NonFinite { .. })));
+    assert!(matches!(qp.solve(0.0, &[1e300, 0.0], 0.0), Err(CbfError::OutOfRange { .. })));
+    assert!(IdCbfQp::new(CbfQpSettings::default(), SineBarrier::new(1e300, 1.0, 0.0).unwrap()).is_err());
     assert!(SineBarrier::new(f64::NAN, 1.0, 0.0).is_err());
     let mut mpc = KinematicMpc::new(config.mpc, MpcMode::Unconstrained, config.barrier).unwrap();
     assert!(matches!(mpc.solve(0.0, &[f64::NEG_INFINITY, 0.0]), Err(CbfError::NonFinite { .. })));
 }
 
 #[test]
-fn an_input_bound_the_barrier_cannot_live_with_is_a_typed_error() {
+fn an_input_bound_the_barrier_cannot_live_with_brakes_at_the_bound_and_reports_the_slip() {
     let settings = CbfQpSettings { u_max: 1.0, ..CbfQpSettings::default() };
-    let mut qp = IdCbfQp::new(settings).unwrap();
-    // Falling at 2 m/s onto the boundary: the ECBF row asks for u ≥ 40 − 0.1·100 = 30.
-    let row = BarrierRow { lie: [0.1, -2.0, 0.0], lg_lf: 1.0 };
-    assert_eq!(qp.solve(0.0, &row), Err(CbfError::QpFailed { layer: "ID-CBF-QP", status: "primal_infeasible" }));
-    let calm = BarrierRow { lie: [1.0, 0.0, 0.0], lg_lf: 1.0 };
-    assert!((qp.solve(0.5, &calm).unwrap().u - 0.5).abs() < 1e-5, "the next feasible cycle solves");
-    assert!((qp.solve(5.0, &calm).unwrap().u - 1.0).abs() < 1e-5, "the bound holds");
+    let mut qp = IdCbfQp::new(settings, SineBarrier::new(0.0, 1.0, 0.0).unwrap()).unwrap();
+    // Falling at 2 m/s onto a still boundary 0.1 m below: the ECBF row asks for
+    // u ≥ −(k1 L_f h + k0 h) = −(20 · (−2) + 100 · 0.1) = 30, and |u| ≤ 1.
+    let out = qp.solve(0.0, &[0.1, -2.0], 0.0).unwrap();
+    assert_eq!((out.u, out.source), (1.0, InputSource::Qp));
+    assert!((out.slack - 29.0).abs() < 1e-4, "slack {}: the row slips by 30 − 1", out.slack);
+    let calm = qp.solve(0.0, &[1.0, 0.0], 0.5).unwrap();
+    assert!((calm.u - 0.5).abs() < 1e-5 && calm.slack < 1e-9, "the next feasible cycle solves");
+    assert_eq!(qp.solve(0.0, &[1.0, 0.0], 5.0).unwrap().u, 1.0, "the bound holds");
 }
 
 #[test]

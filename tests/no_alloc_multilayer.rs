@@ -17,7 +17,7 @@ mod tally;
 
 use cbfgen::filter::{QpStatus, SolverSettings};
 use cbfgen::systems::multilayer::{
-    BarrierRow, CbfQpSettings, IdCbfQp, KinematicMpc, MpcSettings, MultiLayerController, ScenarioConfig, State,
+    CbfQpSettings, IdCbfQp, KinematicMpc, MpcSettings, MultiLayerController, ScenarioConfig, State,
 };
 use cbfgen::CbfError;
 
@@ -34,13 +34,13 @@ fn main() {
 /// What one call did.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Outcome {
-    /// `Ok` with this status.
-    Status(QpStatus),
+    /// `Ok` with this status (`None`: the filter attempted no solve).
+    Status(Option<QpStatus>),
     /// `Err` naming what was wrong: the non-finite value, "row", or the `QpFailed` status.
     Rejected(&'static str),
 }
 
-fn outcome(result: Result<QpStatus, CbfError>) -> Outcome {
+fn outcome(result: Result<Option<QpStatus>, CbfError>) -> Outcome {
     match result {
         Ok(status) => Outcome::Status(status),
         Err(CbfError::NonFinite { what, .. }) => Outcome::Rejected(what),
@@ -103,48 +103,38 @@ fn every_multilayer_path_allocates_nothing() {
     let barrier = config.barrier;
     let mode = config.modes()[1];
     let one_iteration = SolverSettings { max_iter: 1, ..config.qp.solver };
-    let cbf_qp = |settings: CbfQpSettings| IdCbfQp::new(settings).expect("CBF-QP");
+    let cbf_qp = |settings: CbfQpSettings| IdCbfQp::new(settings, barrier).expect("CBF-QP");
     let one_iteration_qp = CbfQpSettings { solver: one_iteration, ..config.qp };
     let one_iteration_mpc = MpcSettings { solver: SolverSettings { max_iter: 1, ..config.mpc.solver }, ..config.mpc };
     let controller = || MultiLayerController::new(barrier, mode, config.mpc, config.qp, config.cycle_dt).unwrap();
-    // A row the input bound cannot meet: h = −1 needs u ≥ k0 = 100 m/s², and |u| ≤ 1.
-    let out_of_reach = BarrierRow { lie: [-1.0, 0.0, 0.0], lg_lf: 1.0 };
+    // A boundary the input bound cannot keep: h = −1 needs u ≥ k0 = 100 m/s², and |u| ≤ 1.
+    let below = move |k: &Cycle| [barrier.boundary(k.t) - 1.0, 0.0];
     use {Outcome::*, QpStatus::*};
     // One row per side path: name, what every run must do, the call.
-    let table: [(&str, Outcome, Call); 9] = [
-        ("CBF-QP iteration limit", Status(MaxIterations), {
+    let table: [(&str, Outcome, Call); 8] = [
+        ("CBF-QP iteration limit", Status(Some(MaxIterations)), {
             let mut qp = cbf_qp(one_iteration_qp);
-            Box::new(move |k| outcome(qp.solve(flipping_command(k.run), &barrier.row(&k.x, k.t)).map(|o| o.status)))
+            Box::new(move |k| outcome(qp.solve(k.t, &k.x, flipping_command(k.run)).map(|o| o.status)))
         }),
-        ("CBF-QP NaN command", Rejected("desired acceleration"), {
+        ("CBF-QP NaN command", Rejected("nominal input"), {
             let mut qp = cbf_qp(config.qp);
-            Box::new(move |k| outcome(qp.solve(f64::NAN, &barrier.row(&k.x, k.t)).map(|o| o.status)))
+            Box::new(move |k| outcome(qp.solve(k.t, &k.x, f64::NAN).map(|o| o.status)))
         }),
-        ("CBF-QP NaN row", Rejected("row"), {
+        ("CBF-QP NaN state", Rejected("state entry"), {
             let mut qp = cbf_qp(config.qp);
-            Box::new(move |k| {
-                let row = BarrierRow { lg_lf: f64::NAN, ..barrier.row(&k.x, k.t) };
-                outcome(qp.solve(0.0, &row).map(|o| o.status))
-            })
+            Box::new(move |k| outcome(qp.solve(k.t, &[f64::NAN, k.x[1]], 0.0).map(|o| o.status)))
         }),
-        ("CBF-QP input cannot act", Rejected("input_cannot_act"), {
-            let mut qp = cbf_qp(config.qp);
-            Box::new(move |k| {
-                let row = BarrierRow { lg_lf: 0.0, ..barrier.row(&k.x, k.t) };
-                outcome(qp.solve(0.0, &row).map(|o| o.status))
-            })
-        }),
-        ("CBF-QP row beyond input bound", Rejected(PrimalInfeasible.name()), {
+        ("CBF-QP row beyond input bound", Status(Some(Solved)), {
             let mut qp = cbf_qp(CbfQpSettings { u_max: 1.0, ..config.qp });
-            Box::new(move |k| outcome(qp.solve(flipping_command(k.run), &out_of_reach).map(|o| o.status)))
+            Box::new(move |k| outcome(qp.solve(k.t, &below(k), flipping_command(k.run)).map(|o| o.status)))
         }),
-        ("MPC iteration limit", Status(MaxIterations), {
+        ("MPC iteration limit", Status(Some(MaxIterations)), {
             let mut mpc = KinematicMpc::new(one_iteration_mpc, mode, barrier).expect("MPC");
-            Box::new(move |k| outcome(mpc.solve(k.t, &k.x).map(|o| o.status)))
+            Box::new(move |k| outcome(mpc.solve(k.t, &k.x).map(|o| Some(o.status))))
         }),
         ("MPC NaN velocity", Rejected("velocity"), {
             let mut mpc = KinematicMpc::new(config.mpc, mode, barrier).expect("MPC");
-            Box::new(move |k| outcome(mpc.solve(k.t, &[k.x[0], f64::NAN]).map(|o| o.status)))
+            Box::new(move |k| outcome(mpc.solve(k.t, &[k.x[0], f64::NAN]).map(|o| Some(o.status))))
         }),
         ("controller NaN time", Rejected("time"), {
             let mut c = controller();

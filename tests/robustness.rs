@@ -236,15 +236,15 @@ fn a_half_plane_of_extreme_scale_is_the_same_half_plane() {
 
 #[test]
 fn the_multilayer_qp_refuses_unbounded_solver_settings_and_inputs() {
+    let barrier = cbfgen::systems::multilayer::SineBarrier::new(0.2, 1.0, 0.0).expect("barrier");
     let mut settings = CbfQpSettings::default();
     settings.solver.max_iter = u32::MAX;
-    assert!(IdCbfQp::new(settings).is_err());
+    assert!(IdCbfQp::new(settings, barrier).is_err());
     settings = CbfQpSettings::default();
     settings.solver.eps_abs = 5e-324;
-    assert!(IdCbfQp::new(settings).is_err());
-    let mut qp = IdCbfQp::new(CbfQpSettings::default()).expect("qp");
-    let row = cbfgen::systems::multilayer::SineBarrier::new(0.2, 1.0, 0.0).expect("barrier").row(&[1.0, 0.0], 0.0);
-    assert!(qp.solve(f64::MAX, &row).is_err());
-    let out = qp.solve(0.0, &row).expect("an ordinary cycle after the refused one");
+    assert!(IdCbfQp::new(settings, barrier).is_err());
+    let mut qp = IdCbfQp::new(CbfQpSettings::default(), barrier).expect("qp");
+    assert!(qp.solve(0.0, &[1.0, 0.0], f64::MAX).is_err());
+    let out = qp.solve(0.0, &[1.0, 0.0], 0.0).expect("an ordinary cycle after the refused one");
     assert!(out.u.is_finite());
 }

@@ -136,6 +136,10 @@ fn constraint_matrix<'a, const NU: usize>(
 /// OSQP's `l`/`u` infinity.
 const INF: f64 = 1e30;
 
+/// OSQP's primal-infeasibility tolerance for the ECBF QP: small enough that no certificate
+/// ever passes (OSQP requires it positive).
+const PRIMAL_INFEASIBILITY_OFF: f64 = 1e-300;
+
 /// The QP, its OSQP workspace, and the last solution.
 pub struct EcbfQp<const NU: usize> {
     rows: usize,
@@ -464,7 +468,12 @@ impl<const NU: usize> OsqpQp for EcbfQp<NU> {
             data: Cow::Owned(vec![1.0; n]),
         };
         let a = constraint_matrix::<NU>(self.rows, &self.a_indptr, &self.a_indices, &self.a_data);
-        Problem::new(p, &self.q, a, &self.lower, &self.upper, &self.settings.to_osqp())
+        // Every row has a slack, so this QP is feasible for any data: an infeasibility
+        // "certificate" can only be OSQP's test passing on a stiff slack's small column
+        // (w_δ = 1e8 makes it 1e-4 after scaling). The test is made unreachable, not
+        // trusted.
+        let settings = self.settings.to_osqp().eps_prim_inf(PRIMAL_INFEASIBILITY_OFF);
+        Problem::new(p, &self.q, a, &self.lower, &self.upper, &settings)
             .map_err(|e| CbfError::SolverSetup { reason: e.to_string() })
     }
 

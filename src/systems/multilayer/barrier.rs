@@ -23,13 +23,6 @@ pub struct BarrierRow {
     pub lg_lf: f64,
 }
 
-impl BarrierRow {
-    /// `L_f² h + k1 L_f h + k0 h`: the ECBF row holds when `lg_lf · u ≥ −` this.
-    pub fn ecbf_bound(&self, [k0, k1]: [f64; 2]) -> f64 {
-        self.lie[2] + k1 * self.lie[1] + k0 * self.lie[0]
-    }
-}
-
 /// The safe set `q ≥ A sin(ω t) + c`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SineBarrier {

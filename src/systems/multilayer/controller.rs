@@ -26,7 +26,6 @@ pub struct ControlOutput {
 pub struct MultiLayerController {
     mpc: KinematicMpc,
     qp: IdCbfQp,
-    barrier: SineBarrier,
     /// Control cycles per MPC re-plan.
     mpc_every: u64,
     cycle: u64,
@@ -57,8 +56,7 @@ impl MultiLayerController {
         }
         Ok(Self {
             mpc: KinematicMpc::new(mpc, mode, barrier)?,
-            qp: IdCbfQp::new(qp)?,
-            barrier,
+            qp: IdCbfQp::new(qp, barrier)?,
             mpc_every: ratio.round() as u64,
             cycle: 0,
             held_accel: 0.0,
@@ -79,10 +77,9 @@ impl MultiLayerController {
         check_state(x, t)?;
         let mpc = if self.cycle.is_multiple_of(self.mpc_every) { Some(self.mpc.solve(t, x)?) } else { None };
         let desired_accel = mpc.map_or(self.held_accel, |m| m.desired_accel);
-        let row = self.barrier.row(x, t);
-        let qp = self.qp.solve(desired_accel, &row)?;
+        let qp = self.qp.solve(t, x, desired_accel)?;
         self.held_accel = desired_accel;
         self.cycle += 1;
-        Ok(ControlOutput { u: qp.u, desired_accel, row, mpc, qp })
+        Ok(ControlOutput { u: qp.u, desired_accel, row: qp.row, mpc, qp })
     }
 }

@@ -13,8 +13,9 @@
 //!   acceleration `(v_1 − v_0)/δt`. [`MpcMode`] says what it knows of the barrier: a
 //!   discrete-time CBF `h_k ≥ (1 − γ) h_{k−1}`, the state constraint `h_k ≥ 0`, or nothing.
 //! * [`cbf_qp`] — an ID-CBF-QP at 1 kHz that tracks that acceleration subject to the ECBF
-//!   condition `L_f² h + L_g L_f h u + k1 L_f h + k0 h ≥ 0`, whose terms come from the
-//!   generated kernel with ∂h/∂t included ([`barrier`]).
+//!   condition `L_f² h + L_g L_f h u + k1 L_f h + k0 h ≥ 0`: the generic
+//!   [`EcbfFilter`](crate::filter::EcbfFilter) on the double-integrator spec, whose rows
+//!   carry ∂h/∂t ([`barrier`]).
 //! * [`controller`] — the two at their rates; [`scenario`] — the comparison run and its
 //!   figures (`cbfgen multilayer`).
 //!
