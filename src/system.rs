@@ -21,6 +21,12 @@ pub const MAX_RELATIVE_DEGREE: usize = 4;
 /// capacity is a typed error instead of an allocation failure.
 pub const MAX_INSTANCES: usize = 10_000;
 
+/// Largest |state entry| a barrier set evaluates at (metres, radians and their rates, for
+/// every system): 100 km, far past any course, and far from where a generated row's
+/// squares and products overflow. World numbers in the same units (floors, goals, planes)
+/// share it.
+pub const STATE_LIMIT: f64 = 1e5;
+
 /// Largest |runtime parameter| a generated barrier set accepts (positions, sizes, gains of
 /// a boundary, in the parameter's own units); parameters are checked every evaluation.
 pub const PARAM_LIMIT: f64 = 1e6;
@@ -363,14 +369,19 @@ impl<T> Instances<T> {
     }
 }
 
-/// `Ok(())` when every state entry is finite with `|x_i| ≤`
-/// [`STATE_LIMIT`](crate::systems::tachyon3::model::STATE_LIMIT).
+/// `Ok(value)` when it is finite with `|value| ≤` [`STATE_LIMIT`]: the check for a state
+/// entry and for every world number measured in the same units (floors, goals, planes).
+pub(crate) fn coordinate(what: &'static str, value: f64) -> Result<f64, CbfError> {
+    within(what, value, -STATE_LIMIT, STATE_LIMIT, "[-1e5, 1e5]")
+}
+
+/// `Ok(())` when every state entry is finite with `|x_i| ≤` [`STATE_LIMIT`].
 ///
 /// # Errors
-/// [`CbfError::NonFinite`] or [`CbfError::OutOfRange`].
+/// [`CbfError::NonFinite`] or [`CbfError::OutOfRange`] naming the first bad entry's kind.
 pub fn validate_state(x: &[f64]) -> Result<(), CbfError> {
     for &v in x {
-        crate::systems::tachyon3::model::coordinate("state entry", v)?;
+        coordinate("state entry", v)?;
     }
     Ok(())
 }

@@ -24,7 +24,7 @@
 //! given, and no cycle's trouble carries into the next. Concretely:
 //! * Inputs outside the documented domain are typed errors, and the filter is unchanged
 //!   (the caller chooses; [`EcbfFilter::fallback_input`] is there): NaN/inf anywhere,
-//!   a state entry beyond [`model::STATE_LIMIT`](crate::systems::tachyon3::model::STATE_LIMIT), a nominal
+//!   a state entry beyond [`STATE_LIMIT`](crate::system::STATE_LIMIT), a nominal
 //!   input beyond [`domain::MAX_INPUT`], parameters (an environment) of another capacity. Extreme but
 //!   finite values are rejected, not rescaled: a nominal input of 10³⁰⁰ m/s² is a bug
 //!   upstream, and the filter says so instead of guessing.
@@ -218,7 +218,7 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
     ///
     /// # Errors
     /// `x`, `t`, `u_ref` or `params` outside their domain (NaN/inf, `|x_i| >`
-    /// [`model::STATE_LIMIT`](crate::systems::tachyon3::model::STATE_LIMIT), `|u_ref_j| >`
+    /// [`STATE_LIMIT`](crate::system::STATE_LIMIT), `|u_ref_j| >`
     /// [`domain::MAX_INPUT`], parameters of another capacity); the filter is then
     /// unchanged. Solver trouble is not an error: see the [module docs](self).
     pub fn update_at(

@@ -470,7 +470,7 @@ impl LipMpc {
     ///
     /// # Errors
     /// NaN/inf in `x0`, `goal` or a plane, or an entry beyond
-    /// [`model::STATE_LIMIT`](crate::systems::tachyon3::model::STATE_LIMIT); `stance_sign` not ±1, or more planes than the
+    /// [`STATE_LIMIT`](crate::system::STATE_LIMIT); `stance_sign` not ±1, or more planes than the
     /// MPC was built for. Nothing is changed then.
     pub fn solve(
         &mut self,
@@ -482,10 +482,10 @@ impl LipMpc {
         // The legged model's domain: no coordinate whose products in the condensed QP
         // could overflow.
         for &v in x0 {
-            crate::systems::tachyon3::model::coordinate("LIP state", v)?;
+            crate::system::coordinate("LIP state", v)?;
         }
-        crate::systems::tachyon3::model::coordinate("goal x", goal[0])?;
-        crate::systems::tachyon3::model::coordinate("goal y", goal[1])?;
+        crate::system::coordinate("goal x", goal[0])?;
+        crate::system::coordinate("goal y", goal[1])?;
         if stance_sign != 1.0 && stance_sign != -1.0 {
             return Err(CbfError::OutOfRange { what: "stance sign", value: stance_sign, range: "{−1, +1}" });
         }
@@ -494,7 +494,7 @@ impl LipMpc {
         }
         for plane in planes {
             for v in plane.normal.into_iter().chain(plane.point).chain([plane.delta]) {
-                crate::systems::tachyon3::model::coordinate("obstacle half-plane", v)?;
+                crate::system::coordinate("obstacle half-plane", v)?;
             }
         }
 

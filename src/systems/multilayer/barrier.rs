@@ -8,7 +8,7 @@
 //! The values come from the generated kernel (`generated/double_integrator.rs`), whose
 //! Lie derivatives include ∂h/∂t: the boundary's own velocity and acceleration.
 
-use crate::error::{finite, within, CbfError};
+use crate::error::{finite, CbfError};
 use crate::generated::double_integrator as gen;
 
 /// The double integrator's state `[q, q̇]`.
@@ -59,15 +59,13 @@ impl SineBarrier {
     }
 }
 
-/// Longest |time| accepted \[s\]: beyond about 10⁹ s, `sin(ω t)` has lost its digits.
-pub const TIME_LIMIT: f64 = 1e9;
-
-/// `Ok` if `t` is finite with `|t| ≤` [`TIME_LIMIT`] and both state entries are finite
-/// with magnitude ≤ [`model::STATE_LIMIT`](crate::systems::tachyon3::model::STATE_LIMIT) (the same domain as
-/// the legged model: no QP sees a number whose square overflows).
+/// `Ok` if `t` is within the core's time domain ([`system::TIME_LIMIT`](crate::system::TIME_LIMIT))
+/// and both state entries within its state domain
+/// ([`STATE_LIMIT`](crate::system::STATE_LIMIT)): no QP sees a number whose square
+/// overflows.
 pub(crate) fn check_state(x: &State, t: f64) -> Result<(), CbfError> {
-    within("time", t, -TIME_LIMIT, TIME_LIMIT, "[-1e9, 1e9] s")?;
-    crate::systems::tachyon3::model::coordinate("position", x[0])?;
-    crate::systems::tachyon3::model::coordinate("velocity", x[1])?;
+    crate::system::validate_time(t)?;
+    crate::system::coordinate("position", x[0])?;
+    crate::system::coordinate("velocity", x[1])?;
     Ok(())
 }

@@ -148,7 +148,7 @@ impl KinematicMpc {
         within("MPC position weight", s.w_q, 1e-6, 1e6, "[1e-6, 1e6]")?;
         within("MPC velocity weight", s.w_v, 1e-6, 1e6, "[1e-6, 1e6]")?;
         within("MPC acceleration weight", s.w_a, 1e-6, 1e6, "[1e-6, 1e6]")?;
-        crate::systems::tachyon3::model::coordinate("MPC reference", s.q_ref)?;
+        crate::system::coordinate("MPC reference", s.q_ref)?;
         if s.horizon < 2 {
             return Err(CbfError::OutOfRange { what: "MPC horizon", value: s.horizon as f64, range: "[2, ∞)" });
         }

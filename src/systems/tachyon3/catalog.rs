@@ -281,7 +281,7 @@ impl HalfPlane {
         let n = [normal[0] / big, normal[1] / big];
         let length = n[0].hypot(n[1]);
         let offset = offset / big / length;
-        crate::systems::tachyon3::model::coordinate("half-plane distance from the origin", offset)?;
+        crate::system::coordinate("half-plane distance from the origin", offset)?;
         Ok(Self { normal: [n[0] / length, n[1] / length], offset })
     }
 
@@ -353,11 +353,11 @@ impl Environment {
     /// The first value outside that domain.
     pub fn validate(&self) -> Result<(), CbfError> {
         for &z in &self.floor_z {
-            crate::systems::tachyon3::model::coordinate("floor height", z)?;
+            crate::system::coordinate("floor height", z)?;
         }
         for b in self.stability.iter().flatten().flatten() {
-            crate::systems::tachyon3::model::coordinate("stability slope", b.a)?;
-            crate::systems::tachyon3::model::coordinate("stability offset", b.b)?;
+            crate::system::coordinate("stability slope", b.a)?;
+            crate::system::coordinate("stability offset", b.b)?;
         }
         Ok(())
     }

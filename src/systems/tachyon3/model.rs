@@ -26,33 +26,21 @@ pub const BODY_Z: usize = 7;
 /// Index of the body's pitch \[rad\]; its rate is at `BODY_PITCH + 3`.
 pub const BODY_PITCH: usize = 8;
 
-/// Largest |state entry| the kernels are evaluated at (metres, radians and their rates):
-/// 100 km, far past any course. Inside it every generated row is finite except where the
-/// geometry itself is singular (a toe exactly at its hip joint, where the knee length is
-/// zero), which the filter answers with a flagged fallback. World points built from a
-/// state (origin + body offset + hip + toe) stay within a few times this, inside the box
-/// domain ([`MAX_COORDINATE`](crate::geometry::MAX_COORDINATE)), so the exact clearance
-/// checks accept every state the filter does.
-pub const STATE_LIMIT: f64 = 1e5;
+/// The core's state domain, here too: inside it every generated Tachyon 3 row is finite
+/// except where the geometry itself is singular (a toe exactly at its hip joint, where
+/// the knee length is zero), which the filter answers with a flagged fallback. World
+/// points built from a state (origin + body offset + hip + toe) stay within a few times
+/// it, inside the box domain ([`MAX_COORDINATE`](crate::geometry::MAX_COORDINATE)), so
+/// the exact clearance checks accept every state the filter does.
+pub use crate::system::STATE_LIMIT;
 
-/// [`STATE_LIMIT`] as the range named in error messages.
-const STATE_RANGE: &str = "[-1e5, 1e5]";
-
-/// `Ok(value)` when it is finite with `|value| ≤` [`STATE_LIMIT`]: the check for a state
-/// entry and for every world number measured in the same units (floors, goals, planes).
-pub(crate) fn coordinate(what: &'static str, value: f64) -> Result<f64, CbfError> {
-    crate::error::within(what, value, -STATE_LIMIT, STATE_LIMIT, STATE_RANGE)
-}
-
-/// `Ok(())` when every entry is finite with `|x_i| ≤` [`STATE_LIMIT`].
+/// `Ok(())` when every entry is finite with `|x_i| ≤` [`STATE_LIMIT`]
+/// ([`system::validate_state`](crate::system::validate_state) on the model's state).
 ///
 /// # Errors
 /// [`CbfError::NonFinite`] or [`CbfError::OutOfRange`] naming the first bad entry's kind.
 pub fn validate_state(x: &State) -> Result<(), CbfError> {
-    for &v in x {
-        coordinate("state entry", v)?;
-    }
-    Ok(())
+    crate::system::validate_state(x)
 }
 
 /// Position of a named state in [`State`].
