@@ -17,7 +17,7 @@
 //! * [`ssat`] — Smooth Separating Axis Theorem between oriented boxes, with a certified
 //!   margin that turns a smooth barrier into an exact no-overlap proof.
 //! * [`sat`] — the exact SAT, the reference the smooth one is tested against.
-//! * [`geometry`] — validated oriented boxes.
+//! * [`geometry`] — validated oriented boxes; [`chart`] — the SVG figures every system draws.
 //!
 //! The systems, each beside its scenario code, in [`systems`]: Tachyon 3 (the paper's
 //! robot: catalog, stairs, gait, simulation), the 3D-LIP footstep MPC and the multi-layer
@@ -25,6 +25,7 @@
 
 #![warn(missing_docs)]
 
+pub mod chart;
 pub mod error;
 pub mod filter;
 pub mod geometry;

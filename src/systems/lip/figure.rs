@@ -5,7 +5,7 @@ use std::io;
 use std::path::{Path, PathBuf};
 
 use super::scenario::RunResult;
-use crate::systems::tachyon3::sim::chart::{Area, Chart, Series};
+use crate::chart::{Area, Chart, Series};
 
 /// The map, to scale: obstacles, the band `δ` around them, CoM path and footsteps.
 pub fn navigation_chart(run: &RunResult) -> Chart {

@@ -8,8 +8,8 @@ use super::barrier::{SineBarrier, State};
 use super::cbf_qp::CbfQpSettings;
 use super::controller::MultiLayerController;
 use super::mpc::{MpcMode, MpcSettings};
+use crate::chart::{Chart, Series};
 use crate::error::CbfError;
-use crate::systems::tachyon3::sim::chart::{Chart, Series};
 
 /// Everything a run is made of. The paper gives no numbers for its toy example, so
 /// every value here is assumed; the shape (start above the boundary, drive to a

@@ -7,7 +7,6 @@
 //! rows, the time spent and the exact clearance of body and toes to every edge cuboid
 //! (exact SAT for the body, exact sphere–box distance for the toes).
 
-pub mod chart;
 mod course;
 pub mod gait;
 pub mod output;

@@ -18,8 +18,8 @@ use std::fmt::{self, Write as _};
 use std::io;
 use std::path::{Path, PathBuf};
 
-use super::chart::{Chart, Series};
 use super::{Sample, SimResult, Summary};
+use crate::chart::{Chart, Series};
 use crate::systems::tachyon3::catalog::Family;
 use crate::systems::tachyon3::model::{BODY_Z, STATE_NAMES};
 

@@ -1,4 +1,4 @@
-//! Minimal SVG charts for the simulation figures: lines, markers, filled rectangles, and
+//! Minimal SVG charts for every system's figures (stairs, LIP map, multi-layer traces): lines, markers, filled rectangles, and
 //! optionally equal x/y scales for maps. SVG keeps text as text for the viewer to render,
 //! so no font has to be found or shipped at run time.
 
