@@ -126,10 +126,10 @@ pub const FAMILIES: [FamilyInfo; 6] = {
             name: family.name(),
             relative_degree: RELATIVE_DEGREE,
             row_names,
-            defaults: FamilyParams { poles: Poles::repeated(0.0, RELATIVE_DEGREE), slack_weight: 1e4, activation },
+            defaults: FamilyParams { poles: Poles::from_array(ECBF_POLES), slack_weight: 1e4, activation },
         }
     }
-    let mut families = [
+    [
         info(Family::JointLimits, &["knee_min", "knee_max", "hip_min", "hip_max"], f64::INFINITY),
         info(Family::FootHeight, &["foot_height"], f64::INFINITY),
         info(Family::Stability, &["lower", "upper"], f64::INFINITY),
@@ -138,13 +138,7 @@ pub const FAMILIES: [FamilyInfo; 6] = {
         // Toe within twice the inflated edge half-extent.
         info(Family::ToeEdge, &LEG_NAMES, 15.0),
         info(Family::Foothold, &["half_space"], f64::INFINITY),
-    ];
-    let mut i = 0;
-    while i < families.len() {
-        families[i].defaults.poles = Poles::from_array(ECBF_POLES);
-        i += 1;
-    }
-    families
+    ]
 };
 
 impl EcbfFilter<Catalog, NU> {
