@@ -17,7 +17,7 @@ from pathlib import Path
 from .codegen.backends.rust.emitter import RawRust, emit_kernel, rustdoc_text
 from .codegen.backends.rust.kernel_table import emit_kernel_table
 from .codegen.backends.rust.system_module import emit_system
-from .codegen.definition import define
+from .codegen.definition import SystemDefinition, define
 from .families import ssat, tachyon3
 from .inputs_hash import inputs_hash
 from .kernel import Kernel
@@ -36,17 +36,16 @@ MODULES: dict[str, tuple[str, Callable[[], list[Kernel | RawRust]]]] = {
 SYSTEMS_DIR = Path(__file__).resolve().parent / "systems"
 
 
-def builtin_specs() -> list[Path]:
-    """The built-in spec files, in name order."""
-    return sorted(p for p in SYSTEMS_DIR.glob("*.py") if not p.name.startswith("_"))
+def builtin_systems() -> list[SystemDefinition]:
+    """The built-in systems, from their spec files in name order."""
+    return [define(load(p)) for p in sorted(SYSTEMS_DIR.glob("*.py")) if not p.name.startswith("_")]
 
 
 def all_kernels() -> dict[str, list[Kernel]]:
     """Module name -> every kernel generated/ holds for it: the generator's own list, which
     the SymEngine cross-check iterates (adding a system adds no test code)."""
     out = {name: [k for k in build() if isinstance(k, Kernel)] for name, (_, build) in MODULES.items()}
-    for spec in builtin_specs():
-        definition = define(load(spec))
+    for definition in builtin_systems():
         out[definition.name] = definition.kernels()
     return out
 
@@ -88,8 +87,7 @@ def render(repo_root: Path = REPO_ROOT) -> dict[str, str]:
                 "#![allow(clippy::excessive_precision, clippy::too_many_arguments)]\n")
         files[f"{name}.rs"] = rustfmt(_header(digest) + module_doc + lint + "\n" + body, repo_root)
         mod_lines.append(f"pub mod {name};\n")
-    for spec in builtin_specs():
-        definition = define(load(spec))
+    for definition in builtin_systems():
         name = definition.name
         files[f"{name}.rs"] = rustfmt(_header(digest) + "\n" + emit_system(definition, "crate"), repo_root)
         doc = definition.doc or f"The `{name}` system."
