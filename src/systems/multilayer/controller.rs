@@ -1,7 +1,7 @@
 //! The two layers at their rates: the MPC re-plans every `δt`, and its desired
 //! acceleration is held while the CBF-QP runs every cycle.
 
-use super::barrier::{check_state, BarrierRow, SineBarrier, State};
+use super::barrier::{check_state, SineBarrier, State};
 use super::cbf_qp::{CbfQpOutput, CbfQpSettings, IdCbfQp};
 use super::mpc::{KinematicMpc, MpcMode, MpcOutput, MpcSettings};
 use crate::error::{positive, CbfError};
@@ -13,8 +13,6 @@ pub struct ControlOutput {
     pub u: f64,
     /// The MPC's acceleration held this cycle [m/s²].
     pub desired_accel: f64,
-    /// The barrier row the CBF-QP used.
-    pub row: BarrierRow,
     /// `Some` on the cycles where the MPC re-planned.
     pub mpc: Option<MpcOutput>,
     /// The CBF-QP's solution this cycle; its `u` is the input applied.
@@ -80,6 +78,6 @@ impl MultiLayerController {
         let qp = self.qp.solve(t, x, desired_accel)?;
         self.held_accel = desired_accel;
         self.cycle += 1;
-        Ok(ControlOutput { u: qp.u, desired_accel, row: qp.row, mpc, qp })
+        Ok(ControlOutput { u: qp.u, desired_accel, mpc, qp })
     }
 }

@@ -111,7 +111,7 @@ pub fn run(config: &ScenarioConfig, mode: MpcMode) -> Result<VariantResult, CbfE
         trace.v.push(x[1]);
         trace.u.push(out.u);
         trace.desired_accel.push(out.desired_accel);
-        trace.h.push(out.row.lie[0]);
+        trace.h.push(out.qp.row.lie[0]);
         let dt = config.cycle_dt;
         x = [x[0] + x[1] * dt + 0.5 * out.u * dt * dt, x[1] + out.u * dt];
     }
