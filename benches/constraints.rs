@@ -36,10 +36,11 @@ fn moving_posture() -> State {
 fn per_row(c: &mut Criterion) {
     let x = moving_posture();
     let edge = staircase()[0];
-    let (ec, er, eh) = (edge.center(), edge.rotation(), edge.half_extents());
+    let (ec, er, eh) = edge.kernel_args();
+    let (ec, er, eh) = (&ec, &er, &eh);
     let mut g = c.benchmark_group("constraint_row");
-    g.bench_function("body_edge_ssat", |b| b.iter(|| gen::body_edge_ssat(black_box(&x), ec, er, eh)));
-    g.bench_function("toe_edge", |b| b.iter(|| gen::TOE_EDGE[0](black_box(&x), ec, er, eh)));
+    g.bench_function("body_edge_ssat", |b| b.iter(|| gen::body_edge(black_box(&x), ec, er, eh)));
+    g.bench_function("toe_edge (6 rows, one per toe)", |b| b.iter(|| gen::toe_edge(black_box(&x), ec, er, eh)));
     g.bench_function("joint_limits (4 rows)", |b| b.iter(|| gen::JOINT_LIMITS[0](black_box(&x))));
     g.bench_function("foothold", |b| b.iter(|| gen::FOOTHOLD[0](black_box(&x), &[0.6, 0.8], 0.4)));
     g.bench_function("foot_height", |b| b.iter(|| gen::FOOT_HEIGHT[0](black_box(&x), 0.0)));
@@ -54,16 +55,16 @@ fn whole_catalog(c: &mut Criterion) {
         env.push_edge(e).expect("capacity");
     }
     for leg in 0..6 {
-        let planes: Vec<_> = (0..cap.foothold_edges[leg])
+        let planes: Vec<_> = (0..cap.foothold[leg])
             .map(|k| {
-                let a = std::f64::consts::TAU * k as f64 / cap.foothold_edges[leg] as f64;
+                let a = std::f64::consts::TAU * k as f64 / cap.foothold[leg] as f64;
                 HalfPlane::new([a.cos(), a.sin()], 2.0).expect("valid")
             })
             .collect();
         env.set_foothold(leg, &planes).expect("capacity");
-        env.swing[leg] = true;
         env.stability[leg] = [Some(StabilityBound { a: 1.0, b: 0.3 }), Some(StabilityBound { a: -1.0, b: 0.3 })];
     }
+    env.set_swing([true; 6]);
     let mut catalog = Catalog::new(cap).unwrap();
     let x = moving_posture();
     catalog.evaluate(&x, &env).expect("finite");

@@ -222,7 +222,7 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             )?;
             writeln!(stdout, "{:<4} {:<9} {:>12} {:>12} {:>12}", "leg", "row", "h", "L_f h", "L_f^2 h")?;
             let names = cbfgen::generated::tachyon3::JOINT_LIMITS_LF_ROW_NAMES;
-            for (slot, row) in catalog.slots().iter().zip(catalog.rows()) {
+            for (slot, row) in catalog.slots().zip(catalog.rows()) {
                 if let (Family::JointLimits, Some(leg)) = (slot.family, slot.leg) {
                     writeln!(
                         stdout,

@@ -245,6 +245,9 @@ pub struct FamilyInfo {
     pub relative_degree: usize,
     /// What each row of one instance constrains.
     pub row_names: &'static [&'static str],
+    /// The members of an indexed family (a robot's legs, an arm's links), each with its own
+    /// kernel and instances; empty for a family that is not indexed.
+    pub members: &'static [&'static str],
     /// The spec's defaults for poles, slack weight and activation.
     pub defaults: FamilyParams,
 }
@@ -256,7 +259,9 @@ pub struct FamilyInfo {
 pub struct RowLayout {
     /// Index into [`BarrierSet::families`].
     pub family: usize,
-    /// Which instance of the family (an obstacle slot, a leg…).
+    /// Which member of an indexed family, indexing [`FamilyInfo::members`]; 0 otherwise.
+    pub member: usize,
+    /// Which instance of the family (of the member): an obstacle slot, a foothold edge…
     pub instance: usize,
     /// Which row of the instance, indexing [`FamilyInfo::row_names`].
     pub row: usize,
@@ -327,6 +332,7 @@ pub struct Instances<T> {
     what: &'static str,
     items: Vec<T>,
     capacity: usize,
+    enabled: bool,
 }
 
 impl<T> Instances<T> {
@@ -338,7 +344,7 @@ impl<T> Instances<T> {
         if capacity > MAX_INSTANCES {
             return Err(CbfError::TooLarge { what, value: capacity, max: MAX_INSTANCES });
         }
-        Ok(Self { what, items: Vec::with_capacity(capacity), capacity })
+        Ok(Self { what, items: Vec::with_capacity(capacity), capacity, enabled: true })
     }
 
     /// Add one instance.
@@ -366,6 +372,18 @@ impl<T> Instances<T> {
     /// The capacity fixed at construction.
     pub fn capacity(&self) -> usize {
         self.capacity
+    }
+
+    /// Switch the whole set on or off without dropping its instances: while off, their
+    /// rows are inactive and their parameters are not read (a swing leg's foothold, kept
+    /// through stance). On by default.
+    pub fn set_enabled(&mut self, enabled: bool) {
+        self.enabled = enabled;
+    }
+
+    /// Whether the instances' rows take part (see [`Instances::set_enabled`]).
+    pub fn is_enabled(&self) -> bool {
+        self.enabled
     }
 }
 

@@ -158,12 +158,15 @@ class FamilyContext:
     is taken, so a helper may be used twice in one family.
     """
 
-    def __init__(self, where: str, kernel, engine, params: dict[str, object], time: se.Symbol | None):
+    def __init__(self, where: str, kernel, engine, params: dict[str, object], time: se.Symbol | None,
+                 index: int | None = None, label: str | None = None):
         self._where = where
         self._kernel = kernel
         self._engine = engine
         self._params = params
         self._time = time
+        self._index = index
+        self._label = label
 
     def __getattr__(self, name: str):
         params = self.__dict__.get("_params", {})
@@ -180,6 +183,20 @@ class FamilyContext:
         if self._time is None:
             raise SpecError(f"{self._where}: uses time, but the family was declared without time=True")
         return self._time
+
+    @property
+    def index(self) -> int:
+        """Position of the member being built in the family's ``over`` list."""
+        if self._index is None:
+            raise SpecError(f"{self._where}: uses p.index, but the family was declared without over=[...]")
+        return self._index
+
+    @property
+    def label(self) -> str:
+        """Name of the member being built (an entry of the family's ``over`` list)."""
+        if self._label is None:
+            raise SpecError(f"{self._where}: uses p.label, but the family was declared without over=[...]")
+        return self._label
 
     def _fresh(self, name: str) -> str:
         check_identifier(self._where, "intermediate", name)
@@ -215,6 +232,9 @@ class Family:
     params: list[Param]
     count: int | None
     capacity: bool
+    max_capacity: int | None  # the largest capacity a capacity family accepts
+    optional: bool
+    over: list[str] | None
     time: bool
     poles: list[float] | None
     slack_weight: float
@@ -223,7 +243,89 @@ class Family:
 
     @property
     def instances_doc(self) -> str:
-        return "up to a capacity chosen at run time" if self.capacity else f"{self.count} fixed"
+        if self.capacity:
+            return "up to a capacity chosen at run time"
+        return f"{self.count} {'optional' if self.optional else 'fixed'}"
+
+
+@dataclass(frozen=True)
+class Constant:
+    """A named constant of the generated module: ``value`` is a float, an int (>= 0), a
+    string or a rectangular nested list of one of them."""
+
+    name: str
+    value: object
+    doc: str
+
+
+@dataclass(frozen=True)
+class Output:
+    """A state function the module exposes: ``values`` are ``(name, value, doc)``, each
+    value an expression, a vector (list) or a matrix (list of rows)."""
+
+    name: str
+    values: list[tuple[str, object, str]]
+    doc: str
+
+
+def _constant_value(where: str, value: object) -> object:
+    """``value`` checked and normalised: a string, a finite number, or a non-empty
+    rectangular nested list whose leaves are all strings or all numbers. Numbers stay
+    ints only when every leaf is a non-negative int (they become ``usize``); otherwise
+    every leaf becomes a float."""
+    leaves: list[object] = []
+
+    def shape(v: object) -> tuple[int, ...]:
+        if isinstance(v, (list, tuple)):
+            if not v:
+                raise SpecError(f"{where}: empty list")
+            inner = {shape(x) for x in v}
+            if len(inner) != 1:
+                raise SpecError(f"{where}: nested lists must be rectangular")
+            return (len(v), *inner.pop())
+        if isinstance(v, bool) or not isinstance(v, (int, float, str)):
+            raise SpecError(f"{where}: unsupported value {v!r} (numbers, strings and lists of them)")
+        if isinstance(v, float) and not math.isfinite(v):
+            raise SpecError(f"{where}: {v} is not finite")
+        leaves.append(v)
+        return ()
+
+    shape(value)
+    if all(isinstance(v, str) for v in leaves):
+        as_leaf = str
+    elif any(isinstance(v, str) for v in leaves):
+        raise SpecError(f"{where}: mixes strings and numbers")
+    elif all(isinstance(v, int) and v >= 0 for v in leaves):
+        as_leaf = int
+    else:
+        as_leaf = float
+
+    def convert(v: object) -> object:
+        return [convert(x) for x in v] if isinstance(v, (list, tuple)) else as_leaf(v)
+
+    return convert(value)
+
+
+def _output_value(where: str, value: object, states: set) -> object:
+    """An expression, a list of them or a rectangular list of lists, of states only."""
+    if isinstance(value, (list, tuple)):
+        if not value:
+            raise SpecError(f"{where}: empty")
+        if all(isinstance(v, (list, tuple)) for v in value):
+            cols = {len(v) for v in value}
+            if len(cols) != 1 or 0 in cols:
+                raise SpecError(f"{where}: a matrix must be a list of equal-length, non-empty rows")
+            return [[_state_expr(where, e, states) for e in row] for row in value]
+        return [_state_expr(where, e, states) for e in value]
+    return _state_expr(where, value, states)
+
+
+def _state_expr(where: str, e: object, states: set) -> se.Expr:
+    expr = _expr(where, "value", e)
+    stray = expr.free_symbols - states
+    if stray:
+        raise SpecError(f"{where}: uses {sorted(map(str, stray))}; outputs depend on the states only")
+    return expr
 
 
 @dataclass
@@ -248,6 +350,8 @@ class System:
     f: list[se.Expr] | None = None
     g: list[list[se.Expr]] | None = None
     families: list[Family] = field(default_factory=list)
+    constants: list[Constant] = field(default_factory=list)
+    outputs: list[Output] = field(default_factory=list)
     source: Path | None = None
 
     def __post_init__(self):
@@ -348,16 +452,27 @@ class System:
     # --------------------------------------------------------------- families
     def family(self, name: str, h: Callable[[FamilyContext], object], *,
                params: dict[str, object] | None = None, count: int | None = None,
-               capacity: bool = False, time: bool = False, poles: Sequence[float] | None = None,
+               capacity: bool | int = False, optional: bool = False, over: Sequence[str] | None = None,
+               time: bool = False, poles: Sequence[float] | None = None,
                slack_weight: float = DEFAULT_SLACK_WEIGHT, activation: float = math.inf,
                doc: str = "") -> None:
         """Declare a barrier family h(x, params[, t]) >= 0.
 
         ``params`` maps names to shapes (``()``, ``(n,)``, ``(rows, cols)``), or to
         ``(shape, doc)``. ``count`` (default 1) fixes the number of instances; ``capacity=True``
-        instead fills them at run time. ``poles`` must have one entry per derivative (the
-        relative degree the Lie engine finds); omitted, they default to DEFAULT_POLE.
-        ``activation``: the row takes part only while h is below it (inf = always).
+        instead fills them at run time, up to a capacity chosen when the barrier set is
+        built and at most MAX_INSTANCES (``capacity=N``: at most N, the largest count that
+        makes sense for the system). ``optional=True`` (with ``count``) lets each fixed
+        instance be switched off at run time (its parameters are an ``Option``).
+        ``poles`` must have one entry per derivative (the relative degree the Lie engine
+        finds); omitted, they default to DEFAULT_POLE. ``activation``: the row takes part
+        only while h is below it (inf = always).
+
+        ``over=["lf", "rf", ...]`` makes the family *indexed*: ``h`` is called once per
+        member, with ``p.index`` / ``p.label`` saying which (a robot's legs, an arm's
+        links), and each member gets its own kernel, its own instances (``count`` or a
+        capacity per member) and rows, members in ``over`` order. All members share the
+        parameters, row names, relative degree and defaults.
         """
         where = f"{self.where}, family {name!r}"
         check_identifier(self.where, "family name", name, module_item=True)
@@ -369,8 +484,26 @@ class System:
         if not isinstance(params, dict):
             raise SpecError(f"{where}: params must be a dict of name -> shape")
         parsed = [_param(where, n, shape) for n, shape in params.items()]
-        if not isinstance(capacity, bool) or not isinstance(time, bool):
-            raise SpecError(f"{where}: capacity and time are True or False")
+        if not all(isinstance(v, bool) for v in (optional, time)):
+            raise SpecError(f"{where}: optional and time are True or False")
+        max_capacity = None
+        if capacity is not False:
+            max_capacity = MAX_INSTANCES if capacity is True else capacity
+            if isinstance(max_capacity, bool) or not isinstance(max_capacity, int) or not (
+                    1 <= max_capacity <= MAX_INSTANCES):
+                raise SpecError(f"{where}: capacity is True or the largest capacity allowed, an integer in "
+                                f"[1, {MAX_INSTANCES}]; got {capacity!r}")
+            capacity = True
+        labels = None
+        if over is not None:
+            if isinstance(over, str) or not isinstance(over, Sequence) or not 1 <= len(over) <= 256:
+                raise SpecError(f"{where}: over must be a list of 1 to 256 member names, got {over!r}")
+            labels = [check_identifier(where, "member name in over", m) for m in over]
+            if len(set(labels)) != len(labels):
+                raise SpecError(f"{where}: over {labels} repeats a name")
+        if optional and (capacity or not parsed):
+            raise SpecError(f"{where}: optional=True is for fixed instances (count) with params; a "
+                            "capacity family is switched per instance by filling it")
         if capacity:
             if count is not None:
                 raise SpecError(f"{where}: give count or capacity=True, not both")
@@ -400,8 +533,46 @@ class System:
             raise SpecError(f"{where}: activation {activation} must be > 0 (inf = always active)")
         if not isinstance(doc, str):
             raise SpecError(f"{where}: doc must be a string")
-        self.families.append(Family(name, h, parsed, None if capacity else count, capacity, time,
-                                    pole_list, slack_weight, activation, doc))
+        self.families.append(Family(name, h, parsed, None if capacity else count, capacity, max_capacity,
+                                    optional, labels,
+                                    time, pole_list, slack_weight, activation, doc))
+
+    # -------------------------------------------------- constants and outputs
+    def constant(self, name: str, value: object, doc: str) -> None:
+        """A named constant of the generated module (``UPPER_SNAKE`` in it): a number, a
+        string, or a (nested, rectangular) list of them: a robot's dimensions that its
+        scenario code needs, from the same file the kernels are built from. Integers
+        stay integers (``usize`` in Rust; non-negative only); mixed lists are floats."""
+        where = f"{self.where}, constant {name!r}"
+        check_identifier(self.where, "constant name", name, local=False)
+        if any(c.name == name for c in self.constants):
+            raise SpecError(f"{where}: declared twice")
+        if not isinstance(doc, str) or not doc.strip():
+            raise SpecError(f"{where}: give a doc string (what it is, with its unit)")
+        self.constants.append(Constant(name, _constant_value(where, value), doc))
+
+    def output(self, name: str, outputs: Sequence[tuple[str, object, str]], doc: str) -> None:
+        """A function of the state the generated module exposes besides the barriers: forward
+        kinematics, a contact point, an energy. ``outputs`` are ``(name, value, doc)`` with
+        ``value`` an expression, a list of them (vector) or a list of equal-length lists
+        (matrix, returned row by row). Depends on the states only."""
+        where = f"{self.where}, output {name!r}"
+        check_identifier(self.where, "output name", name, module_item=True)
+        if any(o.name == name for o in self.outputs):
+            raise SpecError(f"{where}: declared twice")
+        if isinstance(outputs, str) or not isinstance(outputs, Sequence) or not outputs:
+            raise SpecError(f"{where}: outputs must be a non-empty list of (name, value, doc)")
+        parsed = []
+        for item in outputs:
+            if not (isinstance(item, (list, tuple)) and len(item) == 3 and isinstance(item[2], str)):
+                raise SpecError(f"{where}: each output is (name, value, doc), got {item!r}")
+            oname, value, odoc = item
+            check_identifier(where, "output value name", oname)
+            parsed.append((oname, _output_value(f"{where}, value {oname!r}", value, set(self.x)), odoc))
+        names = [n for n, _, _ in parsed]
+        if len(set(names)) != len(names):
+            raise SpecError(f"{where}: value names {names} repeat a name")
+        self.outputs.append(Output(name, parsed, doc))
 
     def check_complete(self) -> None:
         if not self.state_names:

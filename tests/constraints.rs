@@ -69,7 +69,7 @@ fn kernels_with_random_params(r: &mut impl Rng) -> Vec<(String, RowFn)> {
     let (ca, ra, ha) = random_edge(r);
     out.push((
         "body_edge_ssat".into(),
-        Box::new(move |x| rows_of(gen::body_edge_ssat(x, &ca, &ra, &ha), &gen::BODY_EDGE_SSAT_INPUT_COLUMNS)),
+        Box::new(move |x| rows_of(gen::body_edge(x, &ca, &ra, &ha), &gen::BODY_EDGE_INPUT_COLUMNS)),
     ));
     let normal = {
         let a: f64 = r.random_range(-3.2..3.2);
@@ -82,23 +82,27 @@ fn kernels_with_random_params(r: &mut impl Rng) -> Vec<(String, RowFn)> {
         let name = gen::LEG_NAMES[leg];
         out.push((
             format!("joint_limits[{name}]"),
-            Box::new(move |x| rows_of(gen::JOINT_LIMITS[leg](x), &gen::JOINT_LIMITS_INPUT_COLUMNS[leg])),
+            Box::new(move |x| rows_of(gen::JOINT_LIMITS[leg](x), gen::JOINT_LIMITS_INPUT_COLUMNS[leg])),
         ));
         out.push((
             format!("toe_edge[{name}]"),
-            Box::new(move |x| rows_of(gen::TOE_EDGE[leg](x, &ca, &ra, &ha), &gen::TOE_EDGE_INPUT_COLUMNS[leg])),
+            Box::new(move |x| {
+                // One kernel gives every toe's row, on the union of their columns.
+                let (lie, lg) = gen::toe_edge(x, &ca, &ra, &ha);
+                rows_of(([lie[leg]], [lg[leg]]), &gen::TOE_EDGE_INPUT_COLUMNS)
+            }),
         ));
         out.push((
             format!("foothold[{name}]"),
-            Box::new(move |x| rows_of(gen::FOOTHOLD[leg](x, &normal, offset), &gen::FOOTHOLD_INPUT_COLUMNS[leg])),
+            Box::new(move |x| rows_of(gen::FOOTHOLD[leg](x, &normal, offset), gen::FOOTHOLD_INPUT_COLUMNS[leg])),
         ));
         out.push((
             format!("foot_height[{name}]"),
-            Box::new(move |x| rows_of(gen::FOOT_HEIGHT[leg](x, floor), &gen::FOOT_HEIGHT_INPUT_COLUMNS[leg])),
+            Box::new(move |x| rows_of(gen::FOOT_HEIGHT[leg](x, floor), gen::FOOT_HEIGHT_INPUT_COLUMNS[leg])),
         ));
         out.push((
             format!("stability[{name}]"),
-            Box::new(move |x| rows_of(gen::STABILITY[leg](x, sa, sb), &gen::STABILITY_INPUT_COLUMNS[leg])),
+            Box::new(move |x| rows_of(gen::STABILITY[leg](x, sa, sb), gen::STABILITY_INPUT_COLUMNS[leg])),
         ));
     }
     out
@@ -111,7 +115,7 @@ fn shifted(x: &State, dir: &State, eps: f64) -> State {
 /// Column u of g(x) as a state-space direction.
 fn g_column(x: &State, u: usize) -> State {
     let mut dir = [0.0; NX];
-    for (&(row, col), v) in gen::G_PATTERN.iter().zip(gen::dynamics_g(x)) {
+    for (&(row, col), v) in gen::INPUT_MATRIX_PATTERN.iter().zip(gen::input_matrix_nonzeros(x)) {
         if col == u {
             dir[row] = v;
         }
@@ -136,7 +140,7 @@ fn lie_derivatives_match_finite_differences_along_f_and_g() {
     let mut nonzero_seen: std::collections::HashMap<(String, usize), bool> = Default::default();
     for _ in 0..1000 {
         let x = random_state(&mut r);
-        let f = gen::dynamics_f(&x);
+        let f = gen::drift(&x);
         for (name, kernel) in kernels_with_random_params(&mut r) {
             let at = kernel(&x);
             let plus_f = kernel(&shifted(&x, &f, eps));
@@ -171,11 +175,11 @@ fn lie_derivatives_match_finite_differences_along_f_and_g() {
     for leg in 0..6 {
         let n = gen::LEG_NAMES[leg];
         for (family, cols) in [
-            ("joint_limits", &gen::JOINT_LIMITS_INPUT_COLUMNS[leg][..]),
-            ("toe_edge", &gen::TOE_EDGE_INPUT_COLUMNS[leg][..]),
-            ("foothold", &gen::FOOTHOLD_INPUT_COLUMNS[leg][..]),
-            ("foot_height", &gen::FOOT_HEIGHT_INPUT_COLUMNS[leg][..]),
-            ("stability", &gen::STABILITY_INPUT_COLUMNS[leg][..]),
+            ("joint_limits", gen::JOINT_LIMITS_INPUT_COLUMNS[leg]),
+            ("toe_edge", gen::TOE_EDGE_ROW_COLUMNS[leg]),
+            ("foothold", gen::FOOTHOLD_INPUT_COLUMNS[leg]),
+            ("foot_height", gen::FOOT_HEIGHT_INPUT_COLUMNS[leg]),
+            ("stability", gen::STABILITY_INPUT_COLUMNS[leg]),
         ] {
             for &u in cols {
                 assert!(
@@ -185,7 +189,7 @@ fn lie_derivatives_match_finite_differences_along_f_and_g() {
             }
         }
     }
-    for &u in &gen::BODY_EDGE_SSAT_INPUT_COLUMNS {
+    for &u in &gen::BODY_EDGE_INPUT_COLUMNS {
         assert!(
             nonzero_seen.contains_key(&("body_edge_ssat".to_string(), u)),
             "body_edge_ssat column {u} never non-zero"
@@ -250,24 +254,24 @@ fn toe_on_a_foothold_edge_and_on_the_floor_gives_zero() {
 fn full_environment(r: &mut impl Rng) -> Environment {
     let cap = Capacity::PAPER_WORST_CASE;
     let mut env = Environment::new(cap).unwrap();
-    for _ in 0..cap.edges {
+    for _ in 0..cap.body_edge {
         let (c, rot, h) = random_edge(r);
         let m = nalgebra::Matrix3::from_row_slice(&rot);
         let b = cbfgen::OrientedBox::new(c.into(), Rotation3::from_matrix_unchecked(m), h.into()).unwrap();
         env.push_edge(EdgeCuboid::from_box(&b)).unwrap();
     }
     for leg in 0..6 {
-        let planes: Vec<_> = (0..cap.foothold_edges[leg])
+        let planes: Vec<_> = (0..cap.foothold[leg])
             .map(|k| {
                 let a = k as f64 * 0.4;
                 HalfPlane::new([a.cos(), a.sin()], 1.0).unwrap()
             })
             .collect();
         env.set_foothold(leg, &planes).unwrap();
-        env.swing[leg] = true;
         env.stability[leg] = [Some(StabilityBound { a: 1.0, b: 0.3 }), Some(StabilityBound { a: -1.0, b: 0.3 })];
-        env.floor_z[leg] = -0.01;
     }
+    env.set_swing([true; 6]);
+    env.set_floors([-0.01; 6]);
     env
 }
 
@@ -280,20 +284,20 @@ fn the_paper_worst_case_has_269_rows_all_evaluated() {
     let x = random_state(&mut r);
     catalog.evaluate(&x, &env).unwrap();
     assert!(catalog.rows().iter().all(|row| row.active && row.lie.iter().all(|v| v.is_finite())));
-    let count = |f: Family| catalog.slots().iter().filter(|s| s.family == f).count();
+    let count = |f: Family| catalog.slots().filter(|s| s.family == f).count();
     assert_eq!(count(Family::BodyEdge) + count(Family::ToeEdge), 140);
     assert_eq!((count(Family::JointLimits), count(Family::FootHeight), count(Family::Stability)), (24, 6, 12));
     // Each slot holds what its own kernel returns for its own parameters.
-    for (slot, row) in catalog.slots().iter().zip(catalog.rows()) {
+    for (slot, row) in catalog.slots().zip(catalog.rows()) {
         let e = slot.instance;
         let expected = match slot.family {
             Family::BodyEdge => {
-                let edge = env.edges()[e];
-                gen::body_edge_ssat(&x, edge.center(), edge.rotation(), edge.half_extents()).0[0]
+                let (c, r, h) = env.edges()[e].kernel_args();
+                gen::body_edge(&x, &c, &r, &h).0[0]
             }
             Family::ToeEdge => {
-                let edge = env.edges()[e];
-                gen::TOE_EDGE[slot.leg.unwrap()](&x, edge.center(), edge.rotation(), edge.half_extents()).0[0]
+                let (c, r, h) = env.edges()[e].kernel_args();
+                gen::toe_edge(&x, &c, &r, &h).0[slot.leg.unwrap()]
             }
             Family::JointLimits => gen::JOINT_LIMITS[slot.leg.unwrap()](&x).0[e],
             _ => continue,
@@ -316,7 +320,7 @@ fn bad_input_is_an_error_not_a_panic() {
     assert!(catalog.evaluate(&x, &env).is_err());
     x[7] = f64::INFINITY;
     assert!(catalog.evaluate(&x, &env).is_err());
-    let mut small = Environment::new(Capacity { edges: 1, foothold_edges: [1; 6] }).unwrap();
+    let mut small = Environment::new(Capacity::edges(1, [1; 6])).unwrap();
     assert!(catalog.evaluate(&model::standard_posture(), &small).is_err(), "capacity mismatch");
     let edge = env.edges()[0];
     small.push_edge(edge).unwrap();
@@ -367,7 +371,7 @@ fn world_kinematics_matches_an_independent_pose_and_the_body_row() {
                 .expect("valid body");
         let params = cbfgen::ssat::SmoothParams::default();
         let want_h = cbfgen::ssat::ssat(&edge, &body, &params) - cbfgen::ssat::certified_margin(&edge, &body, &params);
-        let (lie, _) = gen::body_edge_ssat(&x, &ec, &er, &eh);
+        let (lie, _) = gen::body_edge(&x, &ec, &er, &eh);
         assert!((lie[0][0] - want_h).abs() <= 1e-9 * (1.0 + want_h.abs()), "{} vs {want_h}", lie[0][0]);
     }
 }

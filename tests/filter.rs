@@ -222,7 +222,7 @@ fn nan_or_infinite_state_and_nominal_input_are_errors_that_change_nothing() {
     assert!(matches!(filter.update(&drive.x, &bad_u, &drive.env), Err(CbfError::NonFinite { .. })));
     assert_eq!(*filter.output(), before, "a rejected update must leave the last output");
     assert_eq!(filter.fallback_input(&bad_u), before.u);
-    let other = Environment::new(Capacity { edges: 1, foothold_edges: [1; 6] }).unwrap();
+    let other = Environment::new(Capacity::edges(1, [1; 6])).unwrap();
     assert_eq!(filter.update(&drive.x, &u_ref, &other).err(), Some(CbfError::CapacityMismatch));
 }
 
@@ -242,7 +242,7 @@ fn a_degenerate_leg_falls_back_to_the_last_safe_input_with_a_flag() {
     assert_eq!(first.u, model::INPUT_LIMITS);
 
     let good = converged_update(&mut filter, &drive);
-    let slot = filter.slots()[first.nonfinite_row.expect("flagged")];
+    let slot = filter.slot(first.nonfinite_row.expect("flagged"));
     assert_eq!(slot.leg, Some(0), "the flagged row is one of leg 0's");
     let fallback = *filter.update(&broken, &nominal, &drive.env).expect("ok with a fallback");
     assert_eq!((fallback.source, fallback.u, fallback.consecutive_fallbacks), (InputSource::LastSafe, good.u, 1));

@@ -137,7 +137,8 @@ fn settings() -> impl Strategy<Value = FilterSettings<NU>> {
 }
 
 fn capacity() -> impl Strategy<Value = Capacity> {
-    (0usize..4, prop::array::uniform6(0usize..3)).prop_map(|(edges, foothold_edges)| Capacity { edges, foothold_edges })
+    (0usize..4, prop::array::uniform6(0usize..3))
+        .prop_map(|(edges, foothold_edges)| Capacity::edges(edges, foothold_edges))
 }
 
 /// A number that is ordinary most of the time and a finite extreme sometimes.
@@ -193,14 +194,14 @@ fn env_draw() -> impl Strategy<Value = EnvDraw> {
 
 fn environment(capacity: Capacity, draw: &EnvDraw) -> Environment {
     let mut env = Environment::new(capacity).expect("small capacities are valid");
-    for e in draw.edges.iter().flatten().take(capacity.edges) {
+    for e in draw.edges.iter().flatten().take(capacity.body_edge) {
         env.push_edge(*e).expect("within capacity");
     }
-    env.floor_z = draw.floor_z;
-    env.swing = draw.swing;
+    env.set_floors(draw.floor_z);
+    env.set_swing(draw.swing);
     let planes: Vec<HalfPlane> = draw.footholds.iter().filter_map(|&(n, b)| HalfPlane::new(n, b).ok()).collect();
     for leg in 0..6 {
-        let n = planes.len().min(capacity.foothold_edges[leg]);
+        let n = planes.len().min(capacity.foothold[leg]);
         env.set_foothold(leg, &planes[..n]).expect("within capacity");
     }
     for (k, &(a, b)) in draw.stability.iter().enumerate() {
@@ -266,9 +267,13 @@ fn nominal_input() -> impl Strategy<Value = Input> {
 
 /// Whether the draw is inside the update's documented domain (else it must be an `Err`).
 fn in_domain(x: &State, u_ref: &Input, env: &Environment) -> bool {
-    let limit = model::STATE_LIMIT;
-    let env_values = env.floor_z.iter().chain(env.stability.iter().flatten().flatten().flat_map(|b| [&b.a, &b.b]));
-    x.iter().chain(env_values).all(|v| v.abs() <= limit) && u_ref.iter().all(|v| v.abs() <= domain::MAX_INPUT)
+    // States within STATE_LIMIT; runtime parameters (floors, stability bounds) within
+    // PARAM_LIMIT, the generated barrier set's check.
+    let floors = env.floors();
+    let env_values = floors.iter().chain(env.stability.iter().flatten().flatten().flat_map(|b| [&b.a, &b.b]));
+    x.iter().all(|v| v.abs() <= model::STATE_LIMIT)
+        && env_values.into_iter().all(|v| v.abs() <= cbfgen::system::PARAM_LIMIT)
+        && u_ref.iter().all(|v| v.abs() <= domain::MAX_INPUT)
 }
 
 /// Largest condition estimate `w_δ ‖a‖² / min_j w_j` over the active rows at which a
@@ -372,7 +377,7 @@ proptest! {
         if !x.iter().all(|v| v.abs() <= model::STATE_LIMIT) {
             return Ok(()); // the filter's property covers out-of-domain states
         }
-        let capacity = Capacity { edges: 3, foothold_edges: [0; 6] };
+        let capacity = Capacity::edges(3, [0; 6]);
         let mut env = Environment::new(capacity).expect("env");
         for e in edges.iter().flatten().take(3) {
             env.push_edge(*e).expect("capacity");

@@ -152,16 +152,15 @@ fn every_filter_update_path_allocates_nothing() {
     let mut scene = Scene {
         drive: Approach::new(capacity, Stairs::HARDWARE, 0.3, 0.4).expect("drive"),
         toe_on_hip: singular::toe_at_hip(0),
-        foreign_env: Environment::new(Capacity { edges: 1, foothold_edges: [1; 6] }).expect("environment"),
+        foreign_env: Environment::new(Capacity::edges(1, [1; 6])).expect("environment"),
     };
     let knee_min_front_left = filter
         .slots()
-        .iter()
         .position(|s| s.family == Family::JointLimits && s.leg == Some(0) && s.instance == 0)
         .expect("a knee-minimum row for leg 0");
 
     alloc_count::assert_counters_work(|| {
-        EcbfFilter::with_capacity(Capacity { edges: 1, foothold_edges: [1; 6] }, catalog::default_settings())
+        EcbfFilter::with_capacity(Capacity::edges(1, [1; 6]), catalog::default_settings())
     });
 
     let one_iteration = SolverSettings { max_iter: 1, polish: false, ..SolverSettings::default() };

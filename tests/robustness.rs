@@ -134,21 +134,21 @@ fn absurd_capacities_are_typed_errors_not_aborts() {
     // Before: capacity overflow panics, and allocation failures that killed the process.
     let huge = [1_000_000, 1_000_000_000, 1 << 62, usize::MAX / 7 + 1, usize::MAX];
     for edges in huge {
-        let capacity = Capacity { edges, foothold_edges: [1; 6] };
+        let capacity = Capacity::edges(edges, [1; 6]);
         assert!(matches!(Environment::new(capacity), Err(CbfError::TooLarge { .. })), "edges {edges}");
         assert!(matches!(Catalog::new(capacity), Err(CbfError::TooLarge { .. })), "edges {edges}");
         assert!(matches!(
             EcbfFilter::with_capacity(capacity, catalog::default_settings()),
             Err(CbfError::TooLarge { .. })
         ));
-        let capacity = Capacity { edges: 1, foothold_edges: [edges; 6] };
+        let capacity = Capacity::edges(1, [edges; 6]);
         assert!(matches!(
             EcbfFilter::with_capacity(capacity, catalog::default_settings()),
             Err(CbfError::TooLarge { .. })
         ));
         assert!(capacity.rows() >= edges, "the row count saturates instead of wrapping");
     }
-    let largest = Capacity { edges: Capacity::MAX_EDGES, foothold_edges: [Capacity::MAX_FOOTHOLD_EDGES; 6] };
+    let largest = Capacity::edges(Capacity::MAX_EDGES, [Capacity::MAX_FOOTHOLD_EDGES; 6]);
     assert!(Environment::new(largest).is_ok());
 }
 
@@ -223,12 +223,12 @@ fn a_half_plane_of_extreme_scale_is_the_same_half_plane() {
     // Scaling (normal, offset) by any positive factor describes the same set; the stored
     // form is unit-normal, so 1e300 and 1e-300 scales give the same rows.
     let reference = HalfPlane::new([3.0, 4.0], 5.0).expect("plane");
-    assert_eq!(reference.normal(), &[0.6, 0.8]);
-    assert_eq!(reference.offset(), 1.0);
+    assert_eq!(reference.normal.as_slice(), &[0.6, 0.8]);
+    assert_eq!(reference.offset, 1.0);
     // 1e-310 is subnormal: about 13 significant digits left.
     for scale in [1e300, 1e-300, 1e-310] {
         let p = HalfPlane::new([3.0 * scale, 4.0 * scale], 5.0 * scale).expect("scaled plane");
-        assert!((p.normal()[0] - 0.6).abs() < 1e-12 && (p.offset() - 1.0).abs() < 1e-12, "{scale}: {p:?}");
+        assert!((p.normal[0] - 0.6).abs() < 1e-12 && (p.offset - 1.0).abs() < 1e-12, "{scale}: {p:?}");
     }
     // A boundary 1e300 m away is outside the world's domain.
     assert!(HalfPlane::new([1.0, 0.0], 1e300).is_err());

@@ -72,12 +72,12 @@ def assert_finite(*arrays) -> None:
 @pytest.mark.parametrize("expression, message", [
     # Each of these asked for gigabytes up front (or wrapped the row count first) and
     # aborted the process.
-    ("cbfgen.Environment(edges=10**9)", "edge capacity = 1000000000 is above the maximum"),
-    ("cbfgen.EcbfFilter(edges=2**64 // 7 + 1)", "edge capacity = 2635249153387078803 is above the maximum"),
-    ("cbfgen.EcbfFilter(edges=10**6)", "edge capacity = 1000000 is above the maximum"),
+    ("cbfgen.Environment(edges=10**9)", "body_edge capacity = 1000000000 is above the maximum"),
+    ("cbfgen.EcbfFilter(edges=2**64 // 7 + 1)", "body_edge capacity = 2635249153387078803 is above the maximum"),
+    ("cbfgen.EcbfFilter(edges=10**6)", "body_edge capacity = 1000000 is above the maximum"),
     # Capacity overflow panics.
-    ("cbfgen.Environment(edges=2**62)", "edge capacity = 4611686018427387904 is above the maximum"),
-    ("cbfgen.EcbfFilter(foothold_edges=[2**62] * 6)", "foothold edge capacity = 4611686018427387904 is above"),
+    ("cbfgen.Environment(edges=2**62)", "body_edge capacity = 4611686018427387904 is above the maximum"),
+    ("cbfgen.EcbfFilter(foothold_edges=[2**62] * 6)", "foothold capacity = 4611686018427387904 is above"),
 ])
 def test_absurd_capacities_raise_instead_of_aborting(expression, message):
     assert run_isolated(expression).startswith(f"CbfError: {message}")

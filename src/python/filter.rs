@@ -25,7 +25,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 }
 
 fn capacity(edges: usize, foothold_edges: Option<[usize; 6]>) -> Capacity {
-    Capacity { edges, foothold_edges: foothold_edges.unwrap_or(Capacity::PAPER_WORST_CASE.foothold_edges) }
+    Capacity::edges(edges, foothold_edges.unwrap_or(Capacity::PAPER_WORST_CASE.foothold))
 }
 
 /// OSQP's time limit from microseconds, in `(0, SolverSettings::MAX_TIME_LIMIT]`, checked
@@ -64,7 +64,7 @@ impl PyEnvironment {
     #[getter]
     fn capacity(&self) -> (usize, [usize; 6]) {
         let c = self.inner.capacity();
-        (c.edges, c.foothold_edges)
+        (c.body_edge, c.foothold)
     }
 
     /// Add an edge cuboid (centre, 9-value row-major rotation, half extents).
@@ -86,7 +86,7 @@ impl PyEnvironment {
     /// Floor height under each toe, world frame \[m\], ``LEG_NAMES`` order.
     #[getter]
     fn get_floor_z<'py>(&self, py: Python<'py>) -> Array1Out<'py> {
-        vector(py, &self.inner.floor_z)
+        vector(py, &self.inner.floors())
     }
 
     #[setter]
@@ -95,26 +95,26 @@ impl PyEnvironment {
         for &v in &z {
             finite("floor height", v)?;
         }
-        self.inner.floor_z = z;
+        self.inner.set_floors(z);
         Ok(())
     }
 
     /// Which legs swing (foothold rows apply to swinging legs only).
     #[getter]
     fn get_swing(&self) -> [bool; 6] {
-        self.inner.swing
+        self.inner.swing()
     }
 
     #[setter]
     fn set_swing(&mut self, values: [bool; 6]) {
-        self.inner.swing = values;
+        self.inner.set_swing(values);
     }
 
     /// Replace ``leg``'s foothold polygon: row k is ``normals[k] . p_xy + offsets[k] >= 0``,
     /// with ``normals`` of shape (k, 2) and ``offsets`` of shape (k,).
     fn set_foothold(&mut self, leg: LegArg, normals: ArrayIn<'_>, offsets: ArrayIn<'_>) -> PyResult<()> {
         let leg = leg.index()?;
-        let capacity = self.inner.capacity().foothold_edges[leg];
+        let capacity = self.inner.capacity().foothold[leg];
         let (n, b) = (rows::<2>("foothold edges", &normals, capacity)?, values("foothold edges", &offsets, capacity)?);
         if n.len() != b.len() {
             return Err(PyValueError::new_err(format!(
@@ -130,8 +130,8 @@ impl PyEnvironment {
     /// ``(normals (k, 2), offsets (k,))`` of ``leg``'s foothold polygon.
     fn foothold<'py>(&self, py: Python<'py>, leg: LegArg) -> PyResult<(Array2Out<'py>, Array1Out<'py>)> {
         let planes = self.inner.foothold(leg.index()?);
-        let normals = matrix_from_fn(py, planes.len(), 2, |i, j| planes[i].normal()[j]);
-        let offsets: Vec<f64> = planes.iter().map(HalfPlane::offset).collect();
+        let normals = matrix_from_fn(py, planes.len(), 2, |i, j| planes[i].normal[j]);
+        let offsets: Vec<f64> = planes.iter().map(|p| p.offset).collect();
         Ok((normals, vector(py, &offsets)))
     }
 
@@ -149,12 +149,12 @@ impl PyEnvironment {
 
     fn __repr__(&self) -> String {
         let swinging: Vec<&str> =
-            (0..6).filter(|&l| self.inner.swing[l]).map(|l| crate::systems::tachyon3::model::LEG_NAMES[l]).collect();
+            (0..6).filter(|&l| self.inner.swing()[l]).map(|l| crate::systems::tachyon3::model::LEG_NAMES[l]).collect();
         format!(
             "Environment(edges={}/{}, floor_z={:?}, swinging={swinging:?})",
             self.inner.edges().len(),
-            self.inner.capacity().edges,
-            self.inner.floor_z,
+            self.inner.capacity().body_edge,
+            self.inner.floors(),
         )
     }
 }
@@ -350,7 +350,7 @@ impl PyEcbfFilter {
     /// Per row: ``(family, leg index or None, instance)``.
     #[getter]
     fn slots(&self) -> PyResult<Vec<(&'static str, Option<usize>, usize)>> {
-        Ok(self.lock()?.slots().iter().map(|s| (s.family.name(), s.leg, s.instance)).collect())
+        Ok(self.lock()?.slots().map(|s| (s.family.name(), s.leg, s.instance)).collect())
     }
 
     /// Every row's ``[h, L_f h, L_f² h]`` at the last update, shape (rows, 3). Rows that

@@ -79,7 +79,7 @@ pub fn oriented_box(center: &ArrayIn<'_>, rotation: &ArrayIn<'_>, half: &ArrayIn
 fn rows_out<'py, const R: usize, const C: usize>(
     py: Python<'py>,
     (lie, lg): ([[f64; RELATIVE_DEGREE + 1]; R], [[f64; C]; R]),
-    columns: &[usize; C],
+    columns: &[usize],
 ) -> PyResult<Rows<'py>> {
     for (row, (l, g)) in lie.iter().zip(&lg).enumerate() {
         if !l.iter().chain(g).all(|v| v.is_finite()) {
@@ -170,7 +170,7 @@ fn ssat_margin(half_a: ArrayIn<'_>, half_b: ArrayIn<'_>, alpha: f64, alpha_rot: 
 #[pyfunction]
 fn joint_limits<'py>(py: Python<'py>, leg: LegArg, x: ArrayIn<'py>) -> PyResult<Rows<'py>> {
     let leg = leg.index()?;
-    rows_out(py, gen::JOINT_LIMITS[leg](&state(&x)?), &gen::JOINT_LIMITS_INPUT_COLUMNS[leg])
+    rows_out(py, gen::JOINT_LIMITS[leg](&state(&x)?), gen::JOINT_LIMITS_INPUT_COLUMNS[leg])
 }
 
 /// Toe ``leg``'s wheel bottom above the floor plane at height ``floor_z``: one row.
@@ -178,7 +178,7 @@ fn joint_limits<'py>(py: Python<'py>, leg: LegArg, x: ArrayIn<'py>) -> PyResult<
 fn foot_height<'py>(py: Python<'py>, leg: LegArg, x: ArrayIn<'py>, floor_z: f64) -> PyResult<Rows<'py>> {
     let leg = leg.index()?;
     let floor_z = finite("floor height", floor_z)?;
-    rows_out(py, gen::FOOT_HEIGHT[leg](&state(&x)?, floor_z), &gen::FOOT_HEIGHT_INPUT_COLUMNS[leg])
+    rows_out(py, gen::FOOT_HEIGHT[leg](&state(&x)?, floor_z), gen::FOOT_HEIGHT_INPUT_COLUMNS[leg])
 }
 
 /// Static stability bound of eq. 13 for toe ``leg``: ``a (x_toe - x_body) + b >= 0``.
@@ -186,7 +186,7 @@ fn foot_height<'py>(py: Python<'py>, leg: LegArg, x: ArrayIn<'py>, floor_z: f64)
 fn stability<'py>(py: Python<'py>, leg: LegArg, x: ArrayIn<'py>, a: f64, b: f64) -> PyResult<Rows<'py>> {
     let leg = leg.index()?;
     let (a, b) = (finite("stability slope", a)?, finite("stability offset", b)?);
-    rows_out(py, gen::STABILITY[leg](&state(&x)?, a, b), &gen::STABILITY_INPUT_COLUMNS[leg])
+    rows_out(py, gen::STABILITY[leg](&state(&x)?, a, b), gen::STABILITY_INPUT_COLUMNS[leg])
 }
 
 /// The body vs one edge cuboid by the smooth SAT minus its certified margin: one row;
@@ -199,9 +199,8 @@ fn body_edge<'py>(
     edge_rotation: ArrayIn<'py>,
     edge_half: ArrayIn<'py>,
 ) -> PyResult<Rows<'py>> {
-    let e = EdgeCuboid::from_box(&oriented_box(&edge_center, &edge_rotation, &edge_half)?);
-    let rows = gen::body_edge_ssat(&state(&x)?, e.center(), e.rotation(), e.half_extents());
-    rows_out(py, rows, &gen::BODY_EDGE_SSAT_INPUT_COLUMNS)
+    let (c, r, h) = EdgeCuboid::from_box(&oriented_box(&edge_center, &edge_rotation, &edge_half)?).kernel_args();
+    rows_out(py, gen::body_edge(&state(&x)?, &c, &r, &h), &gen::BODY_EDGE_INPUT_COLUMNS)
 }
 
 /// Toe ``leg``'s sphere vs one edge cuboid by the superellipsoid of eq. 11: one row.
@@ -215,9 +214,10 @@ fn toe_edge<'py>(
     edge_half: ArrayIn<'py>,
 ) -> PyResult<Rows<'py>> {
     let leg = leg.index()?;
-    let e = EdgeCuboid::from_box(&oriented_box(&edge_center, &edge_rotation, &edge_half)?);
-    let rows = gen::TOE_EDGE[leg](&state(&x)?, e.center(), e.rotation(), e.half_extents());
-    rows_out(py, rows, &gen::TOE_EDGE_INPUT_COLUMNS[leg])
+    let (c, r, h) = EdgeCuboid::from_box(&oriented_box(&edge_center, &edge_rotation, &edge_half)?).kernel_args();
+    // One kernel gives every toe's row; `lg` is laid out on the union of their columns.
+    let (lie, lg) = gen::toe_edge(&state(&x)?, &c, &r, &h);
+    rows_out(py, ([lie[leg]], [lg[leg]]), &gen::TOE_EDGE_INPUT_COLUMNS)
 }
 
 /// Toe ``leg`` inside the foothold half-plane ``normal . p_xy + offset >= 0``: one row.
@@ -235,7 +235,7 @@ fn foothold<'py>(
     let normal = fixed::<2>("normal", &normal)?;
     HalfPlane::new(normal, offset)?;
     let rows = gen::FOOTHOLD[leg](&state(&x)?, &normal, offset);
-    rows_out(py, rows, &gen::FOOTHOLD_INPUT_COLUMNS[leg])
+    rows_out(py, rows, gen::FOOTHOLD_INPUT_COLUMNS[leg])
 }
 
 /// The double integrator's time-varying row ``h = q - A sin(w t) - c`` at state
@@ -262,7 +262,7 @@ fn sine_barrier(x: ArrayIn<'_>, t: f64, amplitude: f64, omega: f64, offset: f64)
 /// The drift f(x) of x' = f(x) + g(x) u, shape (NX,).
 #[pyfunction]
 fn dynamics_f<'py>(py: Python<'py>, x: ArrayIn<'py>) -> PyResult<Array1Out<'py>> {
-    let f = gen::dynamics_f(&state(&x)?);
+    let f = gen::drift(&state(&x)?);
     all_finite("drift f(x)", &f)?;
     Ok(vector(py, &f))
 }
@@ -270,10 +270,9 @@ fn dynamics_f<'py>(py: Python<'py>, x: ArrayIn<'py>) -> PyResult<Array1Out<'py>>
 /// The input matrix g(x), dense, shape (NX, NU).
 #[pyfunction]
 fn dynamics_g<'py>(py: Python<'py>, x: ArrayIn<'py>) -> PyResult<Array2Out<'py>> {
-    let values = gen::dynamics_g(&state(&x)?);
-    all_finite("input matrix g(x)", &values)?;
-    let at = |r: usize, c: usize| gen::G_PATTERN.iter().position(|&p| p == (r, c)).map_or(0.0, |k| values[k]);
-    Ok(matrix_from_fn(py, NX, NU, at))
+    let g = gen::input_matrix(&state(&x)?);
+    all_finite("input matrix g(x)", g.as_flattened())?;
+    Ok(matrix_from_fn(py, NX, NU, |r, c| g[r][c]))
 }
 
 /// x' = f(x) + g(x) u, shape (NX,).

@@ -28,15 +28,17 @@ fn scenario(name: &str) -> PyResult<Scenario> {
     Ok(SCENARIOS[choice("scenario", name, &SCENARIOS.map(Scenario::name))?])
 }
 
-/// A scenario's stairs and nominal gait, stepped by your own loop::
+/// A scenario's stairs and nominal gait, stepped by your own loop:
 ///
-///     course = Course("step")
-///     filt = EcbfFilter()
-///     x = course.initial_state()
-///     for k in range(n):
-///         u_ref = course.plan(k * DT, x)          # also updates course.environment
-///         out = filt.update(x, u_ref, course.environment)
-///         x = x + DT * xdot(x, out.u)
+/// ```python
+/// course = Course("step")
+/// filt = EcbfFilter()
+/// x = course.initial_state()
+/// for k in range(n):
+///     u_ref = course.plan(k * DT, x)          # also updates course.environment
+///     out = filt.update(x, u_ref, course.environment)
+///     x = x + DT * xdot(x, out.u)
+/// ```
 #[pyclass(name = "Course", module = "cbfgen")]
 pub struct PyCourse {
     inner: Course,

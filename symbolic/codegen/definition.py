@@ -18,24 +18,43 @@ import symengine as se
 from ..families.rows import build_row_kernel
 from ..kernel import Kernel, RuntimeMax
 from ..lie import MAX_RELATIVE_DEGREE, LieEngine
-from ..spec import DEFAULT_POLE, Family, FamilyContext, Limits, Param, SpecError, System, check_identifier
+from ..spec import (
+    DEFAULT_POLE,
+    Constant,
+    Family,
+    FamilyContext,
+    Limits,
+    Output,
+    Param,
+    SpecError,
+    System,
+    check_identifier,
+)
 
 
 @dataclass(frozen=True)
 class FamilyDefinition:
     name: str
     doc: str
-    kernel: Kernel
+    kernels: tuple[Kernel, ...]  # one per member (``over``), else one
     degree: int
     row_names: tuple[str, ...]
-    columns: tuple[int, ...]
+    columns: tuple[tuple[int, ...], ...]  # input columns, per kernel
+    row_columns: tuple[tuple[tuple[int, ...], ...], ...]  # per kernel, per row: its own columns
     params: tuple[Param, ...]
-    count: int | None  # fixed instances; None for a capacity family
+    count: int | None  # fixed instances (per member); None for a capacity family
     capacity: bool
+    max_capacity: int | None
+    optional: bool
+    members: tuple[str, ...]  # the ``over`` labels; empty for a family that is not indexed
     time: bool
     poles: tuple[float, ...]
     slack_weight: float
     activation: float
+
+    @property
+    def indexed(self) -> bool:
+        return bool(self.members)
 
 
 @dataclass(frozen=True)
@@ -49,7 +68,11 @@ class SystemDefinition:
     input_limits: tuple[Limits, ...]
     drift: Kernel
     input_matrix: Kernel
+    input_pattern: tuple[tuple[int, int], ...]  # (state row, input column) of each non-zero of g
+    input_nonzeros: Kernel
     families: tuple[FamilyDefinition, ...]
+    outputs: tuple[Kernel, ...]
+    constants: tuple[Constant, ...]
     source: Path | None
 
     @property
@@ -58,7 +81,8 @@ class SystemDefinition:
 
     def kernels(self) -> list[Kernel]:
         """Every kernel, in the order a backend emits them."""
-        return [self.drift, self.input_matrix] + [f.kernel for f in self.families]
+        return ([self.drift, self.input_matrix, self.input_nonzeros]
+                + [k for f in self.families for k in f.kernels] + list(self.outputs))
 
 
 def _base_symbols(kernel: Kernel):
@@ -129,6 +153,39 @@ def _declare_params(k: Kernel, family: Family) -> tuple[dict[str, object], dict[
 
 def _family(system: System, family: Family) -> FamilyDefinition:
     where = f"{system.where}, family {family.name!r}"
+    if family.over is None:
+        built = [_member(system, family, where, family.name, None, None)]
+    else:
+        built = [_member(system, family, f"{where}, member {label!r}", f"{family.name}_{label}", i, label)
+                 for i, label in enumerate(family.over)]
+    degrees = {b.degree for b in built}
+    if len(degrees) != 1:
+        found = {label: b.degree for label, b in zip(family.over or [], built, strict=True)}
+        raise SpecError(f"{where}: members differ in relative degree {found}; one family has one degree "
+                        "(split it into families)")
+    row_names = {b.row_names for b in built}
+    if len(row_names) != 1:
+        raise SpecError(f"{where}: members return different row names {sorted(row_names)}; every member "
+                        "must return the same rows")
+    degree = built[0].degree
+    if family.poles is None:
+        poles = (DEFAULT_POLE,) * degree
+    elif len(family.poles) != degree:
+        raise SpecError(f"{where}: poles has {len(family.poles)} entries but the relative degree found is "
+                        f"{degree}; give {degree} poles (or omit poles for {degree} x {DEFAULT_POLE:g})")
+    else:
+        poles = tuple(family.poles)
+    return FamilyDefinition(family.name, family.doc, tuple(b.kernel for b in built), degree,
+                            built[0].row_names, tuple(b.columns for b in built),
+                            tuple(b.row_columns for b in built), tuple(family.params),
+                            family.count, family.capacity, family.max_capacity, family.optional,
+                            tuple(family.over or ()),
+                            family.time, poles, family.slack_weight, family.activation)
+
+
+def _member(system: System, family: Family, where: str, kernel_name: str, index: int | None,
+            label: str | None):
+    """One row kernel of ``family`` (of member ``label`` of an indexed family)."""
     state_set = frozenset(system.x)
     time_sym = system.time
 
@@ -137,7 +194,7 @@ def _family(system: System, family: Family) -> FamilyDefinition:
             values, param_symbols = _declare_params(k, family)
         except ValueError as exc:
             raise SpecError(f"{where}: {exc}") from exc
-        ctx = FamilyContext(where, k, eng, values, eng.time)
+        ctx = FamilyContext(where, k, eng, values, eng.time, index, label)
         rows = _rows(where, family, family.h(ctx))
         base = _base_symbols(k)
         allowed = state_set | frozenset().union(*param_symbols.values())
@@ -167,9 +224,12 @@ def _family(system: System, family: Family) -> FamilyDefinition:
         return rows
 
     time_input = ("t", "time t [s]") if family.time else None
+    doc = family.doc or f"The {family.name} family of {system.name}."
+    if label is not None:
+        doc = f"{doc}\n\nMember `{label}` of the family."
     try:
-        built = build_row_kernel(family.name, family.doc or f"The {family.name} family of {system.name}.",
-                            system.state_names, system.x, system.f, system.g, build, time_input=time_input)
+        return build_row_kernel(kernel_name, doc, system.state_names, system.x, system.f, system.g, build,
+                                time_input=time_input)
     except SpecError:
         raise
     except ValueError as exc:  # the Lie engine's: degree > MAX_RELATIVE_DEGREE, mixed degrees
@@ -181,18 +241,18 @@ def _family(system: System, family: Family) -> FamilyDefinition:
             text = f"its rows have different relative degrees; split them into families ({text})"
         raise SpecError(f"{where}: {text}") from exc
 
-    degree = built.degree
-    if family.poles is None:
-        poles = (DEFAULT_POLE,) * degree
-    elif len(family.poles) != degree:
-        raise SpecError(f"{where}: poles has {len(family.poles)} entries but the relative degree found is "
-                        f"{degree}; give {degree} poles (or omit poles for {degree} x {DEFAULT_POLE:g})")
-    else:
-        poles = tuple(family.poles)
-    return FamilyDefinition(family.name, family.doc, built.kernel, degree, built.row_names, built.columns,
-                            tuple(family.params),
-                            family.count, family.capacity, family.time, poles, family.slack_weight,
-                            family.activation)
+
+def _output(system: System, output: Output) -> Kernel:
+    k = Kernel(output.name, output.doc)
+    k.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
+    for name, value, doc in output.values:
+        if isinstance(value, list) and value and isinstance(value[0], list):
+            k.output_matrix(name, value, doc)
+        elif isinstance(value, list):
+            k.output_vector(name, value, doc)
+        else:
+            k.output_scalar(name, value, doc)
+    return k
 
 
 def define(system: System) -> SystemDefinition:
@@ -204,7 +264,15 @@ def define(system: System) -> SystemDefinition:
     g = Kernel("input_matrix", f"The input matrix g(x) of {system.name}: x' = f(x) + g(x) u.")
     g.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
     g.output_matrix("g", system.g, "g(x), one row per state, one column per input")
+    pattern = tuple((r, c) for r, row in enumerate(system.g) for c, e in enumerate(row) if e != 0)
+    nonzeros = Kernel("input_matrix_nonzeros",
+                      f"The non-zeros of g(x) of {system.name}, in `INPUT_MATRIX_PATTERN` order: what "
+                      "`xdot` multiplies, without the zeros.")
+    nonzeros.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
+    nonzeros.output_vector("g", [system.g[r][c] for r, c in pattern], "g(x) at `INPUT_MATRIX_PATTERN`")
     families = tuple(_family(system, f) for f in system.families)
+    outputs = tuple(_output(system, o) for o in system.outputs)
     return SystemDefinition(system.name, system.doc, tuple(system.state_names), tuple(system.state_docs),
                             tuple(system.input_names), tuple(system.input_docs), tuple(system.input_limits),
-                            drift, g, families, system.source)
+                            drift, g, pattern, nonzeros, families, outputs, tuple(system.constants),
+                            system.source)

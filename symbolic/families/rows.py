@@ -32,6 +32,7 @@ class RowKernel:
     degree: int
     columns: tuple[int, ...]
     row_names: tuple[str, ...]
+    row_columns: tuple[tuple[int, ...], ...]  # per row: the columns its L_g L_f^(r-1) h can touch
 
 
 def row_kernel(name: str, doc: str, state_names: Sequence[str], x: Sequence[se.Symbol],
@@ -67,4 +68,4 @@ def build_row_kernel(name: str, doc: str, state_names: Sequence[str], x: Sequenc
     k.output_matrix("lie", [list(r.lf) for r in lie], "per row: h, L_f h, ..., L_f^r h")
     k.output_matrix("lg_lf", [[r.lg.get(u, se.Integer(0)) for u in columns] for r in lie],
                     f"per row: L_g L_f^(r-1) h on the columns `{upper}_INPUT_COLUMNS`")
-    return RowKernel(k, degree, tuple(columns), tuple(r for r, _ in rows))
+    return RowKernel(k, degree, tuple(columns), tuple(r for r, _ in rows), tuple(tuple(sorted(r.lg)) for r in lie))

@@ -6,12 +6,13 @@ import pytest
 import symengine as se
 
 from symbolic.codegen.backends.rust.emitter import emit_kernel
-from symbolic.families import tachyon3
+from symbolic.codegen.definition import define
 from symbolic.generate import REPO_ROOT
 from symbolic.inputs_hash import inputs_hash
 from symbolic.kernel import Kernel
 from symbolic.lie import LieEngine, RelativeDegreeError
 from symbolic.model import MODELS_DIR, ModelError, Tachyon3, load_model
+from symbolic.systems import tachyon3 as tachyon3_spec
 
 MODEL = MODELS_DIR / "tachyon3.toml"
 
@@ -50,21 +51,23 @@ def test_constraint_without_input_dependence_is_rejected(system):
         engine(system).row(system.s["pz"] - 0.5, "origin height")  # p_z' = 0 for ever
 
 
-def _kernel_texts(system):
-    return {k.name: emit_kernel(k) for k in tachyon3.kernels(system) if isinstance(k, Kernel)}
+def _definition(model=MODEL):
+    return define(tachyon3_spec.build(model))
 
 
-def test_moving_a_hip_regenerates_exactly_the_kernels_that_depend_on_it(system, tmp_path):
+def test_moving_a_hip_regenerates_exactly_the_kernels_that_depend_on_it(tmp_path):
     text = MODEL.read_text()
     edited = text.replace("hip = [0.40, 0.40, 0.12]", "hip = [0.42, 0.40, 0.12]", 1)  # LF hip 2 cm forward
     assert edited != text
     (tmp_path / "tachyon3.toml").write_text(edited)
-    before = _kernel_texts(system)
-    after = _kernel_texts(Tachyon3(load_model(tmp_path / "tachyon3.toml")))
-    changed = {name for name in before if before[name] != after[name]}
+    before, after = _definition(), _definition(tmp_path / "tachyon3.toml")
+    texts = [{k.name: emit_kernel(k) for k in d.kernels()} for d in (before, after)]
+    changed = {name for name in texts[0] if texts[0][name] != texts[1][name]}
     assert "joint_limits_lf" in changed
-    assert "dynamics_f" in changed  # it carries the HIP_POSITIONS constant
-    assert not changed & {"joint_limits_rf", "body_edge_ssat", "toe_edge_lf", "foothold_lf"}
+    # The toes move in the hips' lateral planes: only the hip's y reaches the toe rows.
+    assert not changed & {"joint_limits_rf", "body_edge", "toe_edge", "foothold_lf", "drift"}
+    hips = [{c.name: c.value for c in d.constants}["hip_positions"] for d in (before, after)]
+    assert hips[0][0][0] == 0.40 and hips[1][0][0] == 0.42
 
 
 def test_editing_the_model_changes_the_inputs_hash(tmp_path):
@@ -115,7 +118,7 @@ def test_body_edge_row_is_the_world_frame_ssat_minus_its_margin(system):
     from symbolic.smoothing import LSE, XTANH
     from symbolic.tests.test_ssat_reference import random_rotation, reference_axes, reference_h
 
-    kernel = next(k for k in tachyon3.kernels(system) if isinstance(k, Kernel) and k.name == "body_edge_ssat")
+    kernel = next(k for k in _definition().kernels() if k.name == "body_edge")
     margin = ssat.margin_kernel(LSE, XTANH)
     rng = np.random.default_rng(8)
     m = system.model
@@ -127,7 +130,7 @@ def test_body_edge_row_is_the_world_frame_ssat_minus_its_margin(system):
         body_c = x[0:3] + rz @ np.array([x[6], 0.0, x[7]])
         body_r = rz @ ry
         ec, er, eh = rng.uniform(-1, 1, 3), random_rotation(), rng.uniform(0.02, 0.5, 3)
-        got = kernel.evaluate({"x": x, "edge_center": ec, "edge_rotation": er.flatten(), "edge_half": eh})
+        got = kernel.evaluate({"x": x, "center": ec, "rotation": er.flatten(), "half": eh})
         hb = np.array(m.body_half_extents)
         ys = reference_axes(ec, er, eh, body_c, body_r, hb, "xtanh", m.ssat_alpha, m.ssat_alpha_rot)
         want = reference_h(ys, "lse", m.ssat_alpha) - margin.evaluate(

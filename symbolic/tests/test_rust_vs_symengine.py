@@ -38,7 +38,7 @@ import numpy as np
 import pytest
 
 from symbolic.families import ssat as ssat_family
-from symbolic.generate import all_kernels
+from symbolic.generate import all_kernels, builtin_systems
 from symbolic.kernel import Kernel
 
 from .symengine_reference import SymEngineReference
@@ -62,12 +62,16 @@ RustCall = Callable[[Inputs], dict[str, np.ndarray]]
 KERNELS: dict[tuple[str, str], Kernel] = {(module, k.name): k for module, ks in all_kernels().items() for k in ks}
 
 
+SYSTEM_CONSTANTS = {c.name: c.value for d in builtin_systems() for c in d.constants}
+
+
 def constant(name: str):
+    """A kernel's constant, or a built-in system's (``hip_positions``)."""
     for k in KERNELS.values():
         for c in k.constants:
             if c.name == name:
                 return ast.literal_eval(c.value)
-    raise KeyError(name)
+    return SYSTEM_CONSTANTS[name]
 
 
 # ----------------------------------------------------------------- random inputs
@@ -90,7 +94,7 @@ def random_state(rng: np.random.Generator) -> np.ndarray:
     x[7] = rng.uniform(0.2, 0.5)
     x[8] = rng.uniform(-0.3, 0.3)
     x[9:12] = rng.uniform(-0.5, 0.5, 3)
-    hips = constant("HIP_POSITIONS")
+    hips = SYSTEM_CONSTANTS["hip_positions"]
     for leg in range(6):
         t = 12 + 4 * leg
         x[t] = x[6] + hips[leg][0] + rng.uniform(-0.3, 0.3)
@@ -104,8 +108,8 @@ def random_edge_near(rng: np.random.Generator, point: np.ndarray, spread: float)
     if rng.random() < 0.5:  # stair edges are yaw-only
         a = rng.uniform(-3, 3)
         rot = np.array([[np.cos(a), -np.sin(a), 0], [np.sin(a), np.cos(a), 0], [0, 0, 1]])
-    return {"edge_center": point + rng.uniform(-spread, spread, 3),
-            "edge_rotation": rot.ravel(), "edge_half": rng.uniform(0.02, 0.5, 3)}
+    return {"center": point + rng.uniform(-spread, spread, 3),
+            "rotation": rot.ravel(), "half": rng.uniform(0.02, 0.5, 3)}
 
 
 def ssat_inputs(rng: np.random.Generator) -> Inputs:
@@ -118,7 +122,7 @@ def ssat_inputs(rng: np.random.Generator) -> Inputs:
 def family_inputs(family: str, leg: int, rng: np.random.Generator) -> Inputs:
     x = random_state(rng)
     v: Inputs = {"x": x}
-    if family == "body_edge_ssat":
+    if family == "body_edge":
         center, _, _ = cbfgen.world_kinematics(x)
         v.update(random_edge_near(rng, np.asarray(center), 0.8))
     elif family == "toe_edge":
@@ -147,11 +151,13 @@ def domain_samplers() -> dict[tuple[str, str], Callable[[np.random.Generator], I
         for suffix in ("", "_derivatives", "_margin"):
             out[("ssat", f"ssat_{variant}{suffix}")] = ssat_inputs
     state_only = lambda rng: {"x": random_state(rng)}  # noqa: E731
-    for name in ("dynamics_f", "dynamics_g", "world_kinematics"):
+    for name in ("drift", "input_matrix", "input_matrix_nonzeros", "world_kinematics"):
         out[("tachyon3", name)] = state_only
-    out[("tachyon3", "body_edge_ssat")] = lambda rng: family_inputs("body_edge_ssat", 0, rng)
-    for family in ("joint_limits", "toe_edge", "foothold", "foot_height", "stability"):
-        for leg, leg_name in enumerate(constant("LEG_NAMES")):
+    out[("tachyon3", "body_edge")] = lambda rng: family_inputs("body_edge", 0, rng)
+    # One kernel for every toe: the edge near a random toe, so each row is exercised.
+    out[("tachyon3", "toe_edge")] = lambda rng: family_inputs("toe_edge", int(rng.integers(6)), rng)
+    for family in ("joint_limits", "foothold", "foot_height", "stability"):
+        for leg, leg_name in enumerate(constant("leg_names")):
             out[("tachyon3", f"{family}_{leg_name.lower()}")] = lambda rng, f=family, at=leg: family_inputs(f, at, rng)
     out[("double_integrator", "sine_barrier")] = sine_barrier_inputs
     return out

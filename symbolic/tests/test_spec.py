@@ -28,7 +28,7 @@ DOUBLE = REPO_ROOT / "symbolic" / "systems" / "double_integrator.py"
 def test_relative_degrees_are_found_per_family():
     planar = define(load(PLANAR))
     assert {f.name: f.degree for f in planar.families} == {"speed_limit": 1, "wall": 2}
-    assert planar.families[0].columns == (0, 1) and planar.families[1].columns == (0, 1)
+    assert planar.families[0].columns == ((0, 1),) and planar.families[1].columns == ((0, 1),)
     assert not planar.time_varying
     triple = define(load(TRIPLE))
     assert [(f.name, f.degree, f.poles) for f in triple.families] == [("position_limit", 3, (3.0, 4.0, 5.0))]
@@ -67,7 +67,7 @@ def test_several_rows_per_instance_and_let_names_made_unique():
     s.family("walls", two_walls, params={"a": (3,), "b": (3,), "yaw": ()}, count=2)
     fam = define(s).families[0]
     assert fam.row_names == ("a", "b", "floor") and fam.degree == 2 and fam.count == 2
-    names = [str(d.symbol) for d in fam.kernel.definitions]
+    names = [str(d.symbol) for d in fam.kernels[0].definitions]
     assert "t_x" in names and "t_x_2" in names and "y_max_2" in names
 
 

@@ -25,7 +25,7 @@ pub fn clarabel_solution(filter: &Tachyon3Filter, u_ref: &Input) -> Option<Input
     // P = 2 diag(w, w_δ) (upper triangular CSC of a diagonal).
     let mut p_diag: Vec<f64> = s.input_weights.iter().map(|w| 2.0 * w).collect();
     for &i in &active {
-        p_diag.push(2.0 * s.family(filter.slots()[i].family.index()).slack_weight);
+        p_diag.push(2.0 * s.family(filter.slot(i).family.index()).slack_weight);
     }
     let p = CscMatrix::new(n, n, (0..=n).collect(), (0..n).collect(), p_diag);
     let mut q = vec![0.0; n];
@@ -38,7 +38,7 @@ pub fn clarabel_solution(filter: &Tachyon3Filter, u_ref: &Input) -> Option<Input
     let mut b = vec![0.0; m];
     for (k, &i) in active.iter().enumerate() {
         let row = &filter.rows()[i];
-        let &[p1, p2] = s.family(filter.slots()[i].family.index()).poles.as_slice() else { panic!("two poles") };
+        let &[p1, p2] = s.family(filter.slot(i).family.index()).poles.as_slice() else { panic!("two poles") };
         for j in 0..NU {
             dense[k][j] = -row.lg[j];
         }
@@ -76,7 +76,7 @@ pub fn objective(filter: &Tachyon3Filter, u: &Input, u_ref: &Input) -> f64 {
     let mut cost = (0..NU).map(|j| s.input_weights[j] * (u[j] - u_ref[j]).powi(2)).sum::<f64>();
     for (i, row) in filter.rows().iter().enumerate() {
         if filter.active()[i] {
-            let f = s.family(filter.slots()[i].family.index());
+            let f = s.family(filter.slot(i).family.index());
             let &[p1, p2] = f.poles.as_slice() else { panic!("two poles") };
             let b = row.lie[2] + (p1 + p2) * row.lie[1] + p1 * p2 * row.lie[0];
             let value = (0..NU).map(|j| row.lg[j] * u[j]).sum::<f64>() + b;
@@ -109,7 +109,7 @@ pub fn kkt_violation(filter: &Tachyon3Filter, u: &Input, u_ref: &Input) -> f64 {
         if !filter.active()[i] {
             continue;
         }
-        let f = s.family(filter.slots()[i].family.index());
+        let f = s.family(filter.slot(i).family.index());
         let &[p1, p2] = f.poles.as_slice() else { panic!("two poles") };
         let b = row.lie[2] + (p1 + p2) * row.lie[1] + p1 * p2 * row.lie[0];
         let lhs = (0..NU).map(|j| row.lg[j] * u[j]).sum::<f64>() + delta[i] + b;

@@ -97,6 +97,6 @@ impl Approach {
 
     fn update_floors(&mut self) {
         let (_, _, toes) = crate::generated::tachyon3::world_kinematics(&self.x);
-        self.env.floor_z = self.stairs.floors_under(&toes);
+        self.env.set_floors(self.stairs.floors_under(&toes));
     }
 }

@@ -1,5 +1,5 @@
-//! The Tachyon 3 model's layout and dynamics, as generated from
-//! `symbolic/models/tachyon3.toml`.
+//! The Tachyon 3 model's layout and dynamics, as generated from its spec
+//! (`symbolic/systems/tachyon3.py`, numbers from `symbolic/models/tachyon3.toml`).
 //!
 //! State (36) and input (17) layouts are [`STATE_NAMES`] and [`INPUT_NAMES`]: the
 //! ground-moving origin (world position, yaw, speed, yaw rate), the origin-relative body
@@ -8,8 +8,8 @@
 use crate::error::CbfError;
 use crate::generated::tachyon3 as gen;
 pub use gen::{
-    BODY_HALF_EXTENTS, ECBF_POLES, G_PATTERN, HIP_OUTWARD, HIP_POSITIONS, HIP_RANGES, INPUT_LIMITS, INPUT_NAMES,
-    KNEE_RANGE, LEG_NAMES, NOMINAL_CLEARANCE, NU, NX, STATE_NAMES, TOE_RADIUS,
+    world_kinematics, xdot, BODY_HALF_EXTENTS, ECBF_POLES, HIP_OUTWARD, HIP_POSITIONS, HIP_RANGES, INPUT_LIMITS,
+    INPUT_MATRIX_PATTERN, INPUT_NAMES, KNEE_RANGE, LEG_NAMES, NOMINAL_CLEARANCE, NU, NX, STATE_NAMES, TOE_RADIUS,
 };
 
 /// A state vector.
@@ -51,15 +51,6 @@ pub fn state_index(name: &str) -> Option<usize> {
 /// Position of a named input in [`Input`].
 pub fn input_index(name: &str) -> Option<usize> {
     INPUT_NAMES.iter().position(|n| *n == name)
-}
-
-/// `ẋ = f(x) + g(x) u`.
-pub fn xdot(x: &State, u: &Input) -> State {
-    let mut dx = gen::dynamics_f(x);
-    for (&(row, col), g) in G_PATTERN.iter().zip(gen::dynamics_g(x)) {
-        dx[row] += g * u[col];
-    }
-    dx
 }
 
 /// The standard low posture at rest at the world origin: body underside at

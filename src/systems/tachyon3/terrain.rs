@@ -111,11 +111,11 @@ pub fn worst_case_environment(
 ) -> Result<Environment, CbfError> {
     crate::error::positive("foothold radius", foothold_radius)?;
     let mut env = Environment::new(capacity)?;
-    for k in 0..capacity.edges {
+    for k in 0..capacity.body_edge.min(capacity.toe_edge) {
         env.push_edge(stairs.edge(k)?)?;
     }
     for leg in 0..6 {
-        let n = capacity.foothold_edges[leg];
+        let n = capacity.foothold[leg];
         let planes = (0..n)
             .map(|k| {
                 let a = std::f64::consts::TAU * k as f64 / n as f64;
@@ -128,10 +128,10 @@ pub fn worst_case_environment(
             })
             .collect::<Result<Vec<_>, _>>()?;
         env.set_foothold(leg, &planes)?;
-        env.swing[leg] = true;
         let hip_x = crate::systems::tachyon3::model::HIP_POSITIONS[leg][0];
         env.stability[leg] =
             [Some(StabilityBound { a: 1.0, b: 0.25 - hip_x }), Some(StabilityBound { a: -1.0, b: 0.25 + hip_x })];
     }
+    env.set_swing([true; 6]);
     Ok(env)
 }

@@ -83,9 +83,9 @@ impl Course {
             crate::error::finite("state entry", v)?;
         }
         let (_, _, toes) = gen::world_kinematics(x);
-        self.env.floor_z = self.stairs.floors_under(&toes);
+        self.env.set_floors(self.stairs.floors_under(&toes));
         let plan = self.gait.plan(t, x)?;
-        self.env.swing = plan.swing;
+        self.env.set_swing(plan.swing);
         for (leg, strip) in plan.footholds.iter().enumerate() {
             if let Some(strip) = strip {
                 self.env.set_foothold(leg, strip)?;
@@ -129,7 +129,7 @@ impl Course {
     /// tripod swings.
     pub fn finished(&self, x: &State) -> bool {
         let stairs = &self.stairs;
-        let on_top = self.env.floor_z.iter().all(|&floor| floor >= stairs.top() - 1e-9);
+        let on_top = self.env.floors().iter().all(|&floor| floor >= stairs.top() - 1e-9);
         let (body_center, _, _) = gen::world_kinematics(x);
         let past = body_center[0] > stairs.start_x + (stairs.count - 1) as f64 * stairs.run;
         on_top && past && self.gait.swinging().is_none()
@@ -137,8 +137,7 @@ impl Course {
 }
 
 fn edge_box(edge: &EdgeCuboid) -> Result<OrientedBox, CbfError> {
-    let r = Rotation3::from_matrix_unchecked(Matrix3::from_row_slice(edge.rotation()));
-    OrientedBox::new(Vector3::from(*edge.center()), r, Vector3::from(*edge.half_extents()))
+    OrientedBox::new(edge.center, Rotation3::from_matrix_unchecked(edge.rotation), edge.half)
 }
 
 fn body_box(center: &[f64; 3], rotation: &[[f64; 3]; 3]) -> Result<OrientedBox, CbfError> {

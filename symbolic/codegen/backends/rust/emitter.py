@@ -205,6 +205,21 @@ def _rust_type(kind: str, dim: int, cols: int) -> str:
             "symmetric": f"[[f64; {dim}]; {dim}]", "matrix": f"[[f64; {cols}]; {dim}]"}[kind]
 
 
+def kernel_signature(kernel: Kernel) -> tuple[str, str]:
+    """(argument list, return type) of the kernel's Rust function."""
+    args = ", ".join(
+        f"{inp.name}: &[f64; {len(inp.symbols)}]" if inp.is_array else f"{inp.name}: f64"
+        for inp in kernel.inputs)
+    types = [_rust_type(o.kind, o.dim, o.cols) for o in kernel.outputs]
+    return args, types[0] if len(types) == 1 else "(" + ", ".join(types) + ")"
+
+
+def kernel_fn_type(kernel: Kernel) -> str:
+    """The kernel's Rust function-pointer type, e.g. ``fn(&[f64; 4]) -> [f64; 4]``."""
+    args = ", ".join(f"&[f64; {len(i.symbols)}]" if i.is_array else "f64" for i in kernel.inputs)
+    return f"fn({args}) -> {kernel_signature(kernel)[1]}"
+
+
 def emit_kernel(kernel: Kernel, attributes: Sequence[str] = ()) -> str:
     """The Rust text of one kernel: constants, then the function. ``attributes`` (outer
     attributes such as ``#[allow(...)]``) go on the function, before its ``#[inline]``."""
@@ -277,11 +292,7 @@ def emit_kernel(kernel: Kernel, attributes: Sequence[str] = ()) -> str:
     for out in kernel.outputs:
         lines.append(f"/// * `{out.name}` - {rustdoc_text(out.doc)}")
 
-    args = ", ".join(
-        f"{inp.name}: &[f64; {len(inp.symbols)}]" if inp.is_array else f"{inp.name}: f64"
-        for inp in kernel.inputs)
-    types = [_rust_type(o.kind, o.dim, o.cols) for o in kernel.outputs]
-    ret = types[0] if len(types) == 1 else "(" + ", ".join(types) + ")"
+    args, ret = kernel_signature(kernel)
     lines.extend(attributes)
     lines.append("#[inline]")
     lines.append(f"pub fn {kernel.name}({args}) -> {ret} {{")

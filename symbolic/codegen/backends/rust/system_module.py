@@ -23,7 +23,7 @@ from __future__ import annotations
 import json
 
 from ...definition import FamilyDefinition, SystemDefinition
-from .emitter import emit_kernel, float_literal, rustdoc_text
+from .emitter import emit_kernel, float_literal, kernel_fn_type, rustdoc_text
 from .kernel_table import emit_kernel_table
 
 KERNEL_ALLOWS = ("#[allow(clippy::all, clippy::pedantic, clippy::nursery, unused_parens, unused_variables, "
@@ -77,6 +77,146 @@ def _activation(value: float) -> str:
     return "f64::INFINITY" if value == float("inf") else float_literal(value)
 
 
+def _uniform(f: FamilyDefinition) -> bool:
+    """Every member kernel has one Rust type, so they fit in one table of fn pointers."""
+    return len({kernel_fn_type(k) for k in f.kernels}) == 1
+
+
+def _member_tables(w, f: FamilyDefinition) -> None:
+    """The family-level names of an indexed family: its degree, row names, members, each
+    member's input columns and (when their signatures agree) its kernels."""
+    u, first = f.name.upper(), f.kernels[0].name.upper()
+    n = len(f.members)
+    w(f"/// Relative degree of every member of `{f.name}` (found symbolically; the same for all).")
+    w(f"pub const {u}_RELATIVE_DEGREE: usize = {first}_RELATIVE_DEGREE;")
+    w(f"/// What each row of one `{f.name}` instance constrains (the same for every member).")
+    w(f"pub const {u}_ROW_NAMES: [&str; {len(f.row_names)}] = {first}_ROW_NAMES;")
+    w(f"/// The members of `{f.name}`, in order.")
+    w(f"pub const {u}_MEMBERS: [&str; {n}] = [{', '.join(_str(m) for m in f.members)}];")
+    w(f"/// Input columns of each member's kernel, in [`{u}_MEMBERS`] order.")
+    w(f"pub const {u}_INPUT_COLUMNS: [&[usize]; {n}] = "
+      f"[{', '.join(f'&{k.name.upper()}_INPUT_COLUMNS' for k in f.kernels)}];")
+    w(f"/// Input columns of each row of each member, in [`{u}_MEMBERS`] order.")
+    w(f"pub const {u}_ROW_COLUMNS: [&[&[usize]]; {n}] = "
+      f"[{', '.join(f'&{k.name.upper()}_ROW_COLUMNS' for k in f.kernels)}];")
+    if _uniform(f):
+        w(f"/// The kernels of `{f.name}`, in [`{u}_MEMBERS`] order.")
+        w("#[allow(clippy::type_complexity)] // the kernels' own signature")
+        w(f"pub const {u}: [{kernel_fn_type(f.kernels[0])}; {n}] = [{', '.join(k.name for k in f.kernels)}];")
+    w("")
+
+
+def _const_type(value: object) -> str:
+    if isinstance(value, list):
+        return f"[{_const_type(value[0])}; {len(value)}]"
+    return {str: "&str", int: "usize", float: "f64"}[type(value)]
+
+
+def _const_value(value: object) -> str:
+    if isinstance(value, list):
+        return "[" + ", ".join(_const_value(v) for v in value) + "]"
+    if isinstance(value, str):
+        return _str(value)
+    return str(value) if isinstance(value, int) else float_literal(value)
+
+
+def _params_field_type(f: FamilyDefinition, rt: str) -> str:
+    p = f"{camel(f.name)}Params"
+    if f.capacity:
+        elem = f"{rt}::system::Instances<{p}>"
+    elif f.optional:
+        elem = f"[Option<{p}>; {f.count}]"
+    else:
+        elem = f"[{p}; {f.count}]"
+    return f"[{elem}; {len(f.members)}]" if f.indexed else elem
+
+
+def _params_field_init(f: FamilyDefinition, rt: str) -> str:
+    p = f"{camel(f.name)}Params"
+    if f.capacity:
+        def make(cap: str) -> str:
+            return f'{rt}::system::Instances::with_capacity("{f.name}", {cap})?'
+        if f.indexed:
+            return "[" + ", ".join(make(f"capacity.{f.name}[{m}]") for m in range(len(f.members))) + "]"
+        return make(f"capacity.{f.name}")
+    elem = f"[None; {f.count}]" if f.optional else f"[{p}::default(); {f.count}]"
+    return f"[{elem}; {len(f.members)}]" if f.indexed else elem
+
+
+def _validate_family(w, f: FamilyDefinition) -> None:
+    """Every parameter the rows will read this cycle, checked before any row changes."""
+    if not f.params:
+        return
+    src = f"params.{f.name}"
+    if f.capacity:
+        if f.indexed:
+            w(f"        for slots in &{src} {{")
+        else:
+            w(f"        for slots in core::iter::once(&{src}) {{")
+        w("            if slots.is_enabled() {")
+        w("                for p in slots.as_slice() {")
+        w("                    p.validate()?;")
+        w("                }")
+        w("            }")
+        w("        }")
+        return
+    chain = ".iter()" + ".flatten()" * (int(f.indexed) + int(f.optional))
+    w(f"        for p in {src}{chain} {{")
+    w("            p.validate()?;")
+    w("        }")
+
+
+def _evaluate_family(w, f: FamilyDefinition) -> None:
+    """Rows of ``f`` into ``self.rows[i..]``, advancing ``i``; members unrolled, so each
+    calls its own kernel with its own fixed-size outputs."""
+    u = f.name.upper()
+    how = "capacity" if f.capacity else f"{f.count} {'optional' if f.optional else 'fixed'} instance(s)"
+    members = f" per member ({len(f.members)} members)" if f.indexed else ""
+    w(f"        // {f.name}: relative degree {f.degree}, {len(f.row_names)} row(s) per instance, {how}{members}")
+    w(f"        let n = {u}_ROW_NAMES.len();")
+    for m, k in enumerate(f.kernels):
+        src = f"params.{f.name}[{m}]" if f.indexed else f"params.{f.name}"
+        cap = f"self.capacity.{f.name}[{m}]" if f.indexed else f"self.capacity.{f.name}"
+        args = ["x"] + (["t"] if f.time else []) + [_param_arg("p", p.name, p.shape) for p in f.params]
+        call = f"self::{k.name}({', '.join(args)})"
+        cols = f"{k.name.upper()}_INPUT_COLUMNS"
+        store = (f"for ((row, lie), lg) in self.rows[i..i + n].iter_mut().zip(&lie).zip(&lg) {{ "
+                 f"row.store(lie, lg, &{cols}); }}")
+        off = "for row in &mut self.rows[i..i + n] { row.active = false; }"
+        if f.capacity:
+            w(f"        let slots = &{src};")
+            w("        let filled = if slots.is_enabled() { slots.as_slice() } else { &[] };")
+            w(f"        for slot in 0..{cap} {{")
+            w("            if let Some(p) = filled.get(slot) {")
+            w(f"                let (lie, lg) = {call};")
+            w(f"                {store}")
+            w("            } else {")
+            w(f"                {off}")
+            w("            }")
+            w("            i += n;")
+            w("        }")
+        elif f.optional:
+            w(f"        for p in &{src} {{")
+            w("            if let Some(p) = p {")
+            w(f"                let (lie, lg) = {call};")
+            w(f"                {store}")
+            w("            } else {")
+            w(f"                {off}")
+            w("            }")
+            w("            i += n;")
+            w("        }")
+        elif f.params:
+            w(f"        for p in &{src} {{")
+            w(f"            let (lie, lg) = {call};")
+            w(f"            {store}")
+            w("            i += n;")
+            w("        }")
+        else:
+            w(f"        let (lie, lg) = {call};")
+            w(f"        {store}")
+            w("        i += n;")
+
+
 class _Names:
     """Every item name the module defines, so a clash is an error here, not in rustc."""
 
@@ -104,7 +244,8 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
                        ("Params", "the parameter type"), ("Barriers", "the barrier set"),
                        ("default_settings", "the default settings"), ("Filter", "the filter type"),
                        ("KERNELS", "the kernel table"), ("kernel_table", "the kernel wrappers"),
-                       ("STATE_NAMES", "the state names"), ("INPUT_NAMES", "the input names")]:
+                       ("STATE_NAMES", "the state names"), ("INPUT_NAMES", "the input names"),
+                       ("INPUT_MATRIX_PATTERN", "the input matrix pattern"), ("xdot", "the dynamics")]:
         names.add(item, what)
     for k in d.kernels():
         names.add(k.name, f"kernel `{k.name}`")
@@ -113,6 +254,18 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
     for f in d.families:
         if f.params:
             names.add(f"{camel(f.name)}Params", f"the parameters of family `{f.name}`")
+        for k in f.kernels:
+            names.add(f"{k.name.upper()}_ROW_COLUMNS", f"the row columns of kernel `{k.name}`")
+        if f.capacity:
+            names.add(f"{f.name.upper()}_MAX_CAPACITY", f"the largest capacity of family `{f.name}`")
+        if f.indexed:
+            u = f.name.upper()
+            for suffix in ("RELATIVE_DEGREE", "ROW_NAMES", "INPUT_COLUMNS", "ROW_COLUMNS", "MEMBERS"):
+                names.add(f"{u}_{suffix}", f"a table of family `{f.name}`")
+            if _uniform(f):
+                names.add(u, f"the kernel table of family `{f.name}`")
+    for c in d.constants:
+        names.add(c.name.upper(), f"constant `{c.name}`")
 
     nx, nu = len(d.state_names), len(d.input_names)
     out: list[str] = []
@@ -175,11 +328,37 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
     w(f"pub const STATE_NAMES: [&str; NX] = [{', '.join(_str(n) for n in d.state_names)}];")
     w("/// Input layout, as `ControlAffine::INPUT_NAMES`.")
     w(f"pub const INPUT_NAMES: [&str; NU] = [{', '.join(_str(n) for n in d.input_names)}];")
+    w("/// (state row, input column) of each non-zero of g(x), as [`input_matrix_nonzeros`] returns them.")
+    pattern = ", ".join(f"({r}, {c})" for r, c in d.input_pattern)
+    w(f"pub const INPUT_MATRIX_PATTERN: [(usize, usize); {len(d.input_pattern)}] = [{pattern}];")
     w("")
+    w("/// x' = f(x) + g(x) u, multiplying only the non-zeros of g.")
+    w("pub fn xdot(x: &[f64; NX], u: &[f64; NU]) -> [f64; NX] {")
+    w("    let mut dx = drift(x);")
+    w("    for (&(row, col), g) in INPUT_MATRIX_PATTERN.iter().zip(input_matrix_nonzeros(x)) {")
+    w("        dx[row] += g * u[col];")
+    w("    }")
+    w("    dx")
+    w("}")
+    w("")
+    for c in d.constants:
+        out.extend(_doc(c.doc))
+        w("#[allow(clippy::approx_constant)] // the spec's numbers, whatever they resemble")
+        w(f"pub const {c.name.upper()}: {_const_type(c.value)} = {_const_value(c.value)};")
+    if d.constants:
+        w("")
 
     # ---------------------------------------------------------------- kernels
     for k in d.kernels():
         w(emit_kernel(k, attributes=[KERNEL_ALLOWS]))
+    for f in d.families:
+        for k, per_row in zip(f.kernels, f.row_columns, strict=True):
+            w(f"/// Input columns each row of [`{k.name}`] can touch (its own sparsity in the QP; "
+              f"`{k.name.upper()}_INPUT_COLUMNS` is their union).")
+            rows = ", ".join("&[" + ", ".join(map(str, cols)) + "]" for cols in per_row)
+            w(f"pub const {k.name.upper()}_ROW_COLUMNS: [&[usize]; {len(per_row)}] = [{rows}];")
+        if f.indexed:
+            _member_tables(w, f)
 
     # ------------------------------------------------------------- parameters
     for f in d.families:
@@ -221,6 +400,7 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
         w(f"        name: {_str(f.name)},")
         w(f"        relative_degree: {u}_RELATIVE_DEGREE,")
         w(f"        row_names: &{u}_ROW_NAMES,")
+        w(f"        members: &{u}_MEMBERS," if f.indexed else "        members: &[],")
         w(f"        defaults: {rt}::system::FamilyParams {{")
         w(f"            poles: {_poles(f, rt)},")
         w(f"            slack_weight: {float_literal(f.slack_weight)},")
@@ -231,48 +411,83 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
     w("")
 
     cap_families = [f for f in d.families if f.capacity]
+    for f in cap_families:
+        w(f"/// The largest capacity `{f.name}` accepts{' per member' if f.indexed else ''} (the spec's).")
+        w(f"pub const {f.name.upper()}_MAX_CAPACITY: usize = {f.max_capacity};")
     w("/// How many instances each capacity family has room for; fixed at construction, so the")
     w("/// row layout (and the QP's sparsity) is too.")
     w("#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]")
     w("pub struct Capacity {")
     for f in cap_families:
-        w(f"    /// Slots for `{f.name}` instances (at most `{rt}::system::MAX_INSTANCES`).")
-        w(f"    pub {f.name}: usize,")
+        if f.indexed:
+            w(f"    /// Slots for `{f.name}` instances per member, in [`{f.name.upper()}_MEMBERS`] order (each at "
+              f"most `{rt}::system::MAX_INSTANCES`).")
+            w(f"    pub {f.name}: [usize; {len(f.members)}],")
+        else:
+            w(f"    /// Slots for `{f.name}` instances (at most `{rt}::system::MAX_INSTANCES`).")
+            w(f"    pub {f.name}: usize,")
     w("}")
     w("")
 
+    w("impl Capacity {")
+    w("    /// `Ok(())` when every count is within its family's `*_MAX_CAPACITY`.")
+    w("    ///")
+    w("    /// # Errors")
+    w(f"    /// [`{rt}::error::CbfError::TooLarge`] naming the family.")
+    w(f"    pub fn validate(&self) -> Result<(), {rt}::error::CbfError> {{")
+    for f in cap_families:
+        u = f.name.upper()
+        counts = ([f"self.{f.name}[{m}]" for m in range(len(f.members))] if f.indexed else [f"self.{f.name}"])
+        for cap in counts:
+            w(f"        if {cap} > {u}_MAX_CAPACITY {{")
+            w(f"            return Err({rt}::error::CbfError::TooLarge {{ what: {_str(f.name + ' capacity')}, "
+              f"value: {cap}, max: {u}_MAX_CAPACITY }});")
+            w("        }")
+    w("        Ok(())")
+    w("    }")
+    w("}")
+    w("")
     w("/// Every family's runtime instances: what [`Barriers`] reads besides the state and time.")
     w("#[derive(Debug, Clone, PartialEq)]")
     w("pub struct Params {")
     for f in d.families:
+        if not f.params:
+            continue
+        per = f" per member, in [`{f.name.upper()}_MEMBERS`] order" if f.indexed else ""
         if f.capacity:
-            w(f"    /// The `{f.name}` instances, filled at run time up to [`Capacity::{f.name}`].")
-            w(f"    pub {f.name}: {rt}::system::Instances<{camel(f.name)}Params>,")
-        elif f.params:
-            w(f"    /// The {f.count} `{f.name}` instance(s), always active.")
-            w(f"    pub {f.name}: [{camel(f.name)}Params; {f.count}],")
+            what = f"The `{f.name}` instances{per}, filled at run time up to [`Capacity::{f.name}`]."
+        elif f.optional:
+            what = f"The {f.count} `{f.name}` instance(s){per}; `None` switches one off."
+        else:
+            what = f"The {f.count} `{f.name}` instance(s){per}, always active."
+        w(f"    /// {what}")
+        w(f"    pub {f.name}: {_params_field_type(f, rt)},")
     w("}")
     w("")
     w("impl Params {")
-    w("    /// Default (zero) fixed instances and empty capacity families sized for `capacity`.")
+    w("    /// Default (zero) fixed instances, optional ones off, and empty capacity families sized")
+    w("    /// for `capacity`.")
     w("    ///")
     w("    /// # Errors")
-    w(f"    /// [`{rt}::error::CbfError::TooLarge`] for a capacity above `{rt}::system::MAX_INSTANCES`.")
+    w(f"    /// [`{rt}::error::CbfError::TooLarge`] for a capacity above its family's maximum.")
     w(f"    pub fn new(capacity: Capacity) -> Result<Self, {rt}::error::CbfError> {{")
-    if not cap_families:
-        w("        let _ = capacity;")
+    w("        capacity.validate()?;")
     w("        Ok(Self {")
     for f in d.families:
-        if f.capacity:
-            w(f'            {f.name}: {rt}::system::Instances::with_capacity("{f.name}", capacity.{f.name})?,')
-        elif f.params:
-            w(f"            {f.name}: [{camel(f.name)}Params::default(); {f.count}],")
+        if f.params:
+            w(f"            {f.name}: {_params_field_init(f, rt)},")
     w("        })")
     w("    }")
     w("")
     w("    /// The capacities these parameters were sized for.")
     w("    pub fn capacity(&self) -> Capacity {")
-    w("        Capacity {" + ", ".join(f"{f.name}: self.{f.name}.capacity()" for f in cap_families) + "}")
+    fields = []
+    for f in cap_families:
+        if f.indexed:
+            fields.append(f"{f.name}: core::array::from_fn(|m| self.{f.name}[m].capacity())")
+        else:
+            fields.append(f"{f.name}: self.{f.name}.capacity()")
+    w("        Capacity {" + ", ".join(fields) + "}")
     w("    }")
     w("}")
     w("")
@@ -292,25 +507,36 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
     w("    /// Lay out the rows for `capacity`; every row starts inactive.")
     w("    ///")
     w("    /// # Errors")
-    w(f"    /// [`{rt}::error::CbfError::TooLarge`] for a capacity above `{rt}::system::MAX_INSTANCES`.")
+    w(f"    /// [`{rt}::error::CbfError::TooLarge`] for a capacity above its family's maximum.")
+    w("    #[allow(clippy::needless_range_loop)] // the loops mirror the layout's nesting")
     w(f"    pub fn new(capacity: Capacity) -> Result<Self, {rt}::error::CbfError> {{")
+    w("        capacity.validate()?;")
+    fixed_rows = sum(f.count * len(f.row_names) * max(1, len(f.members)) for f in d.families if not f.capacity)
+    cap_terms = []
     for f in cap_families:
-        w(f"        if capacity.{f.name} > {rt}::system::MAX_INSTANCES {{")
-        w(f"            return Err({rt}::error::CbfError::TooLarge {{ what: {_str(f.name)}, "
-          f"value: capacity.{f.name}, max: {rt}::system::MAX_INSTANCES }});")
-        w("        }")
-    fixed_rows = sum(f.count * len(f.row_names) for f in d.families if not f.capacity)
-    cap_rows = " + ".join(f"capacity.{f.name}" + (f" * {len(f.row_names)}" if len(f.row_names) > 1 else "")
-                          for f in cap_families)
-    total = " + ".join(([str(fixed_rows)] if fixed_rows else []) + ([cap_rows] if cap_rows else [])) or "0"
+        per = f" * {len(f.row_names)}" if len(f.row_names) > 1 else ""
+        if f.indexed:
+            cap_terms.append(f"capacity.{f.name}.iter().sum::<usize>(){per}")
+        else:
+            cap_terms.append(f"capacity.{f.name}{per}")
+    total = " + ".join(([str(fixed_rows)] if fixed_rows else []) + cap_terms) or "0"
     w(f"        let mut layout = Vec::with_capacity({total});")
     for f in d.families:
         u = f.name.upper()
-        count = f"capacity.{f.name}" if f.capacity else str(f.count)
-        w(f"        for instance in 0..{count} {{")
-        w(f"            for row in 0..{u}_ROW_NAMES.len() {{")
-        w(f"                layout.push({rt}::system::RowLayout {{ family: family::{u}, instance, row, "
-          f"columns: &{u}_INPUT_COLUMNS }});")
+        if f.indexed:
+            count = f"capacity.{f.name}[member]" if f.capacity else str(f.count)
+            w(f"        for member in 0..{len(f.members)} {{")
+            columns = f"{u}_ROW_COLUMNS[member][row]"
+        else:
+            count = f"capacity.{f.name}" if f.capacity else str(f.count)
+            w("        {")
+            w("            let member = 0;")
+            columns = f"{u}_ROW_COLUMNS[row]"
+        w(f"            for instance in 0..{count} {{")
+        w(f"                for row in 0..{u}_ROW_NAMES.len() {{")
+        w(f"                    layout.push({rt}::system::RowLayout {{ family: family::{u}, member, instance, row, "
+          f"columns: {columns} }});")
+        w("                }")
         w("            }")
         w("        }")
     w(f"        let rows = vec![{rt}::system::Row::ZERO; layout.len()];")
@@ -350,45 +576,10 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
     else:
         w("        let _ = t; // no family is time-varying")
     for f in d.families:
-        if f.capacity:
-            w(f"        for p in params.{f.name}.as_slice() {{")
-            w("            p.validate()?;")
-            w("        }")
-        elif f.params:
-            w(f"        for p in &params.{f.name} {{")
-            w("            p.validate()?;")
-            w("        }")
+        _validate_family(w, f)
     w("        let mut i = 0;")
     for f in d.families:
-        u = f.name.upper()
-        args = ["x"] + (["t"] if f.time else []) + [_param_arg("p", p.name, p.shape) for p in f.params]
-        call = f"self::{f.name}({', '.join(args)})"
-        store = (f"for ((row, lie), lg) in self.rows[i..i + n].iter_mut().zip(&lie).zip(&lg) {{ "
-                 f"row.store(lie, lg, &{u}_INPUT_COLUMNS); }}")
-        w(f"        // {f.name}: relative degree {f.degree}, {len(f.row_names)} row(s) per instance, "
-          f"{'capacity' if f.capacity else f'{f.count} fixed instance(s)'}")
-        w(f"        let n = {u}_ROW_NAMES.len();")
-        if f.capacity:
-            w(f"        let filled = params.{f.name}.as_slice();")
-            w(f"        for slot in 0..self.capacity.{f.name} {{")
-            w("            if let Some(p) = filled.get(slot) {")
-            w(f"                let (lie, lg) = {call};")
-            w(f"                {store}")
-            w("            } else {")
-            w("                for row in &mut self.rows[i..i + n] { row.active = false; }")
-            w("            }")
-            w("            i += n;")
-            w("        }")
-        elif f.params:
-            w(f"        for p in &params.{f.name} {{")
-            w(f"            let (lie, lg) = {call};")
-            w(f"            {store}")
-            w("            i += n;")
-            w("        }")
-        else:
-            w(f"        let (lie, lg) = {call};")
-            w(f"        {store}")
-            w("        i += n;")
+        _evaluate_family(w, f)
     w("        debug_assert_eq!(i, self.rows.len());")
     w("        Ok(())")
     w("    }")

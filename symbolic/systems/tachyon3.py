@@ -1,0 +1,160 @@
+"""Tachyon 3 (the reference paper's hexapod on wheels) as a system spec.
+
+The robot's numbers live in ``symbolic/models/tachyon3.toml``; :mod:`symbolic.model`
+reads them and builds the kinematics (the ground-moving origin, the origin-relative body
+and six toes in their legs' lateral planes, paper section II-B). This file declares what
+the generator needs from them: the states and inputs, x' = f(x) + g(x) u, the six ECBF
+constraint families of the paper's section IV, the world kinematics the simulation
+checks clearance with, and the constants its scenario code uses.
+
+Row order (the filter's QP rows): joint limits (4 per leg), foot height (1 per leg),
+static stability (lower and upper per leg, each optional), body-edge SSAT (1 per edge
+slot), toe-edge superellipsoid (one row per toe, per edge slot), foothold half-planes
+(per leg, its capacity). Per-leg families are indexed by the legs (``over``), so each leg
+keeps its own kernel with its hip baked in.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import symengine as se
+
+from symbolic.families.ssat import certified_margin, relative_pose, separating_axes
+from symbolic.model import Leg, Tachyon3, load_model, load_tachyon3
+from symbolic.smoothing import LSE, XTANH
+from symbolic.spec import System
+
+AXES = "xyz"
+# Largest capacities: 1025 edge cuboids make 7175 collision rows, far beyond what a 1 ms
+# QP can take (the paper's worst case has 20); 256 half-planes per foothold polygon.
+MAX_EDGES = 1025
+MAX_FOOTHOLD_EDGES = 256
+EDGE_PARAMS = {
+    "center": ((3,), "edge cuboid centre, world frame [m]"),
+    "rotation": ((3, 3), "edge cuboid rotation (columns = its axes in the world frame)"),
+    "half": ((3,), "edge cuboid half extents [m]"),
+}
+
+
+def _toe_world(p, robot: Tachyon3, leg: Leg) -> list[se.Symbol]:
+    return [p.let(f"toe_{c}", e) for c, e in zip(AXES, robot.toe_world(leg), strict=True)]
+
+
+def build(model: Path | None = None) -> System:
+    """The system from ``model`` (default: ``symbolic/models/tachyon3.toml``)."""
+    robot = load_tachyon3() if model is None else Tachyon3(load_model(model))
+    m = robot.model
+    legs = {leg.name.lower(): leg for leg in m.legs}
+    members = list(legs)
+
+    s = System("tachyon3", doc="The Tachyon 3 model (symbolic/models/tachyon3.toml): a hexapod on wheels "
+                               "climbing stairs, with the six ECBF families of the paper's section IV.")
+    s.states(robot.state_names)
+    s.inputs(robot.input_names, limits=[(-lim, lim) for lim in m.input_limits])
+    s.dynamics(f=robot.f, g=robot.g)
+    poles = list(m.ecbf_poles)
+
+    # ------------------------------------------------------------- families
+    def joint_limits(p):
+        leg = legs[p.label]
+        dx, dz = robot.leg_vector(leg)
+        dx, dz = p.let("leg_dx", dx), p.let("leg_dz", dz)
+        knee = p.let("knee", robot.knee_length(dx, dz))
+        hip = p.let("hip", robot.hip_angle(leg, dx, dz))
+        return [("knee_min", knee - m.knee_min), ("knee_max", m.knee_max - knee),
+                ("hip_min", hip - leg.hip_min), ("hip_max", leg.hip_max - hip)]
+
+    s.family("joint_limits", joint_limits, over=members, poles=poles,
+             doc=f"Joint limits (eq. 4-6): knee length in [{m.knee_min}, {m.knee_max}] m, hip angle "
+                 "within the leg's range (model file).")
+
+    def foot_height(p):
+        toe = _toe_world(p, robot, legs[p.label])
+        return [("foot_height", toe[2] - m.toe_radius - p.floor_z)]
+
+    s.family("foot_height", foot_height, over=members, poles=poles,
+             params={"floor_z": ((), "height of the floor plane under the toe, world frame [m]")},
+             doc="Toe above the floor plane: wheel bottom height minus floor height.")
+
+    def stability(p):
+        t = p.label
+        return [("stability", p.a * (robot.s[f"{t}_x"] - robot.s["bx"]) + p.b)]
+
+    s.family("stability", stability, over=members, count=2, optional=True, poles=poles,
+             params={"a": ((), "slope a_i of eq. 13 (+1 / -1 for lower / upper bounds)"),
+                     "b": ((), "offset b_i of eq. 13 [m]")},
+             doc="Approximate static stability of the toe vs the body (eq. 13): a (x_toe - x_body) + b >= 0, "
+                 "origin frame; instance 0 is the lower bound, 1 the upper.")
+
+    alpha, alpha_rot = se.RealDouble(m.ssat_alpha), se.RealDouble(m.ssat_alpha_rot)
+    body_half = [se.RealDouble(v) for v in m.body_half_extents]
+
+    def body_edge(p):
+        pos = [p.let(f"body_{c}", e) for c, e in zip(AXES, robot.body_position_world(), strict=True)]
+        rb = robot.body_rotation_world()
+        rb = [[p.let(f"body_r{i}{j}", rb[i][j]) for j in range(3)] for i in range(3)]
+        # Box A = the edge cuboid, box B = the body: the SSAT formulation in A's frame.
+        t, rot = relative_pose(p.let, p.center, p.rotation, pos, rb)
+        axes = separating_axes(t, rot, p.half, body_half, XTANH, alpha, alpha_rot, p.let)
+        # Axis values, and below the LSE's exponentials and sum, as lets: the engine then
+        # carries per-axis rates (y', y'') and L_f^2 h costs O(15), not a dense Hessian
+        # over the twelve pose intermediates or an n^2 expansion of the smooth max.
+        ys = [p.let(f"y_{i}", y) for i, (y, _) in enumerate(axes)]
+        shift = p.runtime_max("y_max", ys)
+        # h - margin >= 0 certifies that the exact body and edge cuboid do not overlap.
+        return [("body_edge", LSE(ys, alpha, shift, p.let) - certified_margin(p, LSE, axes, alpha))]
+
+    s.family("body_edge", body_edge, capacity=MAX_EDGES, params=EDGE_PARAMS, poles=poles, activation=0.5,
+             doc="Body vs edge cuboid by the smooth SAT (eq. 10), minus its certified margin: h >= 0 proves the "
+                 f"boxes do not overlap. alpha = {m.ssat_alpha}, alpha_rot = {m.ssat_alpha_rot}. Active while "
+                 "h < 0.5 m.")
+
+    power = 2 * m.superellipsoid_n
+
+    def toe_edge(p):
+        rows = []
+        for name, leg in legs.items():
+            toe = _toe_world(p, robot, leg)
+            rel = [p.let(f"rel_{AXES[i]}", se.Add(*[p.rotation[q][i] * (toe[q] - p.center[q]) for q in range(3)]))
+                   for i in range(3)]
+            # The sphere is folded into the cuboid: each half extent grows by the toe radius.
+            rows.append((name, se.Add(*[(rel[i] / (p.half[i] + m.toe_radius)) ** power for i in range(3)]) - 1))
+        return rows
+
+    s.family("toe_edge", toe_edge, capacity=MAX_EDGES, params=EDGE_PARAMS, poles=poles, activation=15.0,
+             doc=f"Every toe sphere vs an edge cuboid by superellipsoid (eq. 11), exponent {power}: one row per "
+                 "leg. Active while h < 15 (the toe within about twice the inflated half extent).")
+
+    def foothold(p):
+        toe = _toe_world(p, robot, legs[p.label])
+        return [("foothold", p.normal[0] * toe[0] + p.normal[1] * toe[1] + p.offset)]
+
+    s.family("foothold", foothold, over=members, capacity=MAX_FOOTHOLD_EDGES, poles=poles,
+             params={"normal": ((2,), "inward normal a of the foothold edge (world xy)"),
+                     "offset": ((), "offset b of the edge: the row is a . p_xy + b >= 0 [m]")},
+             doc="Convex foothold half-space on the toe's world xy (eq. 12); switch a leg's set off while it "
+                 "stands.")
+
+    # ------------------------------------------------------ outputs, constants
+    s.output("world_kinematics", [
+        ("body_center", robot.body_position_world(), "body box centre [m]"),
+        ("body_rotation", robot.body_rotation_world(), "body rotation (columns = body axes)"),
+        ("toes", [robot.toe_world(leg) for leg in m.legs], "toe sphere centres [m], one row per leg"),
+    ], doc="Body pose and toe sphere centres in the world frame.")
+    for name, value, doc in [
+        ("leg_names", [leg.name for leg in m.legs], "Legs, in the order of the toe blocks."),
+        ("body_half_extents", list(m.body_half_extents), "Body box half extents [m]."),
+        ("nominal_clearance", m.nominal_clearance, "Body underside above ground in the standard posture [m]."),
+        ("toe_radius", m.toe_radius, "Toe sphere radius [m]."),
+        ("knee_range", [m.knee_min, m.knee_max], "Knee length limits [m]."),
+        ("hip_positions", [list(leg.hip) for leg in m.legs], "Hip mounts, body frame [m]."),
+        ("hip_ranges", [[leg.hip_min, leg.hip_max] for leg in m.legs], "Hip angle limits [rad], positive outward."),
+        ("hip_outward", [leg.outward for leg in m.legs], "+1 where outward is forward, -1 backward."),
+        ("ssat_alpha", [m.ssat_alpha, m.ssat_alpha_rot], "Body SSAT sharpness (alpha, alpha_rot)."),
+        ("superellipsoid_n", m.superellipsoid_n, "Toe-edge superellipsoid exponent is 2N."),
+        ("ecbf_poles", list(m.ecbf_poles), "Default ECBF poles [1/s]."),
+        ("input_limits", list(m.input_limits), "Input magnitude limits, INPUT_NAMES order."),
+    ]:
+        s.constant(name, value, doc)
+    return s
