@@ -468,7 +468,7 @@ fn regenerate_command(generator: &Path, spec: &Path, dir: &Path, runtime: &str) 
     }
     format!(
         "PYTHONPATH={} python3 -m symbolic generate {} --out {} --runtime-crate {runtime}",
-        word(generator),
+        word(&generator.canonicalize().unwrap_or_else(|_| generator.to_path_buf())),
         word(spec),
         word(dir)
     )
