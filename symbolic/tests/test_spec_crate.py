@@ -118,12 +118,18 @@ def test_checked_in_mode_writes_beside_the_crate_and_builds_without_python_while
     allowed = _cargo(crate, no_python, "build", "--release", allow_stale=True)
     assert allowed.returncode == 0, allowed.stderr[-3000:]
     assert "CBFGEN_ALLOW_STALE=1: building with the stale" in allowed.stderr
-    # With Python the edit reruns the build script, which regenerates the file.
+    # With Python the file is regenerated: only its inputs hash changes.
     third = _cargo(crate, sys.executable, "build", "--release")
     assert third.returncode == 0, third.stderr[-3000:]
     regenerated = written.read_text()
     assert regenerated.splitlines()[1] != text.splitlines()[1]
     assert regenerated.splitlines()[2:] == text.splitlines()[2:]
+    # The data file alone changing (nothing else, not the environment) reruns the build
+    # script: the generator's `depends` lines reached Cargo.
+    limits.write_text("p_max = 3.0\n")
+    fourth = _cargo(crate, sys.executable, "build", "--release")
+    assert fourth.returncode == 0, fourth.stderr[-3000:]
+    assert written.read_text().splitlines()[1] not in (text.splitlines()[1], regenerated.splitlines()[1])
     # A sibling module's edit makes the file stale too.
     model = spec / "triple_integrator_model.py"
     model.write_text(model.read_text() + "\n# edited\n")
