@@ -49,7 +49,8 @@ fn main() {
     }
 }
 
-/// Files the generator reads; keep this rule identical to symbolic/inputs_hash.py.
+/// Files the generator reads; keep this rule identical to symbolic/inputs_hash.py (and to
+/// cbfgen-build/src/inputs_hash.rs, which checks checked-in spec files without Python).
 fn input_files(root: &Path) -> Vec<PathBuf> {
     fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
         let Ok(entries) = fs::read_dir(dir) else { return };

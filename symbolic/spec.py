@@ -584,23 +584,117 @@ class System:
         if not self.families:
             raise SpecError(f"{self.where}: no barrier families declared")
 
+    # ----------------------------------------------------------- dependencies
+    def depends_on(self, *paths: str | Path) -> list[Path]:
+        """Name data files the spec reads (a TOML with the robot's numbers, a table, ...):
+        each becomes part of the generated file's inputs hash, and of the build script's
+        rerun list, so editing one regenerates the system. A relative path is relative to
+        the spec file's folder, an absolute one is taken as it is. Modules the spec imports
+        from its own folder tree are tracked without this (see :func:`load`).
+
+        Each path must name an existing file; that is checked once the spec's location is
+        known (by :func:`load`, after ``build()``, or at once on a loaded system). Returns
+        every data file named so far, resolved, once the location is known ([] before)."""
+        named: list[Path] = self.__dict__.setdefault("_depends_on", [])
+        for p in paths:
+            try:
+                path = Path(p)
+            except TypeError:
+                raise SpecError(f"{self.where}: depends_on takes file paths (str or Path), got {p!r}") from None
+            if "\n" in str(path) or "\r" in str(path):
+                raise SpecError(f"{self.where}: depends_on({str(path)!r}): a path may not contain a line break")
+            named.append(path)
+        if self.source is None:
+            return []
+        folder = Path(self.source).resolve().parent
+        files = []
+        for path in named:
+            file = (folder / path).resolve()
+            if not file.is_file():
+                raise SpecError(f"{self.where}: depends_on({str(path)!r}): {file} is not a file (a relative "
+                                f"path is relative to the spec's folder, {folder})")
+            files.append(file)
+        return files
+
 
 def load(path: str | Path) -> System:
-    """Import the spec file at ``path`` and call its ``build()``."""
+    """Import the spec file at ``path`` and call its ``build()``.
+
+    The spec's folder is first on ``sys.path`` meanwhile, so the spec can import modules
+    kept beside it (``from my_robot_model import ...``, or a package folder there). The
+    files of the modules it imports from its own folder tree, and the data files it names
+    with :meth:`System.depends_on`, become ``system.dependencies``: resolved paths, sorted,
+    without the spec itself. Files the package hash covers (``symbolic/``) and installed
+    or standard-library modules are not dependencies. Each load imports the folder's
+    modules afresh and takes them out of ``sys.modules`` again afterwards, so an edited
+    module, or a second spec in the same folder, is seen as it is; no bytecode is written
+    beside the spec."""
+    import os
+    import sys
+    import sysconfig
+
+    from .inputs_hash import HASHED_SUFFIXES, SKIPPED_DIRS
+
     path = Path(path)
     if not path.is_file():
         raise SpecError(f"spec {path}: no such file")
+    spec_file = path.resolve()
+    folder = spec_file.parent
+    package = Path(__file__).resolve().parent
+    installed = [Path(p).resolve() for key, p in sysconfig.get_paths().items()
+                 if key in ("stdlib", "platstdlib", "purelib", "platlib")]
+
+    def local_file(module: object) -> Path | None:
+        """The module's file when it is one of the spec's dependencies."""
+        name = getattr(module, "__file__", None)
+        if not isinstance(name, str) or not name:
+            return None
+        file = Path(os.path.abspath(name)).resolve()
+        if file == spec_file or not file.is_relative_to(folder) or not file.is_file():
+            return None
+        if {"site-packages", "dist-packages"} & set(file.parts) or any(file.is_relative_to(d) for d in installed):
+            return None
+        if file.is_relative_to(package):
+            dirs = file.relative_to(package.parent).parts[:-1]
+            if file.name.endswith(HASHED_SUFFIXES) and not any(d in SKIPPED_DIRS or d.startswith(".") for d in dirs):
+                return None  # hashed with the package
+        return file
+
+    # Modules of the folder imported earlier (a previous load, the caller) are set aside,
+    # so the spec's imports run again and are seen.
+    set_aside = {name: module for name, module in list(sys.modules.items())
+                 if name != "__main__" and local_file(module) is not None}
+    for name in set_aside:
+        del sys.modules[name]
+    before = set(sys.modules)
     module_name = f"cbfgen_spec_{re.sub(r'[^0-9a-zA-Z_]', '_', path.stem)}"
     loader_spec = importlib.util.spec_from_file_location(module_name, path)
     if loader_spec is None or loader_spec.loader is None:
+        sys.modules.update(set_aside)
         raise SpecError(f"spec {path}: cannot be imported as a Python file")
     module = importlib.util.module_from_spec(loader_spec)
-    loader_spec.loader.exec_module(module)
-    build = getattr(module, "build", None)
-    if not callable(build):
-        raise SpecError(f"spec {path}: defines no build() function")
-    system = build()
+    imported: set[Path] = set()
+    sys.path.insert(0, str(folder))
+    write_bytecode, sys.dont_write_bytecode = sys.dont_write_bytecode, True
+    importlib.invalidate_caches()
+    try:
+        loader_spec.loader.exec_module(module)
+        build = getattr(module, "build", None)
+        if not callable(build):
+            raise SpecError(f"spec {path}: defines no build() function")
+        system = build()
+    finally:
+        sys.dont_write_bytecode = write_bytecode
+        if str(folder) in sys.path:
+            sys.path.remove(str(folder))
+        for name in [n for n in sys.modules if n not in before]:
+            file = local_file(sys.modules[name])
+            if file is not None:
+                imported.add(file)
+                del sys.modules[name]
+        sys.modules.update(set_aside)
     if not isinstance(system, System):
         raise SpecError(f"spec {path}: build() returned {type(system).__name__}, not a System")
     system.source = path
+    system.dependencies = sorted(imported | set(system.depends_on()))
     return system

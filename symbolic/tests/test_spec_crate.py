@@ -33,10 +33,13 @@ def _crate(tmp_path: Path, build_rs: str | None = None, lib_rs: str | None = Non
     return crate
 
 
-def _cargo(crate: Path, python: str, *args: str) -> subprocess.CompletedProcess:
+def _cargo(crate: Path, python: str, *args: str, allow_stale: bool = False) -> subprocess.CompletedProcess:
     """Cargo in ``crate`` with ``python`` as the generator's interpreter; the target dir is
     shared across runs (a cold build of cbfgen takes about a minute, a warm one seconds)."""
     env = {**os.environ, "CARGO_TARGET_DIR": str(REPO_ROOT / "target" / "spec-crates"), "CBFGEN_PYTHON": python}
+    env.pop("CBFGEN_ALLOW_STALE", None)
+    if allow_stale:
+        env["CBFGEN_ALLOW_STALE"] = "1"
     venv_bin = REPO_ROOT / ".venv" / "bin"
     if venv_bin.is_dir():
         env["PATH"] = f"{venv_bin}{os.pathsep}{env.get('PATH', '')}"  # cmake, for OSQP's C sources
@@ -55,7 +58,7 @@ def test_without_python_the_build_fails_with_one_line_naming_the_fix(tmp_path):
 CHECKED_IN_BUILD = """
 fn main() {
     cbfgen_build::Generator::new()
-        .spec("@REPO@/symbolic/tests/specs/triple_integrator.py")
+        .spec("spec/robot.py")
         .checked_in("generated")
         .build();
 }
@@ -67,19 +70,70 @@ pub mod triple_integrator {
     include!("../generated/triple_integrator.rs");
 }
 """
+# The crate's spec imports its model from a sibling module and names a data file it
+# depends on: both are the generated file's inputs.
+CHECKED_IN_SPEC = """from triple_integrator_model import build as build_model
+
+
+def build():
+    s = build_model()
+    s.depends_on("limits.toml")
+    return s
+"""
 
 
 @pytest.mark.skipif(shutil.which("cargo") is None, reason="needs cargo")
-def test_checked_in_mode_writes_beside_the_crate_and_builds_without_python(tmp_path):
+def test_checked_in_mode_writes_beside_the_crate_and_builds_without_python_while_current(tmp_path):
     crate = _crate(tmp_path, CHECKED_IN_BUILD, CHECKED_IN_LIB)
+    spec = crate / "spec"
+    spec.mkdir()
+    (spec / "robot.py").write_text(CHECKED_IN_SPEC)
+    shutil.copy(FIXTURE.parent / "specs" / "triple_integrator.py", spec / "triple_integrator_model.py")
+    limits = spec / "limits.toml"
+    limits.write_text("p_max = 1.0\n")
+    no_python = str(tmp_path / "no-such-python")
+
     first = _cargo(crate, sys.executable, "build", "--release")
     assert first.returncode == 0, first.stderr[-3000:]
     written = crate / "generated" / "triple_integrator.rs"
-    assert written.read_text().startswith("// @generated")
-    # Without Python the committed file is used as it is, with a warning saying so.
-    second = _cargo(crate, str(tmp_path / "no-such-python"), "build", "--release")
+    text = written.read_text()
+    assert text.startswith("// @generated")
+    assert "// depends: limits.toml\n// depends: triple_integrator_model.py\n" in text
+    assert not list(spec.rglob("__pycache__"))  # nothing written beside the spec
+    # Without Python the committed file is checked, found current, and used with a warning.
+    second = _cargo(crate, no_python, "build", "--release")
     assert second.returncode == 0, second.stderr[-3000:]
     assert "using the checked-in files" in second.stderr
+
+    # A data file the spec depends on changes: without Python the build stops with one
+    # line giving the command that regenerates the file...
+    limits.write_text("p_max = 2.0\n")
+    stale = _cargo(crate, no_python, "build", "--release")
+    assert stale.returncode != 0
+    errors = [line for line in stale.stderr.splitlines() if line.startswith("error")]
+    assert errors and "triple_integrator.rs is stale" in errors[0], stale.stderr[-3000:]
+    assert "python3 -m symbolic generate spec/robot.py --out generated --runtime-crate cbfgen" in errors[0]
+    assert "CBFGEN_ALLOW_STALE=1" in errors[0]
+    # ...unless the stale file is allowed, with a warning.
+    allowed = _cargo(crate, no_python, "build", "--release", allow_stale=True)
+    assert allowed.returncode == 0, allowed.stderr[-3000:]
+    assert "CBFGEN_ALLOW_STALE=1: building with the stale" in allowed.stderr
+    # With Python the file is regenerated: only its inputs hash changes.
+    third = _cargo(crate, sys.executable, "build", "--release")
+    assert third.returncode == 0, third.stderr[-3000:]
+    regenerated = written.read_text()
+    assert regenerated.splitlines()[1] != text.splitlines()[1]
+    assert regenerated.splitlines()[2:] == text.splitlines()[2:]
+    # The data file alone changing (nothing else, not the environment) reruns the build
+    # script: the generator's `depends` lines reached Cargo.
+    limits.write_text("p_max = 3.0\n")
+    fourth = _cargo(crate, sys.executable, "build", "--release")
+    assert fourth.returncode == 0, fourth.stderr[-3000:]
+    assert written.read_text().splitlines()[1] not in (text.splitlines()[1], regenerated.splitlines()[1])
+    # A sibling module's edit makes the file stale too.
+    model = spec / "triple_integrator_model.py"
+    model.write_text(model.read_text() + "\n# edited\n")
+    assert _cargo(crate, no_python, "build", "--release").returncode != 0
 
 
 @pytest.mark.skipif(shutil.which("cargo") is None, reason="needs cargo")
