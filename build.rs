@@ -6,14 +6,12 @@
 //! the project venv, else `python3`. A fresh clone has current files and needs no
 //! Python at all.
 
-use sha2::{Digest, Sha256};
+use cbfgen_build::inputs_hash::{package_files, package_hash};
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 const HASH_PREFIX: &str = "// inputs-sha256: ";
-const HASHED_SUFFIXES: [&str; 3] = [".py", ".toml", ".txt"];
-const SKIPPED_DIRS: [&str; 2] = ["tests", "__pycache__"];
 
 fn main() {
     let root = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets this"));
@@ -22,11 +20,18 @@ fn main() {
     if !symbolic.is_dir() {
         return; // a packaged crate: generated/ is all there is
     }
-    let inputs = input_files(&root);
-    for file in &inputs {
+    // The rule of symbolic/inputs_hash.py, shared with cbfgen-build (which checks a user
+    // crate's checked-in files the same way).
+    for file in package_files(&root) {
         println!("cargo:rerun-if-changed={}", file.display());
     }
-    let digest = inputs_hash(&root, &inputs);
+    let digest = match package_hash(&root) {
+        Ok(digest) => digest,
+        Err(e) => {
+            println!("cargo::error=cannot read the generator's sources in symbolic/: {e}");
+            return;
+        }
+    };
     let generated = root.join("generated");
     let stale = stale_files(&generated, &digest);
     for file in generated_files(&generated) {
@@ -47,45 +52,6 @@ fn main() {
     if !still.is_empty() {
         println!("cargo::error=regenerated generated/ but {} still records another inputs hash", still[0]);
     }
-}
-
-/// Files the generator reads; keep this rule identical to symbolic/inputs_hash.py (and to
-/// cbfgen-build/src/inputs_hash.rs, which checks checked-in spec files without Python).
-fn input_files(root: &Path) -> Vec<PathBuf> {
-    fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
-        let Ok(entries) = fs::read_dir(dir) else { return };
-        for entry in entries.flatten() {
-            let path = entry.path();
-            let name = entry.file_name().to_string_lossy().into_owned();
-            if path.is_dir() {
-                if !(SKIPPED_DIRS.contains(&name.as_str()) || name.starts_with('.')) {
-                    walk(&path, out);
-                }
-            } else if HASHED_SUFFIXES.iter().any(|s| name.ends_with(s)) {
-                out.push(path);
-            }
-        }
-    }
-    let mut files = Vec::new();
-    walk(&root.join("symbolic"), &mut files);
-    files.sort_by_key(|p| relative(root, p).into_bytes());
-    files
-}
-
-fn relative(root: &Path, path: &Path) -> String {
-    let rel = path.strip_prefix(root).unwrap_or(path);
-    rel.components().map(|c| c.as_os_str().to_string_lossy()).collect::<Vec<_>>().join("/")
-}
-
-fn inputs_hash(root: &Path, files: &[PathBuf]) -> String {
-    let mut hasher = Sha256::new();
-    for file in files {
-        hasher.update(relative(root, file).as_bytes());
-        hasher.update([0u8]);
-        hasher.update(fs::read(file).unwrap_or_default());
-        hasher.update([0u8]);
-    }
-    hasher.finalize().iter().map(|b| format!("{b:02x}")).collect()
 }
 
 /// mod.rs plus every module it declares.

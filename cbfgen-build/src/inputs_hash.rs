@@ -1,4 +1,6 @@
-//! The generated file's inputs hash, recomputed without Python.
+//! The generated file's inputs hash, recomputed without Python. [`package_files`] and
+//! [`package_hash`] are public for cbfgen's own build script, which keeps its
+//! `generated/` current by the same rule.
 //!
 //! Mirrors `symbolic/inputs_hash.py` (`inputs_hash` and `spec_inputs_hash`); the package
 //! part is the rule cbfgen's own build.rs mirrors too. Keep the three in step.
@@ -21,7 +23,7 @@ const SKIPPED_DIRS: [&str; 2] = ["tests", "__pycache__"];
 /// Every file of the generator (`<root>/symbolic/`) the package hash reads: names ending
 /// in .py, .toml or .txt, outside folders named `tests`, `__pycache__` or starting with a
 /// dot, in byte order of their '/'-separated path relative to `root`.
-pub(crate) fn package_files(root: &Path) -> Vec<PathBuf> {
+pub fn package_files(root: &Path) -> Vec<PathBuf> {
     fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
         let Ok(entries) = fs::read_dir(dir) else { return };
         for entry in entries.flatten() {
@@ -52,7 +54,10 @@ fn hex(digest: &[u8]) -> String {
 }
 
 /// SHA-256 over each package file's relative path, NUL, bytes, NUL (Python's `inputs_hash`).
-pub(crate) fn package_hash(root: &Path) -> io::Result<String> {
+///
+/// # Errors
+/// A package file that cannot be read.
+pub fn package_hash(root: &Path) -> io::Result<String> {
     let mut hasher = Sha256::new();
     for file in package_files(root) {
         hasher.update(slash_path(file.strip_prefix(root).unwrap_or(&file)).as_bytes());

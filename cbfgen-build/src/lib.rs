@@ -62,7 +62,7 @@
 //! crate was built from, or from `CBFGEN_SYMBOLIC` (the folder that contains `symbolic/`);
 //! checked-in mode needs it without Python too, to hash it.
 
-mod inputs_hash;
+pub mod inputs_hash;
 
 use inputs_hash::Header;
 use std::fmt;
