@@ -182,26 +182,21 @@ def _evaluate_family(w, f: FamilyDefinition) -> None:
         cols = f"{k.name.upper()}_INPUT_COLUMNS"
         store = (f"for ((row, lie), lg) in self.rows[i..i + n].iter_mut().zip(&lie).zip(&lg) {{ "
                  f"row.store(lie, lg, &{cols}); }}")
-        off = "for row in &mut self.rows[i..i + n] { row.active = false; }"
-        if f.capacity:
-            w(f"        let slots = &{src};")
-            w("        let filled = if slots.is_enabled() { slots.as_slice() } else { &[] };")
-            w(f"        for slot in 0..{cap} {{")
-            w("            if let Some(p) = filled.get(slot) {")
-            w(f"                let (lie, lg) = {call};")
-            w(f"                {store}")
-            w("            } else {")
-            w(f"                {off}")
-            w("            }")
-            w("            i += n;")
-            w("        }")
-        elif f.optional:
-            w(f"        for p in &{src} {{")
+        if f.capacity or f.optional:
+            # An instance that may be absent: an unfilled slot, or an optional one set to None.
+            if f.capacity:
+                w(f"        let slots = &{src};")
+                w("        let filled = if slots.is_enabled() { slots.as_slice() } else { &[] };")
+                w(f"        for slot in 0..{cap} {{")
+                w("            let p = filled.get(slot);")
+            else:
+                w(f"        for p in &{src} {{")
+                w("            let p = p.as_ref();")
             w("            if let Some(p) = p {")
             w(f"                let (lie, lg) = {call};")
             w(f"                {store}")
             w("            } else {")
-            w(f"                {off}")
+            w("                for row in &mut self.rows[i..i + n] { row.active = false; }")
             w("            }")
             w("            i += n;")
             w("        }")
@@ -445,6 +440,17 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
             w("        }")
     w("        Ok(())")
     w("    }")
+    w("")
+    w("    /// Rows a barrier set of this capacity lays out (saturating, so an unvalidated")
+    w("    /// capacity cannot wrap the count).")
+    w("    pub fn rows(&self) -> usize {")
+    fixed_rows = sum(f.count * len(f.row_names) * max(1, len(f.members)) for f in d.families if not f.capacity)
+    terms = []
+    for f in cap_families:
+        counts = ([f"self.{f.name}[{m}]" for m in range(len(f.members))] if f.indexed else [f"self.{f.name}"])
+        terms += [f".saturating_add({cap}.saturating_mul({len(f.row_names)}))" for cap in counts]
+    w(f"        {fixed_rows}usize{''.join(terms)}")
+    w("    }")
     w("}")
     w("")
     w("/// Every family's runtime instances: what [`Barriers`] reads besides the state and time.")
@@ -511,16 +517,7 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
     w("    #[allow(clippy::needless_range_loop)] // the loops mirror the layout's nesting")
     w(f"    pub fn new(capacity: Capacity) -> Result<Self, {rt}::error::CbfError> {{")
     w("        capacity.validate()?;")
-    fixed_rows = sum(f.count * len(f.row_names) * max(1, len(f.members)) for f in d.families if not f.capacity)
-    cap_terms = []
-    for f in cap_families:
-        per = f" * {len(f.row_names)}" if len(f.row_names) > 1 else ""
-        if f.indexed:
-            cap_terms.append(f"capacity.{f.name}.iter().sum::<usize>(){per}")
-        else:
-            cap_terms.append(f"capacity.{f.name}{per}")
-    total = " + ".join(([str(fixed_rows)] if fixed_rows else []) + cap_terms) or "0"
-    w(f"        let mut layout = Vec::with_capacity({total});")
+    w("        let mut layout = Vec::with_capacity(capacity.rows());")
     for f in d.families:
         u = f.name.upper()
         if f.indexed:
