@@ -99,6 +99,43 @@ pub enum CbfError {
         /// How it ended: a [`QpStatus::name`](crate::filter::QpStatus::name).
         status: &'static str,
     },
+    /// A family, member or instance index beyond what exists.
+    #[error("no {what} {index}: there are {len}")]
+    NoSuchIndex {
+        /// What was indexed (`"family"`, `"member"`, `"instance"`).
+        what: &'static str,
+        /// The index given.
+        index: usize,
+        /// How many there are.
+        len: usize,
+    },
+    /// A name (of a family, member or system) that does not exist.
+    #[error("no {what} named {name:?}; known: {known}")]
+    UnknownName {
+        /// What was looked up.
+        what: &'static str,
+        /// The name given.
+        name: String,
+        /// The names that exist, comma-separated.
+        known: String,
+    },
+    /// An operation a family's kind of instances does not have (pushing onto a fixed
+    /// family, a capacity for a fixed-count family...).
+    #[error("{operation} is not available for a {kind} family")]
+    Unsupported {
+        /// What was asked.
+        operation: &'static str,
+        /// The family's kind (`"fixed"`, `"optional"`, `"capacity"`, `"parameter-free"`).
+        kind: &'static str,
+    },
+    /// Parameters of one system handed to another system's rows or filter.
+    #[error("parameters of system {got} given to system {expected}")]
+    SystemMismatch {
+        /// The system that was asked.
+        expected: &'static str,
+        /// The system the parameters belong to.
+        got: &'static str,
+    },
     /// A rotation matrix was not orthonormal with determinant +1.
     #[error("rotation is not a proper rotation (|R^T R - I| = {deviation:.3e}, det R = {determinant:.6})")]
     NotARotation {

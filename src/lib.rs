@@ -11,6 +11,8 @@
 //!   `python -m symbolic generate`, or by the `cbfgen-build` helper from a build script).
 //! * [`filter`] — the ECBF-QP safety filter on OSQP over any [`system::BarrierSet`]: one
 //!   allocation-free control update.
+//! * [`dynamic`] — every generated system behind object-safe traits, picked by name at
+//!   run time (what the Python bindings use).
 //!
 //! Geometry every system can build barriers from:
 //!
@@ -26,6 +28,7 @@
 #![warn(missing_docs)]
 
 pub mod chart;
+pub mod dynamic;
 pub mod error;
 pub mod filter;
 pub mod geometry;

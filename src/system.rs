@@ -248,8 +248,40 @@ pub struct FamilyInfo {
     /// The members of an indexed family (a robot's legs, an arm's links), each with its own
     /// kernel and instances; empty for a family that is not indexed.
     pub members: &'static [&'static str],
+    /// How the instances are given: fixed, optional or filled up to a capacity.
+    pub instances: InstanceKind,
+    /// Instances per member of a fixed or optional family; the largest capacity a
+    /// capacity family accepts per member.
+    pub count: usize,
+    /// The run-time parameters of one instance, in declaration order: name and shape
+    /// (`[]` a scalar, `[n]` a vector, `[r, c]` a matrix, flattened row by row where
+    /// flat); empty for a family without parameters.
+    pub params: &'static [(&'static str, &'static [usize])],
     /// The spec's defaults for poles, slack weight and activation.
     pub defaults: FamilyParams,
+}
+
+/// How a family's instances are given.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum InstanceKind {
+    /// A fixed number of instances, always applied: set them.
+    Fixed,
+    /// A fixed number of slots, each present or absent: set or remove them.
+    Optional,
+    /// A list filled at run time up to a capacity chosen at construction: push, set,
+    /// clear, switch on or off.
+    Capacity,
+}
+
+impl InstanceKind {
+    /// Lower-case name, for messages and bindings.
+    pub const fn name(self) -> &'static str {
+        match self {
+            InstanceKind::Fixed => "fixed",
+            InstanceKind::Optional => "optional",
+            InstanceKind::Capacity => "capacity",
+        }
+    }
 }
 
 /// Where one row sits: its family, the instance of that family, the row within the
@@ -367,6 +399,11 @@ impl<T> Instances<T> {
     /// The filled instances.
     pub fn as_slice(&self) -> &[T] {
         &self.items
+    }
+
+    /// The filled instances, to change them in place.
+    pub fn as_mut_slice(&mut self) -> &mut [T] {
+        &mut self.items
     }
 
     /// The capacity fixed at construction.

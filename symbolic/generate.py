@@ -97,6 +97,10 @@ def render(repo_root: Path = REPO_ROOT) -> dict[str, str]:
     mod_lines.append("/// Every module's uniform kernel table, by module name (for cross-checks and tools).\n"
                      "pub const KERNELS: &[(&str, &[crate::system::KernelEntry])] = &["
                      + "".join(f'("{n}", {n}::KERNELS),' for n in names) + "];\n")
+    systems = [d.name for d in builtin_systems()]
+    mod_lines.append("/// Every built-in system behind `crate::dynamic::DynSystem`, in name order.\n"
+                     "pub const SYSTEMS: &[&dyn crate::dynamic::DynSystem] = &["
+                     + "".join(f"{n}::SYSTEM," for n in systems) + "];\n")
     files["mod.rs"] = rustfmt("".join(mod_lines), repo_root)
     return files
 

@@ -11,6 +11,8 @@ system ``planar_robot``, runtime path ``rt``):
 * ``FAMILIES``, ``struct Capacity``, ``struct Params``, ``struct Barriers`` implementing
   ``rt::system::BarrierSet<NU>``;
 * ``default_settings()`` and ``type Filter`` for the generic ECBF filter;
+* the flat-access traits of ``rt::dynamic`` and ``SYSTEM``, the system behind
+  ``rt::dynamic::DynSystem`` (what bindings and tools pick by name);
 * ``KERNELS``, the uniform kernel table.
 
 The text must work under ``include!`` inside a ``mod`` block, so it has no inner
@@ -65,6 +67,67 @@ def _param_arg(var: str, name: str, shape: tuple[int, ...]) -> str:
         return "&[" + ", ".join(f"{var}.{name}[{i}]" for i in range(shape[0])) + "]"
     rows, cols = shape
     return "&[" + ", ".join(f"{var}.{name}[({i}, {j})]" for i in range(rows) for j in range(cols)) + "]"
+
+
+def _flat_len(shape: tuple[int, ...]) -> int:
+    n = 1
+    for d in shape:
+        n *= d
+    return n
+
+
+def _flat_instance(w, f: FamilyDefinition, ty: str, rt: str) -> None:
+    """``FlatInstance`` for a parameter struct: its numbers in declaration order, vectors
+    in order and matrices row by row (the kernels' argument layout)."""
+    total = sum(_flat_len(p.shape) for p in f.params)
+    w(f"impl {rt}::dynamic::FlatInstance for {ty} {{")
+    w(f"    const LEN: usize = {total};")
+    w("")
+    w("    fn from_flat(values: &[f64]) -> Self {")
+    fields, o = [], 0
+    for p in f.params:
+        n = _flat_len(p.shape)
+        if p.shape == ():
+            fields.append(f"{p.name}: values[{o}]")
+        elif len(p.shape) == 1:
+            fields.append(f"{p.name}: {rt}::nalgebra::SVector::from_column_slice(&values[{o}..{o + n}])")
+        else:
+            fields.append(f"{p.name}: {rt}::nalgebra::SMatrix::from_row_slice(&values[{o}..{o + n}])")
+        o += n
+    w(f"        Self {{ {', '.join(fields)} }}")
+    w("    }")
+    w("")
+    w("    fn to_flat(&self, out: &mut [f64]) {")
+    o = 0
+    for p in f.params:
+        n = _flat_len(p.shape)
+        if p.shape == ():
+            w(f"        out[{o}] = self.{p.name};")
+        elif len(p.shape) == 1:
+            w(f"        out[{o}..{o + n}].copy_from_slice(self.{p.name}.as_slice());")
+        else:
+            w(f"        out[{o}..{o + n}].copy_from_slice(self.{p.name}.transpose().as_slice());")
+        o += n
+    w("    }")
+    w("")
+    w(f"    fn check(&self) -> Result<(), {rt}::error::CbfError> {{")
+    w("        self.validate()")
+    w("    }")
+    w("}")
+    w("")
+
+
+def _match(w, arms: list[str]) -> None:
+    """``match (family, member)`` over ``arms``, else ``None`` (just ``None`` without arms)."""
+    if not arms:
+        w("        let _ = (family, member);")
+        w("        None")
+        return
+    w("        match (family, member) {")
+    for arm in arms:
+        w(f"            {arm}")
+    w("            _ => None,")
+    w("        }")
 
 
 def _poles(f: FamilyDefinition, rt: str) -> str:
@@ -239,7 +302,8 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
                        ("Params", "the parameter type"), ("Barriers", "the barrier set"),
                        ("default_settings", "the default settings"), ("Filter", "the filter type"),
                        ("KERNELS", "the kernel table"), ("kernel_table", "the kernel wrappers"),
-                       ("STATE_NAMES", "the state names"), ("INPUT_NAMES", "the input names"),
+                       ("SYSTEM", "the erased system"), ("STATE_NAMES", "the state names"),
+                       ("INPUT_NAMES", "the input names"),
                        ("INPUT_MATRIX_PATTERN", "the input matrix pattern"), ("xdot", "the dynamics")]:
         names.add(item, what)
     for k in d.kernels():
@@ -385,6 +449,7 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
         w("    }")
         w("}")
         w("")
+        _flat_instance(w, f, ty, rt)
 
     # --------------------------------------------------------------- families
     w("/// The barrier families, in spec order (indexed by `RowLayout::family`, see [`family`]).")
@@ -396,6 +461,11 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
         w(f"        relative_degree: {u}_RELATIVE_DEGREE,")
         w(f"        row_names: &{u}_ROW_NAMES,")
         w(f"        members: &{u}_MEMBERS," if f.indexed else "        members: &[],")
+        kind = "Capacity" if f.capacity else "Optional" if f.optional else "Fixed"
+        w(f"        instances: {rt}::system::InstanceKind::{kind},")
+        w(f"        count: {f.max_capacity if f.capacity else f.count},")
+        shapes = [f"({_str(p.name)}, &[{', '.join(map(str, p.shape))}])" for p in f.params]
+        w(f"        params: &[{', '.join(shapes)}],")
         w(f"        defaults: {rt}::system::FamilyParams {{")
         w(f"            poles: {_poles(f, rt)},")
         w(f"            slack_weight: {float_literal(f.slack_weight)},")
@@ -453,6 +523,15 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
     w("    }")
     w("}")
     w("")
+    w(f"impl {rt}::dynamic::FlatCapacity for Capacity {{")
+    w("    fn count_mut(&mut self, family: usize, member: usize) -> Option<&mut usize> {")
+    arms = [f"(family::{f.name.upper()}, m) => self.{f.name}.get_mut(m)," if f.indexed
+            else f"(family::{f.name.upper()}, 0) => Some(&mut self.{f.name}),"
+            for f in cap_families]
+    _match(w, arms)
+    w("    }")
+    w("}")
+    w("")
     w("/// Every family's runtime instances: what [`Barriers`] reads besides the state and time.")
     w("#[derive(Debug, Clone, PartialEq)]")
     w("pub struct Params {")
@@ -495,6 +574,24 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
             fields.append(f"{f.name}: self.{f.name}.capacity()")
     w("        Capacity {" + ", ".join(fields) + "}")
     w("    }")
+    w("}")
+    w("")
+
+    param_families = [f for f in d.families if f.params]
+    w(f"impl {rt}::dynamic::FlatParams for Params {{")
+    w(f"    const SYSTEM: &'static str = {_str(d.name)};")
+    w(f"    const FAMILIES: &'static [{rt}::system::FamilyInfo] = &FAMILIES;")
+    w("")
+    for fn, ref, get in [("store", "&", "get"), ("store_mut", "&mut ", "get_mut")]:
+        self_ref = "&self" if ref == "&" else "&mut self"
+        store = f"{ref}dyn {rt}::dynamic::FamilyStore"
+        w(f"    fn {fn}({self_ref}, family: usize, member: usize) -> Option<{store}> {{")
+        arms = [f"(family::{f.name.upper()}, m) => self.{f.name}.{get}(m).map(|s| s as {store})," if f.indexed
+                else f"(family::{f.name.upper()}, 0) => Some({ref}self.{f.name}),"
+                for f in param_families]
+        _match(w, arms)
+        w("    }")
+        w("")
     w("}")
     w("")
 
@@ -568,10 +665,8 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
     w(f"            return Err({rt}::error::CbfError::CapacityMismatch);")
     w("        }")
     w(f"        {rt}::system::validate_state(x)?;")
-    if d.time_varying:
-        w(f"        {rt}::system::validate_time(t)?;")
-    else:
-        w("        let _ = t; // no family is time-varying")
+    # Checked even where no family reads it: every system refuses the same inputs.
+    w(f"        {rt}::system::validate_time(t)?;")
     for f in d.families:
         _validate_family(w, f)
     w("        let mut i = 0;")
@@ -596,6 +691,31 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
     w("")
     w("/// The ECBF-QP safety filter over this system's [`Barriers`].")
     w(f"pub type Filter = {rt}::filter::EcbfFilter<Barriers, NU>;")
+    w("")
+
+    w(f"impl {rt}::dynamic::GeneratedSystem<NX, NU> for {sys_type} {{")
+    w("    const DOC: &'static str = DOC;")
+    w(f"    const FAMILIES: &'static [{rt}::system::FamilyInfo] = &FAMILIES;")
+    w("    type Capacity = Capacity;")
+    w("    type Params = Params;")
+    w("    type Barriers = Barriers;")
+    w("")
+    w(f"    fn params(capacity: Capacity) -> Result<Params, {rt}::error::CbfError> {{")
+    w("        Params::new(capacity)")
+    w("    }")
+    w("")
+    w(f"    fn barriers(capacity: Capacity) -> Result<Barriers, {rt}::error::CbfError> {{")
+    w("        Barriers::new(capacity)")
+    w("    }")
+    w("")
+    w("    fn capacity_of(params: &Params) -> Capacity {")
+    w("        params.capacity()")
+    w("    }")
+    w("}")
+    w("")
+    w(f"/// This system behind [`{rt}::dynamic::DynSystem`]: sizes and names at run time, and")
+    w("/// its parameters, rows and filter on slices (for bindings and tools).")
+    w(f"pub const SYSTEM: &dyn {rt}::dynamic::DynSystem = &{rt}::dynamic::Erased::<{sys_type}, NX, NU>::NEW;")
     w("")
 
     # ------------------------------------------------------------ kernel table
