@@ -21,7 +21,7 @@
 //! let mut filter = planar.filter(&[], &planar.default_settings())?;
 //! filter.update(0.0, &[0.0, 0.0], &[-3.0], params.as_ref())?;
 //! // At rest 1 cm above the boundary, poles (10, 10): u ≥ −k₀ h = −100 · 0.01.
-//! assert!((filter.u()[0] + 1.0).abs() < 1e-2);
+//! assert!((filter.output().u[0] + 1.0).abs() < 1e-2);
 //! # let _: &[CapacityCount] = &[];
 //! # Ok::<(), cbfgen::CbfError>(())
 //! ```
@@ -30,7 +30,7 @@ use std::any::Any;
 use std::marker::PhantomData;
 
 use crate::error::CbfError;
-use crate::filter::{EcbfFilter, FilterOutput, FilterSettings, InputSource, QpStatus, SolverSettings};
+use crate::filter::{EcbfFilter, FilterSettings, Output, SolverSettings};
 use crate::system::{
     BarrierSet, ControlAffine, FamilyInfo, FamilyParams, InstanceKind, Instances, RowLayout, MAX_RELATIVE_DEGREE,
 };
@@ -452,46 +452,6 @@ pub trait DynBarriers: DynRows + Send {
     fn evaluate(&mut self, t: f64, x: &[f64], params: &dyn DynParams) -> Result<(), CbfError>;
 }
 
-/// One filter update's report, without the input (see [`DynFilter::u`]): the fields of
-/// [`FilterOutput`] besides `u`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct UpdateReport {
-    /// Where `u` came from.
-    pub source: InputSource,
-    /// OSQP's report; `None` when no solve was attempted.
-    pub status: Option<QpStatus>,
-    /// The first active row that was not finite, if any.
-    pub nonfinite_row: Option<usize>,
-    /// ADMM iterations of the solve.
-    pub iterations: u32,
-    /// Whether `u` is the KKT-verified optimum of ADMM's active set.
-    pub polished: bool,
-    /// Rows that took part in the QP.
-    pub active_rows: usize,
-    /// Fallback cycles in a row, this one included.
-    pub consecutive_fallbacks: u32,
-    /// Time in row evaluation and activation.
-    pub eval_time: std::time::Duration,
-    /// Time in the QP update and solve.
-    pub solve_time: std::time::Duration,
-}
-
-impl<const NU: usize> From<&FilterOutput<NU>> for UpdateReport {
-    fn from(o: &FilterOutput<NU>) -> Self {
-        Self {
-            source: o.source,
-            status: o.status,
-            nonfinite_row: o.nonfinite_row,
-            iterations: o.iterations,
-            polished: o.polished,
-            active_rows: o.active_rows,
-            consecutive_fallbacks: o.consecutive_fallbacks,
-            eval_time: o.eval_time,
-            solve_time: o.solve_time,
-        }
-    }
-}
-
 /// [`FilterSettings`] with its sizes at run time: one [`FamilyParams`] per family and one
 /// weight and limit per input.
 #[derive(Debug, Clone, PartialEq)]
@@ -540,17 +500,15 @@ impl<const NU: usize> TryFrom<&DynSettings> for FilterSettings<NU> {
 
 /// Any system's ECBF filter, updated on slices.
 pub trait DynFilter: DynRows + Send {
-    /// One update (see [`EcbfFilter::update_at`]); read the result with [`DynFilter::u`]
-    /// and [`DynFilter::report`].
+    /// One update (see [`EcbfFilter::update_at`]); read the result with
+    /// [`DynFilter::output`].
     ///
     /// # Errors
     /// `x` or `u_ref` of another length, parameters of another system, and everything
     /// [`EcbfFilter::update_at`] refuses; the filter is then unchanged.
     fn update(&mut self, t: f64, x: &[f64], u_ref: &[f64], params: &dyn DynParams) -> Result<(), CbfError>;
-    /// The last update's input.
-    fn u(&self) -> &[f64];
-    /// The last update's report.
-    fn report(&self) -> UpdateReport;
+    /// The last update's result, its input as a slice.
+    fn output(&self) -> Output<&[f64]>;
     /// [`EcbfFilter::fallback_input`] into `out`.
     ///
     /// # Errors
@@ -783,11 +741,8 @@ impl<S: GeneratedSystem<NX, NU>, const NX: usize, const NU: usize> DynFilter for
         self.0.update_at(t, state::<NX>(x)?, u_ref, own::<S, NX, NU>(params)?)?;
         Ok(())
     }
-    fn u(&self) -> &[f64] {
-        &self.0.output().u
-    }
-    fn report(&self) -> UpdateReport {
-        self.0.output().into()
+    fn output(&self) -> Output<&[f64]> {
+        self.0.output().map_input(|u| u.as_slice())
     }
     fn fallback_input(&self, u_ref: &[f64], out: &mut [f64]) -> Result<(), CbfError> {
         let what = "nominal input";

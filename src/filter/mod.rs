@@ -110,11 +110,17 @@ impl InputSource {
     }
 }
 
-/// One update's result (rows, their `h` and slacks are read through the filter).
+/// One update's result of the typed filter (rows, their `h` and slacks are read through
+/// the filter).
+pub type FilterOutput<const NU: usize> = Output<[f64; NU]>;
+
+/// One update's result, whatever holds the input: `[f64; NU]` in the typed filter
+/// ([`FilterOutput`]), a slice or a vector where the size is known only at run time
+/// ([`crate::dynamic`], the Python bindings).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FilterOutput<const NU: usize> {
+pub struct Output<U> {
     /// The input to apply.
-    pub u: [f64; NU],
+    pub u: U,
     /// Where `u` came from: the QP's optimum, an unconverged iterate, or a fallback.
     pub source: InputSource,
     /// OSQP's report; `None` when no solve was attempted (a non-finite row).
@@ -135,6 +141,24 @@ pub struct FilterOutput<const NU: usize> {
     pub eval_time: Duration,
     /// Time in the QP update and solve.
     pub solve_time: Duration,
+}
+
+impl<U> Output<U> {
+    /// The same result with the input held by `f(&u)` (a slice of it, a copy).
+    pub fn map_input<'a, V>(&'a self, f: impl FnOnce(&'a U) -> V) -> Output<V> {
+        Output {
+            u: f(&self.u),
+            source: self.source,
+            status: self.status,
+            nonfinite_row: self.nonfinite_row,
+            iterations: self.iterations,
+            polished: self.polished,
+            active_rows: self.active_rows,
+            consecutive_fallbacks: self.consecutive_fallbacks,
+            eval_time: self.eval_time,
+            solve_time: self.solve_time,
+        }
+    }
 }
 
 /// The ECBF-QP safety filter over the barrier set `B` of a system with `NU` inputs.
