@@ -1,6 +1,6 @@
 """Run the ECBF safety filter in a Python control loop and plot the body height.
 
-The robot rolls at a 16.5 cm step under a naive gait (cbfgen.Course) that keeps the
+The robot rolls at a 16.5 cm step under a naive gait (cbfgen.tachyon3.Course) that keeps the
 body low and knows nothing about the body's size. Each 1 ms cycle the filter corrects
 the gait's input; the loop integrates x' = f(x) + g(x) u with explicit Euler. It runs
 twice: with every constraint, and with the body-edge SSAT rows switched off, which lets
@@ -18,24 +18,24 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")  # files only: no display needed
-import cbfgen  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from cbfgen import tachyon3 as t3  # noqa: E402
 
 
 def run(scenario: str, body_cbf: bool, max_time: float) -> dict:
-    course = cbfgen.Course(scenario)
+    course = t3.Course(scenario)
     # Without the body CBF its rows never activate: h is never below -inf.
     activation = None if body_cbf else {"body_edge": float("-inf")}
-    safety = cbfgen.EcbfFilter(activation=activation)
+    safety = t3.ecbf_filter(activation=activation)
     x = course.initial_state()
     log = {k: [] for k in ("t", "body_z", "nominal_z", "clearance", "update_us")}
     done_at = None
-    for k in range(int(max_time / cbfgen.DT)):
-        t = k * cbfgen.DT
+    for k in range(int(max_time / t3.DT)):
+        t = k * t3.DT
         u_ref = course.plan(t, x)
         out = safety.update(x, u_ref, course.environment)
-        body_center, _, _ = cbfgen.world_kinematics(x)
+        body_center, _, _ = t3.world_kinematics(x)
         log["t"].append(t)
         log["body_z"].append(body_center[2])
         log["nominal_z"].append(course.nominal_body_height)
@@ -45,13 +45,13 @@ def run(scenario: str, body_cbf: bool, max_time: float) -> dict:
             done_at = t
         if done_at is not None and t - done_at > 1.0:
             break
-        x = x + cbfgen.DT * cbfgen.xdot(x, out.u)
+        x = x + t3.DT * t3.SYSTEM.xdot(x, out.u)
     return {k: np.asarray(v) for k, v in log.items()} | {"finished": done_at is not None}
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--scenario", choices=cbfgen.SCENARIOS, default="step")
+    parser.add_argument("--scenario", choices=t3.SCENARIOS, default="step")
     parser.add_argument("--max-time", type=float, default=25.0, help="give up after this long [s]")
     parser.add_argument("--out", type=Path, default=Path("out/filter_loop.png"))
     args = parser.parse_args()

@@ -121,7 +121,7 @@ pub enum CbfError {
     },
     /// An operation a family's kind of instances does not have (pushing onto a fixed
     /// family, a capacity for a fixed-count family...).
-    #[error("{operation} is not available for a {kind} family")]
+    #[error("{operation} is not available for {kind} families")]
     Unsupported {
         /// What was asked.
         operation: &'static str,

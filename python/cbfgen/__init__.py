@@ -1,21 +1,75 @@
-"""cbfgen: code-generated Exponential-CBF safety filters (Tachyon 3 style), from Python.
+"""cbfgen: code-generated Exponential-CBF safety filters, from Python.
 
-Everything here is the Rust crate's, through pyo3:
+Every built-in system (``systems()``) is reached through the same classes, all the Rust
+crate's through pyo3:
 
-* the smooth SAT kernels: :func:`ssat`, :func:`ssat_derivatives`, :func:`ssat_margin`;
-* every constraint family's rows at a state: :func:`joint_limits`, :func:`foot_height`,
-  :func:`stability`, :func:`body_edge`, :func:`toe_edge`, :func:`foothold`, each returning
-  ``(lie, lg_lf)`` with ``lie[i] = [h, L_f h, L_f^2 h]`` and ``lg_lf[i] = L_g L_f h``;
-* the multi-layer example's time-varying row: :func:`sine_barrier`;
-* the model: :func:`dynamics_f`, :func:`dynamics_g`, :func:`xdot`,
-  :func:`world_kinematics`, :func:`standard_posture` and the layout constants;
-* the safety filter: :class:`EcbfFilter`, :class:`Environment`, :class:`FilterOutput`;
-* the scenarios: :class:`Course` for a loop of your own, :func:`simulate` for the Rust one.
+* :class:`System`: a system by name — sizes, state and input names, input limits, its
+  barrier families, the dynamics (:meth:`System.drift`, :meth:`System.input_matrix`,
+  :meth:`System.xdot`) and every row at a state (:meth:`System.rows`);
+* :class:`Params`: each family's run-time instances, set by family name (``set``,
+  ``push``, ``remove``, ``clear``, ``set_enabled``);
+* :class:`EcbfFilter`: the ECBF-QP safety filter of any system, and its
+  :class:`FilterOutput`;
+* the smooth SAT of two boxes: :func:`ssat`, :func:`ssat_derivatives`,
+  :func:`ssat_margin`; and every generated kernel by name: :func:`kernel_table`,
+  :func:`call_kernel`.
+
+Tachyon 3's own helpers and scenarios (``Environment``, ``Course``, ``simulate``, world
+kinematics) are in :mod:`cbfgen.tachyon3`.
 
 Errors from the Rust core raise :class:`CbfError` (a ``ValueError``) with its message.
 """
 
-from ._native import *  # noqa: F401,F403
-from ._native import __all__ as _native_all
+from . import tachyon3
+from ._native import (
+    HALF_EXTENT_RANGE,
+    INPUT_SOURCES,
+    MAX_COORDINATE,
+    MAX_INPUT,
+    MAX_INSTANCES,
+    MAX_ITERATIONS,
+    MAX_TIME_LIMIT_US,
+    PARAM_LIMIT,
+    SSAT_ALPHA_RANGE,
+    SSAT_VARIANTS,
+    STATE_LIMIT,
+    CbfError,
+    EcbfFilter,
+    FilterOutput,
+    Params,
+    Rows,
+    System,
+    call_kernel,
+    kernel_table,
+    ssat,
+    ssat_derivatives,
+    ssat_margin,
+    systems,
+)
 
-__all__ = list(_native_all)
+__all__ = [
+    "HALF_EXTENT_RANGE",
+    "INPUT_SOURCES",
+    "MAX_COORDINATE",
+    "MAX_INPUT",
+    "MAX_INSTANCES",
+    "MAX_ITERATIONS",
+    "MAX_TIME_LIMIT_US",
+    "PARAM_LIMIT",
+    "SSAT_ALPHA_RANGE",
+    "SSAT_VARIANTS",
+    "STATE_LIMIT",
+    "CbfError",
+    "EcbfFilter",
+    "FilterOutput",
+    "Params",
+    "Rows",
+    "System",
+    "call_kernel",
+    "kernel_table",
+    "ssat",
+    "ssat_derivatives",
+    "ssat_margin",
+    "systems",
+    "tachyon3",
+]

@@ -1,5 +1,6 @@
-"""The Python API's behaviour: a Python control loop reproduces the Rust one, filter
-outputs satisfy the ECBF rows they report, and bad input raises instead of panicking."""
+"""The Python API's behaviour: every built-in system through the generic classes, a
+Python control loop reproducing the Rust one, filter outputs satisfying the ECBF rows
+they report (recomputed independently), and bad input raising instead of panicking."""
 
 from __future__ import annotations
 
@@ -13,36 +14,65 @@ if os.environ.get("CBFGEN_REQUIRE_BINDINGS"):
 else:
     cbfgen = pytest.importorskip("cbfgen", reason="build it with `scripts/cbf setup`")
 
+t3 = cbfgen.tachyon3
+
 
 def python_loop(scenario: str, seconds: float, **filter_kwargs):
-    course = cbfgen.Course(scenario)
-    safety = cbfgen.EcbfFilter(**filter_kwargs)
+    course = t3.Course(scenario)
+    safety = t3.ecbf_filter(**filter_kwargs)
     x = course.initial_state()
     xs = []
-    for k in range(round(seconds / cbfgen.DT)):
+    for k in range(round(seconds / t3.DT)):
         xs.append(x)
-        out = safety.update(x, course.plan(k * cbfgen.DT, x), course.environment)
-        x = x + cbfgen.DT * cbfgen.xdot(x, out.u)
+        out = safety.update(x, course.plan(k * t3.DT, x), course.environment)
+        x = x + t3.DT * t3.SYSTEM.xdot(x, out.u)
     return np.array(xs), safety
+
+
+def ecbf_bounds(safety) -> np.ndarray:
+    """-(L_f^r h + sum_i k_i L_f^i h) per row, with the gains expanded here from each
+    family's poles (the coefficients of prod (s + p_i)), independently of the Rust."""
+    lie, settings = safety.lie, safety.family_settings
+    out = np.empty(len(lie))
+    for i, (family, *_rest) in enumerate(safety.layout):
+        poles = settings[family][0]
+        coefficients = np.poly(-np.asarray(poles))[::-1]  # k_0 .. k_{r-1}, then 1
+        out[i] = -np.dot(coefficients, lie[i, : len(poles) + 1])
+    return out
+
+
+def test_every_built_in_system_is_reachable_by_name():
+    # Every spec in symbolic/systems/ is a system of the module, with no binding code.
+    from pathlib import Path
+
+    specs = Path(__file__).resolve().parents[2] / "symbolic" / "systems"
+    assert set(cbfgen.systems()) == {p.stem for p in specs.glob("*.py") if not p.name.startswith("_")}
+    for name in cbfgen.systems():
+        s = cbfgen.System(name)
+        assert (s.nx, s.nu) == (len(s.state_names), len(s.input_names))
+        assert np.all(s.input_min <= s.input_max)
+        for f in s.families:
+            assert len(f["poles"]) == f["relative_degree"] >= 1
+            assert f["instances"] in {"fixed", "optional", "capacity"}
 
 
 def test_a_python_loop_reproduces_the_rust_simulation():
     # Same gait, filter and Euler step on either side of the boundary: the trajectories
-    # must agree to the last bit, which checks Course, EcbfFilter and xdot together.
+    # must agree to the last bit, which checks Course, the generic filter and xdot together.
     seconds = 3.0
-    rust = cbfgen.simulate("step", body_cbf=True, max_time=seconds)
+    rust = t3.simulate("step", body_cbf=True, max_time=seconds)
     xs, _ = python_loop("step", seconds)
-    assert rust["x"].shape == xs.shape == (round(seconds / cbfgen.DT), cbfgen.NX)
+    assert rust["x"].shape == xs.shape == (round(seconds / t3.DT), t3.NX)
     np.testing.assert_array_equal(rust["x"], xs)
 
 
 def test_simulation_arrays_are_consistent():
-    run = cbfgen.simulate("step", max_time=0.5)
+    run = t3.simulate("step", max_time=0.5)
     n = len(run["t"])
-    assert n == 500 and np.allclose(np.diff(run["t"]), cbfgen.DT)
-    assert run["x"].shape == (n, cbfgen.NX) and run["min_h"].shape == (n, len(cbfgen.FAMILIES))
-    np.testing.assert_allclose(run["body_z_world"], run["x"][:, 2] + run["x"][:, cbfgen.STATE_NAMES.index("bz")])
-    assert set(run["summary"]["min_h"]) == set(cbfgen.FAMILIES)
+    assert n == 500 and np.allclose(np.diff(run["t"]), t3.DT)
+    assert run["x"].shape == (n, t3.NX) and run["min_h"].shape == (n, len(t3.FAMILIES))
+    np.testing.assert_allclose(run["body_z_world"], run["x"][:, 2] + run["x"][:, t3.STATE_NAMES.index("bz")])
+    assert set(run["summary"]["min_h"]) == set(t3.FAMILIES)
     assert np.all((run["source"] >= 0) & (run["source"] < len(cbfgen.INPUT_SOURCES)))
 
 
@@ -52,59 +82,128 @@ def test_filtered_input_satisfies_every_active_ecbf_row():
     _, safety = python_loop("step", 6.0)
     out = safety.output
     assert out.source == "qp" and out.polished
-    u, lie, lg, slack = out.u, safety.lie, safety.lg_lf, safety.slack
+    u, lg, slack = out.u, safety.lg_lf, safety.slack
     active = np.array(safety.active)
     assert active.sum() == out.active_rows > 0
-    p1, p2 = 20.0, 20.0  # the model's default ECBF poles
-    bound = -(lie[:, 2] + (p1 + p2) * lie[:, 1] + p1 * p2 * lie[:, 0])
+    bound = ecbf_bounds(safety)
     lhs = lg @ u + slack
     assert np.all(lhs[active] >= bound[active] - 1e-6 * (1 + np.abs(bound[active])))
-    limits = np.array(cbfgen.INPUT_LIMITS)
-    assert np.all(np.abs(u) <= limits + 1e-12)
+    assert np.all((t3.SYSTEM.input_min - 1e-12 <= u) & (u <= t3.SYSTEM.input_max + 1e-12))
 
 
-def test_rows_match_the_filter_catalog():
-    # The family functions and the filter evaluate the same kernels at the same state.
-    x = cbfgen.standard_posture()
-    env = cbfgen.Environment()
-    env.floor_z = np.full(6, 0.0)
-    safety = cbfgen.EcbfFilter()
-    safety.update(x, np.zeros(cbfgen.NU), env)
-    slots = safety.slots
-    lie = safety.lie
-    for leg in range(6):
-        rows, _ = cbfgen.joint_limits(leg, x)
-        mine = [i for i, (f, at, _) in enumerate(slots) if f == "joint_limits" and at == leg]
-        np.testing.assert_array_equal(lie[mine], rows)
-        (height,), _ = cbfgen.foot_height(leg, x, 0.0)
-        (i,) = [i for i, (f, at, _) in enumerate(slots) if f == "foot_height" and at == leg]
-        np.testing.assert_array_equal(lie[i], height)
+def test_double_integrator_closed_loop_through_the_generic_classes():
+    # The multi-layer example's system, driven only through System/Params/EcbfFilter:
+    # a nominal input pushing down through the moving boundary q = A sin(w t) + c. Its
+    # rows are recomputed here from the formula by hand, and the position never goes
+    # below the boundary (beyond the slack's small give).
+    system = cbfgen.System("double_integrator")
+    amplitude, omega, offset = 0.2, 2.0, -0.5
+    params = system.params()
+    params.set("sine_barrier", {"amplitude": amplitude, "omega": omega, "offset": offset})
+    safety = system.filter(slack_weight={"sine_barrier": 1e8})
+    x, dt, lowest = np.array([0.0, 0.0]), 1e-3, np.inf
+    for k in range(4000):
+        t = k * dt
+        out = safety.update(x, [-5.0], params, t)
+        assert out.source == "qp"
+        s, c = np.sin(omega * t), np.cos(omega * t)
+        by_hand = [x[0] - amplitude * s - offset, x[1] - amplitude * omega * c, amplitude * omega**2 * s]
+        np.testing.assert_allclose(safety.lie[0], by_hand, rtol=1e-12, atol=1e-12)
+        np.testing.assert_array_equal(safety.lg_lf, [[1.0]])
+        if safety.active[0]:
+            assert out.u[0] + safety.slack[0] >= ecbf_bounds(safety)[0] - 1e-6
+        lowest = min(lowest, by_hand[0])
+        x = x + dt * system.xdot(x, out.u)
+    assert -1e-3 < lowest < 0.05  # it went to the boundary and stayed on the safe side
 
 
-def test_dense_g_and_xdot_agree():
+def test_rows_agree_with_the_kernel_table_and_the_filter():
+    # System.rows (the generated barrier set), the filter's rows and the uniform kernel
+    # table (the same kernels reached through a second, flat door) at one state.
+    x = t3.standard_posture()
+    env = t3.Environment()
+    env.floor_z = np.full(6, -0.01)
+    rows = t3.SYSTEM.rows(x, env)
+    safety = t3.ecbf_filter()
+    safety.update(x, np.zeros(t3.NU), env)
+    np.testing.assert_array_equal(rows.lie, safety.lie)
+    np.testing.assert_array_equal(rows.lg_lf, safety.lg_lf)
+    assert rows.layout == safety.layout and rows.applicable == safety.applicable
+    for leg in ("lf", "mf", "rf", "lr", "mr", "rr"):
+        flat = cbfgen.call_kernel("tachyon3", f"joint_limits_{leg}", x)
+        mine = [i for i, (f, m, _, _) in enumerate(rows.layout) if f == "joint_limits" and m == leg]
+        np.testing.assert_array_equal(rows.lie[mine], flat[:12].reshape(4, 3))
+        flat = cbfgen.call_kernel("tachyon3", f"foot_height_{leg}", np.append(x, -0.01))
+        (i,) = [i for i, (f, m, _, _) in enumerate(rows.layout) if f == "foot_height" and m == leg]
+        np.testing.assert_array_equal(rows.lie[i], flat[:3])
+
+
+@pytest.mark.parametrize("name", ["double_integrator", "tachyon3"])
+def test_xdot_is_drift_plus_input_matrix_times_u(name):
+    system = cbfgen.System(name)
     rng = np.random.default_rng(7)
-    x = cbfgen.standard_posture() + rng.uniform(-0.05, 0.05, cbfgen.NX)
-    u = rng.uniform(-1, 1, cbfgen.NU)
-    np.testing.assert_allclose(cbfgen.xdot(x, u), cbfgen.dynamics_f(x) + cbfgen.dynamics_g(x) @ u, rtol=1e-14)
+    x = (t3.standard_posture() if name == "tachyon3" else np.zeros(system.nx)) + rng.uniform(-0.05, 0.05, system.nx)
+    u = rng.uniform(-1, 1, system.nu)
+    np.testing.assert_allclose(system.xdot(x, u), system.drift(x) + system.input_matrix(x) @ u, rtol=1e-14)
+    np.testing.assert_array_equal(system.drift(x), cbfgen.call_kernel(name, "drift", x))
+
+
+def test_params_take_dicts_or_flat_vectors_with_matrices_row_by_row():
+    rotation = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # not symmetric
+    center, half = [0.8, 0.1, 0.06], [0.02, 1.0, 0.02]
+    by_dict, flat, typed = t3.SYSTEM.params(t3.capacity(2, [1] * 6)), t3.SYSTEM.params(t3.capacity(2, [1] * 6)), \
+        t3.Environment(2, [1] * 6)
+    by_dict.push("body_edge", {"center": center, "rotation": rotation, "half": half})
+    flat.push("body_edge", np.concatenate([center, rotation.ravel(order="C"), half]))
+    typed.push_edge(center, rotation, half)
+    for p in (by_dict, flat, typed):
+        got = p.get("body_edge")
+        np.testing.assert_array_equal(got["rotation"], rotation)
+        np.testing.assert_array_equal(got["center"], center)
+        assert p.get("body_edge", instance=1) is None and p.count("body_edge") == 1
+    by_dict.push("foothold", {"normal": [0.6, 0.8], "offset": 0.25}, member="lr")
+    assert by_dict.count("foothold", member=3) == 1 and by_dict.count("foothold", member="lf") == 0
+    by_dict.set_enabled("foothold", False)
+    assert not any(by_dict.is_enabled("foothold", member=m) for m in range(6))
+    by_dict.set("stability", {"a": 1.0, "b": 0.4}, member="mf", instance=1)
+    assert by_dict.get("stability", member="mf", instance=1) == {"a": 1.0, "b": 0.4}
+    by_dict.remove("stability", member="mf", instance=1)
+    assert by_dict.get("stability", member="mf", instance=1) is None
+    copy = by_dict.copy()
+    copy.clear("body_edge")
+    assert copy.count("body_edge") == 0 and by_dict.count("body_edge") == 1
 
 
 BOX = ([0, 0, 0], np.eye(3), [0.5, 0.5, 0.5])
+DI = cbfgen.System("double_integrator")
 
 
 @pytest.mark.parametrize("call, error, message", [
-    (lambda: cbfgen.joint_limits(0, np.full(cbfgen.NX, np.nan)), cbfgen.CbfError, "finite"),
-    (lambda: cbfgen.joint_limits(0, np.zeros(5)), ValueError, "expected 36 values"),
-    (lambda: cbfgen.joint_limits(6, cbfgen.standard_posture()), ValueError, "no leg 6"),
-    (lambda: cbfgen.joint_limits("XX", cbfgen.standard_posture()), ValueError, "no leg 'XX'"),
+    (lambda: t3.SYSTEM.drift(np.full(t3.NX, np.nan)), cbfgen.CbfError, "finite"),
+    (lambda: t3.SYSTEM.drift(np.zeros(5)), ValueError, r"expected 36 values|shape \(36,\)"),
+    (lambda: cbfgen.System("moon_rover"), cbfgen.CbfError, "no system named"),
+    (lambda: DI.params().set("nope", [0, 0, 0]), cbfgen.CbfError, "no family named"),
+    (lambda: DI.params().set("sine_barrier", [0, 0]), ValueError, "shape"),
+    (lambda: DI.params().set("sine_barrier", {"amplitude": 0.0, "omega": 1.0}), ValueError, "missing"),
+    (lambda: DI.params().push("sine_barrier", [0, 0, 0]), cbfgen.CbfError, "push is not available"),
+    (lambda: DI.params().set("sine_barrier", [0, 0, np.nan]), cbfgen.CbfError, "finite"),
+    (lambda: DI.params().set("sine_barrier", [0, 0, 1e300]), cbfgen.CbfError, "outside"),
+    (lambda: DI.params().set("sine_barrier", [0, 0, 0], instance=1), cbfgen.CbfError, "no instance 1"),
+    (lambda: t3.Environment().set("foot_height", [0.0]), ValueError, "pass member="),
+    (lambda: t3.Environment().set("foot_height", [0.0], member="xx"), ValueError, "no member 'xx'"),
+    (lambda: t3.SYSTEM.params({"joint_limits": 3}), cbfgen.CbfError, "not available"),
+    (lambda: t3.SYSTEM.params({"body_edge": t3.MAX_EDGES + 1}), cbfgen.CbfError, "above the maximum"),
+    (lambda: t3.Environment().set_foothold(0, [[0, 0]], [1.0]), cbfgen.CbfError, "normal"),
     (lambda: cbfgen.ssat(*BOX, [2, 0, 0], np.eye(3), [0.5, 0.0, 0.5]), cbfgen.CbfError, "half extent"),
     (lambda: cbfgen.ssat(*BOX, [2, 0, 0], 2 * np.eye(3), [0.5, 0.5, 0.5]), cbfgen.CbfError, "rotation"),
     (lambda: cbfgen.ssat(*BOX, *BOX, variant="nope"), ValueError, "SSAT variant"),
     (lambda: cbfgen.ssat(*BOX, *BOX, alpha=-1.0), cbfgen.CbfError, "alpha"),
-    (lambda: cbfgen.foothold(0, cbfgen.standard_posture(), [0, 0], 1.0), cbfgen.CbfError, "normal"),
-    (lambda: cbfgen.EcbfFilter(activation={"nope": 1.0}), ValueError, "unknown family"),
-    (lambda: cbfgen.EcbfFilter(eps_abs=0.0), cbfgen.CbfError, "eps_abs = 0 is outside"),
-    (lambda: cbfgen.Course("moon"), ValueError, "unknown scenario"),
-    (lambda: cbfgen.simulate("step", max_time=-1.0), cbfgen.CbfError, "max_time"),
+    (lambda: t3.ecbf_filter(activation={"nope": 1.0}), cbfgen.CbfError, "no family named"),
+    (lambda: t3.ecbf_filter(eps_abs=0.0), cbfgen.CbfError, "eps_abs = 0 is outside"),
+    (lambda: t3.ecbf_filter(poles={"body_edge": [1.0]}), cbfgen.CbfError, "poles"),
+    (lambda: t3.ecbf_filter(speed=3), ValueError, "unknown setting"),
+    (lambda: t3.Course("moon"), ValueError, "unknown scenario"),
+    (lambda: t3.simulate("step", max_time=-1.0), cbfgen.CbfError, "max_time"),
 ])
 def test_bad_input_raises_a_python_exception(call, error, message):
     with pytest.raises(error, match=message):
@@ -112,13 +211,15 @@ def test_bad_input_raises_a_python_exception(call, error, message):
 
 
 def test_filter_errors_leave_it_usable():
-    safety = cbfgen.EcbfFilter(edges=2)
-    small = cbfgen.Environment(edges=2)
-    x, u = cbfgen.standard_posture(), np.zeros(cbfgen.NU)
+    safety = t3.ecbf_filter(edges=2)
+    small = t3.Environment(edges=2)
+    x, u = t3.standard_posture(), np.zeros(t3.NU)
     with pytest.raises(cbfgen.CbfError, match="capacities"):
-        safety.update(x, u, cbfgen.Environment())
+        safety.update(x, u, t3.Environment())
+    with pytest.raises(cbfgen.CbfError, match="parameters of system double_integrator"):
+        safety.update(x, u, DI.params())
     with pytest.raises(cbfgen.CbfError, match="finite"):
-        safety.update(x, np.full(cbfgen.NU, np.inf), small)
+        safety.update(x, np.full(t3.NU, np.inf), small)
     for _ in range(2):
         small.push_edge(*BOX)
     with pytest.raises(cbfgen.CbfError, match="too many edge cuboids"):
@@ -128,18 +229,22 @@ def test_filter_errors_leave_it_usable():
 
 
 def test_environment_round_trips():
-    env = cbfgen.Environment(edges=3, foothold_edges=(4, 4, 4, 4, 4, 4))
-    assert env.capacity == (3, [4, 4, 4, 4, 4, 4])
+    env = t3.Environment(edges=3, foothold_edges=(4, 4, 4, 4, 4, 4))
+    assert env.sizes == (3, [4, 4, 4, 4, 4, 4])
+    assert env.capacity["body_edge"] == 3 and env.capacity["foothold"] == [4] * 6
     normals = np.array([[1.0, 0.0], [0.0, 1.0]])
     env.set_foothold("LR", normals, [0.5, 0.25])
     got_normals, got_offsets = env.foothold(3)
     np.testing.assert_array_equal(got_normals, normals)
     np.testing.assert_array_equal(got_offsets, [0.5, 0.25])
+    assert env.get("foothold", member="lr", instance=1) == {"normal": pytest.approx([0.0, 1.0]), "offset": 0.25}
     with pytest.raises(ValueError, match="2 normals .* but 1 offsets"):
         env.set_foothold(0, normals, [0.5])
     env.swing = [True, False, True, False, True, False]
     assert env.swing == [True, False, True, False, True, False]
+    assert [env.is_enabled("foothold", member=m) for m in range(6)] == env.swing
     env.set_stability(0, lower=(1.0, 0.4), upper=None)
+    assert env.get("stability", member="lf") == {"a": 1.0, "b": 0.4}
     with pytest.raises(cbfgen.CbfError):
         env.floor_z = [0.0, 0.0, np.nan, 0.0, 0.0, 0.0]
 
@@ -156,11 +261,14 @@ def test_type_stubs_list_exactly_the_module_names():
             declared.add(node.name)
         elif isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
             declared.add(node.target.id)
-    helpers = {"ArrayLike", "Vector", "Matrix", "Leg", "Rows", "SsatVariant", "Family"}
+    helpers = {"ArrayLike", "Vector", "Matrix", "Leg", "Member", "Values", "FamilyInfo", "SsatVariant",
+               "RowPlace"}
     declared -= helpers
-    assert declared == set(cbfgen.__all__)
-    for name in cbfgen.__all__:  # and every public function or class carries a docstring
-        obj = getattr(cbfgen, name)
+    native = {n for n in dir(cbfgen._native) if not n.startswith("_")}
+    assert declared == native
+    exported = set(cbfgen.__all__) - {"tachyon3"} | set(t3.__all__)
+    for name in exported:  # every public function or class carries a docstring
+        obj = getattr(cbfgen, name, None) or getattr(t3, name)
         if callable(obj):
             assert obj.__doc__, name
 
@@ -171,20 +279,20 @@ def test_updates_on_threads_match_sequential_ones():
     # be the one a single thread computes.
     import threading
 
-    course = cbfgen.Course("step")
+    course = t3.Course("step")
     rng = np.random.default_rng(5)
     x0 = course.initial_state()
-    states = [x0 + rng.normal(0.0, 0.01, cbfgen.NX) for _ in range(100)]
+    states = [x0 + rng.normal(0.0, 0.01, t3.NX) for _ in range(100)]
     inputs = [course.plan(0.0, x) for x in states]
     env = course.environment
 
     def run(safety):
         return np.array([safety.update(x, u, env).u for x, u in zip(states, inputs, strict=False)])
 
-    expected = run(cbfgen.EcbfFilter())
+    expected = run(t3.ecbf_filter())
     results = {}
-    shared = cbfgen.EcbfFilter()
-    threads = [threading.Thread(target=lambda i=i: results.__setitem__(i, run(cbfgen.EcbfFilter())))
+    shared = t3.ecbf_filter()
+    threads = [threading.Thread(target=lambda i=i: results.__setitem__(i, run(t3.ecbf_filter())))
                for i in range(3)]
 
     def shared_run(i):

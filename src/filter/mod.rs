@@ -257,7 +257,9 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
         self.barriers.evaluate(t, x, params)?;
         let mut active_rows = 0;
         for ((on, row), &threshold) in self.active.iter_mut().zip(self.barriers.rows()).zip(&self.activation) {
-            *on = row.active && row.h() < threshold;
+            // `!(h >= threshold)`, not `h < threshold`: a NaN row takes part, so the QP
+            // reports it (`nonfinite_row`) and the input falls back instead of ignoring it.
+            *on = row.active && !(row.h() >= threshold);
             active_rows += usize::from(*on);
         }
         let evaluated = Instant::now();

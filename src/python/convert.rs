@@ -1,5 +1,4 @@
-//! Conversions at the Python boundary: array-likes in, numpy arrays out, legs by index
-//! or name.
+//! Conversions at the Python boundary: array-likes in, numpy arrays out.
 
 use numpy::ndarray::Array2;
 use numpy::{
@@ -12,7 +11,6 @@ use pyo3::sync::PyOnceLock;
 use pyo3::{intern, Borrowed};
 
 use crate::error::CbfError;
-use crate::systems::tachyon3::model::LEG_NAMES;
 
 /// A real-valued array from anything numpy reads as booleans, integers or floats (lists,
 /// tuples, arrays of any such dtype), as float64.
@@ -80,6 +78,24 @@ pub fn fixed<const N: usize>(what: &str, a: &ArrayIn<'_>) -> PyResult<[f64; N]> 
     Ok(out)
 }
 
+/// Values of exactly `shape` (`[]` a scalar, `[n]` a vector, `[r, c]` a matrix read row
+/// by row), flattened. A matrix may also come flat, as its `r·c` row-major values; any
+/// other shape is refused, so that a (2, 3) array is never read as a 6-vector.
+pub fn shaped(what: &str, a: &ArrayIn<'_>, shape: &[usize]) -> PyResult<Vec<f64>> {
+    let view = a.0.as_array();
+    let flat_matrix = shape.len() == 2 && view.shape() == [shape[0] * shape[1]];
+    if view.shape() != shape && !flat_matrix {
+        let expected = match shape {
+            [] => "a number".to_string(),
+            [r, c] => format!("shape ({r}, {c}) or ({},)", r * c),
+            _ => format!("shape {}", shape_text(shape)),
+        };
+        return Err(shape_error(what, &expected, view.shape()));
+    }
+    // `iter` walks in logical row-major order whatever the memory layout.
+    Ok(view.iter().copied().collect())
+}
+
 /// A 3×3 rotation given as 9 row-major values (shape (9,)) or as a 3×3 array.
 pub fn rotation(what: &str, a: &ArrayIn<'_>) -> PyResult<[f64; 9]> {
     let view = a.0.as_array();
@@ -145,29 +161,6 @@ pub fn matrix_from_fn<'py>(
     f: impl Fn(usize, usize) -> f64,
 ) -> Array2Out<'py> {
     Array2::from_shape_fn((rows, cols), |(i, j)| f(i, j)).into_pyarray(py)
-}
-
-/// A leg, as its index in `LEG_NAMES` order or its name ("LF", "MF", ...).
-#[derive(FromPyObject)]
-pub enum LegArg {
-    Index(i64),
-    Name(String),
-}
-
-impl LegArg {
-    pub fn index(&self) -> PyResult<usize> {
-        let found = match self {
-            LegArg::Index(i) => usize::try_from(*i).ok().filter(|&i| i < LEG_NAMES.len()),
-            LegArg::Name(n) => LEG_NAMES.iter().position(|l| l.eq_ignore_ascii_case(n)),
-        };
-        found.ok_or_else(|| {
-            let given = match self {
-                LegArg::Index(i) => i.to_string(),
-                LegArg::Name(n) => format!("'{n}'"),
-            };
-            PyValueError::new_err(format!("no leg {given}: legs are 0..6 or one of {LEG_NAMES:?}"))
-        })
-    }
 }
 
 /// The index of `name` in `names`, or a `ValueError` listing the choices.

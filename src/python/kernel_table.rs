@@ -33,7 +33,8 @@ fn kernel_table() -> Vec<(&'static str, &'static str, Vec<Slot>, Vec<Slot>)> {
 
 /// Call kernel ``name`` of ``module`` with every input flattened, in order, into one
 /// vector; returns every output flattened likewise (matrices row by row, symmetric ones by
-/// their upper triangle). Inputs must be finite and exactly as many as the kernel takes.
+/// their upper triangle). Inputs must be finite, within ``PARAM_LIMIT`` and exactly as many
+/// as the kernel takes; an output that is not finite (a singular state) raises ``CbfError``.
 #[pyfunction]
 fn call_kernel<'py>(py: Python<'py>, module: &str, name: &str, inputs: ArrayIn<'py>) -> PyResult<Array1Out<'py>> {
     let entry = find(module, name)?;
@@ -42,11 +43,14 @@ fn call_kernel<'py>(py: Python<'py>, module: &str, name: &str, inputs: ArrayIn<'
     if inputs.len() != expected {
         return Err(CbfError::LengthMismatch { what: "kernel inputs", expected, got: inputs.len() }.into());
     }
-    for &v in &inputs {
-        finite("kernel input", v)?;
-    }
+    // One domain for every kernel input (states, times and parameters alike): the widest,
+    // the parameters'. Outputs reach Python only when finite.
+    crate::system::validate_params("kernel input", &inputs)?;
     let mut outputs = vec![0.0; entry.outputs.iter().map(|(_, n)| n).sum()];
     (entry.call)(&inputs, &mut outputs);
+    for &v in &outputs {
+        finite("kernel output", v)?;
+    }
     Ok(vector(py, &outputs))
 }
 

@@ -1,6 +1,11 @@
 //! The Python extension module `cbfgen._native` (feature `python`; build it with maturin,
-//! as `scripts/cbf setup` does). The `cbfgen` Python package re-exports everything here;
+//! as `scripts/cbf setup` does). The `cbfgen` Python package re-exports the generic part
+//! (`System`, `Params`, `EcbfFilter`, `Rows`, the SSAT and the kernel table) and
+//! `cbfgen.tachyon3` the robot's own (`Environment`, `Course`, `simulate`, kinematics);
 //! `python/cbfgen/_native.pyi` carries the signatures for IDEs.
+//!
+//! Every built-in system is reached through the same classes ([`crate::dynamic`]): a new
+//! spec needs no binding code here.
 //!
 //! Conventions at the boundary:
 //! * arrays in: anything numpy reads as booleans, integers or floats (lists, tuples,
@@ -20,15 +25,12 @@
 //! * `EcbfFilter.update` and `simulate` release the GIL while Rust works.
 
 mod convert;
-mod filter;
 mod kernel_table;
-mod kernels;
-mod sim;
+mod ssat;
+mod system;
+mod tachyon3;
 
 use pyo3::prelude::*;
-
-use crate::systems::tachyon3::catalog::{Family, RELATIVE_DEGREE};
-use crate::systems::tachyon3::model;
 
 pyo3::create_exception!(
     cbfgen,
@@ -47,30 +49,19 @@ impl From<crate::CbfError> for PyErr {
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
     m.add("CbfError", py.get_type::<CbfError>())?;
-    m.add("NX", model::NX)?;
-    m.add("NU", model::NU)?;
-    m.add("STATE_NAMES", model::STATE_NAMES.to_vec())?;
-    m.add("INPUT_NAMES", model::INPUT_NAMES.to_vec())?;
-    m.add("LEG_NAMES", model::LEG_NAMES.to_vec())?;
-    m.add("INPUT_LIMITS", model::INPUT_LIMITS.to_vec())?;
-    m.add("TOE_RADIUS", model::TOE_RADIUS)?;
-    m.add("BODY_HALF_EXTENTS", model::BODY_HALF_EXTENTS.to_vec())?;
-    m.add("RELATIVE_DEGREE", RELATIVE_DEGREE)?;
-    m.add("FAMILIES", Family::ALL.map(Family::name).to_vec())?;
-    m.add("DT", crate::systems::tachyon3::sim::DT)?;
-    m.add("MAX_EDGES", crate::systems::tachyon3::catalog::Capacity::MAX_EDGES)?;
-    m.add("MAX_FOOTHOLD_EDGES", crate::systems::tachyon3::catalog::Capacity::MAX_FOOTHOLD_EDGES)?;
     m.add("MAX_ITERATIONS", crate::filter::SolverSettings::MAX_ITERATIONS)?;
     m.add("MAX_TIME_LIMIT_US", crate::filter::SolverSettings::MAX_TIME_LIMIT.as_secs_f64() * 1e6)?;
     m.add("MAX_INPUT", crate::filter::domain::MAX_INPUT)?;
-    m.add("STATE_LIMIT", model::STATE_LIMIT)?;
-    m.add("MAX_SIM_TIME", crate::systems::tachyon3::sim::MAX_SIM_TIME)?;
+    m.add("STATE_LIMIT", crate::system::STATE_LIMIT)?;
+    m.add("PARAM_LIMIT", crate::system::PARAM_LIMIT)?;
+    m.add("MAX_INSTANCES", crate::system::MAX_INSTANCES)?;
+    m.add("INPUT_SOURCES", crate::filter::InputSource::ALL.map(crate::filter::InputSource::name).to_vec())?;
     m.add("SSAT_ALPHA_RANGE", (crate::ssat::ALPHA_MIN, crate::ssat::ALPHA_MAX))?;
     m.add("MAX_COORDINATE", crate::geometry::MAX_COORDINATE)?;
     m.add("HALF_EXTENT_RANGE", (crate::geometry::MIN_HALF_EXTENT, crate::geometry::MAX_HALF_EXTENT))?;
-    kernels::register(m)?;
+    system::register(m)?;
+    ssat::register(m)?;
     kernel_table::register(m)?;
-    filter::register(m)?;
-    sim::register(m)?;
+    tachyon3::register(m)?;
     Ok(())
 }

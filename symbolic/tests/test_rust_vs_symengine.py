@@ -84,7 +84,7 @@ def random_rotation(rng: np.random.Generator) -> np.ndarray:
 def random_state(rng: np.random.Generator) -> np.ndarray:
     """Around the standard posture: any origin pose and speed, body and toes displaced
     and moving (the same ranges as the Rust finite-difference test)."""
-    x = np.asarray(cbfgen.standard_posture())
+    x = np.asarray(cbfgen.tachyon3.standard_posture())
     x[0:2] = rng.uniform(-2, 2, 2)
     x[2] = rng.uniform(-0.2, 0.2)
     x[3] = rng.uniform(-3, 3)
@@ -123,10 +123,10 @@ def family_inputs(family: str, leg: int, rng: np.random.Generator) -> Inputs:
     x = random_state(rng)
     v: Inputs = {"x": x}
     if family == "body_edge":
-        center, _, _ = cbfgen.world_kinematics(x)
+        center, _, _ = cbfgen.tachyon3.world_kinematics(x)
         v.update(random_edge_near(rng, np.asarray(center), 0.8))
     elif family == "toe_edge":
-        _, _, toes = cbfgen.world_kinematics(x)
+        _, _, toes = cbfgen.tachyon3.world_kinematics(x)
         v.update(random_edge_near(rng, np.asarray(toes)[leg], 0.4))
     elif family == "foothold":
         a = rng.uniform(-np.pi, np.pi)

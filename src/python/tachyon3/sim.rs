@@ -4,11 +4,10 @@
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use super::convert::{choice, matrix_from_fn, vector, Array1Out, ArrayIn};
-use super::filter::PyEnvironment;
-use super::kernels::state;
+use super::{initializer, state, PyEnvironment};
 use crate::error::finite;
 use crate::filter::InputSource;
+use crate::python::convert::{choice, matrix_from_fn, vector, Array1Out, ArrayIn};
 use crate::systems::tachyon3::catalog::Family;
 use crate::systems::tachyon3::model::NX;
 use crate::systems::tachyon3::sim::gait::GaitParams;
@@ -18,7 +17,6 @@ const SCENARIOS: [Scenario; 2] = [Scenario::Step, Scenario::Stairs];
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SCENARIOS", SCENARIOS.map(Scenario::name).to_vec())?;
-    m.add("INPUT_SOURCES", InputSource::ALL.map(InputSource::name).to_vec())?;
     m.add_class::<PyCourse>()?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     Ok(())
@@ -32,14 +30,14 @@ fn scenario(name: &str) -> PyResult<Scenario> {
 ///
 /// ```python
 /// course = Course("step")
-/// filt = EcbfFilter()
+/// filt = ecbf_filter()
 /// x = course.initial_state()
 /// for k in range(n):
 ///     u_ref = course.plan(k * DT, x)          # also updates course.environment
 ///     out = filt.update(x, u_ref, course.environment)
 ///     x = x + DT * xdot(x, out.u)
 /// ```
-#[pyclass(name = "Course", module = "cbfgen")]
+#[pyclass(name = "Course", module = "cbfgen.tachyon3")]
 pub struct PyCourse {
     inner: Course,
     env: Py<PyEnvironment>,
@@ -52,7 +50,7 @@ impl PyCourse {
     #[pyo3(signature = (scenario="step"))]
     fn new(py: Python<'_>, scenario: &str) -> PyResult<Self> {
         let inner = Course::new(self::scenario(scenario)?, GaitParams::default())?;
-        let env = Py::new(py, PyEnvironment { inner: inner.environment().clone() })?;
+        let env = Py::new(py, initializer(inner.environment().clone()))?;
         Ok(Self { inner, env, nominal_body_height: None })
     }
 
@@ -72,7 +70,13 @@ impl PyCourse {
         }
         finite("nominal body height", plan.body_height)?;
         self.nominal_body_height = Some(plan.body_height);
-        self.env.borrow_mut(py).inner.clone_from(self.inner.environment());
+        let mut env = self.env.borrow_mut(py);
+        let params = &mut env.as_super().inner;
+        match params.downcast_mut::<crate::systems::tachyon3::catalog::Environment>() {
+            Some(e) => e.clone_from(self.inner.environment()),
+            // Only reachable if the wrapped parameters were replaced: restore them.
+            None => *params = Box::new(self.inner.environment().clone()),
+        }
         Ok(vector(py, &plan.u_ref))
     }
 

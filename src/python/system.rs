@@ -1,0 +1,845 @@
+//! Every built-in system through one set of classes: `System` (names, sizes, dynamics),
+//! `Params` (each family's run-time instances), `EcbfFilter` and `FilterOutput`, and
+//! `Rows`. Nothing here names a system: all of it goes through [`crate::dynamic`].
+
+use std::collections::HashMap;
+use std::sync::{Mutex, MutexGuard};
+use std::time::Duration;
+
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+
+use super::convert::{matrix_from_fn, shaped, vector, Array1Out, Array2Out, ArrayIn};
+use crate::dynamic::{self, CapacityCount, DynFilter, DynParams, DynRows, DynSystem};
+use crate::error::{within, CbfError};
+use crate::filter::{Output, SolverSettings};
+use crate::system::{FamilyInfo, Poles};
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(systems, m)?)?;
+    m.add_class::<PySystem>()?;
+    m.add_class::<PyParams>()?;
+    m.add_class::<PyRows>()?;
+    m.add_class::<PyEcbfFilter>()?;
+    m.add_class::<PyFilterOutput>()?;
+    Ok(())
+}
+
+/// The names of every built-in system.
+#[pyfunction]
+fn systems() -> Vec<&'static str> {
+    dynamic::systems().iter().map(|s| s.name()).collect()
+}
+
+fn find_system(name: &str) -> Result<&'static dyn DynSystem, CbfError> {
+    dynamic::system(name).ok_or_else(|| CbfError::UnknownName {
+        what: "system",
+        name: name.to_string(),
+        known: systems().join(", "),
+    })
+}
+
+/// A system given by name or as a `System`.
+#[derive(FromPyObject)]
+pub enum SystemArg<'py> {
+    Name(String),
+    System(PyRef<'py, PySystem>),
+}
+
+impl SystemArg<'_> {
+    fn get(&self) -> Result<&'static dyn DynSystem, CbfError> {
+        match self {
+            SystemArg::Name(n) => find_system(n),
+            SystemArg::System(s) => Ok(s.inner),
+        }
+    }
+}
+
+/// Where a row sits: family, member (of an indexed family), instance, row name.
+type RowPlace = (&'static str, Option<&'static str>, usize, &'static str);
+
+/// A member of an indexed family, by index or name.
+#[derive(FromPyObject, Clone)]
+pub enum MemberArg {
+    Index(i64),
+    Name(String),
+}
+
+/// Members `member` selects of family `f`: one, or (`None`) all of an indexed family's and
+/// the only one of another.
+fn members(f: &FamilyInfo, member: Option<&MemberArg>, all: bool) -> PyResult<Vec<usize>> {
+    let n = f.members.len().max(1);
+    match member {
+        None if f.members.is_empty() || all => Ok((0..n).collect()),
+        None => {
+            Err(PyValueError::new_err(format!("family '{}' is indexed over {:?}: pass member=", f.name, f.members)))
+        }
+        Some(MemberArg::Index(i)) => {
+            let i = usize::try_from(*i).ok().filter(|&i| i < n);
+            Ok(vec![i.ok_or_else(|| PyValueError::new_err(format!("family '{}' has members 0..{n}", f.name)))?])
+        }
+        Some(MemberArg::Name(name)) => f.members.iter().position(|m| m.eq_ignore_ascii_case(name)).map_or_else(
+            || {
+                Err(PyValueError::new_err(format!(
+                    "family '{}' has no member '{name}': expected one of {:?}",
+                    f.name, f.members
+                )))
+            },
+            |i| Ok(vec![i]),
+        ),
+    }
+}
+
+fn one_member(f: &FamilyInfo, member: Option<&MemberArg>) -> PyResult<usize> {
+    Ok(members(f, member, false)?[0])
+}
+
+fn family_of(families: &'static [FamilyInfo], name: &str) -> PyResult<(usize, &'static FamilyInfo)> {
+    let i = families.iter().position(|f| f.name == name).ok_or_else(|| CbfError::UnknownName {
+        what: "family",
+        name: name.to_string(),
+        known: families.iter().map(|f| f.name).collect::<Vec<_>>().join(", "),
+    })?;
+    Ok((i, &families[i]))
+}
+
+/// `{family: count}` (an indexed family's count for every member, or a list per member)
+/// as capacity counts.
+fn capacity(system: &dyn DynSystem, counts: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<CapacityCount>> {
+    let mut out = Vec::new();
+    for (key, value) in counts.into_iter().flat_map(|d| d.iter()) {
+        let name: String = key.extract()?;
+        let (family, f) = family_of(system.families(), &name)?;
+        // An int is one count (a negative or huge one is Python's OverflowError); anything
+        // else must be a list of counts, one per member.
+        let per_member: Vec<usize> = if value.is_instance_of::<pyo3::types::PyInt>() {
+            vec![value.extract::<usize>()?; f.members.len().max(1)]
+        } else {
+            value
+                .extract()
+                .map_err(|_| PyValueError::new_err(format!("capacity of '{name}': a count or one count per member")))?
+        };
+        if per_member.len() != f.members.len().max(1) {
+            return Err(CbfError::LengthMismatch {
+                what: "capacity counts (one per member)",
+                expected: f.members.len().max(1),
+                got: per_member.len(),
+            }
+            .into());
+        }
+        out.extend(per_member.into_iter().enumerate().map(|(member, count)| CapacityCount { family, member, count }));
+    }
+    Ok(out)
+}
+
+fn family_dict<'py>(py: Python<'py>, f: &FamilyInfo) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("name", f.name)?;
+    d.set_item("relative_degree", f.relative_degree)?;
+    d.set_item("row_names", f.row_names.to_vec())?;
+    d.set_item("members", f.members.to_vec())?;
+    d.set_item("instances", f.instances.name())?;
+    d.set_item("count", f.count)?;
+    let params = PyList::empty(py);
+    for (name, shape) in f.params {
+        params.append((*name, shape.to_vec()))?;
+    }
+    d.set_item("params", params)?;
+    d.set_item("poles", f.defaults.poles.as_slice().to_vec())?;
+    d.set_item("slack_weight", f.defaults.slack_weight)?;
+    d.set_item("activation", f.defaults.activation)?;
+    Ok(d)
+}
+
+/// `values` as `n` finite-or-not numbers of the system's state or input.
+fn exact(what: &str, a: &ArrayIn<'_>, n: usize) -> PyResult<Vec<f64>> {
+    shaped(what, a, &[n])
+}
+
+/// A generated system, by name (see ``systems()``): its sizes and names, its dynamics,
+/// and factories for its parameters, rows and filter.
+#[pyclass(name = "System", module = "cbfgen", frozen)]
+pub struct PySystem {
+    pub inner: &'static dyn DynSystem,
+}
+
+#[pymethods]
+impl PySystem {
+    #[new]
+    fn new(name: &str) -> PyResult<Self> {
+        Ok(Self { inner: find_system(name)? })
+    }
+
+    #[getter]
+    fn name(&self) -> &'static str {
+        self.inner.name()
+    }
+
+    /// The spec's description.
+    #[getter]
+    fn doc(&self) -> &'static str {
+        self.inner.doc()
+    }
+
+    /// Number of states.
+    #[getter]
+    fn nx(&self) -> usize {
+        self.inner.nx()
+    }
+
+    /// Number of inputs.
+    #[getter]
+    fn nu(&self) -> usize {
+        self.inner.nu()
+    }
+
+    #[getter]
+    fn state_names(&self) -> Vec<&'static str> {
+        self.inner.state_names().to_vec()
+    }
+
+    #[getter]
+    fn input_names(&self) -> Vec<&'static str> {
+        self.inner.input_names().to_vec()
+    }
+
+    /// The spec's lower input limits, shape (nu,).
+    #[getter]
+    fn input_min<'py>(&self, py: Python<'py>) -> Array1Out<'py> {
+        vector(py, self.inner.input_min())
+    }
+
+    /// The spec's upper input limits, shape (nu,).
+    #[getter]
+    fn input_max<'py>(&self, py: Python<'py>) -> Array1Out<'py> {
+        vector(py, self.inner.input_max())
+    }
+
+    /// Every barrier family: a dict of ``name``, ``relative_degree``, ``row_names``,
+    /// ``members`` (empty unless indexed), ``instances`` ("fixed", "optional" or
+    /// "capacity"), ``count`` (instances per member, or the largest capacity), ``params``
+    /// (``(name, shape)`` per parameter) and the defaults ``poles``, ``slack_weight``,
+    /// ``activation``.
+    #[getter]
+    fn families<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        self.inner.families().iter().map(|f| family_dict(py, f)).collect()
+    }
+
+    /// ``f(x)``, shape (nx,).
+    fn drift<'py>(&self, py: Python<'py>, x: ArrayIn<'py>) -> PyResult<Array1Out<'py>> {
+        let mut f = vec![0.0; self.inner.nx()];
+        self.inner.drift(&exact("x", &x, self.inner.nx())?, &mut f)?;
+        Ok(vector(py, &f))
+    }
+
+    /// ``g(x)``, shape (nx, nu).
+    fn input_matrix<'py>(&self, py: Python<'py>, x: ArrayIn<'py>) -> PyResult<Array2Out<'py>> {
+        let (nx, nu) = (self.inner.nx(), self.inner.nu());
+        let mut g = vec![0.0; nx * nu];
+        self.inner.input_matrix(&exact("x", &x, nx)?, &mut g)?;
+        Ok(matrix_from_fn(py, nx, nu, |i, j| g[i * nu + j]))
+    }
+
+    /// ``x' = f(x) + g(x) u``, shape (nx,). ``u`` must be finite.
+    fn xdot<'py>(&self, py: Python<'py>, x: ArrayIn<'py>, u: ArrayIn<'py>) -> PyResult<Array1Out<'py>> {
+        let (nx, nu) = (self.inner.nx(), self.inner.nu());
+        let (x, u) = (exact("x", &x, nx)?, exact("u", &u, nu)?);
+        for &v in &u {
+            within("input", v, -crate::filter::domain::MAX_INPUT, crate::filter::domain::MAX_INPUT, "[-1e6, 1e6]")?;
+        }
+        let (mut dx, mut g) = (vec![0.0; nx], vec![0.0; nx * nu]);
+        self.inner.drift(&x, &mut dx)?;
+        self.inner.input_matrix(&x, &mut g)?;
+        for (i, d) in dx.iter_mut().enumerate() {
+            *d += g[i * nu..(i + 1) * nu].iter().zip(&u).map(|(a, b)| a * b).sum::<f64>();
+        }
+        Ok(vector(py, &dx))
+    }
+
+    /// Parameters with room for ``capacity`` (``{family: count}``, or a list with a count
+    /// per member of an indexed family); fixed instances start at zero, optional ones
+    /// absent, capacity lists empty.
+    #[pyo3(signature = (capacity=None))]
+    fn params(&self, capacity: Option<&Bound<'_, PyDict>>) -> PyResult<PyParams> {
+        Ok(PyParams { inner: self.inner.params(&self::capacity(self.inner, capacity)?)? })
+    }
+
+    /// Every row at time ``t``, state ``x`` and ``params`` (laid out for their capacity).
+    /// Raises ``CbfError`` where a row that applies is not finite.
+    #[pyo3(signature = (x, params, t=0.0))]
+    fn rows(&self, py: Python<'_>, x: ArrayIn<'_>, params: PyRef<'_, PyParams>, t: f64) -> PyResult<PyRows> {
+        let x = exact("x", &x, self.inner.nx())?;
+        let mut barriers = self.inner.barriers_for(params.inner.as_ref())?;
+        barriers.evaluate(t, &x, params.inner.as_ref())?;
+        // Values out are finite: a row that applies but is not (a singular state, a
+        // degenerate parameter) is an error, as the filter's fallback would report it.
+        for (i, place) in barriers.layout().iter().enumerate() {
+            let Some(row) = barriers.row(i) else { continue };
+            let degree = self.inner.families()[place.family].relative_degree;
+            if row.active && !row.lie[..=degree].iter().chain(row.lg).all(|v| v.is_finite()) {
+                return Err(CbfError::NonFiniteRow { row: i }.into());
+            }
+        }
+        PyRows::of(py, barriers.as_ref(), self.inner.nu())
+    }
+
+    /// An ``EcbfFilter`` for this system (the same as ``EcbfFilter(system, ...)``).
+    #[pyo3(signature = (capacity=None, **settings))]
+    fn filter(
+        slf: PyRef<'_, Self>,
+        capacity: Option<&Bound<'_, PyDict>>,
+        settings: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<PyEcbfFilter> {
+        PyEcbfFilter::build(slf.inner, capacity, settings)
+    }
+
+    fn __repr__(&self) -> String {
+        format!("System('{}', nx={}, nu={}, families={})", self.inner.name(), self.inner.nx(), self.inner.nu(), {
+            let names: Vec<&str> = self.inner.families().iter().map(|f| f.name).collect();
+            format!("{names:?}")
+        })
+    }
+}
+
+/// Parameter values: a dict ``{name: value}`` with every parameter of the family, or one
+/// flat vector of all of them (in declaration order, matrices row by row).
+fn flat_values(f: &FamilyInfo, values: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
+    let Ok(dict) = values.cast::<PyDict>() else {
+        let width = f.params.iter().map(|(_, s)| s.iter().product::<usize>()).sum();
+        return shaped(f.name, &values.extract::<ArrayIn<'_>>()?, &[width]);
+    };
+    let mut out = Vec::new();
+    for (name, shape) in f.params {
+        let value = dict
+            .get_item(name)?
+            .ok_or_else(|| PyValueError::new_err(format!("family '{}': missing parameter '{name}'", f.name)))?;
+        out.extend(shaped(name, &value.extract::<ArrayIn<'_>>()?, shape)?);
+    }
+    if dict.len() != f.params.len() {
+        let known: Vec<&str> = f.params.iter().map(|(n, _)| *n).collect();
+        return Err(PyValueError::new_err(format!(
+            "family '{}': unknown parameter among {:?}; its parameters are {known:?}",
+            f.name,
+            dict.keys().to_string()
+        )));
+    }
+    Ok(out)
+}
+
+/// Every family's run-time instances for one system and capacity (see
+/// ``System.params``). A family is named by string; an indexed family's member by name
+/// or index. Values are a dict of the family's parameters or one flat vector.
+#[pyclass(name = "Params", module = "cbfgen", subclass)]
+pub struct PyParams {
+    pub inner: Box<dyn DynParams>,
+}
+
+impl PyParams {
+    fn family(&self, name: &str) -> PyResult<(usize, &'static FamilyInfo)> {
+        family_of(self.inner.families(), name)
+    }
+}
+
+/// `e` with the family it concerns in front of its message.
+fn in_family(f: &FamilyInfo, e: CbfError) -> PyErr {
+    super::CbfError::new_err(format!("family '{}': {e}", f.name))
+}
+
+#[pymethods]
+impl PyParams {
+    /// The system these parameters belong to.
+    #[getter]
+    fn system(&self) -> &'static str {
+        self.inner.system()
+    }
+
+    /// ``{family: slots}`` of every family with parameters: a count, or a list per member.
+    #[getter]
+    fn capacity<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for (i, f) in self.inner.families().iter().enumerate().filter(|(_, f)| !f.params.is_empty()) {
+            let slots: Vec<usize> = (0..f.members.len().max(1))
+                .map(|m| self.inner.store(i, m).map(|s| s.slots()))
+                .collect::<Result<_, _>>()?;
+            if f.members.is_empty() {
+                d.set_item(f.name, slots[0])?;
+            } else {
+                d.set_item(f.name, slots)?;
+            }
+        }
+        Ok(d)
+    }
+
+    /// Set instance ``instance`` of ``family`` (of ``member``): a fixed or optional
+    /// instance, or one already pushed. Nothing changes on an error.
+    #[pyo3(signature = (family, values, *, member=None, instance=0))]
+    fn set(
+        &mut self,
+        family: &str,
+        values: &Bound<'_, PyAny>,
+        member: Option<MemberArg>,
+        instance: usize,
+    ) -> PyResult<()> {
+        let (i, f) = self.family(family)?;
+        let m = one_member(f, member.as_ref())?;
+        let values = flat_values(f, values)?;
+        self.inner.store_mut(i, m).and_then(|s| s.set(instance, &values)).map_err(|e| in_family(f, e))
+    }
+
+    /// Append an instance to a capacity family (of ``member``).
+    #[pyo3(signature = (family, values, *, member=None))]
+    fn push(&mut self, family: &str, values: &Bound<'_, PyAny>, member: Option<MemberArg>) -> PyResult<()> {
+        let (i, f) = self.family(family)?;
+        let m = one_member(f, member.as_ref())?;
+        let values = flat_values(f, values)?;
+        self.inner.store_mut(i, m).and_then(|s| s.push(&values)).map_err(|e| in_family(f, e))
+    }
+
+    /// Instance ``instance`` as ``{name: value}`` (floats and numpy arrays of the
+    /// parameters' shapes), or None when that slot is empty.
+    #[pyo3(signature = (family, *, member=None, instance=0))]
+    fn get<'py>(
+        &self,
+        py: Python<'py>,
+        family: &str,
+        member: Option<MemberArg>,
+        instance: usize,
+    ) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let (i, f) = self.family(family)?;
+        let store = self.inner.store(i, one_member(f, member.as_ref())?).map_err(|e| in_family(f, e))?;
+        let mut flat = vec![0.0; store.width()];
+        if !store.get(instance, &mut flat).map_err(|e| in_family(f, e))? {
+            return Ok(None);
+        }
+        let d = PyDict::new(py);
+        let mut at = 0;
+        for (name, shape) in f.params {
+            let n: usize = shape.iter().product();
+            let v = &flat[at..at + n];
+            match **shape {
+                [] => d.set_item(name, v[0])?,
+                [_] => d.set_item(name, vector(py, v))?,
+                [r, c] => d.set_item(name, matrix_from_fn(py, r, c, |a, b| v[a * c + b]))?,
+                _ => unreachable!("parameters are scalars, vectors or matrices"),
+            }
+            at += n;
+        }
+        Ok(Some(d))
+    }
+
+    /// Empty optional slot ``instance`` of ``family`` (of ``member``).
+    #[pyo3(signature = (family, *, member=None, instance=0))]
+    fn remove(&mut self, family: &str, member: Option<MemberArg>, instance: usize) -> PyResult<()> {
+        let (i, f) = self.family(family)?;
+        let m = one_member(f, member.as_ref())?;
+        self.inner.store_mut(i, m).and_then(|s| s.remove(instance)).map_err(|e| in_family(f, e))
+    }
+
+    /// Remove every instance of a capacity or optional family (of ``member``; of every
+    /// member when None).
+    #[pyo3(signature = (family, *, member=None))]
+    fn clear(&mut self, family: &str, member: Option<MemberArg>) -> PyResult<()> {
+        let (i, f) = self.family(family)?;
+        for m in members(f, member.as_ref(), true)? {
+            self.inner.store_mut(i, m).and_then(|s| s.clear()).map_err(|e| in_family(f, e))?;
+        }
+        Ok(())
+    }
+
+    /// Switch a capacity family's rows on or off, keeping its instances (of ``member``;
+    /// of every member when None).
+    #[pyo3(signature = (family, enabled, *, member=None))]
+    fn set_enabled(&mut self, family: &str, enabled: bool, member: Option<MemberArg>) -> PyResult<()> {
+        let (i, f) = self.family(family)?;
+        for m in members(f, member.as_ref(), true)? {
+            self.inner.store_mut(i, m).and_then(|s| s.set_enabled(enabled)).map_err(|e| in_family(f, e))?;
+        }
+        Ok(())
+    }
+
+    /// Whether ``family``'s rows (of ``member``) take part.
+    #[pyo3(signature = (family, *, member=None))]
+    fn is_enabled(&self, family: &str, member: Option<MemberArg>) -> PyResult<bool> {
+        let (i, f) = self.family(family)?;
+        let m = one_member(f, member.as_ref())?;
+        Ok(self.inner.store(i, m).map_err(|e| in_family(f, e))?.is_enabled())
+    }
+
+    /// Instances present in ``family`` (of ``member``).
+    #[pyo3(signature = (family, *, member=None))]
+    fn count(&self, family: &str, member: Option<MemberArg>) -> PyResult<usize> {
+        let (i, f) = self.family(family)?;
+        let m = one_member(f, member.as_ref())?;
+        Ok(self.inner.store(i, m).map_err(|e| in_family(f, e))?.len())
+    }
+
+    /// An independent copy.
+    fn copy(&self) -> Self {
+        Self { inner: self.inner.clone_box() }
+    }
+
+    fn __repr__(&self) -> String {
+        format!("Params(system='{}')", self.inner.system())
+    }
+}
+
+/// Rows as evaluated: where each sits and its values.
+#[pyclass(name = "Rows", module = "cbfgen", frozen)]
+pub struct PyRows {
+    layout: Vec<RowPlace>,
+    lie: Py<numpy::PyArray2<f64>>,
+    lg: Py<numpy::PyArray2<f64>>,
+    applicable: Vec<bool>,
+}
+
+/// Per row ``(family, member or None, instance, row name)``.
+fn layout(rows: &dyn DynRows) -> Vec<RowPlace> {
+    let families = rows.families();
+    rows.layout()
+        .iter()
+        .map(|r| {
+            let f = &families[r.family];
+            (f.name, f.members.get(r.member).copied(), r.instance, f.row_names[r.row])
+        })
+        .collect()
+}
+
+/// ``[h, L_f h, …]`` up to the highest relative degree of any family, per row.
+fn lie<'py>(py: Python<'py>, rows: &dyn DynRows) -> Array2Out<'py> {
+    let width = rows.families().iter().map(|f| f.relative_degree).max().unwrap_or(0) + 1;
+    let n = rows.layout().len();
+    matrix_from_fn(py, n, width, |i, j| rows.row(i).map_or(f64::NAN, |r| r.lie[j]))
+}
+
+fn lg<'py>(py: Python<'py>, rows: &dyn DynRows, nu: usize) -> Array2Out<'py> {
+    matrix_from_fn(py, rows.layout().len(), nu, |i, j| rows.row(i).map_or(f64::NAN, |r| r.lg[j]))
+}
+
+fn applicable(rows: &dyn DynRows) -> Vec<bool> {
+    (0..rows.layout().len()).map(|i| rows.row(i).is_some_and(|r| r.active)).collect()
+}
+
+impl PyRows {
+    fn of(py: Python<'_>, rows: &dyn DynRows, nu: usize) -> PyResult<Self> {
+        Ok(Self {
+            layout: layout(rows),
+            lie: lie(py, rows).unbind(),
+            lg: lg(py, rows, nu).unbind(),
+            applicable: applicable(rows),
+        })
+    }
+}
+
+#[pymethods]
+impl PyRows {
+    /// Per row ``(family, member or None, instance, row name)``.
+    #[getter]
+    fn layout(&self) -> Vec<RowPlace> {
+        self.layout.clone()
+    }
+
+    /// ``[h, L_f h, …, L_f^r h]`` per row (zeros past a row's own degree; rows that did
+    /// not apply keep zeros), shape (rows, highest degree + 1).
+    #[getter]
+    fn lie<'py>(&self, py: Python<'py>) -> Bound<'py, numpy::PyArray2<f64>> {
+        self.lie.bind(py).clone()
+    }
+
+    /// ``L_g L_f^{r-1} h`` per row, shape (rows, nu).
+    #[getter]
+    fn lg_lf<'py>(&self, py: Python<'py>) -> Bound<'py, numpy::PyArray2<f64>> {
+        self.lg.bind(py).clone()
+    }
+
+    /// Whether each row applied (its instance was present and switched on).
+    #[getter]
+    fn applicable(&self) -> Vec<bool> {
+        self.applicable.clone()
+    }
+
+    fn __len__(&self) -> usize {
+        self.layout.len()
+    }
+}
+
+/// One update's result.
+#[pyclass(name = "FilterOutput", module = "cbfgen", frozen)]
+pub struct PyFilterOutput {
+    out: Output<Vec<f64>>,
+}
+
+#[pymethods]
+impl PyFilterOutput {
+    /// The input to apply, shape (nu,).
+    #[getter]
+    fn u<'py>(&self, py: Python<'py>) -> Array1Out<'py> {
+        vector(py, &self.out.u)
+    }
+
+    /// Where ``u`` came from: "qp", "unconverged", "last_safe" or "nominal_clipped".
+    #[getter]
+    fn source(&self) -> &'static str {
+        self.out.source.name()
+    }
+
+    /// OSQP's report ("solved", "max_iterations", ...), or None when no solve ran.
+    #[getter]
+    fn status(&self) -> Option<&'static str> {
+        self.out.status.map(|s| s.name())
+    }
+
+    /// The first active row that was not finite, if any.
+    #[getter]
+    fn nonfinite_row(&self) -> Option<usize> {
+        self.out.nonfinite_row
+    }
+
+    #[getter]
+    fn iterations(&self) -> u32 {
+        self.out.iterations
+    }
+
+    /// Whether ``u`` is the exact, KKT-verified optimum of the active set ADMM found.
+    #[getter]
+    fn polished(&self) -> bool {
+        self.out.polished
+    }
+
+    #[getter]
+    fn active_rows(&self) -> usize {
+        self.out.active_rows
+    }
+
+    /// Fallback cycles in a row, this one included (0 when ``source`` is "qp").
+    #[getter]
+    fn consecutive_fallbacks(&self) -> u32 {
+        self.out.consecutive_fallbacks
+    }
+
+    /// Row evaluation time \[µs\].
+    #[getter]
+    fn eval_time_us(&self) -> f64 {
+        self.out.eval_time.as_secs_f64() * 1e6
+    }
+
+    /// QP update and solve time \[µs\].
+    #[getter]
+    fn solve_time_us(&self) -> f64 {
+        self.out.solve_time.as_secs_f64() * 1e6
+    }
+
+    fn __repr__(&self) -> String {
+        let status = self.status().map_or_else(|| "None".to_string(), |s| format!("'{s}'"));
+        format!(
+            "FilterOutput(source='{}', status={status}, iterations={}, polished={}, active_rows={})",
+            self.source(),
+            self.out.iterations,
+            if self.out.polished { "True" } else { "False" },
+            self.out.active_rows
+        )
+    }
+}
+
+/// OSQP's time limit from microseconds, in `(0, SolverSettings::MAX_TIME_LIMIT]`, checked
+/// in the unit the caller gave (where `Duration::from_secs_f64` would panic on 1e26 µs).
+fn time_limit(us: f64) -> Result<Duration, CbfError> {
+    let max_us = SolverSettings::MAX_TIME_LIMIT.as_secs_f64() * 1e6;
+    if within("time_limit_us", us, 0.0, max_us, "(0, 1e6]")? == 0.0 {
+        return Err(CbfError::NotPositive { what: "time_limit_us", value: us });
+    }
+    SolverSettings::time_limit_from_secs(us * 1e-6)
+}
+
+/// Settings keywords over the system's defaults.
+fn settings(system: &dyn DynSystem, kw: Option<&Bound<'_, PyDict>>) -> PyResult<dynamic::DynSettings> {
+    let mut s = system.default_settings();
+    let nu = system.nu();
+    for (key, value) in kw.into_iter().flat_map(|d| d.iter()) {
+        let key: String = key.extract()?;
+        match key.as_str() {
+            "activation" | "slack_weight" | "poles" => {
+                for (name, v) in value.extract::<HashMap<String, Bound<'_, PyAny>>>()? {
+                    let (i, _) = family_of(system.families(), &name)?;
+                    let p = &mut s.families[i];
+                    match key.as_str() {
+                        "activation" => p.activation = v.extract()?,
+                        "slack_weight" => p.slack_weight = v.extract()?,
+                        _ => p.poles = Poles::new(&v.extract::<Vec<f64>>()?)?,
+                    }
+                }
+            }
+            "input_weights" => s.input_weights = exact("input_weights", &value.extract()?, nu)?,
+            "input_min" => s.input_min = exact("input_min", &value.extract()?, nu)?,
+            "input_max" => s.input_max = exact("input_max", &value.extract()?, nu)?,
+            "eps_abs" => s.solver.eps_abs = value.extract()?,
+            "eps_rel" => s.solver.eps_rel = value.extract()?,
+            "max_iter" => s.solver.max_iter = value.extract()?,
+            "polish" => s.solver.polish = value.extract()?,
+            "time_limit_us" => s.solver.time_limit = Some(time_limit(value.extract()?)?),
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "unknown setting '{other}': expected activation, slack_weight, poles, input_weights, \
+                     input_min, input_max, eps_abs, eps_rel, max_iter, polish or time_limit_us"
+                )))
+            }
+        }
+    }
+    Ok(s)
+}
+
+/// The ECBF-QP safety filter of any system (OSQP). Build once; each ``update`` evaluates
+/// every row at the state and returns the input closest to the nominal one that keeps
+/// every active row's ECBF condition (with penalised slack). Keyword settings override
+/// the spec's defaults: ``activation``, ``slack_weight`` and ``poles`` map family names to
+/// values; ``input_weights``, ``input_min``, ``input_max`` have nu values; ``eps_abs``,
+/// ``eps_rel``, ``max_iter``, ``polish`` and ``time_limit_us`` tune OSQP. See the Rust docs
+/// of ``cbfgen::filter`` for the failure policy.
+#[pyclass(name = "EcbfFilter", module = "cbfgen")]
+pub struct PyEcbfFilter {
+    system: &'static dyn DynSystem,
+    // OSQP's workspace may move between threads but not be shared; the lock makes the
+    // filter usable from any Python thread.
+    inner: Mutex<Box<dyn DynFilter>>,
+}
+
+impl PyEcbfFilter {
+    fn build(
+        system: &'static dyn DynSystem,
+        capacity: Option<&Bound<'_, PyDict>>,
+        kw: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Self> {
+        let filter = system.filter(&self::capacity(system, capacity)?, &settings(system, kw)?)?;
+        Ok(Self { system, inner: Mutex::new(filter) })
+    }
+
+    fn lock(&self) -> PyResult<MutexGuard<'_, Box<dyn DynFilter>>> {
+        self.inner.lock().map_err(|_| PyRuntimeError::new_err("the filter was poisoned by an earlier failure"))
+    }
+}
+
+#[pymethods]
+impl PyEcbfFilter {
+    #[new]
+    #[pyo3(signature = (system, capacity=None, **settings))]
+    fn new(
+        system: SystemArg<'_>,
+        capacity: Option<&Bound<'_, PyDict>>,
+        settings: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Self> {
+        Self::build(system.get()?, capacity, settings)
+    }
+
+    /// The system's name.
+    #[getter]
+    fn system(&self) -> &'static str {
+        self.system.name()
+    }
+
+    /// One control update at state ``x`` (nx,), nominal input ``u_ref`` (nu,), this
+    /// cycle's ``params`` and time ``t`` (read by time-varying families only). Raises
+    /// ``CbfError`` for NaN/inf input or parameters of another system or capacity (the
+    /// filter is then unchanged); solver trouble is reported in the output.
+    #[pyo3(signature = (x, u_ref, params, t=0.0))]
+    fn update(
+        &self,
+        py: Python<'_>,
+        x: ArrayIn<'_>,
+        u_ref: ArrayIn<'_>,
+        params: PyRef<'_, PyParams>,
+        t: f64,
+    ) -> PyResult<PyFilterOutput> {
+        let (x, u_ref) = (exact("x", &x, self.system.nx())?, exact("u_ref", &u_ref, self.system.nu())?);
+        let params = params.inner.as_ref();
+        // Without the GIL: other Python threads run while the QP does (a solve may take
+        // up to its iteration or time limit).
+        py.detach(|| -> PyResult<PyFilterOutput> {
+            let mut f = self.lock()?;
+            f.update(t, &x, &u_ref, params)?;
+            Ok(PyFilterOutput { out: f.output().map_input(|u| u.to_vec()) })
+        })
+    }
+
+    /// What the filter falls back to now for ``u_ref``: the last QP-solved input, else
+    /// ``u_ref``, clipped to the input box.
+    fn fallback_input<'py>(&self, py: Python<'py>, u_ref: ArrayIn<'py>) -> PyResult<Array1Out<'py>> {
+        let u_ref = exact("u_ref", &u_ref, self.system.nu())?;
+        let mut out = vec![0.0; u_ref.len()];
+        self.lock()?.fallback_input(&u_ref, &mut out)?;
+        Ok(vector(py, &out))
+    }
+
+    /// The last update's result.
+    #[getter]
+    fn output(&self) -> PyResult<PyFilterOutput> {
+        let f = self.lock()?;
+        Ok(PyFilterOutput { out: f.output().map_input(|u| u.to_vec()) })
+    }
+
+    /// Number of rows (fixed by the capacity).
+    #[getter]
+    fn row_count(&self) -> PyResult<usize> {
+        Ok(self.lock()?.layout().len())
+    }
+
+    /// Per row ``(family, member or None, instance, row name)``.
+    #[getter]
+    fn layout(&self) -> PyResult<Vec<RowPlace>> {
+        Ok(layout(self.lock()?.as_ref()))
+    }
+
+    /// Every row's ``[h, L_f h, …, L_f^r h]`` at the last update, shape (rows, highest
+    /// degree + 1). Rows that did not apply keep stale values; see ``applicable``.
+    #[getter]
+    fn lie<'py>(&self, py: Python<'py>) -> PyResult<Array2Out<'py>> {
+        Ok(lie(py, self.lock()?.as_ref()))
+    }
+
+    /// Every row's ``L_g L_f^{r-1} h`` over all inputs, shape (rows, nu).
+    #[getter]
+    fn lg_lf<'py>(&self, py: Python<'py>) -> PyResult<Array2Out<'py>> {
+        Ok(lg(py, self.lock()?.as_ref(), self.system.nu()))
+    }
+
+    /// Whether each row applied at the last update (its instance was present).
+    #[getter]
+    fn applicable(&self) -> PyResult<Vec<bool>> {
+        Ok(applicable(self.lock()?.as_ref()))
+    }
+
+    /// Whether each row took part in the last QP (applicable and below its activation).
+    #[getter]
+    fn active(&self) -> PyResult<Vec<bool>> {
+        Ok(self.lock()?.active().to_vec())
+    }
+
+    /// The last QP's slack per row.
+    #[getter]
+    fn slack<'py>(&self, py: Python<'py>) -> PyResult<Array1Out<'py>> {
+        Ok(vector(py, self.lock()?.delta()))
+    }
+
+    /// Per family name: the ``poles``, ``slack_weight`` and ``activation`` in use.
+    #[getter]
+    #[allow(clippy::type_complexity)] // Python's view: {family: (poles, slack_weight, activation)}
+    fn family_settings(&self) -> PyResult<HashMap<&'static str, (Vec<f64>, f64, f64)>> {
+        let s = self.lock()?.settings();
+        Ok(self
+            .system
+            .families()
+            .iter()
+            .zip(&s.families)
+            .map(|(f, p)| (f.name, (p.poles.as_slice().to_vec(), p.slack_weight, p.activation)))
+            .collect())
+    }
+
+    fn __repr__(&self) -> PyResult<String> {
+        let f = self.lock()?;
+        Ok(format!(
+            "EcbfFilter('{}', rows={}, last_source='{}')",
+            self.system.name(),
+            f.layout().len(),
+            f.output().source.name()
+        ))
+    }
+}
