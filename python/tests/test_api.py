@@ -210,6 +210,12 @@ def test_bad_input_raises_a_python_exception(call, error, message):
         call()
 
 
+def test_a_setting_given_as_none_keeps_the_spec_default():
+    # As an omitted keyword: what scripts pass when a setting is optional.
+    assert t3.ecbf_filter(activation=None, poles=None).family_settings == t3.ecbf_filter().family_settings
+    assert t3.ecbf_filter(poles={"body_edge": [5.0, 6.0]}).family_settings["body_edge"][0] == [5.0, 6.0]
+
+
 def test_filter_errors_leave_it_usable():
     safety = t3.ecbf_filter(edges=2)
     small = t3.Environment(edges=2)

@@ -657,6 +657,9 @@ fn settings(system: &dyn DynSystem, kw: Option<&Bound<'_, PyDict>>) -> PyResult<
     let nu = system.nu();
     for (key, value) in kw.into_iter().flat_map(|d| d.iter()) {
         let key: String = key.extract()?;
+        if value.is_none() {
+            continue; // None leaves the default, as an omitted keyword does
+        }
         match key.as_str() {
             "activation" | "slack_weight" | "poles" => {
                 for (name, v) in value.extract::<HashMap<String, Bound<'_, PyAny>>>()? {
