@@ -257,9 +257,9 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
         self.barriers.evaluate(t, x, params)?;
         let mut active_rows = 0;
         for ((on, row), &threshold) in self.active.iter_mut().zip(self.barriers.rows()).zip(&self.activation) {
-            // `!(h >= threshold)`, not `h < threshold`: a NaN row takes part, so the QP
-            // reports it (`nonfinite_row`) and the input falls back instead of ignoring it.
-            *on = row.active && !(row.h() >= threshold);
+            // A NaN row takes part, so the QP reports it (`nonfinite_row`) and the input
+            // falls back, instead of the comparison quietly leaving it out.
+            *on = row.active && (row.h() < threshold || row.h().is_nan());
             active_rows += usize::from(*on);
         }
         let evaluated = Instant::now();
