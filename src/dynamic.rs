@@ -320,7 +320,10 @@ pub struct CapacityCount {
 }
 
 /// A family by name: its index, or [`CbfError::UnknownName`] listing the families.
-fn family_index(families: &[FamilyInfo], name: &str) -> Result<usize, CbfError> {
+///
+/// # Errors
+/// [`CbfError::UnknownName`].
+pub fn family_index(families: &[FamilyInfo], name: &str) -> Result<usize, CbfError> {
     families.iter().position(|f| f.name == name).ok_or_else(|| CbfError::UnknownName {
         what: "family",
         name: name.to_string(),
@@ -386,13 +389,21 @@ impl dyn DynParams + '_ {
     }
 }
 
-fn no_store(families: &[FamilyInfo], family: usize, member: usize) -> CbfError {
+/// Why `family`/`member` has nothing for `operation`: no such family, no such member, or
+/// a family of `kind` that does not have it.
+fn not_found(
+    families: &[FamilyInfo],
+    family: usize,
+    member: usize,
+    operation: &'static str,
+    kind: &'static str,
+) -> CbfError {
     match families.get(family) {
         None => CbfError::NoSuchIndex { what: "family", index: family, len: families.len() },
         Some(f) if member >= f.members.len().max(1) => {
             CbfError::NoSuchIndex { what: "member", index: member, len: f.members.len().max(1) }
         }
-        Some(_) => CbfError::Unsupported { operation: "parameter access", kind: "parameter-free" },
+        Some(_) => CbfError::Unsupported { operation, kind },
     }
 }
 
@@ -404,10 +415,12 @@ impl<P: FlatParams> DynParams for P {
         P::FAMILIES
     }
     fn store(&self, family: usize, member: usize) -> Result<&dyn FamilyStore, CbfError> {
-        FlatParams::store(self, family, member).ok_or_else(|| no_store(P::FAMILIES, family, member))
+        FlatParams::store(self, family, member)
+            .ok_or_else(|| not_found(P::FAMILIES, family, member, "parameter access", "parameter-free"))
     }
     fn store_mut(&mut self, family: usize, member: usize) -> Result<&mut dyn FamilyStore, CbfError> {
-        FlatParams::store_mut(self, family, member).ok_or_else(|| no_store(P::FAMILIES, family, member))
+        FlatParams::store_mut(self, family, member)
+            .ok_or_else(|| not_found(P::FAMILIES, family, member, "parameter access", "parameter-free"))
     }
     fn as_any(&self) -> &dyn Any {
         self
@@ -554,6 +567,12 @@ pub trait DynSystem: Sync {
     /// # Errors
     /// As [`DynSystem::drift`].
     fn input_matrix(&self, x: &[f64], g: &mut [f64]) -> Result<(), CbfError>;
+    /// `ẋ = f(x) + g(x) u` into `xdot` (`nx` values).
+    ///
+    /// # Errors
+    /// As [`DynSystem::drift`], `u` of another length than `nu`, or an entry of `u`
+    /// beyond [`domain::MAX_INPUT`](crate::filter::domain::MAX_INPUT) or not finite.
+    fn xdot(&self, x: &[f64], u: &[f64], xdot: &mut [f64]) -> Result<(), CbfError>;
     /// Parameters with room for `capacity` (families not named get 0 slots).
     ///
     /// # Errors
@@ -607,13 +626,9 @@ fn capacity<S: GeneratedSystem<NX, NU>, const NX: usize, const NU: usize>(
 ) -> Result<S::Capacity, CbfError> {
     let mut capacity = S::Capacity::default();
     for c in counts {
-        let slot = capacity.count_mut(c.family, c.member).ok_or(match S::FAMILIES.get(c.family) {
-            None => CbfError::NoSuchIndex { what: "family", index: c.family, len: S::FAMILIES.len() },
-            Some(f) if c.member >= f.members.len().max(1) => {
-                CbfError::NoSuchIndex { what: "member", index: c.member, len: f.members.len().max(1) }
-            }
-            Some(_) => CbfError::Unsupported { operation: "a capacity", kind: "fixed-count" },
-        })?;
+        let slot = capacity
+            .count_mut(c.family, c.member)
+            .ok_or_else(|| not_found(S::FAMILIES, c.family, c.member, "a capacity", "fixed-count"))?;
         *slot = c.count;
     }
     Ok(capacity)
@@ -663,6 +678,20 @@ impl<S: GeneratedSystem<NX, NU>, const NX: usize, const NU: usize> DynSystem for
             return Err(CbfError::LengthMismatch { what: "input matrix output", expected: NX * NU, got: g.len() });
         }
         g.copy_from_slice(S::input_matrix(x).as_flattened());
+        Ok(())
+    }
+    fn xdot(&self, x: &[f64], u: &[f64], xdot: &mut [f64]) -> Result<(), CbfError> {
+        let x = state::<NX>(x)?;
+        crate::system::validate_state(x)?;
+        let u: &[f64; NU] =
+            u.try_into().map_err(|_| CbfError::LengthMismatch { what: "input", expected: NU, got: u.len() })?;
+        for &v in u {
+            crate::filter::domain::input("input", v)?;
+        }
+        let n = xdot.len();
+        let xdot: &mut [f64; NX] =
+            xdot.try_into().map_err(|_| CbfError::LengthMismatch { what: "xdot output", expected: NX, got: n })?;
+        *xdot = S::xdot(x, u);
         Ok(())
     }
     fn params(&self, counts: &[CapacityCount]) -> Result<Box<dyn DynParams>, CbfError> {

@@ -87,27 +87,13 @@ pub fn shaped(what: &str, a: &ArrayIn<'_>, shape: &[usize]) -> PyResult<Vec<f64>
     if view.shape() != shape && !flat_matrix {
         let expected = match shape {
             [] => "a number".to_string(),
-            [r, c] => format!("shape ({r}, {c}) or ({},)", r * c),
+            [r, c] => format!("shape ({r}, {c}) or its {} values row by row, shape ({},)", r * c, r * c),
             _ => format!("shape {}", shape_text(shape)),
         };
         return Err(shape_error(what, &expected, view.shape()));
     }
     // `iter` walks in logical row-major order whatever the memory layout.
     Ok(view.iter().copied().collect())
-}
-
-/// A 3×3 rotation given as 9 row-major values (shape (9,)) or as a 3×3 array.
-pub fn rotation(what: &str, a: &ArrayIn<'_>) -> PyResult<[f64; 9]> {
-    let view = a.0.as_array();
-    if view.shape() != [9] && view.shape() != [3, 3] {
-        return Err(shape_error(what, "9 row-major values (shape (9,)) or a 3×3 array", view.shape()));
-    }
-    let mut out = [0.0; 9];
-    // `iter` walks in logical row-major order whatever the memory layout.
-    for (o, v) in out.iter_mut().zip(view.iter()) {
-        *o = *v;
-    }
-    Ok(out)
 }
 
 /// At most `max` rows of `C` values: shape (k, C), or (0,) for none (what `[]` becomes).

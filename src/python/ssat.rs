@@ -29,7 +29,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 /// A validated box from centre, rotation (9 values, row-major) and half extents.
 pub fn oriented_box(center: &ArrayIn<'_>, rotation: &ArrayIn<'_>, half: &ArrayIn<'_>) -> PyResult<OrientedBox> {
     let c = fixed::<3>("centre", center)?;
-    let r = super::convert::rotation("rotation", rotation)?;
+    let r = super::convert::shaped("rotation", rotation, &[3, 3])?; // (3, 3) or 9 row-major values
     let h = fixed::<3>("half extents", half)?;
     Ok(OrientedBox::new(
         Vector3::from(c),

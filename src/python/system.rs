@@ -96,11 +96,7 @@ fn one_member(f: &FamilyInfo, member: Option<&MemberArg>) -> PyResult<usize> {
 }
 
 fn family_of(families: &'static [FamilyInfo], name: &str) -> PyResult<(usize, &'static FamilyInfo)> {
-    let i = families.iter().position(|f| f.name == name).ok_or_else(|| CbfError::UnknownName {
-        what: "family",
-        name: name.to_string(),
-        known: families.iter().map(|f| f.name).collect::<Vec<_>>().join(", "),
-    })?;
+    let i = dynamic::family_index(families, name)?;
     Ok((i, &families[i]))
 }
 
@@ -241,19 +237,11 @@ impl PySystem {
         Ok(matrix_from_fn(py, nx, nu, |i, j| g[i * nu + j]))
     }
 
-    /// ``x' = f(x) + g(x) u``, shape (nx,). ``u`` must be finite.
+    /// ``x' = f(x) + g(x) u``, shape (nx,). ``u`` must be finite, within ``MAX_INPUT``.
     fn xdot<'py>(&self, py: Python<'py>, x: ArrayIn<'py>, u: ArrayIn<'py>) -> PyResult<Array1Out<'py>> {
         let (nx, nu) = (self.inner.nx(), self.inner.nu());
-        let (x, u) = (exact("x", &x, nx)?, exact("u", &u, nu)?);
-        for &v in &u {
-            within("input", v, -crate::filter::domain::MAX_INPUT, crate::filter::domain::MAX_INPUT, "[-1e6, 1e6]")?;
-        }
-        let (mut dx, mut g) = (vec![0.0; nx], vec![0.0; nx * nu]);
-        self.inner.drift(&x, &mut dx)?;
-        self.inner.input_matrix(&x, &mut g)?;
-        for (i, d) in dx.iter_mut().enumerate() {
-            *d += g[i * nu..(i + 1) * nu].iter().zip(&u).map(|(a, b)| a * b).sum::<f64>();
-        }
+        let mut dx = vec![0.0; nx];
+        self.inner.xdot(&exact("x", &x, nx)?, &exact("u", &u, nu)?, &mut dx)?;
         Ok(vector(py, &dx))
     }
 
