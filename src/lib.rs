@@ -9,8 +9,10 @@
 //!
 //! * [`system`] — the contract a system's code implements (generated from a spec by
 //!   `python -m symbolic generate`, or by the `cbfgen-build` helper from a build script).
-//! * [`filter`] — the ECBF-QP safety filter on OSQP over any [`system::BarrierSet`]: one
+//! * [`filter`] — the ECBF-QP safety filter over any [`system::BarrierSet`]: one
 //!   allocation-free control update.
+//! * [`qp`] — its solvers: an exact input-space solve first, OSQP as fallback and
+//!   reference.
 //! * [`dynamic`] — every generated system behind object-safe traits, picked by name at
 //!   run time (what the Python bindings use).
 //!
@@ -28,11 +30,12 @@
 #![warn(missing_docs)]
 
 pub mod chart;
+pub mod cpu_time;
 pub mod dynamic;
 pub mod error;
 pub mod filter;
 pub mod geometry;
-mod osqp_workspace;
+pub mod qp;
 pub mod sat;
 pub mod ssat;
 pub mod system;

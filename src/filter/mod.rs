@@ -78,6 +78,7 @@ pub(crate) use qp::Iterate;
 pub use qp::{EcbfQp, QpStatus, RowSpec};
 pub use settings::{domain, FilterSettings, SolverSettings};
 
+use crate::cpu_time::Stopwatch;
 use crate::error::CbfError;
 use crate::system::{BarrierSet, Row};
 
@@ -141,6 +142,11 @@ pub struct Output<U> {
     pub eval_time: Duration,
     /// Time in the QP update and solve.
     pub solve_time: Duration,
+    /// The thread's CPU time over the whole update (evaluation and solve), beside its wall
+    /// time `eval_time + solve_time`: a gap between the two is the thread waiting (a VM
+    /// stall, preemption), not work. `Duration::ZERO` where the platform has no thread
+    /// clock ([`crate::cpu_time`]).
+    pub cpu_time: Duration,
 }
 
 impl<U> Output<U> {
@@ -157,6 +163,7 @@ impl<U> Output<U> {
             consecutive_fallbacks: self.consecutive_fallbacks,
             eval_time: self.eval_time,
             solve_time: self.solve_time,
+            cpu_time: self.cpu_time,
         }
     }
 }
@@ -218,6 +225,7 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
                 consecutive_fallbacks: 0,
                 eval_time: Duration::ZERO,
                 solve_time: Duration::ZERO,
+                cpu_time: Duration::ZERO,
             },
         })
     }
@@ -253,6 +261,7 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
         params: &B::Params,
     ) -> Result<&FilterOutput<NU>, CbfError> {
         settings::validate_nominal(u_ref)?;
+        let watch = Stopwatch::start();
         let start = Instant::now();
         self.barriers.evaluate(t, x, params)?;
         let mut active_rows = 0;
@@ -267,6 +276,7 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
         let out = &mut self.output;
         out.eval_time = evaluated - start;
         out.solve_time = evaluated.elapsed();
+        out.cpu_time = watch.elapsed().1;
         out.active_rows = active_rows;
         out.iterations = if solved.is_ok() { self.qp.iterations() } else { 0 };
         out.polished = solved.is_ok() && self.qp.polished();

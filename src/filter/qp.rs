@@ -18,7 +18,7 @@ use osqp::{CscMatrix, Problem, Status};
 use super::polish::{self, Held};
 use super::settings::{domain, validate_inputs, validate_nominal, SolverSettings};
 use crate::error::CbfError;
-use crate::osqp_workspace::{self, OsqpQp};
+use crate::qp::osqp_workspace::{self, OsqpQp};
 use crate::system::{Gains, Row};
 
 /// One ECBF row's fixed description.

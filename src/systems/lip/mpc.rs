@@ -60,7 +60,7 @@ use super::obstacles::HalfPlane;
 use super::LipParams;
 use crate::error::CbfError;
 use crate::filter::{Iterate, QpStatus, SolverSettings};
-use crate::osqp_workspace::{self, OsqpQp};
+use crate::qp::osqp_workspace::{self, OsqpQp};
 
 /// OSQP's infinity for `l`/`u`.
 const INF: f64 = 1e30;

@@ -26,7 +26,7 @@ use super::barrier::{check_state, SineBarrier, State};
 use super::solver::{Csc, INF};
 use crate::error::{within, CbfError};
 use crate::filter::{Iterate, QpStatus, SolverSettings};
-use crate::osqp_workspace::{self, OsqpQp};
+use crate::qp::osqp_workspace::{self, OsqpQp};
 
 /// Longest MPC horizon accepted (steps): the condensed QP grows with its square.
 pub const MAX_HORIZON: usize = 1000;
