@@ -76,7 +76,7 @@ use std::time::{Duration, Instant};
 
 pub(crate) use qp::Iterate;
 pub use qp::{EcbfQp, QpStatus, RowSpec};
-pub use settings::{domain, FilterSettings, SolverSettings};
+pub use settings::{domain, FilterSettings, Solver, SolverSettings};
 
 use crate::cpu_time::Stopwatch;
 use crate::error::CbfError;

@@ -26,6 +26,13 @@ use crate::system::{FamilyInfo, FamilyParams};
 ///   checking every iteration costs 40 % more instructions than it saves.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SolverSettings {
+    /// Which solver answers ([`Solver::DenseThenOsqp`] by default).
+    pub backend: Solver,
+    /// Most steps the dense solve may take before it gives up (Newton steps of the
+    /// filter's input-space solve; active-set changes of the MPCs' dual solve), 1 ..=
+    /// [`SolverSettings::MAX_ITERATIONS`]. Under [`Solver::DenseThenOsqp`] OSQP then runs;
+    /// under [`Solver::Dense`] the iterate it reached is handed back, flagged.
+    pub dense_max_steps: u32,
     /// OSQP's absolute tolerance, in the scaled problem's units (\[m/s²\] for an input of
     /// weight 1); within [`SolverSettings::MIN_TOLERANCE`] ..=
     /// [`SolverSettings::MAX_TOLERANCE`].
@@ -63,6 +70,8 @@ pub struct SolverSettings {
 impl Default for SolverSettings {
     fn default() -> Self {
         Self {
+            backend: Solver::DenseThenOsqp,
+            dense_max_steps: 100,
             eps_abs: 1e-3,
             eps_rel: 1e-4,
             max_iter: 200,
@@ -115,6 +124,7 @@ impl SolverSettings {
         within("alpha", self.alpha, Self::ALPHA_RANGE[0], Self::ALPHA_RANGE[1], "[0.01, 1.99]")?;
         for (what, v) in [
             ("max_iter", self.max_iter),
+            ("dense_max_steps", self.dense_max_steps),
             ("adaptive_rho_interval", self.adaptive_rho_interval),
             ("check_termination", self.check_termination),
         ] {
@@ -174,6 +184,40 @@ impl SolverSettings {
             .adaptive_rho_interval(Some(self.adaptive_rho_interval))
             .check_termination(Some(self.check_termination))
             .time_limit(self.time_limit)
+    }
+}
+
+/// Which solver answers a QP.
+///
+/// The dense solvers are exact: they answer only with a point that satisfies the QP's
+/// optimality (KKT) conditions to a scale-aware tolerance, or not at all. OSQP (ADMM) is
+/// approximate, to `eps_abs`/`eps_rel`, and needs many iterations on stiff or conflicting
+/// rows; it is kept as the fallback and as the reference the dense solvers are tested
+/// against.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum Solver {
+    /// The dense solve only; when it does not verify within `dense_max_steps` its iterate
+    /// is handed back, flagged unconverged.
+    Dense,
+    /// OSQP only (the paper's path), with this crate's exact polish when `polish` is set.
+    Osqp,
+    /// The dense solve, and OSQP only when the dense solve has not verified within its
+    /// budget.
+    #[default]
+    DenseThenOsqp,
+}
+
+impl Solver {
+    /// Every choice, in declaration order.
+    pub const ALL: [Solver; 3] = [Solver::Dense, Solver::Osqp, Solver::DenseThenOsqp];
+
+    /// Snake-case name, as accepted and shown in Python.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Solver::Dense => "dense",
+            Solver::Osqp => "osqp",
+            Solver::DenseThenOsqp => "dense_then_osqp",
+        }
     }
 }
 
