@@ -15,7 +15,7 @@ mod singular;
 
 use std::time::Duration;
 
-use cbfgen::filter::{domain, EcbfFilter, FilterSettings, InputSource, SolverSettings};
+use cbfgen::filter::{domain, EcbfFilter, FilterSettings, InputSource, Solver, SolverSettings};
 use cbfgen::system::{FamilyParams, Poles};
 use cbfgen::systems::tachyon3::catalog::{
     Capacity, Catalog, EdgeCuboid, Environment, Family, HalfPlane, StabilityBound, Tachyon3Filter,
@@ -86,12 +86,16 @@ fn solver_settings() -> impl Strategy<Value = SolverSettings> {
             prop::bool::weighted(0.8),
             prop_oneof![3 => Just(0u32), 1 => 1u32..=SolverSettings::MAX_SCALING],
         ),
+        (prop::sample::select(Solver::ALL.to_vec()), prop_oneof![1 => 1u32..4, 3 => 4u32..200]),
     )
         .prop_map(
             |(
                 (eps_abs, eps_rel, max_iter, rho, sigma),
                 (alpha, adaptive_rho, adaptive_rho_interval, check_termination, time_limit, polish, scaling),
+                (backend, dense_max_steps),
             )| SolverSettings {
+                backend,
+                dense_max_steps,
                 eps_abs,
                 eps_rel,
                 max_iter,
