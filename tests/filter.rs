@@ -10,14 +10,16 @@ mod common;
 #[path = "common/kkt.rs"]
 mod kkt;
 
-use cbfgen::filter::{EcbfFilter, EcbfQp, FilterSettings, InputSource, QpStatus, RowSpec, SolverSettings};
+use cbfgen::filter::{
+    Backend, EcbfFilter, EcbfQp, FilterSettings, InputSource, QpStatus, RowSpec, Solver, SolverSettings,
+};
 use cbfgen::system::{Gains, Poles};
 use cbfgen::systems::tachyon3::approach::Approach;
 use cbfgen::systems::tachyon3::catalog::{self, Capacity, Environment, Row, Tachyon3Filter};
 use cbfgen::systems::tachyon3::model::{self, Input, State, NU, NX, TOE_BLOCK};
 use cbfgen::systems::tachyon3::terrain::Stairs;
 use cbfgen::CbfError;
-use kkt::{clarabel_reference, kkt_violation, KKT_TOLERANCE};
+use kkt::{clarabel_reference, kkt_violation, objective, KKT_TOLERANCE};
 use rand::Rng;
 
 const CAPACITY: Capacity = Capacity::PAPER_WORST_CASE;
@@ -61,11 +63,20 @@ fn recoverable_perturbation(rng: &mut impl Rng, x: &mut State) {
 }
 
 #[test]
-fn osqp_agrees_with_clarabel_and_satisfies_kkt_on_scenario_and_random_instances() {
+fn every_backend_agrees_with_clarabel_and_satisfies_kkt_on_scenario_and_random_instances() {
     let cases = instances(11);
     assert!(cases.len() >= 200);
-    let mut filter = EcbfFilter::with_capacity(CAPACITY, catalog::default_settings()).expect("filter");
-    let (mut worst_du, mut worst_kkt, mut corrected, mut continued, mut polished) = (0.0f64, 0.0f64, 0, 0, 0);
+    for backend in Solver::ALL {
+        agrees_with_clarabel(&cases, backend);
+    }
+}
+
+fn agrees_with_clarabel(cases: &[(State, Input, Environment)], backend: Solver) {
+    let mut settings = catalog::default_settings();
+    settings.solver.backend = backend;
+    let mut filter = EcbfFilter::with_capacity(CAPACITY, settings).expect("filter");
+    let (mut worst_du, mut worst_kkt, mut corrected, mut continued, mut polished, mut dense) =
+        (0.0f64, 0.0f64, 0, 0, 0, 0);
     for (k, (x, u_ref, env)) in cases.iter().enumerate() {
         // Each instance starts from the previous one's warm start. One that needs more
         // than the per-cycle iteration budget is handed back flagged; repeating the cycle
@@ -78,21 +89,39 @@ fn osqp_agrees_with_clarabel_and_satisfies_kkt_on_scenario_and_random_instances(
             continued += 1;
             out = *filter.update(x, u_ref, env).expect("finite instance");
         }
-        assert_eq!(out.source, InputSource::Qp, "instance {k}: {:?}", out.status);
+        assert_eq!(out.source, InputSource::Qp, "{backend:?} instance {k}: {:?}", out.status);
+        if backend != Solver::Osqp {
+            assert_eq!(out.backend, Some(Backend::Dense), "{backend:?} instance {k}: the dense solve must verify");
+        }
         let reference = clarabel_reference(&filter, u_ref);
-        let du = (0..NU).map(|j| (out.u[j] - reference[j]).abs()).fold(0.0, f64::max);
-        assert!(du <= 1e-3, "instance {k}: |u_osqp - u_clarabel| = {du:.2e}");
+        // Relative to each input's scale (its limits): 1e-6 for the exact solve, OSQP's
+        // ADMM tolerance where OSQP answers unpolished.
+        let s = filter.settings();
+        let du = (0..NU)
+            .map(|j| (out.u[j] - reference[j]).abs() / (1.0 + s.input_min[j].abs().max(s.input_max[j].abs())))
+            .fold(0.0, f64::max);
+        let tolerance = if out.backend == Some(Backend::Dense) || out.polished { 1e-6 } else { 1e-4 };
+        assert!(du <= tolerance, "{backend:?} instance {k}: |u - u_clarabel| = {du:.2e} of the input scale");
+        // An exact optimum costs no more than Clarabel's answer (to rounding).
+        if out.backend == Some(Backend::Dense) || out.polished {
+            let (mine, theirs) = (objective(&filter, &out.u, u_ref), objective(&filter, &reference, u_ref));
+            assert!(
+                mine <= theirs + 1e-12 * (1.0 + theirs),
+                "{backend:?} instance {k}: cost {mine} > Clarabel's {theirs}"
+            );
+        }
         let kkt = kkt_violation(&filter, &out.u, u_ref);
         assert!(kkt <= KKT_TOLERANCE, "instance {k}: KKT violation {kkt:.2e}");
         worst_du = worst_du.max(du);
         worst_kkt = worst_kkt.max(kkt);
         corrected += usize::from((0..NU).any(|j| (out.u[j] - u_ref[j]).abs() > 1e-2));
         polished += usize::from(out.polished);
+        dense += usize::from(out.backend == Some(Backend::Dense));
     }
     // The instances must exercise the constraints, not just return u_ref.
     assert!(corrected >= cases.len() / 4, "only {corrected} of {} instances bent the input", cases.len());
     eprintln!(
-        "{} instances, {corrected} corrected, {polished} polished, {continued} extra cycles: max |du| {worst_du:.2e}, max KKT {worst_kkt:.2e}",
+        "{backend:?}: {} instances, {corrected} corrected, {dense} dense, {polished} polished, {continued} extra cycles: max |du| {worst_du:.2e}, max KKT {worst_kkt:.2e}",
         cases.len()
     );
 }
@@ -253,6 +282,7 @@ fn a_degenerate_leg_falls_back_to_the_last_safe_input_with_a_flag() {
 #[test]
 fn an_iteration_or_time_limit_hands_back_the_clipped_iterate_and_the_next_cycle_continues() {
     let mut settings = catalog::default_settings();
+    settings.solver.backend = Solver::Osqp;
     settings.solver.max_iter = 25;
     settings.solver.polish = false; // the polish would rescue the iterate: see the next test
     let (drive, mut filter) = drive_and_filter(settings);
@@ -270,6 +300,7 @@ fn an_iteration_or_time_limit_hands_back_the_clipped_iterate_and_the_next_cycle_
     assert_eq!(filter.output().consecutive_fallbacks, 0);
 
     let mut settings = catalog::default_settings();
+    settings.solver.backend = Solver::Osqp;
     settings.solver.time_limit = Some(std::time::Duration::from_nanos(1));
     settings.solver.polish = false;
     let (drive, mut filter) = drive_and_filter(settings);
@@ -282,6 +313,7 @@ fn the_polish_turns_a_cut_short_iterate_into_the_verified_optimum() {
     // Two ADMM iterations from a cold start are far from tolerance; the active set they
     // suggest, corrected, gives the optimum, which Clarabel confirms.
     let mut settings = catalog::default_settings();
+    settings.solver.backend = Solver::Osqp;
     settings.solver.max_iter = 2;
     let (drive, mut filter) = drive_and_filter(settings);
     let u_ref = [50.0; NU];
@@ -291,6 +323,35 @@ fn the_polish_turns_a_cut_short_iterate_into_the_verified_optimum() {
     let du = (0..NU).map(|j| (out.u[j] - reference[j]).abs()).fold(0.0, f64::max);
     assert!(du <= 1e-3, "|u - u_clarabel| = {du:.2e}");
     assert!(kkt_violation(&filter, &out.u, &u_ref) <= KKT_TOLERANCE);
+}
+
+#[test]
+fn an_exhausted_dense_budget_falls_back_to_osqp_flagged_or_hands_back_its_iterate() {
+    // A full command against the stairs from a cold start: the dense solve needs three
+    // Newton steps to find the rows and saturated inputs that bind; two are not enough.
+    // From OSQP's iterate two are (the polish runs under the same budget).
+    let u_ref = [50.0; NU];
+    let mut settings = catalog::default_settings();
+    settings.solver.dense_max_steps = 2;
+    let (drive, mut filter) = drive_and_filter(settings.clone());
+    let out = *filter.update(&drive.x, &u_ref, &drive.env).expect("finite");
+    assert!(out.dense_fallback, "two steps must not verify here");
+    assert_eq!((out.backend, out.source, out.polished), (Some(Backend::Osqp), InputSource::Qp, true));
+    let reference = clarabel_reference(&filter, &u_ref);
+    let du = (0..NU).map(|j| (out.u[j] - reference[j]).abs()).fold(0.0, f64::max);
+    assert!(du <= 1e-5, "OSQP polished by the dense solve: |u - u_clarabel| = {du:.2e}");
+
+    settings.solver.backend = Solver::Dense;
+    let (drive, mut filter) = drive_and_filter(settings);
+    let out = *filter.update(&drive.x, &u_ref, &drive.env).expect("finite");
+    assert!(out.dense_fallback);
+    assert_eq!(
+        (out.backend, out.status, out.source),
+        (Some(Backend::Dense), Some(QpStatus::MaxIterations), InputSource::Unconverged)
+    );
+    assert_eq!(out.iterations, 0, "OSQP must not run under Solver::Dense");
+    let s = filter.settings();
+    assert!((0..NU).all(|j| (s.input_min[j]..=s.input_max[j]).contains(&out.u[j])), "inside the box");
 }
 
 #[test]

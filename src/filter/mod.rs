@@ -68,14 +68,13 @@
 //! # Ok::<(), cbfgen::CbfError>(())
 //! ```
 
-mod polish;
 mod qp;
 mod settings;
 
 use std::time::{Duration, Instant};
 
 pub(crate) use qp::Iterate;
-pub use qp::{EcbfQp, QpStatus, RowSpec};
+pub use qp::{Backend, EcbfQp, QpStatus, RowSpec};
 pub use settings::{domain, FilterSettings, Solver, SolverSettings};
 
 use crate::cpu_time::Stopwatch;
@@ -124,15 +123,23 @@ pub struct Output<U> {
     pub u: U,
     /// Where `u` came from: the QP's optimum, an unconverged iterate, or a fallback.
     pub source: InputSource,
-    /// OSQP's report; `None` when no solve was attempted (a non-finite row).
+    /// How the solve ended (the dense solve's report, or OSQP's when OSQP answered);
+    /// `None` when no solve was attempted (a non-finite row).
     pub status: Option<QpStatus>,
+    /// Which solver answered; `None` when no solve was attempted.
+    pub backend: Option<Backend>,
+    /// Newton steps of the dense solve (0 when it did not run).
+    pub dense_steps: u32,
+    /// The dense solve ran and did not verify within its budget: under the default
+    /// [`Solver::DenseThenOsqp`] OSQP answered this cycle instead (flagged here so a
+    /// caller can count such cycles).
+    pub dense_fallback: bool,
     /// The first active row that was not finite, if any.
     pub nonfinite_row: Option<usize>,
-    /// ADMM iterations of this cycle's solve; 0 when `status` is `None` (no solve
-    /// attempted).
+    /// OSQP's ADMM iterations this cycle; 0 when OSQP did not run.
     pub iterations: u32,
-    /// Whether `u` is the polished optimum (exact for the active set OSQP found, KKT
-    /// verified); an unconverged OSQP iterate that polishes is reported as `Qp`.
+    /// Whether `u` is OSQP's iterate polished to the verified optimum by the dense solve;
+    /// an unconverged OSQP iterate that polishes is reported as `Qp`.
     pub polished: bool,
     /// Rows that took part in the QP.
     pub active_rows: usize,
@@ -156,6 +163,9 @@ impl<U> Output<U> {
             u: f(&self.u),
             source: self.source,
             status: self.status,
+            backend: self.backend,
+            dense_steps: self.dense_steps,
+            dense_fallback: self.dense_fallback,
             nonfinite_row: self.nonfinite_row,
             iterations: self.iterations,
             polished: self.polished,
@@ -218,6 +228,9 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
                 u: [0.0; NU],
                 source: InputSource::NominalClipped,
                 status: None,
+                backend: None,
+                dense_steps: 0,
+                dense_fallback: false,
                 nonfinite_row: None,
                 iterations: 0,
                 polished: false,
@@ -278,8 +291,12 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
         out.solve_time = evaluated.elapsed();
         out.cpu_time = watch.elapsed().1;
         out.active_rows = active_rows;
-        out.iterations = if solved.is_ok() { self.qp.iterations() } else { 0 };
-        out.polished = solved.is_ok() && self.qp.polished();
+        let ok = solved.is_ok();
+        out.iterations = if ok { self.qp.iterations() } else { 0 };
+        out.polished = ok && self.qp.polished();
+        out.backend = if ok { self.qp.backend() } else { None };
+        out.dense_steps = if ok { self.qp.dense_steps() } else { 0 };
+        out.dense_fallback = ok && self.qp.dense_fallback();
         (out.status, out.nonfinite_row) = match solved {
             Ok(status) => (Some(status), None),
             Err(CbfError::NonFiniteRow { row }) => (None, Some(row)),

@@ -1,4 +1,5 @@
-//! The ECBF quadratic program on OSQP, with its sparsity fixed at construction.
+//! The ECBF quadratic program: solved exactly in input space ([`crate::qp::input_space`]),
+//! with OSQP as the fallback and the reference backend ([`Solver`]).
 //!
 //! ```text
 //! minimise   Σ_j w_j (u_j − u_ref,j)² + Σ_i w_δ,i δ_i²
@@ -6,7 +7,9 @@
 //!            u_min ≤ u ≤ u_max
 //! ```
 //!
-//! OSQP sees it in scaled variables `ũ = √w ∘ u`, `s = √w_δ ∘ δ`, so that `P = I`, and with
+//! The dense solve eliminates the slacks and works in the `NU` inputs, warm-started from
+//! the previous answer's violated rows and saturated inputs. OSQP sees the QP with its
+//! sparsity fixed at construction, in scaled variables `ũ = √w ∘ u`, `s = √w_δ ∘ δ`, so that `P = I`, and with
 //! every ECBF row divided by its norm each cycle. The scaling is exact (the optimum is the
 //! same) and tracks the rows as they change, which OSQP's own set-up-time scaling cannot.
 //! Inactive rows keep their place with bounds `(−∞, ∞)` and zero coefficients.
@@ -15,9 +18,9 @@ use std::borrow::Cow;
 
 use osqp::{CscMatrix, Problem, Status};
 
-use super::polish::{self, Held};
-use super::settings::{domain, validate_inputs, validate_nominal, SolverSettings};
+use super::settings::{domain, validate_inputs, validate_nominal, Solver, SolverSettings};
 use crate::error::CbfError;
+use crate::qp::input_space::{self, Bound, InputSpaceSolver, Outcome, SoftRow, Start};
 use crate::qp::osqp_workspace::{self, OsqpQp};
 use crate::system::{Gains, Row};
 
@@ -38,11 +41,13 @@ pub(crate) type Iterate<'a> = (&'a [f64], &'a [f64]);
 /// How a solve ended, as OSQP reported it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum QpStatus {
-    /// Met the tolerances (`eps_abs`, `eps_rel`).
+    /// The dense solve verified its KKT conditions, or OSQP met its tolerances
+    /// (`eps_abs`, `eps_rel`).
     Solved,
     /// Met the tolerances ×10 only (OSQP's "solved inaccurate").
     SolvedInaccurate,
-    /// Stopped at `max_iter` before meeting the tolerances, with the iterate it reached.
+    /// Stopped at `max_iter` (OSQP) or `dense_max_steps` (the dense solve, under
+    /// [`Solver::Dense`]) before meeting the tolerances, with the iterate it reached.
     MaxIterations,
     /// Stopped at `time_limit` before meeting the tolerances, with the iterate it reached.
     TimeLimit,
@@ -56,7 +61,8 @@ pub enum QpStatus {
     /// The solver wrapper panicked (a violated internal invariant); the solver is rebuilt
     /// on the next call.
     SolverFault,
-    /// OSQP reported an iterate (or the polish a solution) with a NaN or infinite entry.
+    /// OSQP reported an iterate, or the dense solve a row, step or gradient, with a NaN or
+    /// infinite entry.
     /// It is discarded like a fault: the caller falls back, and the workspace (warm
     /// start, ρ) is rebuilt on the next call so the bad iterate cannot seed later cycles.
     NonFinite,
@@ -117,6 +123,25 @@ impl QpStatus {
     }
 }
 
+/// Which solver produced an answer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Backend {
+    /// The exact input-space solve ([`crate::qp::input_space`]).
+    Dense,
+    /// OSQP (ADMM), polished by the dense solve where that verified.
+    Osqp,
+}
+
+impl Backend {
+    /// Snake-case name, as written to CSV and shown in Python.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Backend::Dense => "dense",
+            Backend::Osqp => "osqp",
+        }
+    }
+}
+
 /// A borrowed view of the constraint matrix (no copy, no allocation).
 fn constraint_matrix<'a, const NU: usize>(
     rows: usize,
@@ -158,9 +183,21 @@ pub struct EcbfQp<const NU: usize> {
     /// Per row: `w_δ`, and this cycle's `b = L_f^r h + Σ k_i L_f^i h` (original units).
     slack_weight: Vec<f64>,
     row_bound: Vec<f64>,
-    /// Polish scratch: rows ADMM reports binding, inputs held at a bound.
-    binding: Vec<bool>,
-    held: [Held; NU],
+    /// The dense solve, and this cycle's active rows packed for it (with their indices).
+    dense: InputSpaceSolver<NU>,
+    packed: Vec<SoftRow<NU>>,
+    packed_row: Vec<usize>,
+    /// Per packed row: whether the previous answer had it violated (the warm start).
+    guess: Vec<bool>,
+    /// The last answer's violated rows (per row) and saturated inputs, when there is one.
+    warm_violated: Vec<bool>,
+    warm_held: [Bound; NU],
+    warm: bool,
+    /// The inputs OSQP's iterate holds at a bound (the polish's starting face).
+    osqp_held: [Bound; NU],
+    backend: Option<Backend>,
+    dense_steps: u32,
+    dense_fallback: bool,
     input_weights: [f64; NU],
     input_min: [f64; NU],
     input_max: [f64; NU],
@@ -281,8 +318,17 @@ impl<const NU: usize> EcbfQp<NU> {
             slack_entry,
             slack_weight: rows.iter().map(|r| r.slack_weight).collect(),
             row_bound: vec![0.0; m],
-            binding: vec![false; m],
-            held: [Held::Free; NU],
+            dense: InputSpaceSolver::new(m),
+            packed: Vec::with_capacity(m),
+            packed_row: Vec::with_capacity(m),
+            guess: Vec::with_capacity(m),
+            warm_violated: vec![false; m],
+            warm_held: [Bound::Free; NU],
+            warm: false,
+            osqp_held: [Bound::Free; NU],
+            backend: None,
+            dense_steps: 0,
+            dense_fallback: false,
             input_weights: *input_weights,
             input_min: *input_min,
             input_max: *input_max,
@@ -297,7 +343,10 @@ impl<const NU: usize> EcbfQp<NU> {
             iterations: 0,
             polished: false,
         };
-        osqp_workspace::set_up(&mut qp)?;
+        // OSQP is set up whenever it may run, so that its first run allocates nothing.
+        if settings.backend != Solver::Dense {
+            osqp_workspace::set_up(&mut qp)?;
+        }
         Ok(qp)
     }
 
@@ -315,7 +364,12 @@ impl<const NU: usize> EcbfQp<NU> {
     /// (`Row::active` is not read, so a caller can narrow it without copying rows). Does not
     /// allocate unless the previous call reported [`QpStatus::SolverFault`].
     ///
-    /// On a status where OSQP has an iterate (solved, inaccurate, iteration or time limit)
+    /// Under the default [`Solver::DenseThenOsqp`] the dense solve answers, warm-started
+    /// from the last answer; OSQP runs only when it has not verified within
+    /// `dense_max_steps` ([`EcbfQp::dense_fallback`]), and its iterate is then polished by
+    /// the dense solve started from it. [`EcbfQp::backend`] says who answered.
+    ///
+    /// On a status with an iterate (solved, inaccurate, iteration or time limit)
     /// [`EcbfQp::u`] and [`EcbfQp::delta`] hold it, always finite: an iterate with a NaN or
     /// infinite entry is reported as [`QpStatus::NonFinite`] and they keep the last one.
     ///
@@ -337,7 +391,100 @@ impl<const NU: usize> EcbfQp<NU> {
                 return Err(CbfError::NonFiniteRow { row: i });
             }
         }
+        self.packed.clear();
+        self.packed_row.clear();
+        self.guess.clear();
+        for (i, (r, &on)) in rows.iter().zip(active).enumerate() {
+            if on {
+                self.row_bound[i] = self.ecbf_bound(i, r);
+                self.packed.push(SoftRow { a: r.lg, b: self.row_bound[i], weight: self.slack_weight[i] });
+                self.packed_row.push(i);
+                self.guess.push(self.warm_violated[i]);
+            }
+        }
+        (self.backend, self.dense_steps, self.dense_fallback, self.polished, self.iterations) =
+            (None, 0, false, false, 0);
 
+        if self.settings.backend != Solver::Osqp {
+            let outcome = self.dense_solve(u_ref, true);
+            self.dense_steps = self.dense.steps();
+            let status = match outcome {
+                Outcome::Verified => QpStatus::Solved,
+                Outcome::StepLimit => QpStatus::MaxIterations,
+                Outcome::NonFinite => QpStatus::NonFinite,
+            };
+            self.dense_fallback = outcome != Outcome::Verified;
+            if outcome == Outcome::Verified || self.settings.backend == Solver::Dense {
+                if outcome != Outcome::NonFinite {
+                    self.keep_dense_answer(outcome == Outcome::Verified);
+                }
+                self.backend = Some(Backend::Dense);
+                self.status = status;
+                return Ok(status);
+            }
+        }
+
+        self.load_osqp(u_ref, rows, active);
+        let status = osqp_workspace::solve(self);
+        self.backend = Some(Backend::Osqp);
+        if self.settings.polish
+            && matches!(
+                status,
+                QpStatus::Solved | QpStatus::SolvedInaccurate | QpStatus::MaxIterations | QpStatus::TimeLimit
+            )
+            && self.dense_solve(u_ref, false) == Outcome::Verified
+        {
+            self.polished = true;
+            self.keep_dense_answer(true);
+        }
+        // `u` and `δ` are finite by construction: OSQP's iterate is read only when finite
+        // (`QpStatus::of`), and the dense solve's answer only when verified or inside the box.
+        self.status = status;
+        Ok(status)
+    }
+
+    /// The dense solve of the packed rows: warm-started from the last answer (`warm`), or
+    /// from the face OSQP's iterate suggests (a polish).
+    fn dense_solve(&mut self, u_ref: &[f64; NU], warm: bool) -> Outcome {
+        let problem = input_space::Problem {
+            weights: &self.input_weights,
+            u_ref,
+            input_min: &self.input_min,
+            input_max: &self.input_max,
+            rows: &self.packed,
+        };
+        let start = match (warm, self.warm) {
+            (true, true) => Start::Guess { violated: &self.guess, held: &self.warm_held },
+            (true, false) => Start::Cold,
+            (false, _) => Start::Guess { violated: &self.guess, held: &self.osqp_held },
+        };
+        let max_steps = self.settings.dense_max_steps;
+        // The data were checked on the way in (weights, limits, u_ref, finite rows), so the
+        // solver's own checks cannot fail; if they ever did, the answer is "no answer".
+        self.dense.solve(&problem, start, max_steps).unwrap_or(Outcome::NonFinite)
+    }
+
+    /// Take the dense solve's point as this cycle's `u` and `δ`; a verified one also
+    /// becomes the next cycle's warm start.
+    fn keep_dense_answer(&mut self, verified: bool) {
+        self.u = *self.dense.u();
+        self.delta.fill(0.0);
+        for (k, &i) in self.packed_row.iter().enumerate() {
+            self.delta[i] = (-self.dense.row_values()[k]).max(0.0);
+        }
+        if verified {
+            self.warm_violated.fill(false);
+            for (k, &i) in self.packed_row.iter().enumerate() {
+                self.warm_violated[i] = self.dense.violated()[k];
+            }
+            self.warm_held = *self.dense.held();
+            self.warm = true;
+        }
+    }
+
+    /// Write this cycle's scaled problem into OSQP's data: each active row divided by its
+    /// norm (scaled variables), inactive rows unbounded with zero coefficients.
+    fn load_osqp(&mut self, u_ref: &[f64; NU], rows: &[Row<NU>], active: &[bool]) {
         for ((q, w), r) in self.q.iter_mut().zip(&self.sqrt_w).zip(u_ref) {
             *q = -w * r;
         }
@@ -351,7 +498,6 @@ impl<const NU: usize> EcbfQp<NU> {
                 self.lower[i] = -INF;
                 continue;
             }
-            self.row_bound[i] = self.ecbf_bound(i, r);
             let bound = -self.row_bound[i];
             // The row's 2-norm, computed relative to its largest entry so that squaring
             // cannot overflow for any finite row.
@@ -369,33 +515,6 @@ impl<const NU: usize> EcbfQp<NU> {
             // A bound this large is a row that cannot bind; clamp so OSQP reads it as one.
             self.lower[i] = (bound * scale).clamp(-INF, INF);
         }
-
-        let status = osqp_workspace::solve(self);
-        self.polished = self.settings.polish
-            && matches!(
-                status,
-                QpStatus::Solved | QpStatus::SolvedInaccurate | QpStatus::MaxIterations | QpStatus::TimeLimit
-            )
-            && polish::polish(
-                &polish::Problem {
-                    weights: &self.input_weights,
-                    u_ref,
-                    input_min: &self.input_min,
-                    input_max: &self.input_max,
-                    rows,
-                    active,
-                    bounds: &self.row_bound,
-                    slack_weights: &self.slack_weight,
-                },
-                &mut self.binding,
-                &mut self.held,
-                &mut self.u,
-                &mut self.delta,
-            );
-        // `u` and `δ` are finite by construction: OSQP's iterate is read only when finite
-        // (`QpStatus::of`), and the polish accepts only solutions whose rows are finite.
-        self.status = status;
-        Ok(status)
     }
 
     /// `b = L_f^r h + Σ k_i L_f^i h` of row `i` (≥ 0 when the ECBF condition holds at
@@ -404,28 +523,45 @@ impl<const NU: usize> EcbfQp<NU> {
         self.gains[i].bound(&r.lie)
     }
 
-    /// OSQP's own polish rule: a constraint binds at its lower bound when
-    /// `A z − l < −y`, at its upper when `u − A z < y` (scaled problem).
+    /// OSQP's own polish rule, as the dense solve's starting face: a row binds (its slack
+    /// is positive: violated in input space) when `A z − l < −y`, an input is held at its
+    /// lower bound when `z − l < −y`, at its upper when `u − z < y` (scaled problem).
     fn guess_active_set(&mut self, z: &[f64], y: &[f64]) {
-        for i in 0..self.rows {
+        for (k, &i) in self.packed_row.iter().enumerate() {
             let entries = &self.row_entries[self.row_start[i]..self.row_start[i + 1]];
-            let value = entries.iter().map(|&(k, c)| self.a_data[k] * z[c]).sum::<f64>()
+            let value = entries.iter().map(|&(e, c)| self.a_data[e] * z[c]).sum::<f64>()
                 + self.a_data[self.slack_entry[i]] * z[NU + i];
-            self.binding[i] = value - self.lower[i] < -y[i];
+            self.guess[k] = value - self.lower[i] < -y[i];
         }
         for j in 0..NU {
             let (value, dual) = (z[j], y[self.rows + j]);
-            self.held[j] = if value - self.lower[self.rows + j] < -dual {
-                Held::Lower
+            self.osqp_held[j] = if value - self.lower[self.rows + j] < -dual {
+                Bound::Lower
             } else if self.upper[self.rows + j] - value < dual {
-                Held::Upper
+                Bound::Upper
             } else {
-                Held::Free
+                Bound::Free
             };
         }
     }
 
-    /// The input of the last iterate OSQP returned.
+    /// Which backend answered the last solve; `None` before the first or after an `Err`.
+    pub fn backend(&self) -> Option<Backend> {
+        self.backend
+    }
+
+    /// Newton steps of the last dense solve (0 when it did not run).
+    pub fn dense_steps(&self) -> u32 {
+        self.dense_steps
+    }
+
+    /// Whether the last dense solve ran and did not verify (within its budget, or with a
+    /// non-finite step): under [`Solver::DenseThenOsqp`] OSQP then answered.
+    pub fn dense_fallback(&self) -> bool {
+        self.dense_fallback
+    }
+
+    /// The input of the last answer.
     pub fn u(&self) -> &[f64; NU] {
         &self.u
     }
@@ -441,13 +577,13 @@ impl<const NU: usize> EcbfQp<NU> {
         self.status
     }
 
-    /// Whether the last solution is the polished one: the exact optimum of the active
-    /// set ADMM found, verified against every KKT condition (see the `polish` module).
+    /// Whether the last answer is OSQP's iterate polished: the dense solve, started from
+    /// it, verified the optimum (see [`crate::qp::input_space`]).
     pub fn polished(&self) -> bool {
         self.polished
     }
 
-    /// ADMM iterations of the last solve.
+    /// ADMM iterations of the last solve (0 when OSQP did not run).
     pub fn iterations(&self) -> u32 {
         self.iterations
     }

@@ -62,7 +62,17 @@ pub fn clarabel_solution(filter: &Tachyon3Filter, u_ref: &Input) -> Option<Input
         colptr.push(rowval.len());
     }
     let a = CscMatrix::new(m, n, colptr, rowval, nzval);
-    let settings = DefaultSettings { verbose: false, ..DefaultSettings::default() };
+    // Tolerances far below the default 1e-8: the reference must be tighter than the exact
+    // dense solve's comparison (1e-6 of the input scale) through stiff slack weights.
+    let settings = DefaultSettings {
+        verbose: false,
+        tol_gap_abs: 1e-10,
+        tol_gap_rel: 1e-10,
+        tol_feas: 1e-10,
+        tol_ktratio: 1e-8,
+        max_iter: 500,
+        ..DefaultSettings::default()
+    };
     let mut solver = DefaultSolver::new(&p, &q, &a, &b, &[NonnegativeConeT(m)], settings).ok()?;
     solver.solve();
     (solver.solution.status == SolverStatus::Solved).then(|| std::array::from_fn(|j| solver.solution.x[j]))

@@ -1,0 +1,624 @@
+//! The ECBF QP solved exactly in its `NU` inputs.
+//!
+//! The filter's QP has one penalised slack per row:
+//!
+//! ```text
+//! minimise   Σ_j w_j (u_j − r_j)² + Σ_i s_i δ_i²
+//! subject to a_i·u + b_i + δ_i ≥ 0,   lo ≤ u ≤ hi
+//! ```
+//!
+//! For any `u` the best slack is `δ_i = max(0, −(a_i·u + b_i))`, so the QP is the same as
+//!
+//! ```text
+//! minimise   F(u) = Σ_j w_j (u_j − r_j)² + Σ_i s_i max(0, −(a_i·u + b_i))²   over lo ≤ u ≤ hi:
+//! ```
+//!
+//! a strongly convex, continuously differentiable, piecewise-quadratic function of `NU`
+//! variables (17 for Tachyon 3) over a box, however many rows there are. On each piece —
+//! a set `V` of violated rows — it is one quadratic with Hessian
+//! `H_V = 2 W + 2 Σ_{i∈V} s_i a_i a_iᵀ`, so one Newton step lands on the exact optimum
+//! once the right piece and the right saturated inputs are known.
+//!
+//! # The method, and why this one
+//! A semi-smooth Newton / active-set method on `F`, kept inside the box:
+//! 1. at `u`, the violated rows give the piece and the gradient; an input at a bound
+//!    whose gradient pushes outward is held there, the others are free;
+//! 2. the Newton step on the free inputs solves `H_V d = −∇F` (one `NU × NU` Cholesky
+//!    factorisation on the stack);
+//! 3. an **exact line search** along `d` minimises `F` over the segment that stays in the
+//!    box: `F` along a line is a convex piecewise quadratic whose pieces change where a
+//!    row's value crosses zero, so the minimiser is found by walking those crossings in
+//!    order (at most one visit each) instead of guessing a step length.
+//!
+//! Every step decreases `F` (the step is a descent direction and the search exact), so
+//! the method cannot cycle; where a Newton step would leave the box at once (an input at
+//! a bound that the coupling pushes outward), a diagonally scaled gradient step is taken
+//! instead, which always moves inward. Once the piece and the held inputs are right the
+//! next step is exact. A step budget bounds the work; a solve that has not verified
+//! within it says so, and the filter falls back to OSQP.
+//!
+//! A dual active-set method (Goldfarb–Idnani) was the alternative. It terminates finitely
+//! too, but works in the space of the constraints: every violated row adds a slack
+//! variable and a rank-one update to an `(NU + k)`-sized factorisation, where this method
+//! only ever factorises `NU × NU`, whatever the number of rows. With the slacks
+//! eliminated there is also no infeasibility to detect: every `u` in the box has a
+//! finite cost.
+//!
+//! # Warm start
+//! The filter's rows keep their places from cycle to cycle, so the previous answer's
+//! piece (violated rows) and saturated inputs are a guess at this cycle's: the first step
+//! solves that face directly ([`Start::Guess`]). On a 1 kHz loop the guess is usually
+//! right and the solve ends after that one step.
+//!
+//! # When an answer is accepted
+//! A point is accepted only when its KKT conditions hold, judged in units that no weight
+//! or row scale can make loose (every held input's gradient has the right sign within
+//! rounding, and the free inputs meet one of):
+//! * **gradient**: every free `|∂F/∂u_j|` is below [`GRADIENT_TOLERANCE`] times the size
+//!   of the terms that make it up (`2 w_j (|u_j| + |r_j|)` plus, per violated row,
+//!   `2 s_i (|b_i| + Σ_k |a_ik u_k|) |a_ij|`): the rounding floor, below which nothing in
+//!   double precision can go;
+//! * **Newton step**: the step that would still remain, `|d_j|`, is below
+//!   [`STEP_TOLERANCE`] `· (1 + |u_j| + |r_j|)`. This is the test that decides for stiff
+//!   rows (`s_i |a_i|²` up to 10¹⁰ here): their gradient carries rounding of
+//!   `s_i |a_i| · ε |b_i|`, large in gradient units, but it moves `u` only by that over
+//!   `2 s_i |a_i|²`, and the Newton step measures exactly that.
+//!
+//! The distance to the true optimum is then about the size of the step not taken, in each
+//! input's own units. (A tolerance on the row values, as a polish of an ADMM active set
+//! uses, is in the wrong units for stiff rows: a row value within `1e-9 |b|` can be a
+//! multiplier large enough to move `u` by metres per second squared.)
+
+use nalgebra::{SMatrix, SVector};
+
+use crate::error::CbfError;
+
+/// Relative tolerance of the gradient test: a few hundred ulps of the gradient's terms.
+pub const GRADIENT_TOLERANCE: f64 = 1e-13;
+
+/// Relative tolerance of the Newton-step test, in each input's units.
+pub const STEP_TOLERANCE: f64 = 1e-10;
+
+/// One soft row: it holds when `a·u + b ≥ 0`; a violation `δ = −(a·u + b) > 0` costs
+/// `weight · δ²`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SoftRow<const NU: usize> {
+    /// The row's input coefficients (`L_g L_f^{r−1} h` for an ECBF row).
+    pub a: [f64; NU],
+    /// The row's value at `u = 0` (`L_f^r h + Σ k_i L_f^i h`).
+    pub b: f64,
+    /// The slack weight `s > 0`.
+    pub weight: f64,
+}
+
+/// One problem instance, borrowed.
+#[derive(Debug, Clone, Copy)]
+pub struct Problem<'a, const NU: usize> {
+    /// Input weights `w_j > 0`.
+    pub weights: &'a [f64; NU],
+    /// The nominal input `r`.
+    pub u_ref: &'a [f64; NU],
+    /// Lower box limits.
+    pub input_min: &'a [f64; NU],
+    /// Upper box limits (`≥ input_min`).
+    pub input_max: &'a [f64; NU],
+    /// The soft rows.
+    pub rows: &'a [SoftRow<NU>],
+}
+
+/// Where an input sits in the answer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Bound {
+    /// Strictly between its limits, or at one with no pull outward.
+    Free,
+    /// Held at its lower limit.
+    Lower,
+    /// Held at its upper limit.
+    Upper,
+}
+
+/// Where a solve starts.
+#[derive(Debug, Clone, Copy)]
+pub enum Start<'a, const NU: usize> {
+    /// From the nominal input, clipped to the box.
+    Cold,
+    /// From the optimum of a guessed face: these rows violated (one flag per row), these
+    /// inputs held (a previous answer's [`InputSpaceSolver::violated`] and
+    /// [`InputSpaceSolver::held`]).
+    Guess {
+        /// Per row, whether it is guessed violated.
+        violated: &'a [bool],
+        /// Per input, where it is guessed held.
+        held: &'a [Bound; NU],
+    },
+    /// From a point (another solver's iterate), clipped to the box.
+    Point(&'a [f64; NU]),
+}
+
+/// How a solve ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Outcome {
+    /// The answer satisfies the KKT conditions (see the [module docs](self)).
+    Verified,
+    /// The step budget ran out first; the iterate reached is inside the box and no worse
+    /// than the start, but not verified.
+    StepLimit,
+    /// A row value, the gradient or a step was not finite (rows too large for double
+    /// precision); no answer.
+    NonFinite,
+}
+
+/// The solver's workspace: buffers for `capacity` rows, allocated once.
+#[derive(Debug, Clone)]
+pub struct InputSpaceSolver<const NU: usize> {
+    capacity: usize,
+    /// Rows of the last solve.
+    rows: usize,
+    /// `a_i·u + b_i` at the current point.
+    value: Vec<f64>,
+    /// `|b_i| + Σ_k |a_ik u_k|`: the size of the terms of `value`.
+    magnitude: Vec<f64>,
+    /// `a_i·d` along the search direction.
+    rate: Vec<f64>,
+    /// Per row: violated at the answer (`a_i·u + b_i < 0`).
+    violated: Vec<bool>,
+    held: [Bound; NU],
+    u: [f64; NU],
+    steps: u32,
+    gradient_residual: f64,
+    outcome: Outcome,
+}
+
+impl<const NU: usize> InputSpaceSolver<NU> {
+    /// A workspace for problems of up to `capacity` rows.
+    pub fn new(capacity: usize) -> Self {
+        Self {
+            capacity,
+            rows: 0,
+            value: vec![0.0; capacity],
+            magnitude: vec![0.0; capacity],
+            rate: vec![0.0; capacity],
+            violated: vec![false; capacity],
+            held: [Bound::Free; NU],
+            u: [0.0; NU],
+            steps: 0,
+            gradient_residual: 0.0,
+            outcome: Outcome::Verified,
+        }
+    }
+
+    /// Rows this workspace holds.
+    pub fn capacity(&self) -> usize {
+        self.capacity
+    }
+
+    /// Solve `p` from `start` in at most `max_steps` Newton steps (the face solve of
+    /// [`Start::Guess`] counts as one). Allocation-free.
+    ///
+    /// # Errors
+    /// More rows than the capacity, a guess of another length, a weight that is not
+    /// finite and positive, a box limit that is not finite or `input_min > input_max`, or
+    /// a nominal input that is not finite. Nothing changes then. Rows whose values are
+    /// not finite are not an error: the outcome is [`Outcome::NonFinite`].
+    pub fn solve(&mut self, p: &Problem<'_, NU>, start: Start<'_, NU>, max_steps: u32) -> Result<Outcome, CbfError> {
+        check(p, self.capacity)?;
+        if let Start::Guess { violated, .. } = start {
+            if violated.len() != p.rows.len() {
+                return Err(CbfError::LengthMismatch {
+                    what: "guessed violated rows",
+                    expected: p.rows.len(),
+                    got: violated.len(),
+                });
+            }
+        }
+        let m = p.rows.len();
+        self.steps = 0;
+        let mut u = clip(p.u_ref, p);
+        match start {
+            Start::Cold => {}
+            Start::Point(x) => {
+                if x.iter().all(|v| v.is_finite()) {
+                    u = clip(x, p);
+                }
+            }
+            Start::Guess { violated, held } => {
+                self.steps = 1;
+                if let Some(x) = face_optimum(p, violated, held) {
+                    u = clip(&x, p);
+                }
+            }
+        }
+        self.outcome = loop {
+            if !self.evaluate(p, &u) {
+                break Outcome::NonFinite;
+            }
+            let (gradient, scale) = self.gradient(p, &u);
+            if !gradient.iter().all(|g| g.is_finite()) {
+                break Outcome::NonFinite;
+            }
+            self.hold(p, &u, &gradient, &scale);
+            self.gradient_residual = (0..NU)
+                .filter(|&j| self.held[j] == Bound::Free)
+                .map(|j| if scale[j] > 0.0 { gradient[j].abs() / scale[j] } else { 0.0 })
+                .fold(0.0, f64::max);
+            if self.gradient_residual <= GRADIENT_TOLERANCE {
+                break Outcome::Verified;
+            }
+            let Some(mut d) = self.newton_step(p, &gradient) else {
+                break Outcome::NonFinite;
+            };
+            let step_ok = (0..NU).all(|j| d[j].abs() <= STEP_TOLERANCE * (1.0 + u[j].abs() + p.u_ref[j].abs()));
+            if step_ok {
+                break Outcome::Verified;
+            }
+            if self.steps >= max_steps {
+                break Outcome::StepLimit;
+            }
+            self.steps += 1;
+            let (mut reach, mut blocking) = box_reach(p, &u, &d);
+            if reach <= 0.0 {
+                // The Newton step leaves the box at once: an input at a bound that the
+                // coupling pushes outward. A diagonally scaled gradient step moves every
+                // free input inward or along its bound, and still descends.
+                d = self.scaled_gradient(p, &gradient);
+                (reach, blocking) = box_reach(p, &u, &d);
+                if reach <= 0.0 {
+                    break Outcome::StepLimit;
+                }
+            }
+            let t = self.line_search(p, &u, &d, reach);
+            if !(t > 0.0 && t.is_finite()) {
+                break Outcome::StepLimit;
+            }
+            for j in 0..NU {
+                u[j] += t * d[j];
+            }
+            if let (Some(j), true) = (blocking, t >= reach) {
+                u[j] = if d[j] > 0.0 { p.input_max[j] } else { p.input_min[j] };
+            }
+            u = clip(&u, p);
+        };
+        if self.outcome != Outcome::NonFinite {
+            self.rows = m;
+            self.u = u;
+            for i in 0..m {
+                self.violated[i] = self.value[i] < 0.0;
+            }
+        }
+        Ok(self.outcome)
+    }
+
+    /// Row values `a_i·u + b_i` and their magnitudes at `u`; `false` if one is not finite.
+    fn evaluate(&mut self, p: &Problem<'_, NU>, u: &[f64; NU]) -> bool {
+        let mut finite = true;
+        for (i, row) in p.rows.iter().enumerate() {
+            let mut value = row.b;
+            let mut magnitude = row.b.abs();
+            for (a, x) in row.a.iter().zip(u) {
+                let term = a * x;
+                value += term;
+                magnitude += term.abs();
+            }
+            self.value[i] = value;
+            self.magnitude[i] = magnitude;
+            finite &= value.is_finite() && magnitude.is_finite();
+        }
+        finite
+    }
+
+    /// `∇F` at the evaluated point, and the size of its terms per entry.
+    fn gradient(&self, p: &Problem<'_, NU>, u: &[f64; NU]) -> ([f64; NU], [f64; NU]) {
+        let mut g = [0.0; NU];
+        let mut scale = [0.0; NU];
+        for j in 0..NU {
+            g[j] = 2.0 * p.weights[j] * (u[j] - p.u_ref[j]);
+            scale[j] = 2.0 * p.weights[j] * (u[j].abs() + p.u_ref[j].abs());
+        }
+        for (i, row) in p.rows.iter().enumerate() {
+            let value = self.value[i];
+            if value < 0.0 {
+                let (pull, size) = (2.0 * row.weight * value, 2.0 * row.weight * self.magnitude[i]);
+                for j in 0..NU {
+                    g[j] += pull * row.a[j];
+                    scale[j] += size * row.a[j].abs();
+                }
+            }
+        }
+        (g, scale)
+    }
+
+    /// Hold each input at a bound whose gradient pushes outward, or is zero within
+    /// rounding (a bound that is optimal either way); free the rest.
+    fn hold(&mut self, p: &Problem<'_, NU>, u: &[f64; NU], gradient: &[f64; NU], scale: &[f64; NU]) {
+        for j in 0..NU {
+            let slack = GRADIENT_TOLERANCE * scale[j];
+            // A box of zero width holds its input whatever the gradient says.
+            let pinned = p.input_min[j] == p.input_max[j];
+            self.held[j] = if pinned || (u[j] <= p.input_min[j] && gradient[j] >= -slack) {
+                Bound::Lower
+            } else if u[j] >= p.input_max[j] && gradient[j] <= slack {
+                Bound::Upper
+            } else {
+                Bound::Free
+            };
+        }
+    }
+
+    /// `H_V d = −∇F` on the free inputs (`d = 0` on held ones); `None` if not finite.
+    fn newton_step(&self, p: &Problem<'_, NU>, gradient: &[f64; NU]) -> Option<SVector<f64, NU>> {
+        let mut h = self.hessian(p);
+        let mut rhs = SVector::<f64, NU>::from_fn(|j, _| -gradient[j]);
+        fix_held(&mut h, &mut rhs, &self.held, &[0.0; NU]);
+        let d = h.cholesky()?.solve(&rhs);
+        d.iter().all(|v| v.is_finite()).then_some(d)
+    }
+
+    /// `H_V = 2 W + 2 Σ_{violated} s_i a_i a_iᵀ` at the evaluated point.
+    fn hessian(&self, p: &Problem<'_, NU>) -> SMatrix<f64, NU, NU> {
+        hessian_of(p, |i| self.value[i] < 0.0)
+    }
+
+    /// `d_j = −∂F/∂u_j / H_jj` on free inputs.
+    fn scaled_gradient(&self, p: &Problem<'_, NU>, gradient: &[f64; NU]) -> SVector<f64, NU> {
+        let h = self.hessian(p);
+        SVector::from_fn(|j, _| if self.held[j] == Bound::Free { -gradient[j] / h[(j, j)] } else { 0.0 })
+    }
+
+    /// The minimiser of `F(u + t d)` over `0 ≤ t ≤ reach` (`reach` may be infinite).
+    ///
+    /// `φ'(t) = 2 Σ_j w_j (u_j + t d_j − r_j) d_j + 2 Σ_i s_i min(0, c_i + t e_i) e_i` is
+    /// non-decreasing and piecewise linear, with a kink where a row's value
+    /// `c_i + t e_i` crosses zero. From `t = 0` (where `φ' < 0`) the walk solves the
+    /// current piece's linear `φ'` for its root and stops if the root comes before the
+    /// next crossing, else moves to that crossing: at most one visit per row.
+    fn line_search(&mut self, p: &Problem<'_, NU>, u: &[f64; NU], d: &SVector<f64, NU>, reach: f64) -> f64 {
+        let rows = p.rows.len();
+        for (i, row) in p.rows.iter().enumerate() {
+            self.rate[i] = (0..NU).map(|j| row.a[j] * d[j]).sum();
+        }
+        let (mut input_slope, mut input_deriv0) = (0.0, 0.0);
+        for j in 0..NU {
+            input_slope += 2.0 * p.weights[j] * d[j] * d[j];
+            input_deriv0 += 2.0 * p.weights[j] * (u[j] - p.u_ref[j]) * d[j];
+        }
+        let mut t = 0.0;
+        for _ in 0..=rows {
+            // Rows violated just after t, the derivative at t and the slope beyond it.
+            let (mut deriv, mut slope, mut next) = (input_deriv0 + input_slope * t, input_slope, f64::INFINITY);
+            for i in 0..rows {
+                let (c, e, s) = (self.value[i], self.rate[i], p.rows[i].weight);
+                let violated_after = if e == 0.0 {
+                    c < 0.0
+                } else {
+                    let crossing = -c / e;
+                    if crossing > t {
+                        next = next.min(crossing);
+                    }
+                    if e < 0.0 {
+                        crossing <= t
+                    } else {
+                        crossing > t
+                    }
+                };
+                if violated_after {
+                    deriv += 2.0 * s * (c + t * e) * e;
+                    slope += 2.0 * s * e * e;
+                }
+            }
+            if deriv >= 0.0 {
+                return t;
+            }
+            let root = t - deriv / slope;
+            let end = next.min(reach);
+            if root <= end {
+                return root;
+            }
+            if reach <= next {
+                return reach;
+            }
+            t = next;
+        }
+        t
+    }
+
+    /// The input of the last solve (inside the box); the last answer kept when the last
+    /// outcome was [`Outcome::NonFinite`].
+    pub fn u(&self) -> &[f64; NU] {
+        &self.u
+    }
+
+    /// Per row of the last solve: violated at the answer (`a_i·u + b_i < 0`).
+    pub fn violated(&self) -> &[bool] {
+        &self.violated[..self.rows]
+    }
+
+    /// `a_i·u + b_i` per row at the last answer: the slack is `max(0, −value)`.
+    pub fn row_values(&self) -> &[f64] {
+        &self.value[..self.rows]
+    }
+
+    /// Where each input sits at the last answer.
+    pub fn held(&self) -> &[Bound; NU] {
+        &self.held
+    }
+
+    /// Newton steps of the last solve (the face solve of a guess included).
+    pub fn steps(&self) -> u32 {
+        self.steps
+    }
+
+    /// The gradient test's measure at the last point checked: the largest free
+    /// `|∂F/∂u_j|` over the size of its terms.
+    pub fn gradient_residual(&self) -> f64 {
+        self.gradient_residual
+    }
+
+    /// How the last solve ended.
+    pub fn outcome(&self) -> Outcome {
+        self.outcome
+    }
+}
+
+fn check<const NU: usize>(p: &Problem<'_, NU>, capacity: usize) -> Result<(), CbfError> {
+    if p.rows.len() > capacity {
+        return Err(CbfError::TooLarge { what: "soft rows", value: p.rows.len(), max: capacity });
+    }
+    for j in 0..NU {
+        if !(p.weights[j] > 0.0 && p.weights[j].is_finite()) {
+            return Err(CbfError::NotPositive { what: "input weight", value: p.weights[j] });
+        }
+        for (what, v) in
+            [("nominal input", p.u_ref[j]), ("input limit", p.input_min[j]), ("input limit", p.input_max[j])]
+        {
+            if !v.is_finite() {
+                return Err(CbfError::NonFinite { what, value: v });
+            }
+        }
+        if p.input_min[j] > p.input_max[j] {
+            return Err(CbfError::OutOfRange {
+                what: "input_min (must not exceed input_max)",
+                value: p.input_min[j],
+                range: "[-inf, input_max]",
+            });
+        }
+    }
+    for row in p.rows {
+        if !(row.weight > 0.0 && row.weight.is_finite()) {
+            return Err(CbfError::NotPositive { what: "slack weight", value: row.weight });
+        }
+    }
+    Ok(())
+}
+
+fn clip<const NU: usize>(x: &[f64; NU], p: &Problem<'_, NU>) -> [f64; NU] {
+    std::array::from_fn(|j| x[j].clamp(p.input_min[j], p.input_max[j]))
+}
+
+/// `2 W + 2 Σ_{i: violated(i)} s_i a_i a_iᵀ`.
+fn hessian_of<const NU: usize>(p: &Problem<'_, NU>, violated: impl Fn(usize) -> bool) -> SMatrix<f64, NU, NU> {
+    let mut h = SMatrix::<f64, NU, NU>::zeros();
+    for j in 0..NU {
+        h[(j, j)] = 2.0 * p.weights[j];
+    }
+    for (i, row) in p.rows.iter().enumerate() {
+        if violated(i) {
+            let a = SVector::<f64, NU>::from_row_slice(&row.a);
+            h.ger(2.0 * row.weight, &a, &a, 1.0);
+        }
+    }
+    h
+}
+
+/// Fix held inputs at `values`: their columns move to the right-hand side, their rows
+/// become the identity.
+fn fix_held<const NU: usize>(
+    h: &mut SMatrix<f64, NU, NU>,
+    rhs: &mut SVector<f64, NU>,
+    held: &[Bound; NU],
+    values: &[f64; NU],
+) {
+    for j in 0..NU {
+        if held[j] == Bound::Free {
+            continue;
+        }
+        for k in 0..NU {
+            rhs[k] -= h[(k, j)] * values[j];
+            h[(k, j)] = 0.0;
+            h[(j, k)] = 0.0;
+        }
+        h[(j, j)] = 1.0;
+        rhs[j] = values[j];
+    }
+}
+
+/// The optimum of the face where `violated` rows are violated and `held` inputs sit at
+/// their bounds; `None` if it is not finite.
+fn face_optimum<const NU: usize>(p: &Problem<'_, NU>, violated: &[bool], held: &[Bound; NU]) -> Option<[f64; NU]> {
+    let mut h = hessian_of(p, |i| violated[i]);
+    let mut rhs = SVector::<f64, NU>::from_fn(|j, _| 2.0 * p.weights[j] * p.u_ref[j]);
+    for (row, _) in p.rows.iter().zip(violated).filter(|(_, &v)| v) {
+        let a = SVector::<f64, NU>::from_row_slice(&row.a);
+        rhs.axpy(-2.0 * row.weight * row.b, &a, 1.0);
+    }
+    let values: [f64; NU] = std::array::from_fn(|j| match held[j] {
+        Bound::Lower => p.input_min[j],
+        Bound::Upper => p.input_max[j],
+        Bound::Free => 0.0,
+    });
+    fix_held(&mut h, &mut rhs, held, &values);
+    let x = h.cholesky()?.solve(&rhs);
+    x.iter().all(|v| v.is_finite()).then(|| std::array::from_fn(|j| x[j]))
+}
+
+/// How far `u + t d` stays in the box (`∞` if it never leaves), and the free input that
+/// leaves first.
+fn box_reach<const NU: usize>(p: &Problem<'_, NU>, u: &[f64; NU], d: &SVector<f64, NU>) -> (f64, Option<usize>) {
+    let (mut reach, mut blocking) = (f64::INFINITY, None);
+    for j in 0..NU {
+        let room = if d[j] > 0.0 {
+            (p.input_max[j] - u[j]) / d[j]
+        } else if d[j] < 0.0 {
+            (p.input_min[j] - u[j]) / d[j]
+        } else {
+            continue;
+        };
+        if room < reach {
+            (reach, blocking) = (room.max(0.0), Some(j));
+        }
+    }
+    (reach, blocking)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn problem<'a>(rows: &'a [SoftRow<2>], lo: &'a [f64; 2], hi: &'a [f64; 2]) -> Problem<'a, 2> {
+        Problem { weights: &[1.0, 1.0], u_ref: &[0.0, 0.0], input_min: lo, input_max: hi, rows }
+    }
+
+    #[test]
+    fn one_stiff_row_by_hand() {
+        // min u1² + u2² + s max(0, 1 − u1)²: optimum u1 = s / (1 + s), u2 = 0.
+        let s = 1e4;
+        let rows = [SoftRow { a: [1.0, 0.0], b: -1.0, weight: s }];
+        let p = problem(&rows, &[-10.0, -10.0], &[10.0, 10.0]);
+        let mut solver = InputSpaceSolver::<2>::new(4);
+        assert_eq!(solver.solve(&p, Start::Cold, 20).unwrap(), Outcome::Verified);
+        assert!((solver.u()[0] - s / (1.0 + s)).abs() < 1e-14);
+        assert_eq!(solver.u()[1], 0.0);
+        assert_eq!(solver.violated(), &[true]);
+    }
+
+    #[test]
+    fn row_against_a_saturated_input_by_hand() {
+        // The row wants u1 ≥ 1 but u1 ≤ 0.5: held at 0.5, the slack takes the rest.
+        let rows = [SoftRow { a: [1.0, 0.0], b: -1.0, weight: 1e2 }];
+        let p = problem(&rows, &[-1.0, -1.0], &[0.5, 1.0]);
+        let mut solver = InputSpaceSolver::<2>::new(1);
+        assert_eq!(solver.solve(&p, Start::Cold, 20).unwrap(), Outcome::Verified);
+        assert_eq!(solver.u(), &[0.5, 0.0]);
+        assert_eq!(solver.held(), &[Bound::Upper, Bound::Free]);
+        assert!((solver.row_values()[0] + 0.5).abs() < 1e-15);
+    }
+
+    #[test]
+    fn bad_data_is_an_error_and_changes_nothing() {
+        let rows = [SoftRow { a: [1.0, 0.0], b: -1.0, weight: 0.0 }];
+        let p = problem(&rows, &[-1.0, -1.0], &[1.0, 1.0]);
+        let mut solver = InputSpaceSolver::<2>::new(1);
+        assert!(solver.solve(&p, Start::Cold, 20).is_err());
+        let rows = [SoftRow { a: [1.0, 0.0], b: -1.0, weight: 1.0 }; 2];
+        assert!(solver.solve(&problem(&rows, &[-1.0, -1.0], &[1.0, 1.0]), Start::Cold, 20).is_err());
+        assert_eq!(solver.u(), &[0.0, 0.0]);
+    }
+
+    #[test]
+    fn overflowing_rows_are_non_finite_not_a_panic() {
+        let rows = [SoftRow { a: [1e300, 1e300], b: -1e300, weight: 1e8 }];
+        let p = problem(&rows, &[-1e6, -1e6], &[1e6, 1e6]);
+        let mut solver = InputSpaceSolver::<2>::new(1);
+        let outcome = solver.solve(&p, Start::Cold, 20).unwrap();
+        assert_eq!(outcome, Outcome::NonFinite);
+    }
+}
