@@ -1,6 +1,6 @@
 //! `cbfgen` command line.
 
-use cbfgen::filter::FilterSettings;
+use cbfgen::filter::{FilterSettings, Solver};
 use cbfgen::ssat::{self, SmoothParams};
 use cbfgen::systems::lip;
 use cbfgen::systems::multilayer;
@@ -102,9 +102,25 @@ enum ScenarioArg {
     Stairs,
 }
 
-/// OSQP overrides for tuning runs; defaults are [`cbfgen::filter::SolverSettings::default`].
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum BackendArg {
+    Dense,
+    Osqp,
+    // Spelled as Solver::name (and Python) spell it.
+    #[value(name = "dense_then_osqp")]
+    DenseThenOsqp,
+}
+
+/// Solver overrides for tuning runs; defaults are [`cbfgen::filter::SolverSettings::default`].
 #[derive(clap::Args)]
 struct SolverArgs {
+    /// Which solver answers: the dense solve only, OSQP only, or the dense solve with OSQP
+    /// when it does not verify in time.
+    #[arg(long, value_enum)]
+    backend: Option<BackendArg>,
+    /// Most steps of the dense solve.
+    #[arg(long)]
+    dense_max_steps: Option<u32>,
     /// Absolute tolerance.
     #[arg(long)]
     eps_abs: Option<f64>,
@@ -131,6 +147,14 @@ struct SolverArgs {
 impl SolverArgs {
     fn apply(&self, s: &mut FilterSettings<NU>) {
         let o = &mut s.solver;
+        if let Some(b) = self.backend {
+            o.backend = match b {
+                BackendArg::Dense => Solver::Dense,
+                BackendArg::Osqp => Solver::Osqp,
+                BackendArg::DenseThenOsqp => Solver::DenseThenOsqp,
+            };
+        }
+        o.dense_max_steps = self.dense_max_steps.unwrap_or(o.dense_max_steps);
         o.eps_abs = self.eps_abs.unwrap_or(o.eps_abs);
         o.eps_rel = self.eps_rel.unwrap_or(o.eps_rel);
         o.rho = self.rho.unwrap_or(o.rho);
