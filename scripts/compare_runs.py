@@ -1,7 +1,7 @@
 """Compare two simulation outputs column by column: ``python scripts/compare_runs.py OLD.csv NEW.csv [OLD2 NEW2 ...]``.
 
-Prints the largest absolute difference over every numeric column except wall-clock
-timings (``*_us``), and exits 1 when it exceeds ``--tolerance`` (default 1e-9) or when
+Prints the largest absolute difference over every numeric column except the timings
+(``*_us``: wall and thread CPU time), and exits 1 when it exceeds ``--tolerance`` (default 1e-9) or when
 headers, row counts or text columns differ. Used to show that a refactor leaves the
 Tachyon 3 step and stairs runs unchanged (run both commits' ``cbfgen simulate``).
 """

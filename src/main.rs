@@ -1,6 +1,6 @@
 //! `cbfgen` command line.
 
-use cbfgen::filter::FilterSettings;
+use cbfgen::filter::{FilterSettings, Solver};
 use cbfgen::ssat::{self, SmoothParams};
 use cbfgen::systems::lip;
 use cbfgen::systems::multilayer;
@@ -39,7 +39,8 @@ enum Command {
     /// posture: edit symbolic/models/tachyon3.toml, rebuild, and watch them change.
     Rows,
     /// Time the ECBF filter: consecutive 269-row updates at 1 kHz while the robot rolls
-    /// into a staircase; prints median, p99 and max per update.
+    /// into a staircase; prints median, p99 and max per update, in wall time and in the
+    /// thread's CPU time (a VM stall adds wall time only), and the cycles over 1 ms of each.
     Latency {
         /// Number of consecutive updates.
         #[arg(long, default_value_t = 10_000)]
@@ -101,9 +102,25 @@ enum ScenarioArg {
     Stairs,
 }
 
-/// OSQP overrides for tuning runs; defaults are [`cbfgen::filter::SolverSettings::default`].
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum BackendArg {
+    Dense,
+    Osqp,
+    // Spelled as Solver::name (and Python) spell it.
+    #[value(name = "dense_then_osqp")]
+    DenseThenOsqp,
+}
+
+/// Solver overrides for tuning runs; defaults are [`cbfgen::filter::SolverSettings::default`].
 #[derive(clap::Args)]
 struct SolverArgs {
+    /// Which solver answers: the dense solve only, OSQP only, or the dense solve with OSQP
+    /// when it does not verify in time.
+    #[arg(long, value_enum)]
+    backend: Option<BackendArg>,
+    /// Most steps of the dense solve.
+    #[arg(long)]
+    dense_max_steps: Option<u32>,
     /// Absolute tolerance.
     #[arg(long)]
     eps_abs: Option<f64>,
@@ -130,6 +147,14 @@ struct SolverArgs {
 impl SolverArgs {
     fn apply(&self, s: &mut FilterSettings<NU>) {
         let o = &mut s.solver;
+        if let Some(b) = self.backend {
+            o.backend = match b {
+                BackendArg::Dense => Solver::Dense,
+                BackendArg::Osqp => Solver::Osqp,
+                BackendArg::DenseThenOsqp => Solver::DenseThenOsqp,
+            };
+        }
+        o.dense_max_steps = self.dense_max_steps.unwrap_or(o.dense_max_steps);
         o.eps_abs = self.eps_abs.unwrap_or(o.eps_abs);
         o.eps_rel = self.eps_rel.unwrap_or(o.eps_rel);
         o.rho = self.rho.unwrap_or(o.rho);

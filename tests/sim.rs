@@ -11,6 +11,7 @@ const PENETRATION_TOLERANCE: f64 = 1e-3;
 #[test]
 fn the_filter_gets_the_robot_over_the_step_without_penetration() {
     let result = sim::run(&SimConfig::new(Scenario::Step, true), |_| {}).expect("simulation");
+    check_timings(&result);
     let s = result.summary;
     assert!(s.completed, "the robot must cross the step: {s}");
     assert!(
@@ -25,6 +26,30 @@ fn the_filter_gets_the_robot_over_the_step_without_penetration() {
     let (body, _, toes) = cbfgen::generated::tachyon3::world_kinematics(&last.x);
     let stairs = Scenario::Step.stairs();
     assert!(body[0] > stairs.start_x && toes.iter().all(|t| t[0] > stairs.start_x), "{body:?} {toes:?}");
+}
+
+/// The summary's timing figures, recomputed from the samples: nearest-rank percentiles and
+/// direct counts of cycles over the 1 ms period, on the wall clock and the thread's CPU clock.
+fn check_timings(result: &sim::SimResult) {
+    let s = &result.summary;
+    let percentiles = |f: fn(&sim::Sample) -> f64| {
+        let mut v: Vec<f64> = result.samples.iter().map(f).collect();
+        v.sort_by(f64::total_cmp);
+        let rank = |p: f64| v[((p * v.len() as f64).ceil() as usize).max(1) - 1];
+        [rank(0.5), rank(0.99), rank(1.0)]
+    };
+    assert_eq!(percentiles(|x| x.update_us), [s.median_update_us, s.p99_update_us, s.max_update_us]);
+    assert_eq!(percentiles(|x| x.cpu_us), [s.median_cpu_us, s.p99_cpu_us, s.max_cpu_us]);
+    let over = |f: fn(&sim::Sample) -> f64| result.samples.iter().filter(|x| f(x) > 1000.0).count();
+    assert_eq!(s.over_period_wall, over(|x| x.update_us));
+    assert_eq!(s.over_period_cpu, over(|x| x.cpu_us));
+    assert!(result.samples.iter().all(|x| x.cpu_us.is_finite() && x.cpu_us >= 0.0));
+    if cfg!(unix) {
+        assert!(s.median_cpu_us > 0.0 && s.p99_cpu_us > 0.0 && s.max_cpu_us > 0.0, "{s}");
+        // The thread cannot work longer than the wall time around its work; the slack
+        // covers the clocks' granularity.
+        assert!(s.median_cpu_us <= s.median_update_us * 1.5 + 5.0, "{s}");
+    }
 }
 
 #[test]
@@ -68,6 +93,7 @@ fn figures_and_the_documented_csv_are_written() {
         "eval_us",
         "solve_us",
         "update_us",
+        "cpu_us",
         "body_clearance",
         "toe_clearance",
         "swinging",
@@ -81,6 +107,7 @@ fn figures_and_the_documented_csv_are_written() {
 #[test]
 fn the_filter_gets_the_robot_up_all_five_stairs_without_penetration() {
     let result = sim::run(&SimConfig::new(Scenario::Stairs, true), |_| {}).expect("simulation");
+    check_timings(&result);
     let s = result.summary;
     assert!(s.completed, "every toe must reach the top landing: {s}");
     let top = Scenario::Stairs.stairs().top();

@@ -27,6 +27,9 @@ flat vector of all of them in declaration order (matrices row by row)."""
 RowPlace = tuple[str, str | None, int, str]
 """Where a row sits: (family, member or None, instance, row name)."""
 SsatVariant = Literal["lse_xtanh", "lse_sqrt", "boltzmann_xtanh", "boltzmann_sqrt"]
+Backend = Literal["dense", "osqp", "dense_then_osqp"]
+"""A filter's solver (SOLVERS): the dense solve only, OSQP only, or the dense solve with
+OSQP when it does not verify within dense_max_steps."""
 
 class FamilyInfo(TypedDict):
     name: str
@@ -42,11 +45,20 @@ class FamilyInfo(TypedDict):
     slack_weight: float
     activation: float
 
+class SolverSettings(TypedDict):
+    backend: Backend
+    dense_max_steps: int
+    eps_abs: float
+    eps_rel: float
+    max_iter: int
+    polish: bool
+    time_limit_us: float | None
+
 class CbfError(ValueError):
     """An error reported by cbfgen's Rust core (bad value, capacity, solver set-up...)."""
 
 MAX_ITERATIONS: int
-"""Largest EcbfFilter max_iter."""
+"""Largest EcbfFilter max_iter and dense_max_steps."""
 MAX_TIME_LIMIT_US: float
 """Largest EcbfFilter time_limit_us (1 s)."""
 MAX_INPUT: float
@@ -65,6 +77,8 @@ HALF_EXTENT_RANGE: tuple[float, float]
 """Accepted box half extents [m], inclusive."""
 SSAT_VARIANTS: list[str]
 INPUT_SOURCES: list[str]
+SOLVERS: list[str]
+"""The EcbfFilter backend choices: "dense", "osqp", "dense_then_osqp"."""
 
 # ---------------------------------------------------------------- any system
 def systems() -> list[str]:
@@ -173,12 +187,19 @@ class FilterOutput:
     def eval_time_us(self) -> float: ...
     @property
     def solve_time_us(self) -> float: ...
+    @property
+    def cpu_time_us(self) -> float:
+        """The thread's CPU time over the whole update [us], beside its wall time
+        eval_time_us + solve_time_us (far less CPU than wall = the thread waited). 0
+        where the platform has no per-thread clock."""
 
 class EcbfFilter:
-    """The ECBF-QP safety filter of any system (OSQP). Keyword settings override the
-    spec's defaults: activation, slack_weight and poles map family names to values;
-    input_weights, input_min, input_max have nu values; eps_abs, eps_rel, max_iter,
-    polish and time_limit_us tune OSQP."""
+    """The ECBF-QP safety filter of any system. Keyword settings override the spec's
+    defaults: activation, slack_weight and poles map family names to values;
+    input_weights, input_min, input_max have nu values; backend picks the solver (one of
+    SOLVERS, else ValueError) and dense_max_steps bounds the dense solve (1 ..=
+    MAX_ITERATIONS, else CbfError); eps_abs, eps_rel, max_iter, polish and time_limit_us
+    tune OSQP."""
 
     def __init__(
         self,
@@ -191,6 +212,8 @@ class EcbfFilter:
         input_weights: ArrayLike | None = None,
         input_min: ArrayLike | None = None,
         input_max: ArrayLike | None = None,
+        backend: Backend | None = None,
+        dense_max_steps: int | None = None,
         eps_abs: float | None = None,
         eps_rel: float | None = None,
         max_iter: int | None = None,
@@ -222,6 +245,9 @@ class EcbfFilter:
     @property
     def family_settings(self) -> dict[str, tuple[list[float], float, float]]:
         """Per family: (poles, slack_weight, activation) in use."""
+    @property
+    def solver_settings(self) -> SolverSettings:
+        """The solver settings in use, as the keywords of the same names set them."""
 
 # ---------------------------------------------------------------------- SSAT
 def ssat(
@@ -325,6 +351,11 @@ def simulate(
     scenario: Literal["step", "stairs"] = "stairs", body_cbf: bool = True, max_time: float | None = None
 ) -> dict[str, np.ndarray | dict]:
     """The Rust closed loop's time series as numpy arrays, plus a "summary" dict.
+
+    Timings per cycle: eval_us, solve_us and update_us (wall time) and cpu_us (the
+    thread's CPU time over the update); the summary holds median/p99/max of update_us
+    (*_update_us) and of cpu_us (*_cpu_us), and over_period_wall / over_period_cpu, the
+    cycles over 1 ms on each clock.
 
     ``min_h`` is inf where no row of a family applied; every other series is finite.
     Raises CbfError for a max_time outside [DT, MAX_SIM_TIME]. Samples are stored as the

@@ -74,6 +74,17 @@ def test_simulation_arrays_are_consistent():
     np.testing.assert_allclose(run["body_z_world"], run["x"][:, 2] + run["x"][:, t3.STATE_NAMES.index("bz")])
     assert set(run["summary"]["min_h"]) == set(t3.FAMILIES)
     assert np.all((run["source"] >= 0) & (run["source"] < len(cbfgen.INPUT_SOURCES)))
+    # Timings: wall and thread CPU time per cycle; the summary's counts of cycles over the
+    # 1 ms period are direct counts over those series, and its percentiles nearest ranks.
+    summary = run["summary"]
+    assert run["cpu_us"].shape == run["update_us"].shape == (n,)
+    assert np.all(np.isfinite(run["cpu_us"])) and np.all(run["cpu_us"] >= 0.0)
+    assert summary["over_period_wall"] == np.count_nonzero(run["update_us"] > 1000.0)
+    assert summary["over_period_cpu"] == np.count_nonzero(run["cpu_us"] > 1000.0)
+    ranked = np.sort(run["cpu_us"])
+    assert [summary[f"{k}_cpu_us"] for k in ("median", "p99", "max")] == [
+        ranked[int(np.ceil(p * n)) - 1] for p in (0.5, 0.99, 1.0)
+    ]
 
 
 def test_filtered_input_satisfies_every_active_ecbf_row():
@@ -202,6 +213,10 @@ DI = cbfgen.System("double_integrator")
     (lambda: t3.ecbf_filter(eps_abs=0.0), cbfgen.CbfError, "eps_abs = 0 is outside"),
     (lambda: t3.ecbf_filter(poles={"body_edge": [1.0]}), cbfgen.CbfError, "poles"),
     (lambda: t3.ecbf_filter(speed=3), ValueError, "unknown setting"),
+    (lambda: t3.ecbf_filter(backend="bogus"), ValueError,
+     r"unknown backend 'bogus': expected one of \[\"dense\", \"osqp\", \"dense_then_osqp\"\]"),
+    (lambda: t3.ecbf_filter(dense_max_steps=0), cbfgen.CbfError, "dense_max_steps"),
+    (lambda: t3.ecbf_filter(dense_max_steps=cbfgen.MAX_ITERATIONS + 1), cbfgen.CbfError, "dense_max_steps"),
     (lambda: t3.Course("moon"), ValueError, "unknown scenario"),
     (lambda: t3.simulate("step", max_time=-1.0), cbfgen.CbfError, "max_time"),
 ])
@@ -214,6 +229,44 @@ def test_a_setting_given_as_none_keeps_the_spec_default():
     # As an omitted keyword: what scripts pass when a setting is optional.
     assert t3.ecbf_filter(activation=None, poles=None).family_settings == t3.ecbf_filter().family_settings
     assert t3.ecbf_filter(poles={"body_edge": [5.0, 6.0]}).family_settings["body_edge"][0] == [5.0, 6.0]
+
+
+def test_cpu_time_is_reported_beside_wall_time():
+    course = t3.Course("step")
+    safety = t3.ecbf_filter()
+    x = course.initial_state()
+    cpu, wall = [], []
+    for k in range(30):
+        out = safety.update(x, course.plan(k * t3.DT, x), course.environment)
+        cpu.append(out.cpu_time_us)
+        wall.append(out.eval_time_us + out.solve_time_us)
+        x = x + t3.DT * t3.SYSTEM.xdot(x, out.u)
+    cpu = np.array(cpu)
+    # A 269-row update is tens of microseconds of work; a second would be a broken clock.
+    assert np.all(np.isfinite(cpu)) and np.all(cpu >= 0.0) and np.all(cpu < 1e6)
+    assert safety.output.cpu_time_us == out.cpu_time_us
+    if os.name == "posix":  # a per-thread CPU clock exists: the work shows on it
+        assert np.median(cpu) > 0.0
+        # The thread cannot work longer than the wall time around its work (give or take
+        # the clocks' granularity).
+        assert np.median(cpu) <= 1.5 * np.median(wall) + 5.0
+
+
+@pytest.mark.parametrize("backend", ["dense", "osqp", "dense_then_osqp"])
+def test_each_solver_backend_is_accepted_and_reaches_the_filter(backend):
+    assert backend in cbfgen.SOLVERS
+    safety = t3.ecbf_filter(backend=backend, dense_max_steps=7)
+    settings = safety.solver_settings
+    assert (settings["backend"], settings["dense_max_steps"]) == (backend, 7)
+    course = t3.Course("step")
+    x = course.initial_state()
+    out = safety.update(x, course.plan(0.0, x), course.environment)
+    assert out.u.shape == (t3.NU,) and np.all(np.isfinite(out.u))
+    # The other solver settings read back as the keywords set them; None keeps the default.
+    tuned = t3.ecbf_filter(eps_abs=1e-4, max_iter=300, polish=False, time_limit_us=800.0).solver_settings
+    assert (tuned["eps_abs"], tuned["max_iter"], tuned["polish"]) == (1e-4, 300, False)
+    assert tuned["time_limit_us"] == pytest.approx(800.0)
+    assert t3.ecbf_filter(backend=None, dense_max_steps=None).solver_settings == t3.ecbf_filter().solver_settings
 
 
 def test_filter_errors_leave_it_usable():
@@ -268,7 +321,7 @@ def test_type_stubs_list_exactly_the_module_names():
         elif isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
             declared.add(node.target.id)
     helpers = {"ArrayLike", "Vector", "Matrix", "Leg", "Member", "Values", "FamilyInfo", "SsatVariant",
-               "RowPlace"}
+               "RowPlace", "Backend", "SolverSettings"}
     declared -= helpers
     native = {n for n in dir(cbfgen._native) if not n.startswith("_")}
     assert declared == native

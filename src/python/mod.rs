@@ -55,6 +55,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("STATE_LIMIT", crate::system::STATE_LIMIT)?;
     m.add("PARAM_LIMIT", crate::system::PARAM_LIMIT)?;
     m.add("MAX_INSTANCES", crate::system::MAX_INSTANCES)?;
+    m.add("SOLVERS", crate::filter::Solver::ALL.map(crate::filter::Solver::name).to_vec())?;
     m.add("INPUT_SOURCES", crate::filter::InputSource::ALL.map(crate::filter::InputSource::name).to_vec())?;
     m.add("SSAT_ALPHA_RANGE", (crate::ssat::ALPHA_MIN, crate::ssat::ALPHA_MAX))?;
     m.add("MAX_COORDINATE", crate::geometry::MAX_COORDINATE)?;

@@ -10,10 +10,10 @@ use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
-use super::convert::{matrix_from_fn, shaped, vector, Array1Out, Array2Out, ArrayIn};
+use super::convert::{choice, matrix_from_fn, shaped, vector, Array1Out, Array2Out, ArrayIn};
 use crate::dynamic::{self, CapacityCount, DynFilter, DynParams, DynRows, DynSystem};
 use crate::error::{within, CbfError};
-use crate::filter::{Output, SolverSettings};
+use crate::filter::{Output, Solver, SolverSettings};
 use crate::system::{FamilyInfo, Poles};
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -617,6 +617,15 @@ impl PyFilterOutput {
         self.out.solve_time.as_secs_f64() * 1e6
     }
 
+    /// The thread's CPU time over the whole update (evaluation and solve) \[µs\], beside
+    /// its wall time ``eval_time_us + solve_time_us``: far less CPU than wall time means
+    /// the thread waited (a VM stall, preemption) rather than worked. 0 where the platform
+    /// has no per-thread clock.
+    #[getter]
+    fn cpu_time_us(&self) -> f64 {
+        self.out.cpu_time.as_secs_f64() * 1e6
+    }
+
     fn __repr__(&self) -> String {
         let status = self.status().map_or_else(|| "None".to_string(), |s| format!("'{s}'"));
         format!(
@@ -663,6 +672,11 @@ fn settings(system: &dyn DynSystem, kw: Option<&Bound<'_, PyDict>>) -> PyResult<
             "input_weights" => s.input_weights = exact("input_weights", &value.extract()?, nu)?,
             "input_min" => s.input_min = exact("input_min", &value.extract()?, nu)?,
             "input_max" => s.input_max = exact("input_max", &value.extract()?, nu)?,
+            "backend" => {
+                let names = Solver::ALL.map(Solver::name);
+                s.solver.backend = Solver::ALL[choice("backend", &value.extract::<String>()?, &names)?];
+            }
+            "dense_max_steps" => s.solver.dense_max_steps = value.extract()?,
             "eps_abs" => s.solver.eps_abs = value.extract()?,
             "eps_rel" => s.solver.eps_rel = value.extract()?,
             "max_iter" => s.solver.max_iter = value.extract()?,
@@ -671,7 +685,8 @@ fn settings(system: &dyn DynSystem, kw: Option<&Bound<'_, PyDict>>) -> PyResult<
             other => {
                 return Err(PyValueError::new_err(format!(
                     "unknown setting '{other}': expected activation, slack_weight, poles, input_weights, \
-                     input_min, input_max, eps_abs, eps_rel, max_iter, polish or time_limit_us"
+                     input_min, input_max, backend, dense_max_steps, eps_abs, eps_rel, max_iter, polish or \
+                     time_limit_us"
                 )))
             }
         }
@@ -679,13 +694,15 @@ fn settings(system: &dyn DynSystem, kw: Option<&Bound<'_, PyDict>>) -> PyResult<
     Ok(s)
 }
 
-/// The ECBF-QP safety filter of any system (OSQP). Build once; each ``update`` evaluates
-/// every row at the state and returns the input closest to the nominal one that keeps
-/// every active row's ECBF condition (with penalised slack). Keyword settings override
-/// the spec's defaults: ``activation``, ``slack_weight`` and ``poles`` map family names to
-/// values; ``input_weights``, ``input_min``, ``input_max`` have nu values; ``eps_abs``,
-/// ``eps_rel``, ``max_iter``, ``polish`` and ``time_limit_us`` tune OSQP. See the Rust docs
-/// of ``cbfgen::filter`` for the failure policy.
+/// The ECBF-QP safety filter of any system. Build once; each ``update`` evaluates every
+/// row at the state and returns the input closest to the nominal one that keeps every
+/// active row's ECBF condition (with penalised slack). Keyword settings override the
+/// spec's defaults: ``activation``, ``slack_weight`` and ``poles`` map family names to
+/// values; ``input_weights``, ``input_min``, ``input_max`` have nu values; ``backend``
+/// picks the solver (one of ``SOLVERS``: "dense", "osqp", "dense_then_osqp"), and
+/// ``dense_max_steps`` bounds the dense solve's steps (1 ..= ``MAX_ITERATIONS``);
+/// ``eps_abs``, ``eps_rel``, ``max_iter``, ``polish`` and ``time_limit_us`` tune OSQP. See
+/// the Rust docs of ``cbfgen::filter`` for the failure policy.
 #[pyclass(name = "EcbfFilter", module = "cbfgen")]
 pub struct PyEcbfFilter {
     system: &'static dyn DynSystem,
@@ -822,6 +839,23 @@ impl PyEcbfFilter {
             .zip(&s.families)
             .map(|(f, p)| (f.name, (p.poles.as_slice().to_vec(), p.slack_weight, p.activation)))
             .collect())
+    }
+
+    /// The solver settings in use: ``backend``, ``dense_max_steps``, ``eps_abs``,
+    /// ``eps_rel``, ``max_iter``, ``polish`` and ``time_limit_us`` (None: no limit), as the
+    /// keywords of the same names set them.
+    #[getter]
+    fn solver_settings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let s = self.lock()?.settings().solver;
+        let d = PyDict::new(py);
+        d.set_item("backend", s.backend.name())?;
+        d.set_item("dense_max_steps", s.dense_max_steps)?;
+        d.set_item("eps_abs", s.eps_abs)?;
+        d.set_item("eps_rel", s.eps_rel)?;
+        d.set_item("max_iter", s.max_iter)?;
+        d.set_item("polish", s.polish)?;
+        d.set_item("time_limit_us", s.time_limit.map(|t| t.as_secs_f64() * 1e6))?;
+        Ok(d)
     }
 
     fn __repr__(&self) -> PyResult<String> {

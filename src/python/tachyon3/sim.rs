@@ -122,8 +122,9 @@ impl PyCourse {
 ///
 /// ``t`` (n,), ``x`` (n, NX), ``body_z_world`` and ``body_raise`` (n,), ``min_h`` (n, 6) in
 /// ``FAMILIES`` order (inf where no row applied), ``active_rows``, ``iterations``,
-/// ``source`` (index into ``INPUT_SOURCES``), ``eval_us``, ``solve_us``, ``update_us``,
-/// ``body_clearance``, ``toe_clearance``, ``swinging`` (-1: none); and ``summary``, a dict.
+/// ``source`` (index into ``INPUT_SOURCES``), ``eval_us``, ``solve_us``, ``update_us`` (wall
+/// time), ``cpu_us`` (the thread's CPU time over the update), ``body_clearance``,
+/// ``toe_clearance``, ``swinging`` (-1: none); and ``summary``, a dict.
 /// The GIL is released while it runs.
 #[pyfunction]
 #[pyo3(signature = (scenario="stairs", body_cbf=true, max_time=None))]
@@ -153,6 +154,7 @@ fn simulate<'py>(
     out.set_item("eval_us", vector(py, &column(&|s| s.eval_us)))?;
     out.set_item("solve_us", vector(py, &column(&|s| s.solve_us)))?;
     out.set_item("update_us", vector(py, &column(&|s| s.update_us)))?;
+    out.set_item("cpu_us", vector(py, &column(&|s| s.cpu_us)))?;
     out.set_item("body_clearance", vector(py, &column(&|s| s.body_clearance)))?;
     out.set_item("toe_clearance", vector(py, &column(&|s| s.toe_clearance)))?;
     out.set_item("swinging", vector(py, &column(&|s| f64::from(s.swinging))))?;
@@ -174,6 +176,11 @@ fn simulate<'py>(
     summary.set_item("median_update_us", m.median_update_us)?;
     summary.set_item("p99_update_us", m.p99_update_us)?;
     summary.set_item("max_update_us", m.max_update_us)?;
+    summary.set_item("median_cpu_us", m.median_cpu_us)?;
+    summary.set_item("p99_cpu_us", m.p99_cpu_us)?;
+    summary.set_item("max_cpu_us", m.max_cpu_us)?;
+    summary.set_item("over_period_wall", m.over_period_wall)?;
+    summary.set_item("over_period_cpu", m.over_period_cpu)?;
     summary.set_item("fallback_cycles", m.fallback_cycles)?;
     out.set_item("summary", summary)?;
     Ok(out)

@@ -1,13 +1,16 @@
 //! Latency harness: consecutive filter updates along the [`Approach`] drive, with
-//! percentiles of the time per update. Wall-clock, single thread, one cycle after
-//! another as a controller would run them (no criterion batching or warm caches
-//! between repetitions of the same input).
+//! percentiles of the time per update. Single thread, one cycle after another as a
+//! controller would run them (no criterion batching or warm caches between repetitions
+//! of the same input). Each update is timed on two clocks: wall time, and the thread's
+//! CPU time ([`crate::cpu_time`]). A virtual machine that deschedules the thread adds
+//! wall time but no CPU time, so a wall-time outlier with an ordinary CPU time is a
+//! stall, not work.
 
 use std::fmt;
 use std::time::{Duration, Instant};
 
 use crate::error::CbfError;
-use crate::filter::{EcbfFilter, FilterSettings, InputSource};
+use crate::filter::{EcbfFilter, FilterSettings, InputSource, Solver};
 use crate::systems::tachyon3::approach::Approach;
 use crate::systems::tachyon3::catalog::{Capacity, Catalog};
 use crate::systems::tachyon3::model::NU;
@@ -15,6 +18,15 @@ use crate::systems::tachyon3::terrain::Stairs;
 
 /// Control period \[s\].
 pub const DT: f64 = 1e-3;
+
+/// The control period as a duration: an update that takes longer (on either clock)
+/// misses its cycle.
+pub const PERIOD: Duration = Duration::from_millis(1);
+
+/// Cycles in `times` longer than [`PERIOD`] (strictly).
+pub fn over_period(times: impl IntoIterator<Item = Duration>) -> usize {
+    times.into_iter().filter(|&t| t > PERIOD).count()
+}
 
 /// Percentiles of one timed quantity.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -41,6 +53,16 @@ impl Percentiles {
     }
 }
 
+/// One cycle's whole update on both clocks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CycleTime {
+    /// Wall-clock time of the [`EcbfFilter::update`] call, timed around it.
+    pub wall: Duration,
+    /// The thread's CPU time over the update
+    /// ([`FilterOutput::cpu_time`](crate::filter::FilterOutput::cpu_time)).
+    pub cpu: Duration,
+}
+
 /// What a harness run measured.
 #[derive(Debug, Clone)]
 pub struct LatencyReport {
@@ -48,12 +70,23 @@ pub struct LatencyReport {
     pub cycles: usize,
     /// Rows of the filter's catalog (all evaluated every cycle).
     pub rows: usize,
+    /// The solver the filter was set to use.
+    pub backend: Solver,
     /// Wall-clock time of a whole [`EcbfFilter::update`] call.
     pub total: Percentiles,
-    /// Time in row evaluation and activation
+    /// The thread's CPU time over a whole update (zero where the platform has no thread
+    /// clock).
+    pub total_cpu: Percentiles,
+    /// Cycles whose whole update took longer than [`PERIOD`] of wall time.
+    pub over_period_wall: usize,
+    /// Cycles whose whole update took longer than [`PERIOD`] of CPU time.
+    pub over_period_cpu: usize,
+    /// Every cycle's whole update on both clocks, in cycle order.
+    pub cycle_times: Vec<CycleTime>,
+    /// Wall time in row evaluation and activation
     /// ([`FilterOutput::eval_time`](crate::filter::FilterOutput::eval_time)).
     pub eval: Percentiles,
-    /// Time in the QP update and solve
+    /// Wall time in the QP update and solve
     /// ([`FilterOutput::solve_time`](crate::filter::FilterOutput::solve_time)).
     pub solve: Percentiles,
     /// ADMM iterations per cycle: median, p99, max.
@@ -79,18 +112,20 @@ pub struct LatencyReport {
 pub fn run(cycles: usize, speed: f64, start_gap: f64, settings: FilterSettings<NU>) -> Result<LatencyReport, CbfError> {
     let capacity = Capacity::PAPER_WORST_CASE;
     let stairs = Stairs::HARDWARE;
+    let backend = settings.solver.backend;
     let mut filter = EcbfFilter::new(Catalog::new(capacity)?, settings)?;
     let mut drive = Approach::new(capacity, stairs, start_gap, speed)?;
     let start_x = drive.x[0];
-    let (mut total, mut eval, mut solve) =
-        (Vec::with_capacity(cycles), Vec::with_capacity(cycles), Vec::with_capacity(cycles));
+    let mut cycle_times = Vec::with_capacity(cycles);
+    let (mut eval, mut solve) = (Vec::with_capacity(cycles), Vec::with_capacity(cycles));
     let mut iterations = Vec::with_capacity(cycles);
     let (mut active_min, mut active_max, mut fallbacks, mut polished) = (usize::MAX, 0, 0, 0);
     for _ in 0..cycles {
         let u_ref = drive.nominal_input();
+        // Wall time around the call; the filter reads the thread's CPU clock itself.
         let t0 = Instant::now();
         let out = *filter.update(&drive.x, &u_ref, &drive.env)?;
-        total.push(t0.elapsed());
+        cycle_times.push(CycleTime { wall: t0.elapsed(), cpu: out.cpu_time });
         eval.push(out.eval_time);
         solve.push(out.solve_time);
         iterations.push(out.iterations);
@@ -104,10 +139,17 @@ pub fn run(cycles: usize, speed: f64, start_gap: f64, settings: FilterSettings<N
     let empty = || CbfError::LengthMismatch { what: "latency cycles", expected: 1, got: 0 };
     let pick = |p: f64| nearest_rank(&iterations, p).ok_or_else(empty);
     let front = drive.x[0] + drive.front_reach();
+    let mut wall: Vec<Duration> = cycle_times.iter().map(|c| c.wall).collect();
+    let mut cpu: Vec<Duration> = cycle_times.iter().map(|c| c.cpu).collect();
     Ok(LatencyReport {
         cycles,
         rows: filter.rows().len(),
-        total: Percentiles::of(&mut total).ok_or_else(empty)?,
+        backend,
+        total: Percentiles::of(&mut wall).ok_or_else(empty)?,
+        total_cpu: Percentiles::of(&mut cpu).ok_or_else(empty)?,
+        over_period_wall: over_period(wall),
+        over_period_cpu: over_period(cpu),
+        cycle_times,
         eval: Percentiles::of(&mut eval).ok_or_else(empty)?,
         solve: Percentiles::of(&mut solve).ok_or_else(empty)?,
         iterations: [pick(0.5)?, pick(0.99)?, pick(1.0)?],
@@ -124,14 +166,23 @@ impl fmt::Display for LatencyReport {
         let us = |d: Duration| d.as_secs_f64() * 1e6;
         writeln!(
             f,
-            "{} consecutive updates of {} rows at 1 kHz (drive into a 5-step staircase)",
-            self.cycles, self.rows
+            "{} consecutive updates of {} rows at 1 kHz (drive into a 5-step staircase), solver {}",
+            self.cycles,
+            self.rows,
+            self.backend.name()
         )?;
-        writeln!(f, "{:<22}{:>10}{:>10}{:>10}", "time per update [µs]", "median", "p99", "max")?;
-        for (name, p) in
-            [("whole update", self.total), ("row evaluation", self.eval), ("QP update + solve", self.solve)]
-        {
-            writeln!(f, "{:<22}{:>10.1}{:>10.1}{:>10.1}", name, us(p.median), us(p.p99), us(p.max))?;
+        writeln!(f, "{:<30}{:>10}{:>10}{:>10}{:>10}", "time per update [µs]", "median", "p99", "max", "> 1 ms")?;
+        for (name, p, over) in [
+            ("whole update, wall", self.total, Some(self.over_period_wall)),
+            ("whole update, thread CPU", self.total_cpu, Some(self.over_period_cpu)),
+            ("row evaluation, wall", self.eval, None),
+            ("QP update + solve, wall", self.solve, None),
+        ] {
+            write!(f, "{:<30}{:>10.1}{:>10.1}{:>10.1}", name, us(p.median), us(p.p99), us(p.max))?;
+            match over {
+                Some(n) => writeln!(f, "{n:>10}")?,
+                None => writeln!(f)?,
+            }
         }
         let [im, i99, imax] = self.iterations;
         writeln!(f, "ADMM iterations: median {im}, p99 {i99}, max {imax}")?;
@@ -151,7 +202,7 @@ impl fmt::Display for LatencyReport {
 
 #[cfg(test)]
 mod tests {
-    use super::nearest_rank;
+    use super::*;
 
     #[test]
     fn nearest_rank_by_hand() {
@@ -159,5 +210,36 @@ mod tests {
         assert_eq!([0.5, 0.99, 1.0].map(|p| nearest_rank(&v, p)), [Some(50), Some(99), Some(100)]);
         assert_eq!(nearest_rank(&[7.0], 0.99), Some(7.0));
         assert_eq!(nearest_rank::<f64>(&[], 0.5), None);
+    }
+
+    #[test]
+    fn over_period_is_strict() {
+        let ms = Duration::from_millis;
+        assert_eq!(over_period([ms(0), ms(1), ms(2), Duration::from_nanos(1_000_001)]), 2);
+        assert_eq!(over_period([]), 0);
+    }
+
+    #[test]
+    fn a_short_run_reports_both_clocks_consistently() {
+        let settings = crate::systems::tachyon3::catalog::default_settings();
+        let r = run(200, 0.3, 0.6, settings).expect("harness");
+        assert_eq!((r.cycles, r.cycle_times.len()), (200, 200));
+        // The counts are a direct count over the cycles, on each clock.
+        assert_eq!(r.over_period_wall, r.cycle_times.iter().filter(|c| c.wall > PERIOD).count());
+        assert_eq!(r.over_period_cpu, r.cycle_times.iter().filter(|c| c.cpu > PERIOD).count());
+        // The percentiles are those of the recorded cycles.
+        let mut cpu: Vec<Duration> = r.cycle_times.iter().map(|c| c.cpu).collect();
+        let mut wall: Vec<Duration> = r.cycle_times.iter().map(|c| c.wall).collect();
+        assert_eq!(Percentiles::of(&mut cpu), Some(r.total_cpu));
+        assert_eq!(Percentiles::of(&mut wall), Some(r.total));
+        let us = Duration::from_micros;
+        if cfg!(unix) {
+            assert!(r.total_cpu.median > Duration::ZERO, "{r}");
+            // Work cannot take more CPU time than the wall time around it, give or take the
+            // two clocks' granularity and the CPU clock's own reading inside the call.
+            assert!(r.total_cpu.median <= r.total.median.mul_f64(1.5) + us(5), "{r}");
+        }
+        let text = r.to_string();
+        assert!(text.contains("whole update, thread CPU") && text.contains("> 1 ms"), "{text}");
     }
 }

@@ -4,7 +4,7 @@
 //! Two scenarios: `step` (one 16.5 cm step, the robot starting in its low standard
 //! posture) and `stairs` (five steps, 16.5 cm high and 35 cm deep, as in the hardware
 //! experiment). Every cycle records the state, each family's minimum `h`, the active
-//! rows, the time spent and the exact clearance of body and toes to every edge cuboid
+//! rows, the time spent (wall and thread CPU time) and the exact clearance of body and toes to every edge cuboid
 //! (exact SAT for the body, exact sphere–box distance for the toes).
 
 mod course;
@@ -114,6 +114,11 @@ pub struct Sample {
     pub solve_us: f64,
     /// The whole filter update, timed around the call \[µs\].
     pub update_us: f64,
+    /// The thread's CPU time over the whole filter update
+    /// ([`FilterOutput::cpu_time`](crate::filter::FilterOutput::cpu_time)) \[µs\]; 0 where
+    /// the platform has no thread clock. Well below `update_us` means the thread waited
+    /// (a VM stall, preemption) rather than worked.
+    pub cpu_us: f64,
     /// Exact clearance to the nearest edge cuboid \[m\]: body (SAT separation) and the
     /// closest toe (sphere–box distance). Negative = penetration.
     pub body_clearance: f64,
@@ -152,6 +157,18 @@ pub struct Summary {
     pub p99_update_us: f64,
     /// Median filter update time (nearest rank) \[µs\].
     pub median_update_us: f64,
+    /// Largest thread CPU time of a filter update ([`Sample::cpu_us`]) \[µs\].
+    pub max_cpu_us: f64,
+    /// 99th-percentile thread CPU time of a filter update (nearest rank) \[µs\].
+    pub p99_cpu_us: f64,
+    /// Median thread CPU time of a filter update (nearest rank) \[µs\].
+    pub median_cpu_us: f64,
+    /// Cycles whose filter update took longer than the 1 ms control period of wall time
+    /// ([`Sample::update_us`] above 1000).
+    pub over_period_wall: usize,
+    /// Cycles whose filter update took longer than the 1 ms control period of CPU time
+    /// ([`Sample::cpu_us`] above 1000).
+    pub over_period_cpu: usize,
     /// Cycles whose input was not a QP optimum ([`InputSource::Qp`]): unconverged iterates and
     /// fallbacks.
     pub fallback_cycles: usize,
@@ -214,6 +231,7 @@ pub fn run(config: &SimConfig, mut progress: impl FnMut(f64)) -> Result<SimResul
             eval_us: out.eval_time.as_secs_f64() * 1e6,
             solve_us: out.solve_time.as_secs_f64() * 1e6,
             update_us,
+            cpu_us: out.cpu_time.as_secs_f64() * 1e6,
             body_clearance: clearance.body,
             toe_clearance: clearance.toe,
             body_raise: body_center[2] - plan.body_height,
@@ -238,10 +256,19 @@ pub fn run(config: &SimConfig, mut progress: impl FnMut(f64)) -> Result<SimResul
     Ok(SimResult { samples, summary })
 }
 
-fn summarize(config: &SimConfig, samples: &[Sample], completed: bool) -> Summary {
-    let mut times: Vec<f64> = samples.iter().map(|s| s.update_us).collect();
+/// `[median, p99, max]` (nearest rank) of one timing of the samples \[µs\], zeros when there
+/// are none.
+fn percentiles(samples: &[Sample], f: fn(&Sample) -> f64) -> [f64; 3] {
+    let mut times: Vec<f64> = samples.iter().map(f).collect();
     times.sort_unstable_by(f64::total_cmp);
-    let pick = |p: f64| crate::systems::tachyon3::latency::nearest_rank(&times, p);
+    [0.5, 0.99, 1.0].map(|p| crate::systems::tachyon3::latency::nearest_rank(&times, p).unwrap_or(0.0))
+}
+
+fn summarize(config: &SimConfig, samples: &[Sample], completed: bool) -> Summary {
+    let [median_update_us, p99_update_us, max_update_us] = percentiles(samples, |s| s.update_us);
+    let [median_cpu_us, p99_cpu_us, max_cpu_us] = percentiles(samples, |s| s.cpu_us);
+    let period_us = crate::systems::tachyon3::latency::PERIOD.as_micros() as f64;
+    let over = |f: fn(&Sample) -> f64| samples.iter().filter(|&s| f(s) > period_us).count();
     let fold = |f: fn(&Sample) -> f64| samples.iter().map(f).fold(f64::INFINITY, f64::min);
     let mut min_h = [f64::INFINITY; 6];
     for s in samples {
@@ -258,9 +285,14 @@ fn summarize(config: &SimConfig, samples: &[Sample], completed: bool) -> Summary
         min_toe_clearance: fold(|s| s.toe_clearance),
         min_h,
         max_body_raise: samples.iter().map(|s| s.body_raise).fold(f64::NEG_INFINITY, f64::max),
-        max_update_us: pick(1.0).unwrap_or(0.0),
-        p99_update_us: pick(0.99).unwrap_or(0.0),
-        median_update_us: pick(0.5).unwrap_or(0.0),
+        max_update_us,
+        p99_update_us,
+        median_update_us,
+        max_cpu_us,
+        p99_cpu_us,
+        median_cpu_us,
+        over_period_wall: over(|s| s.update_us),
+        over_period_cpu: over(|s| s.cpu_us),
         fallback_cycles: samples.iter().filter(|s| s.source != InputSource::Qp).count(),
     }
 }
