@@ -176,7 +176,17 @@ class FilterOutput:
     @property
     def nonfinite_row(self) -> int | None: ...
     @property
-    def iterations(self) -> int: ...
+    def iterations(self) -> int:
+        """OSQP's ADMM iterations this cycle; 0 when OSQP did not run."""
+    @property
+    def backend(self) -> Literal["dense", "osqp"] | None:
+        """Which solver answered: "dense" or "osqp"; None when no solve ran."""
+    @property
+    def dense_steps(self) -> int:
+        """Newton steps of the dense solve (0 when it did not run)."""
+    @property
+    def dense_fallback(self) -> bool:
+        """The dense solve ran and did not verify within its budget (OSQP answered)."""
     @property
     def polished(self) -> bool: ...
     @property

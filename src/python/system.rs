@@ -571,7 +571,8 @@ impl PyFilterOutput {
         self.out.source.name()
     }
 
-    /// OSQP's report ("solved", "max_iterations", ...), or None when no solve ran.
+    /// How the solve ended ("solved", "max_iterations", ...): the dense solve's report, or
+    /// OSQP's when OSQP answered; None when no solve ran.
     #[getter]
     fn status(&self) -> Option<&'static str> {
         self.out.status.map(|s| s.name())
@@ -588,7 +589,26 @@ impl PyFilterOutput {
         self.out.iterations
     }
 
-    /// Whether ``u`` is the exact, KKT-verified optimum of the active set ADMM found.
+    /// Which solver answered: "dense" or "osqp"; None when no solve ran.
+    #[getter]
+    fn backend(&self) -> Option<&'static str> {
+        self.out.backend.map(|b| b.name())
+    }
+
+    /// Newton steps of the dense solve (0 when it did not run).
+    #[getter]
+    fn dense_steps(&self) -> u32 {
+        self.out.dense_steps
+    }
+
+    /// Whether the dense solve ran and did not verify within its budget (OSQP then
+    /// answered under the default backend).
+    #[getter]
+    fn dense_fallback(&self) -> bool {
+        self.out.dense_fallback
+    }
+
+    /// Whether ``u`` is OSQP's iterate polished to the verified optimum by the dense solve.
     #[getter]
     fn polished(&self) -> bool {
         self.out.polished
@@ -629,8 +649,10 @@ impl PyFilterOutput {
     fn __repr__(&self) -> String {
         let status = self.status().map_or_else(|| "None".to_string(), |s| format!("'{s}'"));
         format!(
-            "FilterOutput(source='{}', status={status}, iterations={}, polished={}, active_rows={})",
+            "FilterOutput(source='{}', status={status}, backend={}, dense_steps={}, iterations={}, polished={}, active_rows={})",
             self.source(),
+            self.out.backend.map_or("None".to_string(), |b| format!("'{}'", b.name())),
+            self.out.dense_steps,
             self.out.iterations,
             if self.out.polished { "True" } else { "False" },
             self.out.active_rows
