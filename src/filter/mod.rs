@@ -361,6 +361,13 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
         &self.settings
     }
 
+    /// The last update's QP (active rows, their bounds and weights, the nominal input and
+    /// box), stamped with time `t`, to replay against any solver. Allocates: for
+    /// recording, not for the control path.
+    pub fn recorded_qp(&self, t: f64) -> crate::qp::recorded::RecordedQp {
+        self.qp.recorded(t)
+    }
+
     /// The QP underneath (for inspection: non-zeros, last status).
     pub fn qp(&self) -> &EcbfQp<NU> {
         &self.qp

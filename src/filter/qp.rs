@@ -22,6 +22,7 @@ use super::settings::{domain, validate_inputs, validate_nominal, Solver, SolverS
 use crate::error::CbfError;
 use crate::qp::input_space::{self, Bound, InputSpaceSolver, Outcome, SoftRow, Start};
 use crate::qp::osqp_workspace::{self, OsqpQp};
+use crate::qp::recorded::{RecordedQp, RecordedRow};
 use crate::system::{Gains, Row};
 
 /// One ECBF row's fixed description.
@@ -187,6 +188,8 @@ pub struct EcbfQp<const NU: usize> {
     dense: InputSpaceSolver<NU>,
     packed: Vec<SoftRow<NU>>,
     packed_row: Vec<usize>,
+    /// This cycle's nominal input (for [`EcbfQp::recorded`]).
+    u_ref: [f64; NU],
     /// Per packed row: whether the previous answer had it violated (the warm start).
     guess: Vec<bool>,
     /// The last answer's violated rows (per row) and saturated inputs, when there is one.
@@ -321,6 +324,7 @@ impl<const NU: usize> EcbfQp<NU> {
             dense: InputSpaceSolver::new(m),
             packed: Vec::with_capacity(m),
             packed_row: Vec::with_capacity(m),
+            u_ref: [0.0; NU],
             guess: Vec::with_capacity(m),
             warm_violated: vec![false; m],
             warm_held: [Bound::Free; NU],
@@ -391,6 +395,7 @@ impl<const NU: usize> EcbfQp<NU> {
                 return Err(CbfError::NonFiniteRow { row: i });
             }
         }
+        self.u_ref = *u_ref;
         self.packed.clear();
         self.packed_row.clear();
         self.guess.clear();
@@ -542,6 +547,25 @@ impl<const NU: usize> EcbfQp<NU> {
             } else {
                 Bound::Free
             };
+        }
+    }
+
+    /// The last solve's problem, active rows only, to replay against any solver
+    /// (allocates: not for the control path).
+    pub fn recorded(&self, t: f64) -> RecordedQp {
+        RecordedQp {
+            t,
+            layout_rows: self.rows,
+            weights: self.input_weights.to_vec(),
+            u_ref: self.u_ref.to_vec(),
+            input_min: self.input_min.to_vec(),
+            input_max: self.input_max.to_vec(),
+            rows: self
+                .packed
+                .iter()
+                .zip(&self.packed_row)
+                .map(|(r, &index)| RecordedRow { index, a: r.a.to_vec(), b: r.b, weight: r.weight })
+                .collect(),
         }
     }
 

@@ -30,12 +30,16 @@
 //!    row's value crosses zero, so the minimiser is found by walking those crossings in
 //!    order (at most one visit each) instead of guessing a step length.
 //!
-//! Every step decreases `F` (the step is a descent direction and the search exact), so
-//! the method cannot cycle; where a Newton step would leave the box at once (an input at
-//! a bound that the coupling pushes outward), a diagonally scaled gradient step is taken
-//! instead, which always moves inward. Once the piece and the held inputs are right the
-//! next step is exact. A step budget bounds the work; a solve that has not verified
-//! within it says so, and the filter falls back to OSQP.
+//! The held inputs are a working set, as in a primal active-set method: an input joins
+//! it when a step runs into its bound, and leaves it only at a point that is optimal on
+//! the current face and whose multiplier for that input has the wrong sign, one input at
+//! a time. (Releasing an input whenever its gradient points inward lets the coupling drag
+//! it back to the bound on the next step: a zigzag that approaches the answer only
+//! geometrically.) Every step decreases `F` (a Newton direction on a positive definite
+//! model, with an exact search), so no face is visited twice with the same rows; once the
+//! piece and the held inputs are right the next step is exact. A step budget bounds the
+//! work; a solve that has not verified within it says so, and the filter falls back to
+//! OSQP.
 //!
 //! A dual active-set method (Goldfarb–Idnani) was the alternative. It terminates finitely
 //! too, but works in the space of the constraints: every violated row adds a slack
@@ -78,6 +82,9 @@ pub const GRADIENT_TOLERANCE: f64 = 1e-13;
 
 /// Relative tolerance of the Newton-step test, in each input's units.
 pub const STEP_TOLERANCE: f64 = 1e-10;
+
+/// A row value within this fraction of its terms' size counts as on its kink (zero).
+const KINK_TOLERANCE: f64 = 1e-13;
 
 /// One soft row: it holds when `a·u + b ≥ 0`; a violation `δ = −(a·u + b) > 0` costs
 /// `weight · δ²`.
@@ -214,6 +221,12 @@ impl<const NU: usize> InputSpaceSolver<NU> {
         let m = p.rows.len();
         self.steps = 0;
         let mut u = clip(p.u_ref, p);
+        // The working set of held inputs: from the guess, or from the first point's
+        // gradient. After that an input joins it when a step runs into its bound, and
+        // leaves it only at a point optimal on the current face whose multiplier for it
+        // has the wrong sign — one at a time, the primal active-set rule that keeps the
+        // method from zigzagging between a bound and the inside of the box.
+        let mut held_from_gradient = true;
         match start {
             Start::Cold => {}
             Start::Point(x) => {
@@ -225,6 +238,8 @@ impl<const NU: usize> InputSpaceSolver<NU> {
                 self.steps = 1;
                 if let Some(x) = face_optimum(p, violated, held) {
                     u = clip(&x, p);
+                    self.held = *held;
+                    held_from_gradient = false;
                 }
             }
         }
@@ -236,47 +251,57 @@ impl<const NU: usize> InputSpaceSolver<NU> {
             if !gradient.iter().all(|g| g.is_finite()) {
                 break Outcome::NonFinite;
             }
-            self.hold(p, &u, &gradient, &scale);
+            if held_from_gradient {
+                self.hold(p, &u, &gradient, &scale);
+                held_from_gradient = false;
+            }
             self.gradient_residual = (0..NU)
                 .filter(|&j| self.held[j] == Bound::Free)
                 .map(|j| if scale[j] > 0.0 { gradient[j].abs() / scale[j] } else { 0.0 })
                 .fold(0.0, f64::max);
-            if self.gradient_residual <= GRADIENT_TOLERANCE {
-                break Outcome::Verified;
+            let mut d = None;
+            let mut face_optimal = self.gradient_residual <= GRADIENT_TOLERANCE;
+            if !face_optimal {
+                let Some(step) = self.newton_step(p, &gradient) else {
+                    break Outcome::NonFinite;
+                };
+                face_optimal = (0..NU).all(|j| step[j].abs() <= STEP_TOLERANCE * (1.0 + u[j].abs() + p.u_ref[j].abs()));
+                d = Some(step);
             }
-            let Some(mut d) = self.newton_step(p, &gradient) else {
-                break Outcome::NonFinite;
-            };
-            let step_ok = (0..NU).all(|j| d[j].abs() <= STEP_TOLERANCE * (1.0 + u[j].abs() + p.u_ref[j].abs()));
-            if step_ok {
-                break Outcome::Verified;
+            if face_optimal {
+                // Optimal on this face: verified if no held input would rather move inward.
+                let Some(j) = self.wrong_multiplier(p, &gradient, &scale) else {
+                    break Outcome::Verified;
+                };
+                if self.steps >= max_steps {
+                    break Outcome::StepLimit;
+                }
+                self.steps += 1;
+                self.held[j] = Bound::Free;
+                continue;
             }
+            let Some(d) = d else { break Outcome::NonFinite };
             if self.steps >= max_steps {
                 break Outcome::StepLimit;
             }
             self.steps += 1;
-            let (mut reach, mut blocking) = box_reach(p, &u, &d);
-            if reach <= 0.0 {
-                // The Newton step leaves the box at once: an input at a bound that the
-                // coupling pushes outward. A diagonally scaled gradient step moves every
-                // free input inward or along its bound, and still descends.
-                d = self.scaled_gradient(p, &gradient);
-                (reach, blocking) = box_reach(p, &u, &d);
-                if reach <= 0.0 {
+            let (reach, blocking) = box_reach(p, &u, &d);
+            let Some(j) = blocking.filter(|_| reach <= 0.0) else {
+                let t = self.line_search(p, &u, &d, reach);
+                if !(t > 0.0 && t.is_finite()) {
                     break Outcome::StepLimit;
                 }
-            }
-            let t = self.line_search(p, &u, &d, reach);
-            if !(t > 0.0 && t.is_finite()) {
-                break Outcome::StepLimit;
-            }
-            for j in 0..NU {
-                u[j] += t * d[j];
-            }
-            if let (Some(j), true) = (blocking, t >= reach) {
-                u[j] = if d[j] > 0.0 { p.input_max[j] } else { p.input_min[j] };
-            }
-            u = clip(&u, p);
+                for k in 0..NU {
+                    u[k] += t * d[k];
+                }
+                if let (Some(j), true) = (blocking, t >= reach) {
+                    self.hold_at(p, &mut u, j, d[j]);
+                }
+                u = clip(&u, p);
+                continue;
+            };
+            // The step would leave the box at once through input j's bound: hold it there.
+            self.hold_at(p, &mut u, j, d[j]);
         };
         if self.outcome != Outcome::NonFinite {
             self.rows = m;
@@ -327,8 +352,8 @@ impl<const NU: usize> InputSpaceSolver<NU> {
         (g, scale)
     }
 
-    /// Hold each input at a bound whose gradient pushes outward, or is zero within
-    /// rounding (a bound that is optimal either way); free the rest.
+    /// The starting working set: each input at a bound whose gradient pushes outward, or
+    /// is zero within rounding; the rest free.
     fn hold(&mut self, p: &Problem<'_, NU>, u: &[f64; NU], gradient: &[f64; NU], scale: &[f64; NU]) {
         for j in 0..NU {
             let slack = GRADIENT_TOLERANCE * scale[j];
@@ -353,15 +378,45 @@ impl<const NU: usize> InputSpaceSolver<NU> {
         d.iter().all(|v| v.is_finite()).then_some(d)
     }
 
-    /// `H_V = 2 W + 2 Σ_{violated} s_i a_i a_iᵀ` at the evaluated point.
+    /// `H_V = 2 W + 2 Σ_{violated} s_i a_i a_iᵀ` at the evaluated point, counting a row
+    /// whose value is zero to rounding as violated.
+    ///
+    /// An exact line search often ends exactly on a kink: a row crossing zero. Left out of
+    /// `H`, that row's curvature is missing from the next Newton step, which then points
+    /// the same way again and is stopped at the same kink after no progress — a stall. Taken
+    /// in, the step stays on the kink where the optimum lies there, and where it does not,
+    /// the line search continues past it (beyond the kink `F` has less curvature than the
+    /// model assumed, so the search only goes further).
     fn hessian(&self, p: &Problem<'_, NU>) -> SMatrix<f64, NU, NU> {
-        hessian_of(p, |i| self.value[i] < 0.0)
+        hessian_of(p, |i| self.value[i] <= KINK_TOLERANCE * self.magnitude[i])
     }
 
-    /// `d_j = −∂F/∂u_j / H_jj` on free inputs.
-    fn scaled_gradient(&self, p: &Problem<'_, NU>, gradient: &[f64; NU]) -> SVector<f64, NU> {
-        let h = self.hessian(p);
-        SVector::from_fn(|j, _| if self.held[j] == Bound::Free { -gradient[j] / h[(j, j)] } else { 0.0 })
+    /// Put input `j` at the bound its step `direction` runs into, and hold it there.
+    fn hold_at(&mut self, p: &Problem<'_, NU>, u: &mut [f64; NU], j: usize, direction: f64) {
+        (u[j], self.held[j]) =
+            if direction > 0.0 { (p.input_max[j], Bound::Upper) } else { (p.input_min[j], Bound::Lower) };
+    }
+
+    /// The held input whose multiplier has the wrong sign by the most (relative to its
+    /// gradient's terms): the one to release. A box of zero width never is.
+    fn wrong_multiplier(&self, p: &Problem<'_, NU>, gradient: &[f64; NU], scale: &[f64; NU]) -> Option<usize> {
+        let mut worst = None;
+        let mut worst_excess = 0.0;
+        for j in 0..NU {
+            // The pull inward (against the bound): positive means the bound is wrong.
+            let inward = match self.held[j] {
+                Bound::Free => continue,
+                _ if p.input_min[j] == p.input_max[j] => continue,
+                Bound::Lower => -gradient[j],
+                Bound::Upper => gradient[j],
+            };
+            let excess = inward - GRADIENT_TOLERANCE * scale[j];
+            if excess > 0.0 && excess / scale[j].max(f64::MIN_POSITIVE) > worst_excess {
+                worst_excess = excess / scale[j].max(f64::MIN_POSITIVE);
+                worst = Some(j);
+            }
+        }
+        worst
     }
 
     /// The minimiser of `F(u + t d)` over `0 ≤ t ≤ reach` (`reach` may be infinite).

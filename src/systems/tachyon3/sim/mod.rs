@@ -195,7 +195,20 @@ pub struct SimResult {
 /// # Errors
 /// `max_time` outside `(0, MAX_SIM_TIME]`, filter construction, or a state that left
 /// the model's domain.
-pub fn run(config: &SimConfig, mut progress: impl FnMut(f64)) -> Result<SimResult, CbfError> {
+pub fn run(config: &SimConfig, progress: impl FnMut(f64)) -> Result<SimResult, CbfError> {
+    run_observed(config, progress, |_, _| {})
+}
+
+/// [`run`], calling `observe(t, filter)` after every filter update: to look at (or
+/// record, with [`EcbfFilter::recorded_qp`]) what the filter saw and solved each cycle.
+///
+/// # Errors
+/// As [`run`].
+pub fn run_observed(
+    config: &SimConfig,
+    mut progress: impl FnMut(f64),
+    mut observe: impl FnMut(f64, &EcbfFilter<Catalog, NU>),
+) -> Result<SimResult, CbfError> {
     crate::error::within("max_time [s]", config.max_time, DT, MAX_SIM_TIME, "[0.001, 600]")?;
     let mut course = Course::new(config.scenario, config.gait)?;
     let mut filter = EcbfFilter::new(Catalog::new(Course::CAPACITY)?, config.filter.clone())?;
@@ -212,6 +225,7 @@ pub fn run(config: &SimConfig, mut progress: impl FnMut(f64)) -> Result<SimResul
         let out = *filter.update(&x, &plan.u_ref, course.environment())?;
         let update_us = start.elapsed().as_secs_f64() * 1e6;
 
+        observe(t, &filter);
         let clearance = course.clearance(&x)?;
         let mut min_h = [f64::INFINITY; 6];
         for (row, slot) in filter.rows().iter().zip(filter.barriers().slots()) {
