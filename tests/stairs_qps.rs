@@ -46,7 +46,8 @@ fn the_dense_solve_is_the_exact_optimum_of_every_recorded_stairs_qp() {
         assert_eq!(cold.solve(&problem, Start::Cold, 100), Ok(Outcome::Verified), "problem {k} cold");
         cold_steps.push(cold.steps());
         let d = input_distance(p, &u, cold.u());
-        assert!(d <= 1e-9, "problem {k}: warm and cold differ by {d:.2e}");
+        // Both verified to STEP_TOLERANCE (1e-10 of 1 + |u| + |r|, up to ~20 here).
+        assert!(d <= 1e-8, "problem {k}: warm and cold differ by {d:.2e}");
 
         match clarabel(p) {
             Some((reference, false)) => {

@@ -15,9 +15,11 @@
 //! ([`Gains::from_poles`](crate::system::Gains::from_poles)); rows of different degrees
 //! share the QP.
 //!
-//! on OSQP, warm-started from the previous cycle. The sparsity pattern is fixed when the
-//! filter is built; after that an update allocates nothing (tested by counting every
-//! `malloc` over thousands of cycles).
+//! exactly in input space ([`crate::qp::input_space`]), warm-started from the previous
+//! cycle's answer, with OSQP as the fallback when that solve has not verified within its
+//! budget and as a selectable reference backend ([`Solver`]). Everything is laid out when
+//! the filter is built; after that an update allocates nothing, on any backend (tested by
+//! counting every `malloc` over thousands of cycles).
 //!
 //! # The output contract
 //! **Every input `update` returns is finite and inside the input box**, whatever it is
@@ -32,7 +34,8 @@
 //!   solver setting has a documented range ([`domain`], [`SolverSettings::validate`]),
 //!   and capacities a maximum (for Tachyon 3, [`Capacity::validate`](crate::systems::tachyon3::catalog::Capacity::validate); for a generated system, [`system::MAX_INSTANCES`](crate::system::MAX_INSTANCES)). Every accepted setting ends a
 //!   solve within [`SolverSettings::MAX_ITERATIONS`] iterations.
-//! * OSQP stops at its iteration or time limit: `Ok`, with the iterate it stopped at
+//! * OSQP stops at its iteration or time limit (or, under [`Solver::Dense`], the dense
+//!   solve at its step budget): `Ok`, with the iterate it stopped at
 //!   ([`InputSource::Unconverged`]). It already reflects this cycle's rows, and the next
 //!   cycle continues from it (warm start), so a hard instance converges over a few cycles
 //!   instead of stalling one. This happens when rows conflict with the input limits (large
@@ -40,7 +43,7 @@
 //! * An active row that evaluates to NaN/inf (degenerate geometry such as a toe exactly at
 //!   its hip joint), an OSQP iterate with a non-finite entry ([`QpStatus::NonFinite`]:
 //!   discarded, and OSQP's workspace, warm start included, is rebuilt before the next
-//!   solve; a polish whose rows are not finite is simply not accepted), an infeasibility
+//!   solve; a dense solve whose rows or steps are not finite is not accepted), an infeasibility
 //!   report or a
 //!   solver fault: `Ok`, with a **fallback input**: the last QP-solved input if there is
 //!   one ([`InputSource::LastSafe`]), else the nominal input

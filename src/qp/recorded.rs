@@ -3,7 +3,7 @@
 //! A [`RecordedQp`] is one cycle's problem in input space (see [`crate::qp::input_space`]):
 //! weights, nominal input, box, and the active rows with their ECBF bounds and slack
 //! weights. [`EcbfFilter::recorded_qp`](crate::filter::EcbfFilter::recorded_qp) takes it
-//! after an update; [`write`] and [`read`] keep many in a compact binary file (rows
+//! after an update; [`write()`] and [`read()`] keep many in a compact binary file (rows
 //! stored sparse: Tachyon 3's touch 1–6 of 17 inputs), so that a hard stretch of a run
 //! can be committed as a test fixture and benchmarked solver against solver.
 //!
@@ -129,7 +129,7 @@ pub fn write(w: &mut impl Write, problems: &[RecordedQp]) -> io::Result<()> {
     Ok(())
 }
 
-/// Read problems written by [`write`].
+/// Read problems written by [`write()`].
 ///
 /// # Errors
 /// The reader's, or data that is not this format (`InvalidData`).

@@ -96,8 +96,14 @@ pub struct LatencyReport {
     /// Cycles whose input did not come from a solved QP (source other than
     /// [`InputSource::Qp`]: unconverged iterates and fallbacks).
     pub fallbacks: usize,
-    /// Cycles whose input is the polished (KKT-verified) optimum.
+    /// Cycles whose input is OSQP's iterate polished to the KKT-verified optimum.
     pub polished: usize,
+    /// Cycles answered by the dense input-space solve (KKT-verified).
+    pub dense: usize,
+    /// Cycles where the dense solve ran and did not verify within its budget.
+    pub dense_fallbacks: usize,
+    /// Dense solve steps per cycle: median, p99, max.
+    pub dense_steps: [u32; 3],
     /// Travel from start to end \[m\], and the robot front's final gap to the first riser.
     pub travel: f64,
     /// Gap from the robot's foremost point to the first riser at the end \[m\] (negative
@@ -120,6 +126,7 @@ pub fn run(cycles: usize, speed: f64, start_gap: f64, settings: FilterSettings<N
     let (mut eval, mut solve) = (Vec::with_capacity(cycles), Vec::with_capacity(cycles));
     let mut iterations = Vec::with_capacity(cycles);
     let (mut active_min, mut active_max, mut fallbacks, mut polished) = (usize::MAX, 0, 0, 0);
+    let (mut dense, mut dense_fallbacks, mut steps) = (0, 0, Vec::with_capacity(cycles));
     for _ in 0..cycles {
         let u_ref = drive.nominal_input();
         // Wall time around the call; the filter reads the thread's CPU clock itself.
@@ -133,6 +140,9 @@ pub fn run(cycles: usize, speed: f64, start_gap: f64, settings: FilterSettings<N
         active_max = active_max.max(out.active_rows);
         fallbacks += usize::from(out.source != InputSource::Qp);
         polished += usize::from(out.polished);
+        dense += usize::from(out.backend == Some(crate::filter::Backend::Dense));
+        dense_fallbacks += usize::from(out.dense_fallback);
+        steps.push(out.dense_steps);
         drive.advance(&out.u, DT);
     }
     iterations.sort_unstable();
@@ -156,6 +166,16 @@ pub fn run(cycles: usize, speed: f64, start_gap: f64, settings: FilterSettings<N
         active_rows: [active_min, active_max],
         fallbacks,
         polished,
+        dense,
+        dense_fallbacks,
+        dense_steps: {
+            steps.sort_unstable();
+            [
+                nearest_rank(&steps, 0.5).unwrap_or(0),
+                nearest_rank(&steps, 0.99).unwrap_or(0),
+                steps.last().copied().unwrap_or(0),
+            ]
+        },
         travel: drive.x[0] - start_x,
         final_gap: stairs.start_x - front,
     })
@@ -189,8 +209,8 @@ impl fmt::Display for LatencyReport {
         writeln!(f, "active rows: {} to {}", self.active_rows[0], self.active_rows[1])?;
         writeln!(
             f,
-            "polished (KKT-verified) cycles: {}; cycles not solved to tolerance: {}",
-            self.polished, self.fallbacks
+            "answered by the dense solve: {} cycles (steps median {}, p99 {}, max {}; {} fell back to OSQP); OSQP polished: {}; cycles not solved to tolerance: {}",
+            self.dense, self.dense_steps[0], self.dense_steps[1], self.dense_steps[2], self.dense_fallbacks, self.polished, self.fallbacks
         )?;
         write!(
             f,
