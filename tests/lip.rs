@@ -69,7 +69,7 @@ fn frames_match_a_hand_computed_case_and_round_trip() {
 
 use cbfgen::systems::lip::mpc::{wrap_angle, QpView};
 use cbfgen::systems::lip::scenario::{run, Scenario, Walker};
-use cbfgen::systems::lip::{LipMpc, Rectangle};
+use cbfgen::systems::lip::{LipMpc, LipState, Rectangle};
 use cbfgen::CbfError;
 
 /// Distance from `p` to the rectangle, by cases on the nine regions around it (written
@@ -188,8 +188,29 @@ fn every_applied_plan_satisfies_velocity_reach_maneuver_and_cbf_rows() {
 
 /// The same QP on Clarabel (interior point), `l ≤ Az ≤ u` split into cones.
 fn clarabel_solution(qp: &QpView) -> Vec<f64> {
+    clarabel_solution_with(qp, clarabel::solver::DefaultSettings { verbose: false, ..Default::default() })
+}
+
+/// [`clarabel_solution`] to tolerances 1e-11 (its defaults are 1e-8): along feet late in
+/// the horizon the cost is nearly flat, and Clarabel's gap tolerance then leaves those
+/// feet 1e-6 from the optimum.
+fn clarabel_tight_solution(qp: &QpView) -> Vec<f64> {
+    clarabel_solution_with(
+        qp,
+        clarabel::solver::DefaultSettings {
+            verbose: false,
+            tol_gap_abs: 1e-11,
+            tol_gap_rel: 1e-11,
+            tol_feas: 1e-11,
+            tol_ktratio: 1e-9,
+            ..Default::default()
+        },
+    )
+}
+
+fn clarabel_solution_with(qp: &QpView, settings: clarabel::solver::DefaultSettings<f64>) -> Vec<f64> {
     use clarabel::algebra::CscMatrix;
-    use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus};
+    use clarabel::solver::{DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus};
     let n = qp.q.len();
     let p = CscMatrix::new(n, n, qp.p_indptr.to_vec(), qp.p_indices.to_vec(), qp.p_data.to_vec());
     let mut rows: Vec<Vec<(usize, f64)>> = vec![Vec::new(); qp.lower.len()];
@@ -220,7 +241,6 @@ fn clarabel_solution(qp: &QpView) -> Vec<f64> {
     }
     let a = CscMatrix::new(ineq.len(), n, colptr, rowval, nzval);
     let b: Vec<f64> = ineq.iter().map(|(_, b)| *b).collect();
-    let settings = DefaultSettings { verbose: false, ..DefaultSettings::default() };
     let mut solver =
         DefaultSolver::new(&p, qp.q, &a, &b, &[NonnegativeConeT(ineq.len())], settings).expect("clarabel setup");
     solver.solve();
@@ -230,7 +250,9 @@ fn clarabel_solution(qp: &QpView) -> Vec<f64> {
 
 #[test]
 fn osqp_plans_agree_with_clarabel_on_the_same_qp() {
-    let mut walker = Walker::new(Scenario::standard()).expect("walker");
+    let osqp =
+        cbfgen::filter::SolverSettings { backend: cbfgen::filter::Solver::Osqp, ..LipMpc::default_solver_settings() };
+    let mut walker = Walker::new(Scenario { solver: osqp, ..Scenario::standard() }).expect("walker");
     for step in 0..30 {
         walker.step().expect("step");
         let reference = clarabel_solution(&walker.mpc().qp());
@@ -285,4 +307,221 @@ fn non_finite_input_is_an_error_and_an_obstacle_overlap_is_handled() {
     let mut walker = Walker::new(scenario).expect("walker");
     let outcome = walker.step().expect("no error inside an obstacle");
     assert!(outcome.inside);
+}
+
+use cbfgen::filter::{QpStatus, Solver, SolverSettings};
+use cbfgen::qp::dual_active_set::{DenseStatus, KKT_TOLERANCE};
+
+/// The feet of the current plan, as the QP's variables `z`.
+fn plan_feet(mpc: &LipMpc) -> Vec<f64> {
+    mpc.plan().inputs().iter().flat_map(|u| [u[0], u[1]]).collect()
+}
+
+/// `½ zᵀPz + qᵀz` of the MPC's QP.
+fn qp_objective(qp: &QpView, z: &[f64]) -> f64 {
+    let mut v: f64 = z.iter().zip(qp.q).map(|(a, b)| a * b).sum();
+    for c in 0..z.len() {
+        for k in qp.p_indptr[c]..qp.p_indptr[c + 1] {
+            let r = qp.p_indices[k];
+            let w = if r == c { 0.5 } else { 1.0 };
+            v += w * qp.p_data[k] * z[r] * z[c];
+        }
+    }
+    v
+}
+
+/// The largest violation of a row of the MPC's QP at `z`, each relative to the size of
+/// its terms (the dense solver's documented scale, recomputed here).
+fn qp_row_violation(qp: &QpView, z: &[f64]) -> f64 {
+    let mut value = vec![0.0; qp.lower.len()];
+    let mut size = vec![0.0; qp.lower.len()];
+    for (c, &zc) in z.iter().enumerate() {
+        for k in qp.a_indptr[c]..qp.a_indptr[c + 1] {
+            value[qp.a_indices[k]] += qp.a_data[k] * zc;
+            size[qp.a_indices[k]] += qp.a_data[k].abs() * (1.0 + zc.abs());
+        }
+    }
+    let mut worst = 0.0f64;
+    for i in 0..value.len() {
+        let (l, u) = (qp.lower[i], qp.upper[i]);
+        if l > -qp.infinity {
+            worst = worst.max((l - value[i]) / (l.abs() + size[i]).max(f64::MIN_POSITIVE));
+        }
+        if u < qp.infinity {
+            worst = worst.max((value[i] - u) / (u.abs() + size[i]).max(f64::MIN_POSITIVE));
+        }
+    }
+    worst
+}
+
+/// The worst stationarity residual `|Pz + q + Aᵀy|_j` of the MPC's QP, each relative to
+/// the size of its terms, and whether every multiplier has the sign of a bound its row is
+/// at (`y ≤ 0` at a lower bound, `≥ 0` at an upper one, to the same relative tolerance).
+fn qp_dual_residual(qp: &QpView, z: &[f64], y: &[f64]) -> (f64, bool) {
+    let n = z.len();
+    let (mut gradient, mut size) = (qp.q.to_vec(), qp.q.iter().map(|v| v.abs()).collect::<Vec<_>>());
+    for c in 0..n {
+        for k in qp.p_indptr[c]..qp.p_indptr[c + 1] {
+            let r = qp.p_indices[k];
+            let mut add = |i: usize, t: f64| {
+                gradient[i] += t;
+                size[i] += t.abs();
+            };
+            add(r, qp.p_data[k] * z[c]);
+            if r != c {
+                add(c, qp.p_data[k] * z[r]);
+            }
+        }
+    }
+    let mut value = vec![0.0; y.len()];
+    let mut row_size = vec![0.0; y.len()];
+    for c in 0..n {
+        for k in qp.a_indptr[c]..qp.a_indptr[c + 1] {
+            let i = qp.a_indices[k];
+            gradient[c] += y[i] * qp.a_data[k];
+            size[c] += (y[i] * qp.a_data[k]).abs();
+            value[i] += qp.a_data[k] * z[c];
+            row_size[i] += qp.a_data[k].abs() * (1.0 + z[c].abs());
+        }
+    }
+    let at =
+        |i: usize, b: f64| b.abs() < qp.infinity && (value[i] - b).abs() <= KKT_TOLERANCE * (b.abs() + row_size[i]);
+    let signs =
+        (0..y.len()).all(|i| y[i] == 0.0 || (y[i] < 0.0 && at(i, qp.lower[i])) || (y[i] > 0.0 && at(i, qp.upper[i])));
+    let worst =
+        gradient.iter().zip(&size).map(|(g, s)| if *s > 0.0 { g.abs() / s } else { g.abs() }).fold(0.0, f64::max);
+    (worst, signs)
+}
+
+#[test]
+fn dense_plans_agree_with_clarabel_on_every_step_of_the_standard_course() {
+    let scenario = Scenario::standard();
+    assert_eq!(scenario.solver.backend, Solver::DenseThenOsqp, "the default");
+    let mut walker = Walker::new(scenario).expect("walker");
+    let (mut steps, mut dense_steps, mut worst_gap, mut worst_violation) = (0, Vec::new(), 0.0f64, 0.0f64);
+    let (mut worst_stationarity, mut clarabel_short) = (0.0f64, 0);
+    while !walker.at_goal() && steps < 100 {
+        let outcome = walker.step().expect("step");
+        let mpc = walker.mpc();
+        assert_eq!((outcome.status, outcome.answered_by), (QpStatus::Solved, Solver::Dense), "step {steps}");
+        assert_eq!((outcome.iterations, mpc.dense_status()), (0, Some(DenseStatus::Solved)), "OSQP never ran");
+        dense_steps.push(outcome.dense_steps);
+        let qp = mpc.qp();
+        let feet = plan_feet(mpc);
+        let violation = qp_row_violation(&qp, &feet);
+        worst_violation = worst_violation.max(violation);
+        assert!(violation <= KKT_TOLERANCE, "step {steps}: a row is violated by {violation:.2e}");
+        // Optimal: the KKT conditions, recomputed here from the QP and the multipliers.
+        let dense = mpc.dense_solver().expect("a dense solver");
+        let (stationarity, signs) = qp_dual_residual(&qp, &feet, dense.row_multipliers());
+        worst_stationarity = worst_stationarity.max(stationarity);
+        assert!(stationarity <= KKT_TOLERANCE && signs, "step {steps}: stationarity {stationarity:.1e}, signs {signs}");
+        // And Clarabel's answer: the same feet, except along directions where the cost is
+        // so flat (|f| ≈ 4e4, differences of 1e-7) that Clarabel's gap tolerance leaves its
+        // feet short: its point then holds every row and costs more than ours.
+        let reference = clarabel_tight_solution(&qp);
+        let (ours, theirs) = (qp_objective(&qp, &feet), qp_objective(&qp, &reference));
+        let scale = 1.0 + reference.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let gap = feet.iter().zip(&reference).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        if gap <= 1e-6 * scale {
+            worst_gap = worst_gap.max(gap / scale);
+        } else {
+            let holds = qp_row_violation(&qp, &reference) <= KKT_TOLERANCE;
+            assert!(holds && ours < theirs, "step {steps}: the feet differ from Clarabel's by {gap:.2e}");
+            clarabel_short += 1;
+        }
+        steps += 1;
+    }
+    assert!(walker.at_goal());
+    println!(
+        "{steps} steps; dense steps per solve {dense_steps:?}; worst row {worst_violation:.1e} and stationarity \
+         {worst_stationarity:.1e} (of their terms); feet within {worst_gap:.1e} of Clarabel's (of the scale) on {} \
+         steps, Clarabel short of the optimum on {clarabel_short}",
+        steps - clarabel_short
+    );
+    assert!(clarabel_short * 4 <= steps, "Clarabel short on {clarabel_short} of {steps} steps");
+}
+
+#[test]
+fn both_backends_walk_the_course_and_the_default_never_needs_osqp_or_settles_for_inaccurate() {
+    let default = Scenario::standard();
+    let osqp = Scenario {
+        solver: SolverSettings { backend: Solver::Osqp, ..LipMpc::default_solver_settings() },
+        ..Scenario::standard()
+    };
+    let dense = run(&default).expect("dense run");
+    let reference = run(&osqp).expect("OSQP run");
+    for (name, result) in [("dense", &dense), ("OSQP", &reference)] {
+        assert!(result.reached_goal && result.failure.is_none(), "{name}: {:?}", result.failure);
+    }
+    assert!(dense.steps.iter().all(|s| s.outcome.status == QpStatus::Solved && s.outcome.answered_by == Solver::Dense));
+    assert!(dense.steps.iter().all(|s| s.outcome.iterations == 0 && s.outcome.dense_steps <= 100));
+    assert!(reference.steps.iter().all(|s| s.outcome.answered_by == Solver::Osqp && s.outcome.dense_steps == 0));
+    // (The two walks are not compared step by step: OSQP's plans are optimal only to its
+    // tolerances, and the closed loop carries a millimetre's difference on.)
+    assert!(dense.summary().contains("OSQP answered 0 of"), "{}", dense.summary());
+}
+
+/// The standard course's first problem, in the start frame with its obstacles' half-planes.
+fn first_problem() -> (LipState, [f64; 2], f64, Vec<cbfgen::systems::lip::HalfPlane>) {
+    let s = Scenario::standard();
+    let p = [s.start[0], s.start[2]];
+    let planes = s.obstacles.iter().map(|r| r.half_plane(p, s.params.delta)).collect();
+    (s.start, s.goal, s.first_stance, planes)
+}
+
+#[test]
+fn out_of_dense_steps_is_flagged_or_handed_to_osqp() {
+    let (x0, goal, stance, planes) = first_problem();
+    let budget =
+        |backend, dense_max_steps| SolverSettings { backend, dense_max_steps, ..LipMpc::default_solver_settings() };
+    let params = Scenario::standard().params;
+    let mut exact = LipMpc::new(params, planes.len(), budget(Solver::Dense, 100)).expect("mpc");
+    assert_eq!(exact.solve(&x0, goal, stance, &planes).expect("solve"), QpStatus::Solved);
+    let needed = exact.dense_steps();
+    assert!(needed > 1, "a cold solve of the course's first problem takes {needed} steps");
+
+    // Dense only, one step short: flagged, no plan, OSQP never set up or run.
+    let mut short = LipMpc::new(params, planes.len(), budget(Solver::Dense, needed - 1)).expect("mpc");
+    let empty = short.plan().clone();
+    assert_eq!(short.solve(&x0, goal, stance, &planes).expect("solve"), QpStatus::MaxIterations);
+    assert_eq!(
+        (short.answered_by(), short.dense_status(), short.iterations()),
+        (Solver::Dense, Some(DenseStatus::MaxSteps), 0)
+    );
+    assert_eq!(short.dense_steps(), needed - 1);
+    assert_eq!(short.plan(), &empty, "an unconverged iterate is not a plan");
+
+    // Dense then OSQP, one step short: OSQP answers, with the same feet to its tolerance.
+    let mut fallback = LipMpc::new(params, planes.len(), budget(Solver::DenseThenOsqp, needed - 1)).expect("mpc");
+    assert!(fallback.solve(&x0, goal, stance, &planes).expect("solve").is_solved());
+    assert_eq!((fallback.answered_by(), fallback.dense_status()), (Solver::Osqp, Some(DenseStatus::MaxSteps)));
+    assert!(fallback.iterations() > 0);
+    let (a, b) = (plan_feet(&exact), plan_feet(&fallback));
+    let gap = a.iter().zip(&b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+    assert!(gap < 1e-3, "OSQP's feet differ from the dense ones by {gap:.1e}");
+}
+
+#[test]
+fn contradicting_half_planes_are_infeasible_for_both_solvers() {
+    // h₁ = (x − 5) − δ and h₂ = −(x + 5) − δ, both −5.3 at the origin: the first step's
+    // CBF rows h(p₁) ≥ (1 − γ) h(p₀) = −3.71 ask x₁ ≥ 1.59 and x₁ ≤ −1.59. No plan exists.
+    use cbfgen::systems::lip::HalfPlane;
+    let planes = [
+        HalfPlane { normal: [1.0, 0.0], point: [5.0, 0.0], delta: 0.3, inside: true },
+        HalfPlane { normal: [-1.0, 0.0], point: [-5.0, 0.0], delta: 0.3, inside: true },
+    ];
+    let params = Scenario::standard().params;
+    for backend in [Solver::Dense, Solver::DenseThenOsqp] {
+        let settings = SolverSettings { backend, ..LipMpc::default_solver_settings() };
+        let mut mpc = LipMpc::new(params, 2, settings).expect("mpc");
+        assert!(mpc.solve(&[0.0; 5], [3.0, 0.0], 1.0, &[]).expect("solve").is_solved());
+        let plan = mpc.plan().clone();
+        let status = mpc.solve(&[0.0; 5], [3.0, 0.0], 1.0, &planes).expect("solve");
+        assert_eq!(mpc.dense_status(), Some(DenseStatus::Infeasible), "{backend:?}");
+        assert_eq!(status, QpStatus::PrimalInfeasible, "{backend:?}: {:?}", mpc.answered_by());
+        let expected = if backend == Solver::Dense { Solver::Dense } else { Solver::Osqp };
+        assert_eq!(mpc.answered_by(), expected);
+        assert_eq!(mpc.plan(), &plan, "{backend:?}: the last plan is kept");
+    }
 }

@@ -1,8 +1,9 @@
 //! The LIP-MPC control path allocates nothing: a whole walk to the goal, one MPC step
-//! (half-planes, preprocessing, value update, OSQP solve, state advance) after another,
+//! (half-planes, preprocessing, value update, dense solve, state advance) after another,
 //! with a NaN state injected before every step; and beside it, a table of side paths,
-//! each on its own MPC and fed from the walk: OSQP stopped at its iteration or time
-//! limit, and every input `LipMpc::solve` rejects. Counted on Rust's global allocator
+//! each on its own MPC and fed from the walk: OSQP alone, stopped at its iteration or time
+//! limit; the dense solve alone, stopped at its step budget; the dense solve out of steps
+//! with OSQP answering instead; and every input `LipMpc::solve` rejects. Counted on Rust's global allocator
 //! and on the C `malloc` family OSQP calls; each path must really have been taken, every
 //! time it ran.
 //!
@@ -17,7 +18,7 @@ mod tally;
 
 use std::time::Duration;
 
-use cbfgen::filter::{QpStatus, SolverSettings};
+use cbfgen::filter::{QpStatus, Solver, SolverSettings};
 use cbfgen::systems::lip::scenario::{Scenario, Walker};
 use cbfgen::systems::lip::{HalfPlane, LipMpc, LipState};
 use cbfgen::CbfError;
@@ -34,8 +35,8 @@ fn main() {
 /// What one `LipMpc::solve` did.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Outcome {
-    /// `Ok` with this status.
-    Status(QpStatus),
+    /// `Ok` with this status, from this solver.
+    Status(QpStatus, Solver),
     /// `Err` naming what was wrong, with the MPC's status and plan left as they were.
     Rejected(&'static str),
     /// A documented property failed (named); never expected.
@@ -57,6 +58,9 @@ enum Feed {
     /// The problem as posed. The walk moves the frame every step, so a warm start is
     /// never already the answer and a solve cut short cannot have converged.
     Walk,
+    /// The problem as posed with the goal 10 m further out on the same bearing, so that
+    /// many rows bind (near the goal a problem can need a single active-set change).
+    FarGoal,
     NanState,
     NanGoal,
     NanPlane,
@@ -75,6 +79,11 @@ impl Feed {
         let mut planes = n;
         match self {
             Feed::Walk => {}
+            Feed::FarGoal => {
+                let [dx, dy] = [problem.goal[0] - problem.x0[0], problem.goal[1] - problem.x0[2]];
+                let stretch = 10.0 / dx.hypot(dy).max(1e-9);
+                problem.goal = [problem.goal[0] + stretch * dx, problem.goal[1] + stretch * dy];
+            }
             Feed::NanState => problem.x0[1] = f64::NAN,
             Feed::NanGoal => problem.goal[0] = f64::NAN,
             Feed::NanPlane => scratch[0].delta = f64::NAN,
@@ -112,7 +121,7 @@ fn observe(mpc: &mut LipMpc, p: &Problem<'_>) -> Outcome {
     let plan_kept = mpc.plan().inputs()[0] == first_input_before;
     match result {
         Ok(status) if !status.is_solved() && !plan_kept => Outcome::Broken("an unsolved QP replaced the plan"),
-        Ok(status) => Outcome::Status(status),
+        Ok(status) => Outcome::Status(status, mpc.answered_by()),
         Err(_) if !plan_kept || mpc.status() != status_before => Outcome::Broken("an Err changed the MPC"),
         Err(e) => Outcome::Rejected(error_subject(&e)),
     }
@@ -136,16 +145,26 @@ fn every_mpc_step_path_allocates_nothing() {
     alloc_count::assert_counters_work(|| LipMpc::new(Default::default(), 2, LipMpc::default_solver_settings()));
 
     let default = scenario.solver;
-    let one_iteration = SolverSettings { max_iter: 1, ..default };
+    assert_eq!(default.backend, Solver::DenseThenOsqp, "the walk takes the default path");
+    let osqp = SolverSettings { backend: Solver::Osqp, ..default };
+    let one_iteration = SolverSettings { max_iter: 1, ..osqp };
     // No solve finishes within 1 ns, so OSQP stops after its first iteration whatever the
     // load: the outcome does not depend on timing.
-    let one_nanosecond = SolverSettings { time_limit: Some(Duration::from_nanos(1)), ..default };
+    let one_nanosecond = SolverSettings { time_limit: Some(Duration::from_nanos(1)), ..osqp };
+    // A far goal needs more than one active-set change (from a cold start: these MPCs
+    // never solve, so they have no active set to start from).
+    let one_dense_step = SolverSettings { backend: Solver::Dense, dense_max_steps: 1, ..default };
+    // OSQP at loose tolerances behind it, so that it meets them on every far-goal problem
+    // (at the default 1e-6 one in forty stops only "inaccurate").
+    let fallback = SolverSettings { dense_max_steps: 1, eps_abs: 1e-3, eps_rel: 1e-3, ..default };
     use {Outcome::*, QpStatus::*};
     // One row per side path: name, solver settings, feed, what every run must do.
     #[rustfmt::skip]
     let table = [
-        ("iteration limit", one_iteration, Feed::Walk, Status(MaxIterations)),
-        ("time limit", one_nanosecond, Feed::Walk, Status(TimeLimit)),
+        ("OSQP iteration limit", one_iteration, Feed::Walk, Status(MaxIterations, Solver::Osqp)),
+        ("OSQP time limit", one_nanosecond, Feed::Walk, Status(TimeLimit, Solver::Osqp)),
+        ("dense step limit", one_dense_step, Feed::FarGoal, Status(MaxIterations, Solver::Dense)),
+        ("dense out of steps, OSQP", fallback, Feed::FarGoal, Status(Solved, Solver::Osqp)),
         ("NaN state", default, Feed::NanState, Rejected("LIP state")),
         ("NaN goal", default, Feed::NanGoal, Rejected("goal x")),
         ("NaN half-plane", default, Feed::NanPlane, Rejected("obstacle half-plane")),
@@ -155,7 +174,7 @@ fn every_mpc_step_path_allocates_nothing() {
     // Construction allocates by design, so every MPC is built here. Each solves the
     // course's first problem (start frame, obstacles left out) once, so the plan a
     // rejected call must keep is a real one; the limit paths cannot solve it and keep the
-    // empty plan, which no iterate may replace.
+    // empty plan, which no iterate may replace (the fallback path solves it on OSQP).
     let mut side_paths = table.map(|(name, solver, feed, expect)| {
         let mut mpc = LipMpc::new(scenario.params, obstacles, solver).expect(name);
         let status = mpc.solve(&scenario.start, scenario.goal, scenario.first_stance, &[]).expect(name);
@@ -166,8 +185,8 @@ fn every_mpc_step_path_allocates_nothing() {
 
     let mut broken = *walker.state();
     broken[1] = f64::NAN;
-    let ((steps, advanced, injected, errors), rust, c) = alloc_count::counting(|| {
-        let (mut steps, mut advanced, mut injected, mut errors) = (0, 0, 0, 0);
+    let ((steps, advanced, injected, errors, dense), rust, c) = alloc_count::counting(|| {
+        let (mut steps, mut advanced, mut injected, mut errors, mut dense) = (0, 0, 0, 0, 0);
         let mut stance = scenario.first_stance;
         while steps < scenario.max_steps && !walker.at_goal() {
             // A bad state first: the walker's error path must not allocate either.
@@ -179,6 +198,7 @@ fn every_mpc_step_path_allocates_nothing() {
 
             let Ok(outcome) = walker.step() else { break };
             steps += 1;
+            dense += usize::from(outcome.answered_by == Solver::Dense);
             let walked = Problem {
                 x0: *walker.local_start(),
                 goal: walker.frame().point_to_local(scenario.goal),
@@ -191,10 +211,14 @@ fn every_mpc_step_path_allocates_nothing() {
                 stance = -stance;
             }
         }
-        (steps, advanced, injected, errors)
+        (steps, advanced, injected, errors, dense)
     });
 
-    println!("  {:<24} {steps:>3} steps, {advanced} advanced, {errors} of {injected} NaN states rejected", "walk");
+    println!(
+        "  {:<24} {steps:>3} steps, {advanced} advanced, {dense} by the dense solve, {errors} of {injected} NaN \
+         states rejected",
+        "walk"
+    );
     for path in &side_paths {
         path.tally.print(24);
     }
@@ -204,6 +228,7 @@ fn every_mpc_step_path_allocates_nothing() {
         walker.at_goal() && advanced == steps && steps > 20,
         "the loop must really walk: {advanced} of {steps} steps"
     );
+    assert_eq!(dense, steps, "the walk must take the dense path every step");
     for path in &side_paths {
         path.tally.assert_every_run_taken(steps);
     }

@@ -1,6 +1,7 @@
 //! Bipedal navigation with a 3D-LIP MPC and linear discrete control barrier functions.
 //!
-//! Each walking step the robot plans its next `N` footsteps on OSQP and takes the first:
+//! Each walking step the robot plans its next `N` footsteps (a QP solved exactly by the
+//! dense dual active-set method, OSQP as the fallback) and takes the first:
 //!
 //! ```text
 //! min_{f_0..f_{N−1}}  Σ_{k=1..N} (p_x,k − g_x)² + (p_y,k − g_y)²
@@ -17,7 +18,7 @@
 //!
 //! * [`model`] — `A_L`, `B_L` and the global ↔ local frames.
 //! * [`obstacles`] — rectangles and the half-plane barrier of each.
-//! * [`mpc`] — the MPC on OSQP: fixed sparsity, values updated each step, no allocation.
+//! * [`mpc`] — the MPC: fixed sparsity, values updated each step, no allocation.
 //! * [`scenario`] — a closed loop around rectangles to a goal, and its record.
 //! * [`figure`] — the map and barrier figures of a run.
 

@@ -1,4 +1,6 @@
-//! The LIP-MPC on OSQP, in condensed form: the feet are the only variables.
+//! The LIP-MPC, in condensed form: the feet are the only variables. It is solved exactly
+//! by the dense dual active-set method ([`crate::qp::dual_active_set`]), with OSQP as the
+//! fallback and reference ([`SolverSettings::backend`]).
 //!
 //! ```text
 //! z = [f_x,0, f_y,0, …, f_x,N−1, f_y,N−1]
@@ -46,9 +48,18 @@
 //! maps the feet to `p_k`) and `q = 2 Σ_k G_kᵀ (free p_k − g)`. The constraint matrix's
 //! sparsity is fixed at construction: a row on `x_k` touches the feet `f_0..f_{k−1}` of the
 //! axes it uses, whatever its coefficients; unused obstacle slots keep their rows with zero
-//! coefficients and bounds `(−∞, ∞)`. Each solve
-//! rewrites values only (`update_lin_cost`, `update_A`, `update_bounds`) and OSQP warm-starts
-//! from its previous iterate. After construction nothing allocates.
+//! coefficients and bounds `(−∞, ∞)`. Each solve rewrites values only.
+//!
+//! The dense solve fits this QP: 2N variables (12 by default), hard rows, and a `P` that
+//! never changes, so it is factorised once at construction; each solve starts from the
+//! previous solve's active set moved one step along the horizon (typically two active-set
+//! changes then finish it), and its answer is checked against the KKT conditions before
+//! it is used. ADMM, by contrast, needed up to 4000 iterations here and sometimes
+//! stopped only at its "inaccurate" tolerances. Under [`Solver::DenseThenOsqp`] (the
+//! default) OSQP runs only when the dense solve has no verified answer (out of steps, or
+//! rounding on a degenerate problem); it then receives the same data (`update_lin_cost`,
+//! `update_A`, `update_bounds`) and warm-starts from its previous iterate. After
+//! construction nothing allocates, on either path.
 
 use std::borrow::Cow;
 use std::f64::consts::PI;
@@ -59,7 +70,8 @@ use super::model::{LipInput, LipState};
 use super::obstacles::HalfPlane;
 use super::LipParams;
 use crate::error::CbfError;
-use crate::filter::{Iterate, QpStatus, SolverSettings};
+use crate::filter::{Iterate, QpStatus, Solver, SolverSettings};
+use crate::qp::dual_active_set::{ActiveRow, DenseStatus, DualActiveSet, WarmStart};
 use crate::qp::osqp_workspace::{self, OsqpQp};
 
 /// OSQP's infinity for `l`/`u`.
@@ -121,7 +133,11 @@ impl Layout {
         2 * self.n
     }
     fn rows(&self) -> usize {
-        5 * self.n + self.n * self.obstacles
+        self.n * self.rows_per_step()
+    }
+    /// Rows of one step of the horizon (they come step by step, in the same order).
+    fn rows_per_step(&self) -> usize {
+        5 + self.obstacles
     }
 }
 
@@ -333,7 +349,8 @@ pub fn wrap_angle(a: f64) -> f64 {
     }
 }
 
-/// The LIP-MPC with its OSQP workspace.
+/// The LIP-MPC with its dense solver and OSQP workspace (each set up when
+/// [`SolverSettings::backend`] can use it).
 pub struct LipMpc {
     lin: Linearisation,
     p_indptr: Vec<usize>,
@@ -349,10 +366,22 @@ pub struct LipMpc {
     lower: Vec<f64>,
     upper: Vec<f64>,
     problem: Option<Problem>,
+    /// The dense solver, holding `P`'s factor and a dense copy of the data.
+    dense: Option<DualActiveSet>,
+    /// The next dense solve's warm start: the last solved active set, one step on (room
+    /// for two entries per active row: the last step's rows are kept as well).
+    warm: Vec<ActiveRow>,
     settings: SolverSettings,
     plan: Plan,
     status: QpStatus,
+    /// ADMM iterations of the last solve (0 when OSQP did not run).
     iterations: u32,
+    /// Active-set changes of the last solve's dense attempt (0 when it did not run).
+    dense_steps: u32,
+    /// How the last dense attempt ended (`None` when it did not run).
+    dense_status: Option<DenseStatus>,
+    /// Which solver produced the last status: [`Solver::Dense`] or [`Solver::Osqp`].
+    answered_by: Solver,
 }
 
 impl std::fmt::Debug for LipMpc {
@@ -363,23 +392,34 @@ impl std::fmt::Debug for LipMpc {
             .field("rows", &self.lin.layout.rows())
             .field("nnz", &self.a_data.len())
             .field("status", &self.status)
+            .field("answered_by", &self.answered_by)
             .finish_non_exhaustive()
     }
 }
 
 impl LipMpc {
-    /// OSQP settings for this QP: tight tolerances (the plan is checked row by row, and a
-    /// step every 0.4 s leaves ample time), up to 4000 iterations, no polish (OSQP's
-    /// allocates, and this crate's polish is for the ECBF filter's QP).
+    /// Solver settings for this QP: the dense solve first, with a budget of 100 active-set
+    /// changes, then OSQP as the fallback with tight tolerances (the plan is checked row by
+    /// row, and a step every 0.4 s leaves ample time), up to 4000 iterations, no polish
+    /// (OSQP's allocates, and this crate's polish is for the ECBF filter's QP).
     pub fn default_solver_settings() -> SolverSettings {
-        SolverSettings { eps_abs: 1e-6, eps_rel: 1e-6, max_iter: 4000, polish: false, ..SolverSettings::default() }
+        SolverSettings {
+            backend: Solver::DenseThenOsqp,
+            dense_max_steps: 100,
+            eps_abs: 1e-6,
+            eps_rel: 1e-6,
+            max_iter: 4000,
+            polish: false,
+            ..SolverSettings::default()
+        }
     }
 
     /// Lay the QP out for `params.horizon` steps and up to `max_obstacles` obstacles, and
-    /// set OSQP up once.
+    /// set up the solvers `settings.backend` can use: the dense one (`P` factorised once)
+    /// and OSQP's workspace, so that neither allocates when it runs.
     ///
     /// # Errors
-    /// Invalid parameters or settings, or OSQP refusing the set-up.
+    /// Invalid parameters or settings, or a solver refusing the set-up.
     pub fn new(params: LipParams, max_obstacles: usize, settings: SolverSettings) -> Result<Self, CbfError> {
         params.validate()?;
         settings.validate()?;
@@ -417,6 +457,8 @@ impl LipMpc {
             lower: vec![-INF; layout.rows()],
             upper: vec![INF; layout.rows()],
             problem: None,
+            dense: None,
+            warm: Vec::with_capacity(2 * layout.vars()),
             settings,
             plan: Plan {
                 states: vec![[0.0; 5]; n + 1],
@@ -428,9 +470,25 @@ impl LipMpc {
             },
             status: QpStatus::Solved,
             iterations: 0,
+            dense_steps: 0,
+            dense_status: None,
+            answered_by: if settings.backend == Solver::Osqp { Solver::Osqp } else { Solver::Dense },
         };
         mpc.write_values();
-        osqp_workspace::set_up(&mut mpc)?;
+        if settings.backend != Solver::Osqp {
+            let vars = layout.vars();
+            // P dense from its upper triangle (the dense solver reads only that half).
+            let mut hessian = vec![0.0; vars * vars];
+            for col in 0..vars {
+                for k in mpc.p_indptr[col]..mpc.p_indptr[col + 1] {
+                    hessian[mpc.p_indices[k] * vars + col] = mpc.p_data[k];
+                }
+            }
+            mpc.dense = Some(DualActiveSet::new(&hessian, vars, layout.rows())?);
+        }
+        if settings.backend != Solver::Dense {
+            osqp_workspace::set_up(&mut mpc)?;
+        }
         Ok(mpc)
     }
 
@@ -462,11 +520,13 @@ impl LipMpc {
     /// Plan from local state `x0` to `goal` past the obstacles `planes` (all in one frame),
     /// with stance sign `s_v,0 = stance_sign` (+1: right foot, −1: left).
     ///
-    /// Returns OSQP's status. On `Solved`/`SolvedInaccurate` [`LipMpc::plan`] is the new
+    /// Returns the status of the solver that answered ([`LipMpc::answered_by`]): the dense
+    /// solve's ([`DenseStatus::qp_status`]: `Solved` only when its KKT check passed) or,
+    /// when it ran, OSQP's. On `Solved`/`SolvedInaccurate` [`LipMpc::plan`] is the new
     /// plan; on any other status it keeps the last solved one, which was made in an
-    /// earlier frame: the caller must not apply it as is. Does not allocate unless the
-    /// previous call reported [`QpStatus::SolverFault`] or [`QpStatus::NonFinite`] (the workspace
-    /// is then rebuilt).
+    /// earlier frame: the caller must not apply it as is. Does not allocate unless OSQP
+    /// runs after a call that reported [`QpStatus::SolverFault`] or [`QpStatus::NonFinite`]
+    /// from it (its workspace is then rebuilt).
     ///
     /// # Errors
     /// NaN/inf in `x0`, `goal` or a plane, or an entry beyond
@@ -504,21 +564,58 @@ impl LipMpc {
             *slot = *plane;
         }
         self.write_values();
-        let status = osqp_workspace::solve(self);
+        (self.iterations, self.dense_steps, self.dense_status) = (0, 0, None);
+        let status = match self.settings.backend {
+            Solver::Osqp => self.solve_osqp(),
+            Solver::Dense => self.solve_dense(),
+            Solver::DenseThenOsqp => match self.solve_dense() {
+                QpStatus::Solved => QpStatus::Solved,
+                _ => self.solve_osqp(),
+            },
+        };
         self.status = status;
         Ok(status)
     }
 
-    fn store_plan(&mut self, z: &[f64]) {
-        let (lin, plan) = (&self.lin, &mut self.plan);
-        lin.states(z, &mut plan.states);
-        for (k, u) in plan.inputs.iter_mut().enumerate() {
-            *u = [z[2 * k], z[2 * k + 1], lin.omegas[k]];
+    /// The dense solve, warm-started from the last solved active set moved one step along
+    /// the horizon (the robot has taken the plan's first step, so what bound at step
+    /// `k + 1` is likely to bind at step `k` now; the last step keeps its own rows too).
+    /// Keeps the plan only when the KKT check passed.
+    fn solve_dense(&mut self) -> QpStatus {
+        self.answered_by = Solver::Dense;
+        let Some(dense) = self.dense.as_mut() else { return QpStatus::SolverFault };
+        let vars = self.lin.layout.vars();
+        let data = dense.data_mut();
+        for col in 0..vars {
+            for k in self.a_indptr[col]..self.a_indptr[col + 1] {
+                data.a[self.a_indices[k] * vars + col] = self.a_data[k];
+            }
         }
-        plan.stance_signs.copy_from_slice(&lin.signs);
-        plan.planes.copy_from_slice(&lin.planes);
-        plan.plane_count = lin.plane_count;
-        plan.goal = lin.goal;
+        data.q.copy_from_slice(&self.q);
+        data.lower.copy_from_slice(&self.lower);
+        data.upper.copy_from_slice(&self.upper);
+        let status = dense.solve(WarmStart::Given(&self.warm), self.settings.dense_max_steps);
+        self.dense_steps = dense.steps();
+        self.dense_status = Some(status);
+        if status == DenseStatus::Solved {
+            store_plan(&self.lin, &mut self.plan, dense.solution());
+            let (per_step, rows) = (self.lin.layout.rows_per_step(), self.lin.layout.rows());
+            self.warm.clear();
+            for &ActiveRow { row, side } in dense.active_set() {
+                if row >= per_step {
+                    self.warm.push(ActiveRow { row: row - per_step, side });
+                }
+                if row >= rows - per_step {
+                    self.warm.push(ActiveRow { row, side });
+                }
+            }
+        }
+        status.qp_status()
+    }
+
+    fn solve_osqp(&mut self) -> QpStatus {
+        self.answered_by = Solver::Osqp;
+        osqp_workspace::solve(self)
     }
 
     /// The last solved plan.
@@ -526,14 +623,36 @@ impl LipMpc {
         &self.plan
     }
 
-    /// Status of the last solve.
+    /// Status of the last solve, from the solver that answered ([`LipMpc::answered_by`]).
     pub fn status(&self) -> QpStatus {
         self.status
     }
 
-    /// ADMM iterations of the last solve.
+    /// ADMM iterations of the last solve (0 when OSQP did not run).
     pub fn iterations(&self) -> u32 {
         self.iterations
+    }
+
+    /// Active-set changes the last solve's dense attempt took (0 when it did not run).
+    pub fn dense_steps(&self) -> u32 {
+        self.dense_steps
+    }
+
+    /// How the last solve's dense attempt ended (`None` when it did not run).
+    pub fn dense_status(&self) -> Option<DenseStatus> {
+        self.dense_status
+    }
+
+    /// The dense solver (`None` when the backend is OSQP): its last solution, row
+    /// multipliers and active set, for diagnostics and cross-checks.
+    pub fn dense_solver(&self) -> Option<&DualActiveSet> {
+        self.dense.as_ref()
+    }
+
+    /// Which solver gave the last status: [`Solver::Dense`], or [`Solver::Osqp`] when
+    /// OSQP is the backend or ran as the fallback.
+    pub fn answered_by(&self) -> Solver {
+        self.answered_by
     }
 
     /// The parameters the MPC was built with.
@@ -618,7 +737,19 @@ impl OsqpQp for LipMpc {
         self.iterations = iterations;
         // A plan is kept only when solved: an iterate stopped at a limit is not a plan.
         if let Some((z, _)) = iterate.filter(|_| status.is_solved()) {
-            self.store_plan(z);
+            store_plan(&self.lin, &mut self.plan, z);
         }
     }
+}
+
+/// Keep the feet `z` as the plan, with the states, headings and obstacles it was made for.
+fn store_plan(lin: &Linearisation, plan: &mut Plan, z: &[f64]) {
+    lin.states(z, &mut plan.states);
+    for (k, u) in plan.inputs.iter_mut().enumerate() {
+        *u = [z[2 * k], z[2 * k + 1], lin.omegas[k]];
+    }
+    plan.stance_signs.copy_from_slice(&lin.signs);
+    plan.planes.copy_from_slice(&lin.planes);
+    plan.plane_count = lin.plane_count;
+    plan.goal = lin.goal;
 }

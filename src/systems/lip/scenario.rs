@@ -13,7 +13,7 @@ use super::mpc::LipMpc;
 use super::obstacles::{HalfPlane, Rectangle};
 use super::LipParams;
 use crate::error::{finite, positive, CbfError};
-use crate::filter::{QpStatus, SolverSettings};
+use crate::filter::{QpStatus, Solver, SolverSettings};
 
 /// Start, goal, obstacles and limits of one navigation run.
 #[derive(Debug, Clone, PartialEq)]
@@ -32,7 +32,7 @@ pub struct Scenario {
     pub max_steps: usize,
     /// The MPC's model, horizon, limits and CBF settings.
     pub params: LipParams,
-    /// OSQP settings of the MPC.
+    /// Solver settings of the MPC (which solver, the dense budget, OSQP's settings).
     pub solver: SolverSettings,
 }
 
@@ -57,11 +57,15 @@ impl Scenario {
 /// What one step did.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StepOutcome {
-    /// OSQP's status for this step's MPC solve.
+    /// The status of this step's MPC solve, from the solver that answered.
     pub status: QpStatus,
-    /// OSQP's ADMM iterations in that solve.
+    /// Which solver answered: [`Solver::Dense`] or [`Solver::Osqp`].
+    pub answered_by: Solver,
+    /// OSQP's ADMM iterations in that solve (0 when OSQP did not run).
     pub iterations: u32,
-    /// Preprocessing, value update and OSQP solve.
+    /// The dense solve's active-set changes in that solve (0 when it did not run).
+    pub dense_steps: u32,
+    /// Preprocessing, value update and solve (the dense one, OSQP, or both).
     pub solve_time: Duration,
     /// Whether the state advanced (only when the QP was solved).
     pub advanced: bool,
@@ -143,7 +147,9 @@ impl Walker {
         let solve_time = started.elapsed();
         let mut outcome = StepOutcome {
             status,
+            answered_by: self.mpc.answered_by(),
             iterations: self.mpc.iterations(),
+            dense_steps: self.mpc.dense_steps(),
             solve_time,
             advanced: false,
             foot: [0.0; 2],
@@ -267,10 +273,13 @@ impl RunResult {
         let iterations: Vec<u32> = self.steps.iter().map(|s| s.outcome.iterations).collect();
         let max_iter = iterations.iter().max().copied().unwrap_or(0);
         let inaccurate = self.steps.iter().filter(|s| s.outcome.status == QpStatus::SolvedInaccurate).count();
+        let by_osqp = self.steps.iter().filter(|s| s.outcome.answered_by == Solver::Osqp).count();
+        let dense_steps = self.steps.iter().map(|s| s.outcome.dense_steps).max().unwrap_or(0);
         let p = &self.scenario.params;
         format!(
             "3D-LIP MPC navigation: N = {}, {} obstacles, T = {} s\n  steps taken          {}\n  goal reached         {}{}\n  \
              min CoM clearance    {:.4} m (δ = {} m)\n  MPC solve median     {:.1} µs, p99 {:.1} µs, max {:.1} µs\n  \
+             solver               {} (OSQP answered {} of {} solves)\n  dense steps max      {}\n  \
              ADMM iterations max  {} ({} of the solves only to OSQP's 10x looser \"inaccurate\" tolerances)",
             p.horizon,
             self.scenario.obstacles.len(),
@@ -283,6 +292,10 @@ impl RunResult {
             pick(0.5),
             pick(0.99),
             pick(1.0),
+            self.scenario.solver.backend.name(),
+            by_osqp,
+            self.steps.len(),
+            dense_steps,
             max_iter,
             inaccurate,
         )
