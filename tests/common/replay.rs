@@ -4,6 +4,8 @@
 //! problem to the next), and through Clarabel. Shared by the solver tests and the benches
 //! (benches include this file by path).
 #![allow(dead_code)]
+// Index loops mirror the formulas (rows × inputs).
+#![allow(clippy::needless_range_loop)]
 
 use cbfgen::filter::{EcbfQp, QpStatus, RowSpec, Solver, SolverSettings};
 use cbfgen::qp::recorded::{self, RecordedQp};
