@@ -20,36 +20,61 @@ pub fn clarabel_reference(filter: &Tachyon3Filter, u_ref: &Input) -> Input {
 /// [`clarabel_reference`], or `None` where Clarabel does not report the problem solved.
 pub fn clarabel_solution(filter: &Tachyon3Filter, u_ref: &Input) -> Option<Input> {
     let s = filter.settings();
-    let active: Vec<usize> = (0..filter.rows().len()).filter(|&i| filter.active()[i]).collect();
-    let n = NU + active.len();
-    // P = 2 diag(w, w_δ) (upper triangular CSC of a diagonal).
-    let mut p_diag: Vec<f64> = s.input_weights.iter().map(|w| 2.0 * w).collect();
-    for &i in &active {
-        p_diag.push(2.0 * s.family(filter.slot(i).family.index()).slack_weight);
+    let rows: Vec<(&[f64], f64, f64)> = (0..filter.rows().len())
+        .filter(|&i| filter.active()[i])
+        .map(|i| {
+            let row = &filter.rows()[i];
+            let f = s.family(filter.slot(i).family.index());
+            let &[p1, p2] = f.poles.as_slice() else { panic!("two poles") };
+            let b = row.lie[2] + (p1 + p2) * row.lie[1] + p1 * p2 * row.lie[0];
+            (&row.lg[..], b, f.slack_weight)
+        })
+        .collect();
+    match clarabel_soft_qp(&s.input_weights, u_ref, &s.input_min, &s.input_max, &rows) {
+        Some((u, true)) => Some(std::array::from_fn(|j| u[j])),
+        _ => None,
     }
+}
+
+/// Clarabel on the soft-row QP lifted to `(u, δ)`: cost `Σ w (u − r)² + Σ s δ²`, rows
+/// `−(a·u + δ) ≤ b` (one per `(a, b, s)`), the box `min ≤ u ≤ max`; tolerances 1e-10,
+/// far below the default 1e-8, so that the reference is tighter than the exact solves'
+/// 1e-6 comparison through stiff slack weights. Its `u` and whether Clarabel reported it
+/// solved (else the point it stopped at, still a feasible `u` whose cost an exact optimum
+/// cannot exceed); `None` if Clarabel refused or returned a point outside the box.
+pub fn clarabel_soft_qp(
+    weights: &[f64],
+    u_ref: &[f64],
+    input_min: &[f64],
+    input_max: &[f64],
+    rows: &[(&[f64], f64, f64)],
+) -> Option<(Vec<f64>, bool)> {
+    let nu = weights.len();
+    let n = nu + rows.len();
+    // P = 2 diag(w, s) (upper triangular CSC of a diagonal).
+    let mut p_diag: Vec<f64> = weights.iter().map(|w| 2.0 * w).collect();
+    p_diag.extend(rows.iter().map(|r| 2.0 * r.2));
     let p = CscMatrix::new(n, n, (0..=n).collect(), (0..n).collect(), p_diag);
     let mut q = vec![0.0; n];
-    for j in 0..NU {
-        q[j] = -2.0 * s.input_weights[j] * u_ref[j];
+    for j in 0..nu {
+        q[j] = -2.0 * weights[j] * u_ref[j];
     }
-    // Dense rows, then CSC: active ECBF rows, then u ≤ max, then −u ≤ −min.
-    let m = active.len() + 2 * NU;
+    // Dense rows, then CSC: the soft rows, then u ≤ max, then −u ≤ −min.
+    let m = rows.len() + 2 * nu;
     let mut dense = vec![vec![0.0; n]; m];
     let mut b = vec![0.0; m];
-    for (k, &i) in active.iter().enumerate() {
-        let row = &filter.rows()[i];
-        let &[p1, p2] = s.family(filter.slot(i).family.index()).poles.as_slice() else { panic!("two poles") };
-        for j in 0..NU {
-            dense[k][j] = -row.lg[j];
+    for (k, (a, bound, _)) in rows.iter().enumerate() {
+        for j in 0..nu {
+            dense[k][j] = -a[j];
         }
-        dense[k][NU + k] = -1.0;
-        b[k] = row.lie[2] + (p1 + p2) * row.lie[1] + p1 * p2 * row.lie[0];
+        dense[k][nu + k] = -1.0;
+        b[k] = *bound;
     }
-    for j in 0..NU {
-        dense[active.len() + j][j] = 1.0;
-        b[active.len() + j] = s.input_max[j];
-        dense[active.len() + NU + j][j] = -1.0;
-        b[active.len() + NU + j] = -s.input_min[j];
+    for j in 0..nu {
+        dense[rows.len() + j][j] = 1.0;
+        b[rows.len() + j] = input_max[j];
+        dense[rows.len() + nu + j][j] = -1.0;
+        b[rows.len() + nu + j] = -input_min[j];
     }
     let (mut colptr, mut rowval, mut nzval) = (vec![0], vec![], vec![]);
     for c in 0..n {
@@ -62,8 +87,6 @@ pub fn clarabel_solution(filter: &Tachyon3Filter, u_ref: &Input) -> Option<Input
         colptr.push(rowval.len());
     }
     let a = CscMatrix::new(m, n, colptr, rowval, nzval);
-    // Tolerances far below the default 1e-8: the reference must be tighter than the exact
-    // dense solve's comparison (1e-6 of the input scale) through stiff slack weights.
     let settings = DefaultSettings {
         verbose: false,
         tol_gap_abs: 1e-10,
@@ -75,7 +98,9 @@ pub fn clarabel_solution(filter: &Tachyon3Filter, u_ref: &Input) -> Option<Input
     };
     let mut solver = DefaultSolver::new(&p, &q, &a, &b, &[NonnegativeConeT(m)], settings).ok()?;
     solver.solve();
-    (solver.solution.status == SolverStatus::Solved).then(|| std::array::from_fn(|j| solver.solution.x[j]))
+    let x = solver.solution.x[..nu].to_vec();
+    let inside = (0..nu).all(|j| (input_min[j] - 1e-9..=input_max[j] + 1e-9).contains(&x[j]));
+    (x.iter().all(|v| v.is_finite()) && inside).then_some((x, solver.solution.status == SolverStatus::Solved))
 }
 
 /// The filter's cost at `u` with every active row's slack at its optimum for that `u`

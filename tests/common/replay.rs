@@ -13,8 +13,9 @@ use cbfgen::system::{BarrierSet, Gains, Poles, Row};
 use cbfgen::systems::tachyon3::catalog::{self, Capacity, Catalog};
 use cbfgen::systems::tachyon3::model::NU;
 use cbfgen::systems::tachyon3::sim::Course;
-use clarabel::algebra::CscMatrix;
-use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus};
+
+#[path = "kkt.rs"]
+mod kkt;
 
 /// The committed fixture: 500 problems of the stairs run, every cycle of t = 25.10–25.30 s
 /// included.
@@ -76,61 +77,10 @@ pub fn assert_weights_match(replay_weights: impl Fn(usize) -> f64, p: &RecordedQ
     }
 }
 
-/// Clarabel on the problem lifted to `(u, δ)`: cost `Σ w (u − r)² + Σ s δ²`, rows
-/// `−(a·u + δ) ≤ b`, the box; tolerances 1e-10. Its `u`, and whether Clarabel reported
-/// it solved to those tolerances (else it is the point Clarabel stopped at, still a
-/// feasible `u` whose cost an exact optimum cannot exceed); `None` if Clarabel refused.
+/// Clarabel on the recorded problem ([`kkt::clarabel_soft_qp`]).
 pub fn clarabel(p: &RecordedQp) -> Option<(Vec<f64>, bool)> {
-    let (nu, m_rows) = (p.nu(), p.rows.len());
-    let n = nu + m_rows;
-    let mut p_diag: Vec<f64> = p.weights.iter().map(|w| 2.0 * w).collect();
-    p_diag.extend(p.rows.iter().map(|r| 2.0 * r.weight));
-    let pm = CscMatrix::new(n, n, (0..=n).collect(), (0..n).collect(), p_diag);
-    let mut q = vec![0.0; n];
-    for j in 0..nu {
-        q[j] = -2.0 * p.weights[j] * p.u_ref[j];
-    }
-    let m = m_rows + 2 * nu;
-    let mut dense = vec![vec![0.0; n]; m];
-    let mut b = vec![0.0; m];
-    for (k, r) in p.rows.iter().enumerate() {
-        for j in 0..nu {
-            dense[k][j] = -r.a[j];
-        }
-        dense[k][nu + k] = -1.0;
-        b[k] = r.b;
-    }
-    for j in 0..nu {
-        dense[m_rows + j][j] = 1.0;
-        b[m_rows + j] = p.input_max[j];
-        dense[m_rows + nu + j][j] = -1.0;
-        b[m_rows + nu + j] = -p.input_min[j];
-    }
-    let (mut colptr, mut rowval, mut nzval) = (vec![0], vec![], vec![]);
-    for c in 0..n {
-        for (r, row) in dense.iter().enumerate() {
-            if row[c] != 0.0 {
-                rowval.push(r);
-                nzval.push(row[c]);
-            }
-        }
-        colptr.push(rowval.len());
-    }
-    let a = CscMatrix::new(m, n, colptr, rowval, nzval);
-    let settings = DefaultSettings {
-        verbose: false,
-        tol_gap_abs: 1e-10,
-        tol_gap_rel: 1e-10,
-        tol_feas: 1e-10,
-        tol_ktratio: 1e-8,
-        max_iter: 500,
-        ..DefaultSettings::default()
-    };
-    let mut solver = DefaultSolver::new(&pm, &q, &a, &b, &[NonnegativeConeT(m)], settings).ok()?;
-    solver.solve();
-    let x = solver.solution.x[..nu].to_vec();
-    let inside = (0..nu).all(|j| (p.input_min[j] - 1e-9..=p.input_max[j] + 1e-9).contains(&x[j]));
-    (x.iter().all(|v| v.is_finite()) && inside).then_some((x, solver.solution.status == SolverStatus::Solved))
+    let rows: Vec<(&[f64], f64, f64)> = p.rows.iter().map(|r| (&r.a[..], r.b, r.weight)).collect();
+    kkt::clarabel_soft_qp(&p.weights, &p.u_ref, &p.input_min, &p.input_max, &rows)
 }
 
 /// `|u − v|` relative to each input's scale `1 + max(|min|, |max|)`, worst entry.
