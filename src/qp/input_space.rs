@@ -259,18 +259,19 @@ impl<const NU: usize> InputSpaceSolver<NU> {
                 .filter(|&j| self.held[j] == Bound::Free)
                 .map(|j| if scale[j] > 0.0 { gradient[j].abs() / scale[j] } else { 0.0 })
                 .fold(0.0, f64::max);
-            let mut d = None;
-            let mut face_optimal = self.gradient_residual <= GRADIENT_TOLERANCE;
-            if !face_optimal {
-                let Some(step) = self.newton_step(p, &gradient) else {
-                    break Outcome::NonFinite;
-                };
-                face_optimal = (0..NU).all(|j| step[j].abs() <= STEP_TOLERANCE * (1.0 + u[j].abs() + p.u_ref[j].abs()));
-                d = Some(step);
-            }
+            // Optimal on this face when the Newton step that remains is below the step
+            // tolerance in each input's units. (The gradient test alone is not enough: a
+            // stiff row on its kink inflates every entry's term size, so a per-entry
+            // relative test would accept residuals in directions of small curvature.)
+            let Some(step) = self.newton_step(p, &gradient) else {
+                break Outcome::NonFinite;
+            };
+            let face_optimal =
+                (0..NU).all(|j| step[j].abs() <= STEP_TOLERANCE * (1.0 + u[j].abs() + p.u_ref[j].abs()));
+            let d = Some(step);
             if face_optimal {
                 // Optimal on this face: verified if no held input would rather move inward.
-                let Some(j) = self.wrong_multiplier(p, &gradient, &scale) else {
+                let Some(j) = self.wrong_multiplier(p, &u, &gradient) else {
                     break Outcome::Verified;
                 };
                 if self.steps >= max_steps {
@@ -397,9 +398,12 @@ impl<const NU: usize> InputSpaceSolver<NU> {
             if direction > 0.0 { (p.input_max[j], Bound::Upper) } else { (p.input_min[j], Bound::Lower) };
     }
 
-    /// The held input whose multiplier has the wrong sign by the most (relative to its
-    /// gradient's terms): the one to release. A box of zero width never is.
-    fn wrong_multiplier(&self, p: &Problem<'_, NU>, gradient: &[f64; NU], scale: &[f64; NU]) -> Option<usize> {
+    /// The held input whose multiplier has the wrong sign by the most, judged in input
+    /// units: the move `|∂F/∂u_j| / H_jj` it would make inward if released must stay below
+    /// the step tolerance. (A test against the gradient's term size would let a stiff row
+    /// elsewhere excuse a real pull.) A box of zero width is never released.
+    fn wrong_multiplier(&self, p: &Problem<'_, NU>, u: &[f64; NU], gradient: &[f64; NU]) -> Option<usize> {
+        let h = self.hessian(p);
         let mut worst = None;
         let mut worst_excess = 0.0;
         for j in 0..NU {
@@ -410,9 +414,10 @@ impl<const NU: usize> InputSpaceSolver<NU> {
                 Bound::Lower => -gradient[j],
                 Bound::Upper => gradient[j],
             };
-            let excess = inward - GRADIENT_TOLERANCE * scale[j];
-            if excess > 0.0 && excess / scale[j].max(f64::MIN_POSITIVE) > worst_excess {
-                worst_excess = excess / scale[j].max(f64::MIN_POSITIVE);
+            let tolerance = STEP_TOLERANCE * (1.0 + u[j].abs() + p.u_ref[j].abs());
+            let excess = inward / h[(j, j)] / tolerance;
+            if excess > 1.0 && excess > worst_excess {
+                worst_excess = excess;
                 worst = Some(j);
             }
         }
