@@ -182,3 +182,203 @@ fn the_figures_show_every_variant_and_the_boundary() {
     assert!(positions.contains("stroke-dasharray"), "the boundary is drawn dashed");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+use cbfgen::filter::{QpStatus, Solver, SolverSettings};
+use cbfgen::qp::dual_active_set::DenseStatus;
+
+/// The MPC's QP in its sparse form, written out here from the module docs (`z = [q_0..q_N,
+/// v_0..v_{N−1}]`, the dynamics as equality rows, barrier rows from k = 2) and solved by
+/// Clarabel to tolerances 1e-11. Returns `z`, and whether Clarabel met those tolerances
+/// (else it reports "almost solved", to its looser ones).
+fn clarabel_plan(settings: &MpcSettings, mode: MpcMode, barrier: SineBarrier, t: f64, x: [f64; 2]) -> (Vec<f64>, bool) {
+    use clarabel::algebra::CscMatrix;
+    use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus, ZeroConeT};
+    let (n, dt) = (settings.horizon, settings.dt);
+    let vars = 2 * n + 1;
+    let (q, v) = (|k: usize| k, |k: usize| n + 1 + k);
+    // Dense P (upper triangle kept below) and q from the cost's three sums.
+    let mut p = vec![vec![0.0; vars]; vars];
+    let mut lin = vec![0.0; vars];
+    for k in 1..=n {
+        p[q(k)][q(k)] += 2.0 * settings.w_q;
+        lin[q(k)] -= 2.0 * settings.w_q * settings.q_ref;
+    }
+    for k in 0..n {
+        p[v(k)][v(k)] += 2.0 * settings.w_v;
+    }
+    let wa = settings.w_a / (dt * dt);
+    for k in 1..n {
+        for (a, b, sign) in
+            [(v(k), v(k), 1.0), (v(k - 1), v(k - 1), 1.0), (v(k), v(k - 1), -1.0), (v(k - 1), v(k), -1.0)]
+        {
+            p[a][b] += 2.0 * wa * sign;
+        }
+    }
+    // Equalities (Clarabel: A z + s = b, s = 0), then barrier rows as −(row) z + s = −bound, s ≥ 0.
+    let mut rows: Vec<(Vec<(usize, f64)>, f64)> = vec![(vec![(q(0), 1.0)], x[0]), (vec![(v(0), 1.0)], x[1])];
+    for k in 0..n {
+        rows.push((vec![(q(k + 1), 1.0), (q(k), -1.0), (v(k), -dt)], 0.0));
+    }
+    let equalities = rows.len();
+    let keep = match mode {
+        MpcMode::DiscreteCbf { gamma } => Some(1.0 - gamma),
+        MpcMode::StateConstraint => Some(0.0),
+        MpcMode::Unconstrained => None,
+    };
+    if let Some(keep) = keep {
+        for k in 2..=n {
+            let (tk, tp) = (t + k as f64 * dt, t + (k - 1) as f64 * dt);
+            let bound = barrier.boundary(tk) - keep * barrier.boundary(tp);
+            rows.push((vec![(q(k), -1.0), (q(k - 1), keep)], -bound));
+        }
+    }
+    let (mut colptr, mut rowval, mut nzval) = (vec![0], Vec::new(), Vec::new());
+    for c in 0..vars {
+        for (r, (row, _)) in rows.iter().enumerate() {
+            if let Some(&(_, value)) = row.iter().find(|(col, value)| *col == c && *value != 0.0) {
+                rowval.push(r);
+                nzval.push(value);
+            }
+        }
+        colptr.push(rowval.len());
+    }
+    let a = CscMatrix::new(rows.len(), vars, colptr, rowval, nzval);
+    let b: Vec<f64> = rows.iter().map(|(_, b)| *b).collect();
+    let (mut pc, mut pr, mut pv) = (vec![0], Vec::new(), Vec::new());
+    for c in 0..vars {
+        for (r, row) in p.iter().enumerate().take(c + 1) {
+            if row[c] != 0.0 {
+                pr.push(r);
+                pv.push(row[c]);
+            }
+        }
+        pc.push(pr.len());
+    }
+    let p = CscMatrix::new(vars, vars, pc, pr, pv);
+    let mut cones = vec![ZeroConeT(equalities)];
+    if rows.len() > equalities {
+        cones.push(NonnegativeConeT(rows.len() - equalities));
+    }
+    let tight = DefaultSettings {
+        verbose: false,
+        tol_gap_abs: 1e-11,
+        tol_gap_rel: 1e-11,
+        tol_feas: 1e-11,
+        tol_ktratio: 1e-9,
+        ..DefaultSettings::default()
+    };
+    let mut solver = DefaultSolver::new(&p, &lin, &a, &b, &cones, tight).expect("clarabel setup");
+    solver.solve();
+    let status = solver.solution.status;
+    assert!(matches!(status, SolverStatus::Solved | SolverStatus::AlmostSolved), "{status:?}");
+    (solver.solution.x.clone(), status == SolverStatus::Solved)
+}
+
+#[test]
+fn dense_plans_agree_with_clarabel_on_the_sparse_form_in_every_mode() {
+    let config = ScenarioConfig::default();
+    let settings = config.mpc;
+    assert_eq!(settings.solver.backend, Solver::DenseThenOsqp, "the default");
+    let mut rng = rand::rngs::StdRng::seed_from_u64(11);
+    let (mut worst, mut binding, mut solves, mut loose) = (0.0f64, 0, 0, 0);
+    for mode in config.modes() {
+        let mut mpc = KinematicMpc::new(settings, mode, config.barrier).unwrap();
+        // The example's states and random ones, in time order so warm starts carry.
+        for i in 0..200 {
+            let t = 0.05 * i as f64;
+            let s = config.barrier.boundary(t);
+            let x = [s + rng.random_range(-0.2..1.5), rng.random_range(-3.0..3.0)];
+            let out = mpc.solve(t, &x).unwrap();
+            assert_eq!((out.status, out.answered_by, out.iterations), (QpStatus::Solved, Solver::Dense, 0));
+            assert_eq!(mpc.dense_status(), Some(DenseStatus::Solved));
+            binding += usize::from(mpc.dense_solver().is_some_and(|d| !d.active_set().is_empty()));
+            let (q, v) = (mpc.planned_positions(), mpc.planned_velocities());
+            let (n, dt) = (settings.horizon, settings.dt);
+            // Feasible: the measured start, the dynamics, the barrier rows (recomputed here).
+            assert!(q[0] == x[0] && v[0] == x[1]);
+            for k in 0..n {
+                assert!((q[k + 1] - q[k] - dt * v[k]).abs() <= 1e-12 * (1.0 + q[k + 1].abs()), "dynamics {k}");
+            }
+            let keep = match mode {
+                MpcMode::DiscreteCbf { gamma } => Some(1.0 - gamma),
+                MpcMode::StateConstraint => Some(0.0),
+                MpcMode::Unconstrained => None,
+            };
+            if let Some(keep) = keep {
+                let h = |k: usize| q[k] - config.barrier.boundary(t + k as f64 * dt);
+                for k in 2..=n {
+                    let slack = h(k) - keep * h(k - 1);
+                    let size = 1.0 + h(k).abs() + keep * h(k - 1).abs();
+                    assert!(slack >= -1e-9 * size, "{} row {k} at t {t}: {slack:.1e}", mode.name());
+                }
+            }
+            let (reference, tight) = clarabel_plan(&settings, mode, config.barrier, t, x);
+            let ours: Vec<f64> = q.iter().chain(v).copied().collect();
+            if tight {
+                let scale = 1.0 + reference.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                let gap = ours.iter().zip(&reference).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+                worst = worst.max(gap / scale);
+                assert!(gap <= 1e-6 * scale, "{} at t {t}, x {x:?}: plans differ by {gap:.2e}", mode.name());
+            } else {
+                // Clarabel stopped at its looser tolerances, 1e-8 outside some rows, where
+                // a steep barrier buys 1e-7 of the cost: no reference, counted.
+                loose += 1;
+            }
+            assert!((out.desired_accel - (ours[settings.horizon + 2] - x[1]) / settings.dt).abs() < 1e-9);
+            solves += 1;
+        }
+    }
+    println!(
+        "{solves} solves, {binding} with barrier rows active; plans within {worst:.1e} of Clarabel's (of the scale); \
+         {loose} where Clarabel met only its looser tolerances (not compared)"
+    );
+    assert!(binding > 100, "the barrier must bind in many of them: {binding}");
+    assert!(loose * 20 <= solves, "Clarabel short on {loose} of {solves}");
+}
+
+#[test]
+fn out_of_dense_steps_is_flagged_or_handed_to_osqp() {
+    let config = ScenarioConfig::default();
+    let mode = MpcMode::StateConstraint;
+    let with = |backend, dense_max_steps| MpcSettings {
+        solver: SolverSettings { backend, dense_max_steps, ..config.mpc.solver },
+        ..config.mpc
+    };
+    // On the boundary, falling at 2 m/s, at the time (on a grid over one period) whose
+    // cold solve takes the most steps: several barrier rows bind.
+    let mut exact = KinematicMpc::new(with(Solver::Dense, 100), mode, config.barrier).unwrap();
+    let mut hardest = (0, 0.0);
+    for i in 0..32 {
+        let t = i as f64 * std::f64::consts::PI / 32.0;
+        let mut cold = KinematicMpc::new(with(Solver::Dense, 100), mode, config.barrier).unwrap();
+        cold.solve(t, &[config.barrier.boundary(t), -2.0]).unwrap();
+        if cold.dense_steps() > hardest.0 {
+            hardest = (cold.dense_steps(), t);
+        }
+    }
+    let t = hardest.1;
+    let x = [config.barrier.boundary(t), -2.0];
+    let reference = exact.solve(t, &x).unwrap();
+    let needed = exact.dense_steps();
+    assert!(reference.status == QpStatus::Solved && needed > 1, "{reference:?}");
+
+    let mut short = KinematicMpc::new(with(Solver::Dense, needed - 1), mode, config.barrier).unwrap();
+    let out = short.solve(t, &x).unwrap();
+    assert_eq!((out.status, out.answered_by, out.dense_steps), (QpStatus::MaxIterations, Solver::Dense, needed - 1));
+    assert_eq!(short.dense_status(), Some(DenseStatus::MaxSteps));
+    assert!(out.desired_accel.is_finite(), "the iterate it reached, flagged");
+
+    let mut fallback = KinematicMpc::new(with(Solver::DenseThenOsqp, needed - 1), mode, config.barrier).unwrap();
+    let out = fallback.solve(t, &x).unwrap();
+    assert!(out.status.is_solved() && out.answered_by == Solver::Osqp && out.iterations > 0, "{out:?}");
+    let gap = (out.desired_accel - reference.desired_accel).abs();
+    assert!(gap < 1e-2 * (1.0 + reference.desired_accel.abs()), "OSQP's {out:?} vs {reference:?}");
+
+    // OSQP alone: today's path, no dense solver at all.
+    let mut osqp = KinematicMpc::new(with(Solver::Osqp, 100), mode, config.barrier).unwrap();
+    let out = osqp.solve(t, &x).unwrap();
+    assert!(out.status.is_solved() && out.answered_by == Solver::Osqp && out.dense_steps == 0, "{out:?}");
+    assert!(osqp.dense_solver().is_none() && osqp.dense_status().is_none());
+    let gap = (out.desired_accel - reference.desired_accel).abs();
+    assert!(gap < 1e-2 * (1.0 + reference.desired_accel.abs()), "OSQP's {out:?} vs {reference:?}");
+}

@@ -1,8 +1,9 @@
 //! The multi-layer control path allocates nothing: MPC re-plans and CBF-QP solves over
 //! thousands of cycles, for all three MPC modes, with a NaN state injected now and then;
 //! and beside them, a table of side paths, each on its own solver and fed from the first
-//! system's cycle: either layer stopped at its iteration limit, and the inputs and rows
-//! each rejects (the CBF-QP's `QpFailed` reports included). Counted for Rust's global
+//! system's cycle: either layer stopped at its iteration limit, the MPC's dense solve
+//! stopped at its step budget or handing over to OSQP, and the inputs and rows each
+//! rejects (the CBF-QP's `QpFailed` reports included). Counted for Rust's global
 //! allocator and for the C `malloc` family OSQP calls; each path must really have been
 //! taken, every time it ran.
 //!
@@ -15,9 +16,10 @@ mod alloc_count;
 #[path = "common/tally.rs"]
 mod tally;
 
-use cbfgen::filter::{QpStatus, SolverSettings};
+use cbfgen::filter::{QpStatus, Solver, SolverSettings};
 use cbfgen::systems::multilayer::{
-    CbfQpSettings, IdCbfQp, KinematicMpc, MpcSettings, MultiLayerController, ScenarioConfig, State,
+    CbfQpSettings, IdCbfQp, KinematicMpc, MpcOutput, MpcSettings, MultiLayerController, ScenarioConfig, SineBarrier,
+    State,
 };
 use cbfgen::CbfError;
 
@@ -36,6 +38,8 @@ fn main() {
 enum Outcome {
     /// `Ok` with this status (`None`: the filter attempted no solve).
     Status(Option<QpStatus>),
+    /// The MPC's `Ok`, with its status and the solver that answered.
+    Mpc(QpStatus, Solver),
     /// `Err` naming what was wrong: the non-finite value, "row", or the `QpFailed` status.
     Rejected(&'static str),
 }
@@ -43,10 +47,23 @@ enum Outcome {
 fn outcome(result: Result<Option<QpStatus>, CbfError>) -> Outcome {
     match result {
         Ok(status) => Outcome::Status(status),
-        Err(CbfError::NonFinite { what, .. }) => Outcome::Rejected(what),
-        Err(CbfError::NonFiniteRow { .. }) => Outcome::Rejected("row"),
-        Err(CbfError::QpFailed { status, .. }) => Outcome::Rejected(status),
-        Err(_) => Outcome::Rejected("another error"),
+        Err(e) => rejected(e),
+    }
+}
+
+fn mpc_outcome(result: Result<MpcOutput, CbfError>) -> Outcome {
+    match result {
+        Ok(out) => Outcome::Mpc(out.status, out.answered_by),
+        Err(e) => rejected(e),
+    }
+}
+
+fn rejected(e: CbfError) -> Outcome {
+    match e {
+        CbfError::NonFinite { what, .. } => Outcome::Rejected(what),
+        CbfError::NonFiniteRow { .. } => Outcome::Rejected("row"),
+        CbfError::QpFailed { status, .. } => Outcome::Rejected(status),
+        _ => Outcome::Rejected("another error"),
     }
 }
 
@@ -105,13 +122,26 @@ fn every_multilayer_path_allocates_nothing() {
     let one_iteration = SolverSettings { max_iter: 1, ..config.qp.solver };
     let cbf_qp = |settings: CbfQpSettings| IdCbfQp::new(settings, barrier).expect("CBF-QP");
     let one_iteration_qp = CbfQpSettings { solver: one_iteration, ..config.qp };
-    let one_iteration_mpc = MpcSettings { solver: SolverSettings { max_iter: 1, ..config.mpc.solver }, ..config.mpc };
+    let mpc_solver = |solver: SolverSettings| MpcSettings { solver, ..config.mpc };
+    // The dense paths' MPCs drive to 10 m below a boundary that stays between 1 and 3 m,
+    // from a state on it: the plan rides the boundary, every barrier row binds at every
+    // phase, and a cold dense solve takes many steps.
+    let pulled_down = |solver: SolverSettings| MpcSettings { q_ref: -10.0, ..mpc_solver(solver) };
+    let one_iteration_mpc = mpc_solver(SolverSettings { backend: Solver::Osqp, max_iter: 1, ..config.mpc.solver });
+    let one_dense_step =
+        pulled_down(SolverSettings { backend: Solver::Dense, dense_max_steps: 1, ..config.mpc.solver });
+    // OSQP at loose tolerances behind a one-step dense budget, so that it meets them on
+    // every run (the answer is OSQP's whatever it takes).
+    let fallback_mpc =
+        pulled_down(SolverSettings { dense_max_steps: 1, eps_abs: 1e-3, eps_rel: 1e-3, ..config.mpc.solver });
     let controller = || MultiLayerController::new(barrier, mode, config.mpc, config.qp, config.cycle_dt).unwrap();
     // A boundary the input bound cannot keep: h = −1 needs u ≥ k0 = 100 m/s², and |u| ≤ 1.
     let below = move |k: &Cycle| [barrier.boundary(k.t) - 1.0, 0.0];
+    let high = SineBarrier::new(1.0, 2.0, 2.0).expect("finite");
+    let on_high = move |k: &Cycle| [high.boundary(k.t), 0.0];
     use {Outcome::*, QpStatus::*};
     // One row per side path: name, what every run must do, the call.
-    let table: [(&str, Outcome, Call); 8] = [
+    let table: [(&str, Outcome, Call); 10] = [
         ("CBF-QP iteration limit", Status(Some(MaxIterations)), {
             let mut qp = cbf_qp(one_iteration_qp);
             Box::new(move |k| outcome(qp.solve(k.t, &k.x, flipping_command(k.run)).map(|o| o.status)))
@@ -128,9 +158,17 @@ fn every_multilayer_path_allocates_nothing() {
             let mut qp = cbf_qp(CbfQpSettings { u_max: 1.0, ..config.qp });
             Box::new(move |k| outcome(qp.solve(k.t, &below(k), flipping_command(k.run)).map(|o| o.status)))
         }),
-        ("MPC iteration limit", Status(Some(MaxIterations)), {
+        ("MPC OSQP iteration limit", Mpc(MaxIterations, Solver::Osqp), {
             let mut mpc = KinematicMpc::new(one_iteration_mpc, mode, barrier).expect("MPC");
-            Box::new(move |k| outcome(mpc.solve(k.t, &k.x).map(|o| Some(o.status))))
+            Box::new(move |k| mpc_outcome(mpc.solve(k.t, &k.x)))
+        }),
+        ("MPC dense step limit", Mpc(MaxIterations, Solver::Dense), {
+            let mut mpc = KinematicMpc::new(one_dense_step, mode, high).expect("MPC");
+            Box::new(move |k| mpc_outcome(mpc.solve(k.t, &on_high(k))))
+        }),
+        ("MPC dense out of steps, OSQP", Mpc(Solved, Solver::Osqp), {
+            let mut mpc = KinematicMpc::new(fallback_mpc, mode, high).expect("MPC");
+            Box::new(move |k| mpc_outcome(mpc.solve(k.t, &on_high(k))))
         }),
         ("MPC NaN velocity", Rejected("velocity"), {
             let mut mpc = KinematicMpc::new(config.mpc, mode, barrier).expect("MPC");
@@ -148,6 +186,7 @@ fn every_multilayer_path_allocates_nothing() {
     let mut side_paths = table.map(|(name, expect, call)| SidePath { call, tally: tally::Tally::new(name, expect) });
 
     let (mut ok, mut replans, mut injected, mut rejected) = (0usize, 0usize, 0usize, 0usize);
+    let mut dense_replans = 0usize;
     let ((), rust, c) = alloc_count::counting(|| {
         for cycle in 0..CYCLES {
             let t = cycle as f64 * config.cycle_dt;
@@ -163,6 +202,7 @@ fn every_multilayer_path_allocates_nothing() {
                 let Ok(out) = controller.control(t, x) else { continue };
                 ok += 1;
                 replans += usize::from(out.mpc.is_some());
+                dense_replans += usize::from(out.mpc.is_some_and(|m| m.answered_by == Solver::Dense));
                 let dt = config.cycle_dt;
                 *x = [x[0] + x[1] * dt + 0.5 * out.u * dt * dt, x[1] + out.u * dt];
             }
@@ -185,6 +225,7 @@ fn every_multilayer_path_allocates_nothing() {
     );
     assert_eq!(ok, systems * CYCLES, "every cycle must solve");
     assert_eq!(replans, systems * 80, "the MPC re-plans every 50 cycles");
+    assert_eq!(dense_replans, replans, "every re-plan takes the default, dense, path");
     assert!(injected > 0 && rejected == injected, "every NaN state must be rejected: {rejected} of {injected}");
     assert!(states.iter().all(|x| x[0] < 0.9), "the systems must have moved: {states:?}");
     for path in &side_paths {

@@ -20,9 +20,13 @@
 //! * it starts from the unconstrained minimum `−P⁻¹q` and adds violated rows one at a
 //!   time, so it needs no feasible starting point and works on exactly the rows that bind;
 //! * `P` is factorised once (`P = L Lᵀ`, `J = L⁻ᵀ`, at construction or on
-//!   [`DualActiveSet::set_hessian`]); a solve only rotates `J` and the active rows' triangle
-//!   `R` (`Jᵀ N = Q [R; 0]`, kept by Givens rotations as in Powell's stable variant), all
-//!   O(n²) per active-set change on buffers sized at construction;
+//!   [`DualActiveSet::set_hessian`]); a solve only updates the orthogonal factorisation
+//!   `Jᵀ N = [R; 0]` of the active normals `N` by Givens rotations of `J`'s columns and
+//!   `R`'s rows (the numerically stable form of the method: no normal equations, no
+//!   explicit inverse of `NᵀP⁻¹N`), O(n²) per active-set change on buffers sized at
+//!   construction, plus O(mn) per added row to find the most violated one. After each
+//!   full step the iterate and multipliers are recomputed from the factors
+//!   (`x = J₁R⁻ᵀb − J₂J₂ᵀq`), not accumulated, so rounding does not build up;
 //! * it terminates finitely: each full step strictly increases the dual objective, so no
 //!   active set repeats;
 //! * it detects infeasibility exactly: a violated row whose normal is a non-positive
