@@ -266,8 +266,7 @@ impl<const NU: usize> InputSpaceSolver<NU> {
             let Some(step) = self.newton_step(p, &gradient) else {
                 break Outcome::NonFinite;
             };
-            let face_optimal =
-                (0..NU).all(|j| step[j].abs() <= STEP_TOLERANCE * (1.0 + u[j].abs() + p.u_ref[j].abs()));
+            let face_optimal = (0..NU).all(|j| step[j].abs() <= STEP_TOLERANCE * (1.0 + u[j].abs() + p.u_ref[j].abs()));
             let d = Some(step);
             if face_optimal {
                 // Optimal on this face: verified if no held input would rather move inward.
