@@ -9,7 +9,7 @@
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
-use cbfgen::filter::{QpStatus, Solver, SolverSettings};
+use cbfgen::filter::{Backend, QpStatus, Solver, SolverSettings};
 use cbfgen::systems::lip::scenario::{run, Scenario, Walker};
 use cbfgen::systems::lip::{HalfPlane, LipMpc, LipState};
 use cbfgen::systems::multilayer::{KinematicMpc, MpcSettings, ScenarioConfig, State};
@@ -125,7 +125,7 @@ fn scenario_times() {
             for s in &result.steps {
                 times.push(s.outcome.solve_time);
                 inaccurate += usize::from(s.outcome.status == QpStatus::SolvedInaccurate);
-                by_osqp += usize::from(s.outcome.answered_by == Solver::Osqp);
+                by_osqp += usize::from(s.outcome.answered_by == Backend::Osqp);
                 steps += 1;
             }
         }
@@ -154,7 +154,7 @@ fn scenario_times() {
                 let started = Instant::now();
                 let out = mpc.solve(t, &x).expect("solved");
                 times.push(started.elapsed());
-                by_osqp += usize::from(out.answered_by == Solver::Osqp);
+                by_osqp += usize::from(out.answered_by == Backend::Osqp);
             }
         }
         let (median, max) = median_max(&mut times);

@@ -309,7 +309,7 @@ fn non_finite_input_is_an_error_and_an_obstacle_overlap_is_handled() {
     assert!(outcome.inside);
 }
 
-use cbfgen::filter::{QpStatus, Solver, SolverSettings};
+use cbfgen::filter::{Backend, QpStatus, Solver, SolverSettings};
 use cbfgen::qp::dual_active_set::{DenseStatus, KKT_TOLERANCE};
 
 /// The feet of the current plan, as the QP's variables `z`.
@@ -403,7 +403,7 @@ fn dense_plans_agree_with_clarabel_on_every_step_of_the_standard_course() {
     while !walker.at_goal() && steps < 100 {
         let outcome = walker.step().expect("step");
         let mpc = walker.mpc();
-        assert_eq!((outcome.status, outcome.answered_by), (QpStatus::Solved, Solver::Dense), "step {steps}");
+        assert_eq!((outcome.status, outcome.answered_by), (QpStatus::Solved, Backend::Dense), "step {steps}");
         assert_eq!((outcome.iterations, mpc.dense_status()), (0, Some(DenseStatus::Solved)), "OSQP never ran");
         dense_steps.push(outcome.dense_steps);
         let qp = mpc.qp();
@@ -454,9 +454,12 @@ fn both_backends_walk_the_course_and_the_default_never_needs_osqp_or_settles_for
     for (name, result) in [("dense", &dense), ("OSQP", &reference)] {
         assert!(result.reached_goal && result.failure.is_none(), "{name}: {:?}", result.failure);
     }
-    assert!(dense.steps.iter().all(|s| s.outcome.status == QpStatus::Solved && s.outcome.answered_by == Solver::Dense));
+    assert!(dense
+        .steps
+        .iter()
+        .all(|s| s.outcome.status == QpStatus::Solved && s.outcome.answered_by == Backend::Dense));
     assert!(dense.steps.iter().all(|s| s.outcome.iterations == 0 && s.outcome.dense_steps <= 100));
-    assert!(reference.steps.iter().all(|s| s.outcome.answered_by == Solver::Osqp && s.outcome.dense_steps == 0));
+    assert!(reference.steps.iter().all(|s| s.outcome.answered_by == Backend::Osqp && s.outcome.dense_steps == 0));
     // (The two walks are not compared step by step: OSQP's plans are optimal only to its
     // tolerances, and the closed loop carries a millimetre's difference on.)
     assert!(dense.summary().contains("OSQP answered 0 of"), "{}", dense.summary());
@@ -487,7 +490,7 @@ fn out_of_dense_steps_is_flagged_or_handed_to_osqp() {
     assert_eq!(short.solve(&x0, goal, stance, &planes).expect("solve"), QpStatus::MaxIterations);
     assert_eq!(
         (short.answered_by(), short.dense_status(), short.iterations()),
-        (Solver::Dense, Some(DenseStatus::MaxSteps), 0)
+        (Backend::Dense, Some(DenseStatus::MaxSteps), 0)
     );
     assert_eq!(short.dense_steps(), needed - 1);
     assert_eq!(short.plan(), &empty, "an unconverged iterate is not a plan");
@@ -495,7 +498,7 @@ fn out_of_dense_steps_is_flagged_or_handed_to_osqp() {
     // Dense then OSQP, one step short: OSQP answers, with the same feet to its tolerance.
     let mut fallback = LipMpc::new(params, planes.len(), budget(Solver::DenseThenOsqp, needed - 1)).expect("mpc");
     assert!(fallback.solve(&x0, goal, stance, &planes).expect("solve").is_solved());
-    assert_eq!((fallback.answered_by(), fallback.dense_status()), (Solver::Osqp, Some(DenseStatus::MaxSteps)));
+    assert_eq!((fallback.answered_by(), fallback.dense_status()), (Backend::Osqp, Some(DenseStatus::MaxSteps)));
     assert!(fallback.iterations() > 0);
     let (a, b) = (plan_feet(&exact), plan_feet(&fallback));
     let gap = a.iter().zip(&b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
@@ -520,7 +523,7 @@ fn contradicting_half_planes_are_infeasible_for_both_solvers() {
         let status = mpc.solve(&[0.0; 5], [3.0, 0.0], 1.0, &planes).expect("solve");
         assert_eq!(mpc.dense_status(), Some(DenseStatus::Infeasible), "{backend:?}");
         assert_eq!(status, QpStatus::PrimalInfeasible, "{backend:?}: {:?}", mpc.answered_by());
-        let expected = if backend == Solver::Dense { Solver::Dense } else { Solver::Osqp };
+        let expected = if backend == Solver::Dense { Backend::Dense } else { Backend::Osqp };
         assert_eq!(mpc.answered_by(), expected);
         assert_eq!(mpc.plan(), &plan, "{backend:?}: the last plan is kept");
     }

@@ -183,7 +183,7 @@ fn the_figures_show_every_variant_and_the_boundary() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-use cbfgen::filter::{QpStatus, Solver, SolverSettings};
+use cbfgen::filter::{Backend, QpStatus, Solver, SolverSettings};
 use cbfgen::qp::dual_active_set::DenseStatus;
 
 /// The MPC's QP in its sparse form, written out here from the module docs (`z = [q_0..q_N,
@@ -289,7 +289,7 @@ fn dense_plans_agree_with_clarabel_on_the_sparse_form_in_every_mode() {
             let s = config.barrier.boundary(t);
             let x = [s + rng.random_range(-0.2..1.5), rng.random_range(-3.0..3.0)];
             let out = mpc.solve(t, &x).unwrap();
-            assert_eq!((out.status, out.answered_by, out.iterations), (QpStatus::Solved, Solver::Dense, 0));
+            assert_eq!((out.status, out.answered_by, out.iterations), (QpStatus::Solved, Backend::Dense, 0));
             assert_eq!(mpc.dense_status(), Some(DenseStatus::Solved));
             binding += usize::from(mpc.dense_solver().is_some_and(|d| !d.active_set().is_empty()));
             let (q, v) = (mpc.planned_positions(), mpc.planned_velocities());
@@ -364,20 +364,20 @@ fn out_of_dense_steps_is_flagged_or_handed_to_osqp() {
 
     let mut short = KinematicMpc::new(with(Solver::Dense, needed - 1), mode, config.barrier).unwrap();
     let out = short.solve(t, &x).unwrap();
-    assert_eq!((out.status, out.answered_by, out.dense_steps), (QpStatus::MaxIterations, Solver::Dense, needed - 1));
+    assert_eq!((out.status, out.answered_by, out.dense_steps), (QpStatus::MaxIterations, Backend::Dense, needed - 1));
     assert_eq!(short.dense_status(), Some(DenseStatus::MaxSteps));
     assert!(out.desired_accel.is_finite(), "the iterate it reached, flagged");
 
     let mut fallback = KinematicMpc::new(with(Solver::DenseThenOsqp, needed - 1), mode, config.barrier).unwrap();
     let out = fallback.solve(t, &x).unwrap();
-    assert!(out.status.is_solved() && out.answered_by == Solver::Osqp && out.iterations > 0, "{out:?}");
+    assert!(out.status.is_solved() && out.answered_by == Backend::Osqp && out.iterations > 0, "{out:?}");
     let gap = (out.desired_accel - reference.desired_accel).abs();
     assert!(gap < 1e-2 * (1.0 + reference.desired_accel.abs()), "OSQP's {out:?} vs {reference:?}");
 
     // OSQP alone: today's path, no dense solver at all.
     let mut osqp = KinematicMpc::new(with(Solver::Osqp, 100), mode, config.barrier).unwrap();
     let out = osqp.solve(t, &x).unwrap();
-    assert!(out.status.is_solved() && out.answered_by == Solver::Osqp && out.dense_steps == 0, "{out:?}");
+    assert!(out.status.is_solved() && out.answered_by == Backend::Osqp && out.dense_steps == 0, "{out:?}");
     assert!(osqp.dense_solver().is_none() && osqp.dense_status().is_none());
     let gap = (out.desired_accel - reference.desired_accel).abs();
     assert!(gap < 1e-2 * (1.0 + reference.desired_accel.abs()), "OSQP's {out:?} vs {reference:?}");

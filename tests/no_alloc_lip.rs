@@ -18,7 +18,7 @@ mod tally;
 
 use std::time::Duration;
 
-use cbfgen::filter::{QpStatus, Solver, SolverSettings};
+use cbfgen::filter::{Backend, QpStatus, Solver, SolverSettings};
 use cbfgen::systems::lip::scenario::{Scenario, Walker};
 use cbfgen::systems::lip::{HalfPlane, LipMpc, LipState};
 use cbfgen::CbfError;
@@ -36,7 +36,7 @@ fn main() {
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Outcome {
     /// `Ok` with this status, from this solver.
-    Status(QpStatus, Solver),
+    Status(QpStatus, Backend),
     /// `Err` naming what was wrong, with the MPC's status and plan left as they were.
     Rejected(&'static str),
     /// A documented property failed (named); never expected.
@@ -161,10 +161,10 @@ fn every_mpc_step_path_allocates_nothing() {
     // One row per side path: name, solver settings, feed, what every run must do.
     #[rustfmt::skip]
     let table = [
-        ("OSQP iteration limit", one_iteration, Feed::Walk, Status(MaxIterations, Solver::Osqp)),
-        ("OSQP time limit", one_nanosecond, Feed::Walk, Status(TimeLimit, Solver::Osqp)),
-        ("dense step limit", one_dense_step, Feed::FarGoal, Status(MaxIterations, Solver::Dense)),
-        ("dense out of steps, OSQP", fallback, Feed::FarGoal, Status(Solved, Solver::Osqp)),
+        ("OSQP iteration limit", one_iteration, Feed::Walk, Status(MaxIterations, Backend::Osqp)),
+        ("OSQP time limit", one_nanosecond, Feed::Walk, Status(TimeLimit, Backend::Osqp)),
+        ("dense step limit", one_dense_step, Feed::FarGoal, Status(MaxIterations, Backend::Dense)),
+        ("dense out of steps, OSQP", fallback, Feed::FarGoal, Status(Solved, Backend::Osqp)),
         ("NaN state", default, Feed::NanState, Rejected("LIP state")),
         ("NaN goal", default, Feed::NanGoal, Rejected("goal x")),
         ("NaN half-plane", default, Feed::NanPlane, Rejected("obstacle half-plane")),
@@ -198,7 +198,7 @@ fn every_mpc_step_path_allocates_nothing() {
 
             let Ok(outcome) = walker.step() else { break };
             steps += 1;
-            dense += usize::from(outcome.answered_by == Solver::Dense);
+            dense += usize::from(outcome.answered_by == Backend::Dense);
             let walked = Problem {
                 x0: *walker.local_start(),
                 goal: walker.frame().point_to_local(scenario.goal),

@@ -16,7 +16,7 @@ mod alloc_count;
 #[path = "common/tally.rs"]
 mod tally;
 
-use cbfgen::filter::{QpStatus, Solver, SolverSettings};
+use cbfgen::filter::{Backend, QpStatus, Solver, SolverSettings};
 use cbfgen::systems::multilayer::{
     CbfQpSettings, IdCbfQp, KinematicMpc, MpcOutput, MpcSettings, MultiLayerController, ScenarioConfig, SineBarrier,
     State,
@@ -39,7 +39,7 @@ enum Outcome {
     /// `Ok` with this status (`None`: the filter attempted no solve).
     Status(Option<QpStatus>),
     /// The MPC's `Ok`, with its status and the solver that answered.
-    Mpc(QpStatus, Solver),
+    Mpc(QpStatus, Backend),
     /// `Err` naming what was wrong: the non-finite value, "row", or the `QpFailed` status.
     Rejected(&'static str),
 }
@@ -159,15 +159,15 @@ fn every_multilayer_path_allocates_nothing() {
             let mut qp = cbf_qp(CbfQpSettings { u_max: 1.0, ..config.qp });
             Box::new(move |k| outcome(qp.solve(k.t, &below(k), flipping_command(k.run)).map(|o| o.status)))
         }),
-        ("MPC OSQP iteration limit", Mpc(MaxIterations, Solver::Osqp), {
+        ("MPC OSQP iteration limit", Mpc(MaxIterations, Backend::Osqp), {
             let mut mpc = KinematicMpc::new(one_iteration_mpc, mode, barrier).expect("MPC");
             Box::new(move |k| mpc_outcome(mpc.solve(k.t, &k.x)))
         }),
-        ("MPC dense step limit", Mpc(MaxIterations, Solver::Dense), {
+        ("MPC dense step limit", Mpc(MaxIterations, Backend::Dense), {
             let mut mpc = KinematicMpc::new(one_dense_step, mode, high).expect("MPC");
             Box::new(move |k| mpc_outcome(mpc.solve(k.t, &on_high(k))))
         }),
-        ("MPC dense out of steps, OSQP", Mpc(Solved, Solver::Osqp), {
+        ("MPC dense out of steps, OSQP", Mpc(Solved, Backend::Osqp), {
             let mut mpc = KinematicMpc::new(fallback_mpc, mode, high).expect("MPC");
             Box::new(move |k| mpc_outcome(mpc.solve(k.t, &on_high(k))))
         }),
@@ -203,7 +203,7 @@ fn every_multilayer_path_allocates_nothing() {
                 let Ok(out) = controller.control(t, x) else { continue };
                 ok += 1;
                 replans += usize::from(out.mpc.is_some());
-                dense_replans += usize::from(out.mpc.is_some_and(|m| m.answered_by == Solver::Dense));
+                dense_replans += usize::from(out.mpc.is_some_and(|m| m.answered_by == Backend::Dense));
                 let dt = config.cycle_dt;
                 *x = [x[0] + x[1] * dt + 0.5 * out.u * dt * dt, x[1] + out.u * dt];
             }

@@ -3,6 +3,7 @@
 
 use std::time::Duration;
 
+use super::qp::{Backend, QpStatus};
 use crate::error::{within, CbfError};
 use crate::system::{FamilyInfo, FamilyParams};
 
@@ -210,6 +211,25 @@ pub enum Solver {
 impl Solver {
     /// Every choice, in declaration order.
     pub const ALL: [Solver; 3] = [Solver::Dense, Solver::Osqp, Solver::DenseThenOsqp];
+
+    /// Solve `qp` as this choice says — the dense solve, OSQP, or the dense solve and OSQP
+    /// only when it did not return [`QpStatus::Solved`] — and say who answered. Shared by
+    /// the QPs whose dense solve and OSQP solve are separate steps (the MPCs).
+    pub(crate) fn run<Q>(
+        self,
+        qp: &mut Q,
+        mut dense: impl FnMut(&mut Q) -> QpStatus,
+        mut osqp: impl FnMut(&mut Q) -> QpStatus,
+    ) -> (QpStatus, Backend) {
+        match self {
+            Solver::Osqp => (osqp(qp), Backend::Osqp),
+            Solver::Dense => (dense(qp), Backend::Dense),
+            Solver::DenseThenOsqp => match dense(qp) {
+                QpStatus::Solved => (QpStatus::Solved, Backend::Dense),
+                _ => (osqp(qp), Backend::Osqp),
+            },
+        }
+    }
 
     /// Snake-case name, as accepted and shown in Python.
     pub const fn name(self) -> &'static str {

@@ -70,7 +70,7 @@ use super::model::{LipInput, LipState};
 use super::obstacles::HalfPlane;
 use super::LipParams;
 use crate::error::CbfError;
-use crate::filter::{Iterate, QpStatus, Solver, SolverSettings};
+use crate::filter::{Backend, Iterate, QpStatus, Solver, SolverSettings};
 use crate::qp::dual_active_set::{ActiveRow, DenseStatus, DualActiveSet, WarmStart};
 use crate::qp::osqp_workspace::{self, OsqpQp};
 
@@ -380,8 +380,8 @@ pub struct LipMpc {
     dense_steps: u32,
     /// How the last dense attempt ended (`None` when it did not run).
     dense_status: Option<DenseStatus>,
-    /// Which solver produced the last status: [`Solver::Dense`] or [`Solver::Osqp`].
-    answered_by: Solver,
+    /// Which solver produced the last status.
+    answered_by: Backend,
 }
 
 impl std::fmt::Debug for LipMpc {
@@ -472,7 +472,7 @@ impl LipMpc {
             iterations: 0,
             dense_steps: 0,
             dense_status: None,
-            answered_by: if settings.backend == Solver::Osqp { Solver::Osqp } else { Solver::Dense },
+            answered_by: if settings.backend == Solver::Osqp { Backend::Osqp } else { Backend::Dense },
         };
         mpc.write_values();
         if settings.backend != Solver::Osqp {
@@ -565,14 +565,8 @@ impl LipMpc {
         }
         self.write_values();
         (self.iterations, self.dense_steps, self.dense_status) = (0, 0, None);
-        let status = match self.settings.backend {
-            Solver::Osqp => self.solve_osqp(),
-            Solver::Dense => self.solve_dense(),
-            Solver::DenseThenOsqp => match self.solve_dense() {
-                QpStatus::Solved => QpStatus::Solved,
-                _ => self.solve_osqp(),
-            },
-        };
+        let status;
+        (status, self.answered_by) = self.settings.backend.run(self, Self::solve_dense, osqp_workspace::solve);
         self.status = status;
         Ok(status)
     }
@@ -582,7 +576,6 @@ impl LipMpc {
     /// `k + 1` is likely to bind at step `k` now; the last step keeps its own rows too).
     /// Keeps the plan only when the KKT check passed.
     fn solve_dense(&mut self) -> QpStatus {
-        self.answered_by = Solver::Dense;
         let Some(dense) = self.dense.as_mut() else { return QpStatus::SolverFault };
         let vars = self.lin.layout.vars();
         let data = dense.data_mut();
@@ -611,11 +604,6 @@ impl LipMpc {
             }
         }
         status.qp_status()
-    }
-
-    fn solve_osqp(&mut self) -> QpStatus {
-        self.answered_by = Solver::Osqp;
-        osqp_workspace::solve(self)
     }
 
     /// The last solved plan.
@@ -649,9 +637,9 @@ impl LipMpc {
         self.dense.as_ref()
     }
 
-    /// Which solver gave the last status: [`Solver::Dense`], or [`Solver::Osqp`] when
-    /// OSQP is the backend or ran as the fallback.
-    pub fn answered_by(&self) -> Solver {
+    /// Which solver gave the last status: [`Backend::Osqp`] when OSQP is the backend or
+    /// ran as the fallback.
+    pub fn answered_by(&self) -> Backend {
         self.answered_by
     }
 

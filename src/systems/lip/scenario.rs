@@ -13,7 +13,7 @@ use super::mpc::LipMpc;
 use super::obstacles::{HalfPlane, Rectangle};
 use super::LipParams;
 use crate::error::{finite, positive, CbfError};
-use crate::filter::{QpStatus, Solver, SolverSettings};
+use crate::filter::{Backend, QpStatus, SolverSettings};
 
 /// Start, goal, obstacles and limits of one navigation run.
 #[derive(Debug, Clone, PartialEq)]
@@ -59,8 +59,8 @@ impl Scenario {
 pub struct StepOutcome {
     /// The status of this step's MPC solve, from the solver that answered.
     pub status: QpStatus,
-    /// Which solver answered: [`Solver::Dense`] or [`Solver::Osqp`].
-    pub answered_by: Solver,
+    /// Which solver answered.
+    pub answered_by: Backend,
     /// OSQP's ADMM iterations in that solve (0 when OSQP did not run).
     pub iterations: u32,
     /// The dense solve's active-set changes in that solve (0 when it did not run).
@@ -273,7 +273,7 @@ impl RunResult {
         let iterations: Vec<u32> = self.steps.iter().map(|s| s.outcome.iterations).collect();
         let max_iter = iterations.iter().max().copied().unwrap_or(0);
         let inaccurate = self.steps.iter().filter(|s| s.outcome.status == QpStatus::SolvedInaccurate).count();
-        let by_osqp = self.steps.iter().filter(|s| s.outcome.answered_by == Solver::Osqp).count();
+        let by_osqp = self.steps.iter().filter(|s| s.outcome.answered_by == Backend::Osqp).count();
         let dense_steps = self.steps.iter().map(|s| s.outcome.dense_steps).max().unwrap_or(0);
         let p = &self.scenario.params;
         format!(

@@ -46,7 +46,7 @@ use osqp::Problem;
 use super::barrier::{check_state, SineBarrier, State};
 use super::solver::{Csc, INF};
 use crate::error::{within, CbfError};
-use crate::filter::{Iterate, QpStatus, Solver, SolverSettings};
+use crate::filter::{Backend, Iterate, QpStatus, Solver, SolverSettings};
 use crate::qp::dual_active_set::{ActiveRow, DenseStatus, DualActiveSet, WarmStart};
 use crate::qp::osqp_workspace::{self, OsqpQp};
 
@@ -133,8 +133,8 @@ pub struct MpcOutput {
     /// `Solved`, `SolvedInaccurate`, or a limit (its iterate, flagged), from the solver
     /// that answered.
     pub status: QpStatus,
-    /// Which solver answered: [`Solver::Dense`] or [`Solver::Osqp`].
-    pub answered_by: Solver,
+    /// Which solver answered.
+    pub answered_by: Backend,
     /// OSQP's ADMM iterations in this solve (0 when OSQP did not run).
     pub iterations: u32,
     /// The dense solve's active-set changes in this solve (0 when it did not run).
@@ -340,14 +340,8 @@ impl KinematicMpc {
             }
         }
         (self.iterations, self.dense_steps, self.dense_status) = (0, 0, None);
-        let (status, answered_by) = match self.settings.solver.backend {
-            Solver::Osqp => (osqp_workspace::solve(self), Solver::Osqp),
-            Solver::Dense => (self.solve_dense(x), Solver::Dense),
-            Solver::DenseThenOsqp => match self.solve_dense(x) {
-                QpStatus::Solved => (QpStatus::Solved, Solver::Dense),
-                _ => (osqp_workspace::solve(self), Solver::Osqp),
-            },
-        };
+        let (status, answered_by) =
+            self.settings.solver.backend.run(self, |mpc| mpc.solve_dense(x), osqp_workspace::solve);
         let (iterations, dense_steps) = (self.iterations, self.dense_steps);
         if !matches!(
             status,
