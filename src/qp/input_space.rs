@@ -32,14 +32,21 @@
 //!
 //! The held inputs are a working set, as in a primal active-set method: an input joins
 //! it when a step runs into its bound, and leaves it only at a point that is optimal on
-//! the current face and whose multiplier for that input has the wrong sign, one input at
-//! a time. (Releasing an input whenever its gradient points inward lets the coupling drag
-//! it back to the bound on the next step: a zigzag that approaches the answer only
-//! geometrically.) Every step decreases `F` (a Newton direction on a positive definite
-//! model, with an exact search), so no face is visited twice with the same rows; once the
-//! piece and the held inputs are right the next step is exact. A step budget bounds the
-//! work; a solve that has not verified within it says so, and the filter falls back to
-//! OSQP.
+//! the current face and whose multiplier for that input has the wrong sign (all such
+//! inputs at once). (Releasing an input whenever its gradient points inward lets the
+//! coupling drag it back to the bound on the next step: a zigzag that approaches the
+//! answer only geometrically.) Every step decreases `F` (a Newton direction on a positive
+//! definite model, with an exact search), so no face is visited twice with the same rows;
+//! once the piece and the held inputs are right the next step is exact. A step budget
+//! bounds the work; a solve that has not verified within it says so, and the filter falls
+//! back to OSQP.
+//!
+//! **Rows on their kink.** An exact line search often stops where a row's value crosses
+//! zero. There `F` has two curvatures, and the Newton model takes the row's stiffness only
+//! if the step moves the row into violation (see `InputSpaceSolver::model`); the test for
+//! releasing a held input does the same along the release. A stiff row counted on the
+//! side where it does not act shrinks the step to nothing and lets a wrong face pass for
+//! optimal.
 //!
 //! A dual active-set method (Goldfarb–Idnani) was the alternative. It terminates finitely
 //! too, but works in the space of the constraints: every violated row adds a slack
@@ -64,19 +71,26 @@
 //!   measures exactly that. (A per-entry gradient test relative to its terms' size is not
 //!   enough: a stiff row on its kink inflates every entry's size, and residuals in
 //!   directions of small curvature pass.)
-//! * **held inputs**: the move `|∂F/∂u_j| / H_jj` a held input would make inward if
-//!   released is below the same tolerance.
+//! * **held inputs**: the move a held input would make inward if released, with the free
+//!   inputs re-optimised (its pull over the Schur complement of the free block), is below
+//!   the same tolerance.
+//!
+//! Where the rounding of the row values alone moves the step by more than that (stiff
+//! rows in conflict, `a` and nearly `−a`, both violated), a step within that rounding
+//! counts as zero, but only up to [`ROUNDING_LIMIT`] `· (1 + |u_j| + |r_j|)`: beyond it the
+//! point is not accepted at all (rows of `1e150` can end at [`Outcome::StepLimit`] that
+//! way, the flagged fallback, rather than with an answer nobody can confirm).
 //!
 //! The distance to the true optimum is then about the size of the step not taken, in each
 //! input's own units. (A tolerance on the row values, as a polish of an ADMM active set
 //! uses, is in the wrong units for stiff rows: a row value within `1e-9 |b|` can be a
 //! multiplier large enough to move `u` by metres per second squared.)
 //!
-//! Known limit: a stiff row lying exactly on its kink at the optimum acts like a
-//! constraint, and the tests above do not check its multiplier; on such synthetic
-//! instances a wrong face can pass (`tests/input_space.rs`, the ignored tests).
+//! `tests/input_space.rs` checks all of this against Clarabel, exact optima of reduced
+//! cases (rational arithmetic) and warm against cold starts, on random and degenerate
+//! instances including stiff rows on their kinks and stiff rows in conflict.
 
-use nalgebra::{SMatrix, SVector};
+use nalgebra::{Cholesky, Const, SMatrix, SVector};
 
 use crate::error::CbfError;
 
@@ -87,8 +101,18 @@ const ROUNDING_TOLERANCE: f64 = 1e-13;
 /// Relative tolerance of the Newton-step test, in each input's units.
 pub const STEP_TOLERANCE: f64 = 1e-10;
 
+/// The most rounding a verified answer may carry, relative to `1 + |u_j| + |r_j|`:
+/// a step within the rounding of the row values is accepted as zero only while that
+/// rounding is below this (else the point is no answer, only a place where the gradient
+/// is noise).
+pub const ROUNDING_LIMIT: f64 = 1e-8;
+
 /// A row value within this fraction of its terms' size counts as on its kink (zero).
 const KINK_TOLERANCE: f64 = 1e-13;
+
+/// The rounding of a row value, as a fraction of its terms' size (a few units of
+/// round-off for the dot product of up to a few dozen terms).
+const VALUE_ROUNDING: f64 = 8.0 * f64::EPSILON;
 
 /// One soft row: it holds when `a·u + b ≥ 0`; a violation `δ = −(a·u + b) > 0` costs
 /// `weight · δ²`.
@@ -171,6 +195,9 @@ pub struct InputSpaceSolver<const NU: usize> {
     magnitude: Vec<f64>,
     /// `a_i·d` along the search direction.
     rate: Vec<f64>,
+    /// Per row: its curvature is in the Newton model (violated, or on its kink and
+    /// violated by the step).
+    in_model: Vec<bool>,
     /// Per row: violated at the answer (`a_i·u + b_i < 0`).
     violated: Vec<bool>,
     held: [Bound; NU],
@@ -188,6 +215,7 @@ impl<const NU: usize> InputSpaceSolver<NU> {
             value: vec![0.0; capacity],
             magnitude: vec![0.0; capacity],
             rate: vec![0.0; capacity],
+            in_model: vec![false; capacity],
             violated: vec![false; capacity],
             held: [Bound::Free; NU],
             u: [0.0; NU],
@@ -258,21 +286,36 @@ impl<const NU: usize> InputSpaceSolver<NU> {
                 held_from_gradient = false;
             }
             // Optimal on this face when the Newton step that remains is below the step
-            // tolerance in each input's units (module docs).
-            let Some(step) = self.newton_step(p, &gradient) else {
+            // tolerance in each input's units, or within what rounding of the row values
+            // can explain (module docs).
+            let Some(model) = self.model(p, &gradient) else {
                 break Outcome::NonFinite;
             };
-            let face_optimal = (0..NU).all(|j| step[j].abs() <= STEP_TOLERANCE * (1.0 + u[j].abs() + p.u_ref[j].abs()));
+            let step = model.step;
+            let unit = |j: usize| 1.0 + u[j].abs() + p.u_ref[j].abs();
+            let tolerance: [f64; NU] = std::array::from_fn(|j| STEP_TOLERANCE * unit(j));
+            let face_optimal = (0..NU).all(|j| step[j].abs() <= tolerance[j])
+                || (0..NU).all(|j| step[j].abs() <= tolerance[j] + ROUNDING_LIMIT * unit(j)) && {
+                    // Only a step this small can be rounding: worth the inverse it takes.
+                    let noise = self.step_rounding(p, &u, &model);
+                    (0..NU).all(|j| {
+                        let allowance = noise[j].min(ROUNDING_LIMIT * unit(j));
+                        step[j].abs() <= tolerance[j] + allowance
+                    })
+                };
             if face_optimal {
                 // Optimal on this face: verified if no held input would rather move inward.
-                let Some(j) = self.wrong_multiplier(p, &u, &gradient) else {
-                    break Outcome::Verified;
-                };
                 if self.steps >= max_steps {
-                    break Outcome::StepLimit;
+                    // Out of budget: verified only if nothing is left to release.
+                    let held = self.held;
+                    let released = self.release_wrong_bounds(p, &u, &gradient, &model, &tolerance);
+                    self.held = held;
+                    break if released { Outcome::StepLimit } else { Outcome::Verified };
+                }
+                if !self.release_wrong_bounds(p, &u, &gradient, &model, &tolerance) {
+                    break Outcome::Verified;
                 }
                 self.steps += 1;
-                self.held[j] = Bound::Free;
                 continue;
             }
             let d = step;
@@ -364,26 +407,97 @@ impl<const NU: usize> InputSpaceSolver<NU> {
         }
     }
 
-    /// `H_V d = −∇F` on the free inputs (`d = 0` on held ones); `None` if not finite.
-    fn newton_step(&self, p: &Problem<'_, NU>, gradient: &[f64; NU]) -> Option<SVector<f64, NU>> {
-        let mut h = self.hessian(p);
-        let mut rhs = SVector::<f64, NU>::from_fn(|j, _| -gradient[j]);
-        fix_held(&mut h, &mut rhs, &self.held, &[0.0; NU]);
-        let d = h.cholesky()?.solve(&rhs);
-        d.iter().all(|v| v.is_finite()).then_some(d)
+    /// The Newton model at the evaluated point: `H_V` over the violated rows and the
+    /// rows on their kink that the step would violate, and the step `H_V d = −∇F` on the
+    /// free inputs (`d = 0` on held ones); `None` if not finite.
+    ///
+    /// An exact line search often ends exactly on a kink: a row crossing zero. Such a row
+    /// is in the model when the step moves it into violation: left out, its curvature
+    /// would be missing from the step, which would run into the same kink again after no
+    /// progress — a stall. It is out when the step moves it clear: in, its stiffness
+    /// would shrink a step that the function, flat on that side, does not resist, and a
+    /// wrong face could pass for optimal. One row's step keeps its sign whether or not
+    /// the row is in (Sherman–Morrison: `a·d` only shrinks by `1 + s aᵀH⁻¹a`), so rows the
+    /// step clears are dropped until none is left: at most one pass per kink row.
+    fn model(&mut self, p: &Problem<'_, NU>, gradient: &[f64; NU]) -> Option<Model<NU>> {
+        let violated = hessian_of(p, |i| self.value[i] < -KINK_TOLERANCE * self.magnitude[i]);
+        for i in 0..p.rows.len() {
+            self.in_model[i] = self.value[i] <= KINK_TOLERANCE * self.magnitude[i];
+        }
+        let rhs = SVector::<f64, NU>::from_fn(|j, _| -gradient[j]);
+        loop {
+            let mut hessian = violated;
+            for (i, row) in p.rows.iter().enumerate() {
+                if self.in_model[i] && self.on_kink(i) {
+                    let a = SVector::<f64, NU>::from_row_slice(&row.a);
+                    hessian.ger(2.0 * row.weight, &a, &a, 1.0);
+                }
+            }
+            let (mut fixed, mut fixed_rhs) = (hessian, rhs);
+            fix_held(&mut fixed, &mut fixed_rhs, &self.held, &[0.0; NU]);
+            let factor = fixed.cholesky()?;
+            let step = factor.solve(&fixed_rhs);
+            if !step.iter().all(|v| v.is_finite()) {
+                return None;
+            }
+            let mut dropped = false;
+            for (i, row) in p.rows.iter().enumerate() {
+                if self.in_model[i]
+                    && self.on_kink(i)
+                    && row.a.iter().zip(step.iter()).map(|(a, d)| a * d).sum::<f64>() > 0.0
+                {
+                    self.in_model[i] = false;
+                    dropped = true;
+                }
+            }
+            if !dropped {
+                return Some(Model { violated, hessian, factor, step });
+            }
+        }
     }
 
-    /// `H_V = 2 W + 2 Σ_{violated} s_i a_i a_iᵀ` at the evaluated point, counting a row
-    /// whose value is zero to rounding as violated.
+    /// Row `i`'s value is zero within the rounding of its terms.
+    fn on_kink(&self, i: usize) -> bool {
+        self.value[i].abs() <= KINK_TOLERANCE * self.magnitude[i]
+    }
+
+    /// Per input, how far rounding can move the Newton step — the accuracy the problem
+    /// itself allows. Two sources, each mapped through `H⁻¹` on the free inputs:
+    /// * each model row's value carries an error of about `VALUE_ROUNDING · |terms|`,
+    ///   which enters the gradient as `2 s_i · error · a_i`;
+    /// * each gradient entry is a sum of terms `2 s_i v_i a_ij` that may cancel, with an
+    ///   error of about `VALUE_ROUNDING` times their absolute sum (bounded through
+    ///   `|H⁻¹|`, since its direction is unknown).
     ///
-    /// An exact line search often ends exactly on a kink: a row crossing zero. Left out of
-    /// `H`, that row's curvature is missing from the next Newton step, which then points
-    /// the same way again and is stopped at the same kink after no progress — a stall. Taken
-    /// in, the step stays on the kink where the optimum lies there, and where it does not,
-    /// the line search continues past it (beyond the kink `F` has less curvature than the
-    /// model assumed, so the search only goes further).
-    fn hessian(&self, p: &Problem<'_, NU>) -> SMatrix<f64, NU, NU> {
-        hessian_of(p, |i| self.value[i] <= KINK_TOLERANCE * self.magnitude[i])
+    /// With conflicting stiff rows (`a` and nearly `−a`, both violated) the second term
+    /// moves the optimum along the soft direction between them by more than the step
+    /// tolerance: without this allowance the solve would chase rounding until the line
+    /// search finds no descent. Where rows are mild both terms are far below the
+    /// tolerance, so the allowance never excuses a real step. Only computed when the
+    /// plain test fails (one `NU × NU` inverse).
+    fn step_rounding(&self, p: &Problem<'_, NU>, u: &[f64; NU], model: &Model<NU>) -> [f64; NU] {
+        let inverse = model.factor.inverse();
+        let free = |j: usize| self.held[j] == Bound::Free;
+        let mut noise = [0.0; NU];
+        let mut sum_rounding: [f64; NU] =
+            std::array::from_fn(|k| VALUE_ROUNDING * 2.0 * p.weights[k] * (u[k].abs() + p.u_ref[k].abs()));
+        for (i, row) in p.rows.iter().enumerate() {
+            if !self.in_model[i] {
+                continue;
+            }
+            let a = SVector::<f64, NU>::from_fn(|j, _| if free(j) { row.a[j] } else { 0.0 });
+            let direction = inverse * a;
+            let value_rounding = 2.0 * row.weight * VALUE_ROUNDING * self.magnitude[i];
+            let pull = 2.0 * row.weight * VALUE_ROUNDING * self.value[i].abs();
+            for j in 0..NU {
+                noise[j] += direction[j].abs() * value_rounding;
+                sum_rounding[j] += pull * row.a[j].abs();
+            }
+        }
+        for j in (0..NU).filter(|&j| free(j)) {
+            noise[j] += (0..NU).filter(|&k| free(k)).map(|k| inverse[(j, k)].abs() * sum_rounding[k]).sum::<f64>();
+        }
+        noise
     }
 
     /// Put input `j` at the bound its step `direction` runs into, and hold it there.
@@ -392,30 +506,96 @@ impl<const NU: usize> InputSpaceSolver<NU> {
             if direction > 0.0 { (p.input_max[j], Bound::Upper) } else { (p.input_min[j], Bound::Lower) };
     }
 
-    /// The held input whose multiplier has the wrong sign by the most, judged in input
-    /// units: the move `|∂F/∂u_j| / H_jj` it would make inward if released must stay below
-    /// the step tolerance. (A test against the gradient's term size would let a stiff row
-    /// elsewhere excuse a real pull.) A box of zero width is never released.
-    fn wrong_multiplier(&self, p: &Problem<'_, NU>, u: &[f64; NU], gradient: &[f64; NU]) -> Option<usize> {
-        let h = self.hessian(p);
-        let mut worst = None;
-        let mut worst_excess = 0.0;
+    /// Release every held input whose multiplier has the wrong sign; `false` if there is
+    /// none (the face optimum is the answer).
+    ///
+    /// Judged in input units: released alone, with the free inputs re-optimised, input
+    /// `j` would move inward by `pull_j / S_jj`, where `pull_j = ∂F/∂u_j + H_jF d_F` is its
+    /// gradient corrected by the free inputs' remaining step and `S_jj` is the Schur
+    /// complement of the free block (the curvature left along `j` once the free inputs
+    /// compensate). That move must stay below the step tolerance, or the pull within its
+    /// rounding. (`H_jj` alone would not do: a stiff row through `j` makes `H_jj` huge
+    /// while the free inputs can keep that row where it is, and a real pull would pass
+    /// as small.) The rounding of row `i`'s value moves the pull by its component
+    /// `a_ij − H_jF H_FF⁻¹ a_iF` left after that compensation — small for a stiff row the
+    /// free inputs can follow, however large `a_ij` — so huge rows do not excuse a pull.
+    /// A box of zero width is never released.
+    ///
+    /// All wrong inputs go at once: every step still decreases `F`, and releasing them
+    /// one by one costs a face solve each (a cold start with many saturated inputs took
+    /// up to a third more steps that way).
+    fn release_wrong_bounds(
+        &mut self,
+        p: &Problem<'_, NU>,
+        u: &[f64; NU],
+        gradient: &[f64; NU],
+        model: &Model<NU>,
+        tolerance: &[f64; NU],
+    ) -> bool {
+        let free = |held: &[Bound; NU], k: usize| held[k] == Bound::Free;
+        let lowest_curvature = 2.0 * p.weights.iter().copied().fold(f64::INFINITY, f64::min);
+        let mut release = [false; NU];
         for j in 0..NU {
-            // The pull inward (against the bound): positive means the bound is wrong.
-            let inward = match self.held[j] {
+            let outward = match self.held[j] {
                 Bound::Free => continue,
                 _ if p.input_min[j] == p.input_max[j] => continue,
-                Bound::Lower => -gradient[j],
-                Bound::Upper => gradient[j],
+                Bound::Lower => 1.0,
+                Bound::Upper => -1.0,
             };
-            let tolerance = STEP_TOLERANCE * (1.0 + u[j].abs() + p.u_ref[j].abs());
-            let excess = inward / h[(j, j)] / tolerance;
-            if excess > 1.0 && excess > worst_excess {
-                worst_excess = excess;
-                worst = Some(j);
+            let coupling =
+                SVector::<f64, NU>::from_fn(|k, _| if free(&self.held, k) { model.hessian[(k, j)] } else { 0.0 });
+            // The pull inward (against the bound): positive means the bound is wrong.
+            let inward = -outward * (gradient[j] + coupling.dot(&model.step));
+            if inward <= 0.0 {
+                continue;
             }
+            let mut compensated = model.factor.solve(&coupling);
+            let mut hessian = model.hessian;
+            // A row on its kink that the release would move clear does not resist it:
+            // judge this input without it (rare, so refactorised only then).
+            let release_rate = |i: usize, compensated: &SVector<f64, NU>| {
+                let row = &p.rows[i];
+                let moved: f64 = (0..NU).filter(|&k| free(&self.held, k)).map(|k| compensated[k] * row.a[k]).sum();
+                -outward * (row.a[j] - moved)
+            };
+            let clears = |i: usize, compensated: &SVector<f64, NU>| {
+                self.in_model[i] && self.on_kink(i) && release_rate(i, compensated) > 0.0
+            };
+            if (0..p.rows.len()).any(|i| clears(i, &compensated)) {
+                hessian = model.violated;
+                for (i, row) in p.rows.iter().enumerate() {
+                    if self.in_model[i] && self.on_kink(i) && !clears(i, &compensated) {
+                        let a = SVector::<f64, NU>::from_row_slice(&row.a);
+                        hessian.ger(2.0 * row.weight, &a, &a, 1.0);
+                    }
+                }
+                let coupling =
+                    SVector::<f64, NU>::from_fn(|k, _| if free(&self.held, k) { hessian[(k, j)] } else { 0.0 });
+                let mut fixed = hessian;
+                fix_held(&mut fixed, &mut SVector::zeros(), &self.held, &[0.0; NU]);
+                let Some(factor) = fixed.cholesky() else { continue };
+                compensated = factor.solve(&coupling);
+            }
+            let coupling = SVector::<f64, NU>::from_fn(|k, _| if free(&self.held, k) { hessian[(k, j)] } else { 0.0 });
+            // Strong convexity bounds S_jj below by the smallest 2 w; the subtraction can
+            // round under it.
+            let schur = (hessian[(j, j)] - coupling.dot(&compensated)).max(lowest_curvature);
+            let mut rounding = VALUE_ROUNDING * 2.0 * p.weights[j] * (u[j].abs() + p.u_ref[j].abs());
+            for (i, row) in p.rows.iter().enumerate() {
+                if self.in_model[i] {
+                    let left: f64 = row.a[j]
+                        - (0..NU).filter(|&k| free(&self.held, k)).map(|k| compensated[k] * row.a[k]).sum::<f64>();
+                    rounding += 2.0 * row.weight * VALUE_ROUNDING * self.magnitude[i] * left.abs();
+                }
+            }
+            // As for the step: rounding excuses a move only up to ROUNDING_LIMIT.
+            let unit = 1.0 + u[j].abs() + p.u_ref[j].abs();
+            release[j] = inward / schur > tolerance[j] + (rounding / schur).min(ROUNDING_LIMIT * unit);
         }
-        worst
+        for (held, _) in self.held.iter_mut().zip(release).filter(|&(_, release)| release) {
+            *held = Bound::Free;
+        }
+        release.contains(&true)
     }
 
     /// The minimiser of `F(u + t d)` over `0 ≤ t ≤ reach` (`reach` may be infinite).
@@ -505,6 +685,19 @@ impl<const NU: usize> InputSpaceSolver<NU> {
     pub fn outcome(&self) -> Outcome {
         self.outcome
     }
+}
+
+/// The Newton model at one point (see [`InputSpaceSolver::model`]).
+struct Model<const NU: usize> {
+    /// `H` over the strictly violated rows only.
+    violated: SMatrix<f64, NU, NU>,
+    /// `H` over the model's rows, before the held inputs are fixed.
+    hessian: SMatrix<f64, NU, NU>,
+    /// The Cholesky factor of `H` with the held inputs' rows and columns replaced by the
+    /// identity: solves on the free inputs.
+    factor: Cholesky<f64, Const<NU>>,
+    /// The Newton step (zero on held inputs).
+    step: SVector<f64, NU>,
 }
 
 fn check<const NU: usize>(p: &Problem<'_, NU>, capacity: usize) -> Result<(), CbfError> {
