@@ -57,7 +57,8 @@ enum Command {
     /// Closed-loop simulation at 1 kHz: the robot walks over a step or climbs five stairs
     /// with the ECBF filter correcting a naive gait. Writes a CSV and the paper's
     /// Figs. 7-10 (SVG) to --out and prints a summary. Unless --no-body-cbf is given, the
-    /// same course is also run without the body SSAT CBF for Fig. 7's comparison.
+    /// same course is also run without the body SSAT CBF for Fig. 7's comparison; unless
+    /// --no-osqp-reference is given, also with the OSQP backend for Fig. 10's.
     Simulate {
         /// Course: one 16.5 cm step, or five steps of 16.5 x 35 cm.
         #[arg(long, value_enum, default_value_t = ScenarioArg::Stairs)]
@@ -71,6 +72,10 @@ enum Command {
         /// Write every N-th cycle to the CSV (1 = every millisecond).
         #[arg(long, default_value_t = 10)]
         csv_every: usize,
+        /// Skip the reference run with the OSQP backend (the paper's solver), whose QP time
+        /// Fig. 10 shows beside the default backend's.
+        #[arg(long)]
+        no_osqp_reference: bool,
     },
     /// Bipedal navigation: a 3D-LIP MPC with linear discrete CBFs walks from the origin
     /// to a goal past three rectangles. Prints a summary and writes the path figure
@@ -268,17 +273,24 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             writeln!(stdout, "{}", cbfgen::systems::tachyon3::latency::run(cycles, speed, gap, settings)?)?;
             Ok(())
         }
-        Command::Simulate { scenario, no_body_cbf, out, csv_every } => {
+        Command::Simulate { scenario, no_body_cbf, out, csv_every, no_osqp_reference } => {
             let scenario = match scenario {
                 ScenarioArg::Step => Scenario::Step,
                 ScenarioArg::Stairs => Scenario::Stairs,
             };
             let main = simulate(&SimConfig::new(scenario, !no_body_cbf))?;
             let comparison = if no_body_cbf { None } else { Some(simulate(&SimConfig::new(scenario, false))?) };
-            for run in std::iter::once(&main).chain(comparison.as_ref()) {
+            let osqp_reference = if no_osqp_reference || main.summary.backend == Solver::Osqp {
+                None
+            } else {
+                let mut config = SimConfig::new(scenario, !no_body_cbf);
+                config.filter.solver.backend = Solver::Osqp;
+                Some(simulate(&config)?)
+            };
+            for run in std::iter::once(&main).chain(comparison.as_ref()).chain(osqp_reference.as_ref()) {
                 writeln!(stdout, "{}", run.summary)?;
             }
-            let written = output::write_all(&out, &main, comparison.as_ref(), csv_every)?;
+            let written = output::write_all(&out, &main, comparison.as_ref(), osqp_reference.as_ref(), csv_every)?;
             writeln!(
                 stdout,
                 "wrote {}",

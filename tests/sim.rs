@@ -70,7 +70,7 @@ fn figures_and_the_documented_csv_are_written() {
     config.max_time = 2.0;
     let result = sim::run(&config, |_| {}).expect("simulation");
     let dir = std::env::temp_dir().join(format!("cbfgen-sim-test-{}", std::process::id()));
-    let written = output::write_all(&dir, &result, None, 10).expect("write");
+    let written = output::write_all(&dir, &result, None, None, 10).expect("write");
     assert_eq!(written.len(), 5, "one CSV and four figures: {written:?}");
     for path in &written {
         let text = std::fs::read_to_string(path).expect("readable");

@@ -138,6 +138,8 @@ pub struct Summary {
     pub scenario: Scenario,
     /// Whether the body–edge SSAT rows could take part (see [`SimConfig::body_cbf`]).
     pub body_cbf: bool,
+    /// The filter's QP backend in this run.
+    pub backend: crate::filter::Solver,
     /// Every toe stands on the top level, and the body centre is past the last riser.
     pub completed: bool,
     /// Time of the last recorded cycle \[s\] (a completed run goes on 1 s past completion).
@@ -293,6 +295,7 @@ fn summarize(config: &SimConfig, samples: &[Sample], completed: bool) -> Summary
     Summary {
         scenario: config.scenario,
         body_cbf: config.body_cbf,
+        backend: config.filter.solver.backend,
         completed,
         duration: samples.last().map_or(0.0, |s| s.t),
         min_body_clearance: fold(|s| s.body_clearance),

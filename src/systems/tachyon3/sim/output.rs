@@ -70,7 +70,8 @@ pub fn csv(samples: &[Sample], every: usize) -> String {
 }
 
 /// Write `<scenario>.csv` (and `<scenario>_no_body_cbf.csv` for the comparison run) and
-/// the four figures into `dir`. Returns the paths written.
+/// the four figures into `dir`; `osqp_reference`, the same course with the OSQP backend,
+/// adds its QP time to Fig. 10. Returns the paths written.
 ///
 /// # Errors
 /// Any I/O error.
@@ -78,6 +79,7 @@ pub fn write_all(
     dir: &Path,
     main: &SimResult,
     comparison: Option<&SimResult>,
+    osqp_reference: Option<&SimResult>,
     every: usize,
 ) -> io::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir)?;
@@ -91,7 +93,7 @@ pub fn write_all(
     for run in std::iter::once(main).chain(comparison) {
         put(format!("{}.csv", file_stem(&run.summary)), csv(&run.samples, every))?;
     }
-    for (name, chart) in figures(main, comparison) {
+    for (name, chart) in figures(main, comparison, osqp_reference) {
         put(format!("{}_{name}.svg", main.summary.scenario.name()), chart.to_svg())?;
     }
     Ok(written)
@@ -109,8 +111,13 @@ fn series(samples: &[Sample], f: impl Fn(&Sample) -> f64) -> Vec<(f64, f64)> {
     samples.iter().map(|s| (s.t, f(s))).collect()
 }
 
-/// Figs. 7–10 of the paper for one run (and the run without the body CBF, for Fig. 7).
-pub fn figures(main: &SimResult, comparison: Option<&SimResult>) -> Vec<(&'static str, Chart)> {
+/// Figs. 7–10 of the paper for one run (and the run without the body CBF, for Fig. 7; the
+/// run with the OSQP backend, for Fig. 10).
+pub fn figures(
+    main: &SimResult,
+    comparison: Option<&SimResult>,
+    osqp_reference: Option<&SimResult>,
+) -> Vec<(&'static str, Chart)> {
     let body_z = |s: &Sample| s.x[2] + s.x[BODY_Z];
     let label = |r: &SimResult| if r.summary.body_cbf { "with body SSAT CBF" } else { "without body SSAT CBF" };
     let mut fig7 = Chart::new("Body height (Fig. 7)", "time [s]", "body centre height [m]").with(Series::new(
@@ -133,11 +140,19 @@ pub fn figures(main: &SimResult, comparison: Option<&SimResult>) -> Vec<(&'stati
         "#9467bd",
         series(&main.samples, |s| s.active_rows as f64),
     ));
-    let fig10 = Chart::new("Computation time per cycle (Fig. 10)", "time [s]", "µs")
-        .with(Series::new("whole update", "#1f77b4", series(&main.samples, |s| s.update_us)))
+    let backend = main.summary.backend.name();
+    let mut fig10 = Chart::new("Computation time per cycle (Fig. 10)", "time [s]", "µs")
+        .with(Series::new(&format!("whole update ({backend})"), "#1f77b4", series(&main.samples, |s| s.update_us)))
         .with(Series::new("whole update, thread CPU time", "#d62728", series(&main.samples, |s| s.cpu_us)).dashed())
         .with(Series::new("row evaluation", "#2ca02c", series(&main.samples, |s| s.eval_us)))
-        .with(Series::new("QP update + solve", "#ff7f0e", series(&main.samples, |s| s.solve_us)));
+        .with(Series::new(&format!("QP update + solve ({backend})"), "#ff7f0e", series(&main.samples, |s| s.solve_us)));
+    if let Some(osqp) = osqp_reference {
+        fig10 = fig10.with(Series::new(
+            "QP update + solve (osqp, same course)",
+            "#9467bd",
+            series(&osqp.samples, |s| s.solve_us),
+        ));
+    }
     vec![("fig7_body_height", fig7), ("fig8_min_h", fig8), ("fig9_active_rows", fig9), ("fig10_cycle_time", fig10)]
 }
 
@@ -146,9 +161,10 @@ impl fmt::Display for Summary {
         let mm = |v: f64| v * 1e3;
         writeln!(
             f,
-            "scenario {} {} body SSAT CBF: {} after {:.1} s",
+            "scenario {} {} body SSAT CBF, QP backend {}: {} after {:.1} s",
             self.scenario.name(),
             if self.body_cbf { "with" } else { "without" },
+            self.backend.name(),
             if self.completed { "climbed" } else { "did NOT finish" },
             self.duration
         )?;
