@@ -424,19 +424,11 @@ impl<const NU: usize> InputSpaceSolver<NU> {
         for i in 0..p.rows.len() {
             self.in_model[i] = self.value[i] <= KINK_TOLERANCE * self.magnitude[i];
         }
-        let rhs = SVector::<f64, NU>::from_fn(|j, _| -gradient[j]);
+        let rhs = -SVector::<f64, NU>::from_row_slice(gradient);
         loop {
-            let mut hessian = violated;
-            for (i, row) in p.rows.iter().enumerate() {
-                if self.in_model[i] && self.on_kink(i) {
-                    let a = SVector::<f64, NU>::from_row_slice(&row.a);
-                    hessian.ger(2.0 * row.weight, &a, &a, 1.0);
-                }
-            }
-            let (mut fixed, mut fixed_rhs) = (hessian, rhs);
-            fix_held(&mut fixed, &mut fixed_rhs, &self.held, &[0.0; NU]);
-            let factor = fixed.cholesky()?;
-            let step = factor.solve(&fixed_rhs);
+            let hessian = with_rows(violated, p, |i| self.in_model[i] && self.on_kink(i));
+            let factor = factor_free(&hessian, &self.held)?;
+            let step = factor.solve(&on_free(&rhs, &self.held));
             if !step.iter().all(|v| v.is_finite()) {
                 return None;
             }
@@ -485,8 +477,7 @@ impl<const NU: usize> InputSpaceSolver<NU> {
             if !self.in_model[i] {
                 continue;
             }
-            let a = SVector::<f64, NU>::from_fn(|j, _| if free(j) { row.a[j] } else { 0.0 });
-            let direction = inverse * a;
+            let direction = inverse * on_free(&SVector::from_row_slice(&row.a), &self.held);
             let value_rounding = 2.0 * row.weight * VALUE_ROUNDING * self.magnitude[i];
             let pull = 2.0 * row.weight * VALUE_ROUNDING * self.value[i].abs();
             for j in 0..NU {
@@ -532,7 +523,6 @@ impl<const NU: usize> InputSpaceSolver<NU> {
         model: &Model<NU>,
         tolerance: &[f64; NU],
     ) -> bool {
-        let free = |held: &[Bound; NU], k: usize| held[k] == Bound::Free;
         let lowest_curvature = 2.0 * p.weights.iter().copied().fold(f64::INFINITY, f64::min);
         let mut release = [false; NU];
         for j in 0..NU {
@@ -542,51 +532,36 @@ impl<const NU: usize> InputSpaceSolver<NU> {
                 Bound::Lower => 1.0,
                 Bound::Upper => -1.0,
             };
-            let coupling =
-                SVector::<f64, NU>::from_fn(|k, _| if free(&self.held, k) { model.hessian[(k, j)] } else { 0.0 });
+            let coupling = on_free(&model.hessian.column(j).into_owned(), &self.held);
             // The pull inward (against the bound): positive means the bound is wrong.
             let inward = -outward * (gradient[j] + coupling.dot(&model.step));
             if inward <= 0.0 {
                 continue;
             }
+            // How the free inputs follow input j (`H_FF⁻¹ H_Fj`).
             let mut compensated = model.factor.solve(&coupling);
             let mut hessian = model.hessian;
             // A row on its kink that the release would move clear does not resist it:
             // judge this input without it (rare, so refactorised only then).
-            let release_rate = |i: usize, compensated: &SVector<f64, NU>| {
-                let row = &p.rows[i];
-                let moved: f64 = (0..NU).filter(|&k| free(&self.held, k)).map(|k| compensated[k] * row.a[k]).sum();
-                -outward * (row.a[j] - moved)
-            };
             let clears = |i: usize, compensated: &SVector<f64, NU>| {
-                self.in_model[i] && self.on_kink(i) && release_rate(i, compensated) > 0.0
+                self.in_model[i]
+                    && self.on_kink(i)
+                    && -outward * uncompensated(&p.rows[i].a, j, compensated, &self.held) > 0.0
             };
             if (0..p.rows.len()).any(|i| clears(i, &compensated)) {
-                hessian = model.violated;
-                for (i, row) in p.rows.iter().enumerate() {
-                    if self.in_model[i] && self.on_kink(i) && !clears(i, &compensated) {
-                        let a = SVector::<f64, NU>::from_row_slice(&row.a);
-                        hessian.ger(2.0 * row.weight, &a, &a, 1.0);
-                    }
-                }
-                let coupling =
-                    SVector::<f64, NU>::from_fn(|k, _| if free(&self.held, k) { hessian[(k, j)] } else { 0.0 });
-                let mut fixed = hessian;
-                fix_held(&mut fixed, &mut SVector::zeros(), &self.held, &[0.0; NU]);
-                let Some(factor) = fixed.cholesky() else { continue };
-                compensated = factor.solve(&coupling);
+                hessian =
+                    with_rows(model.violated, p, |i| self.in_model[i] && self.on_kink(i) && !clears(i, &compensated));
+                let Some(factor) = factor_free(&hessian, &self.held) else { continue };
+                compensated = factor.solve(&on_free(&hessian.column(j).into_owned(), &self.held));
             }
-            let coupling = SVector::<f64, NU>::from_fn(|k, _| if free(&self.held, k) { hessian[(k, j)] } else { 0.0 });
+            let coupling = on_free(&hessian.column(j).into_owned(), &self.held);
             // Strong convexity bounds S_jj below by the smallest 2 w; the subtraction can
             // round under it.
             let schur = (hessian[(j, j)] - coupling.dot(&compensated)).max(lowest_curvature);
             let mut rounding = VALUE_ROUNDING * 2.0 * p.weights[j] * (u[j].abs() + p.u_ref[j].abs());
-            for (i, row) in p.rows.iter().enumerate() {
-                if self.in_model[i] {
-                    let left: f64 = row.a[j]
-                        - (0..NU).filter(|&k| free(&self.held, k)).map(|k| compensated[k] * row.a[k]).sum::<f64>();
-                    rounding += 2.0 * row.weight * VALUE_ROUNDING * self.magnitude[i] * left.abs();
-                }
+            for (i, row) in p.rows.iter().enumerate().filter(|&(i, _)| self.in_model[i]) {
+                let left = uncompensated(&row.a, j, &compensated, &self.held);
+                rounding += 2.0 * row.weight * VALUE_ROUNDING * self.magnitude[i] * left.abs();
             }
             // As for the step: rounding excuses a move only up to ROUNDING_LIMIT.
             let unit = 1.0 + u[j].abs() + p.u_ref[j].abs();
@@ -737,17 +712,41 @@ fn clip<const NU: usize>(x: &[f64; NU], p: &Problem<'_, NU>) -> [f64; NU] {
 
 /// `2 W + 2 Σ_{i: violated(i)} s_i a_i a_iᵀ`.
 fn hessian_of<const NU: usize>(p: &Problem<'_, NU>, violated: impl Fn(usize) -> bool) -> SMatrix<f64, NU, NU> {
-    let mut h = SMatrix::<f64, NU, NU>::zeros();
-    for j in 0..NU {
-        h[(j, j)] = 2.0 * p.weights[j];
-    }
-    for (i, row) in p.rows.iter().enumerate() {
-        if violated(i) {
-            let a = SVector::<f64, NU>::from_row_slice(&row.a);
-            h.ger(2.0 * row.weight, &a, &a, 1.0);
-        }
+    let diagonal = SVector::<f64, NU>::from_fn(|j, _| 2.0 * p.weights[j]);
+    with_rows(SMatrix::from_diagonal(&diagonal), p, violated)
+}
+
+/// `h + 2 Σ_{i: include(i)} s_i a_i a_iᵀ`.
+fn with_rows<const NU: usize>(
+    mut h: SMatrix<f64, NU, NU>,
+    p: &Problem<'_, NU>,
+    include: impl Fn(usize) -> bool,
+) -> SMatrix<f64, NU, NU> {
+    for (_, row) in p.rows.iter().enumerate().filter(|&(i, _)| include(i)) {
+        let a = SVector::<f64, NU>::from_row_slice(&row.a);
+        h.ger(2.0 * row.weight, &a, &a, 1.0);
     }
     h
+}
+
+/// `x` on the free inputs, zero on the held ones.
+fn on_free<const NU: usize>(x: &SVector<f64, NU>, held: &[Bound; NU]) -> SVector<f64, NU> {
+    SVector::from_fn(|k, _| if held[k] == Bound::Free { x[k] } else { 0.0 })
+}
+
+/// The Cholesky factor of `h` with the held inputs' rows and columns replaced by the
+/// identity: it solves on the free inputs (a right-hand side zero on the held ones gives
+/// a solution zero there).
+fn factor_free<const NU: usize>(h: &SMatrix<f64, NU, NU>, held: &[Bound; NU]) -> Option<Cholesky<f64, Const<NU>>> {
+    let mut fixed = *h;
+    fix_held(&mut fixed, &mut SVector::zeros(), held, &[0.0; NU]);
+    fixed.cholesky()
+}
+
+/// A row's coefficient on input `j` left once the free inputs follow `j` by
+/// `compensated`: `a_j − Σ_{k free} compensated_k a_k`.
+fn uncompensated<const NU: usize>(a: &[f64; NU], j: usize, compensated: &SVector<f64, NU>, held: &[Bound; NU]) -> f64 {
+    a[j] - (0..NU).filter(|&k| held[k] == Bound::Free).map(|k| compensated[k] * a[k]).sum::<f64>()
 }
 
 /// Fix held inputs at `values`: their columns move to the right-hand side, their rows
