@@ -144,6 +144,9 @@ pub enum CbfError {
         /// `det R` (negative for a reflection).
         determinant: f64,
     },
+    /// The campaign's worker threads could not be started (the operating system's refusal).
+    #[error("could not start the campaign's worker threads: {0}")]
+    ThreadPool(String),
 }
 
 /// `Ok(value)` if finite, else [`CbfError::NonFinite`].

@@ -6,6 +6,7 @@ use cbfgen::systems::lip;
 use cbfgen::systems::multilayer;
 use cbfgen::systems::tachyon3::catalog::{Capacity, Catalog, Environment, Family};
 use cbfgen::systems::tachyon3::model::{self, NU};
+use cbfgen::systems::tachyon3::sim::campaign::{self, CampaignSettings, CourseRanges, Episode};
 use cbfgen::systems::tachyon3::sim::{self, output, Scenario, SimConfig, SimResult};
 use cbfgen::{sat, OrientedBox};
 use clap::{Parser, Subcommand};
@@ -76,6 +77,42 @@ enum Command {
         /// Fig. 10 shows beside the default backend's.
         #[arg(long)]
         no_osqp_reference: bool,
+        /// Run episode ID of a campaign instead of --scenario (with the campaign's --seed
+        /// and ranges): the course a `cbfgen campaign` line names.
+        #[arg(long, value_name = "ID")]
+        episode: Option<u64>,
+        /// The campaign seed of --episode.
+        #[arg(long, default_value_t = 0, requires = "episode")]
+        seed: u64,
+        #[command(flatten)]
+        ranges: RangeArgs,
+    },
+    /// Monte Carlo safety campaign: climb many randomised staircases (rise, run, steps,
+    /// start gap and gait speed drawn per episode from --seed and the episode id) in
+    /// parallel. Prints a table (outcomes, penetrations, joint-limit violations, worst
+    /// episodes, CPU and wall time per update) and writes episodes.csv, report.txt and
+    /// figures to --out. Rerun one episode with `cbfgen simulate --episode ID --seed S`.
+    Campaign {
+        /// Number of episodes.
+        #[arg(long, default_value_t = 200)]
+        episodes: usize,
+        /// Seed of the courses.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Id of the first episode.
+        #[arg(long, default_value_t = 0)]
+        first_id: u64,
+        /// Run without the body SSAT CBF (the comparison).
+        #[arg(long)]
+        no_body_cbf: bool,
+        /// Worker threads (default: one per core).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Directory for the CSV, the report and the figures.
+        #[arg(long, default_value = "out/campaign")]
+        out: std::path::PathBuf,
+        #[command(flatten)]
+        ranges: RangeArgs,
     },
     /// Bipedal navigation: a 3D-LIP MPC with linear discrete CBFs walks from the origin
     /// to a goal past three rectangles. Prints a summary and writes the path figure
@@ -105,6 +142,40 @@ enum Command {
 enum ScenarioArg {
     Step,
     Stairs,
+}
+
+/// The ranges campaign courses are drawn from (defaults: [`CourseRanges::default`]); a
+/// campaign episode reruns only with the same ranges.
+#[derive(clap::Args)]
+struct RangeArgs {
+    /// Step rise range \[m\], `LO,HI`.
+    #[arg(long, value_delimiter = ',', num_args = 2, default_values_t = CourseRanges::default().rise)]
+    rise: Vec<f64>,
+    /// Tread run range \[m\], `LO,HI`.
+    #[arg(long, value_delimiter = ',', num_args = 2, default_values_t = CourseRanges::default().run)]
+    run: Vec<f64>,
+    /// Number of steps, `LO,HI`.
+    #[arg(long, value_delimiter = ',', num_args = 2, default_values_t = CourseRanges::default().steps)]
+    steps: Vec<usize>,
+    /// Start gap range \[m\], `LO,HI`.
+    #[arg(long, value_delimiter = ',', num_args = 2, default_values_t = CourseRanges::default().start_gap)]
+    start_gap: Vec<f64>,
+    /// Gait speed range \[m/s\], `LO,HI`.
+    #[arg(long, value_delimiter = ',', num_args = 2, default_values_t = CourseRanges::default().speed)]
+    speed: Vec<f64>,
+}
+
+impl RangeArgs {
+    fn ranges(&self) -> CourseRanges {
+        let pair = |v: &[f64]| [v[0], v[1]];
+        CourseRanges {
+            rise: pair(&self.rise),
+            run: pair(&self.run),
+            steps: [self.steps[0], self.steps[1]],
+            start_gap: pair(&self.start_gap),
+            speed: pair(&self.speed),
+        }
+    }
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -273,17 +344,33 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             writeln!(stdout, "{}", cbfgen::systems::tachyon3::latency::run(cycles, speed, gap, settings)?)?;
             Ok(())
         }
-        Command::Simulate { scenario, no_body_cbf, out, csv_every, no_osqp_reference } => {
-            let scenario = match scenario {
-                ScenarioArg::Step => Scenario::Step,
-                ScenarioArg::Stairs => Scenario::Stairs,
+        Command::Simulate { scenario, no_body_cbf, out, csv_every, no_osqp_reference, episode, seed, ranges } => {
+            let config = |body_cbf: bool| -> Result<SimConfig, cbfgen::CbfError> {
+                Ok(match episode {
+                    Some(id) => Episode::draw(seed, id, &ranges.ranges())?.config(body_cbf),
+                    None => SimConfig::new(
+                        match scenario {
+                            ScenarioArg::Step => Scenario::Step,
+                            ScenarioArg::Stairs => Scenario::Stairs,
+                        },
+                        body_cbf,
+                    ),
+                })
             };
-            let main = simulate(&SimConfig::new(scenario, !no_body_cbf))?;
-            let comparison = if no_body_cbf { None } else { Some(simulate(&SimConfig::new(scenario, false))?) };
+            if let Some(id) = episode {
+                let e = Episode::draw(seed, id, &ranges.ranges())?;
+                writeln!(
+                    stdout,
+                    "episode {id} of seed {seed}: {} steps of {:.4} x {:.4} m, start gap {:.4} m, gait speed {:.4} m/s",
+                    e.stairs.count, e.stairs.rise, e.stairs.run, e.start_gap, e.speed
+                )?;
+            }
+            let main = simulate(&config(!no_body_cbf)?)?;
+            let comparison = if no_body_cbf { None } else { Some(simulate(&config(false)?)?) };
             let osqp_reference = if no_osqp_reference || main.summary.backend == Solver::Osqp {
                 None
             } else {
-                let mut config = SimConfig::new(scenario, !no_body_cbf);
+                let mut config = config(!no_body_cbf)?;
                 config.filter.solver.backend = Solver::Osqp;
                 Some(simulate(&config)?)
             };
@@ -326,6 +413,38 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 "wrote {}",
                 written.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ")
             )?;
+            Ok(())
+        }
+        Command::Campaign { episodes, seed, first_id, no_body_cbf, threads, out, ranges } => {
+            let settings =
+                CampaignSettings { seed, episodes, first_id, ranges: ranges.ranges(), body_cbf: !no_body_cbf, threads };
+            let bar = indicatif::ProgressBar::new(episodes as u64);
+            bar.set_style(
+                indicatif::ProgressStyle::with_template(
+                    "campaign {bar:40} {pos}/{len} episodes, {elapsed} (eta {eta})",
+                )
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            );
+            let started = std::time::Instant::now();
+            let result = campaign::run(&settings, |_| bar.inc(1))?;
+            bar.finish_and_clear();
+            writeln!(
+                stdout,
+                "campaign: {episodes} episodes of seed {seed} {} body SSAT CBF, {:.0} s",
+                if no_body_cbf { "without" } else { "with" },
+                started.elapsed().as_secs_f64()
+            )?;
+            let report = result.report();
+            writeln!(stdout, "{report}")?;
+            let written = campaign::output::write_all(&out, &result)?;
+            writeln!(
+                stdout,
+                "wrote {}",
+                written.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ")
+            )?;
+            if !report.errors.is_empty() {
+                return Err(format!("{} episodes ended with an error", report.errors.len()).into());
+            }
             Ok(())
         }
         Command::Generate => {

@@ -30,6 +30,40 @@ impl Stairs {
     pub const HARDWARE: Stairs =
         Stairs { start_x: 1.0, rise: 0.165, run: 0.35, count: 5, half_width: 1.0, edge_half_section: 0.025 };
 
+    /// Check the dimensions: every length finite and positive, at least one step, and an
+    /// edge cuboid that fits inside one step (`2 · edge_half_section` below both rise and
+    /// run). Every other method assumes stairs that pass.
+    ///
+    /// # Errors
+    /// The first dimension that fails, named.
+    pub fn validate(&self) -> Result<(), CbfError> {
+        crate::error::finite("stairs start x [m]", self.start_x)?;
+        for (what, v) in [
+            ("stair rise [m]", self.rise),
+            ("stair run [m]", self.run),
+            ("stairs half width [m]", self.half_width),
+            ("edge cuboid half section [m]", self.edge_half_section),
+        ] {
+            crate::error::within(what, v, 0.0, Self::MAX_DIMENSION, "(0, 100]")?;
+            crate::error::positive(what, v)?;
+        }
+        if self.count == 0 {
+            return Err(CbfError::NotPositive { what: "stair count", value: 0.0 });
+        }
+        let section = 2.0 * self.edge_half_section;
+        if !(section < self.rise && section < self.run) {
+            return Err(CbfError::OutOfRange {
+                what: "edge cuboid section [m]",
+                value: section,
+                range: "below the stair rise and run",
+            });
+        }
+        Ok(())
+    }
+
+    /// Longest stair dimension accepted by [`Stairs::validate`] \[m\].
+    pub const MAX_DIMENSION: f64 = 100.0;
+
     /// Ground height at world `x` \[m\].
     pub fn height_at(&self, x: f64) -> f64 {
         if x < self.start_x {
@@ -39,9 +73,28 @@ impl Stairs {
         steps.min(self.count) as f64 * self.rise
     }
 
-    /// Ground height under each toe centre (world positions, `LEG_NAMES` order) \[m\].
+    /// Ground height under each toe (world sphere centres, `LEG_NAMES` order) \[m\]: the
+    /// level each toe stands on, by [`Stairs::standing_x`].
     pub fn floors_under(&self, toes: &[[f64; 3]; 6]) -> [f64; 6] {
-        toes.map(|toe| self.height_at(toe[0]))
+        toes.map(|toe| self.height_at(self.standing_x(&toe)))
+    }
+
+    /// The x at which to read the level a toe sphere of radius
+    /// [`TOE_RADIUS`](crate::systems::tachyon3::model::TOE_RADIUS) centred at `toe` stands
+    /// on. That is its centre's x, except for a wheel resting on a nosing: centre still
+    /// before the riser, but bottom within a millimetre of the step's top, or higher. It
+    /// stands on the step above, so this returns the riser's x (a nanometre past it, so
+    /// that rounding cannot put it back before the riser). Reading the level under
+    /// the centre instead would send such a toe down to the floor it has left.
+    pub fn standing_x(&self, toe: &[f64; 3]) -> f64 {
+        let r = crate::systems::tachyon3::model::TOE_RADIUS;
+        let (_, end) = self.flat_region(toe[0]);
+        let above = self.height_at(end);
+        if end - toe[0] < r && above > self.height_at(toe[0]) && toe[2] - r >= above - 1e-3 {
+            end + 1e-9
+        } else {
+            toe[0]
+        }
     }
 
     /// One step of the same dimensions: the `step` scenario's obstacle.

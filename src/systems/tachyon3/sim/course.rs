@@ -44,9 +44,11 @@ impl Course {
     /// worst-case [`Capacity`].
     ///
     /// # Errors
-    /// Degenerate stair dimensions.
+    /// Stair dimensions that fail [`Stairs::validate`], or more steps than
+    /// [`Course::CAPACITY`] has edge slots.
     pub fn new(scenario: Scenario, gait: GaitParams) -> Result<Self, CbfError> {
         let stairs = scenario.stairs();
+        stairs.validate()?;
         let mut env = Environment::new(Self::CAPACITY)?;
         let mut edges = Vec::with_capacity(stairs.count);
         for k in 0..stairs.count {

@@ -27,6 +27,14 @@ const KV: f64 = 2.0;
 /// of the rolling speed.
 const RETURN_RATE: f64 = 0.5;
 const STANCE_RETURN: f64 = 0.8;
+/// Once the robot rolls again, a stall raise comes down at this rate \[m/s\].
+const STALL_LOWER_RATE: f64 = 0.02;
+/// A foothold strip keeps the toe centre this far inside its flat region: the toe radius
+/// and 2 cm \[m\].
+const FOOTHOLD_INSET: f64 = TOE_RADIUS + 0.02;
+/// A strip reaching back to a lift-off point outside its region's inset leaves the toe
+/// this much room behind it \[m\].
+const FOOTHOLD_SLACK: f64 = 0.01;
 /// Fractions of a swing spent lifting, carrying forward, lowering.
 const LIFT_END: f64 = 0.4;
 const CARRY_END: f64 = 0.7;
@@ -46,7 +54,7 @@ pub struct GaitParams {
     pub clearance: f64,
     /// A toe steps when a riser is within this distance of its front \[m\].
     pub lookahead: f64,
-    /// When the robot has been stalled (speed below 2 cm/s) for `stall_time` \[s\], toes
+    /// When the robot has been stalled (forward speed below 2 cm/s) for `stall_time` \[s\], toes
     /// with a riser within `stall_lookahead` \[m\] step too: the filter may be holding the
     /// body back until the rear legs climb.
     pub stall_time: f64,
@@ -59,6 +67,11 @@ pub struct GaitParams {
     /// While a tripod swings, the body is held at least this far above the swing apex
     /// less the hip height, so the lifted leg keeps room to reach forward \[m\].
     pub leg_room: f64,
+    /// While stalled for `stall_time`, the body target rises at this rate \[m/s\] (see
+    /// [`Gait::plan`]).
+    pub stall_raise_rate: f64,
+    /// Highest the stall raise takes the body target above its nominal \[m\].
+    pub stall_raise_max: f64,
 }
 
 impl Default for GaitParams {
@@ -74,6 +87,8 @@ impl Default for GaitParams {
             stall_lookahead: 0.3,
             reach: 0.12,
             leg_room: 0.15,
+            stall_raise_rate: 0.05,
+            stall_raise_max: 0.2,
         }
     }
 }
@@ -83,11 +98,13 @@ struct Swing {
     tripod: usize,
     start: f64,
     /// Per leg (only the tripod's are used): origin-relative x and z at lift-off, the
-    /// world x it lands at, apex and touchdown heights.
+    /// world x it lands at, apex and touchdown heights, and the foothold strip from
+    /// lift-off to landing (fixed for the swing, in the world: the origin moves under it).
     from: [[f64; 2]; 6],
     land_x: [f64; 6],
     apex: [f64; 6],
     land: [f64; 6],
+    strip: [[HalfPlane; 4]; 6],
 }
 
 /// What the gait asks for this cycle.
@@ -113,13 +130,26 @@ pub struct Gait {
     last_tripod: usize,
     stance_since: f64,
     moving_since: f64,
+    /// Time of the last plan \[s\].
+    last_t: f64,
+    /// How far the body target is raised above the nominal to get out of a stall \[m\].
+    stall_raise: f64,
 }
 
 impl Gait {
     /// The gait for `params` over `stairs`, at t = 0 with all six wheels down; the first swing
     /// starts no earlier than `stance_time`.
     pub fn new(params: GaitParams, stairs: Stairs) -> Self {
-        Self { params, stairs, swing: None, last_tripod: 1, stance_since: 0.0, moving_since: 0.0 }
+        Self {
+            params,
+            stairs,
+            swing: None,
+            last_tripod: 1,
+            stance_since: 0.0,
+            moving_since: 0.0,
+            last_t: 0.0,
+            stall_raise: 0.0,
+        }
     }
 
     /// Which tripod swings now, if any.
@@ -143,12 +173,23 @@ impl Gait {
                 self.stance_since = t;
             }
         }
-        if x[4].abs() >= 0.02 {
+        // Rolling backwards (the filter yielding to the gait's own pull) is no progress.
+        if x[4] >= 0.02 {
             self.moving_since = t;
         }
-        let lookahead = if t - self.moving_since >= p.stall_time { p.stall_lookahead } else { p.lookahead };
+        let stalled = t - self.moving_since >= p.stall_time;
+        let lookahead = if stalled { p.stall_lookahead } else { p.lookahead };
+        // A body held on the boundary of the body–edge CBF by the gait's own pull towards
+        // the nominal height balances the forward command exactly (a CBF deadlock): a
+        // stalled gait raises its body target until the body clears the nosing and rolls
+        // again, then lowers it slowly.
+        let dt = (t - self.last_t).clamp(0.0, 1.0);
+        self.last_t = t;
+        let rate = if stalled { p.stall_raise_rate } else { -STALL_LOWER_RATE };
+        self.stall_raise = (self.stall_raise + rate * dt).clamp(0.0, p.stall_raise_max);
         if self.swing.is_none() && t - self.stance_since >= p.stance_time {
-            let needs = TRIPODS.map(|legs| legs.iter().any(|&leg| self.riser_ahead(toes[leg][0], lookahead)));
+            let needs = TRIPODS
+                .map(|legs| legs.iter().any(|&leg| self.riser_ahead(self.stairs.standing_x(&toes[leg]), lookahead)));
             let tripod = match needs {
                 [true, true] => Some(1 - self.last_tripod),
                 [true, false] => Some(0),
@@ -156,7 +197,7 @@ impl Gait {
                 [false, false] => None,
             };
             if let Some(tripod) = tripod {
-                self.swing = Some(self.lift_off(tripod, t, x, &toes));
+                self.swing = Some(self.lift_off(tripod, t, x, &toes)?);
             }
         }
 
@@ -172,7 +213,7 @@ impl Gait {
                 .map(|&leg| s.apex[leg] + x[2] - hip_z + p.leg_room)
                 .fold(f64::NEG_INFINITY, f64::max)
         });
-        let body_height = low.max(room);
+        let body_height = low.max(room) + self.stall_raise;
         // Nose up along the line from the rear toes' floor to the front toes' (pitch > 0 is
         // nose down).
         let mean = |legs: [usize; 3], f: &dyn Fn(usize) -> f64| legs.iter().map(|&l| f(l)).sum::<f64>() / 3.0;
@@ -197,9 +238,7 @@ impl Gait {
                     u[ax] = KP_SWING * (rx - x[ix]) + KD_SWING * (vx - x[ix + 2]);
                     u[az] = KP_SWING * (rz - x[iz]) + KD_SWING * (vz - x[iz + 2]);
                     swing[leg] = true;
-                    let (begin, _) = self.stairs.flat_region(x[0] + s.from[leg][0]);
-                    let (_, end) = self.stairs.flat_region(s.land_x[leg]);
-                    footholds[leg] = Some(foothold_strip(&self.stairs, begin, end, TOE_RADIUS + 0.02)?);
+                    footholds[leg] = Some(s.strip[leg]);
                 }
                 None => {
                     // A stance wheel drifts back towards its hip only as fast as the robot
@@ -220,22 +259,39 @@ impl Gait {
         self.stairs.height_at(ahead) > self.stairs.height_at(toe_x) + 1e-3
     }
 
-    fn lift_off(&self, tripod: usize, t: f64, x: &State, toes: &[[f64; 3]; 6]) -> Swing {
+    /// Plan the swing of `tripod` from the toes' positions now. Each swinging toe's
+    /// foothold strip runs from its lift-off point (which may lie on a nosing, a wheel
+    /// resting on an edge, outside its region's inset) to the far end of the region it
+    /// lands in.
+    fn lift_off(&self, tripod: usize, t: f64, x: &State, toes: &[[f64; 3]; 6]) -> Result<Swing, CbfError> {
         let p = self.params;
-        let mut s = Swing { tripod, start: t, from: [[0.0; 2]; 6], land_x: [0.0; 6], apex: [0.0; 6], land: [0.0; 6] };
+        let unused = HalfPlane { normal: nalgebra::Vector2::new(1.0, 0.0), offset: 0.0 };
+        let mut s = Swing {
+            tripod,
+            start: t,
+            from: [[0.0; 2]; 6],
+            land_x: [0.0; 6],
+            apex: [0.0; 6],
+            land: [0.0; 6],
+            strip: [[unused; 4]; 6],
+        };
         for &leg in &TRIPODS[tripod] {
             let (ix, iz) = (TOE_BLOCK + 4 * leg, TOE_BLOCK + 4 * leg + 1);
             s.from[leg] = [x[ix], x[iz]];
-            let toe_x = toes[leg][0];
-            let (_, region_end) = self.stairs.flat_region(toe_x);
+            let toe_x = self.stairs.standing_x(&toes[leg]);
+            let (lift_begin, region_end) = self.stairs.flat_region(toe_x);
+            let lift_x = toes[leg][0];
             let climbs = self.riser_ahead(toe_x, p.stall_lookahead.max(p.lookahead));
             s.land_x[leg] = if climbs { region_end + TOE_RADIUS } else { toe_x + p.reach };
             let here = self.stairs.height_at(toe_x);
             let there = self.stairs.height_at(s.land_x[leg]);
             s.apex[leg] = here.max(there) + TOE_RADIUS + p.clearance - x[2];
             s.land[leg] = there + TOE_RADIUS - x[2];
+            let (_, land_end) = self.stairs.flat_region(s.land_x[leg]);
+            let begin = lift_begin.min(lift_x - FOOTHOLD_INSET - FOOTHOLD_SLACK);
+            s.strip[leg] = foothold_strip(&self.stairs, begin, land_end, FOOTHOLD_INSET)?;
         }
-        s
+        Ok(s)
     }
 }
 

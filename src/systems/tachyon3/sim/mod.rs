@@ -7,6 +7,8 @@
 //! rows, the time spent (wall and thread CPU time) and the exact clearance of body and toes to every edge cuboid
 //! (exact SAT for the body, exact sphere–box distance for the toes).
 
+#[cfg(feature = "campaign")]
+pub mod campaign;
 mod course;
 pub mod gait;
 pub mod output;
@@ -31,13 +33,23 @@ pub const DT: f64 = 1e-3;
 /// terabytes.
 pub const MAX_SIM_TIME: f64 = 600.0;
 
+/// Time a run on `stairs` gets to finish \[s\]: 20 s to reach the stairs and settle on
+/// top, and 10 s per step (the slowest gait climbs a step in about 6 s), at most
+/// [`MAX_SIM_TIME`].
+pub fn time_allowed(stairs: &Stairs) -> f64 {
+    (20.0 + 10.0 * stairs.count as f64).min(MAX_SIM_TIME)
+}
+
 /// Which course the robot runs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Scenario {
     /// One step of the hardware stairs' size.
     Step,
     /// Five steps, 16.5 cm × 35 cm.
     Stairs,
+    /// A staircase of any dimensions (the Monte Carlo campaign's courses, see
+    /// `campaign`).
+    Custom(Stairs),
 }
 
 impl Scenario {
@@ -46,14 +58,16 @@ impl Scenario {
         match self {
             Scenario::Step => Stairs::SINGLE_STEP,
             Scenario::Stairs => Stairs::HARDWARE,
+            Scenario::Custom(stairs) => stairs,
         }
     }
 
-    /// Short name, as used in file names and printouts: `step` or `stairs`.
+    /// Short name, as used in file names and printouts: `step`, `stairs` or `custom`.
     pub fn name(self) -> &'static str {
         match self {
             Scenario::Step => "step",
             Scenario::Stairs => "stairs",
+            Scenario::Custom(_) => "custom",
         }
     }
 }
@@ -77,7 +91,7 @@ pub struct SimConfig {
 
 impl SimConfig {
     /// The standard run of `scenario`: default gait and filter settings, 0.3 m start gap, and
-    /// 25 s (step) or 60 s (stairs) to finish. With `body_cbf == false` the body–edge family's
+    /// 25 s (step), 60 s (stairs) or [`time_allowed`] (custom) to finish. With `body_cbf == false` the body–edge family's
     /// activation threshold is set to −∞, so its rows never take part.
     pub fn new(scenario: Scenario, body_cbf: bool) -> Self {
         let mut filter = catalog::default_settings();
@@ -87,6 +101,7 @@ impl SimConfig {
         let max_time = match scenario {
             Scenario::Step => 25.0,
             Scenario::Stairs => 60.0,
+            Scenario::Custom(stairs) => time_allowed(&stairs),
         };
         Self { scenario, body_cbf, max_time, start_gap: 0.3, gait: GaitParams::default(), filter }
     }
@@ -144,6 +159,8 @@ pub struct Summary {
     pub completed: bool,
     /// Time of the last recorded cycle \[s\] (a completed run goes on 1 s past completion).
     pub duration: f64,
+    /// Control cycles run (filter updates).
+    pub cycles: usize,
     /// Smallest [`Sample::body_clearance`] over the run \[m\]; negative = penetration.
     pub min_body_clearance: f64,
     /// Smallest [`Sample::toe_clearance`] over the run \[m\]; negative = penetration.
@@ -298,6 +315,7 @@ fn summarize(config: &SimConfig, samples: &[Sample], completed: bool) -> Summary
         backend: config.filter.solver.backend,
         completed,
         duration: samples.last().map_or(0.0, |s| s.t),
+        cycles: samples.len(),
         min_body_clearance: fold(|s| s.body_clearance),
         min_toe_clearance: fold(|s| s.toe_clearance),
         min_h,
