@@ -358,9 +358,17 @@ class Course:
     def floor_height(self, x: float) -> float: ...
 
 def simulate(
-    scenario: Literal["step", "stairs"] = "stairs", body_cbf: bool = True, max_time: float | None = None
+    scenario: Literal["step", "stairs"] = "stairs",
+    body_cbf: bool = True,
+    max_time: float | None = None,
+    episode: int | None = None,
+    seed: int = 0,
+    ranges: dict[str, tuple[float, float] | list[float]] | None = None,
 ) -> dict[str, np.ndarray | dict]:
     """The Rust closed loop's time series as numpy arrays, plus a "summary" dict.
+
+    With ``episode`` (and the ``seed`` and ``ranges`` given to :func:`campaign`) the course
+    is that campaign episode's instead of ``scenario``.
 
     Timings per cycle: eval_us, solve_us and update_us (wall time) and cpu_us (the
     thread's CPU time over the update); the summary holds median/p99/max of update_us
@@ -371,3 +379,22 @@ def simulate(
     Raises CbfError for a max_time outside [DT, MAX_SIM_TIME]. Samples are stored as the
     run goes (a run that completes early holds only its own). Releases the GIL while it
     runs."""
+
+def campaign(
+    episodes: int = 200,
+    seed: int = 0,
+    first_id: int = 0,
+    body_cbf: bool = True,
+    threads: int | None = None,
+    ranges: dict[str, tuple[float, float] | list[float]] | None = None,
+) -> dict[str, np.ndarray | list | str]:
+    """A Monte Carlo campaign of random staircases, run in Rust on a thread pool.
+
+    ``ranges``: ``[lo, hi]`` per key ``rise``, ``run``, ``steps``, ``start_gap``, ``speed``
+    (defaults as ``cbfgen campaign``). Returns one entry per episode in id order (numpy
+    arrays: id, rise, run, steps, start_gap, speed, duration, min_body_clearance,
+    min_toe_clearance, min_h (n, 6), median/p99/max_cpu_us, median/p99/max_wall_us,
+    over_1ms_cpu, over_1ms_wall, cycles; ``outcome``, a list of "finished",
+    "not_finished", "error"), ``errors`` as (id, message) pairs and ``report``, the
+    printed table. Summary columns read 0 for an episode whose outcome is "error".
+    Raises CbfError for invalid ranges or settings. Releases the GIL while it runs."""

@@ -66,6 +66,24 @@ def test_a_python_loop_reproduces_the_rust_simulation():
     np.testing.assert_array_equal(rust["x"], xs)
 
 
+def test_a_campaign_episode_reruns_alone_with_the_same_outcome():
+    # Short courses keep this quick; the Rust suite runs the 200-episode campaign.
+    ranges = {"steps": [1, 1], "rise": [0.05, 0.1]}
+    run = t3.campaign(episodes=3, seed=5, first_id=10, ranges=ranges, threads=1)
+    assert list(run["id"]) == [10, 11, 12] and run["min_h"].shape == (3, len(t3.FAMILIES))
+    assert run["errors"] == [] and run["outcome"] == ["finished"] * 3
+    assert "| episodes | 3 |" in run["report"]
+    assert np.all((run["rise"] >= 0.05) & (run["rise"] <= 0.1)) and np.all(run["steps"] == 1)
+    alone = t3.simulate(episode=11, seed=5, ranges=ranges, body_cbf=True)["summary"]
+    assert alone["completed"]
+    assert alone["min_body_clearance"] == run["min_body_clearance"][1]
+    assert alone["min_toe_clearance"] == run["min_toe_clearance"][1]
+    with pytest.raises(cbfgen.CbfError, match="rise"):
+        t3.campaign(episodes=1, ranges={"rise": [0.3, 0.1]})
+    with pytest.raises(cbfgen.CbfError, match="course range"):
+        t3.campaign(episodes=1, ranges={"height": [0.1, 0.2]})
+
+
 def test_simulation_arrays_are_consistent():
     run = t3.simulate("step", max_time=0.5)
     n = len(run["t"])

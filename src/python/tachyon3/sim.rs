@@ -10,6 +10,7 @@ use crate::filter::InputSource;
 use crate::python::convert::{choice, matrix_from_fn, vector, Array1Out, ArrayIn};
 use crate::systems::tachyon3::catalog::Family;
 use crate::systems::tachyon3::model::NX;
+use crate::systems::tachyon3::sim::campaign::{self as monte_carlo, CampaignSettings, CourseRanges, Episode};
 use crate::systems::tachyon3::sim::gait::GaitParams;
 use crate::systems::tachyon3::sim::{self, Course, Scenario, SimConfig};
 
@@ -19,6 +20,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SCENARIOS", SCENARIOS.map(Scenario::name).to_vec())?;
     m.add_class::<PyCourse>()?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(campaign, m)?)?;
     Ok(())
 }
 
@@ -125,16 +127,23 @@ impl PyCourse {
 /// ``source`` (index into ``INPUT_SOURCES``), ``eval_us``, ``solve_us``, ``update_us`` (wall
 /// time), ``cpu_us`` (the thread's CPU time over the update), ``body_clearance``,
 /// ``toe_clearance``, ``swinging`` (-1: none); and ``summary``, a dict.
-/// The GIL is released while it runs.
+/// With ``episode`` (and ``seed``, ``ranges`` as given to :func:`campaign`), the course is
+/// that campaign episode's instead of ``scenario``. The GIL is released while it runs.
 #[pyfunction]
-#[pyo3(signature = (scenario="stairs", body_cbf=true, max_time=None))]
+#[pyo3(signature = (scenario="stairs", body_cbf=true, max_time=None, episode=None, seed=0, ranges=None))]
 fn simulate<'py>(
     py: Python<'py>,
     scenario: &str,
     body_cbf: bool,
     max_time: Option<f64>,
+    episode: Option<u64>,
+    seed: u64,
+    ranges: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let mut config = SimConfig::new(self::scenario(scenario)?, body_cbf);
+    let mut config = match episode {
+        Some(id) => Episode::draw(seed, id, &course_ranges(ranges)?)?.config(body_cbf),
+        None => SimConfig::new(self::scenario(scenario)?, body_cbf),
+    };
     if let Some(t) = max_time {
         config.max_time = crate::error::positive("max_time", t)?;
     }
@@ -183,5 +192,88 @@ fn simulate<'py>(
     summary.set_item("over_period_cpu", m.over_period_cpu)?;
     summary.set_item("fallback_cycles", m.fallback_cycles)?;
     out.set_item("summary", summary)?;
+    Ok(out)
+}
+
+/// Course ranges from a dict of ``[lo, hi]`` pairs (keys ``rise``, ``run``, ``steps``,
+/// ``start_gap``, ``speed``); missing keys keep their defaults, unknown keys are errors.
+fn course_ranges(ranges: Option<&Bound<'_, PyDict>>) -> PyResult<CourseRanges> {
+    let mut out = CourseRanges::default();
+    let Some(ranges) = ranges else { return Ok(out) };
+    for (key, value) in ranges.iter() {
+        let key: String = key.extract()?;
+        match key.as_str() {
+            "rise" => out.rise = value.extract()?,
+            "run" => out.run = value.extract()?,
+            "steps" => out.steps = value.extract()?,
+            "start_gap" => out.start_gap = value.extract()?,
+            "speed" => out.speed = value.extract()?,
+            _ => {
+                return Err(crate::error::CbfError::UnknownName {
+                    what: "course range",
+                    name: key,
+                    known: "rise, run, steps, start_gap, speed".into(),
+                }
+                .into())
+            }
+        }
+    }
+    out.validate()?;
+    Ok(out)
+}
+
+/// Run a Monte Carlo campaign in Rust (rayon threads, the GIL released): ``episodes``
+/// random staircases drawn from ``seed`` and ``ranges`` (a dict of ``[lo, hi]`` pairs:
+/// ``rise``, ``run``, ``steps``, ``start_gap``, ``speed``; defaults as ``cbfgen campaign``),
+/// episode ids from ``first_id``. Returns a dict of numpy arrays, one entry per episode in id
+/// order: ``id``, ``rise``, ``run``, ``steps``, ``start_gap``, ``speed``, ``outcome`` (a list
+/// of ``"finished"``, ``"not_finished"``, ``"error"``), ``duration``, ``min_body_clearance``, ``min_toe_clearance``, ``min_h`` (n, 6),
+/// ``median_cpu_us``, ``p99_cpu_us``, ``max_cpu_us``, ``median_wall_us``, ``p99_wall_us``,
+/// ``max_wall_us``, ``over_1ms_cpu``, ``over_1ms_wall``, ``cycles`` (all 0 for an episode
+/// whose outcome is ``"error"``: no output of the module is NaN); ``errors``, a list of ``(id, message)``; and ``report``, the
+/// printed table as text. Rerun one episode with ``simulate(episode=id, seed=seed)``.
+#[pyfunction]
+#[pyo3(signature = (episodes=200, seed=0, first_id=0, body_cbf=true, threads=None, ranges=None))]
+fn campaign<'py>(
+    py: Python<'py>,
+    episodes: usize,
+    seed: u64,
+    first_id: u64,
+    body_cbf: bool,
+    threads: Option<usize>,
+    ranges: Option<&Bound<'py, PyDict>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let settings = CampaignSettings { seed, episodes, first_id, ranges: course_ranges(ranges)?, body_cbf, threads };
+    let result = py.detach(|| monte_carlo::run(&settings, |_| {}))?;
+    let r = &result.records;
+    let episode = |f: &dyn Fn(&Episode) -> f64| -> Vec<f64> { r.iter().map(|x| f(&x.episode)).collect() };
+    let summary =
+        |f: &dyn Fn(&sim::Summary) -> f64| -> Vec<f64> { r.iter().map(|x| x.result.as_ref().map_or(0.0, f)).collect() };
+    let out = PyDict::new(py);
+    out.set_item("id", vector(py, &episode(&|e| e.id as f64)))?;
+    out.set_item("rise", vector(py, &episode(&|e| e.stairs.rise)))?;
+    out.set_item("run", vector(py, &episode(&|e| e.stairs.run)))?;
+    out.set_item("steps", vector(py, &episode(&|e| e.stairs.count as f64)))?;
+    out.set_item("start_gap", vector(py, &episode(&|e| e.start_gap)))?;
+    out.set_item("speed", vector(py, &episode(&|e| e.speed)))?;
+    out.set_item("outcome", r.iter().map(|x| x.outcome().name()).collect::<Vec<_>>())?;
+    out.set_item("duration", vector(py, &summary(&|s| s.duration)))?;
+    out.set_item("min_body_clearance", vector(py, &summary(&|s| s.min_body_clearance)))?;
+    out.set_item("min_toe_clearance", vector(py, &summary(&|s| s.min_toe_clearance)))?;
+    let min_h = |i: usize, j: usize| r[i].result.as_ref().map_or(0.0, |s| s.min_h[j]);
+    out.set_item("min_h", matrix_from_fn(py, r.len(), Family::ALL.len(), min_h))?;
+    out.set_item("median_cpu_us", vector(py, &summary(&|s| s.median_cpu_us)))?;
+    out.set_item("p99_cpu_us", vector(py, &summary(&|s| s.p99_cpu_us)))?;
+    out.set_item("max_cpu_us", vector(py, &summary(&|s| s.max_cpu_us)))?;
+    out.set_item("median_wall_us", vector(py, &summary(&|s| s.median_update_us)))?;
+    out.set_item("p99_wall_us", vector(py, &summary(&|s| s.p99_update_us)))?;
+    out.set_item("max_wall_us", vector(py, &summary(&|s| s.max_update_us)))?;
+    out.set_item("over_1ms_cpu", vector(py, &summary(&|s| s.over_period_cpu as f64)))?;
+    out.set_item("over_1ms_wall", vector(py, &summary(&|s| s.over_period_wall as f64)))?;
+    out.set_item("cycles", vector(py, &summary(&|s| s.cycles as f64)))?;
+    let errors: Vec<(u64, String)> =
+        r.iter().filter_map(|x| x.result.as_ref().err().map(|e| (x.episode.id, e.clone()))).collect();
+    out.set_item("errors", errors)?;
+    out.set_item("report", result.report().to_string())?;
     Ok(out)
 }
