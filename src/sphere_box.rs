@@ -1,12 +1,13 @@
 //! Sphere vs oriented box: the exact signed distance, and a smooth clearance whose sign
 //! is a proof.
 //!
-//! The barrier is built, differentiated and emitted by `symbolic/families/sphere_box.py`.
-//! It is a certified alternative to the superellipsoid of the reference paper's eq. 11
-//! (Tachyon 3's toe–edge rows), which is inscribed in the cuboid grown by the sphere's
-//! radius and so not conservative: near the cuboid's edges and corners its zero level
-//! lies inside the grown box, and a toe the barrier calls safe can touch the cuboid (the
-//! stairs run measures −0.6 mm).
+//! Tachyon 3's toe–edge rows keep each toe sphere out of the edge cuboids with the
+//! barrier built here (`symbolic/families/sphere_box.py` builds, differentiates and
+//! emits it; the same formula is the `toe_edge` family). The reference paper's eq. 11
+//! used a superellipsoid inscribed in the cuboid grown by the toe radius instead. That
+//! set is not conservative: near the cuboid's edges and corners its zero level lies
+//! inside the grown box, so a toe the barrier called safe could touch the cuboid (the
+//! stairs run measured −0.6 mm). It was replaced by this certified barrier.
 //!
 //! # The barrier
 //! With `rel = Rᵀ(p − c)` the sphere's centre in the box frame, `a` the half extents and
@@ -34,7 +35,7 @@
 //!
 //! The smooth SAT's `x·tanh(αx)` and a softplus `ln(1 + e^{αq})/α` give the same
 //! proof (overshoot `ln2/α`), but cost three `tanh`, six `exp` and three `ln` per sphere
-//! (as Tachyon 3's six-toe kernel: 7× the superellipsoid's cost, against 3.4× for these)
+//! (a six-toe kernel at 7× the superellipsoid's cost, against 3.4× for these square roots)
 //! and need a runtime shift against overflow; these need none.
 //!
 //! # Rounding guard
@@ -90,8 +91,9 @@ const RADIUS_RANGE: &str = "[0, 1e4] m";
 /// [module docs](self#rounding-guard)).
 pub const ROUNDING_GUARD: f64 = 256.0 * f64::EPSILON;
 
-/// The default sharpness: a certified margin of 1.2 mm.
-pub const DEFAULT_ALPHA: f64 = 1500.0;
+/// Tachyon 3's toe sharpness (`toe_alpha` in `symbolic/models/tachyon3.toml`), the
+/// default: a certified margin of 1.2 mm.
+pub const DEFAULT_ALPHA: f64 = crate::generated::tachyon3::TOE_ALPHA;
 
 /// A sphere: centre in the world frame and radius, validated into the
 /// [domain](self#domain).
@@ -147,7 +149,7 @@ impl Smoothing {
 }
 
 impl Default for Smoothing {
-    /// [`DEFAULT_ALPHA`].
+    /// [`DEFAULT_ALPHA`], Tachyon 3's toe–edge sharpness.
     fn default() -> Self {
         Self { alpha: DEFAULT_ALPHA }
     }

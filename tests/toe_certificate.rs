@@ -1,13 +1,16 @@
-//! The certified sphere–box clearance (`cbfgen::sphere_box`) against exact sphere–box
-//! distance: on over a million random and adversarial pairs, no pair the barrier
-//! certifies (h ≥ 0) overlaps, and the conservatism stays within the documented bound. The exact distance is checked against a second, world-frame
+//! The certified sphere–box clearance (`cbfgen::sphere_box`, Tachyon 3's toe–edge rows)
+//! against exact sphere–box distance: on over a million random and adversarial pairs, no
+//! pair the barrier certifies (h ≥ 0) overlaps, and the conservatism stays within the
+//! documented bound. The exact distance is checked against a second, world-frame
 //! implementation everywhere and against parry3d on a subset.
 
 mod common;
 
+use cbfgen::generated::tachyon3 as gen;
 use cbfgen::geometry::{MAX_COORDINATE, MAX_HALF_EXTENT, MIN_HALF_EXTENT};
 use cbfgen::sphere_box::{self, Smoothing, Sphere, ALPHA_MAX, ALPHA_MIN, DEFAULT_ALPHA};
-use cbfgen::systems::tachyon3::model::TOE_RADIUS;
+use cbfgen::systems::tachyon3::catalog::{Capacity, Catalog, EdgeCuboid, Environment, Family};
+use cbfgen::systems::tachyon3::model::{self, State, BODY_PITCH, BODY_X, BODY_Z, TOE_BLOCK, TOE_RADIUS};
 use cbfgen::{CbfError, OrientedBox};
 use common::{random_rotation, rng};
 use nalgebra::{Rotation3, Vector3};
@@ -479,4 +482,84 @@ fn outputs_are_finite_and_certified_at_the_domain_corners() {
     }
     println!("{certified} of {cases} domain-corner cases certified");
     assert!(certified > 0);
+}
+
+// ----------------------------------------------------- the catalog's toe rows
+
+/// A Tachyon 3 state with the legs pointing down, as in tests/constraints.rs.
+fn random_state(r: &mut impl Rng) -> State {
+    let mut x = model::standard_posture();
+    x[0] = r.random_range(-2.0..2.0);
+    x[1] = r.random_range(-2.0..2.0);
+    x[2] = r.random_range(-0.2..0.2);
+    x[3] = r.random_range(-3.0..3.0);
+    x[4] = r.random_range(-1.0..1.0);
+    x[BODY_X] = r.random_range(-0.1..0.1);
+    x[BODY_Z] = r.random_range(0.2..0.5);
+    x[BODY_PITCH] = r.random_range(-0.3..0.3);
+    for leg in 0..6 {
+        let t = TOE_BLOCK + 4 * leg;
+        x[t] = x[BODY_X] + model::HIP_POSITIONS[leg][0] + r.random_range(-0.3..0.3);
+        x[t + 1] = r.random_range(-0.05..0.15);
+        x[t + 2] = r.random_range(-0.5..0.5);
+        x[t + 3] = r.random_range(-0.5..0.5);
+    }
+    x
+}
+
+/// Every toe–edge row of the catalog that reads h ≥ 0 has its toe sphere clear of its
+/// edge cuboid by exact distance, for edges placed against a random toe (faces, edges,
+/// corners, within a few margins), and the rows are the library's clearance.
+#[test]
+fn every_nonnegative_toe_row_of_the_catalog_is_clear_by_exact_distance() {
+    let mut r = rng(31);
+    let edges = 4;
+    let capacity = Capacity::edges(edges, [1; 6]);
+    let mut catalog = Catalog::new(capacity).unwrap();
+    let mut env = Environment::new(capacity).unwrap();
+    let p = Smoothing::new(gen::TOE_ALPHA).unwrap();
+    let m = sphere_box::margin(&p);
+    let (mut rows, mut certified, mut tight, mut overlapping) = (0, 0, 0, 0);
+    for _ in 0..20_000 {
+        let x = random_state(&mut r);
+        let (_, _, toes) = gen::world_kinematics(&x);
+        env.clear_edges();
+        let mut boxes = Vec::new();
+        for _ in 0..edges {
+            // An edge cuboid placed so a chosen toe sits near one of its features.
+            let toe = Vector3::from(toes[r.random_range(0..6)]);
+            let half = random_half(&mut r).map(|v| v.clamp(1e-3, 1.0));
+            let rotation = random_box_rotation(&mut r);
+            let near = [Near::Face, Near::Edge, Near::Corner][r.random_range(0..3)];
+            let d = (TOE_RADIUS + random_gap(&mut r, TOE_RADIUS, m)).max(0.0);
+            let local = local_centre(&mut r, near, &half, d);
+            let b = OrientedBox::new(toe - rotation * local, rotation, half).unwrap();
+            env.push_edge(EdgeCuboid::from_box(&b)).unwrap();
+            boxes.push(b);
+        }
+        catalog.evaluate(&x, &env).unwrap();
+        for (slot, row) in catalog.slots().zip(catalog.rows()) {
+            if slot.family != Family::ToeEdge {
+                continue;
+            }
+            let (leg, b) = (slot.leg.expect("toe rows name their leg"), &boxes[slot.instance]);
+            let toe = Vector3::from(toes[leg]);
+            let exact = sphere_box::exact_distance(&toe, TOE_RADIUS, b);
+            let library = sphere_box::clearance(&Sphere::new(toe, TOE_RADIUS).unwrap(), b, &p);
+            let h = row.h();
+            assert!((h - library).abs() <= 1e-12, "row {h} vs library {library}");
+            assert!(row.lie.iter().chain(row.lg.iter()).all(|v| v.is_finite()));
+            if h >= 0.0 {
+                certified += 1;
+                tight += usize::from(exact < 2.0 * m);
+                assert!(exact >= 0.0, "toe {leg} row h = {h:e} but exact distance {exact:e}: {b:?}");
+            }
+            overlapping += usize::from(exact < 0.0);
+            rows += 1;
+        }
+    }
+    println!(
+        "{rows} toe rows: {certified} with h >= 0 ({tight} within two margins of contact), {overlapping} overlapping"
+    );
+    assert!(certified > rows / 10 && overlapping > rows / 20 && tight > 1_000, "{certified} {overlapping} {tight}");
 }
