@@ -20,6 +20,8 @@
 //!
 //! * [`ssat`] — Smooth Separating Axis Theorem between oriented boxes, with a certified
 //!   margin that turns a smooth barrier into an exact no-overlap proof.
+//! * [`sphere_box`] — a sphere vs an oriented box: the exact signed distance and a smooth
+//!   clearance whose certified margin makes `h ≥ 0` a proof (Tachyon 3's toe rows).
 //! * [`sat`] — the exact SAT, the reference the smooth one is tested against.
 //! * [`geometry`] — validated oriented boxes; [`chart`] — the SVG figures every system draws.
 //!
@@ -37,6 +39,7 @@ pub mod filter;
 pub mod geometry;
 pub mod qp;
 pub mod sat;
+pub mod sphere_box;
 pub mod ssat;
 pub mod system;
 pub mod systems;

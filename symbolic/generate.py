@@ -18,7 +18,7 @@ from .codegen.backends.rust.emitter import RawRust, emit_kernel, rustdoc_text
 from .codegen.backends.rust.kernel_table import emit_kernel_table
 from .codegen.backends.rust.system_module import emit_system
 from .codegen.definition import SystemDefinition, define
-from .families import ssat
+from .families import sphere_box, ssat
 from .inputs_hash import inputs_hash
 from .kernel import Kernel
 from .spec import load
@@ -28,9 +28,10 @@ HASH_PREFIX = "// inputs-sha256: "
 REGENERATE = "scripts/cbf generate  (or: python -m symbolic.generate)"
 
 # Kernel libraries that are not systems (the SSAT variants the benches and cross-checks
-# compare): module name -> (doc, kernel builder).
+# compare, the certified sphere-box clearance): module name -> (doc, kernel builder).
 MODULES: dict[str, tuple[str, Callable[[], list[Kernel | RawRust]]]] = {
     "ssat": (ssat.MODULE_DOC, ssat.kernels),
+    "sphere_box": (sphere_box.MODULE_DOC, sphere_box.kernels),
 }
 # Built-in systems: every spec file here becomes a module of generated/, by its system name.
 SYSTEMS_DIR = Path(__file__).resolve().parent / "systems"

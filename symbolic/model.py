@@ -49,12 +49,13 @@ class RobotModel:
     legs: tuple[Leg, ...]
     ssat_alpha: float
     ssat_alpha_rot: float
-    superellipsoid_n: int
+    toe_alpha: float
     ecbf_poles: tuple[float, ...]
     input_limits: tuple[float, ...]
 
 
-# The runtime's documented domains (src/ssat.rs ALPHA_MIN/ALPHA_MAX, src/geometry.rs
+# The runtime's documented domains (src/ssat.rs ALPHA_MIN/ALPHA_MAX, which
+# src/sphere_box.rs shares for toe_alpha, src/geometry.rs
 # MIN/MAX_HALF_EXTENT, src/filter/settings.rs POLE_RANGE and MAX_INPUT): a model outside
 # them would bake numbers into the kernels that the safe API refuses at run time.
 SSAT_ALPHA_RANGE = (1e-6, 1e9)
@@ -111,9 +112,6 @@ def load_model(path: Path) -> RobotModel:
     if len(legs) != 6 or len({leg.name for leg in legs}) != 6:
         raise ModelError(f"{where}: expected six [[legs]] with distinct names")
     knee_min = _number(knee, "min_length", f"{where}: knee", positive=True)
-    n = smoothing.get("superellipsoid_n")
-    if not isinstance(n, int) or isinstance(n, bool) or n < 1:
-        raise ModelError(f"{where}: smoothing.superellipsoid_n: expected an integer >= 1, got {n!r}")
     return RobotModel(
         name=path.stem,
         body_half_extents=_vector(body, "half_extents", f"{where}: body", 3, positive=True,
@@ -125,7 +123,7 @@ def load_model(path: Path) -> RobotModel:
         legs=tuple(legs),
         ssat_alpha=_number(smoothing, "ssat_alpha", f"{where}: smoothing", within=SSAT_ALPHA_RANGE),
         ssat_alpha_rot=_number(smoothing, "ssat_alpha_rot", f"{where}: smoothing", within=SSAT_ALPHA_RANGE),
-        superellipsoid_n=n,
+        toe_alpha=_number(smoothing, "toe_alpha", f"{where}: smoothing", within=SSAT_ALPHA_RANGE),
         ecbf_poles=_vector(ecbf, "poles", f"{where}: ecbf", 2, within=POLE_RANGE),
         input_limits=_input_limits(inputs, f"{where}: inputs"),
     )

@@ -19,6 +19,7 @@ from typing import NamedTuple
 
 import symengine as se
 
+from .families import sphere_box as _sphere_box
 from .families.ssat import AXIS_COUNT, certified_margin, relative_pose, separating_axes
 from .model import matmul, matvec, rot_y, rot_z
 from .smoothing import (
@@ -27,17 +28,20 @@ from .smoothing import (
     SMOOTH_ABS,
     SMOOTH_MAX,
     SQRT,
+    SQRT_RAMP,
+    SQRT_UNDER,
     XTANH,
     XTANH_ABS_GAP,
     SmoothAbs,
     SmoothMax,
+    SmoothRamp,
 )
 from .spec import FamilyContext
 
 __all__ = [
-    "AXIS_COUNT", "BOLTZMANN", "LSE", "SMOOTH_ABS", "SMOOTH_MAX", "SQRT", "XTANH", "XTANH_ABS_GAP",
-    "Box", "SmoothAbs", "SmoothMax", "half_space", "identity", "matmul", "matvec", "rot_x", "rot_y",
-    "rot_z", "ssat", "superellipsoid", "transpose",
+    "AXIS_COUNT", "BOLTZMANN", "LSE", "SMOOTH_ABS", "SMOOTH_MAX", "SQRT", "SQRT_RAMP", "SQRT_UNDER", "XTANH",
+    "XTANH_ABS_GAP", "Box", "SmoothAbs", "SmoothMax", "SmoothRamp", "half_space", "identity", "matmul",
+    "matvec", "rot_x", "rot_y", "rot_z", "sphere_box", "ssat", "superellipsoid", "transpose",
 ]
 
 
@@ -80,13 +84,26 @@ def superellipsoid(p: FamilyContext, point: Sequence[se.Expr], box: Box, n: int 
     """``sum_i (r_i / (a_i + inflate))^(2n) - 1`` with ``r = R^T (point - centre)``: >= 0
     outside the superellipsoid inscribed in ``box`` grown by ``inflate`` (a sphere's
     radius, as the paper's eq. 11 folds the toe sphere into the edge cuboid). ``r`` is
-    a named intermediate ``<name>_x/y/z``. Inscribed: not conservative at the corners."""
+    a named intermediate ``<name>_x/y/z``. Inscribed: not conservative at the edges and
+    corners, so h >= 0 does not prove clearance; :func:`sphere_box` does (Tachyon 3's
+    toe rows used this, the paper's eq. 11, until it was replaced for that reason)."""
     if not isinstance(n, int) or n < 1:
         raise ValueError(f"superellipsoid: n must be a positive integer, got {n!r}")
     c, rot, half = box
     rel = [p.let(f"{name}_{'xyz'[i]}", se.Add(*[rot[q][i] * (point[q] - c[q]) for q in range(3)]))
            for i in range(3)]
     return se.Add(*[(rel[i] / (half[i] + inflate)) ** (2 * n) for i in range(3)]) - 1
+
+
+def sphere_box(p: FamilyContext, center: Sequence[se.Expr], radius: se.Expr, box: Box,
+               alpha: se.Expr = 1500.0) -> se.Expr:
+    """Certified clearance [m] between a sphere (``center``, ``radius``) and ``box``: a
+    smooth distance from the centre to the box, minus the radius and the certified margin
+    (sqrt(3) + 0.001)/alpha, so h >= 0 proves the sphere does not reach into the box
+    (:mod:`symbolic.families.sphere_box` has the proof). ``alpha`` [1/m] is the inverse
+    smoothing length: 1500 gives a 1.2 mm margin. Tachyon 3's toe-edge rows are this."""
+    return _sphere_box.clearance(p.let, center, box.center, box.rotation, box.half_extents,
+                                 se.sympify(radius), se.sympify(alpha))
 
 
 def ssat(p: FamilyContext, a: Box, b: Box, alpha: se.Expr = 100.0, alpha_rot: se.Expr = 100.0,

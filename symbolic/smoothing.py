@@ -75,6 +75,37 @@ SQRT = SmoothAbs(
     over=lambda alpha: 1 / alpha,
 )
 
+SQRT_UNDER = SmoothAbs(
+    name="sqrt_under",
+    doc="sqrt(x^2 + eps^2) - eps with eps = 1/alpha: never above |x|, at most eps below it",
+    value=lambda x, alpha: se.sqrt(x * x + 1 / (alpha * alpha)) - 1 / alpha,
+    under=lambda alpha: 1 / alpha,
+    over=lambda alpha: se.Integer(0),
+)
+
+
+@dataclass(frozen=True)
+class SmoothRamp:
+    """A smooth, increasing surrogate r(x) for max(x, 0) with 0 <= r(x) - max(x, 0) <= over."""
+
+    name: str
+    doc: str
+    value: Callable[[se.Expr, se.Expr], se.Expr]
+    over: Callable[[se.Expr], se.Expr]
+
+    def __call__(self, x: se.Expr, alpha: se.Expr) -> se.Expr:
+        return self.value(x, alpha)
+
+
+SQRT_RAMP = SmoothRamp(
+    name="sqrt_ramp",
+    doc="(x + sqrt(x^2 + 4 eps^2))/2 with eps = 1/alpha: increasing, never below max(x, 0), at most eps "
+        "above it (at x = 0); algebraic, so no exp() to overflow",
+    value=lambda x, alpha: (x + se.sqrt(x * x + 4 / (alpha * alpha))) / 2,
+    over=lambda alpha: 1 / alpha,
+)
+"""(sqrt(x^2 + 4 eps^2) - |x|)/2 lies in (0, eps]: the overshoot over max(x, 0)."""
+
 
 @dataclass(frozen=True)
 class SmoothMax:

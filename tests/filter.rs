@@ -375,3 +375,63 @@ fn invalid_settings_are_rejected_at_construction() {
     let err = EcbfQp::new(&[bad_row], &[1.0; NU], &[-1.0; NU], &[1.0; NU], SolverSettings::default());
     assert_eq!(err.err(), Some(CbfError::BadRowPattern { row: 0, column: 3 }));
 }
+
+/// One row with relative degree 1, `h = params`, on a single input: the smallest barrier
+/// set that can hand the filter a NaN `h` (no built-in family can any more: the toe–edge
+/// rows, the last source, are finite for every parameter in the domain).
+struct OneRow {
+    rows: [cbfgen::system::Row<1>; 1],
+}
+
+const ONE_ROW_FAMILY: [cbfgen::system::FamilyInfo; 1] = [cbfgen::system::FamilyInfo {
+    name: "one",
+    relative_degree: 1,
+    row_names: &["one"],
+    members: &[],
+    instances: cbfgen::system::InstanceKind::Fixed,
+    count: 1,
+    params: &[],
+    defaults: cbfgen::system::FamilyParams { poles: Poles::repeated(10.0, 1), slack_weight: 1e4, activation: 1.0 },
+}];
+
+const ONE_ROW_LAYOUT: [cbfgen::system::RowLayout; 1] =
+    [cbfgen::system::RowLayout { family: 0, member: 0, instance: 0, row: 0, columns: &[0] }];
+
+impl cbfgen::system::BarrierSet<1> for OneRow {
+    type State = [f64; 1];
+    type Params = f64;
+
+    fn families(&self) -> &[cbfgen::system::FamilyInfo] {
+        &ONE_ROW_FAMILY
+    }
+
+    fn layout(&self) -> &[cbfgen::system::RowLayout] {
+        &ONE_ROW_LAYOUT
+    }
+
+    fn rows(&self) -> &[cbfgen::system::Row<1>] {
+        &self.rows
+    }
+
+    fn evaluate(&mut self, _t: f64, _x: &[f64; 1], h: &f64) -> Result<(), CbfError> {
+        self.rows[0] = cbfgen::system::Row { lie: [*h, 0.0, 0.0, 0.0, 0.0], lg: [1.0], active: true };
+        Ok(())
+    }
+}
+
+#[test]
+fn a_nan_h_takes_part_despite_the_activation_threshold_and_is_reported() {
+    // A NaN h compares false against the activation threshold (1.0 here); the filter
+    // must not read that as "inactive" and drop the row, but flag it and fall back.
+    let settings = FilterSettings::defaults(&ONE_ROW_FAMILY, [-1.0], [1.0]);
+    let mut filter = EcbfFilter::new(OneRow { rows: [cbfgen::system::Row::ZERO] }, settings).expect("filter");
+    let out = *filter.update(&[0.0], &[0.5], &f64::NAN).expect("a flagged fallback, not an error");
+    assert_eq!((out.source, out.nonfinite_row, out.active_rows), (InputSource::NominalClipped, Some(0), 1));
+    assert!(out.u.iter().all(|v| v.is_finite()));
+    // Above the threshold a finite row leaves the QP; below it, it binds.
+    let out = *filter.update(&[0.0], &[-0.5], &2.0).expect("solved");
+    assert_eq!((out.source, out.active_rows, out.u), (InputSource::Qp, 0, [-0.5]));
+    let out = *filter.update(&[0.0], &[-0.5], &0.01).expect("solved");
+    assert_eq!((out.source, out.active_rows), (InputSource::Qp, 1));
+    assert!(out.u[0] > -0.5 + 1e-3, "the row must push u up from the nominal: {:?}", out.u);
+}

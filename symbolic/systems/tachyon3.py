@@ -9,7 +9,7 @@ checks clearance with, and the constants its scenario code uses.
 
 Row order (the filter's QP rows): joint limits (4 per leg), foot height (1 per leg),
 static stability (lower and upper per leg, each optional), body-edge SSAT (1 per edge
-slot), toe-edge superellipsoid (one row per toe, per edge slot), foothold half-planes
+slot), toe-edge certified sphere-box clearance (one row per toe, per edge slot), foothold half-planes
 (per leg, its capacity). Per-leg families are indexed by the legs (``over``), so each leg
 keeps its own kernel with its hip baked in.
 """
@@ -20,6 +20,7 @@ from pathlib import Path
 
 import symengine as se
 
+from symbolic.families import sphere_box
 from symbolic.families.ssat import certified_margin, relative_pose, separating_axes
 from symbolic.model import Leg, Tachyon3, load_model, load_tachyon3
 from symbolic.smoothing import LSE, XTANH
@@ -30,6 +31,10 @@ AXES = "xyz"
 # QP can take (the paper's worst case has 20); 256 half-planes per foothold polygon.
 MAX_EDGES = 1025
 MAX_FOOTHOLD_EDGES = 256
+# The toe-edge rows join the QP below this h, a distance [m]. With the default poles
+# (20, 20) a row's bound 40 h' + 400 h is still >= 0 at h = 0.3 m for a toe closing at
+# up to 3 m/s, so a row asks for no deceleration yet when it joins.
+TOE_EDGE_ACTIVATION = 0.3
 EDGE_PARAMS = {
     "center": ((3,), "edge cuboid centre, world frame [m]"),
     "rotation": ((3, 3), "edge cuboid rotation (columns = its axes in the world frame)"),
@@ -48,6 +53,10 @@ EDGE_PARAMS = {
 #   1e4  static stability (eq. 13): an approximation with its own margin (a reach, not a
 #        support polygon).
 #   1e2  footholds: where the gait would like a swinging toe to stay.
+# The toe-edge rows need the top tier for a second reason: their h is a distance, with
+# about a thirtieth of the slope of the paper's superellipsoid at the cuboid's faces, so at
+# the old common weight (1e4) a swing leg pulled back into its foothold strip bought the
+# foothold's acceleration with toe-edge slack and sank 5.6 mm into a nosing.
 # Wider spreads hold no better in the Monte Carlo campaign but make the QP stiffer: with
 # 1e8 for the top tier, 26 of 5e6 updates needed OSQP after the dense solve's step budget
 # (over 1 ms of CPU time each), against 1 with these.
@@ -136,21 +145,23 @@ def build(model: Path | None = None) -> System:
                  f"boxes do not overlap. alpha = {m.ssat_alpha}, alpha_rot = {m.ssat_alpha_rot}. Active while "
                  "h < 0.5 m.")
 
-    power = 2 * m.superellipsoid_n
+    toe_alpha = se.RealDouble(m.toe_alpha)
 
     def toe_edge(p):
-        rows = []
-        for name, leg in legs.items():
-            toe = _toe_world(p, robot, leg)
-            rel = [p.let(f"rel_{AXES[i]}", se.Add(*[p.rotation[q][i] * (toe[q] - p.center[q]) for q in range(3)]))
-                   for i in range(3)]
-            # The sphere is folded into the cuboid: each half extent grows by the toe radius.
-            rows.append((name, se.Add(*[(rel[i] / (p.half[i] + m.toe_radius)) ** power for i in range(3)]) - 1))
-        return rows
+        # h = smooth distance from the toe centre to the cuboid - toe radius - certified
+        # margin (symbolic/families/sphere_box.py): h >= 0 proves the toe sphere is clear.
+        return [(name, sphere_box.clearance(p.let, _toe_world(p, robot, leg), p.center, p.rotation, p.half,
+                                           se.RealDouble(m.toe_radius), toe_alpha))
+                for name, leg in legs.items()]
 
-    s.family("toe_edge", toe_edge, capacity=MAX_EDGES, params=EDGE_PARAMS, poles=poles, activation=15.0,
-             doc=f"Every toe sphere vs an edge cuboid by superellipsoid (eq. 11), exponent {power}: one row per "
-                 "leg. Active while h < 15 (the toe within about twice the inflated half extent).")
+    toe_margin = float(sphere_box.margin(toe_alpha))
+    s.family("toe_edge", toe_edge, capacity=MAX_EDGES, params=EDGE_PARAMS, poles=poles,
+             activation=TOE_EDGE_ACTIVATION, slack_weight=SLACK_WEIGHTS["toe_edge"],
+             doc="Every toe sphere vs an edge cuboid: a smooth distance from the toe centre to the cuboid "
+                 f"minus the toe radius and a certified margin of {toe_margin * 1e3:.2f} mm (alpha = "
+                 f"{m.toe_alpha}), so h >= 0 proves the sphere does not reach into the cuboid; one row per "
+                 f"leg. Replaces the paper's superellipsoid (eq. 11), which is not conservative at the "
+                 f"cuboid's corners. Active while h < {TOE_EDGE_ACTIVATION} m.")
 
     def foothold(p):
         toe = _toe_world(p, robot, legs[p.label])
@@ -179,7 +190,7 @@ def build(model: Path | None = None) -> System:
         ("hip_ranges", [[leg.hip_min, leg.hip_max] for leg in m.legs], "Hip angle limits [rad], positive outward."),
         ("hip_outward", [leg.outward for leg in m.legs], "+1 where outward is forward, -1 backward."),
         ("ssat_alpha", [m.ssat_alpha, m.ssat_alpha_rot], "Body SSAT sharpness (alpha, alpha_rot)."),
-        ("superellipsoid_n", m.superellipsoid_n, "Toe-edge superellipsoid exponent is 2N."),
+        ("toe_alpha", m.toe_alpha, "Toe-edge smoothing sharpness [1/m]."),
         ("ecbf_poles", list(m.ecbf_poles), "Default ECBF poles [1/s]."),
         ("input_limits", list(m.input_limits), "Input magnitude limits, INPUT_NAMES order."),
     ]:

@@ -85,7 +85,8 @@ def test_editing_the_model_changes_the_inputs_hash(tmp_path):
     (("stroke = 0.50", "stroke = -0.50"), "knee.stroke: must be > 0"),
     (('outward = "forward"', 'outward = "sideways"'), "outward"),
     (("hip_range_deg = [-45.0, 45.0]", "hip_range_deg = [45.0, -45.0]"), "hip_range_deg"),
-    (("superellipsoid_n = 2", "superellipsoid_n = 1.5"), "superellipsoid_n"),
+    (("toe_alpha = 1500.0", "toe_alpha = -1.0"), r"smoothing.toe_alpha: must lie in \[1e-06, 1e\+09\]"),
+    (("toe_alpha = 1500.0", 'toe_alpha = "sharp"'), "smoothing.toe_alpha: expected a finite number"),
     (("toe_accel = [10.0, 10.0]", "toe_accel = [10.0]"), "inputs.toe_accel"),
     (("origin_accel = 3.0", "origin_accel = 0.0"), "inputs.origin_accel: must be > 0"),
     # The runtime's domains: numbers the safe API would refuse are refused here too.

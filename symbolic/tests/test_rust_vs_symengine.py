@@ -4,8 +4,8 @@ symbolic definition evaluated numerically by SymEngine (see symengine_reference.
 The kernels are the generator's own list (`symbolic.generate.all_kernels`), and Rust is
 reached through the uniform kernel table the generator emits (`cbfgen.call_kernel`), so a
 new system is cross-checked without a line of test code. Inputs are uniform in [-2, 2]
-unless a kernel's domain needs better (the Tachyon 3 and SSAT samplers below: proper
-rotations, states around the standing posture, edges near the body).
+unless a kernel's domain needs better (the Tachyon 3, SSAT and sphere-box samplers below:
+proper rotations, states around the standing posture, edges near the body).
 
 For each kernel, 500 random inputs. Every output value must agree with SymEngine's
 double-precision evaluation to a relative 1e-9. A value that does not is looked at
@@ -37,6 +37,7 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
+from symbolic.families import sphere_box as sphere_box_family
 from symbolic.families import ssat as ssat_family
 from symbolic.generate import all_kernels, builtin_systems
 from symbolic.kernel import Kernel
@@ -119,6 +120,16 @@ def ssat_inputs(rng: np.random.Generator) -> Inputs:
             "alpha": rng.uniform(5, 300), "alpha_rot": rng.uniform(5, 300)}
 
 
+def sphere_box_inputs(rng: np.random.Generator) -> Inputs:
+    """A box of mixed proportions and a sphere centre around it, from a few smoothing
+    lengths off its surface to well outside, with alpha from blunt to sharp."""
+    half = 10 ** rng.uniform(-2.5, 0, 3)
+    center = rng.uniform(-1, 1, 3)
+    return {"point": center + rng.uniform(-1.5, 1.5, 3) * (half + 0.05), "center": center,
+            "rotation": random_rotation(rng).ravel(), "half": half, "radius": rng.uniform(0, 0.3),
+            "alpha": 10 ** rng.uniform(0.5, 3.5)}
+
+
 def family_inputs(family: str, leg: int, rng: np.random.Generator) -> Inputs:
     x = random_state(rng)
     v: Inputs = {"x": x}
@@ -150,6 +161,8 @@ def domain_samplers() -> dict[tuple[str, str], Callable[[np.random.Generator], I
         variant = f"{smax.name}_{sabs.name}"
         for suffix in ("", "_derivatives", "_margin"):
             out[("ssat", f"ssat_{variant}{suffix}")] = ssat_inputs
+    for kernel in sphere_box_family.kernels():
+        out[("sphere_box", kernel.name)] = sphere_box_inputs
     state_only = lambda rng: {"x": random_state(rng)}  # noqa: E731
     for name in ("drift", "input_matrix", "input_matrix_nonzeros", "world_kinematics"):
         out[("tachyon3", name)] = state_only

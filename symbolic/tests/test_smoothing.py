@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import symengine as se
 
-from symbolic.smoothing import BOLTZMANN, LSE, SQRT, XTANH, XTANH_ABS_GAP
+from symbolic.smoothing import BOLTZMANN, LSE, SQRT, SQRT_RAMP, SQRT_UNDER, XTANH, XTANH_ABS_GAP
 
 x, alpha, shift = se.symbols("x alpha shift")
 rng = np.random.default_rng(1)
@@ -18,7 +18,7 @@ def test_xtanh_gap_constant_is_the_true_maximum():
     assert peak <= XTANH_ABS_GAP < peak + 1e-9
 
 
-@pytest.mark.parametrize("sabs", [XTANH, SQRT], ids=lambda s: s.name)
+@pytest.mark.parametrize("sabs", [XTANH, SQRT, SQRT_UNDER], ids=lambda s: s.name)
 def test_smooth_abs_stays_within_its_bounds(sabs):
     expr = sabs(x, alpha)
     for _ in range(2000):
@@ -76,3 +76,17 @@ def test_building_with_named_intermediates_keeps_the_value(smax):
     for _ in range(50):
         out = k.evaluate({"y": rng.normal(size=6), "a": float(rng.uniform(1, 100))})
         assert out["named"][0] == pytest.approx(out["plain"][0], rel=1e-14, abs=1e-15)
+
+
+def test_sqrt_ramp_is_an_increasing_upper_bound_of_max_x_0_within_its_overshoot():
+    expr = SQRT_RAMP(x, alpha)
+    slope = se.diff(expr, x)
+    for _ in range(2000):
+        a = float(10 ** rng.uniform(-1, 4))
+        v = float(rng.normal() * 10 ** rng.uniform(-5, 1))
+        r = float(expr.subs({x: v, alpha: a}))
+        over = float(SQRT_RAMP.over(se.RealDouble(a)))
+        assert max(v, 0.0) - 1e-15 <= r <= max(v, 0.0) + over + 1e-15
+        assert float(slope.subs({x: v, alpha: a})) >= 0.0
+    # The overshoot bound is attained at 0.
+    assert float(expr.subs({x: 0.0, alpha: 7.0})) == pytest.approx(1 / 7.0, rel=1e-15)

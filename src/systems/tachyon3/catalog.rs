@@ -5,7 +5,7 @@
 //!
 //! Everything structural is generated from `symbolic/systems/tachyon3.py`: the row
 //! layout (joint limits 4 per leg, foot height 1 per leg, stability lower and upper per
-//! leg, body–edge SSAT 1 per edge slot, toe–edge superellipsoid 6 per edge slot, foothold
+//! leg, body–edge SSAT 1 per edge slot, toe–edge certified clearance 6 per edge slot, foothold
 //! half-planes per leg up to its capacity), the kernels and [`FAMILIES`]. This module
 //! only names rows ([`RowSlot`]) and fills parameters.
 //!
@@ -77,7 +77,11 @@ pub enum Family {
     Stability,
     /// Body vs edge cuboid by the smooth SAT minus its certified margin (eq. 10).
     BodyEdge,
-    /// Toe sphere vs edge cuboid by superellipsoid (eq. 11).
+    /// Toe sphere vs edge cuboid by the certified sphere–box clearance of
+    /// [`sphere_box`](crate::sphere_box): a smooth distance from the toe centre to the
+    /// cuboid less the toe radius and a 1.2 mm margin, so `h ≥ 0` proves the toe clear
+    /// (`h` in metres). It replaces the paper's superellipsoid (eq. 11), which is inscribed
+    /// in the inflated cuboid and so let a toe that read safe touch it at edges and corners.
     ToeEdge,
     /// Swing toe inside a convex foothold half-space (eq. 12).
     Foothold,

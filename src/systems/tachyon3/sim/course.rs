@@ -12,6 +12,7 @@ use super::Scenario;
 use crate::error::CbfError;
 use crate::generated::tachyon3 as gen;
 use crate::geometry::OrientedBox;
+use crate::sphere_box;
 use crate::systems::tachyon3::catalog::{Capacity, EdgeCuboid, Environment, StabilityBound};
 use crate::systems::tachyon3::model::{self, State, TOE_RADIUS};
 use crate::systems::tachyon3::terrain::Stairs;
@@ -122,7 +123,7 @@ impl Course {
         let toe_clearance = self
             .edges
             .iter()
-            .flat_map(|e| toes.iter().map(move |toe| sphere_box_distance(toe, e)))
+            .flat_map(|e| toes.iter().map(move |toe| sphere_box::exact_distance(&Vector3::from(*toe), TOE_RADIUS, e)))
             .fold(f64::INFINITY, f64::min);
         Ok(Clearance { body: body_clearance, toe: toe_clearance })
     }
@@ -145,13 +146,4 @@ fn edge_box(edge: &EdgeCuboid) -> Result<OrientedBox, CbfError> {
 fn body_box(center: &[f64; 3], rotation: &[[f64; 3]; 3]) -> Result<OrientedBox, CbfError> {
     let r = Rotation3::from_matrix_unchecked(Matrix3::from_fn(|i, j| rotation[i][j]));
     OrientedBox::new(Vector3::from(*center), r, Vector3::from(model::BODY_HALF_EXTENTS))
-}
-
-/// Exact signed distance from a toe sphere to a box: negative inside.
-fn sphere_box_distance(center: &[f64; 3], b: &OrientedBox) -> f64 {
-    let local = b.rotation().inverse() * (Vector3::from(*center) - b.center());
-    let h = b.half_extents();
-    let outside = Vector3::from_fn(|i, _| (local[i].abs() - h[i]).max(0.0));
-    let inside = (0..3).map(|i| local[i].abs() - h[i]).fold(f64::NEG_INFINITY, f64::max).min(0.0);
-    outside.norm() + inside - TOE_RADIUS
 }
