@@ -38,12 +38,19 @@ impl Replay {
     pub fn new(backend: Solver, sample: &RecordedQp) -> Self {
         let catalog = Catalog::new(Course::CAPACITY).expect("catalog");
         assert_eq!(catalog.layout().len(), sample.layout_rows, "the fixture was recorded from this layout");
-        let settings = catalog::default_settings();
+        // The slack weights the fixture was recorded with (the spec's tiers may have moved
+        // since): per family, as the sample's rows carry them; a family without a row in
+        // the sample takes the sample's first row's (every family had one weight then).
+        let layout = catalog.layout();
+        let mut recorded = vec![None; catalog::default_settings().families.len()];
+        for r in &sample.rows {
+            recorded[layout[r.index].family].get_or_insert(r.weight);
+        }
+        let fallback = sample.rows.first().map_or(catalog::default_settings().families[0].slack_weight, |r| r.weight);
         let gains = Gains::from_poles(&Poles::from([1e-6]));
-        let specs: Vec<RowSpec<'_>> = catalog
-            .layout()
+        let specs: Vec<RowSpec<'_>> = layout
             .iter()
-            .map(|s| RowSpec { columns: s.columns, gains, slack_weight: settings.families[s.family].slack_weight })
+            .map(|s| RowSpec { columns: s.columns, gains, slack_weight: recorded[s.family].unwrap_or(fallback) })
             .collect();
         let (weights, _, min, max) = sample.inputs::<NU>().expect("17 inputs");
         let solver = SolverSettings { backend, ..SolverSettings::default() };

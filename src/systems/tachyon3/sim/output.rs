@@ -82,21 +82,27 @@ pub fn write_all(
     osqp_reference: Option<&SimResult>,
     every: usize,
 ) -> io::Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir)?;
-    let mut written = Vec::new();
-    let mut put = |name: String, text: String| -> io::Result<()> {
-        let path = dir.join(name);
-        std::fs::write(&path, text)?;
-        written.push(path);
-        Ok(())
-    };
+    let mut files = Vec::new();
     for run in std::iter::once(main).chain(comparison) {
-        put(format!("{}.csv", file_stem(&run.summary)), csv(&run.samples, every))?;
+        files.push((format!("{}.csv", file_stem(&run.summary)), csv(&run.samples, every)));
     }
     for (name, chart) in figures(main, comparison, osqp_reference) {
-        put(format!("{}_{name}.svg", main.summary.scenario.name()), chart.to_svg())?;
+        files.push((format!("{}_{name}.svg", main.summary.scenario.name()), chart.to_svg()));
     }
-    Ok(written)
+    write_files(dir, files)
+}
+
+/// Create `dir` and write each `(file name, text)` into it; returns the paths written.
+pub(crate) fn write_files(dir: &Path, files: Vec<(String, String)>) -> io::Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir)?;
+    files
+        .into_iter()
+        .map(|(name, text)| {
+            let path = dir.join(name);
+            std::fs::write(&path, text)?;
+            Ok(path)
+        })
+        .collect()
 }
 
 fn file_stem(s: &Summary) -> String {

@@ -87,20 +87,12 @@ pub fn csv(campaign: &Campaign) -> String {
 /// # Errors
 /// Any I/O error.
 pub fn write_all(dir: &Path, campaign: &Campaign) -> io::Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir)?;
-    let mut written = Vec::new();
-    let mut put = |name: String, text: String| -> io::Result<()> {
-        let path = dir.join(name);
-        std::fs::write(&path, text)?;
-        written.push(path);
-        Ok(())
-    };
-    put("episodes.csv".into(), csv(campaign))?;
-    put("report.txt".into(), format!("{}\n", campaign.report()))?;
+    let mut files =
+        vec![("episodes.csv".into(), csv(campaign)), ("report.txt".into(), format!("{}\n", campaign.report()))];
     for (name, chart) in figures(campaign) {
-        put(format!("campaign_{name}.svg"), chart.to_svg())?;
+        files.push((format!("campaign_{name}.svg"), chart.to_svg()));
     }
-    Ok(written)
+    crate::systems::tachyon3::sim::output::write_files(dir, files)
 }
 
 const OUTCOME_COLORS: [(Outcome, &str); 3] =
