@@ -1,6 +1,8 @@
 //! The generated constraint rows against numerical Lie derivatives and hand-built cases.
 
 mod common;
+#[path = "common/tachyon3_state.rs"]
+mod tachyon3_state;
 
 use cbfgen::generated::tachyon3 as gen;
 use cbfgen::systems::tachyon3::catalog::{
@@ -10,6 +12,7 @@ use cbfgen::systems::tachyon3::model::{self, State, BODY_PITCH, BODY_X, BODY_Z, 
 use common::{random_rotation, random_vector, rng};
 use nalgebra::Rotation3;
 use rand::Rng;
+use tachyon3_state::random_state;
 
 /// One kernel's rows at a state: per row [h, L_f h, L_f² h] and the dense L_g L_f h.
 type Rows = Vec<([f64; 3], [f64; NU])>;
@@ -25,30 +28,6 @@ fn dense<const C: usize>(lg: &[f64; C], columns: &[usize]) -> [f64; NU] {
 
 fn rows_of<const R: usize, const C: usize>(out: ([[f64; 3]; R], [[f64; C]; R]), columns: &[usize]) -> Rows {
     (0..R).map(|i| (out.0[i], dense(&out.1[i], columns))).collect()
-}
-
-fn random_state(r: &mut impl Rng) -> State {
-    let mut x = model::standard_posture();
-    x[0] = r.random_range(-2.0..2.0);
-    x[1] = r.random_range(-2.0..2.0);
-    x[2] = r.random_range(-0.2..0.2);
-    x[3] = r.random_range(-3.0..3.0);
-    x[4] = r.random_range(-1.0..1.0);
-    x[5] = r.random_range(-0.5..0.5);
-    x[BODY_X] = r.random_range(-0.1..0.1);
-    x[BODY_Z] = r.random_range(0.2..0.5);
-    x[BODY_PITCH] = r.random_range(-0.3..0.3);
-    for rate in &mut x[9..12] {
-        *rate = r.random_range(-0.5..0.5);
-    }
-    for leg in 0..6 {
-        let t = TOE_BLOCK + 4 * leg;
-        x[t] = x[BODY_X] + model::HIP_POSITIONS[leg][0] + r.random_range(-0.3..0.3);
-        x[t + 1] = r.random_range(-0.05..0.15); // below the hips, so the legs point down
-        x[t + 2] = r.random_range(-0.5..0.5);
-        x[t + 3] = r.random_range(-0.5..0.5);
-    }
-    x
 }
 
 /// An edge cuboid near the robot in the kernels' argument layout: centre, row-major

@@ -5,12 +5,14 @@
 //! implementation everywhere and against parry3d on a subset.
 
 mod common;
+#[path = "common/tachyon3_state.rs"]
+mod tachyon3_state;
 
 use cbfgen::generated::tachyon3 as gen;
 use cbfgen::geometry::{MAX_COORDINATE, MAX_HALF_EXTENT, MIN_HALF_EXTENT};
 use cbfgen::sphere_box::{self, Smoothing, Sphere, ALPHA_MAX, ALPHA_MIN, DEFAULT_ALPHA};
 use cbfgen::systems::tachyon3::catalog::{Capacity, Catalog, EdgeCuboid, Environment, Family};
-use cbfgen::systems::tachyon3::model::{self, State, BODY_PITCH, BODY_X, BODY_Z, TOE_BLOCK, TOE_RADIUS};
+use cbfgen::systems::tachyon3::model::TOE_RADIUS;
 use cbfgen::{CbfError, OrientedBox};
 use common::{random_rotation, rng};
 use nalgebra::{Rotation3, Vector3};
@@ -19,6 +21,7 @@ use parry3d_f64::query::contact;
 use parry3d_f64::shape::{Ball, Cuboid};
 use rand::Rng;
 use std::f64::consts::PI;
+use tachyon3_state::random_state;
 
 // ---------------------------------------------------------------------- truths
 
@@ -485,27 +488,6 @@ fn outputs_are_finite_and_certified_at_the_domain_corners() {
 }
 
 // ----------------------------------------------------- the catalog's toe rows
-
-/// A Tachyon 3 state with the legs pointing down, as in tests/constraints.rs.
-fn random_state(r: &mut impl Rng) -> State {
-    let mut x = model::standard_posture();
-    x[0] = r.random_range(-2.0..2.0);
-    x[1] = r.random_range(-2.0..2.0);
-    x[2] = r.random_range(-0.2..0.2);
-    x[3] = r.random_range(-3.0..3.0);
-    x[4] = r.random_range(-1.0..1.0);
-    x[BODY_X] = r.random_range(-0.1..0.1);
-    x[BODY_Z] = r.random_range(0.2..0.5);
-    x[BODY_PITCH] = r.random_range(-0.3..0.3);
-    for leg in 0..6 {
-        let t = TOE_BLOCK + 4 * leg;
-        x[t] = x[BODY_X] + model::HIP_POSITIONS[leg][0] + r.random_range(-0.3..0.3);
-        x[t + 1] = r.random_range(-0.05..0.15);
-        x[t + 2] = r.random_range(-0.5..0.5);
-        x[t + 3] = r.random_range(-0.5..0.5);
-    }
-    x
-}
 
 /// Every toe–edge row of the catalog that reads h ≥ 0 has its toe sphere clear of its
 /// edge cuboid by exact distance, for edges placed against a random toe (faces, edges,
