@@ -124,6 +124,11 @@ impl Episode {
     /// Ranges that fail [`CourseRanges::validate`].
     pub fn draw(seed: u64, id: u64, ranges: &CourseRanges) -> Result<Self, CbfError> {
         ranges.validate()?;
+        Ok(Self::draw_valid(seed, id, ranges))
+    }
+
+    /// [`Episode::draw`] for ranges already validated.
+    fn draw_valid(seed: u64, id: u64, ranges: &CourseRanges) -> Self {
         let mut key = [0u8; 32];
         key[..8].copy_from_slice(&seed.to_le_bytes());
         key[8..16].copy_from_slice(&id.to_le_bytes());
@@ -136,7 +141,7 @@ impl Episode {
         let [lo, hi] = ranges.steps;
         let count = rng.random_range(lo..=hi);
         let stairs = Stairs { rise, run, count, ..Stairs::HARDWARE };
-        Ok(Self { seed, id, stairs, start_gap, speed })
+        Self { seed, id, stairs, start_gap, speed }
     }
 
     /// The simulation set-up of this episode: the default gait at the episode's speed, the
@@ -257,7 +262,7 @@ pub fn run(settings: &CampaignSettings, progress: impl Fn(usize) + Sync) -> Resu
     let records = pool.install(|| {
         ids.into_par_iter()
             .map(|id| {
-                let record = run_episode(settings, id);
+                let record = run_episode(&Episode::draw_valid(settings.seed, id, &settings.ranges), settings.body_cbf);
                 progress(done.fetch_add(1, Ordering::Relaxed) + 1);
                 record
             })
@@ -266,17 +271,10 @@ pub fn run(settings: &CampaignSettings, progress: impl Fn(usize) + Sync) -> Resu
     Ok(Campaign { settings: settings.clone(), records })
 }
 
-/// Episode `id` of `settings`, climbed once; invalid ranges are recorded as its error.
-pub fn run_episode(settings: &CampaignSettings, id: u64) -> EpisodeRecord {
-    let episode = match Episode::draw(settings.seed, id, &settings.ranges) {
-        Ok(e) => e,
-        Err(e) => {
-            let stairs = Stairs::HARDWARE;
-            let episode = Episode { seed: settings.seed, id, stairs, start_gap: f64::NAN, speed: f64::NAN };
-            return EpisodeRecord { episode, result: Err(e.to_string()) };
-        }
-    };
-    let config = episode.config(settings.body_cbf);
+/// Climb `episode` once (with or without the body SSAT CBF), recording its summary or the
+/// error (or panic) that ended it.
+pub fn run_episode(episode: &Episode, body_cbf: bool) -> EpisodeRecord {
+    let config = episode.config(body_cbf);
     // A panic is a bug, but one episode's must not cost the other ten thousand.
     let result = match catch_unwind(AssertUnwindSafe(|| super::run(&config, |_| {}))) {
         Ok(Ok(r)) => Ok(r.summary),
@@ -290,7 +288,7 @@ pub fn run_episode(settings: &CampaignSettings, id: u64) -> EpisodeRecord {
                 .unwrap_or_default()
         )),
     };
-    EpisodeRecord { episode, result }
+    EpisodeRecord { episode: *episode, result }
 }
 
 /// An episode id and the value it holds the record for.
