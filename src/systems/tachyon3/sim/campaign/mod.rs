@@ -15,7 +15,7 @@
 //! let settings = CampaignSettings { episodes: 20, ..CampaignSettings::default() };
 //! let campaign = campaign::run(&settings, |_done| {})?;
 //! let report = campaign.report();
-//! assert_eq!(report.errors, 0);
+//! assert!(report.errors.is_empty());
 //! println!("{report}");
 //! # Ok::<(), cbfgen::CbfError>(())
 //! ```
