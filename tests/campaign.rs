@@ -171,3 +171,14 @@ fn a_rise_of_19_cm_that_stalled_finishes() {
     assert!(s.min_h[Family::JointLimits.index()] >= -1e-4, "{s}");
     assert!(s.min_body_clearance > 0.0, "{s}");
 }
+
+/// Episode 80 of seed 2026 (rise 0.19 m, start gap 0.13 m): the stall raise came down as
+/// soon as the robot rolled briefly at the first nosing, and the body rocked on that nosing
+/// until the time ran out. The raise now holds until the robot has rolled for a whole
+/// stall time.
+#[test]
+fn a_stall_raise_holds_until_the_robot_rolls_clear() {
+    let s = climb(0.19238, 0.26262, 2, 0.13122, 0.17660);
+    assert!(s.completed && !s.collided(1e-3), "{s}");
+    assert!(s.min_h[Family::JointLimits.index()] >= -1e-4, "{s}");
+}

@@ -27,7 +27,8 @@ const KV: f64 = 2.0;
 /// of the rolling speed.
 const RETURN_RATE: f64 = 0.5;
 const STANCE_RETURN: f64 = 0.8;
-/// Once the robot rolls again, a stall raise comes down at this rate \[m/s\].
+/// Once the robot has rolled again for a whole `stall_time`, a stall raise comes down at this
+/// rate \[m/s\].
 const STALL_LOWER_RATE: f64 = 0.02;
 /// A foothold strip keeps the toe centre this far inside its flat region: the toe radius
 /// and 2 cm \[m\].
@@ -130,6 +131,8 @@ pub struct Gait {
     last_tripod: usize,
     stance_since: f64,
     moving_since: f64,
+    /// The last time the robot was not rolling forward \[s\].
+    stopped_at: f64,
     /// Time of the last plan \[s\].
     last_t: f64,
     /// How far the body target is raised above the nominal to get out of a stall \[m\].
@@ -147,6 +150,7 @@ impl Gait {
             last_tripod: 1,
             stance_since: 0.0,
             moving_since: 0.0,
+            stopped_at: 0.0,
             last_t: 0.0,
             stall_raise: 0.0,
         }
@@ -176,16 +180,27 @@ impl Gait {
         // Rolling backwards (the filter yielding to the gait's own pull) is no progress.
         if x[4] >= 0.02 {
             self.moving_since = t;
+        } else {
+            self.stopped_at = t;
         }
         let stalled = t - self.moving_since >= p.stall_time;
         let lookahead = if stalled { p.stall_lookahead } else { p.lookahead };
         // A body held on the boundary of the body–edge CBF by the gait's own pull towards
         // the nominal height balances the forward command exactly (a CBF deadlock): a
         // stalled gait raises its body target until the body clears the nosing and rolls
-        // again, then lowers it slowly.
+        // again, then lowers it slowly once rolling has lasted a whole `stall_time` (a
+        // brief roll at the first nosing is not yet clear of it: lowering then makes the
+        // body oscillate on the nosing).
         let dt = (t - self.last_t).clamp(0.0, 1.0);
         self.last_t = t;
-        let rate = if stalled { p.stall_raise_rate } else { -STALL_LOWER_RATE };
+        let rolling = t - self.stopped_at >= p.stall_time;
+        let rate = if stalled {
+            p.stall_raise_rate
+        } else if rolling {
+            -STALL_LOWER_RATE
+        } else {
+            0.0
+        };
         self.stall_raise = (self.stall_raise + rate * dt).clamp(0.0, p.stall_raise_max);
         if self.swing.is_none() && t - self.stance_since >= p.stance_time {
             let needs = TRIPODS
