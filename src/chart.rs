@@ -1,4 +1,4 @@
-//! Minimal SVG charts for every system's figures (stairs, LIP map, multi-layer traces): lines, markers, filled rectangles, and
+//! Minimal SVG charts for every system's figures (stairs, LIP map, multi-layer traces, arm): lines, markers, filled rectangles, and
 //! optionally equal x/y scales for maps. SVG keeps text as text for the viewer to render,
 //! so no font has to be found or shipped at run time.
 
@@ -239,6 +239,22 @@ fn tick(v: f64) -> String {
 
 fn escape(s: &str) -> String {
     s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
+}
+
+/// Create `dir` and write each `(file name, text)` into it; returns the paths written.
+///
+/// # Errors
+/// The directory or a file cannot be written.
+pub fn write_files(dir: &std::path::Path, files: Vec<(String, String)>) -> std::io::Result<Vec<std::path::PathBuf>> {
+    std::fs::create_dir_all(dir)?;
+    files
+        .into_iter()
+        .map(|(name, text)| {
+            let path = dir.join(name);
+            std::fs::write(&path, text)?;
+            Ok(path)
+        })
+        .collect()
 }
 
 #[cfg(test)]

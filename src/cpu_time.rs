@@ -48,6 +48,12 @@ impl Stopwatch {
     }
 }
 
+/// The nearest-rank `p`-quantile (`0 < p ≤ 1`) of an ascending slice; `None` when empty.
+pub fn nearest_rank<T: Copy>(sorted: &[T], p: f64) -> Option<T> {
+    let rank = (p * sorted.len() as f64).ceil() as usize;
+    sorted.get(rank.clamp(1, sorted.len().max(1)) - 1).copied()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

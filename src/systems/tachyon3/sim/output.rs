@@ -89,20 +89,7 @@ pub fn write_all(
     for (name, chart) in figures(main, comparison, osqp_reference) {
         files.push((format!("{}_{name}.svg", main.summary.scenario.name()), chart.to_svg()));
     }
-    write_files(dir, files)
-}
-
-/// Create `dir` and write each `(file name, text)` into it; returns the paths written.
-pub(crate) fn write_files(dir: &Path, files: Vec<(String, String)>) -> io::Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir)?;
-    files
-        .into_iter()
-        .map(|(name, text)| {
-            let path = dir.join(name);
-            std::fs::write(&path, text)?;
-            Ok(path)
-        })
-        .collect()
+    crate::chart::write_files(dir, files)
 }
 
 fn file_stem(s: &Summary) -> String {

@@ -92,7 +92,7 @@ pub fn write_all(dir: &Path, campaign: &Campaign) -> io::Result<Vec<PathBuf>> {
     for (name, chart) in figures(campaign) {
         files.push((format!("campaign_{name}.svg"), chart.to_svg()));
     }
-    crate::systems::tachyon3::sim::output::write_files(dir, files)
+    crate::chart::write_files(dir, files)
 }
 
 const OUTCOME_COLORS: [(Outcome, &str); 3] =
