@@ -67,3 +67,37 @@ def test_doc_text_escapes_brackets_outside_code_spans_only():
     assert rustdoc_text("height [m], rate [1/s]") == "height \\[m\\], rate \\[1/s\\]"
     assert rustdoc_text("`lie[i]` is [h, L_f h]") == "`lie[i]` is \\[h, L_f h\\]"
     assert rustdoc_text("no brackets") == "no brackets"
+
+
+def test_a_literal_temporary_compiles(tmp_path):
+    # sin and cos of one constant angle share a CSE temporary printed as a bare literal; Rust cannot
+    # call .sin() on an unsuffixed float, so the emitter must type it.
+    k = Kernel("literal", "A kernel with a constant angle.")
+    v = k.array_input("v", "xy", "a vector")
+    angle = se.RealDouble(0.25) * se.pi  # stays symbolic until printed
+    k.output_vector("out", [se.sin(angle) * v[0] + se.cos(angle) * v[1], se.cos(angle) * v[0]], "outputs")
+    source = tmp_path / "literal.rs"
+    source.write_text(emit_kernel(k))
+    done = subprocess.run(["rustc", "--edition", "2021", "--crate-type", "lib", "--emit", "metadata",
+                           "-o", str(tmp_path / "literal.rmeta"), str(source)], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+
+
+def test_a_kernel_too_deep_for_rustc_is_refused():
+    from symbolic.codegen.backends.rust.emitter import MAX_KERNEL_LOCALS
+    from symbolic.spec import SpecError
+
+    k = Kernel("deep", "A chain of distinct temporaries longer than rustc can nest.")
+    v = k.array_input("v", "xy", "a vector")
+    e = v[0]
+    outs = []
+    for i in range(MAX_KERNEL_LOCALS + 10):
+        e = se.sin(e + i * v[1])
+        outs.append(e)
+    k.output_vector("out", outs, "every link of the chain")
+    try:
+        emit_kernel(k)
+    except SpecError as exc:
+        assert "over=[...]" in str(exc)
+    else:
+        raise AssertionError("a kernel with more locals than rustc can nest was emitted")

@@ -154,6 +154,18 @@ def sine_barrier_inputs(rng: np.random.Generator) -> Inputs:
             "omega": rng.uniform(0.1, 5), "offset": rng.uniform(-1, 1)}
 
 
+def panda_inputs(rng: np.random.Generator) -> Inputs:
+    """The arm inside its joint and rate limits, and an obstacle box (a proper rotation)
+    within reach: as the closed loop evaluates it. Uniform numbers would make rotation
+    matrices of any size and negative extents, where L_f^2 h is a near-cancelling sum of
+    terms of 1e4-1e5."""
+    q_min, q_max = np.array(constant("q_min")), np.array(constant("q_max"))
+    qd_max = np.array(constant("qd_max"))
+    x = np.concatenate([rng.uniform(q_min, q_max), rng.uniform(-qd_max, qd_max)])
+    return {"x": x, "center": rng.uniform([-0.8, -0.8, -0.2], [0.8, 0.8, 1.0]),
+            "rotation": random_rotation(rng).ravel(), "half": rng.uniform(0.02, 0.6, 3)}
+
+
 def domain_samplers() -> dict[tuple[str, str], Callable[[np.random.Generator], Inputs]]:
     """Kernels whose inputs need a domain better than uniform numbers."""
     out = {}
@@ -173,6 +185,8 @@ def domain_samplers() -> dict[tuple[str, str], Callable[[np.random.Generator], I
         for leg, leg_name in enumerate(constant("leg_names")):
             out[("tachyon3", f"{family}_{leg_name.lower()}")] = lambda rng, f=family, at=leg: family_inputs(f, at, rng)
     out[("double_integrator", "sine_barrier")] = sine_barrier_inputs
+    for kernel in all_kernels()["panda"]:
+        out[("panda", kernel.name)] = panda_inputs
     return out
 
 

@@ -15,6 +15,7 @@ from fractions import Fraction
 import symengine as se
 
 from ....kernel import Kernel
+from ....spec import SpecError
 
 
 class RawRust:
@@ -41,6 +42,13 @@ def rustdoc_text(text: str) -> str:
     units such as ``[m]`` or ``[1/s]`` are not taken for intra-doc links."""
     parts = text.split("`")
     return "`".join(part if i % 2 else part.translate(_BRACKETS) for i, part in enumerate(parts))
+
+# Most locals one kernel function may have. Each `let` opens a scope nested in the last;
+# rustc (1.95, LLVM 22) recurses once per level when it writes debug info and overflows a
+# codegen thread's stack between 10 000 and 20 000 (any debug level, even line tables).
+# The largest built-in kernel has about 4 000.
+MAX_KERNEL_LOCALS = 8000
+
 
 def float_literal(value: float) -> str:
     """A Rust f64 literal that round-trips ``value`` exactly."""
@@ -276,6 +284,11 @@ def emit_kernel(kernel: Kernel, attributes: Sequence[str] = ()) -> str:
 
     for e in out_exprs:
         visit(e)
+    if len(emitted) > MAX_KERNEL_LOCALS:
+        raise SpecError(
+            f"kernel {kernel.name!r} needs {len(emitted)} locals, more than {MAX_KERNEL_LOCALS}: every `let` "
+            "nests a scope, and rustc's debug-info pass overflows its stack on one function with about "
+            "15 000 of them. Split the family: rows that share little into members (over=[...]).")
 
     p = RustPrinter(names)
     lines: list[str] = []
@@ -308,7 +321,10 @@ def emit_kernel(kernel: Kernel, attributes: Sequence[str] = ()) -> str:
                 f"f64::max({p(rhs[0])}, {p(rhs[1])})" + "".join(f".max({p(r)})" for r in rhs[2:]))
         else:
             text = p(rhs[0])
-        lines.append(f"    let {names[sym]} = {text};")
+        # A constant temporary (pi/4, printed as a literal) needs its type
+        # spelled out, or `t.sin()` on an unsuffixed float literal does not compile.
+        typed = ": f64" if kind != "max" and not rhs[0].free_symbols else ""
+        lines.append(f"    let {names[sym]}{typed} = {text};")
 
     results: list[str] = []
     pos = 0
