@@ -4,6 +4,7 @@ use cbfgen::filter::{FilterSettings, Solver};
 use cbfgen::ssat::{self, SmoothParams};
 use cbfgen::systems::lip;
 use cbfgen::systems::multilayer;
+use cbfgen::systems::panda;
 use cbfgen::systems::tachyon3::catalog::{Capacity, Catalog, Environment, Family};
 use cbfgen::systems::tachyon3::model::{self, NU};
 use cbfgen::systems::tachyon3::sim::campaign::{self, CampaignSettings, CourseRanges, Episode};
@@ -133,6 +134,18 @@ enum Command {
         /// Directory for the figures.
         #[arg(long, default_value = "out")]
         out: std::path::PathBuf,
+    },
+    /// A Franka-Panda-like 7-DoF arm (symbolic/systems/panda.py) at 1 kHz: a joint-space
+    /// PD sweeps the forearm through a box on a table, folds the hand onto the shoulder and
+    /// pushes the elbow past its limit; run with the ECBF filter and without. Prints each
+    /// run's exact SAT separations and joint margins; writes CSVs and four SVG figures.
+    Arm {
+        /// Directory for the CSVs and figures.
+        #[arg(long, default_value = "out")]
+        out: std::path::PathBuf,
+        /// Write every n-th cycle to the CSVs.
+        #[arg(long, default_value_t = 10)]
+        csv_every: usize,
     },
     /// Regenerate generated/ from symbolic/ (runs `python -m symbolic.generate`).
     Generate,
@@ -408,6 +421,19 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             )?;
             write!(stdout, "{}", multilayer::scenario::table(&results))?;
             let written = multilayer::scenario::write_figures(&out, &config, &results)?;
+            writeln!(
+                stdout,
+                "wrote {}",
+                written.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ")
+            )?;
+            Ok(())
+        }
+        Command::Arm { out, csv_every } => {
+            let scenario = panda::Scenario::standard();
+            let with = panda::run(&scenario)?;
+            let without = panda::run(&scenario.clone().without_filter())?;
+            write!(stdout, "{with}{without}")?;
+            let written = panda::output::write_all(&out, &with, Some(&without), csv_every)?;
             writeln!(
                 stdout,
                 "wrote {}",
