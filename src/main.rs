@@ -391,11 +391,7 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 writeln!(stdout, "{}", run.summary)?;
             }
             let written = output::write_all(&out, &main, comparison.as_ref(), osqp_reference.as_ref(), csv_every)?;
-            writeln!(
-                stdout,
-                "wrote {}",
-                written.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ")
-            )?;
+            print_written(&mut stdout, &written)?;
             Ok(())
         }
         Command::Lip { out, steps } => {
@@ -403,11 +399,7 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             let result = lip::scenario::run(&scenario)?;
             writeln!(stdout, "{}", result.summary())?;
             let written = lip::figure::write_all(&out, &result)?;
-            writeln!(
-                stdout,
-                "wrote {}",
-                written.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ")
-            )?;
+            print_written(&mut stdout, &written)?;
             Ok(())
         }
         Command::Multilayer { out } => {
@@ -421,11 +413,7 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             )?;
             write!(stdout, "{}", multilayer::scenario::table(&results))?;
             let written = multilayer::scenario::write_figures(&out, &config, &results)?;
-            writeln!(
-                stdout,
-                "wrote {}",
-                written.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ")
-            )?;
+            print_written(&mut stdout, &written)?;
             Ok(())
         }
         Command::Arm { out, csv_every } => {
@@ -434,11 +422,7 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             let without = panda::run(&scenario.clone().without_filter())?;
             write!(stdout, "{with}{without}")?;
             let written = panda::output::write_all(&out, &with, Some(&without), csv_every)?;
-            writeln!(
-                stdout,
-                "wrote {}",
-                written.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ")
-            )?;
+            print_written(&mut stdout, &written)?;
             Ok(())
         }
         Command::Campaign { episodes, seed, first_id, no_body_cbf, threads, out, ranges } => {
@@ -463,11 +447,7 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             let report = result.report();
             writeln!(stdout, "{report}")?;
             let written = campaign::output::write_all(&out, &result)?;
-            writeln!(
-                stdout,
-                "wrote {}",
-                written.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ")
-            )?;
+            print_written(&mut stdout, &written)?;
             if !report.errors.is_empty() {
                 return Err(format!("{} episodes ended with an error", report.errors.len()).into());
             }
@@ -491,4 +471,9 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             Ok(())
         }
     }
+}
+
+/// The "wrote a, b, c" line every command that writes files ends with.
+fn print_written(out: &mut impl Write, written: &[std::path::PathBuf]) -> std::io::Result<()> {
+    writeln!(out, "wrote {}", written.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "))
 }

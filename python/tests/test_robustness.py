@@ -465,13 +465,22 @@ def test_a_member_of_an_indexed_family_must_be_given_and_exist(system, name):
 
 
 @pytest.mark.parametrize("system, name", [(s, f["name"]) for s in SYSTEMS for f in cbfgen.System(s).families
-                                          if not f["members"]])
+                                          if not f["members"] and f["params"]])
 def test_a_member_of_a_family_that_has_none_raises(system, name):
     params = cbfgen.System(system).params()
     for member in ("lf", "x", 1, -1):
         with pytest.raises(ValueError, match="has no member|has members 0..1"):
             params.count(name, member=member)
     params.count(name, member=0)  # the only one
+
+
+@pytest.mark.parametrize("system, name", [(s, f["name"]) for s in SYSTEMS for f in cbfgen.System(s).families
+                                          if not f["params"]])
+def test_a_parameter_free_family_has_no_instances_to_reach(system, name):
+    params = cbfgen.System(system).params()
+    members = next(f["members"] for f in cbfgen.System(system).families if f["name"] == name)
+    with pytest.raises(cbfgen.CbfError, match="parameter-free"):
+        params.count(name, member=members[0] if members else None)
 
 
 @pytest.mark.parametrize("system, name", PARAM_FAMILIES)
@@ -639,7 +648,8 @@ def test_solver_settings_that_could_hang_an_update_raise(system, settings, name)
 def test_the_slowest_accepted_solver_settings_end_an_update(system):
     # The most iterations at the tightest tolerances: an update still ends (in
     # milliseconds), and the child's timeout catches a regression to hours.
-    state = "t3.Course('step').initial_state()" if system == "tachyon3" else "np.array([0.1, -0.2])"
+    state = ("t3.Course('step').initial_state()" if system == "tachyon3"
+             else f"np.resize(np.array([0.1, -0.2]), cbfgen.System('{system}').nx)")
     expression = (f"cbfgen.EcbfFilter('{system}', max_iter=cbfgen.MAX_ITERATIONS, eps_abs=1e-12, eps_rel=1e-12)"
                   f".update({state}, np.ones(cbfgen.System('{system}').nu), cbfgen.System('{system}').params())"
                   ".source")
