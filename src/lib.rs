@@ -24,6 +24,8 @@
 //!   clearance whose certified margin makes `h ≥ 0` a proof (Tachyon 3's toe rows).
 //! * [`sat`] — the exact SAT, the reference the smooth one is tested against.
 //! * [`geometry`] — validated oriented boxes; [`chart`] — the SVG figures every system draws.
+//! * `perception` (feature `perception`, on with `cli` and `python`) — planes and edge
+//!   cuboids from a simulated LiDAR's points.
 //!
 //! The systems, each beside its scenario code, in [`systems`]: Tachyon 3 (the paper's
 //! robot: catalog, stairs, gait, simulation), the 3D-LIP footstep MPC and the multi-layer
@@ -37,6 +39,8 @@ pub mod dynamic;
 pub mod error;
 pub mod filter;
 pub mod geometry;
+#[cfg(feature = "perception")]
+pub mod perception;
 pub mod qp;
 pub mod sat;
 pub mod sphere_box;

@@ -1,0 +1,174 @@
+//! Perception against known terrain: a floor and three 16.5 × 35 cm steps, scanned with
+//! 1 cm range noise and 10 % outliers. The planes must be the seven true ones (floor,
+//! three risers, three treads) with normals within 1° and offsets within 1 cm; every
+//! nosing must get one edge cuboid along it (over 1 m of its 2 m) within 2 cm and 2°, and
+//! every cuboid must lie within 6 cm of a true drop edge (nosings, the steps' open sides
+//! and the chamfered corners between them). Three noise draws.
+//! Degenerate input gives no planes or a typed error, never a panic.
+
+use cbfgen::perception::edges::{self, EdgeSettings};
+use cbfgen::perception::planes::{self, Plane, SegmentSettings};
+use cbfgen::perception::scanner::Lidar;
+use cbfgen::{CbfError, OrientedBox};
+use nalgebra::Vector3;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+const RISE: f64 = 0.165;
+const RUN: f64 = 0.35;
+const FIRST_RISER: f64 = 1.0;
+const STEPS: usize = 3;
+
+fn terrain() -> Vec<OrientedBox> {
+    let mut boxes = vec![OrientedBox::axis_aligned(Vector3::new(1.0, 0.0, -0.5), Vector3::new(4.0, 3.0, 0.5)).unwrap()];
+    let end = FIRST_RISER + STEPS as f64 * RUN + 0.6;
+    for k in 0..STEPS {
+        let (x0, top) = (FIRST_RISER + k as f64 * RUN, (k + 1) as f64 * RISE);
+        boxes.push(
+            OrientedBox::axis_aligned(
+                Vector3::new((x0 + end) / 2.0, 0.0, top / 2.0),
+                Vector3::new((end - x0) / 2.0, 1.0, top / 2.0),
+            )
+            .unwrap(),
+        );
+    }
+    boxes
+}
+
+/// Four scans on the way up (0.6 m above the floor or tread under the sensor, as a body
+/// climbing would carry it), accumulated, and 10 % outliers spread through the volume.
+fn scan(seed: u64) -> (Vec<Vector3<f64>>, Vector3<f64>) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let lidar = Lidar::default();
+    let mut points = Vec::new();
+    let viewpoint = Vector3::new(0.0, 0.0, 0.6);
+    for (x, z) in [(0.0, 0.6), (0.3, 0.6), (0.6, 0.6), (0.9, 0.6), (1.2, 0.765), (1.55, 0.93)] {
+        points.extend(lidar.scan(&Vector3::new(x, 0.0, z), 0.0, &terrain(), &[], &mut rng).unwrap());
+    }
+    let outliers = points.len() / 9;
+    for _ in 0..outliers {
+        points.push(Vector3::new(rng.random_range(-1.0..3.0), rng.random_range(-1.5..1.5), rng.random_range(0.0..1.0)));
+    }
+    (points, viewpoint)
+}
+
+/// The true planes: (unit normal, offset), normals as `segment` orients them.
+fn true_planes() -> Vec<(Vector3<f64>, f64)> {
+    let mut out = vec![(Vector3::z(), 0.0)];
+    for k in 0..STEPS {
+        out.push((Vector3::z(), -((k + 1) as f64) * RISE));
+        out.push((-Vector3::x(), FIRST_RISER + k as f64 * RUN));
+    }
+    out
+}
+
+fn matches(p: &Plane, (n, d): &(Vector3<f64>, f64)) -> bool {
+    p.normal.angle(n) < 1f64.to_radians() && (p.offset - d).abs() < 0.01
+}
+
+#[test]
+fn the_seven_true_planes_are_found_within_one_degree_and_one_centimetre() {
+    for seed in SEEDS {
+        seven_planes(seed);
+    }
+}
+
+/// Three noise draws: the bounds hold for the method, not for one draw.
+const SEEDS: [u64; 3] = [3, 11, 29];
+
+fn seven_planes(seed: u64) {
+    let (points, viewpoint) = scan(seed);
+    let found = planes::segment(&points, &SegmentSettings { viewpoint, ..Default::default() }).unwrap();
+    let truth = true_planes();
+    for t in &truth {
+        let hits = found.iter().filter(|p| matches(p, t)).count();
+        assert_eq!(hits, 1, "seed {seed}: true plane {t:?} found {hits} times among {:?}", summary(&found));
+    }
+    assert_eq!(found.len(), truth.len(), "seed {seed}: extra planes: {:?}", summary(&found));
+}
+
+fn summary(found: &[Plane]) -> Vec<(f64, f64, f64, f64, usize)> {
+    found.iter().map(|p| (p.normal.x, p.normal.y, p.normal.z, p.offset, p.inliers)).collect()
+}
+
+#[test]
+fn every_nosing_gets_one_edge_cuboid_within_two_centimetres_and_two_degrees() {
+    for seed in SEEDS {
+        nosings(seed);
+    }
+}
+
+fn nosings(seed: u64) {
+    let (points, viewpoint) = scan(seed);
+    let found = planes::segment(&points, &SegmentSettings { viewpoint, ..Default::default() }).unwrap();
+    let cuboids = edges::edge_cuboids(&found, &points, &EdgeSettings::default()).unwrap();
+    let h = EdgeSettings::default().half_section;
+    for k in 0..STEPS {
+        // The true cuboid's axis: along y through (riser + h, top - h).
+        let (x, z) = (FIRST_RISER + k as f64 * RUN + h, (k + 1) as f64 * RISE - h);
+        let along: Vec<_> = cuboids
+            .iter()
+            .filter(|c| (c.center().x - x).abs() < 0.02 && (c.center().z - z).abs() < 0.02 && c.half_extents().x > 0.5)
+            .collect();
+        assert_eq!(
+            along.len(),
+            1,
+            "seed {seed}, nosing {k}: {} cuboids over 1 m long within 2 cm of ({x}, {z}): {cuboids:?}",
+            along.len()
+        );
+        let axis = along[0].rotation().matrix().column(0).into_owned();
+        let off = axis.angle(&Vector3::y()).min(axis.angle(&-Vector3::y()));
+        assert!(off < 2f64.to_radians(), "seed {seed}, nosing {k}: {:.2} degrees off the nosing", off.to_degrees());
+    }
+    // Every cuboid, nosing or not, lies on a true drop edge of this terrain: a nosing or a
+    // step's open side (|y| = 1, where a tread drops to the floor). A cuboid's edge line
+    // runs along its top outer side (the cuboid is tucked in by the half section).
+    // Corners seen edge-on come out chamfered, and grazing rays push points up to a few
+    // cm past an open side along the ray (range noise), so these are held to 6 cm and
+    // no direction; the nosings, seen face-on, to the 2 cm and 2° above.
+    for c in &cuboids {
+        let r = c.rotation().matrix();
+        let edge = c.center() - r.column(1) * h + Vector3::z() * h;
+        let off = distance_to_true_edges(&edge);
+        assert!(off < 0.06, "seed {seed}: a cuboid {off:.3} m from every true edge: {c:?}");
+    }
+}
+
+/// Distance from `p` to the nearest nosing or open side edge of the steps' tops.
+fn distance_to_true_edges(p: &Vector3<f64>) -> f64 {
+    let end = FIRST_RISER + STEPS as f64 * RUN + 0.6;
+    let segment = |a: Vector3<f64>, b: Vector3<f64>| {
+        let t = ((p - a).dot(&(b - a)) / (b - a).norm_squared()).clamp(0.0, 1.0);
+        (p - (a + (b - a) * t)).norm()
+    };
+    (0..STEPS)
+        .flat_map(|k| {
+            let (x, z) = (FIRST_RISER + k as f64 * RUN, (k + 1) as f64 * RISE);
+            [
+                segment(Vector3::new(x, -1.0, z), Vector3::new(x, 1.0, z)),
+                segment(Vector3::new(x, -1.0, z), Vector3::new(end, -1.0, z)),
+                segment(Vector3::new(x, 1.0, z), Vector3::new(end, 1.0, z)),
+            ]
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+#[test]
+fn degenerate_clouds_give_no_planes_or_a_typed_error() {
+    let s = SegmentSettings::default();
+    assert!(planes::segment(&[], &s).unwrap().is_empty());
+    let line: Vec<_> = (0..2000).map(|i| Vector3::new(i as f64 * 1e-3, 0.0, 0.0)).collect();
+    assert!(planes::segment(&line, &s).unwrap().is_empty());
+    let pile = vec![Vector3::new(0.1, 0.2, 0.3); 1_000_000];
+    assert!(planes::segment(&pile, &s).unwrap().is_empty());
+    let mut nan = line.clone();
+    nan[7].y = f64::NAN;
+    assert!(matches!(planes::segment(&nan, &s), Err(CbfError::NonFinite { .. })));
+    let far = vec![Vector3::new(1e300, 0.0, 0.0)];
+    assert!(matches!(planes::segment(&far, &s), Err(CbfError::OutOfRange { .. })));
+    assert!(planes::segment(&line, &SegmentSettings { neighbor_radius: f64::NAN, ..s }).is_err());
+    assert!(edges::edge_cuboids(&[], &[], &EdgeSettings { probe: -1.0, ..Default::default() }).is_err());
+    let lidar = Lidar { beams: usize::MAX, ..Lidar::default() };
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
+    assert!(matches!(lidar.scan(&Vector3::zeros(), 0.0, &terrain(), &[], &mut rng), Err(CbfError::TooLarge { .. })));
+}
