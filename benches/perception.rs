@@ -14,34 +14,20 @@
 use cbfgen::perception::edges::{self, EdgeSettings};
 use cbfgen::perception::planes::{self, SegmentSettings};
 use cbfgen::perception::scanner::Lidar;
-use cbfgen::OrientedBox;
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::hint::black_box;
 
-fn terrain() -> Vec<OrientedBox> {
-    let mut boxes = vec![OrientedBox::axis_aligned(Vector3::new(1.0, 0.0, -0.5), Vector3::new(4.0, 3.0, 0.5)).unwrap()];
-    for k in 0..3 {
-        let (x0, top, end) = (1.0 + k as f64 * 0.35, (k + 1) as f64 * 0.165, 2.65);
-        boxes.push(
-            OrientedBox::axis_aligned(
-                Vector3::new((x0 + end) / 2.0, 0.0, top / 2.0),
-                Vector3::new((end - x0) / 2.0, 1.0, top / 2.0),
-            )
-            .unwrap(),
-        );
-    }
-    boxes
-}
-
-const POSES: [(f64, f64); 6] = [(0.0, 0.6), (0.3, 0.6), (0.6, 0.6), (0.9, 0.6), (1.2, 0.765), (1.55, 0.93)];
+#[path = "../tests/common/step_terrain.rs"]
+mod step_terrain;
+use step_terrain::{terrain, SCAN_POSES};
 
 fn perception(c: &mut Criterion) {
     let (lidar, world) = (Lidar::default(), terrain());
     let mut rng = ChaCha8Rng::seed_from_u64(1);
-    let map: Vec<Vector3<f64>> = POSES
+    let map: Vec<Vector3<f64>> = SCAN_POSES
         .iter()
         .flat_map(|&(x, z)| lidar.scan(&Vector3::new(x, 0.0, z), 0.0, &world, &[], &mut rng).unwrap())
         .collect();

@@ -9,40 +9,23 @@
 use cbfgen::perception::edges::{self, EdgeSettings};
 use cbfgen::perception::planes::{self, Plane, SegmentSettings};
 use cbfgen::perception::scanner::Lidar;
-use cbfgen::{CbfError, OrientedBox};
+use cbfgen::CbfError;
 use nalgebra::Vector3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-const RISE: f64 = 0.165;
-const RUN: f64 = 0.35;
-const FIRST_RISER: f64 = 1.0;
-const STEPS: usize = 3;
+#[path = "common/step_terrain.rs"]
+mod step_terrain;
 
-fn terrain() -> Vec<OrientedBox> {
-    let mut boxes = vec![OrientedBox::axis_aligned(Vector3::new(1.0, 0.0, -0.5), Vector3::new(4.0, 3.0, 0.5)).unwrap()];
-    let end = FIRST_RISER + STEPS as f64 * RUN + 0.6;
-    for k in 0..STEPS {
-        let (x0, top) = (FIRST_RISER + k as f64 * RUN, (k + 1) as f64 * RISE);
-        boxes.push(
-            OrientedBox::axis_aligned(
-                Vector3::new((x0 + end) / 2.0, 0.0, top / 2.0),
-                Vector3::new((end - x0) / 2.0, 1.0, top / 2.0),
-            )
-            .unwrap(),
-        );
-    }
-    boxes
-}
+use step_terrain::{terrain, FIRST_RISER, RISE, RUN, SCAN_POSES, STEPS};
 
-/// Four scans on the way up (0.6 m above the floor or tread under the sensor, as a body
-/// climbing would carry it), accumulated, and 10 % outliers spread through the volume.
+/// The six scans on the way up, accumulated, and 10 % outliers spread through the volume.
 fn scan(seed: u64) -> (Vec<Vector3<f64>>, Vector3<f64>) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let lidar = Lidar::default();
     let mut points = Vec::new();
     let viewpoint = Vector3::new(0.0, 0.0, 0.6);
-    for (x, z) in [(0.0, 0.6), (0.3, 0.6), (0.6, 0.6), (0.9, 0.6), (1.2, 0.765), (1.55, 0.93)] {
+    for (x, z) in SCAN_POSES {
         points.extend(lidar.scan(&Vector3::new(x, 0.0, z), 0.0, &terrain(), &[], &mut rng).unwrap());
     }
     let outliers = points.len() / 9;
@@ -136,7 +119,7 @@ fn nosings(seed: u64) {
 
 /// Distance from `p` to the nearest nosing or open side edge of the steps' tops.
 fn distance_to_true_edges(p: &Vector3<f64>) -> f64 {
-    let end = FIRST_RISER + STEPS as f64 * RUN + 0.6;
+    let end = step_terrain::END;
     let segment = |a: Vector3<f64>, b: Vector3<f64>| {
         let t = ((p - a).dot(&(b - a)) / (b - a).norm_squared()).clamp(0.0, 1.0);
         (p - (a + (b - a) * t)).norm()
