@@ -229,9 +229,9 @@ pub struct Sample {
     /// Exact SAT separation of each checked pair \[m\] (< 0: overlap), in
     /// [`Scenario::pair_names`] order.
     pub separation: Vec<f64>,
-    /// The filter update's thread CPU time and wall time (zero without the filter).
+    /// The filter update's thread CPU time (zero without the filter).
     pub cpu_time: Duration,
-    /// Wall time of the update (evaluation + solve).
+    /// The filter update's wall time, evaluation and solve (zero without the filter).
     pub wall_time: Duration,
 }
 
