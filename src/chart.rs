@@ -179,15 +179,23 @@ impl Chart {
             let _ =
                 writeln!(svg, r#"<rect x="{left:.1}" y="{top:.1}" width="{w:.1}" height="{h:.1}" fill="{}"/>"#, a.fill);
         }
-        for (k, s) in self.series.iter().enumerate() {
+        // Legend rows for named series only: a series without a name (one of many outlines
+        // of the same kind) is drawn but not listed.
+        let mut row = 0usize;
+        for s in &self.series {
+            let k = row;
+            row += usize::from(!s.name.is_empty());
             if s.markers {
                 for (x, y) in s.points.iter().filter(|p| finite(p)) {
                     let _ =
                         writeln!(svg, r#"<circle cx="{:.1}" cy="{:.1}" r="3" fill="{}"/>"#, sx(*x), sy(*y), s.color);
                 }
-                let ly = TOP + 14.0 + 16.0 * k as f64;
-                let _ = writeln!(svg, r#"<circle cx="{}" cy="{}" r="3" fill="{}"/>"#, LEFT + 20.0, ly - 4.0, s.color);
-                let _ = writeln!(svg, r#"<text x="{}" y="{ly}">{}</text>"#, LEFT + 36.0, escape(&s.name));
+                if !s.name.is_empty() {
+                    let ly = TOP + 14.0 + 16.0 * k as f64;
+                    let _ =
+                        writeln!(svg, r#"<circle cx="{}" cy="{}" r="3" fill="{}"/>"#, LEFT + 20.0, ly - 4.0, s.color);
+                    let _ = writeln!(svg, r#"<text x="{}" y="{ly}">{}</text>"#, LEFT + 36.0, escape(&s.name));
+                }
                 continue;
             }
             let stride = s.points.len().div_ceil(MAX_POINTS).max(1);
@@ -201,6 +209,9 @@ impl Chart {
                 r#"<polyline fill="none" stroke="{}" stroke-width="1.5"{dash} points="{path}"/>"#,
                 s.color
             );
+            if s.name.is_empty() {
+                continue;
+            }
             let ly = TOP + 14.0 + 16.0 * k as f64;
             let _ = writeln!(
                 svg,

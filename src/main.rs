@@ -147,6 +147,18 @@ enum Command {
         #[arg(long, default_value_t = 10)]
         csv_every: usize,
     },
+    /// Perception on the hardware stairs (5 × 16.5 × 35 cm): four simulated LiDAR scans on
+    /// the approach, accumulated; planes and edge cuboids extracted from the points alone.
+    /// Prints each true nosing beside the cuboid found for it and writes side and top
+    /// views (SVG).
+    Perceive {
+        /// Directory for the figures.
+        #[arg(long, default_value = "out")]
+        out: std::path::PathBuf,
+        /// Seed of the scans' noise and dropouts.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+    },
     /// Regenerate generated/ from symbolic/ (runs `python -m symbolic.generate`).
     Generate,
 }
@@ -425,6 +437,7 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             print_written(&mut stdout, &written)?;
             Ok(())
         }
+        Command::Perceive { out, seed } => perceive(&mut stdout, &out, seed),
         Command::Campaign { episodes, seed, first_id, no_body_cbf, threads, out, ranges } => {
             let settings =
                 CampaignSettings { seed, episodes, first_id, ranges: ranges.ranges(), body_cbf: !no_body_cbf, threads };
@@ -476,4 +489,69 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
 /// The "wrote a, b, c" line every command that writes files ends with.
 fn print_written(out: &mut impl Write, written: &[std::path::PathBuf]) -> std::io::Result<()> {
     writeln!(out, "wrote {}", written.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "))
+}
+
+/// `cbfgen perceive`: scan the hardware stairs, extract planes and cuboids, compare them
+/// with the true nosings and draw both views.
+fn perceive(out: &mut impl Write, dir: &std::path::Path, seed: u64) -> Result<(), Box<dyn std::error::Error>> {
+    use cbfgen::perception::{edges, figure, planes, scanner::Lidar};
+    use rand::SeedableRng;
+
+    let stairs = cbfgen::systems::tachyon3::terrain::Stairs::HARDWARE;
+    let world = stairs.solid_boxes()?;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut map = Vec::new();
+    for x in [0.0, 0.25, 0.5, 0.75] {
+        map.extend(Lidar::default().scan(&Vector3::new(x, 0.0, 0.6), 0.0, &world, &[], &mut rng)?);
+    }
+    let settings = planes::SegmentSettings { viewpoint: Vector3::new(0.0, 0.0, 0.6), ..Default::default() };
+    let found = planes::segment(&map, &settings)?;
+    let cuboids = edges::edge_cuboids(&found, &map, &edges::EdgeSettings::default())?;
+    writeln!(out, "{} points from 4 scans; {} planes, {} edge cuboids", map.len(), found.len(), cuboids.len())?;
+    for (k, p) in found.iter().enumerate() {
+        writeln!(
+            out,
+            "  plane {k}: normal ({:+.3}, {:+.3}, {:+.3}), offset {:+.4} m, {} points",
+            p.normal.x, p.normal.y, p.normal.z, p.offset, p.inliers
+        )?;
+    }
+    let mut truth = Vec::new();
+    for k in 0..stairs.count {
+        let e = stairs.edge(k)?;
+        let b = OrientedBox::new(e.center, Rotation3::from_matrix_unchecked(e.rotation), e.half)?;
+        // The found cuboid whose axis passes closest to the true one's centre.
+        let nearest = cuboids
+            .iter()
+            .map(|c| {
+                let axis = c.rotation().matrix().column(0).into_owned();
+                let d = b.center() - c.center();
+                ((d - axis * d.dot(&axis)).norm(), c)
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        match nearest {
+            Some((d, c)) if d < 0.05 => {
+                let axis = c.rotation().matrix().column(0).into_owned();
+                let angle = axis.angle(&Vector3::y()).min(axis.angle(&-Vector3::y())).to_degrees();
+                writeln!(
+                    out,
+                    "  nosing {k} (x {:.3}, z {:.3}): found {:.1} mm off, {angle:.2} deg, {:.2} m long",
+                    b.center().x,
+                    b.center().z,
+                    d * 1e3,
+                    2.0 * c.half_extents().x
+                )?;
+            }
+            _ => writeln!(out, "  nosing {k} (x {:.3}, z {:.3}): not found", b.center().x, b.center().z)?,
+        }
+        truth.push(b);
+    }
+    let written = cbfgen::chart::write_files(
+        dir,
+        [("perception_side", figure::View::Side), ("perception_top", figure::View::Top)]
+            .into_iter()
+            .map(|(name, view)| (format!("{name}.svg"), figure::chart(view, &map, &found, &cuboids, &truth).to_svg()))
+            .collect(),
+    )?;
+    print_written(out, &written)?;
+    Ok(())
 }

@@ -155,3 +155,24 @@ fn degenerate_clouds_give_no_planes_or_a_typed_error() {
     let mut rng = ChaCha8Rng::seed_from_u64(1);
     assert!(matches!(lidar.scan(&Vector3::zeros(), 0.0, &terrain(), &[], &mut rng), Err(CbfError::TooLarge { .. })));
 }
+
+#[test]
+fn the_figure_draws_the_points_by_plane_the_hulls_and_both_sets_of_cuboids() {
+    use cbfgen::perception::figure::{chart, View};
+    let (points, viewpoint) = scan(3);
+    let found = planes::segment(&points, &SegmentSettings { viewpoint, ..Default::default() }).unwrap();
+    let cuboids = edges::edge_cuboids(&found, &points, &EdgeSettings::default()).unwrap();
+    let truth = terrain()[1..].to_vec();
+    let frame = cbfgen::chart::Chart::new("", "", "").to_svg().matches("<rect").count();
+    for view in [View::Side, View::Top] {
+        let svg = chart(view, &points, &found, &cuboids, &truth).to_svg();
+        // Every plane's points in its own legend row, one outline per hull and per true box.
+        for k in 0..found.len() {
+            assert!(svg.contains(&format!(">plane {k}<")), "{view:?}: plane {k} missing");
+        }
+        assert!(svg.contains(">hulls<") && svg.contains(">true edge cuboids<"), "{view:?}: legend");
+        assert_eq!(svg.matches("<rect").count(), cuboids.len() + frame, "{view:?}: one filled box per cuboid");
+        assert!(svg.matches("<polyline").count() >= found.len() + truth.len(), "{view:?}: outlines");
+        assert!(svg.matches("<circle").count() > 1000, "{view:?}: points");
+    }
+}

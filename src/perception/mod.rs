@@ -6,7 +6,8 @@
 //! * [`planes`] — normals from each point's neighbourhood, region growing on normal
 //!   angle and curvature, a RANSAC refit per region and each plane's convex hull;
 //! * [`edges`] — an edge cuboid along each level plane's hull edge where the terrain
-//!   drops beyond it (a step's nosing), and the floor height under a point.
+//!   drops beyond it (a step's nosing), and the floor height under a point;
+//! * [`figure`] — side and top views of what was found over the truth (`cbfgen perceive`).
 //!
 //! Generic: nothing here knows a robot. Degenerate input (no points, points on a line,
 //! a million points in one spot) gives no planes; non-finite input is a typed error.
@@ -36,5 +37,6 @@
 //! ```
 
 pub mod edges;
+pub mod figure;
 pub mod planes;
 pub mod scanner;

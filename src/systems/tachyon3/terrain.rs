@@ -117,6 +117,30 @@ impl Stairs {
         self.count as f64 * self.rise
     }
 
+    /// The staircase as solid boxes, for a scanner to see: a floor (top at z = 0, 4 m
+    /// before the first riser and 2 m past the top one, 3 m either side) and one box per
+    /// step, from its riser to 1 m past the top riser.
+    ///
+    /// # Errors
+    /// Stairs that fail [`Stairs::validate`].
+    pub fn solid_boxes(&self) -> Result<Vec<OrientedBox>, CbfError> {
+        self.validate()?;
+        let end = self.start_x + (self.count - 1) as f64 * self.run + 1.0;
+        let (floor_lo, floor_hi) = (self.start_x - 4.0, end + 2.0);
+        let mut boxes = vec![OrientedBox::axis_aligned(
+            Vector3::new((floor_lo + floor_hi) / 2.0, 0.0, -0.5),
+            Vector3::new((floor_hi - floor_lo) / 2.0, self.half_width + 3.0, 0.5),
+        )?];
+        for k in 0..self.count {
+            let (x0, top) = (self.start_x + k as f64 * self.run, (k + 1) as f64 * self.rise);
+            boxes.push(OrientedBox::axis_aligned(
+                Vector3::new((x0 + end) / 2.0, 0.0, top / 2.0),
+                Vector3::new((end - x0) / 2.0, self.half_width, top / 2.0),
+            )?);
+        }
+        Ok(boxes)
+    }
+
     /// The cuboid along step `k`'s nosing: tucked into the corner of the tread and riser.
     ///
     /// # Errors
