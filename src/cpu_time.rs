@@ -48,6 +48,12 @@ impl Stopwatch {
     }
 }
 
+/// Median, p99 and maximum (nearest rank) of `values`, sorted in place; zeros when empty.
+pub fn median_p99_max(values: &mut [f64]) -> [f64; 3] {
+    values.sort_unstable_by(f64::total_cmp);
+    [0.5, 0.99, 1.0].map(|p| nearest_rank(values, p).unwrap_or(0.0))
+}
+
 /// The nearest-rank `p`-quantile (`0 < p ≤ 1`) of an ascending slice; `None` when empty.
 pub fn nearest_rank<T: Copy>(sorted: &[T], p: f64) -> Option<T> {
     let rank = (p * sorted.len() as f64).ceil() as usize;

@@ -201,12 +201,13 @@ fn self_pair_name(a: usize, b: usize) -> String {
 /// A state whose kinematics are not finite.
 pub fn link_boxes(x: &State) -> Result<[OrientedBox; 8], CbfError> {
     let (centers, rotations) = gen::link_boxes(x);
-    let mut out = [OrientedBox::axis_aligned(Vector3::zeros(), Vector3::repeat(1.0))?; 8];
-    for (k, slot) in out.iter_mut().enumerate() {
-        let rotation = Rotation3::from_matrix_unchecked(Matrix3::from_row_slice(&rotations[k]));
-        *slot = OrientedBox::new(Vector3::from(centers[k]), rotation, Vector3::from(gen::LINK_HALF_EXTENTS[k]))?;
-    }
-    Ok(out)
+    let boxes = (0..8)
+        .map(|k| {
+            let rotation = Rotation3::from_matrix_unchecked(Matrix3::from_row_slice(&rotations[k]));
+            OrientedBox::new(Vector3::from(centers[k]), rotation, Vector3::from(gen::LINK_HALF_EXTENTS[k]))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(boxes.try_into().expect("eight boxes from eight rows"))
 }
 
 /// One control cycle.
@@ -424,9 +425,7 @@ fn summarize(scenario: &Scenario, samples: &[Sample]) -> Summary {
         }
     }
     let micros = |f: fn(&Sample) -> Duration| {
-        let mut v: Vec<f64> = samples.iter().map(|s| f(s).as_secs_f64() * 1e6).collect();
-        v.sort_unstable_by(f64::total_cmp);
-        [0.5, 0.99, 1.0].map(|p| crate::cpu_time::nearest_rank(&v, p).unwrap_or(0.0))
+        crate::cpu_time::median_p99_max(&mut samples.iter().map(|s| f(s).as_secs_f64() * 1e6).collect::<Vec<_>>())
     };
     Summary {
         filter: scenario.filter,

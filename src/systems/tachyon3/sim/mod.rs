@@ -292,9 +292,7 @@ pub fn run_observed(
 /// `[median, p99, max]` (nearest rank) of one timing of the samples \[µs\], zeros when there
 /// are none.
 fn percentiles(samples: &[Sample], f: fn(&Sample) -> f64) -> [f64; 3] {
-    let mut times: Vec<f64> = samples.iter().map(f).collect();
-    times.sort_unstable_by(f64::total_cmp);
-    [0.5, 0.99, 1.0].map(|p| crate::systems::tachyon3::latency::nearest_rank(&times, p).unwrap_or(0.0))
+    crate::cpu_time::median_p99_max(&mut samples.iter().map(f).collect::<Vec<_>>())
 }
 
 fn summarize(config: &SimConfig, samples: &[Sample], completed: bool) -> Summary {
