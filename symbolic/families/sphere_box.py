@@ -136,22 +136,28 @@ def derivatives_kernel() -> Kernel:
     return k
 
 
-def margin_kernel() -> Kernel:
-    k = Kernel("certified_clearance_margin",
-               "The margin m `certified_clearance` already subtracts: sqrt(3) eps + delta, with\n"
-               "eps = 1/alpha and delta = eps/1000.")
+def _alpha_only_kernel(name: str, doc: str, output: str, value, output_doc: str) -> Kernel:
+    """A kernel of alpha alone: one scalar output, ``value(alpha)``."""
+    k = Kernel(name, doc)
     a = _Inputs(k, with_pose=False)
-    k.output_scalar("margin", margin(a.alpha), "the certified margin [m]")
+    k.output_scalar(output, value(a.alpha), output_doc)
     return k
+
+
+def margin_kernel() -> Kernel:
+    return _alpha_only_kernel(
+        "certified_clearance_margin",
+        "The margin m `certified_clearance` already subtracts: sqrt(3) eps + delta, with\n"
+        "eps = 1/alpha and delta = eps/1000.",
+        "margin", margin, "the certified margin [m]")
 
 
 def conservatism_kernel() -> Kernel:
-    k = Kernel("certified_clearance_conservatism",
-               "Largest gap (exact sphere-box distance) - h while the sphere's centre is outside\n"
-               "the box: the margin plus sqrt(3) eps, the smooth |.|'s undershoot on three axes.")
-    a = _Inputs(k, with_pose=False)
-    k.output_scalar("bound", conservatism(a.alpha), "the conservatism bound [m]")
-    return k
+    return _alpha_only_kernel(
+        "certified_clearance_conservatism",
+        "Largest gap (exact sphere-box distance) - h while the sphere's centre is outside\n"
+        "the box: the margin plus sqrt(3) eps, the smooth |.|'s undershoot on three axes.",
+        "bound", conservatism, "the conservatism bound [m]")
 
 
 def kernels() -> list[Kernel]:
