@@ -62,7 +62,9 @@ enum Command {
     /// same course is also run without the body SSAT CBF for Fig. 7's comparison; unless
     /// --no-osqp-reference is given, also with the OSQP backend for Fig. 10's.
     Simulate {
-        /// Course: one 16.5 cm step, or five steps of 16.5 x 35 cm.
+        /// Course: one 16.5 cm step, five steps of 16.5 x 35 cm, four steps of unequal
+        /// rise, steps with a landing, a 12 cm box to cross, a 20 cm platform to climb
+        /// onto and roll off.
         #[arg(long, value_enum, default_value_t = ScenarioArg::Stairs)]
         scenario: ScenarioArg,
         /// Run only without the body SSAT CBF (the body hits the edge).
@@ -167,6 +169,24 @@ enum Command {
 enum ScenarioArg {
     Step,
     Stairs,
+    #[value(name = "unequal_rises")]
+    UnequalRises,
+    Landing,
+    Box,
+    Platform,
+}
+
+impl ScenarioArg {
+    fn scenario(self) -> Scenario {
+        match self {
+            ScenarioArg::Step => Scenario::Step,
+            ScenarioArg::Stairs => Scenario::Stairs,
+            ScenarioArg::UnequalRises => Scenario::UnequalRises,
+            ScenarioArg::Landing => Scenario::Landing,
+            ScenarioArg::Box => Scenario::Box,
+            ScenarioArg::Platform => Scenario::Platform,
+        }
+    }
 }
 
 /// The ranges campaign courses are drawn from (defaults: [`CourseRanges::default`]); a
@@ -373,13 +393,7 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             let config = |body_cbf: bool| -> Result<SimConfig, cbfgen::CbfError> {
                 Ok(match episode {
                     Some(id) => Episode::draw(seed, id, &ranges.ranges())?.config(body_cbf),
-                    None => SimConfig::new(
-                        match scenario {
-                            ScenarioArg::Step => Scenario::Step,
-                            ScenarioArg::Stairs => Scenario::Stairs,
-                        },
-                        body_cbf,
-                    ),
+                    None => SimConfig::new(scenario.scenario(), body_cbf),
                 })
             };
             if let Some(id) = episode {
@@ -498,7 +512,7 @@ fn perceive(out: &mut impl Write, dir: &std::path::Path, seed: u64) -> Result<()
     use rand::SeedableRng;
 
     let stairs = cbfgen::systems::tachyon3::terrain::Stairs::HARDWARE;
-    let world = stairs.solid_boxes()?;
+    let world = stairs.terrain()?.solid_boxes()?;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let mut map = Vec::new();
     for x in [0.0, 0.25, 0.5, 0.75] {

@@ -5,6 +5,7 @@
 use cbfgen::systems::tachyon3::catalog::Family;
 use cbfgen::systems::tachyon3::model::STATE_NAMES;
 use cbfgen::systems::tachyon3::sim::{self, output, Scenario, SimConfig};
+use cbfgen::systems::tachyon3::terrain::Stairs;
 
 const PENETRATION_TOLERANCE: f64 = 1e-3;
 
@@ -24,8 +25,8 @@ fn the_filter_gets_the_robot_over_the_step_without_penetration() {
     // Crossed: every toe ends on the step's top, the body centre beyond the riser.
     let last = result.samples.last().expect("samples");
     let (body, _, toes) = cbfgen::generated::tachyon3::world_kinematics(&last.x);
-    let stairs = Scenario::Step.stairs();
-    assert!(body[0] > stairs.start_x && toes.iter().all(|t| t[0] > stairs.start_x), "{body:?} {toes:?}");
+    let riser = Stairs::SINGLE_STEP.start_x;
+    assert!(body[0] > riser && toes.iter().all(|t| t[0] > riser), "{body:?} {toes:?}");
 }
 
 /// The summary's timing figures, recomputed from the samples: nearest-rank percentiles and
@@ -110,7 +111,7 @@ fn the_filter_gets_the_robot_up_all_five_stairs_without_penetration() {
     check_timings(&result);
     let s = result.summary;
     assert!(s.completed, "every toe must reach the top landing: {s}");
-    let top = Scenario::Stairs.stairs().top();
+    let top = Stairs::HARDWARE.count as f64 * Stairs::HARDWARE.rise;
     let (_, _, toes) = cbfgen::generated::tachyon3::world_kinematics(&result.samples.last().expect("samples").x);
     assert!(toes.iter().all(|t| t[2] > top), "toes {toes:?} below the top landing {top}");
     assert!(
@@ -130,4 +131,38 @@ fn the_filter_gets_the_robot_up_all_five_stairs_without_penetration() {
         .map(|(a, b)| height(a) - height(b))
         .fold(f64::NEG_INFINITY, f64::max);
     assert!(lift > 0.05, "the body CBF lifted the body by at most {lift:.3} m");
+}
+
+/// The shapes a straight flight does not make (unequal rises, a landing, a box to cross, a
+/// platform to roll off): the robot finishes each, and neither the body nor a toe enters
+/// the true terrain by more than 1 mm: the body by the exact SAT against every solid box
+/// of the terrain (not only the edge cuboids the filter avoids), the toes by the exact
+/// sphere–box distance to the edges.
+#[test]
+fn unequal_rises_a_landing_a_box_and_a_platform_are_crossed_without_penetration() {
+    use cbfgen::systems::tachyon3::model::BODY_HALF_EXTENTS;
+    use nalgebra::{Matrix3, Rotation3, Vector3};
+
+    for scenario in [Scenario::UnequalRises, Scenario::Landing, Scenario::Box, Scenario::Platform] {
+        let result = sim::run(&SimConfig::new(scenario, true), |_| {}).expect("simulation");
+        let s = result.summary;
+        assert!(s.completed, "{}: {s}", scenario.name());
+        assert!(s.min_toe_clearance > -PENETRATION_TOLERANCE, "{}: toes {:.4} m", scenario.name(), s.min_toe_clearance);
+        let solids = scenario.terrain().expect("terrain").solid_boxes().expect("boxes");
+        let deepest = result
+            .samples
+            .iter()
+            .step_by(5)
+            .map(|sample| {
+                let (c, r, _) = cbfgen::generated::tachyon3::world_kinematics(&sample.x);
+                let rotation = Rotation3::from_matrix_unchecked(Matrix3::from_fn(|i, j| r[i][j]));
+                let body = cbfgen::OrientedBox::new(Vector3::from(c), rotation, Vector3::from(BODY_HALF_EXTENTS))
+                    .expect("body box");
+                solids.iter().map(|b| cbfgen::sat::separation(b, &body)).fold(f64::INFINITY, f64::min)
+            })
+            .fold(f64::INFINITY, f64::min);
+        assert!(deepest > -PENETRATION_TOLERANCE, "{}: body {deepest:.4} m into the terrain", scenario.name());
+        // The body stays clear of the terrain, not only of the edge cuboids.
+        assert!(deepest > 0.0, "{}: body touches the terrain ({deepest:.4} m)", scenario.name());
+    }
 }

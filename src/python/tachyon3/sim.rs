@@ -14,7 +14,7 @@ use crate::systems::tachyon3::sim::campaign::{self as monte_carlo, CampaignSetti
 use crate::systems::tachyon3::sim::gait::GaitParams;
 use crate::systems::tachyon3::sim::{self, Course, Scenario, SimConfig};
 
-const SCENARIOS: [Scenario; 2] = [Scenario::Step, Scenario::Stairs];
+const SCENARIOS: [Scenario; 6] = Scenario::NAMED;
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SCENARIOS", SCENARIOS.map(Scenario::name).to_vec())?;
@@ -115,7 +115,7 @@ impl PyCourse {
 
     /// Ground height at world ``x`` \[m\].
     fn floor_height(&self, x: f64) -> PyResult<f64> {
-        Ok(self.inner.stairs().height_at(finite("x", x)?))
+        Ok(self.inner.ground().height_at(finite("x", x)?))
     }
 }
 

@@ -10,7 +10,7 @@
 use crate::error::CbfError;
 use crate::systems::tachyon3::catalog::{Capacity, Environment};
 use crate::systems::tachyon3::model::{self, Input, State, BODY_PITCH, BODY_X, BODY_Z, NU, TOE_BLOCK};
-use crate::systems::tachyon3::terrain::{worst_case_environment, Stairs};
+use crate::systems::tachyon3::terrain::{worst_case_environment, Profile, Stairs};
 
 /// State indices of the origin's speed and yaw rate.
 const SPEED: usize = 4;
@@ -29,7 +29,7 @@ pub struct Approach {
     /// What the filter sees: every catalog row filled ([`worst_case_environment`]), with
     /// the floor heights under the toes refreshed on each [`Approach::advance`].
     pub env: Environment,
-    stairs: Stairs,
+    ground: Profile,
     posture: State,
     speed: f64,
     t: f64,
@@ -50,7 +50,8 @@ impl Approach {
         x[SPEED] = speed;
         // Footholds wide enough to contain every toe for the whole drive.
         let env = worst_case_environment(capacity, &stairs, [x[0], 0.0], 4.0)?;
-        let mut approach = Self { x, env, stairs, posture, speed, t: 0.0 };
+        let ground = stairs.terrain()?.profile().clone();
+        let mut approach = Self { x, env, ground, posture, speed, t: 0.0 };
         approach.update_floors();
         Ok(approach)
     }
@@ -97,6 +98,6 @@ impl Approach {
 
     fn update_floors(&mut self) {
         let (_, _, toes) = crate::generated::tachyon3::world_kinematics(&self.x);
-        self.env.set_floors(self.stairs.floors_under(&toes));
+        self.env.set_floors(self.ground.floors_under(&toes));
     }
 }

@@ -15,18 +15,22 @@ use crate::geometry::OrientedBox;
 use crate::sphere_box;
 use crate::systems::tachyon3::catalog::{Capacity, EdgeCuboid, Environment, StabilityBound};
 use crate::systems::tachyon3::model::{self, State, TOE_RADIUS};
-use crate::systems::tachyon3::terrain::Stairs;
+use crate::systems::tachyon3::terrain::{Profile, Terrain};
 
 /// Each toe within this distance (x) of its hip, relative to the body: the stability
 /// bounds of eq. 13 \[m\].
 const STABILITY_REACH: f64 = 0.45;
 
-/// The stairs, their edge cuboids as filter obstacles, and the gait.
+/// The terrain, the edge cuboids the filter avoids, and the gait.
+///
+/// By default the filter and the gait see the true terrain. A perception loop replaces
+/// what they see with [`Course::set_perceived`]; the exact clearances and the finish are
+/// always judged against the true terrain.
 #[derive(Debug, Clone)]
 pub struct Course {
-    stairs: Stairs,
+    terrain: Terrain,
     env: Environment,
-    /// The edge cuboids again, as validated boxes for the exact clearance checks.
+    /// The true edge cuboids, as validated boxes for the exact clearance checks.
     edges: Vec<OrientedBox>,
     gait: Gait,
 }
@@ -41,19 +45,18 @@ pub struct Clearance {
 }
 
 impl Course {
-    /// The scenario's stairs, with every edge pushed into an environment of the paper's
+    /// The scenario's terrain, with every edge pushed into an environment of the paper's
     /// worst-case [`Capacity`].
     ///
     /// # Errors
-    /// Stair dimensions that fail [`Stairs::validate`], or more steps than
-    /// [`Course::CAPACITY`] has edge slots.
+    /// Stair dimensions that fail [`Stairs::validate`](crate::systems::tachyon3::terrain::Stairs::validate),
+    /// or more changes of height than [`Course::CAPACITY`] has edge slots.
     pub fn new(scenario: Scenario, gait: GaitParams) -> Result<Self, CbfError> {
-        let stairs = scenario.stairs();
-        stairs.validate()?;
+        let terrain = scenario.terrain()?;
         let mut env = Environment::new(Self::CAPACITY)?;
-        let mut edges = Vec::with_capacity(stairs.count);
-        for k in 0..stairs.count {
-            let edge = stairs.edge(k)?;
+        let true_edges = terrain.edges()?;
+        let mut edges = Vec::with_capacity(true_edges.len());
+        for edge in true_edges {
             env.push_edge(edge)?;
             edges.push(edge_box(&edge)?);
         }
@@ -63,7 +66,8 @@ impl Course {
                 Some(StabilityBound { a: -1.0, b: STABILITY_REACH + hip[0] }),
             ];
         }
-        Ok(Self { stairs, env, edges, gait: Gait::new(gait, stairs) })
+        let gait = Gait::new(gait, terrain.profile().clone());
+        Ok(Self { terrain, env, edges, gait })
     }
 
     /// The capacity every course's environment is laid out for; build the filter with it.
@@ -73,20 +77,20 @@ impl Course {
     /// metres before the first riser.
     pub fn initial_state(&self, start_gap: f64) -> State {
         let mut x = model::standard_posture();
-        x[0] = self.stairs.start_x - start_gap - model::front_reach(&x);
+        x[0] = self.terrain.first_change() - start_gap - model::front_reach(&x);
         x
     }
 
     /// Update the environment for state `x` at time `t` and return the gait's plan.
     ///
     /// # Errors
-    /// A non-finite state, or stairs without room for a foothold.
+    /// A non-finite state, or ground without room for a foothold.
     pub fn plan(&mut self, t: f64, x: &State) -> Result<Plan, CbfError> {
         for &v in x {
             crate::error::finite("state entry", v)?;
         }
         let (_, _, toes) = gen::world_kinematics(x);
-        self.env.set_floors(self.stairs.floors_under(&toes));
+        self.env.set_floors(self.gait.ground().floors_under(&toes));
         let plan = self.gait.plan(t, x)?;
         self.env.set_swing(plan.swing);
         for (leg, strip) in plan.footholds.iter().enumerate() {
@@ -102,9 +106,30 @@ impl Course {
         &self.env
     }
 
-    /// The stairs of this course.
-    pub fn stairs(&self) -> &Stairs {
-        &self.stairs
+    /// The true terrain of this course.
+    pub fn terrain(&self) -> &Terrain {
+        &self.terrain
+    }
+
+    /// The ground the gait plans on and the floors are read from: the true profile, or
+    /// the last perceived one.
+    pub fn ground(&self) -> &Profile {
+        self.gait.ground()
+    }
+
+    /// Replace what the gait and the filter see with a perception of the terrain: the
+    /// ground along the path and the edge cuboids (the first [`Capacity::edges`] of
+    /// `edges`, which the caller orders nearest first).
+    ///
+    /// # Errors
+    /// None in practice: the environment's edge slots are only filled up to capacity.
+    pub fn set_perceived(&mut self, ground: Profile, edges: &[EdgeCuboid]) -> Result<(), CbfError> {
+        self.gait.set_ground(ground);
+        self.env.clear_edges();
+        for &edge in edges.iter().take(Self::CAPACITY.body_edge.min(Self::CAPACITY.toe_edge)) {
+            self.env.push_edge(edge)?;
+        }
+        Ok(())
     }
 
     /// Which tripod swings now, if any.
@@ -128,14 +153,13 @@ impl Course {
         Ok(Clearance { body: body_clearance, toe: toe_clearance })
     }
 
-    /// Every toe stands on the top level, the body centre is past the last riser and no
-    /// tripod swings.
+    /// Every toe stands on the true terrain's last level, the body centre is past its
+    /// last change of height and no tripod swings.
     pub fn finished(&self, x: &State) -> bool {
-        let stairs = &self.stairs;
-        let on_top = self.env.floors().iter().all(|&floor| floor >= stairs.top() - 1e-9);
-        let (body_center, _, _) = gen::world_kinematics(x);
-        let past = body_center[0] > stairs.start_x + (stairs.count - 1) as f64 * stairs.run;
-        on_top && past && self.gait.swinging().is_none()
+        let ground = self.terrain.profile();
+        let (body_center, _, toes) = gen::world_kinematics(x);
+        let arrived = ground.floors_under(&toes).iter().all(|&floor| (floor - ground.final_height()).abs() < 1e-9);
+        arrived && body_center[0] > ground.last_change() && self.gait.swinging().is_none()
     }
 }
 

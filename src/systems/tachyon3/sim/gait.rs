@@ -12,7 +12,7 @@ use crate::error::CbfError;
 use crate::generated::tachyon3 as gen;
 use crate::systems::tachyon3::catalog::HalfPlane;
 use crate::systems::tachyon3::model::{self, Input, State, BODY_PITCH, BODY_X, BODY_Z, NU, TOE_BLOCK, TOE_RADIUS};
-use crate::systems::tachyon3::terrain::{foothold_strip, Stairs};
+use crate::systems::tachyon3::terrain::{foothold_strip, Profile};
 
 /// Legs of the two tripods, in `LEG_NAMES` indices: (LR, RR, MF) and (MR, LF, RF).
 pub const TRIPODS: [[usize; 3]; 2] = [[3, 5, 1], [4, 0, 2]];
@@ -126,7 +126,7 @@ pub struct Plan {
 #[derive(Debug, Clone)]
 pub struct Gait {
     params: GaitParams,
-    stairs: Stairs,
+    ground: Profile,
     swing: Option<Swing>,
     last_tripod: usize,
     stance_since: f64,
@@ -140,12 +140,12 @@ pub struct Gait {
 }
 
 impl Gait {
-    /// The gait for `params` over `stairs`, at t = 0 with all six wheels down; the first swing
-    /// starts no earlier than `stance_time`.
-    pub fn new(params: GaitParams, stairs: Stairs) -> Self {
+    /// The gait for `params` over the ground `ground`, at t = 0 with all six wheels down;
+    /// the first swing starts no earlier than `stance_time`.
+    pub fn new(params: GaitParams, ground: Profile) -> Self {
         Self {
             params,
-            stairs,
+            ground,
             swing: None,
             last_tripod: 1,
             stance_since: 0.0,
@@ -156,6 +156,17 @@ impl Gait {
         }
     }
 
+    /// Replace the ground the gait plans on (a new perception of it). A swing under way
+    /// keeps the landing and foothold it lifted off with.
+    pub fn set_ground(&mut self, ground: Profile) {
+        self.ground = ground;
+    }
+
+    /// The ground the gait plans on.
+    pub fn ground(&self) -> &Profile {
+        &self.ground
+    }
+
     /// Which tripod swings now, if any.
     pub fn swinging(&self) -> Option<usize> {
         self.swing.map(|s| s.tripod)
@@ -164,11 +175,11 @@ impl Gait {
     /// The nominal input at time `t` \[s\] for state `x`.
     ///
     /// # Errors
-    /// Only if the stairs are degenerate (no room for a foothold).
+    /// Only if the ground is degenerate (no room for a foothold).
     pub fn plan(&mut self, t: f64, x: &State) -> Result<Plan, CbfError> {
         let p = self.params;
         let (_, _, toes) = gen::world_kinematics(x);
-        let floor = self.stairs.floors_under(&toes);
+        let floor = self.ground.floors_under(&toes);
 
         if let Some(s) = self.swing {
             if t - s.start >= p.swing_time {
@@ -204,7 +215,7 @@ impl Gait {
         self.stall_raise = (self.stall_raise + rate * dt).clamp(0.0, p.stall_raise_max);
         if self.swing.is_none() && t - self.stance_since >= p.stance_time {
             let needs = TRIPODS
-                .map(|legs| legs.iter().any(|&leg| self.riser_ahead(self.stairs.standing_x(&toes[leg]), lookahead)));
+                .map(|legs| legs.iter().any(|&leg| self.riser_ahead(self.ground.standing_x(&toes[leg]), lookahead)));
             let tripod = match needs {
                 [true, true] => Some(1 - self.last_tripod),
                 [true, false] => Some(0),
@@ -271,7 +282,7 @@ impl Gait {
 
     fn riser_ahead(&self, toe_x: f64, lookahead: f64) -> bool {
         let ahead = toe_x + TOE_RADIUS + lookahead;
-        self.stairs.height_at(ahead) > self.stairs.height_at(toe_x) + 1e-3
+        self.ground.height_at(ahead) > self.ground.height_at(toe_x) + 1e-3
     }
 
     /// Plan the swing of `tripod` from the toes' positions now. Each swinging toe's
@@ -293,18 +304,19 @@ impl Gait {
         for &leg in &TRIPODS[tripod] {
             let (ix, iz) = (TOE_BLOCK + 4 * leg, TOE_BLOCK + 4 * leg + 1);
             s.from[leg] = [x[ix], x[iz]];
-            let toe_x = self.stairs.standing_x(&toes[leg]);
-            let (lift_begin, region_end) = self.stairs.flat_region(toe_x);
+            let toe_x = self.ground.standing_x(&toes[leg]);
+            let (lift_begin, region_end) = self.ground.flat_region(toe_x);
             let lift_x = toes[leg][0];
             let climbs = self.riser_ahead(toe_x, p.stall_lookahead.max(p.lookahead));
             s.land_x[leg] = if climbs { region_end + TOE_RADIUS } else { toe_x + p.reach };
-            let here = self.stairs.height_at(toe_x);
-            let there = self.stairs.height_at(s.land_x[leg]);
+            let here = self.ground.height_at(toe_x);
+            let there = self.ground.height_at(s.land_x[leg]);
             s.apex[leg] = here.max(there) + TOE_RADIUS + p.clearance - x[2];
             s.land[leg] = there + TOE_RADIUS - x[2];
-            let (_, land_end) = self.stairs.flat_region(s.land_x[leg]);
+            let (_, land_end) = self.ground.flat_region(s.land_x[leg]);
             let begin = lift_begin.min(lift_x - FOOTHOLD_INSET - FOOTHOLD_SLACK);
-            s.strip[leg] = foothold_strip(&self.stairs, begin, land_end, FOOTHOLD_INSET)?;
+            let half_width = self.ground.level_at(toe_x).half_width.min(self.ground.level_at(s.land_x[leg]).half_width);
+            s.strip[leg] = foothold_strip(half_width, begin, land_end, FOOTHOLD_INSET)?;
         }
         Ok(s)
     }

@@ -22,7 +22,7 @@ use crate::filter::{EcbfFilter, FilterSettings, InputSource};
 use crate::generated::tachyon3 as gen;
 use crate::systems::tachyon3::catalog::{self, Catalog, Family};
 use crate::systems::tachyon3::model::{self, State, NU};
-use crate::systems::tachyon3::terrain::Stairs;
+use crate::systems::tachyon3::terrain::{Stairs, Terrain};
 use gait::GaitParams;
 
 /// Control period \[s\].
@@ -33,11 +33,11 @@ pub const DT: f64 = 1e-3;
 /// terabytes.
 pub const MAX_SIM_TIME: f64 = 600.0;
 
-/// Time a run on `stairs` gets to finish \[s\]: 20 s to reach the stairs and settle on
-/// top, and 10 s per step (the slowest gait climbs a step in about 6 s), at most
-/// [`MAX_SIM_TIME`].
-pub fn time_allowed(stairs: &Stairs) -> f64 {
-    (20.0 + 10.0 * stairs.count as f64).min(MAX_SIM_TIME)
+/// Time a run on `terrain` gets to finish \[s\]: 20 s to reach the first change and
+/// settle at the end, and 10 s per change of height (the slowest gait climbs a step in
+/// about 6 s), at most [`MAX_SIM_TIME`].
+pub fn time_allowed(terrain: &Terrain) -> f64 {
+    (20.0 + 10.0 * terrain.changes().len() as f64).min(MAX_SIM_TIME)
 }
 
 /// Which course the robot runs.
@@ -50,24 +50,54 @@ pub enum Scenario {
     /// A staircase of any dimensions (the Monte Carlo campaign's courses, see
     /// `campaign`).
     Custom(Stairs),
+    /// Four steps of unequal rise and run ([`Terrain::unequal_rises`]).
+    UnequalRises,
+    /// Three steps, a landing, two steps ([`Terrain::landing`]).
+    Landing,
+    /// A single 12 cm box to cross, up and down ([`Terrain::single_box`]).
+    Box,
+    /// A 20 cm platform to climb onto and roll off ([`Terrain::platform`]).
+    Platform,
 }
 
 impl Scenario {
-    /// The stairs of this course: [`Stairs::SINGLE_STEP`] or [`Stairs::HARDWARE`].
-    pub fn stairs(self) -> Stairs {
+    /// The named scenarios, in the order the CLI and Python list them.
+    pub const NAMED: [Scenario; 6] = [
+        Scenario::Step,
+        Scenario::Stairs,
+        Scenario::UnequalRises,
+        Scenario::Landing,
+        Scenario::Box,
+        Scenario::Platform,
+    ];
+
+    /// The terrain of this course.
+    ///
+    /// # Errors
+    /// Custom stairs that fail [`Stairs::validate`].
+    pub fn terrain(self) -> Result<Terrain, CbfError> {
         match self {
-            Scenario::Step => Stairs::SINGLE_STEP,
-            Scenario::Stairs => Stairs::HARDWARE,
-            Scenario::Custom(stairs) => stairs,
+            Scenario::Step => Stairs::SINGLE_STEP.terrain(),
+            Scenario::Stairs => Stairs::HARDWARE.terrain(),
+            Scenario::Custom(stairs) => stairs.terrain(),
+            Scenario::UnequalRises => Ok(Terrain::unequal_rises()),
+            Scenario::Landing => Ok(Terrain::landing()),
+            Scenario::Box => Ok(Terrain::single_box()),
+            Scenario::Platform => Ok(Terrain::platform()),
         }
     }
 
-    /// Short name, as used in file names and printouts: `step`, `stairs` or `custom`.
+    /// Short name, as used in file names and printouts: `step`, `stairs`, `custom`,
+    /// `unequal_rises`, `landing`, `box` or `platform`.
     pub fn name(self) -> &'static str {
         match self {
             Scenario::Step => "step",
             Scenario::Stairs => "stairs",
             Scenario::Custom(_) => "custom",
+            Scenario::UnequalRises => "unequal_rises",
+            Scenario::Landing => "landing",
+            Scenario::Box => "box",
+            Scenario::Platform => "platform",
         }
     }
 }
@@ -91,7 +121,7 @@ pub struct SimConfig {
 
 impl SimConfig {
     /// The standard run of `scenario`: default gait and filter settings, 0.3 m start gap, and
-    /// 25 s (step), 60 s (stairs) or [`time_allowed`] (custom) to finish. With `body_cbf == false` the body–edge family's
+    /// 25 s (step), 60 s (stairs) or [`time_allowed`] (the others) to finish. With `body_cbf == false` the body–edge family's
     /// activation threshold is set to −∞, so its rows never take part.
     pub fn new(scenario: Scenario, body_cbf: bool) -> Self {
         let mut filter = catalog::default_settings();
@@ -101,7 +131,8 @@ impl SimConfig {
         let max_time = match scenario {
             Scenario::Step => 25.0,
             Scenario::Stairs => 60.0,
-            Scenario::Custom(stairs) => time_allowed(&stairs),
+            // A terrain that fails to build fails the run instead, with its error.
+            other => other.terrain().map_or(MAX_SIM_TIME, |t| time_allowed(&t)),
         };
         Self { scenario, body_cbf, max_time, start_gap: 0.3, gait: GaitParams::default(), filter }
     }

@@ -1,6 +1,17 @@
-//! Terrain the examples, benches and simulations run on: a straight staircase, turned
-//! into the filter's runtime obstacles (one edge cuboid along each step nosing, as the
-//! paper extracts them from its map) and floor heights.
+//! Terrain the examples, benches and simulations run on, turned into the filter's
+//! runtime obstacles (one edge cuboid along each change of height, as the paper extracts
+//! them from its map) and floor heights.
+//!
+//! * [`Stairs`] — a straight flight of equal steps (the hardware experiment's, and the
+//!   Monte Carlo campaign's courses);
+//! * [`Terrain`] — any profile of flat levels, and the shapes a flight does not make;
+//! * [`Profile`] — the ground along the path as the gait reads it, true or perceived.
+
+pub mod profile;
+pub mod shapes;
+
+pub use profile::{Level, Profile};
+pub use shapes::Terrain;
 
 use nalgebra::Vector3;
 
@@ -64,81 +75,18 @@ impl Stairs {
     /// Longest stair dimension accepted by [`Stairs::validate`] \[m\].
     pub const MAX_DIMENSION: f64 = 100.0;
 
-    /// Ground height at world `x` \[m\].
-    pub fn height_at(&self, x: f64) -> f64 {
-        if x < self.start_x {
-            return 0.0;
-        }
-        let steps = ((x - self.start_x) / self.run).floor() as usize + 1;
-        steps.min(self.count) as f64 * self.rise
-    }
-
-    /// Ground height under each toe (world sphere centres, `LEG_NAMES` order) \[m\]: the
-    /// level each toe stands on, by [`Stairs::standing_x`].
-    pub fn floors_under(&self, toes: &[[f64; 3]; 6]) -> [f64; 6] {
-        toes.map(|toe| self.height_at(self.standing_x(&toe)))
-    }
-
-    /// The x at which to read the level a toe sphere of radius
-    /// [`TOE_RADIUS`](crate::systems::tachyon3::model::TOE_RADIUS) centred at `toe` stands
-    /// on. That is its centre's x, except for a wheel resting on a nosing: centre still
-    /// before the riser, but bottom within a millimetre of the step's top, or higher. It
-    /// stands on the step above, so this returns the riser's x (a nanometre past it, so
-    /// that rounding cannot put it back before the riser). Reading the level under
-    /// the centre instead would send such a toe down to the floor it has left.
-    pub fn standing_x(&self, toe: &[f64; 3]) -> f64 {
-        let r = crate::systems::tachyon3::model::TOE_RADIUS;
-        let (_, end) = self.flat_region(toe[0]);
-        let above = self.height_at(end);
-        if end - toe[0] < r && above > self.height_at(toe[0]) && toe[2] - r >= above - 1e-3 {
-            end + 1e-9
-        } else {
-            toe[0]
-        }
-    }
-
     /// One step of the same dimensions: the `step` scenario's obstacle.
     pub const SINGLE_STEP: Stairs = Stairs { count: 1, ..Stairs::HARDWARE };
 
-    /// x where the flat region holding world `x` begins and ends (the ground before the
-    /// stairs, a tread, or the top landing, which runs on).
-    pub fn flat_region(&self, x: f64) -> (f64, f64) {
-        if x < self.start_x {
-            return (f64::NEG_INFINITY, self.start_x);
-        }
-        let k = (((x - self.start_x) / self.run).floor() as usize).min(self.count - 1);
-        let begin = self.start_x + k as f64 * self.run;
-        let end = if k + 1 == self.count { f64::INFINITY } else { begin + self.run };
-        (begin, end)
-    }
-
-    /// Height of the top landing \[m\].
-    pub fn top(&self) -> f64 {
-        self.count as f64 * self.rise
-    }
-
-    /// The staircase as solid boxes, for a scanner to see: a floor (top at z = 0, 4 m
-    /// before the first riser and 2 m past the top one, 3 m either side) and one box per
-    /// step, from its riser to 1 m past the top riser.
+    /// The staircase as a [`Terrain`]: a rise at every riser, the top landing running on.
     ///
     /// # Errors
     /// Stairs that fail [`Stairs::validate`].
-    pub fn solid_boxes(&self) -> Result<Vec<OrientedBox>, CbfError> {
+    pub fn terrain(&self) -> Result<Terrain, CbfError> {
         self.validate()?;
-        let end = self.start_x + (self.count - 1) as f64 * self.run + 1.0;
-        let (floor_lo, floor_hi) = (self.start_x - 4.0, end + 2.0);
-        let mut boxes = vec![OrientedBox::axis_aligned(
-            Vector3::new((floor_lo + floor_hi) / 2.0, 0.0, -0.5),
-            Vector3::new((floor_hi - floor_lo) / 2.0, self.half_width + 3.0, 0.5),
-        )?];
-        for k in 0..self.count {
-            let (x0, top) = (self.start_x + k as f64 * self.run, (k + 1) as f64 * self.rise);
-            boxes.push(OrientedBox::axis_aligned(
-                Vector3::new((x0 + end) / 2.0, 0.0, top / 2.0),
-                Vector3::new((end - x0) / 2.0, self.half_width, top / 2.0),
-            )?);
-        }
-        Ok(boxes)
+        let changes: Vec<[f64; 2]> =
+            (0..self.count).map(|k| [self.start_x + k as f64 * self.run, (k + 1) as f64 * self.rise]).collect();
+        Terrain::new(&changes, self.half_width, self.edge_half_section)
     }
 
     /// The cuboid along step `k`'s nosing: tucked into the corner of the tread and riser.
@@ -153,13 +101,13 @@ impl Stairs {
 }
 
 /// A convex foothold for a toe of radius `r`: world x in `[x_begin + r, x_end − r]` and
-/// |y| within the stairs' half width less `r` (infinite ends are capped at ±100 m).
+/// |y| within `half_width` less `r` (infinite ends are capped at ±100 m).
 ///
 /// # Errors
 /// An empty interval.
-pub fn foothold_strip(stairs: &Stairs, x_begin: f64, x_end: f64, r: f64) -> Result<[HalfPlane; 4], CbfError> {
+pub fn foothold_strip(half_width: f64, x_begin: f64, x_end: f64, r: f64) -> Result<[HalfPlane; 4], CbfError> {
     let (lo, hi) = ((x_begin + r).max(-100.0), (x_end - r).min(100.0));
-    let w = stairs.half_width - r;
+    let w = half_width - r;
     if !(hi > lo && w > 0.0) {
         return Err(CbfError::OutOfRange { what: "foothold strip length", value: hi - lo, range: "(0, inf)" });
     }
