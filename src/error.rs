@@ -40,6 +40,9 @@ pub enum CbfError {
         /// Its documented maximum.
         max: usize,
     },
+    /// The perception thread has stopped (it panicked, or could not be started).
+    #[error("the perception worker thread is not running")]
+    WorkerGone,
     /// An environment sized for another catalog capacity.
     #[error("environment and catalog were built for different capacities")]
     CapacityMismatch,

@@ -39,7 +39,6 @@ pub mod dynamic;
 pub mod error;
 pub mod filter;
 pub mod geometry;
-#[cfg(feature = "perception")]
 pub mod perception;
 pub mod qp;
 pub mod sat;

@@ -7,6 +7,7 @@ use cbfgen::systems::multilayer;
 use cbfgen::systems::panda;
 use cbfgen::systems::tachyon3::catalog::{Capacity, Catalog, Environment, Family};
 use cbfgen::systems::tachyon3::model::{self, NU};
+use cbfgen::systems::tachyon3::perceived::PerceptionSettings;
 use cbfgen::systems::tachyon3::sim::campaign::{self, CampaignSettings, CourseRanges, Episode};
 use cbfgen::systems::tachyon3::sim::{self, output, Scenario, SimConfig, SimResult};
 use cbfgen::{sat, OrientedBox};
@@ -89,6 +90,11 @@ enum Command {
         seed: u64,
         #[command(flatten)]
         ranges: RangeArgs,
+        /// The gait and filter see only what a LiDAR on the body perceives (planes and
+        /// edge cuboids at 1 Hz on a worker thread), never the true terrain; writes the
+        /// map, what was extracted and side and top views too.
+        #[arg(long)]
+        perception: bool,
     },
     /// Monte Carlo safety campaign: climb many randomised staircases (rise, run, steps,
     /// start gap and gait speed drawn per episode from --seed and the episode id) in
@@ -389,12 +395,24 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             writeln!(stdout, "{}", cbfgen::systems::tachyon3::latency::run(cycles, speed, gap, settings)?)?;
             Ok(())
         }
-        Command::Simulate { scenario, no_body_cbf, out, csv_every, no_osqp_reference, episode, seed, ranges } => {
+        Command::Simulate {
+            scenario,
+            no_body_cbf,
+            out,
+            csv_every,
+            no_osqp_reference,
+            episode,
+            seed,
+            ranges,
+            perception,
+        } => {
             let config = |body_cbf: bool| -> Result<SimConfig, cbfgen::CbfError> {
-                Ok(match episode {
+                let mut config = match episode {
                     Some(id) => Episode::draw(seed, id, &ranges.ranges())?.config(body_cbf),
                     None => SimConfig::new(scenario.scenario(), body_cbf),
-                })
+                };
+                config.perception = perception.then(PerceptionSettings::default);
+                Ok(config)
             };
             if let Some(id) = episode {
                 let e = Episode::draw(seed, id, &ranges.ranges())?;

@@ -28,12 +28,20 @@ pub struct EdgeSettings {
     /// Fewest points per metre that must lie on the plane along an edge (within
     /// `2 · half_section` of it): a hull chord across a sparsely seen corner is no edge.
     pub min_support: f64,
+    /// The sensor, if known. Beyond an edge on the far side of the plane from it (a
+    /// platform's far side), the edge's own shadow hides the floor next to the drop:
+    /// the lower plane is then also looked for where the shadow from this point would
+    /// end, within `shadow` of it.
+    pub viewpoint: Option<Vector3<f64>>,
+    /// Depth of the strip past the shadow's expected end (from half its length) in
+    /// which the lower plane is looked for \[m\].
+    pub shadow: f64,
 }
 
 impl Default for EdgeSettings {
     /// Treads within 10° of level, edges of 10 cm or more (hull wiggles under 3 cm merged),
-    /// drops of 4 cm or more looked for 8 cm beyond the edge, 2.5 cm half sections
-    /// (Tachyon 3's stairs).
+    /// drops of 4 cm or more looked for 8 cm beyond the edge (no viewpoint: no shadow
+    /// search), 2.5 cm half sections (Tachyon 3's stairs).
     fn default() -> Self {
         Self {
             max_tilt: 10f64.to_radians(),
@@ -43,6 +51,8 @@ impl Default for EdgeSettings {
             half_section: 0.025,
             straightness: 0.03,
             min_support: 100.0,
+            viewpoint: None,
+            shadow: 0.6,
         }
     }
 }
@@ -60,6 +70,10 @@ impl EdgeSettings {
         within("edge half section [m]", self.half_section, 1e-4, 1.0, "[1e-4, 1]")?;
         within("straightness [m]", self.straightness, 0.0, 1.0, "[0, 1]")?;
         within("min support [1/m]", self.min_support, 0.0, 1e9, "[0, 1e9]")?;
+        within("shadow [m]", self.shadow, 0.0, 100.0, "[0, 100]")?;
+        for &c in self.viewpoint.iter().flatten() {
+            within("edge viewpoint [m]", c, -1e5, 1e5, "[-1e5, 1e5]")?;
+        }
         Ok(())
     }
 }
@@ -82,8 +96,9 @@ pub fn floor_height(planes: &[Plane], x: f64, y: f64, max_tilt: f64, skip: Optio
         .max_by(f64::total_cmp)
 }
 
-/// The straight edges of a closed polygon: Douglas–Peucker with tolerance `tol`, so a
-/// vertex stays only where the outline leaves the chord by more than `tol`.
+/// The straight edges of a closed counter-clockwise polygon: Douglas–Peucker with
+/// tolerance `tol`, so a vertex stays only where the outline leaves the chord by more than
+/// `tol`; each edge then moved out to the mean offset of the vertices it stands for.
 fn straight_edges(polygon: &[Vector3<f64>], tol: f64) -> Vec<(Vector3<f64>, Vector3<f64>)> {
     let n = polygon.len();
     if n < 3 {
@@ -113,8 +128,22 @@ fn straight_edges(polygon: &[Vector3<f64>], tol: f64) -> Vec<(Vector3<f64>, Vect
             stack.push((k, j));
         }
     }
-    let kept: Vec<Vector3<f64>> = (0..n).filter(|&i| keep[i]).map(|i| polygon[i]).collect();
-    (0..kept.len()).map(|i| (kept[i], kept[(i + 1) % kept.len()])).collect()
+    // Each kept chord, moved out to the mean offset of the hull vertices it stands for
+    // (ends included): the chord cuts inside the hull by up to `tol`, while the single
+    // outermost vertex is as likely an outlier as the edge.
+    let kept: Vec<usize> = (0..n).filter(|&i| keep[i]).collect();
+    (0..kept.len())
+        .map(|k| {
+            let (i, j) = (kept[k], kept[(k + 1) % kept.len()]);
+            let (p, q) = (polygon[i], polygon[j]);
+            let along = (q - p).normalize();
+            let outward = Vector3::new(along.y, -along.x, 0.0);
+            let run = if j > i { j - i } else { j + n - i };
+            let out = (0..=run).map(|m| (polygon[(i + m) % n] - p).dot(&outward)).sum::<f64>() / (run + 1) as f64;
+            let out = out.max(0.0);
+            (p + outward * out, q + outward * out)
+        })
+        .collect()
 }
 
 /// Points of `points` on `plane` (within `band`) and within `band` of the segment `a`–`b`.
@@ -131,7 +160,9 @@ fn support(points: &[Vector3<f64>], plane: &Plane, a: &Vector3<f64>, b: &Vector3
 }
 
 /// The edge cuboids of `planes`, found in `points` (the cloud they were segmented from,
-/// which says how well each hull edge is supported).
+/// which says how well each hull edge is supported). Each cuboid's local x runs along its
+/// edge (level), its local y points into the plane above the edge (away from the drop)
+/// and its local z up.
 ///
 /// # Errors
 /// Invalid settings.
@@ -158,17 +189,37 @@ pub fn edge_cuboids(planes: &[Plane], points: &[Vector3<f64>], s: &EdgeSettings)
                 continue;
             }
             // The lower side must have been seen there: beyond a hull chord across a
-            // sparsely scanned corner, the floor is hidden under the plane itself.
-            let seen_below = points
+            // sparsely scanned corner, the floor is hidden under the plane itself. Next to
+            // the edge, or where the edge's shadow from the viewpoint ends.
+            let lower_in_strip = |from: f64, to: f64| {
+                points
+                    .iter()
+                    .filter(|p| {
+                        let d = *p - mid;
+                        let out = d.dot(&outward);
+                        let across = (d - outward * out).xy().norm();
+                        out > from && out <= to && across <= s.probe && (p.z - lower).abs() <= s.half_section
+                    })
+                    .count()
+            };
+            let mut seen_below = points
                 .iter()
                 .filter(|p| (p.xy() - beyond.xy()).norm() <= s.probe && (p.z - lower).abs() <= s.half_section)
                 .count();
+            if let Some(v) = s.viewpoint.filter(|v| v.z > top) {
+                let behind = (mid - v).dot(&outward);
+                if seen_below < MIN_SEEN_BELOW && behind > 0.0 {
+                    let shadow = behind * (top - lower) / (v.z - top);
+                    seen_below = lower_in_strip(0.5 * shadow, 0.5 * shadow + s.shadow);
+                }
+            }
             if seen_below < MIN_SEEN_BELOW {
                 continue;
             }
             let h = s.half_section;
             let center = Vector3::new(mid.x, mid.y, top) - outward * h - Vector3::z() * h;
-            // The cuboid's long axis along the edge, levelled; its section square.
+            // The cuboid's long axis along the edge, levelled; its y axis into the plane
+            // above (away from the drop), as `edge_cuboids` documents; its section square.
             let x_axis = Vector3::new(axis.x, axis.y, 0.0).normalize();
             let rotation = Rotation3::from_matrix_unchecked(Matrix3::from_columns(&[
                 x_axis,

@@ -7,6 +7,9 @@
 //!   angle and curvature, a RANSAC refit per region and each plane's convex hull;
 //! * [`edges`] — an edge cuboid along each level plane's hull edge where the terrain
 //!   drops beyond it (a step's nosing), and the floor height under a point;
+//! * [`map`] — the accumulated map, one centroid per voxel;
+//! * [`worker`] — all of the above on its own thread, beside a control loop that never
+//!   waits for it;
 //! * [`figure`] — side and top views of what was found over the truth (`cbfgen perceive`).
 //!
 //! Generic: nothing here knows a robot. Degenerate input (no points, points on a line,
@@ -38,5 +41,7 @@
 
 pub mod edges;
 pub mod figure;
+pub mod map;
 pub mod planes;
 pub mod scanner;
+pub mod worker;

@@ -123,7 +123,13 @@ impl Plane {
     }
 }
 
-type Cell = (i64, i64, i64);
+/// Integer coordinates of a cubic cell.
+pub(crate) type Cell = (i64, i64, i64);
+
+/// The cell of side `size` holding `p`.
+pub(crate) fn cell_of(p: &Vector3<f64>, size: f64) -> Cell {
+    ((p.x / size).floor() as i64, (p.y / size).floor() as i64, (p.z / size).floor() as i64)
+}
 
 /// A multiply-rotate hash for cell keys: the grid is queried 27 times per point per pass,
 /// and SipHash (the standard map's default, resistant to chosen keys, which cell indices
@@ -209,7 +215,7 @@ impl<'a> Grid<'a> {
     }
 
     fn cell(p: &Vector3<f64>, size: f64) -> Cell {
-        ((p.x / size).floor() as i64, (p.y / size).floor() as i64, (p.z / size).floor() as i64)
+        cell_of(p, size)
     }
 
     /// The points of cell `k`.

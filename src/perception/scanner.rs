@@ -71,9 +71,9 @@ impl Lidar {
         Ok(())
     }
 
-    /// One scan from `origin` with heading `yaw` \[rad\]: the hit points in the world
-    /// frame. Rays that first hit an `occluder` (the robot's own body) or nothing within
-    /// range return no point.
+    /// One scan from `origin` with heading `yaw` \[rad\], the sensor level: the hit points
+    /// in the world frame. Rays that first hit an `occluder` (the robot's own body) or
+    /// nothing within range return no point.
     ///
     /// # Errors
     /// Invalid settings ([`Lidar::validate`]) or a non-finite pose.
@@ -85,12 +85,32 @@ impl Lidar {
         occluders: &[OrientedBox],
         rng: &mut impl Rng,
     ) -> Result<Vec<Vector3<f64>>, CbfError> {
+        finite("lidar yaw", yaw)?;
+        self.scan_oriented(origin, &Rotation3::from_axis_angle(&Vector3::z_axis(), yaw), terrain, occluders, rng)
+    }
+
+    /// [`Lidar::scan`] with the sensor turned by `orientation` (sensor to world: the
+    /// sensor's x is its zero azimuth, its z the axis it spins about), as on a pitching
+    /// body.
+    ///
+    /// # Errors
+    /// Invalid settings ([`Lidar::validate`]) or a non-finite pose.
+    pub fn scan_oriented(
+        &self,
+        origin: &Vector3<f64>,
+        orientation: &Rotation3<f64>,
+        terrain: &[OrientedBox],
+        occluders: &[OrientedBox],
+        rng: &mut impl Rng,
+    ) -> Result<Vec<Vector3<f64>>, CbfError> {
         self.validate()?;
         for &c in origin.iter() {
             finite("lidar origin", c)?;
         }
-        finite("lidar yaw", yaw)?;
-        let heading = Rotation3::from_axis_angle(&Vector3::z_axis(), yaw);
+        for &c in orientation.matrix().iter() {
+            finite("lidar orientation", c)?;
+        }
+        let heading = orientation;
         let mut points = Vec::new();
         for b in 0..self.beams {
             let f = if self.beams == 1 { 0.5 } else { b as f64 / (self.beams - 1) as f64 };

@@ -20,8 +20,10 @@ use std::time::Instant;
 use crate::error::CbfError;
 use crate::filter::{EcbfFilter, FilterSettings, InputSource};
 use crate::generated::tachyon3 as gen;
+use crate::perception::worker::Perceived;
 use crate::systems::tachyon3::catalog::{self, Catalog, Family};
 use crate::systems::tachyon3::model::{self, State, NU};
+use crate::systems::tachyon3::perceived::{Perceiver, PerceptionSettings, PerceptionUpdate};
 use crate::systems::tachyon3::terrain::{Stairs, Terrain};
 use gait::GaitParams;
 
@@ -117,6 +119,10 @@ pub struct SimConfig {
     pub gait: GaitParams,
     /// The ECBF-QP filter's settings (gains, weights, activation thresholds, OSQP).
     pub filter: FilterSettings<NU>,
+    /// With `Some`, the gait and the filter see only what a LiDAR on the body perceives
+    /// of the terrain ([`perceived`](crate::systems::tachyon3::perceived)); with `None`
+    /// (the default), the true terrain.
+    pub perception: Option<PerceptionSettings>,
 }
 
 impl SimConfig {
@@ -134,7 +140,7 @@ impl SimConfig {
             // A terrain that fails to build fails the run instead, with its error.
             other => other.terrain().map_or(MAX_SIM_TIME, |t| time_allowed(&t)),
         };
-        Self { scenario, body_cbf, max_time, start_gap: 0.3, gait: GaitParams::default(), filter }
+        Self { scenario, body_cbf, max_time, start_gap: 0.3, gait: GaitParams::default(), filter, perception: None }
     }
 }
 
@@ -222,6 +228,23 @@ pub struct Summary {
     /// Cycles whose input was not a QP optimum ([`InputSource::Qp`]): unconverged iterates and
     /// fallbacks.
     pub fallback_cycles: usize,
+    /// Perception's figures, for a run on perceived terrain.
+    pub perception: Option<PerceptionSummary>,
+}
+
+/// What perception did in a run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PerceptionSummary {
+    /// Updates applied (the one before the start included).
+    pub updates: usize,
+    /// Median wall time of an update on the worker thread \[ms\].
+    pub median_ms: f64,
+    /// Slowest update on the worker thread \[ms\].
+    pub max_ms: f64,
+    /// Map points (voxel centroids) the last update segmented.
+    pub last_map_points: usize,
+    /// Edge cuboids the last update found.
+    pub last_cuboids: usize,
 }
 
 impl Summary {
@@ -238,9 +261,22 @@ pub struct SimResult {
     pub samples: Vec<Sample>,
     /// What the run established.
     pub summary: Summary,
+    /// For a run on perceived terrain: every update, and the last one's map, planes and
+    /// cuboids.
+    pub perception: Option<PerceptionRun>,
 }
 
-/// Run `config` to completion or `max_time`, calling `progress(t)` every 100 cycles.
+/// Perception's record of a run.
+#[derive(Debug, Clone)]
+pub struct PerceptionRun {
+    /// Every update applied, in order.
+    pub updates: Vec<PerceptionUpdate>,
+    /// The last update's output.
+    pub last: Option<Perceived>,
+}
+
+/// Run `config` to completion or `max_time`, calling `progress(t)` every 100 cycles. With
+/// [`SimConfig::perception`], a perception worker thread runs beside the loop.
 ///
 /// # Errors
 /// `max_time` outside `(0, MAX_SIM_TIME]`, filter construction, or a state that left
@@ -263,6 +299,10 @@ pub fn run_observed(
     let mut course = Course::new(config.scenario, config.gait)?;
     let mut filter = EcbfFilter::new(Catalog::new(Course::CAPACITY)?, config.filter.clone())?;
     let mut x = course.initial_state(config.start_gap);
+    let mut perceiver = config.perception.map(|p| Perceiver::new(p, course.terrain())).transpose()?;
+    if let Some(perceiver) = &mut perceiver {
+        perceiver.start(&x, &mut course)?;
+    }
 
     let steps = (config.max_time / DT).ceil() as usize;
     // Grown as the run goes: a run that finishes early never holds max_time's worth.
@@ -270,6 +310,9 @@ pub fn run_observed(
     let mut completed_at = None;
     for k in 0..steps {
         let t = k as f64 * DT;
+        if let Some(perceiver) = &mut perceiver {
+            perceiver.step(t, &x, &mut course)?;
+        }
         let plan = course.plan(t, &x)?;
         let start = Instant::now();
         let out = *filter.update(&x, &plan.u_ref, course.environment())?;
@@ -316,8 +359,12 @@ pub fn run_observed(
             _ => {}
         }
     }
-    let summary = summarize(config, &samples, completed_at.is_some());
-    Ok(SimResult { samples, summary })
+    let perception = perceiver.map(|p| {
+        let (updates, last) = p.finish();
+        PerceptionRun { updates, last }
+    });
+    let summary = summarize(config, &samples, completed_at.is_some(), perception.as_ref());
+    Ok(SimResult { samples, summary, perception })
 }
 
 /// `[median, p99, max]` (nearest rank) of one timing of the samples \[µs\], zeros when there
@@ -326,7 +373,7 @@ fn percentiles(samples: &[Sample], f: fn(&Sample) -> f64) -> [f64; 3] {
     crate::cpu_time::median_p99_max(&mut samples.iter().map(f).collect::<Vec<_>>())
 }
 
-fn summarize(config: &SimConfig, samples: &[Sample], completed: bool) -> Summary {
+fn summarize(config: &SimConfig, samples: &[Sample], completed: bool, perception: Option<&PerceptionRun>) -> Summary {
     let [median_update_us, p99_update_us, max_update_us] = percentiles(samples, |s| s.update_us);
     let [median_cpu_us, p99_cpu_us, max_cpu_us] = percentiles(samples, |s| s.cpu_us);
     let period_us = crate::systems::tachyon3::latency::PERIOD.as_micros() as f64;
@@ -358,5 +405,17 @@ fn summarize(config: &SimConfig, samples: &[Sample], completed: bool) -> Summary
         over_period_wall: over(|s| s.update_us),
         over_period_cpu: over(|s| s.cpu_us),
         fallback_cycles: samples.iter().filter(|s| s.source != InputSource::Qp).count(),
+        perception: perception.map(|p| {
+            let [median_ms, _, max_ms] = crate::cpu_time::median_p99_max(
+                &mut p.updates.iter().map(|u| u.elapsed.as_secs_f64() * 1e3).collect::<Vec<_>>(),
+            );
+            PerceptionSummary {
+                updates: p.updates.len(),
+                median_ms,
+                max_ms,
+                last_map_points: p.updates.last().map_or(0, |u| u.map_points),
+                last_cuboids: p.updates.last().map_or(0, |u| u.cuboids),
+            }
+        }),
     }
 }

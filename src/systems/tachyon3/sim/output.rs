@@ -71,7 +71,8 @@ pub fn csv(samples: &[Sample], every: usize) -> String {
 
 /// Write `<scenario>.csv` (and `<scenario>_no_body_cbf.csv` for the comparison run) and
 /// the four figures into `dir`; `osqp_reference`, the same course with the OSQP backend,
-/// adds its QP time to Fig. 10. Returns the paths written.
+/// adds its QP time to Fig. 10. A run on perceived terrain adds its perception record
+/// (updates, last map, what was extracted, side and top views). Returns the paths written.
 ///
 /// # Errors
 /// Any I/O error.
@@ -89,7 +90,88 @@ pub fn write_all(
     for (name, chart) in figures(main, comparison, osqp_reference) {
         files.push((format!("{}_{name}.svg", main.summary.scenario.name()), chart.to_svg()));
     }
+    if let Some(perception) = &main.perception {
+        files.extend(perception_files(&file_stem(&main.summary), main.summary.scenario, perception)?);
+    }
     crate::chart::write_files(dir, files)
+}
+
+/// A perceived run's record: every update (`<stem>_perception.csv`), the last map
+/// (`<stem>_map.csv`, x y z), what the last update extracted (`<stem>_perceived.txt`:
+/// planes, cuboids) and its side and top views over the true edge cuboids.
+fn perception_files(
+    stem: &str,
+    scenario: super::Scenario,
+    perception: &super::PerceptionRun,
+) -> io::Result<Vec<(String, String)>> {
+    use std::fmt::Write as _;
+    let mut updates = String::from("requested_at,applied_at,map_points,planes,cuboids,levels,elapsed_ms\n");
+    for u in &perception.updates {
+        let _ = writeln!(
+            updates,
+            "{},{},{},{},{},{},{:.3}",
+            u.requested_at,
+            u.applied_at,
+            u.map_points,
+            u.planes,
+            u.cuboids,
+            u.levels,
+            u.elapsed.as_secs_f64() * 1e3
+        );
+    }
+    let mut files = vec![(format!("{stem}_perception.csv"), updates)];
+    let Some(last) = &perception.last else { return Ok(files) };
+    let mut map = String::from("x,y,z\n");
+    for p in &last.points {
+        let _ = writeln!(map, "{:.4},{:.4},{:.4}", p.x, p.y, p.z);
+    }
+    let mut found = String::new();
+    for (k, p) in last.planes.iter().enumerate() {
+        let _ = writeln!(
+            found,
+            "plane {k}: normal ({:+.4}, {:+.4}, {:+.4}), offset {:+.4} m, {} inliers, hull of {} vertices",
+            p.normal.x,
+            p.normal.y,
+            p.normal.z,
+            p.offset,
+            p.inliers,
+            p.polygon.len()
+        );
+    }
+    for (k, c) in last.cuboids.iter().enumerate() {
+        let axis = c.rotation().matrix().column(0);
+        let _ = writeln!(
+            found,
+            "cuboid {k}: centre ({:.4}, {:.4}, {:.4}) m, axis ({:+.4}, {:+.4}, {:+.4}), {:.3} m long",
+            c.center().x,
+            c.center().y,
+            c.center().z,
+            axis[0],
+            axis[1],
+            axis[2],
+            2.0 * c.half_extents().x
+        );
+    }
+    files.push((format!("{stem}_map.csv"), map));
+    files.push((format!("{stem}_perceived.txt"), found));
+    let truth = scenario
+        .terrain()
+        .and_then(|t| t.edges())
+        .and_then(|edges| {
+            edges
+                .iter()
+                .map(|e| {
+                    crate::OrientedBox::new(e.center, nalgebra::Rotation3::from_matrix_unchecked(e.rotation), e.half)
+                })
+                .collect::<Result<Vec<_>, _>>()
+        })
+        .map_err(io::Error::other)?;
+    for (name, view) in [("side", crate::perception::figure::View::Side), ("top", crate::perception::figure::View::Top)]
+    {
+        let chart = crate::perception::figure::chart(view, &last.points, &last.planes, &last.cuboids, &truth);
+        files.push((format!("{stem}_perception_{name}.svg"), chart.to_svg()));
+    }
+    Ok(files)
 }
 
 fn file_stem(s: &Summary) -> String {
@@ -154,8 +236,9 @@ impl fmt::Display for Summary {
         let mm = |v: f64| v * 1e3;
         writeln!(
             f,
-            "scenario {} {} body SSAT CBF, QP backend {}: {} after {:.1} s",
+            "scenario {}{} {} body SSAT CBF, QP backend {}: {} after {:.1} s",
             self.scenario.name(),
+            if self.perception.is_some() { " (perceived terrain)" } else { "" },
             if self.body_cbf { "with" } else { "without" },
             self.backend.name(),
             if self.completed { "climbed" } else { "did NOT finish" },
@@ -187,6 +270,14 @@ impl fmt::Display for Summary {
             "  filter update, thread CPU: median {:.1} µs, p99 {:.1} µs, max {:.1} µs; cycles over 1 ms: {}",
             self.median_cpu_us, self.p99_cpu_us, self.max_cpu_us, self.over_period_cpu
         )?;
-        write!(f, "  cycles not solved to tolerance: {}", self.fallback_cycles)
+        write!(f, "  cycles not solved to tolerance: {}", self.fallback_cycles)?;
+        if let Some(p) = &self.perception {
+            write!(
+                f,
+                "\n  perception: {} updates on the worker thread, median {:.1} ms, max {:.1} ms; last map {} points, {} edge cuboids",
+                p.updates, p.median_ms, p.max_ms, p.last_map_points, p.last_cuboids
+            )?;
+        }
+        Ok(())
     }
 }

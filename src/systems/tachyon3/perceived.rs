@@ -1,0 +1,420 @@
+//! Tachyon 3 on perceived terrain: a LiDAR on the body scans the true terrain at 10 Hz,
+//! a [`Worker`] thread turns the accumulated map into planes and edge cuboids at 1 Hz,
+//! and the [`Course`]'s gait and filter see only that (paper section III-A).
+//!
+//! * [`ground_from_planes`] — the ground along the path from the level planes: at each x
+//!   the highest plane whose hull the path crosses;
+//! * [`Perceiver`] — the loop: scan, hand over, request, apply the result a fixed latency
+//!   after its request.
+//!
+//! The control update never waits for perception. A simulation is not real time, so
+//! [`Perceiver::step`] waits for each result at its due time (request + `latency` of
+//! simulated time); that makes a run reproducible, and models a perception that takes
+//! `latency` to answer.
+
+use std::time::Duration;
+
+use nalgebra::{Matrix3, Rotation3, Vector3};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+use crate::error::{within, CbfError};
+use crate::generated::tachyon3 as gen;
+use crate::geometry::OrientedBox;
+use crate::perception::planes::Plane;
+use crate::perception::scanner::Lidar;
+use crate::perception::worker::{Perceived, Worker, WorkerSettings};
+use crate::systems::tachyon3::catalog::EdgeCuboid;
+use crate::systems::tachyon3::model::{self, State, TOE_RADIUS};
+use crate::systems::tachyon3::sim::Course;
+use crate::systems::tachyon3::terrain::{Level, Profile, Terrain};
+
+/// Planes closer than this in height along the path merge into one level \[m\].
+const SAME_LEVEL: f64 = 0.01;
+/// A level shorter than this between two others is a sliver of hull noise, and joins the
+/// level before it \[m\].
+const SLIVER: f64 = 0.03;
+
+/// What the robot perceives with, and how often.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PerceptionSettings {
+    /// The sensor.
+    pub lidar: Lidar,
+    /// Where it sits in the body frame (x forward, z up from the body centre) \[m\]; it
+    /// turns with the body.
+    pub mount: [f64; 3],
+    /// Time between scans \[s\].
+    pub scan_period: f64,
+    /// Time between perception updates \[s\].
+    pub update_period: f64,
+    /// Time from an update's request to its result reaching the gait and filter \[s\].
+    pub latency: f64,
+    /// The map and the segmentation.
+    pub worker: WorkerSettings,
+    /// Each perceived edge cuboid is widened this much beyond its edge, off the step
+    /// (not over the tread, where the wheels stand) \[m\]: an edge is found up to about
+    /// 1 cm from where it is, either side.
+    pub edge_margin: f64,
+    /// Seed of the scans' noise and dropouts.
+    pub seed: u64,
+}
+
+impl Default for PerceptionSettings {
+    /// The default [`Lidar`] on a mast 0.35 m ahead of the body centre and 0.4 m above it
+    /// (0.6 m above flat ground in the standard posture; assumed, the paper does not give
+    /// the mounting), 10 Hz scans, 1 Hz updates answered 0.5 s after their request, edge
+    /// cuboids widened by 1.5 cm.
+    fn default() -> Self {
+        Self {
+            lidar: Lidar::default(),
+            mount: [0.35, 0.0, 0.4],
+            scan_period: 0.1,
+            update_period: 1.0,
+            latency: 0.5,
+            worker: WorkerSettings::default(),
+            edge_margin: 0.015,
+            seed: 1,
+        }
+    }
+}
+
+impl PerceptionSettings {
+    /// # Errors
+    /// A setting outside its domain, named: the mount beyond 2 m of the body centre, a
+    /// scan period outside \[1 ms, 10 s\], an update period shorter than the scan period
+    /// or above 60 s, a latency longer than the update period.
+    pub fn validate(&self) -> Result<(), CbfError> {
+        self.lidar.validate()?;
+        for &c in &self.mount {
+            within("lidar mount [m]", c, -2.0, 2.0, "[-2, 2]")?;
+        }
+        within("scan period [s]", self.scan_period, 1e-3, 10.0, "[0.001, 10]")?;
+        within("update period [s]", self.update_period, self.scan_period, 60.0, "[scan period, 60]")?;
+        within("perception latency [s]", self.latency, 0.0, self.update_period, "[0, update period]")?;
+        within("edge margin [m]", self.edge_margin, 0.0, 0.5, "[0, 0.5]")?;
+        self.worker.validate()
+    }
+}
+
+/// Where a convex polygon (x, y of its vertices) crosses the line where coordinate
+/// `axis` (0: x, 1: y) equals `at`: the interval of the other coordinate, if any.
+fn chord(polygon: &[Vector3<f64>], axis: usize, at: f64) -> Option<(f64, f64)> {
+    let other = 1 - axis;
+    let n = polygon.len();
+    let mut range: Option<(f64, f64)> = None;
+    for i in 0..n {
+        let (a, b) = (polygon[i], polygon[(i + 1) % n]);
+        let (da, db) = (a[axis] - at, b[axis] - at);
+        if da * db > 0.0 || (da == 0.0 && db == 0.0) {
+            continue;
+        }
+        let v = if da == db { a[other] } else { a[other] + (b[other] - a[other]) * da / (da - db) };
+        range = Some(range.map_or((v, v), |(lo, hi)| (lo.min(v), hi.max(v))));
+    }
+    range
+}
+
+/// The ground along the path (y = 0) from perceived planes: at each x, the highest plane
+/// within `max_tilt` of level whose hull the path crosses there (a floor's hull can
+/// reach under the steps; the tread above is what a toe meets). Stretches no plane
+/// covers take the level before them, or the first level seen if they lie before it.
+/// Levels within 1 cm of each other in height merge, slivers under 3 cm join the level
+/// before, and each level's half width is the hull's, measured across the path at the
+/// stretch's middle; a level narrower than the toe radius plus 1 cm is not one to stand
+/// on, and is left out. `None` when no plane is left.
+pub fn ground_from_planes(planes: &[Plane], max_tilt: f64) -> Option<Profile> {
+    struct Stretch {
+        lo: f64,
+        hi: f64,
+        height: f64,
+        half_width: f64,
+    }
+    let stretches: Vec<Stretch> = planes
+        .iter()
+        .filter(|p| p.normal.z >= max_tilt.cos() && p.polygon.len() >= 3)
+        .filter_map(|p| {
+            let (lo, hi) = chord(&p.polygon, 1, 0.0)?;
+            let mid = 0.5 * (lo + hi);
+            let (y_lo, y_hi) = chord(&p.polygon, 0, mid)?;
+            let half_width = (-y_lo).min(y_hi);
+            (hi > lo && half_width > TOE_RADIUS + 0.01).then(|| Stretch {
+                lo,
+                hi,
+                height: p.height_at(mid, 0.0),
+                half_width,
+            })
+        })
+        .collect();
+    let mut xs: Vec<f64> = stretches.iter().flat_map(|s| [s.lo, s.hi]).collect();
+    xs.sort_by(f64::total_cmp);
+    xs.dedup();
+    // Elementary pieces between consecutive ends: the highest stretch over each; a gap
+    // before a piece belongs to the level before it.
+    let mut pieces: Vec<Level> = Vec::new();
+    for w in xs.windows(2) {
+        let mid = 0.5 * (w[0] + w[1]);
+        let covering = stretches.iter().filter(|s| s.lo <= mid && mid <= s.hi);
+        let Some(top) = covering.max_by(|a, b| a.height.total_cmp(&b.height)) else { continue };
+        if let Some(last) = pieces.last_mut() {
+            last.end = w[0];
+        }
+        pieces.push(Level { begin: w[0], end: w[1], height: top.height, half_width: top.half_width });
+    }
+    // Interior slivers join the level before them; then equal heights merge.
+    let count = pieces.len();
+    let mut levels: Vec<Level> = Vec::with_capacity(count);
+    for (k, piece) in pieces.into_iter().enumerate() {
+        match levels.last_mut() {
+            Some(last)
+                if (last.height - piece.height).abs() < SAME_LEVEL
+                    || (piece.end - piece.begin < SLIVER && k + 1 < count) =>
+            {
+                last.end = piece.end;
+                if (last.height - piece.height).abs() < SAME_LEVEL {
+                    last.half_width = last.half_width.min(piece.half_width);
+                }
+            }
+            _ => levels.push(piece),
+        }
+    }
+    let first = levels.first_mut()?;
+    first.begin = f64::NEG_INFINITY;
+    levels.last_mut()?.end = f64::INFINITY;
+    Profile::new(levels).ok()
+}
+
+/// One perception update of a run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PerceptionUpdate {
+    /// Simulated time of the request \[s\].
+    pub requested_at: f64,
+    /// Simulated time the result reached the gait and filter \[s\].
+    pub applied_at: f64,
+    /// Map points (voxel centroids) segmented.
+    pub map_points: usize,
+    /// Planes found.
+    pub planes: usize,
+    /// Edge cuboids found (the filter takes the nearest, up to its capacity).
+    pub cuboids: usize,
+    /// Levels of the perceived ground along the path (0: none seen, the last kept).
+    pub levels: usize,
+    /// Wall time of the update on the worker thread.
+    pub elapsed: Duration,
+}
+
+/// Scans, requests and applies perception updates for one run.
+#[derive(Debug)]
+pub struct Perceiver {
+    settings: PerceptionSettings,
+    world: Vec<OrientedBox>,
+    worker: Worker,
+    rng: ChaCha8Rng,
+    next_scan: f64,
+    next_request: f64,
+    /// (request time, due time) of the update in flight.
+    in_flight: Option<(f64, f64)>,
+    updates: Vec<PerceptionUpdate>,
+    last: Option<Perceived>,
+}
+
+impl Perceiver {
+    /// Perception of `terrain` (its solid boxes are what the scanner sees).
+    ///
+    /// # Errors
+    /// Invalid settings, or a worker thread that would not start.
+    pub fn new(settings: PerceptionSettings, terrain: &Terrain) -> Result<Self, CbfError> {
+        settings.validate()?;
+        Ok(Self {
+            settings,
+            world: terrain.solid_boxes()?,
+            worker: Worker::spawn(settings.worker)?,
+            rng: ChaCha8Rng::seed_from_u64(settings.seed),
+            next_scan: 0.0,
+            next_request: 0.0,
+            in_flight: None,
+            updates: Vec::new(),
+            last: None,
+        })
+    }
+
+    /// Look before moving: one scan, and its update applied to `course` at once (the
+    /// robot stands still for it). Before any plane is seen, the ground is taken flat at
+    /// the wheels' mean height, which the legs know without looking.
+    ///
+    /// # Errors
+    /// A state outside the model's domain; a failed update.
+    pub fn start(&mut self, x: &State, course: &mut Course) -> Result<(), CbfError> {
+        self.scan(x)?;
+        self.request(0.0, x)?;
+        let (_, _, toes) = gen::world_kinematics(x);
+        let height = toes.iter().map(|t| t[2] - TOE_RADIUS).sum::<f64>() / 6.0;
+        let flat = Level { begin: f64::NEG_INFINITY, end: f64::INFINITY, height, half_width: 1.0 };
+        course.set_perceived(Profile::new(vec![flat])?, &[])?;
+        self.apply(0.0, x, course)?;
+        self.next_scan = self.settings.scan_period;
+        self.next_request = self.settings.update_period;
+        Ok(())
+    }
+
+    /// Before the control cycle at time `t`: scan if a scan is due, request an update if
+    /// one is due, and apply the update in flight if its latency has passed.
+    ///
+    /// # Errors
+    /// A state outside the model's domain; a failed update.
+    pub fn step(&mut self, t: f64, x: &State, course: &mut Course) -> Result<(), CbfError> {
+        // Half a cycle of slack: `t` is k · DT, which rounds.
+        let slack = 0.5 * super::sim::DT;
+        if t + slack >= self.next_scan {
+            self.scan(x)?;
+            self.next_scan += self.settings.scan_period;
+        }
+        if self.in_flight.is_none() && t + slack >= self.next_request {
+            self.request(t, x)?;
+            self.next_request += self.settings.update_period;
+        }
+        if let Some((_, due)) = self.in_flight {
+            if t + slack >= due {
+                self.apply(t, x, course)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The updates applied so far.
+    pub fn updates(&self) -> &[PerceptionUpdate] {
+        &self.updates
+    }
+
+    /// The last update's map, planes and cuboids.
+    pub fn last(&self) -> Option<&Perceived> {
+        self.last.as_ref()
+    }
+
+    /// Hand the map and what was found in it over: (updates, last result).
+    pub fn finish(self) -> (Vec<PerceptionUpdate>, Option<Perceived>) {
+        (self.updates, self.last)
+    }
+
+    /// The sensor's world pose at `x`.
+    fn sensor_pose(&self, x: &State) -> (Vector3<f64>, Rotation3<f64>) {
+        let (center, rotation, _) = gen::world_kinematics(x);
+        let r = Rotation3::from_matrix_unchecked(Matrix3::from_fn(|i, j| rotation[i][j]));
+        (Vector3::from(center) + r * Vector3::from(self.settings.mount), r)
+    }
+
+    fn scan(&mut self, x: &State) -> Result<(), CbfError> {
+        model::validate_state(x)?;
+        let (origin, orientation) = self.sensor_pose(x);
+        let (center, rotation, toes) = gen::world_kinematics(x);
+        let r = Rotation3::from_matrix_unchecked(Matrix3::from_fn(|i, j| rotation[i][j]));
+        // The robot's own body and wheels hide what is behind them.
+        let mut own = vec![OrientedBox::new(Vector3::from(center), r, Vector3::from(model::BODY_HALF_EXTENTS))?];
+        for toe in toes {
+            own.push(OrientedBox::axis_aligned(Vector3::from(toe), Vector3::repeat(TOE_RADIUS))?);
+        }
+        let points = self.settings.lidar.scan_oriented(&origin, &orientation, &self.world, &own, &mut self.rng)?;
+        self.worker.add_scan(points)
+    }
+
+    fn request(&mut self, t: f64, x: &State) -> Result<(), CbfError> {
+        let (origin, _) = self.sensor_pose(x);
+        let (center, _, _) = gen::world_kinematics(x);
+        self.worker.request(&Vector3::from(center), &origin)?;
+        self.in_flight = Some((t, t + self.settings.latency));
+        Ok(())
+    }
+
+    fn apply(&mut self, t: f64, x: &State, course: &mut Course) -> Result<(), CbfError> {
+        let Some((requested_at, _)) = self.in_flight.take() else { return Ok(()) };
+        let perceived = self.worker.wait_result()?;
+        let ground = ground_from_planes(&perceived.planes, self.settings.worker.edges.max_tilt);
+        let (center, _, _) = gen::world_kinematics(x);
+        let center = Vector3::from(center);
+        let mut nearest = perceived
+            .cuboids
+            .iter()
+            .map(|c| Ok((distance_to_box(&center, c), EdgeCuboid::from_box(&widened(c, self.settings.edge_margin)?))))
+            .collect::<Result<Vec<(f64, EdgeCuboid)>, CbfError>>()?;
+        nearest.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let edges: Vec<EdgeCuboid> = nearest.into_iter().map(|(_, e)| e).collect();
+        let levels = ground.as_ref().map_or(0, |g| g.levels().len());
+        let ground = ground.unwrap_or_else(|| course.ground().clone());
+        course.set_perceived(ground, &edges)?;
+        self.updates.push(PerceptionUpdate {
+            requested_at,
+            applied_at: t,
+            map_points: perceived.points.len(),
+            planes: perceived.planes.len(),
+            cuboids: perceived.cuboids.len(),
+            levels,
+            elapsed: perceived.elapsed,
+        });
+        self.last = Some(perceived);
+        Ok(())
+    }
+}
+
+/// `cuboid` grown by `margin` on its outer side, off the step: its local y points into
+/// the plane above the edge ([`edge_cuboids`](crate::perception::edges::edge_cuboids)).
+fn widened(cuboid: &OrientedBox, margin: f64) -> Result<OrientedBox, CbfError> {
+    let into_step = cuboid.rotation() * Vector3::y();
+    OrientedBox::new(
+        cuboid.center() - into_step * (0.5 * margin),
+        *cuboid.rotation(),
+        cuboid.half_extents() + Vector3::new(0.0, 0.5 * margin, 0.0),
+    )
+}
+
+/// Distance from `p` to the box (0 inside).
+fn distance_to_box(p: &Vector3<f64>, b: &OrientedBox) -> f64 {
+    let local = b.rotation().inverse() * (p - b.center());
+    let outside = local.abs() - b.half_extents();
+    outside.map(|v| v.max(0.0)).norm()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn level_plane(height: f64, x: [f64; 2], y: [f64; 2]) -> Plane {
+        Plane {
+            normal: Vector3::z(),
+            offset: -height,
+            polygon: vec![
+                Vector3::new(x[0], y[0], height),
+                Vector3::new(x[1], y[0], height),
+                Vector3::new(x[1], y[1], height),
+                Vector3::new(x[0], y[1], height),
+            ],
+            inliers: 1000,
+        }
+    }
+
+    #[test]
+    fn the_highest_plane_over_each_stretch_of_the_path_is_its_level() {
+        // A floor reaching under two treads, a gap before the second, a sliver of the
+        // first tread's hull poking past the second riser, and a plane off the path.
+        let planes = [
+            level_plane(0.0, [-3.0, 3.0], [-4.0, 4.0]),
+            level_plane(0.165, [1.0, 1.72], [-1.0, 1.0]),
+            level_plane(0.33, [1.35, 1.7], [-1.0, 0.9]),
+            level_plane(0.5, [0.0, 1.0], [2.0, 3.0]),
+            level_plane(0.001, [5.0, 6.0], [-1.0, 1.0]),
+        ];
+        let ground = ground_from_planes(&planes, 0.1).expect("ground");
+        let levels = ground.levels();
+        let worked: [(f64, f64, f64); 3] = [(f64::NEG_INFINITY, 1.0, 0.0), (1.0, 1.35, 0.165), (1.35, 1.72, 0.33)];
+        for (level, (begin, end, height)) in levels.iter().zip(worked) {
+            assert_eq!((level.begin, level.end, level.height), (begin, end, height), "{levels:?}");
+        }
+        // Past the second tread (and the first tread's 2 cm sliver beyond it) the floor's
+        // level again, into which the far floor 1 mm higher merges.
+        assert_eq!(levels.len(), 4, "{levels:?}");
+        assert_eq!((levels[3].begin, levels[3].end, levels[3].height), (1.72, f64::INFINITY, 0.0));
+        assert_eq!(levels[2].half_width, 0.9);
+        assert!(ground_from_planes(&[], 0.1).is_none());
+        // A plane crossing the path only at its edge, or too narrow to stand on, is none.
+        assert!(ground_from_planes(&[level_plane(0.0, [0.0, 1.0], [0.0, 2.0])], 0.1).is_none());
+        assert!(ground_from_planes(&[level_plane(0.0, [0.0, 1.0], [-0.05, 0.05])], 0.1).is_none());
+    }
+}
