@@ -122,6 +122,10 @@ enum Command {
         out: std::path::PathBuf,
         #[command(flatten)]
         ranges: RangeArgs,
+        /// Every episode on perceived terrain (see `simulate --perception`); rerun one
+        /// with `cbfgen simulate --episode ID --seed S --perception`.
+        #[arg(long)]
+        perception: bool,
     },
     /// Bipedal navigation: a 3D-LIP MPC with linear discrete CBFs walks from the origin
     /// to a goal past three rectangles. Prints a summary and writes the path figure
@@ -407,12 +411,14 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             perception,
         } => {
             let config = |body_cbf: bool| -> Result<SimConfig, cbfgen::CbfError> {
-                let mut config = match episode {
+                Ok(match episode {
+                    Some(id) if perception => Episode::draw(seed, id, &ranges.ranges())?.perceived_config(body_cbf),
                     Some(id) => Episode::draw(seed, id, &ranges.ranges())?.config(body_cbf),
-                    None => SimConfig::new(scenario.scenario(), body_cbf),
-                };
-                config.perception = perception.then(PerceptionSettings::default);
-                Ok(config)
+                    None => SimConfig {
+                        perception: perception.then(PerceptionSettings::default),
+                        ..SimConfig::new(scenario.scenario(), body_cbf)
+                    },
+                })
             };
             if let Some(id) = episode {
                 let e = Episode::draw(seed, id, &ranges.ranges())?;
@@ -470,9 +476,16 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             Ok(())
         }
         Command::Perceive { out, seed } => perceive(&mut stdout, &out, seed),
-        Command::Campaign { episodes, seed, first_id, no_body_cbf, threads, out, ranges } => {
-            let settings =
-                CampaignSettings { seed, episodes, first_id, ranges: ranges.ranges(), body_cbf: !no_body_cbf, threads };
+        Command::Campaign { episodes, seed, first_id, no_body_cbf, threads, out, ranges, perception } => {
+            let settings = CampaignSettings {
+                seed,
+                episodes,
+                first_id,
+                ranges: ranges.ranges(),
+                body_cbf: !no_body_cbf,
+                threads,
+                perception,
+            };
             let bar = indicatif::ProgressBar::new(episodes as u64);
             bar.set_style(
                 indicatif::ProgressStyle::with_template(

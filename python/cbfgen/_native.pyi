@@ -342,7 +342,7 @@ class Environment(Params):
 class Course:
     """A scenario's stairs and nominal gait, stepped by your own loop."""
 
-    def __init__(self, scenario: Literal["step", "stairs"] = "step") -> None: ...
+    def __init__(self, scenario: Literal["step", "stairs", "unequal_rises", "landing", "box", "platform"] = "step") -> None: ...
     def initial_state(self, start_gap: float = 0.3) -> Vector: ...
     def plan(self, t: float, x: ArrayLike) -> Vector:
         """The gait's nominal input; also updates `environment`."""
@@ -358,17 +358,20 @@ class Course:
     def floor_height(self, x: float) -> float: ...
 
 def simulate(
-    scenario: Literal["step", "stairs"] = "stairs",
+    scenario: Literal["step", "stairs", "unequal_rises", "landing", "box", "platform"] = "stairs",
     body_cbf: bool = True,
     max_time: float | None = None,
     episode: int | None = None,
     seed: int = 0,
     ranges: dict[str, tuple[float, float] | list[float]] | None = None,
+    perception: bool = False,
 ) -> dict[str, np.ndarray | dict]:
     """The Rust closed loop's time series as numpy arrays, plus a "summary" dict.
 
     With ``episode`` (and the ``seed`` and ``ranges`` given to :func:`campaign`) the course
-    is that campaign episode's instead of ``scenario``.
+    is that campaign episode's instead of ``scenario``. With ``perception=True`` the gait
+    and filter see only what a LiDAR on the body perceives; ``summary["perception_updates"]``
+    counts the 1 Hz updates.
 
     Timings per cycle: eval_us, solve_us and update_us (wall time) and cpu_us (the
     thread's CPU time over the update); the summary holds median/p99/max of update_us
@@ -387,8 +390,12 @@ def campaign(
     body_cbf: bool = True,
     threads: int | None = None,
     ranges: dict[str, tuple[float, float] | list[float]] | None = None,
+    perception: bool = False,
 ) -> dict[str, np.ndarray | list | str]:
     """A Monte Carlo campaign of random staircases, run in Rust on a thread pool.
+
+    With ``perception=True`` every episode runs on perceived terrain (as
+    ``simulate(perception=True)``).
 
     ``ranges``: ``[lo, hi]`` per key ``rise``, ``run``, ``steps``, ``start_gap``, ``speed``
     (defaults as ``cbfgen campaign``). Returns one entry per episode in id order (numpy

@@ -84,6 +84,18 @@ def test_a_campaign_episode_reruns_alone_with_the_same_outcome():
         t3.campaign(episodes=1, ranges={"height": [0.1, 0.2]})
 
 
+def test_perceived_terrain_runs_from_python_and_hides_the_truth():
+    # Every named course is offered; a perceived run differs from the true-terrain one
+    # (the filter saw other edges) and counts its 1 Hz updates.
+    assert t3.SCENARIOS == ["step", "stairs", "unequal_rises", "landing", "box", "platform"]
+    truth = t3.simulate("box", max_time=4.0)
+    seen = t3.simulate("box", max_time=4.0, perception=True)
+    assert truth["summary"]["perception_updates"] == 0
+    assert seen["summary"]["perception_updates"] == 4  # before the start, and at 1, 2, 3 s
+    assert not np.array_equal(truth["x"], seen["x"])
+    assert seen["summary"]["min_body_clearance"] > 0.0 and seen["summary"]["min_toe_clearance"] > -1e-3
+
+
 def test_simulation_arrays_are_consistent():
     run = t3.simulate("step", max_time=0.5)
     n = len(run["t"])

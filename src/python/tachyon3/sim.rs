@@ -10,6 +10,7 @@ use crate::filter::InputSource;
 use crate::python::convert::{choice, matrix_from_fn, vector, Array1Out, ArrayIn};
 use crate::systems::tachyon3::catalog::Family;
 use crate::systems::tachyon3::model::NX;
+use crate::systems::tachyon3::perceived::PerceptionSettings;
 use crate::systems::tachyon3::sim::campaign::{self as monte_carlo, CampaignSettings, CourseRanges, Episode};
 use crate::systems::tachyon3::sim::gait::GaitParams;
 use crate::systems::tachyon3::sim::{self, Course, Scenario, SimConfig};
@@ -128,9 +129,12 @@ impl PyCourse {
 /// time), ``cpu_us`` (the thread's CPU time over the update), ``body_clearance``,
 /// ``toe_clearance``, ``swinging`` (-1: none); and ``summary``, a dict.
 /// With ``episode`` (and ``seed``, ``ranges`` as given to :func:`campaign`), the course is
-/// that campaign episode's instead of ``scenario``. The GIL is released while it runs.
+/// that campaign episode's instead of ``scenario``. With ``perception=True`` the gait and
+/// filter see only what a LiDAR on the body perceives (``summary["perception_updates"]``
+/// counts the 1 Hz updates). The GIL is released while it runs.
 #[pyfunction]
-#[pyo3(signature = (scenario="stairs", body_cbf=true, max_time=None, episode=None, seed=0, ranges=None))]
+#[pyo3(signature = (scenario="stairs", body_cbf=true, max_time=None, episode=None, seed=0, ranges=None, perception=false))]
+#[allow(clippy::too_many_arguments)] // one per keyword argument of the Python function
 fn simulate<'py>(
     py: Python<'py>,
     scenario: &str,
@@ -139,10 +143,15 @@ fn simulate<'py>(
     episode: Option<u64>,
     seed: u64,
     ranges: Option<&Bound<'py, PyDict>>,
+    perception: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let mut config = match episode {
+        Some(id) if perception => Episode::draw(seed, id, &course_ranges(ranges)?)?.perceived_config(body_cbf),
         Some(id) => Episode::draw(seed, id, &course_ranges(ranges)?)?.config(body_cbf),
-        None => SimConfig::new(self::scenario(scenario)?, body_cbf),
+        None => SimConfig {
+            perception: perception.then(PerceptionSettings::default),
+            ..SimConfig::new(self::scenario(scenario)?, body_cbf)
+        },
     };
     if let Some(t) = max_time {
         config.max_time = crate::error::positive("max_time", t)?;
@@ -191,6 +200,7 @@ fn simulate<'py>(
     summary.set_item("over_period_wall", m.over_period_wall)?;
     summary.set_item("over_period_cpu", m.over_period_cpu)?;
     summary.set_item("fallback_cycles", m.fallback_cycles)?;
+    summary.set_item("perception_updates", m.perception.map_or(0, |p| p.updates))?;
     out.set_item("summary", summary)?;
     Ok(out)
 }
@@ -231,9 +241,11 @@ fn course_ranges(ranges: Option<&Bound<'_, PyDict>>) -> PyResult<CourseRanges> {
 /// ``median_cpu_us``, ``p99_cpu_us``, ``max_cpu_us``, ``median_wall_us``, ``p99_wall_us``,
 /// ``max_wall_us``, ``over_1ms_cpu``, ``over_1ms_wall``, ``cycles`` (all 0 for an episode
 /// whose outcome is ``"error"``: no output of the module is NaN); ``errors``, a list of ``(id, message)``; and ``report``, the
-/// printed table as text. Rerun one episode with ``simulate(episode=id, seed=seed)``.
+/// printed table as text. Rerun one episode with ``simulate(episode=id, seed=seed)``. With
+/// ``perception=True`` every episode runs on perceived terrain.
 #[pyfunction]
-#[pyo3(signature = (episodes=200, seed=0, first_id=0, body_cbf=true, threads=None, ranges=None))]
+#[pyo3(signature = (episodes=200, seed=0, first_id=0, body_cbf=true, threads=None, ranges=None, perception=false))]
+#[allow(clippy::too_many_arguments)] // one per keyword argument of the Python function
 fn campaign<'py>(
     py: Python<'py>,
     episodes: usize,
@@ -242,8 +254,10 @@ fn campaign<'py>(
     body_cbf: bool,
     threads: Option<usize>,
     ranges: Option<&Bound<'py, PyDict>>,
+    perception: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let settings = CampaignSettings { seed, episodes, first_id, ranges: course_ranges(ranges)?, body_cbf, threads };
+    let settings =
+        CampaignSettings { seed, episodes, first_id, ranges: course_ranges(ranges)?, body_cbf, threads, perception };
     let result = py.detach(|| monte_carlo::run(&settings, |_| {}))?;
     let r = &result.records;
     let episode = |f: &dyn Fn(&Episode) -> f64| -> Vec<f64> { r.iter().map(|x| f(&x.episode)).collect() };

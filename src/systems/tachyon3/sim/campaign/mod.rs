@@ -32,6 +32,7 @@ use rayon::prelude::*;
 use super::{Scenario, SimConfig, Summary};
 use crate::error::CbfError;
 use crate::systems::tachyon3::catalog::Family;
+use crate::systems::tachyon3::perceived::PerceptionSettings;
 use crate::systems::tachyon3::terrain::Stairs;
 
 /// Penetration counted as a collision \[m\]: exact body or toe clearance below `−1 mm`.
@@ -152,6 +153,16 @@ impl Episode {
         config.gait.speed = self.speed;
         config
     }
+
+    /// [`Episode::config`] on perceived terrain: default perception, the scans' noise
+    /// seeded from the episode's `(seed, id)`.
+    pub fn perceived_config(&self, body_cbf: bool) -> SimConfig {
+        let seed = self.seed.rotate_left(32) ^ self.id;
+        SimConfig {
+            perception: Some(PerceptionSettings { seed, ..PerceptionSettings::default() }),
+            ..self.config(body_cbf)
+        }
+    }
 }
 
 /// How an episode ended.
@@ -217,11 +228,21 @@ pub struct CampaignSettings {
     pub body_cbf: bool,
     /// Worker threads; `None` = one per core.
     pub threads: Option<usize>,
+    /// With `true`, every episode runs on perceived terrain ([`Episode::perceived_config`]).
+    pub perception: bool,
 }
 
 impl Default for CampaignSettings {
     fn default() -> Self {
-        Self { seed: 0, episodes: 200, first_id: 0, ranges: CourseRanges::default(), body_cbf: true, threads: None }
+        Self {
+            seed: 0,
+            episodes: 200,
+            first_id: 0,
+            ranges: CourseRanges::default(),
+            body_cbf: true,
+            threads: None,
+            perception: false,
+        }
     }
 }
 
@@ -262,7 +283,8 @@ pub fn run(settings: &CampaignSettings, progress: impl Fn(usize) + Sync) -> Resu
     let records = pool.install(|| {
         ids.into_par_iter()
             .map(|id| {
-                let record = run_episode(&Episode::draw_valid(settings.seed, id, &settings.ranges), settings.body_cbf);
+                let episode = Episode::draw_valid(settings.seed, id, &settings.ranges);
+                let record = run_episode(&episode, settings.body_cbf, settings.perception);
                 progress(done.fetch_add(1, Ordering::Relaxed) + 1);
                 record
             })
@@ -271,10 +293,10 @@ pub fn run(settings: &CampaignSettings, progress: impl Fn(usize) + Sync) -> Resu
     Ok(Campaign { settings: settings.clone(), records })
 }
 
-/// Climb `episode` once (with or without the body SSAT CBF), recording its summary or the
-/// error (or panic) that ended it.
-pub fn run_episode(episode: &Episode, body_cbf: bool) -> EpisodeRecord {
-    let config = episode.config(body_cbf);
+/// Climb `episode` once (with or without the body SSAT CBF, on true or perceived
+/// terrain), recording its summary or the error (or panic) that ended it.
+pub fn run_episode(episode: &Episode, body_cbf: bool, perception: bool) -> EpisodeRecord {
+    let config = if perception { episode.perceived_config(body_cbf) } else { episode.config(body_cbf) };
     // A panic is a bug, but one episode's must not cost the other ten thousand.
     let result = match catch_unwind(AssertUnwindSafe(|| super::run(&config, |_| {}))) {
         Ok(Ok(r)) => Ok(r.summary),
