@@ -156,6 +156,17 @@ fn degenerate_clouds_give_no_planes_or_a_typed_error() {
     assert!(matches!(lidar.scan(&Vector3::zeros(), 0.0, &terrain(), &[], &mut rng), Err(CbfError::TooLarge { .. })));
 }
 
+/// The neighbourhoods gathered on one thread or several give the same planes, bit for bit.
+#[test]
+fn segmentation_does_not_depend_on_the_number_of_threads() {
+    let (points, viewpoint) = scan(3);
+    let on = |threads| planes::segment(&points, &SegmentSettings { viewpoint, threads, ..Default::default() }).unwrap();
+    let one = on(1);
+    assert!(one.len() >= 7);
+    assert_eq!(one, on(3));
+    assert!(planes::segment(&points, &SegmentSettings { threads: 1000, ..Default::default() }).is_err());
+}
+
 #[test]
 fn the_figure_draws_the_points_by_plane_the_hulls_and_both_sets_of_cuboids() {
     use cbfgen::perception::figure::{chart, View};

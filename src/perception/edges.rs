@@ -180,39 +180,55 @@ pub fn edge_cuboids(planes: &[Plane], points: &[Vector3<f64>], s: &EdgeSettings)
             // The polygon is counter-clockwise seen from above: outward is to the right.
             let outward = Vector3::new(axis.y, -axis.x, 0.0).normalize();
             let mid = (a + b) / 2.0;
-            let beyond = mid + outward * s.probe;
-            let Some(lower) = floor_height(planes, beyond.x, beyond.y, s.max_tilt, Some(k)) else { continue };
+            let probe = mid + outward * s.probe;
+            let Some(lower) = floor_height(planes, probe.x, probe.y, s.max_tilt, Some(k)) else { continue };
             let top = plane.height_at(mid.x, mid.y);
             if top - lower < s.min_drop
                 || (support(points, plane, &a, &b, 2.0 * s.half_section) as f64) < s.min_support * length
             {
                 continue;
             }
-            // The lower side must have been seen there: beyond a hull chord across a
-            // sparsely scanned corner, the floor is hidden under the plane itself. Next to
-            // the edge, or where the edge's shadow from the viewpoint ends.
-            let lower_in_strip = |from: f64, to: f64| {
-                points
-                    .iter()
-                    .filter(|p| {
-                        let d = *p - mid;
-                        let out = d.dot(&outward);
-                        let across = (d - outward * out).xy().norm();
-                        out > from && out <= to && across <= s.probe && (p.z - lower).abs() <= s.half_section
-                    })
-                    .count()
-            };
-            let mut seen_below = points
-                .iter()
-                .filter(|p| (p.xy() - beyond.xy()).norm() <= s.probe && (p.z - lower).abs() <= s.half_section)
-                .count();
-            if let Some(v) = s.viewpoint.filter(|v| v.z > top) {
+            // The lower side must have been seen beyond the edge: beyond a hull chord
+            // across a sparsely scanned corner, the floor is hidden under the plane
+            // itself. It is looked for at three points along the edge (a wheel in front of
+            // the sensor shades a strip of floor, which may be the middle), next to the
+            // edge or, for a drop on the far side from the viewpoint, where the edge's
+            // shadow from it ends.
+            let shadow = s.viewpoint.filter(|v| v.z > top && (mid - v).dot(&outward) > 0.0).map(|v| {
                 let behind = (mid - v).dot(&outward);
-                if seen_below < MIN_SEEN_BELOW && behind > 0.0 {
-                    let shadow = behind * (top - lower) / (v.z - top);
-                    seen_below = lower_in_strip(0.5 * shadow, 0.5 * shadow + s.shadow);
-                }
-            }
+                0.5 * behind * (top - lower) / (v.z - top)
+            });
+            let seen_below = [0.25, 0.5, 0.75]
+                .into_iter()
+                .map(|f| {
+                    let at = a + (b - a) * f;
+                    let beyond = at + outward * s.probe;
+                    let near = points
+                        .iter()
+                        .filter(|p| (p.xy() - beyond.xy()).norm() <= s.probe && (p.z - lower).abs() <= s.half_section)
+                        .count();
+                    let far = |from: f64| {
+                        points
+                            .iter()
+                            .filter(|p| {
+                                let d = *p - at;
+                                let out = d.dot(&outward);
+                                let across = (d - outward * out).xy().norm();
+                                out > from
+                                    && out <= from + s.shadow
+                                    && across <= s.probe
+                                    && (p.z - lower).abs() <= s.half_section
+                            })
+                            .count()
+                    };
+                    if near >= MIN_SEEN_BELOW {
+                        near
+                    } else {
+                        shadow.map_or(near, far)
+                    }
+                })
+                .max()
+                .unwrap_or(0);
             if seen_below < MIN_SEEN_BELOW {
                 continue;
             }

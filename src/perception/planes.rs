@@ -39,6 +39,9 @@ pub struct SegmentSettings {
     pub seed: u64,
     /// Vertical planes' normals point towards this point (the sensor); others point up.
     pub viewpoint: Vector3<f64>,
+    /// Threads the neighbourhoods are gathered on, for clouds of 20 000 points or more;
+    /// 0: one per core. At most 8. The result is the same for any number.
+    pub threads: usize,
 }
 
 impl Default for SegmentSettings {
@@ -55,6 +58,7 @@ impl Default for SegmentSettings {
             ransac_iterations: 200,
             seed: 7,
             viewpoint: Vector3::zeros(),
+            threads: 0,
         }
     }
 }
@@ -78,6 +82,7 @@ impl SegmentSettings {
             ("max neighbors", self.max_neighbors, self.min_neighbors.max(3), 1000),
             ("min plane points", self.min_plane_points, 3, MAX_POINTS),
             ("ransac iterations", self.ransac_iterations, 1, 100_000),
+            ("threads", self.threads, 0, MAX_THREADS),
         ] {
             if n < lo || n > hi {
                 return Err(CbfError::OutOfRange { what, value: n as f64, range: "its documented bounds" });
@@ -335,6 +340,44 @@ fn null_direction(m: &Matrix3<f64>) -> Option<Vector3<f64>> {
     (norm > 0.0 && norm.is_finite()).then(|| best / norm)
 }
 
+/// Clouds at least this large have their neighbourhoods gathered on several threads.
+const PARALLEL_FROM: usize = 20_000;
+/// Most threads one segmentation uses.
+const MAX_THREADS: usize = 8;
+
+/// The neighbour lists and normals of a run of points.
+struct NeighborPart {
+    /// Where each point's list starts in `flat` (relative to this part).
+    starts: Vec<usize>,
+    flat: Vec<u32>,
+    normal: Vec<Option<(Vector3<f64>, f64)>>,
+}
+
+fn neighbor_part(
+    grid: &Grid<'_>,
+    points: &[Vector3<f64>],
+    range: std::ops::Range<usize>,
+    s: &SegmentSettings,
+) -> NeighborPart {
+    let mut nb = Vec::with_capacity(s.max_neighbors);
+    let mut part = NeighborPart {
+        starts: Vec::with_capacity(range.len()),
+        flat: Vec::with_capacity(range.len() * s.max_neighbors / 2),
+        normal: Vec::with_capacity(range.len()),
+    };
+    for i in range {
+        grid.neighbors(i, s.max_neighbors, &mut nb);
+        part.starts.push(part.flat.len());
+        part.flat.extend_from_slice(&nb);
+        part.normal.push(if nb.len() >= s.min_neighbors {
+            fit(points, nb.iter().map(|&j| j as usize)).map(|(_, n, c)| (n, c))
+        } else {
+            None
+        });
+    }
+    part
+}
+
 /// Planes in `points`, largest first.
 ///
 /// # Errors
@@ -357,18 +400,30 @@ pub fn segment(points: &[Vector3<f64>], settings: &SegmentSettings) -> Result<Ve
     let cloud = voxel_centroids(points, s.voxel);
     let points = &cloud[..];
     let grid = Grid::new(points, s.neighbor_radius);
-    // Neighbour lists, once: normals, growth and the hulls' rims all walk them.
-    let mut nb = Vec::with_capacity(s.max_neighbors);
+    // Neighbour lists, once: normals, growth and the hulls' rims all walk them. The
+    // points are split between the cores; each part's lists are joined in order, so the
+    // result does not depend on how many there are.
+    let threads = match s.threads {
+        _ if points.len() < PARALLEL_FROM => 1,
+        0 => std::thread::available_parallelism().map_or(1, |n| n.get()).min(MAX_THREADS),
+        n => n,
+    };
+    let chunk = points.len().div_ceil(threads).max(1);
+    let parts: Vec<NeighborPart> = std::thread::scope(|scope| {
+        let grid = &grid;
+        let handles: Vec<_> = (0..points.len())
+            .step_by(chunk)
+            .map(|from| scope.spawn(move || neighbor_part(grid, points, from..(from + chunk).min(points.len()), s)))
+            .collect();
+        handles.into_iter().map(|h| h.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))).collect()
+    });
     let mut starts = Vec::with_capacity(points.len() + 1);
-    let mut flat: Vec<u32> = Vec::with_capacity(points.len() * s.max_neighbors / 2);
-    let mut normal = vec![None; points.len()];
-    for (i, slot) in normal.iter_mut().enumerate() {
-        grid.neighbors(i, s.max_neighbors, &mut nb);
-        starts.push(flat.len());
-        flat.extend_from_slice(&nb);
-        if nb.len() >= s.min_neighbors {
-            *slot = fit(points, nb.iter().map(|&j| j as usize)).map(|(_, n, c)| (n, c));
-        }
+    let mut flat: Vec<u32> = Vec::with_capacity(parts.iter().map(|p| p.flat.len()).sum());
+    let mut normal = Vec::with_capacity(points.len());
+    for part in parts {
+        starts.extend(part.starts.iter().map(|&k| k + flat.len()));
+        flat.extend(part.flat);
+        normal.extend(part.normal);
     }
     starts.push(flat.len());
     let neighbors = |i: usize| &flat[starts[i]..starts[i + 1]];
