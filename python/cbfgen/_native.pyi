@@ -304,6 +304,7 @@ MAX_FOOTHOLD_EDGES: int
 """Most foothold half-planes per leg an Environment or filter may be sized for."""
 MAX_SIM_TIME: float
 """Longest simulate max_time [s]."""
+_Scenario = Literal["step", "stairs", "unequal_rises", "landing", "box", "platform"]
 SCENARIOS: list[str]
 
 def world_kinematics(x: ArrayLike) -> tuple[Vector, Matrix, Matrix]:
@@ -342,7 +343,7 @@ class Environment(Params):
 class Course:
     """A scenario's stairs and nominal gait, stepped by your own loop."""
 
-    def __init__(self, scenario: Literal["step", "stairs", "unequal_rises", "landing", "box", "platform"] = "step") -> None: ...
+    def __init__(self, scenario: _Scenario = "step") -> None: ...
     def initial_state(self, start_gap: float = 0.3) -> Vector: ...
     def plan(self, t: float, x: ArrayLike) -> Vector:
         """The gait's nominal input; also updates `environment`."""
@@ -358,7 +359,7 @@ class Course:
     def floor_height(self, x: float) -> float: ...
 
 def simulate(
-    scenario: Literal["step", "stairs", "unequal_rises", "landing", "box", "platform"] = "stairs",
+    scenario: _Scenario = "stairs",
     body_cbf: bool = True,
     max_time: float | None = None,
     episode: int | None = None,

@@ -35,6 +35,10 @@ const SAME_LEVEL: f64 = 0.01;
 /// level before it \[m\].
 const SLIVER: f64 = 0.03;
 
+/// Narrowest half width of a level the gait may stand on \[m\]: room for a foothold strip,
+/// whose toe centres keep the toe radius and 2 cm from its sides, and 3 cm more.
+pub const MIN_HALF_WIDTH: f64 = TOE_RADIUS + 0.05;
+
 /// What the robot perceives with, and how often.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PerceptionSettings {
@@ -126,7 +130,7 @@ fn chord(polygon: &[Vector3<f64>], axis: usize, at: f64) -> Option<(f64, f64)> {
 /// covers take the level before them, or the first level seen if they lie before it.
 /// Levels within 1 cm of each other in height merge, slivers under 3 cm join the level
 /// before, and each level's half width is the hull's, measured across the path at the
-/// stretch's middle; a level narrower than the toe radius plus 1 cm is not one to stand
+/// stretch's middle; a level narrower than [`MIN_HALF_WIDTH`] is not one to stand
 /// on, and is left out. `None` when no plane is left.
 pub fn ground_from_planes(planes: &[Plane], max_tilt: f64) -> Option<Profile> {
     struct Stretch {
@@ -143,7 +147,7 @@ pub fn ground_from_planes(planes: &[Plane], max_tilt: f64) -> Option<Profile> {
             let mid = 0.5 * (lo + hi);
             let (y_lo, y_hi) = chord(&p.polygon, 0, mid)?;
             let half_width = (-y_lo).min(y_hi);
-            (hi > lo && half_width > TOE_RADIUS + 0.01).then(|| Stretch {
+            (hi > lo && half_width > MIN_HALF_WIDTH).then(|| Stretch {
                 lo,
                 hi,
                 height: p.height_at(mid, 0.0),
