@@ -5,35 +5,18 @@
 //! body by the exact SAT against every solid box of the terrain, body and toes by exact
 //! distances to the true edge cuboids.
 
-use cbfgen::generated::tachyon3::world_kinematics;
-use cbfgen::systems::tachyon3::model::BODY_HALF_EXTENTS;
 use cbfgen::systems::tachyon3::perceived::PerceptionSettings;
 use cbfgen::systems::tachyon3::sim::{self, Scenario, SimConfig, SimResult};
-use cbfgen::{sat, OrientedBox};
-use nalgebra::{Matrix3, Rotation3, Vector3};
+
+#[path = "common/terrain_contact.rs"]
+mod terrain_contact;
+use terrain_contact::body_into_terrain;
 
 const PENETRATION_TOLERANCE: f64 = 1e-3;
 
 fn perceived_run(scenario: Scenario) -> SimResult {
     let config = SimConfig { perception: Some(PerceptionSettings::default()), ..SimConfig::new(scenario, true) };
     sim::run(&config, |_| {}).expect("simulation")
-}
-
-/// Deepest the body box goes into any solid box of the true terrain over the run [m]
-/// (negative: penetration).
-fn body_into_terrain(scenario: Scenario, result: &SimResult) -> f64 {
-    let solids = scenario.terrain().expect("terrain").solid_boxes().expect("boxes");
-    result
-        .samples
-        .iter()
-        .step_by(5)
-        .map(|sample| {
-            let (c, r, _) = world_kinematics(&sample.x);
-            let rotation = Rotation3::from_matrix_unchecked(Matrix3::from_fn(|i, j| r[i][j]));
-            let body = OrientedBox::new(Vector3::from(c), rotation, Vector3::from(BODY_HALF_EXTENTS)).expect("body");
-            solids.iter().map(|b| sat::separation(b, &body)).fold(f64::INFINITY, f64::min)
-        })
-        .fold(f64::INFINITY, f64::min)
 }
 
 fn check(scenario: Scenario) {

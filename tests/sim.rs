@@ -7,6 +7,10 @@ use cbfgen::systems::tachyon3::model::STATE_NAMES;
 use cbfgen::systems::tachyon3::sim::{self, output, Scenario, SimConfig};
 use cbfgen::systems::tachyon3::terrain::Stairs;
 
+#[path = "common/terrain_contact.rs"]
+mod terrain_contact;
+use terrain_contact::body_into_terrain;
+
 const PENETRATION_TOLERANCE: f64 = 1e-3;
 
 #[test]
@@ -140,27 +144,12 @@ fn the_filter_gets_the_robot_up_all_five_stairs_without_penetration() {
 /// sphere–box distance to the edges.
 #[test]
 fn unequal_rises_a_landing_a_box_and_a_platform_are_crossed_without_penetration() {
-    use cbfgen::systems::tachyon3::model::BODY_HALF_EXTENTS;
-    use nalgebra::{Matrix3, Rotation3, Vector3};
-
     for scenario in [Scenario::UnequalRises, Scenario::Landing, Scenario::Box, Scenario::Platform] {
         let result = sim::run(&SimConfig::new(scenario, true), |_| {}).expect("simulation");
         let s = result.summary;
         assert!(s.completed, "{}: {s}", scenario.name());
         assert!(s.min_toe_clearance > -PENETRATION_TOLERANCE, "{}: toes {:.4} m", scenario.name(), s.min_toe_clearance);
-        let solids = scenario.terrain().expect("terrain").solid_boxes().expect("boxes");
-        let deepest = result
-            .samples
-            .iter()
-            .step_by(5)
-            .map(|sample| {
-                let (c, r, _) = cbfgen::generated::tachyon3::world_kinematics(&sample.x);
-                let rotation = Rotation3::from_matrix_unchecked(Matrix3::from_fn(|i, j| r[i][j]));
-                let body = cbfgen::OrientedBox::new(Vector3::from(c), rotation, Vector3::from(BODY_HALF_EXTENTS))
-                    .expect("body box");
-                solids.iter().map(|b| cbfgen::sat::separation(b, &body)).fold(f64::INFINITY, f64::min)
-            })
-            .fold(f64::INFINITY, f64::min);
+        let deepest = body_into_terrain(scenario, &result);
         assert!(deepest > -PENETRATION_TOLERANCE, "{}: body {deepest:.4} m into the terrain", scenario.name());
         // The body stays clear of the terrain, not only of the edge cuboids.
         assert!(deepest > 0.0, "{}: body touches the terrain ({deepest:.4} m)", scenario.name());
