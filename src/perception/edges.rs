@@ -198,17 +198,28 @@ pub fn edge_cuboids(planes: &[Plane], points: &[Vector3<f64>], s: &EdgeSettings)
                 let behind = (mid - v).dot(&outward);
                 0.5 * behind * (top - lower) / (v.z - top)
             });
+            // Every probe below lies within `reach` of the edge: one pass gathers the
+            // lower plane's points there, and the probes count among those.
+            let reach = shadow.map_or(2.0 * s.probe, |from| (2.0 * s.probe).max(from + s.shadow)) + s.probe;
+            let (lo, hi) = (a.inf(&b).xy().add_scalar(-reach), a.sup(&b).xy().add_scalar(reach));
+            let below: Vec<Vector3<f64>> = points
+                .iter()
+                .filter(|p| {
+                    (p.z - lower).abs() <= s.half_section && p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y
+                })
+                .copied()
+                .collect();
             let seen_below = [0.25, 0.5, 0.75]
                 .into_iter()
                 .map(|f| {
                     let at = a + (b - a) * f;
                     let beyond = at + outward * s.probe;
-                    let near = points
+                    let near = below
                         .iter()
                         .filter(|p| (p.xy() - beyond.xy()).norm() <= s.probe && (p.z - lower).abs() <= s.half_section)
                         .count();
                     let far = |from: f64| {
-                        points
+                        below
                             .iter()
                             .filter(|p| {
                                 let d = *p - at;
