@@ -412,8 +412,7 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
         } => {
             let config = |body_cbf: bool| -> Result<SimConfig, cbfgen::CbfError> {
                 Ok(match episode {
-                    Some(id) if perception => Episode::draw(seed, id, &ranges.ranges())?.perceived_config(body_cbf),
-                    Some(id) => Episode::draw(seed, id, &ranges.ranges())?.config(body_cbf),
+                    Some(id) => Episode::draw(seed, id, &ranges.ranges())?.config_with(body_cbf, perception),
                     None => SimConfig {
                         perception: perception.then(PerceptionSettings::default),
                         ..SimConfig::new(scenario.scenario(), body_cbf)
@@ -542,8 +541,8 @@ fn perceive(out: &mut impl Write, dir: &std::path::Path, seed: u64) -> Result<()
     use cbfgen::perception::{edges, figure, planes, scanner::Lidar};
     use rand::SeedableRng;
 
-    let stairs = cbfgen::systems::tachyon3::terrain::Stairs::HARDWARE;
-    let world = stairs.terrain()?.solid_boxes()?;
+    let terrain = cbfgen::systems::tachyon3::terrain::Stairs::HARDWARE.terrain()?;
+    let world = terrain.solid_boxes()?;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let mut map = Vec::new();
     for x in [0.0, 0.25, 0.5, 0.75] {
@@ -560,10 +559,8 @@ fn perceive(out: &mut impl Write, dir: &std::path::Path, seed: u64) -> Result<()
             p.normal.x, p.normal.y, p.normal.z, p.offset, p.inliers
         )?;
     }
-    let mut truth = Vec::new();
-    for k in 0..stairs.count {
-        let e = stairs.edge(k)?;
-        let b = OrientedBox::new(e.center, Rotation3::from_matrix_unchecked(e.rotation), e.half)?;
+    let truth = terrain.edge_boxes()?;
+    for (k, b) in truth.iter().enumerate() {
         // The found cuboid whose axis passes closest to the true one's centre.
         let nearest = cuboids
             .iter()
@@ -588,13 +585,12 @@ fn perceive(out: &mut impl Write, dir: &std::path::Path, seed: u64) -> Result<()
             }
             _ => writeln!(out, "  nosing {k} (x {:.3}, z {:.3}): not found", b.center().x, b.center().z)?,
         }
-        truth.push(b);
     }
     let written = cbfgen::chart::write_files(
         dir,
-        [("perception_side", figure::View::Side), ("perception_top", figure::View::Top)]
+        figure::side_and_top(&map, &found, &cuboids, &truth)
             .into_iter()
-            .map(|(name, view)| (format!("{name}.svg"), figure::chart(view, &map, &found, &cuboids, &truth).to_svg()))
+            .map(|(name, chart)| (format!("perception_{name}.svg"), chart.to_svg()))
             .collect(),
     )?;
     print_written(out, &written)?;

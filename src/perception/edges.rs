@@ -121,8 +121,7 @@ fn straight_edges(polygon: &[Vector3<f64>], tol: f64) -> Vec<(Vector3<f64>, Vect
         let far = (i + 1..j)
             .map(|k| (k, (polygon[k % n] - p).cross(&chord).norm() / chord.norm().max(f64::MIN_POSITIVE)))
             .max_by(|x, y| x.1.total_cmp(&y.1));
-        if let Some((k, d)) = far.filter(|&(_, d)| d > tol) {
-            let _ = d;
+        if let Some((k, _)) = far.filter(|&(_, d)| d > tol) {
             keep[k % n] = true;
             stack.push((i, k));
             stack.push((k, j));

@@ -48,6 +48,19 @@ fn extent(b: &OrientedBox, (h, v): (usize, usize)) -> ((f64, f64), (f64, f64)) {
     })
 }
 
+/// Both views, named `side` and `top`, of what [`chart`] draws.
+pub fn side_and_top(
+    points: &[Vector3<f64>],
+    planes: &[Plane],
+    found: &[OrientedBox],
+    truth: &[OrientedBox],
+) -> [(&'static str, Chart); 2] {
+    [View::Side, View::Top].map(|view| {
+        let name = if view == View::Side { "side" } else { "top" };
+        (name, chart(view, points, planes, found, truth))
+    })
+}
+
 /// One view of `points`, `planes`, the `found` cuboids and the `truth`.
 pub fn chart(
     view: View,

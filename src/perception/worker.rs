@@ -85,7 +85,6 @@ pub struct Worker {
     jobs: Option<Sender<Job>>,
     results: Receiver<Result<Perceived, CbfError>>,
     thread: Option<JoinHandle<()>>,
-    pending: usize,
 }
 
 impl Worker {
@@ -125,7 +124,7 @@ impl Worker {
                 }
             })
             .map_err(|_| CbfError::WorkerGone)?;
-        Ok(Self { jobs: Some(jobs), results, thread: Some(thread), pending: 0 })
+        Ok(Self { jobs: Some(jobs), results, thread: Some(thread) })
     }
 
     fn send(&self, job: Job) -> Result<(), CbfError> {
@@ -151,23 +150,13 @@ impl Worker {
         for &c in center.iter().chain(viewpoint.iter()) {
             within("perception request point [m]", c, -1e5, 1e5, "[-1e5, 1e5]")?;
         }
-        self.send(Job::Update { center: *center, viewpoint: *viewpoint })?;
-        self.pending += 1;
-        Ok(())
-    }
-
-    /// Requests whose results have not been taken yet.
-    pub fn pending(&self) -> usize {
-        self.pending
+        self.send(Job::Update { center: *center, viewpoint: *viewpoint })
     }
 
     /// The next result if it is ready. Never blocks.
     pub fn try_result(&mut self) -> Option<Result<Perceived, CbfError>> {
         match self.results.try_recv() {
-            Ok(r) => {
-                self.pending = self.pending.saturating_sub(1);
-                Some(r)
-            }
+            Ok(r) => Some(r),
             Err(TryRecvError::Empty) => None,
             Err(TryRecvError::Disconnected) => Some(Err(CbfError::WorkerGone)),
         }
@@ -179,9 +168,7 @@ impl Worker {
     /// # Errors
     /// The update's own error, or [`CbfError::WorkerGone`].
     pub fn wait_result(&mut self) -> Result<Perceived, CbfError> {
-        let r = self.results.recv().map_err(|_| CbfError::WorkerGone)?;
-        self.pending = self.pending.saturating_sub(1);
-        r
+        self.results.recv().map_err(|_| CbfError::WorkerGone)?
     }
 }
 

@@ -146,8 +146,7 @@ fn simulate<'py>(
     perception: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let mut config = match episode {
-        Some(id) if perception => Episode::draw(seed, id, &course_ranges(ranges)?)?.perceived_config(body_cbf),
-        Some(id) => Episode::draw(seed, id, &course_ranges(ranges)?)?.config(body_cbf),
+        Some(id) => Episode::draw(seed, id, &course_ranges(ranges)?)?.config_with(body_cbf, perception),
         None => SimConfig {
             perception: perception.then(PerceptionSettings::default),
             ..SimConfig::new(self::scenario(scenario)?, body_cbf)

@@ -66,6 +66,17 @@ pub fn standard_posture() -> State {
     x
 }
 
+/// The body box at state `x`, in the world.
+///
+/// # Errors
+/// A state whose body pose is not finite.
+pub fn body_box(x: &State) -> Result<crate::geometry::OrientedBox, CbfError> {
+    use nalgebra::{Matrix3, Rotation3, Vector3};
+    let (center, rotation, _) = world_kinematics(x);
+    let r = Rotation3::from_matrix_unchecked(Matrix3::from_fn(|i, j| rotation[i][j]));
+    crate::geometry::OrientedBox::new(Vector3::from(center), r, Vector3::from(BODY_HALF_EXTENTS))
+}
+
 /// Origin-relative x of the robot's foremost point: the body's front face or a toe
 /// sphere's front, whichever reaches further (yaw and pitch ignored).
 pub fn front_reach(x: &State) -> f64 {

@@ -14,7 +14,7 @@
 
 use std::time::Duration;
 
-use nalgebra::{Matrix3, Rotation3, Vector3};
+use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
@@ -24,8 +24,10 @@ use crate::geometry::OrientedBox;
 use crate::perception::planes::Plane;
 use crate::perception::scanner::Lidar;
 use crate::perception::worker::{Perceived, Worker, WorkerSettings};
+use crate::sphere_box;
 use crate::systems::tachyon3::catalog::EdgeCuboid;
 use crate::systems::tachyon3::model::{self, State, TOE_RADIUS};
+use crate::systems::tachyon3::sim::gait::FOOTHOLD_INSET;
 use crate::systems::tachyon3::sim::Course;
 use crate::systems::tachyon3::terrain::{Level, Profile, Terrain};
 
@@ -36,8 +38,8 @@ const SAME_LEVEL: f64 = 0.01;
 const SLIVER: f64 = 0.03;
 
 /// Narrowest half width of a level the gait may stand on \[m\]: room for a foothold strip,
-/// whose toe centres keep the toe radius and 2 cm from its sides, and 3 cm more.
-pub const MIN_HALF_WIDTH: f64 = TOE_RADIUS + 0.05;
+/// whose toe centres keep [`FOOTHOLD_INSET`] from its sides, and 3 cm more.
+pub const MIN_HALF_WIDTH: f64 = FOOTHOLD_INSET + 0.03;
 
 /// What the robot perceives with, and how often.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -290,35 +292,24 @@ impl Perceiver {
         Ok(())
     }
 
-    /// The updates applied so far.
-    pub fn updates(&self) -> &[PerceptionUpdate] {
-        &self.updates
-    }
-
-    /// The last update's map, planes and cuboids.
-    pub fn last(&self) -> Option<&Perceived> {
-        self.last.as_ref()
-    }
-
     /// Hand the map and what was found in it over: (updates, last result).
     pub fn finish(self) -> (Vec<PerceptionUpdate>, Option<Perceived>) {
         (self.updates, self.last)
     }
 
-    /// The sensor's world pose at `x`.
-    fn sensor_pose(&self, x: &State) -> (Vector3<f64>, Rotation3<f64>) {
-        let (center, rotation, _) = gen::world_kinematics(x);
-        let r = Rotation3::from_matrix_unchecked(Matrix3::from_fn(|i, j| rotation[i][j]));
-        (Vector3::from(center) + r * Vector3::from(self.settings.mount), r)
+    /// The sensor's world position on `body` (it turns with the body).
+    fn sensor_at(&self, body: &OrientedBox) -> Vector3<f64> {
+        body.center() + body.rotation() * Vector3::from(self.settings.mount)
     }
 
     fn scan(&mut self, x: &State) -> Result<(), CbfError> {
         model::validate_state(x)?;
-        let (origin, orientation) = self.sensor_pose(x);
-        let (center, rotation, toes) = gen::world_kinematics(x);
-        let r = Rotation3::from_matrix_unchecked(Matrix3::from_fn(|i, j| rotation[i][j]));
+        let body = model::body_box(x)?;
+        let origin = self.sensor_at(&body);
+        let orientation = *body.rotation();
         // The robot's own body and wheels hide what is behind them.
-        let mut own = vec![OrientedBox::new(Vector3::from(center), r, Vector3::from(model::BODY_HALF_EXTENTS))?];
+        let (_, _, toes) = gen::world_kinematics(x);
+        let mut own = vec![body];
         for toe in toes {
             own.push(OrientedBox::axis_aligned(Vector3::from(toe), Vector3::repeat(TOE_RADIUS))?);
         }
@@ -327,9 +318,8 @@ impl Perceiver {
     }
 
     fn request(&mut self, t: f64, x: &State) -> Result<(), CbfError> {
-        let (origin, _) = self.sensor_pose(x);
-        let (center, _, _) = gen::world_kinematics(x);
-        self.worker.request(&Vector3::from(center), &origin)?;
+        let body = model::body_box(x)?;
+        self.worker.request(body.center(), &self.sensor_at(&body))?;
         self.in_flight = Some((t, t + self.settings.latency));
         Ok(())
     }
@@ -338,14 +328,13 @@ impl Perceiver {
         let Some((requested_at, _)) = self.in_flight.take() else { return Ok(()) };
         let perceived = self.worker.wait_result()?;
         let ground = ground_from_planes(&perceived.planes, self.settings.worker.edges.max_tilt);
-        let (center, _, _) = gen::world_kinematics(x);
-        let center = Vector3::from(center);
+        let body = model::body_box(x)?;
         let mut nearest = perceived
             .cuboids
             .iter()
             .map(|c| {
                 let grown = widened(c, self.settings.edge_margin, self.settings.edge_lift)?;
-                Ok((distance_to_box(&center, c), EdgeCuboid::from_box(&grown)))
+                Ok((sphere_box::exact_distance(body.center(), 0.0, c), EdgeCuboid::from_box(&grown)))
             })
             .collect::<Result<Vec<(f64, EdgeCuboid)>, CbfError>>()?;
         nearest.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -377,13 +366,6 @@ fn widened(cuboid: &OrientedBox, margin: f64, lift: f64) -> Result<OrientedBox, 
         *r,
         cuboid.half_extents() + Vector3::new(0.0, 0.5 * margin, 0.5 * lift),
     )
-}
-
-/// Distance from `p` to the box (0 inside).
-fn distance_to_box(p: &Vector3<f64>, b: &OrientedBox) -> f64 {
-    let local = b.rotation().inverse() * (p - b.center());
-    let outside = local.abs() - b.half_extents();
-    outside.map(|v| v.max(0.0)).norm()
 }
 
 #[cfg(test)]

@@ -5,7 +5,7 @@
 //! (floor under each toe, which legs swing, the swing legs' foothold strips) and returns
 //! the gait's nominal input. The caller filters that input and integrates.
 
-use nalgebra::{Matrix3, Rotation3, Vector3};
+use nalgebra::Vector3;
 
 use super::gait::{Gait, GaitParams, Plan};
 use super::Scenario;
@@ -54,11 +54,9 @@ impl Course {
     pub fn new(scenario: Scenario, gait: GaitParams) -> Result<Self, CbfError> {
         let terrain = scenario.terrain()?;
         let mut env = Environment::new(Self::CAPACITY)?;
-        let true_edges = terrain.edges()?;
-        let mut edges = Vec::with_capacity(true_edges.len());
-        for edge in true_edges {
-            env.push_edge(edge)?;
-            edges.push(edge_box(&edge)?);
+        let edges = terrain.edge_boxes()?;
+        for edge in &edges {
+            env.push_edge(EdgeCuboid::from_box(edge))?;
         }
         for (leg, hip) in model::HIP_POSITIONS.iter().enumerate() {
             env.stability[leg] = [
@@ -142,8 +140,8 @@ impl Course {
     /// # Errors
     /// A state whose body rotation is not a rotation (non-finite entries).
     pub fn clearance(&self, x: &State) -> Result<Clearance, CbfError> {
-        let (body_center, body_rotation, toes) = gen::world_kinematics(x);
-        let body = body_box(&body_center, &body_rotation)?;
+        let (_, _, toes) = gen::world_kinematics(x);
+        let body = model::body_box(x)?;
         let body_clearance = self.edges.iter().map(|e| crate::sat::separation(e, &body)).fold(f64::INFINITY, f64::min);
         let toe_clearance = self
             .edges
@@ -161,13 +159,4 @@ impl Course {
         let arrived = ground.floors_under(&toes).iter().all(|&floor| (floor - ground.final_height()).abs() < 1e-9);
         arrived && body_center[0] > ground.last_change() && self.gait.swinging().is_none()
     }
-}
-
-fn edge_box(edge: &EdgeCuboid) -> Result<OrientedBox, CbfError> {
-    OrientedBox::new(edge.center, Rotation3::from_matrix_unchecked(edge.rotation), edge.half)
-}
-
-fn body_box(center: &[f64; 3], rotation: &[[f64; 3]; 3]) -> Result<OrientedBox, CbfError> {
-    let r = Rotation3::from_matrix_unchecked(Matrix3::from_fn(|i, j| rotation[i][j]));
-    OrientedBox::new(Vector3::from(*center), r, Vector3::from(model::BODY_HALF_EXTENTS))
 }

@@ -32,7 +32,7 @@ const STANCE_RETURN: f64 = 0.8;
 const STALL_LOWER_RATE: f64 = 0.02;
 /// A foothold strip keeps the toe centre this far inside its flat region: the toe radius
 /// and 2 cm \[m\].
-const FOOTHOLD_INSET: f64 = TOE_RADIUS + 0.02;
+pub const FOOTHOLD_INSET: f64 = TOE_RADIUS + 0.02;
 /// A strip reaching back to a lift-off point outside its region's inset leaves the toe
 /// this much room behind it \[m\].
 const FOOTHOLD_SLACK: f64 = 0.01;

@@ -154,21 +154,8 @@ fn perception_files(
     }
     files.push((format!("{stem}_map.csv"), map));
     files.push((format!("{stem}_perceived.txt"), found));
-    let truth = scenario
-        .terrain()
-        .and_then(|t| t.edges())
-        .and_then(|edges| {
-            edges
-                .iter()
-                .map(|e| {
-                    crate::OrientedBox::new(e.center, nalgebra::Rotation3::from_matrix_unchecked(e.rotation), e.half)
-                })
-                .collect::<Result<Vec<_>, _>>()
-        })
-        .map_err(io::Error::other)?;
-    for (name, view) in [("side", crate::perception::figure::View::Side), ("top", crate::perception::figure::View::Top)]
-    {
-        let chart = crate::perception::figure::chart(view, &last.points, &last.planes, &last.cuboids, &truth);
+    let truth = scenario.terrain().and_then(|t| t.edge_boxes()).map_err(io::Error::other)?;
+    for (name, chart) in crate::perception::figure::side_and_top(&last.points, &last.planes, &last.cuboids, &truth) {
         files.push((format!("{stem}_perception_{name}.svg"), chart.to_svg()));
     }
     Ok(files)

@@ -102,11 +102,12 @@ impl Terrain {
         self.changes[0][0]
     }
 
-    /// The edge cuboid along each change of height, in order.
+    /// The box along each change of height, in order: the edge cuboids as the exact
+    /// clearance checks and figures take them.
     ///
     /// # Errors
     /// None for a terrain built by [`Terrain::new`] (the boxes are checked again).
-    pub fn edges(&self) -> Result<Vec<EdgeCuboid>, CbfError> {
+    pub fn edge_boxes(&self) -> Result<Vec<OrientedBox>, CbfError> {
         let s = self.edge_half_section;
         let mut below = 0.0;
         let mut out = Vec::with_capacity(self.changes.len());
@@ -114,12 +115,18 @@ impl Terrain {
             // Tucked into the upper level's corner: past the riser at a rise, before the
             // drop at a drop.
             let (cx, top) = if h > below { (x + s, h) } else { (x - s, below) };
-            let cuboid =
-                OrientedBox::axis_aligned(Vector3::new(cx, 0.0, top - s), Vector3::new(s, self.half_width, s))?;
-            out.push(EdgeCuboid::from_box(&cuboid));
+            out.push(OrientedBox::axis_aligned(Vector3::new(cx, 0.0, top - s), Vector3::new(s, self.half_width, s))?);
             below = h;
         }
         Ok(out)
+    }
+
+    /// The edge cuboid along each change of height, in order, as the filter takes them.
+    ///
+    /// # Errors
+    /// As [`Terrain::edge_boxes`].
+    pub fn edges(&self) -> Result<Vec<EdgeCuboid>, CbfError> {
+        Ok(self.edge_boxes()?.iter().map(EdgeCuboid::from_box).collect())
     }
 
     /// The terrain as solid boxes, for a scanner to see: a floor (top at z = 0, from 4 m

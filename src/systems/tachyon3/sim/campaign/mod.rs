@@ -154,14 +154,12 @@ impl Episode {
         config
     }
 
-    /// [`Episode::config`] on perceived terrain: default perception, the scans' noise
-    /// seeded from the episode's `(seed, id)`.
-    pub fn perceived_config(&self, body_cbf: bool) -> SimConfig {
+    /// [`Episode::config`], on perceived terrain when `perception` is set: default
+    /// perception, the scans' noise seeded from the episode's `(seed, id)`.
+    pub fn config_with(&self, body_cbf: bool, perception: bool) -> SimConfig {
         let seed = self.seed.rotate_left(32) ^ self.id;
-        SimConfig {
-            perception: Some(PerceptionSettings { seed, ..PerceptionSettings::default() }),
-            ..self.config(body_cbf)
-        }
+        let perception = perception.then(|| PerceptionSettings { seed, ..PerceptionSettings::default() });
+        SimConfig { perception, ..self.config(body_cbf) }
     }
 }
 
@@ -228,7 +226,7 @@ pub struct CampaignSettings {
     pub body_cbf: bool,
     /// Worker threads; `None` = one per core.
     pub threads: Option<usize>,
-    /// With `true`, every episode runs on perceived terrain ([`Episode::perceived_config`]).
+    /// With `true`, every episode runs on perceived terrain ([`Episode::config_with`]).
     pub perception: bool,
 }
 
@@ -296,7 +294,7 @@ pub fn run(settings: &CampaignSettings, progress: impl Fn(usize) + Sync) -> Resu
 /// Climb `episode` once (with or without the body SSAT CBF, on true or perceived
 /// terrain), recording its summary or the error (or panic) that ended it.
 pub fn run_episode(episode: &Episode, body_cbf: bool, perception: bool) -> EpisodeRecord {
-    let config = if perception { episode.perceived_config(body_cbf) } else { episode.config(body_cbf) };
+    let config = episode.config_with(body_cbf, perception);
     // A panic is a bug, but one episode's must not cost the other ten thousand.
     let result = match catch_unwind(AssertUnwindSafe(|| super::run(&config, |_| {}))) {
         Ok(Ok(r)) => Ok(r.summary),
