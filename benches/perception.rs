@@ -60,11 +60,11 @@ fn perception(c: &mut Criterion) {
     });
     let mut voxels = VoxelMap::new(0.02).unwrap();
     voxels.insert(&map).unwrap();
-    let centroids = voxels.points_near(&Vector3::new(1.0, 0.0, 0.0), 3.5);
+    let (centroids, counts) = voxels.points_near(&Vector3::new(1.0, 0.0, 0.0), 3.5);
     g.throughput(Throughput::Elements(centroids.len() as u64));
     g.bench_function(format!("update_voxel_map_{}_points", centroids.len()), |b| {
         b.iter(|| {
-            let found = planes::segment(black_box(&centroids), &segment)?;
+            let found = planes::segment_weighted(black_box(&centroids), &counts, &segment)?;
             edges::edge_cuboids(&found, &centroids, &EdgeSettings { min_support: 40.0, ..EdgeSettings::default() })
         })
     });

@@ -136,6 +136,65 @@ fn distance_to_true_edges(p: &Vector3<f64>) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
+/// A shallow flight, 4 × 5 cm × 40 cm: lower than the 8 cm neighbourhoods, so its risers
+/// are no planes of their own. Steps like these were fitted as ramps, 1–7° tilted,
+/// before the map's noise tails were dropped, the fits weighted by each voxel's returns
+/// and the inlier distance set by the data: the map voxels at a tread halfway between
+/// voxel boundaries (5 cm) formed three layers, and the foot and top of each low riser
+/// tilted the treads either side of it.
+#[test]
+fn a_shallow_flight_accumulated_in_the_map_gives_level_treads_and_its_nosings() {
+    use cbfgen::perception::map::VoxelMap;
+    use cbfgen::perception::worker::WorkerSettings;
+    use cbfgen::OrientedBox;
+    const RISE: f64 = 0.05;
+    const RUN: f64 = 0.4;
+    const STEPS: usize = 4;
+    let end = FIRST_RISER + STEPS as f64 * RUN + 1.0;
+    let mut world = vec![OrientedBox::axis_aligned(Vector3::new(1.0, 0.0, -0.5), Vector3::new(4.0, 3.0, 0.5)).unwrap()];
+    for k in 0..STEPS {
+        let (x0, top) = (FIRST_RISER + k as f64 * RUN, (k + 1) as f64 * RISE);
+        world.push(
+            OrientedBox::axis_aligned(
+                Vector3::new((x0 + end) / 2.0, 0.0, top / 2.0),
+                Vector3::new((end - x0) / 2.0, 1.0, top / 2.0),
+            )
+            .unwrap(),
+        );
+    }
+    // Forty scans on the approach, as the loop's 10 Hz scans accumulate.
+    let settings = WorkerSettings::default();
+    let mut map = VoxelMap::new(settings.map_voxel).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(17);
+    let mut viewpoint = Vector3::zeros();
+    for i in 0..40 {
+        viewpoint = Vector3::new(-1.0 + 0.05 * i as f64, 0.0, 0.6);
+        map.insert(&Lidar::default().scan(&viewpoint, 0.0, &world, &[], &mut rng).unwrap()).unwrap();
+    }
+    let (points, weights) = map.points_near(&viewpoint, settings.map_radius);
+    let found =
+        planes::segment_weighted(&points, &weights, &SegmentSettings { viewpoint, ..settings.segment }).unwrap();
+    for k in 0..=STEPS {
+        let height = k as f64 * RISE;
+        let level: Vec<_> = found.iter().filter(|p| p.normal.z > 0.9 && (p.offset + height).abs() < 0.01).collect();
+        assert_eq!(level.len(), 1, "level {k} at {height} m: {:?}", summary(&found));
+        let (tilt, off) = (level[0].normal.angle(&Vector3::z()), -level[0].offset - height);
+        assert!(tilt < 0.3f64.to_radians(), "level {k} tilted {:.2} degrees", tilt.to_degrees());
+        assert!(off.abs() < 0.005, "level {k} {:.1} mm off", off * 1e3);
+    }
+    let cuboids =
+        edges::edge_cuboids(&found, &points, &EdgeSettings { viewpoint: Some(viewpoint), ..settings.edges }).unwrap();
+    let h = settings.edges.half_section;
+    for k in 0..STEPS {
+        let (x, z) = (FIRST_RISER + k as f64 * RUN + h, (k + 1) as f64 * RISE - h);
+        let near = cuboids
+            .iter()
+            .filter(|c| (c.center().x - x).abs() < 0.02 && (c.center().z - z).abs() < 0.02 && c.half_extents().x > 0.5)
+            .count();
+        assert_eq!(near, 1, "nosing {k}: {near} cuboids over 1 m long within 2 cm of ({x}, {z}): {cuboids:?}");
+    }
+}
+
 #[test]
 fn degenerate_clouds_give_no_planes_or_a_typed_error() {
     let s = SegmentSettings::default();
@@ -149,6 +208,9 @@ fn degenerate_clouds_give_no_planes_or_a_typed_error() {
     assert!(matches!(planes::segment(&nan, &s), Err(CbfError::NonFinite { .. })));
     let far = vec![Vector3::new(1e300, 0.0, 0.0)];
     assert!(matches!(planes::segment(&far, &s), Err(CbfError::OutOfRange { .. })));
+    for bad in [vec![1.0; 3], vec![f64::NAN; 2000], vec![0.0; 2000], vec![f64::MAX; 2000]] {
+        assert!(planes::segment_weighted(&line, &bad, &s).is_err(), "weights {:?}", &bad[..1]);
+    }
     assert!(planes::segment(&line, &SegmentSettings { neighbor_radius: f64::NAN, ..s }).is_err());
     assert!(edges::edge_cuboids(&[], &[], &EdgeSettings { probe: -1.0, ..Default::default() }).is_err());
     let lidar = Lidar { beams: usize::MAX, ..Lidar::default() };

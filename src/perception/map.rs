@@ -68,13 +68,14 @@ impl VoxelMap {
     }
 
     /// The centroid of every voxel within horizontal distance `radius` of `center`, in
-    /// cell order.
-    pub fn points_near(&self, center: &Vector3<f64>, radius: f64) -> Vec<Vector3<f64>> {
+    /// cell order, and how many points each averages (the weights
+    /// [`segment_weighted`](super::planes::segment_weighted) takes).
+    pub fn points_near(&self, center: &Vector3<f64>, radius: f64) -> (Vec<Vector3<f64>>, Vec<f64>) {
         self.cells
             .values()
-            .map(|(sum, n)| sum / f64::from(*n))
-            .filter(|p| (p.xy() - center.xy()).norm() <= radius)
-            .collect()
+            .map(|(sum, n)| (sum / f64::from(*n), f64::from(*n)))
+            .filter(|(p, _)| (p.xy() - center.xy()).norm() <= radius)
+            .unzip()
     }
 
     /// Drop the voxels farther than `radius` (horizontally) from `center`: bounds the
@@ -98,8 +99,8 @@ mod tests {
         map.insert(&[Vector3::new(0.001, 0.001, 0.001), Vector3::new(0.003, 0.005, 0.007)]).unwrap();
         map.insert(&[Vector3::new(5.0, 0.0, 0.0)]).unwrap();
         assert_eq!(map.len(), 2);
-        let near = map.points_near(&Vector3::zeros(), 1.0);
-        assert_eq!(near.len(), 1);
+        let (near, counts) = map.points_near(&Vector3::zeros(), 1.0);
+        assert_eq!((near.len(), counts), (1, vec![2.0]));
         assert!((near[0] - Vector3::new(0.002, 0.003, 0.004)).norm() < 1e-15);
         map.forget_beyond(&Vector3::zeros(), 1.0);
         assert_eq!(map.len(), 1);

@@ -31,7 +31,9 @@ pub struct SegmentSettings {
     pub max_curvature: f64,
     /// Fewest points a plane needs.
     pub min_plane_points: usize,
-    /// Inlier distance of the RANSAC refit \[m\].
+    /// Largest inlier distance of the RANSAC fits, set for raw returns \[m\]. Each region
+    /// uses three times its points' median scatter about their local planes, if that is
+    /// less (not under a quarter of this): averaged map voxels scatter far less.
     pub ransac_distance: f64,
     /// RANSAC hypotheses per region.
     pub ransac_iterations: usize,
@@ -270,34 +272,81 @@ impl<'a> Grid<'a> {
     }
 }
 
-/// The centroid of the points in each occupied voxel of side `size`, in first-seen order.
-fn voxel_centroids(points: &[Vector3<f64>], size: f64) -> Vec<Vector3<f64>> {
+/// A voxel is a surface's noise tail when a face neighbour holds more than this many
+/// times its weight and the neighbour on the opposite side is empty.
+pub const TAIL_RATIO: f64 = 4.0;
+
+/// The weighted centroid of the points in each occupied voxel of side `size` and the
+/// voxel's total weight, in first-seen order, without the surfaces' noise tails.
+///
+/// Why the tails go: range noise spreads a surface's returns into the voxels on either
+/// side of the one it lies in, and each of those holds the centroid of one tail of the
+/// noise, near its boundary with the surface's voxel, 1–1.5 cm off the surface. A tread
+/// halfway between voxel boundaries then shows as three layers, which a plane fit reads
+/// as a tilt. A tail holds a few percent of the surface's weight and has nothing beyond
+/// it. A surface near a boundary splits between two voxels in comparable shares, and
+/// both stay; a surface's last voxel at its border goes only when it is less than a
+/// quarter covered, which moves the border by under a quarter of a voxel.
+fn voxel_centroids(points: &[Vector3<f64>], weights: &[f64], size: f64) -> (Vec<Vector3<f64>>, Vec<f64>) {
     let mut slot: HashMap<Cell, usize, std::hash::BuildHasherDefault<CellHasher>> = HashMap::default();
+    let mut cells: Vec<Cell> = Vec::new();
     let mut sums: Vec<(Vector3<f64>, f64)> = Vec::new();
-    for p in points {
+    for (p, &w) in points.iter().zip(weights) {
         let k = *slot.entry(Grid::cell(p, size)).or_insert_with(|| {
+            cells.push(Grid::cell(p, size));
             sums.push((Vector3::zeros(), 0.0));
             sums.len() - 1
         });
-        sums[k].0 += p;
-        sums[k].1 += 1.0;
+        sums[k].0 += p * w;
+        sums[k].1 += w;
     }
-    sums.into_iter().map(|(sum, n)| sum / n).collect()
+    let weight_at = |k: Cell| slot.get(&k).map_or(0.0, |&i| sums[i].1);
+    cells
+        .iter()
+        .zip(&sums)
+        .filter(|&(&(x, y, z), &(_, w))| {
+            let tail = |a: Cell, b: Cell| weight_at(a) > TAIL_RATIO * w && weight_at(b) == 0.0;
+            let sides =
+                [((x, y, z - 1), (x, y, z + 1)), ((x - 1, y, z), (x + 1, y, z)), ((x, y - 1, z), (x, y + 1, z))];
+            !sides.iter().any(|&(a, b)| tail(a, b) || tail(b, a))
+        })
+        .map(|(_, &(sum, w))| (sum / w, w))
+        .unzip()
 }
 
-/// Least-squares plane through `points[idx]`: (centroid, unit normal, curvature), or
-/// `None` when they span no plane (fewer than three, or all on one point).
-fn fit(points: &[Vector3<f64>], idx: impl Iterator<Item = usize> + Clone) -> Option<(Vector3<f64>, Vector3<f64>, f64)> {
-    let n = idx.clone().count();
-    if n < 3 {
+/// A least-squares plane: where it passes, which way it faces, how far the points bend
+/// away from it, and how far they scatter about it.
+struct Fit {
+    centroid: Vector3<f64>,
+    normal: Vector3<f64>,
+    /// The smallest eigenvalue of the scatter over their sum.
+    curvature: f64,
+    /// Weighted mean square distance of the points from the plane \[m²\].
+    variance: f64,
+}
+
+/// Weighted least-squares plane through `points[idx]`, or `None` when they span no plane
+/// (fewer than three, or all on one point or one line). One pass: the sums are taken
+/// about the first point, which keeps them as well conditioned as about the centroid for
+/// a neighbourhood, and the scatter is their second moment less the mean's.
+fn fit(points: &[Vector3<f64>], weights: &[f64], idx: impl Iterator<Item = usize>) -> Option<Fit> {
+    let mut idx = idx.peekable();
+    let origin = points[*idx.peek()?];
+    let (mut count, mut total_weight) = (0usize, 0.0);
+    let (mut first, mut second) = (Vector3::zeros(), Matrix3::zeros());
+    for i in idx {
+        let (d, w) = (points[i] - origin, weights[i]);
+        count += 1;
+        total_weight += w;
+        first += d * w;
+        second += d * d.transpose() * w;
+    }
+    if count < 3 {
         return None;
     }
-    let centroid = idx.clone().map(|i| points[i]).sum::<Vector3<f64>>() / n as f64;
-    let mut cov = Matrix3::zeros();
-    for i in idx {
-        let d = points[i] - centroid;
-        cov += d * d.transpose();
-    }
+    let mean = first / total_weight;
+    let cov = second - mean * first.transpose();
+    let centroid = origin + mean;
     let [smallest, middle, largest] = symmetric_eigenvalues(&cov);
     let total = smallest + middle + largest;
     if total.is_nan() || total <= 1e-18 {
@@ -308,7 +357,7 @@ fn fit(points: &[Vector3<f64>], idx: impl Iterator<Item = usize> + Clone) -> Opt
         return None;
     }
     let normal = null_direction(&(cov - Matrix3::identity() * smallest))?;
-    Some((centroid, normal, smallest.max(0.0) / total))
+    Some(Fit { centroid, normal, curvature: smallest.max(0.0) / total, variance: smallest.max(0.0) / total_weight })
 }
 
 /// Eigenvalues of a symmetric 3×3 matrix, ascending, in closed form (the trigonometric
@@ -351,11 +400,14 @@ struct NeighborPart {
     starts: Vec<usize>,
     flat: Vec<u32>,
     normal: Vec<Option<(Vector3<f64>, f64)>>,
+    /// RMS distance of the neighbours from their plane (infinite without a normal).
+    scatter: Vec<f64>,
 }
 
 fn neighbor_part(
     grid: &Grid<'_>,
     points: &[Vector3<f64>],
+    weights: &[f64],
     range: std::ops::Range<usize>,
     s: &SegmentSettings,
 ) -> NeighborPart {
@@ -364,16 +416,16 @@ fn neighbor_part(
         starts: Vec::with_capacity(range.len()),
         flat: Vec::with_capacity(range.len() * s.max_neighbors / 2),
         normal: Vec::with_capacity(range.len()),
+        scatter: Vec::with_capacity(range.len()),
     };
     for i in range {
         grid.neighbors(i, s.max_neighbors, &mut nb);
         part.starts.push(part.flat.len());
         part.flat.extend_from_slice(&nb);
-        part.normal.push(if nb.len() >= s.min_neighbors {
-            fit(points, nb.iter().map(|&j| j as usize)).map(|(_, n, c)| (n, c))
-        } else {
-            None
-        });
+        let local =
+            (nb.len() >= s.min_neighbors).then(|| fit(points, weights, nb.iter().map(|&j| j as usize))).flatten();
+        part.normal.push(local.as_ref().map(|f| (f.normal, f.curvature)));
+        part.scatter.push(local.map_or(f64::INFINITY, |f| f.variance.sqrt()));
     }
     part
 }
@@ -385,20 +437,43 @@ fn neighbor_part(
 /// invalid settings. Points that support no plane (too few, on a line, all in one spot)
 /// give no plane, not an error.
 pub fn segment(points: &[Vector3<f64>], settings: &SegmentSettings) -> Result<Vec<Plane>, CbfError> {
+    if points.len() > MAX_POINTS {
+        return Err(CbfError::TooLarge { what: "points", value: points.len(), max: MAX_POINTS });
+    }
+    segment_weighted(points, &vec![1.0; points.len()], settings)
+}
+
+/// [`segment`] of points that each stand for `weights[i]` returns, such as the centroids
+/// of an accumulated map's voxels weighted by how many returns each averages: the fits
+/// then weigh each voxel by the evidence in it, as a fit to all the returns would.
+///
+/// # Errors
+/// As [`segment`]; also weights that are not one per point, or not in (0, 1e9].
+pub fn segment_weighted(
+    points: &[Vector3<f64>],
+    weights: &[f64],
+    settings: &SegmentSettings,
+) -> Result<Vec<Plane>, CbfError> {
     settings.validate()?;
     if points.len() > MAX_POINTS {
         return Err(CbfError::TooLarge { what: "points", value: points.len(), max: MAX_POINTS });
+    }
+    if weights.len() != points.len() {
+        return Err(CbfError::LengthMismatch { what: "point weights", expected: points.len(), got: weights.len() });
     }
     for p in points {
         for &c in p.iter() {
             within("point coordinate [m]", c, -1e5, 1e5, "[-1e5, 1e5]")?;
         }
     }
+    for &w in weights {
+        within("point weight", w, f64::MIN_POSITIVE, 1e9, "(0, 1e9]")?;
+    }
     let s = settings;
     // One point per voxel (the centroid of those in it): the map's density no longer sets
     // the cost, and a pile of points in one spot is one point.
-    let cloud = voxel_centroids(points, s.voxel);
-    let points = &cloud[..];
+    let (points, weights) = voxel_centroids(points, weights, s.voxel);
+    let (points, weights) = (&points[..], &weights[..]);
     let grid = Grid::new(points, s.neighbor_radius);
     // Neighbour lists, once: normals, growth and the hulls' rims all walk them. The
     // points are split between the cores; each part's lists are joined in order, so the
@@ -413,25 +488,29 @@ pub fn segment(points: &[Vector3<f64>], settings: &SegmentSettings) -> Result<Ve
         let grid = &grid;
         let handles: Vec<_> = (0..points.len())
             .step_by(chunk)
-            .map(|from| scope.spawn(move || neighbor_part(grid, points, from..(from + chunk).min(points.len()), s)))
+            .map(|from| {
+                scope.spawn(move || neighbor_part(grid, points, weights, from..(from + chunk).min(points.len()), s))
+            })
             .collect();
         handles.into_iter().map(|h| h.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))).collect()
     });
     let mut starts = Vec::with_capacity(points.len() + 1);
     let mut flat: Vec<u32> = Vec::with_capacity(parts.iter().map(|p| p.flat.len()).sum());
     let mut normal = Vec::with_capacity(points.len());
+    let mut scatter = Vec::with_capacity(points.len());
     for part in parts {
         starts.extend(part.starts.iter().map(|&k| k + flat.len()));
         flat.extend(part.flat);
         normal.extend(part.normal);
+        scatter.extend(part.scatter);
     }
     starts.push(flat.len());
-    let neighbors = |i: usize| &flat[starts[i]..starts[i + 1]];
+    let cloud = Cloud { points, weights, normal: &normal, scatter: &scatter, starts: &starts, flat: &flat };
     // Region growing from the flattest points.
-    let mut order: Vec<usize> = (0..points.len()).filter(|&i| normal[i].is_some()).collect();
-    order.sort_by(|&a, &b| {
-        normal[a].map(|n| n.1).partial_cmp(&normal[b].map(|n| n.1)).unwrap_or(std::cmp::Ordering::Equal)
-    });
+    let mut by_curvature: Vec<(f64, usize)> =
+        normal.iter().enumerate().filter_map(|(i, n)| n.map(|(_, c)| (c, i))).collect();
+    by_curvature.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let order: Vec<usize> = by_curvature.into_iter().map(|(_, i)| i).collect();
     let cos_max = s.max_normal_angle.cos();
     let mut region = vec![u32::MAX; points.len()];
     let mut regions: Vec<Vec<usize>> = Vec::new();
@@ -448,7 +527,7 @@ pub fn segment(points: &[Vector3<f64>], settings: &SegmentSettings) -> Result<Ve
         queue.push(seed);
         while let Some(i) = queue.pop() {
             let (ni, _) = normal[i].expect("only points with normals join");
-            for &j in neighbors(i) {
+            for &j in cloud.neighbors(i) {
                 let j = j as usize;
                 let Some((nj, cj)) = normal[j] else { continue };
                 if region[j] == u32::MAX && ni.dot(&nj).abs() >= cos_max {
@@ -462,99 +541,215 @@ pub fn segment(points: &[Vector3<f64>], settings: &SegmentSettings) -> Result<Ve
         }
         regions.push(members);
     }
-    let mut rng = ChaCha8Rng::seed_from_u64(s.seed);
-    let mut found: Vec<(Plane, Vec<usize>)> = regions
-        .iter()
-        .filter(|r| r.len() >= s.min_plane_points)
-        .flat_map(|r| refine(points, &normal, r, s, &mut rng))
-        .collect();
+    // Each region draws from its own stream of the seed, so the draws do not depend on
+    // which thread refines it.
+    regions.retain(|r| r.len() >= s.min_plane_points);
+    let mut found: Vec<(Plane, Vec<usize>)> = parallel_map(regions.len(), threads, |k| {
+        let mut rng = ChaCha8Rng::seed_from_u64(s.seed);
+        rng.set_stream(k as u64);
+        refine(&cloud, &regions[k], s, &mut rng)
+    })
+    .into_iter()
+    .flatten()
+    .collect();
     found.sort_by_key(|f| std::cmp::Reverse(f.0.inliers));
-    let mut merged = merge_coplanar(points, &normal, found, s);
-    // Refit each plane on every point of the cloud near it, not only its region's (noise
-    // splits a narrow face into regions, and one region's points can lean), leaving out
-    // the points that also lie on a crossing plane: at a corner those sit on one side of
-    // the edge only (a tread's points end at the riser) and tilt a narrow face.
+    let mut merged = merge_coplanar(&cloud, found, s);
     let snapshot: Vec<Plane> = merged.iter().map(|(p, _)| p.clone()).collect();
-    for (k, (plane, inliers)) in merged.iter_mut().enumerate() {
-        let crossing: Vec<&Plane> = snapshot
-            .iter()
-            .enumerate()
-            .filter(|&(j, q)| j != k && q.normal.dot(&plane.normal).abs() < 0.5)
-            .map(|(_, q)| q)
-            .collect();
-        let margin = Vector3::repeat(2.0 * s.neighbor_radius);
-        let (lo, hi) = inliers
-            .iter()
-            .fold((Vector3::repeat(f64::INFINITY), Vector3::repeat(f64::NEG_INFINITY)), |(lo, hi), &i| {
-                (lo.inf(&points[i]), hi.sup(&points[i]))
-            });
-        let (lo, hi) = (lo - margin, hi + margin);
-        // A band of 2.5 RANSAC distances: about 3 sigma of the range noise the RANSAC
-        // distance is set for, so the band does not clip the noise and keep a tilt.
-        let band = 2.5 * s.ransac_distance;
-        let mut clear: Vec<usize> = (0..points.len())
-            .filter(|&i| {
-                let p = &points[i];
-                // Geometry only: a per-point normal near an edge leans with the noise (a
-                // point pushed off the face towards the neighbouring face gets a mixed
-                // normal), so filtering on it would keep one side of the noise only.
-                (0..3).all(|a| p[a] >= lo[a] && p[a] <= hi[a])
-                    && plane.distance(p).abs() <= band
-                    && crossing.iter().all(|q| q.distance(p).abs() > band)
-            })
-            .collect();
-        // Least squares, then again without the points beyond 2.5 robust sigmas (the
-        // median absolute residual): what lies in the band but off the face goes.
-        for _ in 0..3 {
-            let Some((centroid, n, _)) = fit(points, clear.iter().copied()) else { break };
-            let n = if n.dot(&plane.normal) < 0.0 { -n } else { n };
-            plane.normal = n;
-            plane.offset = -n.dot(&centroid);
-            let mut residuals: Vec<f64> = clear.iter().map(|&i| plane.distance(&points[i]).abs()).collect();
-            residuals.sort_by(f64::total_cmp);
-            let sigma = 1.4826 * residuals[residuals.len() / 2];
-            clear.retain(|&i| plane.distance(&points[i]).abs() <= 2.5 * sigma);
-        }
+    let refitted = parallel_map(merged.len(), threads, |k| refit_on_face(&cloud, &snapshot, k, &merged[k].1, s));
+    for ((plane, _), refit) in merged.iter_mut().zip(refitted) {
+        *plane = refit;
     }
     // The hull takes in the points next to the inliers that lie on the plane too: at a
     // nosing those have mixed normals and stay out of the fit, but they are where the
     // tread ends.
-    let mut on_plane = vec![false; points.len()];
-    let planes = merged
-        .into_iter()
-        .map(|(mut plane, inliers)| {
-            let mut rim = inliers.clone();
-            for &i in &inliers {
-                on_plane[i] = true;
+    let planes = parallel_map(merged.len(), threads, |k| {
+        let (plane, inliers) = &merged[k];
+        let mut on_plane = vec![false; points.len()];
+        let mut rim = inliers.clone();
+        for &i in inliers {
+            on_plane[i] = true;
+        }
+        for &i in inliers {
+            for &j in cloud.neighbors(i) {
+                let j = j as usize;
+                if !on_plane[j] && plane.distance(&points[j]).abs() <= s.ransac_distance {
+                    on_plane[j] = true;
+                    rim.push(j);
+                }
             }
-            for &i in &inliers {
-                for &j in neighbors(i) {
+        }
+        Plane { polygon: hull(points, &rim, &plane.normal, &(plane.normal * -plane.offset)), ..plane.clone() }
+    });
+    Ok(planes)
+}
+
+/// Plane `k` of `planes` refitted on every point of the cloud near it, not only its
+/// region's (noise splits a narrow face into regions, and one region's points can lean),
+/// leaving out the points that also lie on a crossing plane: at a corner those sit on one
+/// side of the edge only (a tread's points end at the riser) and tilt a narrow face.
+fn refit_on_face(cloud: &Cloud<'_>, planes: &[Plane], k: usize, inliers: &[usize], s: &SegmentSettings) -> Plane {
+    let Cloud { points, weights, .. } = *cloud;
+    let cos_max = s.max_normal_angle.cos();
+    let mut plane = planes[k].clone();
+    let crossing: Vec<&Plane> = planes
+        .iter()
+        .enumerate()
+        .filter(|&(j, q)| j != k && q.normal.dot(&plane.normal).abs() < 0.5)
+        .map(|(_, q)| q)
+        .collect();
+    let margin = Vector3::repeat(2.0 * s.neighbor_radius);
+    let (lo, hi) =
+        inliers.iter().fold((Vector3::repeat(f64::INFINITY), Vector3::repeat(f64::NEG_INFINITY)), |(lo, hi), &i| {
+            (lo.inf(&points[i]), hi.sup(&points[i]))
+        });
+    let (lo, hi) = (lo - margin, hi + margin);
+    // A band of 2.5 inlier distances: about 3 sigma of the noise, so the band does
+    // not clip the noise and keep a tilt, and no wider: a low riser is no plane of its
+    // own (too few points), and its points within the band tilt a tread.
+    let band = 2.5 * inlier_distance(cloud, inliers, s);
+    let mut clear: Vec<usize> = (0..points.len())
+        .filter(|&i| {
+            let p = &points[i];
+            // Geometry only: a per-point normal near an edge leans with the noise (a
+            // point pushed off the face towards the neighbouring face gets a mixed
+            // normal), so filtering on it would keep one side of the noise only.
+            (0..3).all(|a| p[a] >= lo[a] && p[a] <= hi[a])
+                && plane.distance(p).abs() <= band
+                && crossing.iter().all(|q| q.distance(p).abs() > band)
+        })
+        .collect();
+    // A level face is fitted away from its border where no plane found crosses it
+    // there: at such a border the band also holds the foot or the top of what rises
+    // or drops beyond it, on one side of the face only, and that tilts the face. A
+    // riser lower than the neighbourhood radius is no plane of its own, and its foot
+    // and top would tilt the treads either side of it. Where a found plane crosses,
+    // its points are out already; a vertical face's borders are the level faces
+    // above and below it, which are large and found.
+    if plane.normal.z >= cos_max {
+        let centroid = plane.normal * -plane.offset;
+        let outline = hull(points, inliers, &plane.normal, &centroid);
+        let margins: Vec<f64> = (0..outline.len())
+            .map(|e| {
+                let (a, b) = (outline[e], outline[(e + 1) % outline.len()]);
+                let crossed = crossing.iter().any(|q| q.distance(&a).abs() <= band && q.distance(&b).abs() <= band);
+                if crossed {
+                    0.0
+                } else {
+                    band
+                }
+            })
+            .collect();
+        let bounds = shrunk_edges(&outline, &margins, &plane.normal);
+        clear.retain(|&i| bounds.iter().all(|(inward, limit)| inward.dot(&points[i]) >= *limit));
+    }
+    // Least squares, then again without the points beyond 2.5 robust sigmas (the
+    // median absolute residual): what lies in the band but off the face goes.
+    for _ in 0..3 {
+        let Some(Fit { centroid, normal: n, .. }) = fit(points, weights, clear.iter().copied()) else { break };
+        let n = if n.dot(&plane.normal) < 0.0 { -n } else { n };
+        plane.normal = n;
+        plane.offset = -n.dot(&centroid);
+        let mut residuals: Vec<f64> = clear.iter().map(|&i| plane.distance(&points[i]).abs()).collect();
+        let mid = residuals.len() / 2;
+        let sigma = 1.4826 * *residuals.select_nth_unstable_by(mid, f64::total_cmp).1;
+        clear.retain(|&i| plane.distance(&points[i]).abs() <= 2.5 * sigma);
+    }
+    plane
+}
+
+/// `f(0), …, f(count - 1)` on up to `threads` threads, in order. Each thread takes the
+/// next index left, so one large item (the floor) does not hold back a share of the rest.
+fn parallel_map<R: Send>(count: usize, threads: usize, f: impl Fn(usize) -> R + Sync) -> Vec<R> {
+    if threads <= 1 || count <= 1 {
+        return (0..count).map(f).collect();
+    }
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let mut done: Vec<(usize, R)> = std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..threads.min(count))
+            .map(|_| {
+                scope.spawn(|| {
+                    let mut mine = Vec::new();
+                    loop {
+                        let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        if i >= count {
+                            break mine;
+                        }
+                        mine.push((i, f(i)));
+                    }
+                })
+            })
+            .collect();
+        handles.into_iter().flat_map(|h| h.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))).collect()
+    });
+    done.sort_unstable_by_key(|(i, _)| *i);
+    done.into_iter().map(|(_, r)| r).collect()
+}
+
+/// The thinned cloud the planes are found in: voxel centroids, their weights and normals.
+#[derive(Clone, Copy)]
+struct Cloud<'a> {
+    points: &'a [Vector3<f64>],
+    weights: &'a [f64],
+    normal: &'a [Option<(Vector3<f64>, f64)>],
+    /// Each point's neighbourhood's RMS distance from its own plane.
+    scatter: &'a [f64],
+    /// Point `i`'s neighbours are `flat[starts[i]..starts[i + 1]]`.
+    starts: &'a [usize],
+    flat: &'a [u32],
+}
+
+impl Cloud<'_> {
+    fn neighbors(&self, i: usize) -> &[u32] {
+        &self.flat[self.starts[i]..self.starts[i + 1]]
+    }
+
+    /// The largest set of `members` joined through neighbourhoods (most weight).
+    fn largest_component(&self, members: &[usize]) -> Vec<usize> {
+        // 0: not a member; 1: a member not yet reached; 2: reached.
+        let mut state = vec![0u8; self.points.len()];
+        for &i in members {
+            state[i] = 1;
+        }
+        let (mut best, mut best_weight) = (Vec::new(), 0.0);
+        let mut queue = Vec::new();
+        for &seed in members {
+            if state[seed] != 1 {
+                continue;
+            }
+            state[seed] = 2;
+            queue.clear();
+            queue.push(seed);
+            let mut component = Vec::new();
+            let mut weight = 0.0;
+            while let Some(i) = queue.pop() {
+                component.push(i);
+                weight += self.weights[i];
+                for &j in self.neighbors(i) {
                     let j = j as usize;
-                    if !on_plane[j] && plane.distance(&points[j]).abs() <= s.ransac_distance {
-                        on_plane[j] = true;
-                        rim.push(j);
+                    if state[j] == 1 {
+                        state[j] = 2;
+                        queue.push(j);
                     }
                 }
             }
-            for &i in &rim {
-                on_plane[i] = false;
+            if weight > best_weight {
+                (best, best_weight) = (component, weight);
             }
-            plane.polygon = hull(points, &rim, &plane.normal, &(plane.normal * -plane.offset));
-            plane
-        })
-        .collect();
-    Ok(planes)
+        }
+        best.sort_unstable();
+        best
+    }
 }
 
 /// Planes split by noise into regions come back together: two planes within the
 /// growth angle of each other and within the RANSAC distance at each other's centroid
 /// are one, refitted on both sets of inliers.
 fn merge_coplanar(
-    points: &[Vector3<f64>],
-    normal: &[Option<(Vector3<f64>, f64)>],
+    cloud: &Cloud<'_>,
     mut found: Vec<(Plane, Vec<usize>)>,
     s: &SegmentSettings,
 ) -> Vec<(Plane, Vec<usize>)> {
+    let points = cloud.points;
     let cos_max = s.max_normal_angle.cos();
     let mut merged: Vec<(Plane, Vec<usize>)> = Vec::new();
     for (plane, inliers) in found.drain(..) {
@@ -565,7 +760,7 @@ fn merge_coplanar(
         match into {
             Some((m, set)) => {
                 set.extend(inliers);
-                if let Some(refit) = plane_of(points, normal, set, s) {
+                if let Some(refit) = plane_of(cloud, set, s) {
                     *m = refit;
                 }
             }
@@ -576,6 +771,27 @@ fn merge_coplanar(
     merged
 }
 
+/// The inlier distance of a plane through `members`: three times the median scatter of
+/// their neighbourhoods about their local planes, within \[a quarter, all\] of the
+/// setting. The setting is for raw returns; averaged map voxels scatter a millimetre or
+/// two, and a centimetre would let a plane tilted through the treads of a shallow flight
+/// (a ramp) gather as many inliers as one tread.
+fn inlier_distance(cloud: &Cloud<'_>, members: &[usize], s: &SegmentSettings) -> f64 {
+    let mut scatter: Vec<f64> = members.iter().map(|&i| cloud.scatter[i]).filter(|d| d.is_finite()).collect();
+    if scatter.is_empty() {
+        return s.ransac_distance;
+    }
+    let mid = scatter.len() / 2;
+    let (_, median, _) = scatter.select_nth_unstable_by(mid, f64::total_cmp);
+    (3.0 * *median).clamp(0.25 * s.ransac_distance, s.ransac_distance)
+}
+
+/// Fewest RANSAC hypotheses per plane.
+const MIN_HYPOTHESES: usize = 20;
+
+/// Refits of a RANSAC plane on its connected inliers.
+const LOCAL_STEPS: usize = 2;
+
 /// Most planes one region is split into.
 const MAX_PLANES_PER_REGION: usize = 8;
 
@@ -583,13 +799,9 @@ const MAX_PLANES_PER_REGION: usize = 8;
 /// left. A region can hold more than one plane: below a step lower than the neighbour
 /// radius, the normals turn from floor to riser to tread in small steps, and growth runs
 /// over the edge.
-fn refine(
-    points: &[Vector3<f64>],
-    normal: &[Option<(Vector3<f64>, f64)>],
-    region: &[usize],
-    s: &SegmentSettings,
-    rng: &mut impl Rng,
-) -> Vec<(Plane, Vec<usize>)> {
+fn refine(cloud: &Cloud<'_>, region: &[usize], s: &SegmentSettings, rng: &mut impl Rng) -> Vec<(Plane, Vec<usize>)> {
+    let points = cloud.points;
+    let distance = inlier_distance(cloud, region, s);
     let cos_max = s.max_normal_angle.cos();
     let mut planes: Vec<(Plane, Vec<usize>)> = Vec::new();
     let mut left = region.to_vec();
@@ -598,11 +810,18 @@ fn refine(
         if left.len() < s.min_plane_points {
             break;
         }
-        let Some((plane, inliers)) = best_plane(points, normal, &left, s, rng) else { break };
+        let Some((plane, inliers)) = best_plane(cloud, &left, distance, s, rng) else { break };
         for &i in &inliers {
             taken[i] = true;
         }
-        left.retain(|&i| !taken[i]);
+        // The plane's noise tails go with it: the points beyond the inlier distance but
+        // within three of it, facing the same way. Left behind, they lie all over the
+        // plane's area and let a later plane tilt through them.
+        let tail = |i: usize| {
+            plane.distance(&points[i]).abs() <= 3.0 * distance
+                && cloud.normal[i].is_none_or(|(m, _)| m.dot(&plane.normal).abs() >= cos_max)
+        };
+        left.retain(|&i| !taken[i] && !tail(i));
         // What a plane leaves of its own noise (the tails beyond the inlier distance)
         // fits a parallel plane a noise width off: that is no plane of its own.
         let centroid = inliers.iter().map(|&i| points[i]).sum::<Vector3<f64>>() / inliers.len() as f64;
@@ -618,17 +837,18 @@ fn refine(
 
 /// RANSAC over a region's points, a least-squares refit on the best inliers, and their hull.
 fn best_plane(
-    points: &[Vector3<f64>],
-    normal: &[Option<(Vector3<f64>, f64)>],
+    cloud: &Cloud<'_>,
     region: &[usize],
+    distance: f64,
     s: &SegmentSettings,
     rng: &mut impl Rng,
 ) -> Option<(Plane, Vec<usize>)> {
+    let Cloud { points, normal, .. } = *cloud;
     let cos_max = s.max_normal_angle.cos();
     // An inlier lies near the plane and, where it has a normal, agrees with it: points of
     // a neighbouring face near the corner stay out (after Schnabel et al.).
     let fits = |n: &Vector3<f64>, d: f64, i: usize| {
-        (n.dot(&points[i]) + d).abs() <= s.ransac_distance && normal[i].is_none_or(|(m, _)| m.dot(n).abs() >= cos_max)
+        (n.dot(&points[i]) + d).abs() <= distance && normal[i].is_none_or(|(m, _)| m.dot(n).abs() >= cos_max)
     };
     // Hypotheses are scored on at most this many of the region's points, drawn once.
     const SCORED: usize = 2000;
@@ -637,8 +857,20 @@ fn best_plane(
     } else {
         (0..SCORED).map(|_| region[rng.random_range(0..region.len())]).collect()
     };
-    let mut best: Option<(usize, Vector3<f64>, f64)> = None;
-    for _ in 0..s.ransac_iterations {
+    // MSAC (Torr and Zisserman): each point costs its squared distance, capped at the
+    // inlier distance's square where it is no inlier. Counting inliers alone cannot tell
+    // a tread from a plane tilted through it that picks up the foot of one riser and the
+    // top of the next (under a neighbourhood radius, a low riser's points have normals
+    // near vertical); the tread's points lie far closer to the level plane.
+    let cap = distance * distance;
+    let mut best: Option<(f64, Vector3<f64>, f64)> = None;
+    // Hypotheses stop once one all-inlier draw was likely among them (99.9 %) for the
+    // best inlier share seen, the local optimisation below doing the rest.
+    let mut needed = s.ransac_iterations;
+    for iteration in 0..s.ransac_iterations {
+        if iteration >= needed.max(MIN_HYPOTHESES) {
+            break;
+        }
         let [a, b, c] = [0; 3].map(|_| points[region[rng.random_range(0..region.len())]]);
         let n = (b - a).cross(&(c - a));
         if n.norm() < 1e-9 {
@@ -646,38 +878,75 @@ fn best_plane(
         }
         let n = n.normalize();
         let d = -n.dot(&a);
-        let count = scored.iter().filter(|&&i| fits(&n, d, i)).count();
-        if best.is_none_or(|(k, _, _)| count > k) {
-            best = Some((count, n, d));
+        let (mut cost, mut count) = (0.0, 0usize);
+        for &i in &scored {
+            if fits(&n, d, i) {
+                cost += (n.dot(&points[i]) + d).powi(2);
+                count += 1;
+            } else {
+                cost += cap;
+            }
+        }
+        if best.is_none_or(|(k, _, _)| cost < k) {
+            best = Some((cost, n, d));
+            let share = count as f64 / scored.len() as f64;
+            let miss = 1.0 - share.powi(3);
+            if miss <= 0.0 {
+                needed = 0;
+            } else if miss < 1.0 {
+                needed = (0.001f64.ln() / miss.ln()).ceil().min(s.ransac_iterations as f64) as usize;
+            }
         }
     }
-    let (_, n, d) = best?;
+    let (_, mut n, mut d) = best?;
+    // Local optimisation (after Chum et al.'s LO-RANSAC), on one connected piece
+    // (Schnabel et al.): a plane's points are one surface. A plane tilted through a
+    // tread and the far floor's noise tails has its inliers in separate pieces; the
+    // largest piece, refitted, is the tread.
+    for _ in 0..LOCAL_STEPS {
+        let near: Vec<usize> = region.iter().copied().filter(|&i| fits(&n, d, i)).collect();
+        let piece = cloud.largest_component(&near);
+        if piece.len() < s.min_plane_points {
+            break;
+        }
+        let refit = fit(points, cloud.weights, piece.iter().copied())?;
+        (n, d) = (refit.normal, -refit.normal.dot(&refit.centroid));
+    }
     let inliers: Vec<usize> = region.iter().copied().filter(|&i| fits(&n, d, i)).collect();
     if inliers.len() < s.min_plane_points {
         return None;
     }
-    Some((plane_of(points, normal, &inliers, s)?, inliers))
+    Some((plane_of(cloud, &inliers, s)?, inliers))
 }
 
-/// The least-squares plane of `inliers`, oriented, with the hull of all of them. The fit
+/// The least-squares plane of `inliers`, oriented; its hull is left for the end. The fit
 /// leaves out points of high curvature: near a corner, points of the other face lie
 /// within the inlier distance, and would tilt a narrow face such as a 16 cm riser.
-fn plane_of(
-    points: &[Vector3<f64>],
-    normal: &[Option<(Vector3<f64>, f64)>],
-    inliers: &[usize],
-    s: &SegmentSettings,
-) -> Option<Plane> {
+fn plane_of(cloud: &Cloud<'_>, inliers: &[usize], s: &SegmentSettings) -> Option<Plane> {
+    let Cloud { points, weights, normal, .. } = *cloud;
     let flat = inliers.iter().copied().filter(|&i| normal[i].is_some_and(|(_, c)| c <= s.max_curvature));
-    let (centroid, mut normal, _) = fit(points, flat)?;
+    let Fit { centroid, mut normal, .. } = fit(points, weights, flat)?;
     // Orientation: up for floors and ceilings, towards the viewpoint for walls.
     let flip = if normal.z.abs() >= 0.5 { normal.z < 0.0 } else { normal.dot(&(s.viewpoint - centroid)) < 0.0 };
     if flip {
         normal = -normal;
     }
     let offset = -normal.dot(&centroid);
-    let polygon = hull(points, inliers, &normal, &centroid);
-    Some(Plane { normal, offset, polygon, inliers: inliers.len() })
+    Some(Plane { normal, offset, polygon: Vec::new(), inliers: inliers.len() })
+}
+
+/// The half-spaces `inward · p >= limit` of a convex polygon's edges (counter-clockwise
+/// seen against `normal`), each moved in by its margin; edges of no margin are left out.
+fn shrunk_edges(polygon: &[Vector3<f64>], margins: &[f64], normal: &Vector3<f64>) -> Vec<(Vector3<f64>, f64)> {
+    let n = polygon.len();
+    (0..n)
+        .filter(|&k| margins[k] > 0.0)
+        .filter_map(|k| {
+            let (a, b) = (polygon[k], polygon[(k + 1) % n]);
+            let inward = normal.cross(&(b - a)).try_normalize(0.0)?;
+            Some((inward, inward.dot(&a) + margins[k]))
+        })
+        .collect()
 }
 
 /// Convex hull (Andrew's monotone chain) of the inliers projected onto the plane,

@@ -17,7 +17,7 @@ use nalgebra::Vector3;
 
 use super::edges::{edge_cuboids, EdgeSettings};
 use super::map::VoxelMap;
-use super::planes::{segment, Plane, SegmentSettings};
+use super::planes::{segment_weighted, Plane, SegmentSettings};
 use crate::error::{within, CbfError};
 use crate::geometry::OrientedBox;
 
@@ -66,6 +66,8 @@ impl WorkerSettings {
 pub struct Perceived {
     /// Map points (voxel centroids) it was computed from.
     pub points: Vec<Vector3<f64>>,
+    /// How many scanned points each map point averages.
+    pub weights: Vec<f64>,
     /// The planes found.
     pub planes: Vec<Plane>,
     /// The edge cuboids found.
@@ -189,8 +191,8 @@ fn update(
     viewpoint: &Vector3<f64>,
 ) -> Result<Perceived, CbfError> {
     let started = Instant::now();
-    let points = map.points_near(center, settings.map_radius);
-    let planes = segment(&points, &SegmentSettings { viewpoint: *viewpoint, ..settings.segment })?;
+    let (points, weights) = map.points_near(center, settings.map_radius);
+    let planes = segment_weighted(&points, &weights, &SegmentSettings { viewpoint: *viewpoint, ..settings.segment })?;
     let cuboids = edge_cuboids(&planes, &points, &EdgeSettings { viewpoint: Some(*viewpoint), ..settings.edges })?;
-    Ok(Perceived { points, planes, cuboids, elapsed: started.elapsed() })
+    Ok(Perceived { points, weights, planes, cuboids, elapsed: started.elapsed() })
 }
