@@ -146,22 +146,10 @@ fn distance_to_true_edges(p: &Vector3<f64>) -> f64 {
 fn a_shallow_flight_accumulated_in_the_map_gives_level_treads_and_its_nosings() {
     use cbfgen::perception::map::VoxelMap;
     use cbfgen::perception::worker::WorkerSettings;
-    use cbfgen::OrientedBox;
     const RISE: f64 = 0.05;
     const RUN: f64 = 0.4;
     const STEPS: usize = 4;
-    let end = FIRST_RISER + STEPS as f64 * RUN + 1.0;
-    let mut world = vec![OrientedBox::axis_aligned(Vector3::new(1.0, 0.0, -0.5), Vector3::new(4.0, 3.0, 0.5)).unwrap()];
-    for k in 0..STEPS {
-        let (x0, top) = (FIRST_RISER + k as f64 * RUN, (k + 1) as f64 * RISE);
-        world.push(
-            OrientedBox::axis_aligned(
-                Vector3::new((x0 + end) / 2.0, 0.0, top / 2.0),
-                Vector3::new((end - x0) / 2.0, 1.0, top / 2.0),
-            )
-            .unwrap(),
-        );
-    }
+    let world = step_terrain::flight(RISE, RUN, STEPS, FIRST_RISER + STEPS as f64 * RUN + 1.0);
     // Forty scans on the approach, as the loop's 10 Hz scans accumulate.
     let settings = WorkerSettings::default();
     let mut map = VoxelMap::new(settings.map_voxel).unwrap();

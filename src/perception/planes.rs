@@ -41,8 +41,9 @@ pub struct SegmentSettings {
     pub seed: u64,
     /// Vertical planes' normals point towards this point (the sensor); others point up.
     pub viewpoint: Vector3<f64>,
-    /// Threads the neighbourhoods are gathered on, for clouds of 20 000 points or more;
-    /// 0: one per core. At most 8. The result is the same for any number.
+    /// Threads the normals, the regions' RANSAC, the refits and the hulls run on, for
+    /// clouds of 20 000 points or more; 0: one per core. At most 8. The result is the
+    /// same for any number.
     pub threads: usize,
 }
 
@@ -288,9 +289,10 @@ pub const TAIL_RATIO: f64 = 4.0;
 /// both stay; a surface's last voxel at its border goes only when it is less than a
 /// quarter covered, which moves the border by under a quarter of a voxel.
 fn voxel_centroids(points: &[Vector3<f64>], weights: &[f64], size: f64) -> (Vec<Vector3<f64>>, Vec<f64>) {
-    let mut slot: HashMap<Cell, usize, std::hash::BuildHasherDefault<CellHasher>> = HashMap::default();
-    let mut cells: Vec<Cell> = Vec::new();
-    let mut sums: Vec<(Vector3<f64>, f64)> = Vec::new();
+    let mut slot: HashMap<Cell, usize, std::hash::BuildHasherDefault<CellHasher>> =
+        HashMap::with_capacity_and_hasher(points.len() / 2, Default::default());
+    let mut cells: Vec<Cell> = Vec::with_capacity(points.len() / 2);
+    let mut sums: Vec<(Vector3<f64>, f64)> = Vec::with_capacity(points.len() / 2);
     for (p, &w) in points.iter().zip(weights) {
         let k = *slot.entry(Grid::cell(p, size)).or_insert_with(|| {
             cells.push(Grid::cell(p, size));
@@ -396,7 +398,7 @@ const MAX_THREADS: usize = 8;
 
 /// The neighbour lists and normals of a run of points.
 struct NeighborPart {
-    /// Where each point's list starts in `flat` (relative to this part).
+    /// Where each point's list starts in `flat`, and where the last one ends.
     starts: Vec<usize>,
     flat: Vec<u32>,
     normal: Vec<Option<(Vector3<f64>, f64)>>,
@@ -413,7 +415,7 @@ fn neighbor_part(
 ) -> NeighborPart {
     let mut nb = Vec::with_capacity(s.max_neighbors);
     let mut part = NeighborPart {
-        starts: Vec::with_capacity(range.len()),
+        starts: Vec::with_capacity(range.len() + 1),
         flat: Vec::with_capacity(range.len() * s.max_neighbors / 2),
         normal: Vec::with_capacity(range.len()),
         scatter: Vec::with_capacity(range.len()),
@@ -427,6 +429,7 @@ fn neighbor_part(
         part.normal.push(local.as_ref().map(|f| (f.normal, f.curvature)));
         part.scatter.push(local.map_or(f64::INFINITY, |f| f.variance.sqrt()));
     }
+    part.starts.push(part.flat.len());
     part
 }
 
@@ -484,7 +487,7 @@ pub fn segment_weighted(
         n => n,
     };
     let chunk = points.len().div_ceil(threads).max(1);
-    let parts: Vec<NeighborPart> = std::thread::scope(|scope| {
+    let mut parts: Vec<NeighborPart> = std::thread::scope(|scope| {
         let grid = &grid;
         let handles: Vec<_> = (0..points.len())
             .step_by(chunk)
@@ -494,18 +497,14 @@ pub fn segment_weighted(
             .collect();
         handles.into_iter().map(|h| h.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))).collect()
     });
-    let mut starts = Vec::with_capacity(points.len() + 1);
-    let mut flat: Vec<u32> = Vec::with_capacity(parts.iter().map(|p| p.flat.len()).sum());
+    // The neighbour lists stay in their parts (joining them was a copy of megabytes).
     let mut normal = Vec::with_capacity(points.len());
     let mut scatter = Vec::with_capacity(points.len());
-    for part in parts {
-        starts.extend(part.starts.iter().map(|&k| k + flat.len()));
-        flat.extend(part.flat);
-        normal.extend(part.normal);
-        scatter.extend(part.scatter);
+    for part in &mut parts {
+        normal.append(&mut part.normal);
+        scatter.append(&mut part.scatter);
     }
-    starts.push(flat.len());
-    let cloud = Cloud { points, weights, normal: &normal, scatter: &scatter, starts: &starts, flat: &flat };
+    let cloud = Cloud { points, weights, normal: &normal, scatter: &scatter, parts: &parts, chunk };
     // Region growing from the flattest points.
     let mut by_curvature: Vec<(f64, usize)> =
         normal.iter().enumerate().filter_map(|(i, n)| n.map(|(_, c)| (c, i))).collect();
@@ -693,20 +692,23 @@ struct Cloud<'a> {
     normal: &'a [Option<(Vector3<f64>, f64)>],
     /// Each point's neighbourhood's RMS distance from its own plane.
     scatter: &'a [f64],
-    /// Point `i`'s neighbours are `flat[starts[i]..starts[i + 1]]`.
-    starts: &'a [usize],
-    flat: &'a [u32],
+    /// Point `i`'s neighbour list is in part `i / chunk`, at `i % chunk` there.
+    parts: &'a [NeighborPart],
+    chunk: usize,
 }
 
 impl Cloud<'_> {
     fn neighbors(&self, i: usize) -> &[u32] {
-        &self.flat[self.starts[i]..self.starts[i + 1]]
+        let part = &self.parts[i / self.chunk];
+        let k = i % self.chunk;
+        &part.flat[part.starts[k]..part.starts[k + 1]]
     }
 
     /// The largest set of `members` joined through neighbourhoods (most weight).
-    fn largest_component(&self, members: &[usize]) -> Vec<usize> {
+    /// `state` is one zero per point, and is left so: it is scratch, kept by the caller
+    /// across calls (a buffer per call was an allocation the size of the cloud each time).
+    fn largest_component(&self, members: &[usize], state: &mut [u8]) -> Vec<usize> {
         // 0: not a member; 1: a member not yet reached; 2: reached.
-        let mut state = vec![0u8; self.points.len()];
         for &i in members {
             state[i] = 1;
         }
@@ -735,6 +737,9 @@ impl Cloud<'_> {
             if weight > best_weight {
                 (best, best_weight) = (component, weight);
             }
+        }
+        for &i in members {
+            state[i] = 0;
         }
         best.sort_unstable();
         best
@@ -806,11 +811,12 @@ fn refine(cloud: &Cloud<'_>, region: &[usize], s: &SegmentSettings, rng: &mut im
     let mut planes: Vec<(Plane, Vec<usize>)> = Vec::new();
     let mut left = region.to_vec();
     let mut taken = vec![false; points.len()];
+    let mut scratch = vec![0u8; points.len()];
     for _ in 0..MAX_PLANES_PER_REGION {
         if left.len() < s.min_plane_points {
             break;
         }
-        let Some((plane, inliers)) = best_plane(cloud, &left, distance, s, rng) else { break };
+        let Some((plane, inliers)) = best_plane(cloud, &left, distance, s, rng, &mut scratch) else { break };
         for &i in &inliers {
             taken[i] = true;
         }
@@ -842,6 +848,7 @@ fn best_plane(
     distance: f64,
     s: &SegmentSettings,
     rng: &mut impl Rng,
+    scratch: &mut [u8],
 ) -> Option<(Plane, Vec<usize>)> {
     let Cloud { points, normal, .. } = *cloud;
     let cos_max = s.max_normal_angle.cos();
@@ -905,7 +912,7 @@ fn best_plane(
     // largest piece, refitted, is the tread.
     for _ in 0..LOCAL_STEPS {
         let near: Vec<usize> = region.iter().copied().filter(|&i| fits(&n, d, i)).collect();
-        let piece = cloud.largest_component(&near);
+        let piece = cloud.largest_component(&near, scratch);
         if piece.len() < s.min_plane_points {
             break;
         }
