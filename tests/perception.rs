@@ -206,7 +206,8 @@ fn degenerate_clouds_give_no_planes_or_a_typed_error() {
     assert!(matches!(lidar.scan(&Vector3::zeros(), 0.0, &terrain(), &[], &mut rng), Err(CbfError::TooLarge { .. })));
 }
 
-/// The neighbourhoods gathered on one thread or several give the same planes, bit for bit.
+/// Segmentation on one thread or several (neighbourhoods, RANSAC per region, refits,
+/// hulls) gives the same planes, bit for bit.
 #[test]
 fn segmentation_does_not_depend_on_the_number_of_threads() {
     let (points, viewpoint) = scan(3);

@@ -213,10 +213,7 @@ pub fn edge_cuboids(planes: &[Plane], points: &[Vector3<f64>], s: &EdgeSettings)
                 .map(|f| {
                     let at = a + (b - a) * f;
                     let beyond = at + outward * s.probe;
-                    let near = below
-                        .iter()
-                        .filter(|p| (p.xy() - beyond.xy()).norm() <= s.probe && (p.z - lower).abs() <= s.half_section)
-                        .count();
+                    let near = below.iter().filter(|p| (p.xy() - beyond.xy()).norm() <= s.probe).count();
                     let far = |from: f64| {
                         below
                             .iter()
@@ -224,10 +221,7 @@ pub fn edge_cuboids(planes: &[Plane], points: &[Vector3<f64>], s: &EdgeSettings)
                                 let d = *p - at;
                                 let out = d.dot(&outward);
                                 let across = (d - outward * out).xy().norm();
-                                out > from
-                                    && out <= from + s.shadow
-                                    && across <= s.probe
-                                    && (p.z - lower).abs() <= s.half_section
+                                out > from && out <= from + s.shadow && across <= s.probe
                             })
                             .count()
                     };

@@ -294,8 +294,9 @@ fn voxel_centroids(points: &[Vector3<f64>], weights: &[f64], size: f64) -> (Vec<
     let mut cells: Vec<Cell> = Vec::with_capacity(points.len() / 2);
     let mut sums: Vec<(Vector3<f64>, f64)> = Vec::with_capacity(points.len() / 2);
     for (p, &w) in points.iter().zip(weights) {
-        let k = *slot.entry(Grid::cell(p, size)).or_insert_with(|| {
-            cells.push(Grid::cell(p, size));
+        let cell = Grid::cell(p, size);
+        let k = *slot.entry(cell).or_insert_with(|| {
+            cells.push(cell);
             sums.push((Vector3::zeros(), 0.0));
             sums.len() - 1
         });
@@ -479,23 +480,16 @@ pub fn segment_weighted(
     let (points, weights) = (&points[..], &weights[..]);
     let grid = Grid::new(points, s.neighbor_radius);
     // Neighbour lists, once: normals, growth and the hulls' rims all walk them. The
-    // points are split between the cores; each part's lists are joined in order, so the
-    // result does not depend on how many there are.
+    // points are split into one contiguous part per thread; a list is found by its
+    // point's part, so the result does not depend on how many there are.
     let threads = match s.threads {
         _ if points.len() < PARALLEL_FROM => 1,
         0 => std::thread::available_parallelism().map_or(1, |n| n.get()).min(MAX_THREADS),
         n => n,
     };
     let chunk = points.len().div_ceil(threads).max(1);
-    let mut parts: Vec<NeighborPart> = std::thread::scope(|scope| {
-        let grid = &grid;
-        let handles: Vec<_> = (0..points.len())
-            .step_by(chunk)
-            .map(|from| {
-                scope.spawn(move || neighbor_part(grid, points, weights, from..(from + chunk).min(points.len()), s))
-            })
-            .collect();
-        handles.into_iter().map(|h| h.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))).collect()
+    let mut parts: Vec<NeighborPart> = parallel_map(points.len().div_ceil(chunk), threads, |c| {
+        neighbor_part(&grid, points, weights, c * chunk..((c + 1) * chunk).min(points.len()), s)
     });
     // The neighbour lists stay in their parts (joining them was a copy of megabytes).
     let mut normal = Vec::with_capacity(points.len());
@@ -841,7 +835,9 @@ fn refine(cloud: &Cloud<'_>, region: &[usize], s: &SegmentSettings, rng: &mut im
     planes
 }
 
-/// RANSAC over a region's points, a least-squares refit on the best inliers, and their hull.
+/// RANSAC over a region's points (MSAC scores, an adaptive stop), local refits on the
+/// best plane's largest connected piece, and the oriented least-squares plane of its
+/// inliers.
 fn best_plane(
     cloud: &Cloud<'_>,
     region: &[usize],

@@ -97,7 +97,7 @@ pub fn write_all(
 }
 
 /// A perceived run's record: every update (`<stem>_perception.csv`), the last map
-/// (`<stem>_map.csv`, x y z), what the last update extracted (`<stem>_perceived.txt`:
+/// (`<stem>_map.csv`: x, y, z and the returns each voxel averages), what the last update extracted (`<stem>_perceived.txt`:
 /// planes, cuboids) and its side and top views over the true edge cuboids.
 fn perception_files(
     stem: &str,
@@ -121,9 +121,9 @@ fn perception_files(
     }
     let mut files = vec![(format!("{stem}_perception.csv"), updates)];
     let Some(last) = &perception.last else { return Ok(files) };
-    let mut map = String::from("x,y,z\n");
-    for p in &last.points {
-        let _ = writeln!(map, "{:.4},{:.4},{:.4}", p.x, p.y, p.z);
+    let mut map = String::from("x,y,z,returns\n");
+    for (p, n) in last.points.iter().zip(&last.weights) {
+        let _ = writeln!(map, "{:.4},{:.4},{:.4},{n}", p.x, p.y, p.z);
     }
     let mut found = String::new();
     for (k, p) in last.planes.iter().enumerate() {
