@@ -149,11 +149,15 @@ fn straight_edges(polygon: &[Vector3<f64>], tol: f64) -> Vec<(Vector3<f64>, Vect
 fn support(points: &[Vector3<f64>], plane: &Plane, a: &Vector3<f64>, b: &Vector3<f64>, band: f64) -> usize {
     let ab = b - a;
     let len2 = ab.norm_squared();
+    // The segment's box, grown by the band, turns most points away in six comparisons.
+    let (lo, hi) = (a.inf(b).add_scalar(-band), a.sup(b).add_scalar(band));
     points
         .iter()
         .filter(|p| {
-            let t = ((*p - a).dot(&ab) / len2).clamp(0.0, 1.0);
-            plane.distance(p).abs() <= band && (*p - (a + ab * t)).norm() <= band
+            (0..3).all(|c| p[c] >= lo[c] && p[c] <= hi[c]) && plane.distance(p).abs() <= band && {
+                let t = ((*p - a).dot(&ab) / len2).clamp(0.0, 1.0);
+                (*p - (a + ab * t)).norm() <= band
+            }
         })
         .count()
 }
