@@ -297,6 +297,16 @@ def call_kernel(module: str, name: str, inputs: ArrayLike) -> Vector:
 LEG_NAMES: list[str]
 TOE_RADIUS: float
 BODY_HALF_EXTENTS: list[float]
+NOMINAL_CLEARANCE: float
+"""Body underside above ground in the standard posture [m]."""
+KNEE_RANGE: list[float]
+"""Knee length limits [m]."""
+HIP_POSITIONS: list[list[float]]
+"""Hip mounts, body frame [m], rows in LEG_NAMES order."""
+HIP_RANGES: list[list[float]]
+"""Hip angle limits [rad], positive outward."""
+HIP_OUTWARD: list[float]
+"""+1 where outward is forward, -1 backward."""
 DT: float
 MAX_EDGES: int
 """Most edge cuboids an Environment or filter may be sized for."""
@@ -312,6 +322,11 @@ def world_kinematics(x: ArrayLike) -> tuple[Vector, Matrix, Matrix]:
 
 def standard_posture() -> Vector:
     """The standard low posture at rest at the world origin, shape (NX,)."""
+
+def leg_joints(x: ArrayLike) -> Matrix:
+    """Each leg's joints, shape (6, 4), rows in LEG_NAMES order: knee length [m], hip angle
+    [rad, positive outward], knee rate [m/s], hip rate [rad/s] (the joint-limit kernels'
+    quantities)."""
 
 class Environment(Params):
     """Tachyon 3's Params with typed helpers: edge cuboids, floors, footholds, swing legs,
@@ -357,6 +372,11 @@ class Course:
     def clearance(self, x: ArrayLike) -> tuple[float, float]: ...
     def finished(self, x: ArrayLike) -> bool: ...
     def floor_height(self, x: float) -> float: ...
+    def terrain_boxes(self) -> list[tuple[Vector, Matrix, Vector]]:
+        """The true terrain as solid boxes (center, rotation, half_extents): a floor with
+        its top at z = 0 and one box per raised level."""
+    def edge_boxes(self) -> list[tuple[Vector, Matrix, Vector]]:
+        """The true edge cuboids, one per change of height, as terrain_boxes gives boxes."""
 
 def simulate(
     scenario: _Scenario = "stairs",

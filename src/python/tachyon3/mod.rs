@@ -20,12 +20,18 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("LEG_NAMES", model::LEG_NAMES.to_vec())?;
     m.add("TOE_RADIUS", model::TOE_RADIUS)?;
     m.add("BODY_HALF_EXTENTS", model::BODY_HALF_EXTENTS.to_vec())?;
+    m.add("NOMINAL_CLEARANCE", model::NOMINAL_CLEARANCE)?;
+    m.add("KNEE_RANGE", model::KNEE_RANGE.to_vec())?;
+    m.add("HIP_POSITIONS", model::HIP_POSITIONS.map(|h| h.to_vec()).to_vec())?;
+    m.add("HIP_RANGES", model::HIP_RANGES.map(|r| r.to_vec()).to_vec())?;
+    m.add("HIP_OUTWARD", model::HIP_OUTWARD.to_vec())?;
     m.add("DT", crate::systems::tachyon3::sim::DT)?;
     m.add("MAX_EDGES", Capacity::MAX_EDGES)?;
     m.add("MAX_FOOTHOLD_EDGES", Capacity::MAX_FOOTHOLD_EDGES)?;
     m.add("MAX_SIM_TIME", crate::systems::tachyon3::sim::MAX_SIM_TIME)?;
     m.add_function(wrap_pyfunction!(world_kinematics, m)?)?;
     m.add_function(wrap_pyfunction!(standard_posture, m)?)?;
+    m.add_function(wrap_pyfunction!(leg_joints, m)?)?;
     m.add_class::<PyEnvironment>()?;
     sim::register(m)
 }
@@ -50,6 +56,18 @@ fn world_kinematics<'py>(
         finite("world kinematics", v)?;
     }
     Ok((vector(py, &center), matrix(py, &rotation), matrix(py, &toes)))
+}
+
+/// Each leg's joints at ``x``, shape (6, 4), rows in ``LEG_NAMES`` order: knee length
+/// \[m\], hip angle \[rad, positive outward\], knee rate \[m/s\], hip rate \[rad/s\] (the
+/// joint-limit kernels' quantities).
+#[pyfunction]
+fn leg_joints<'py>(py: Python<'py>, x: ArrayIn<'py>) -> PyResult<Array2Out<'py>> {
+    let joints = model::leg_joints(&state(&x)?);
+    for &v in joints.as_flattened() {
+        finite("leg joints", v)?;
+    }
+    Ok(matrix(py, &joints))
 }
 
 /// The standard low posture at rest at the world origin, shape (NX,).

@@ -7,7 +7,7 @@ use pyo3::types::PyDict;
 use super::{initializer, state, PyEnvironment};
 use crate::error::finite;
 use crate::filter::InputSource;
-use crate::python::convert::{choice, matrix_from_fn, vector, Array1Out, ArrayIn};
+use crate::python::convert::{choice, matrix, matrix_from_fn, vector, Array1Out, Array2Out, ArrayIn};
 use crate::systems::tachyon3::catalog::Family;
 use crate::systems::tachyon3::model::NX;
 use crate::systems::tachyon3::perceived::PerceptionSettings;
@@ -114,10 +114,31 @@ impl PyCourse {
         Ok(self.inner.finished(&state(&x)?))
     }
 
+    /// The true terrain as solid boxes, ``[(center (3,), rotation (3, 3), half_extents
+    /// (3,))]``: a floor with its top at z = 0 and one box per raised level (what a
+    /// physics engine or a scanner is given).
+    fn terrain_boxes<'py>(&self, py: Python<'py>) -> PyResult<Vec<BoxOut<'py>>> {
+        Ok(self.inner.terrain().solid_boxes()?.iter().map(|b| box_out(py, b)).collect())
+    }
+
+    /// The true edge cuboids, one along each change of height, in order, as
+    /// :meth:`terrain_boxes` gives boxes: what the exact clearance is measured to.
+    fn edge_boxes<'py>(&self, py: Python<'py>) -> PyResult<Vec<BoxOut<'py>>> {
+        Ok(self.inner.terrain().edge_boxes()?.iter().map(|b| box_out(py, b)).collect())
+    }
+
     /// Ground height at world ``x`` \[m\].
     fn floor_height(&self, x: f64) -> PyResult<f64> {
         Ok(self.inner.ground().height_at(finite("x", x)?))
     }
+}
+
+type BoxOut<'py> = (Array1Out<'py>, Array2Out<'py>, Array1Out<'py>);
+
+fn box_out<'py>(py: Python<'py>, b: &crate::geometry::OrientedBox) -> BoxOut<'py> {
+    let r = b.rotation().matrix();
+    let rows: [[f64; 3]; 3] = std::array::from_fn(|i| std::array::from_fn(|j| r[(i, j)]));
+    (vector(py, &<[f64; 3]>::from(*b.center())), matrix(py, &rows), vector(py, &<[f64; 3]>::from(*b.half_extents())))
 }
 
 /// Run a scenario's closed loop in Rust (gait → filter → Euler at 1 kHz) and return its

@@ -77,6 +77,27 @@ pub fn body_box(x: &State) -> Result<crate::geometry::OrientedBox, CbfError> {
     crate::geometry::OrientedBox::new(Vector3::from(center), r, Vector3::from(BODY_HALF_EXTENTS))
 }
 
+/// Each leg's joints at `x`, in [`LEG_NAMES`] order: `[knee length [m], hip angle [rad,
+/// positive outward], knee rate [m/s], hip rate [rad/s]]`. These are the joint-limit
+/// kernels' own quantities (their `knee_min` and `hip_min` rows, h and its first Lie
+/// derivative, plus the limits): what a joint-level controller tracks.
+pub fn leg_joints(x: &State) -> [[f64; 4]; 6] {
+    type JointKernel = fn(&[f64; NX]) -> ([[f64; 3]; 4], [[f64; 5]; 4]);
+    const KERNELS: [JointKernel; 6] = [
+        gen::joint_limits_lf,
+        gen::joint_limits_mf,
+        gen::joint_limits_rf,
+        gen::joint_limits_lr,
+        gen::joint_limits_mr,
+        gen::joint_limits_rr,
+    ];
+    std::array::from_fn(|leg| {
+        let (lie, _) = KERNELS[leg](x);
+        let (knee, hip) = (lie[0], lie[2]);
+        [knee[0] + KNEE_RANGE[0], hip[0] + HIP_RANGES[leg][0], knee[1], hip[1]]
+    })
+}
+
 /// Origin-relative x of the robot's foremost point: the body's front face or a toe
 /// sphere's front, whichever reaches further (yaw and pitch ignored).
 pub fn front_reach(x: &State) -> f64 {
