@@ -1,0 +1,63 @@
+"""``python -m cbfgen.physics``: the hardware stairs in MuJoCo, with and without the body
+CBF; summaries, Figs. 7–10 of the physical run and a side-by-side GIF of the climbs."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m cbfgen.physics", description=__doc__)
+    parser.add_argument("--scenario", default="stairs", help="course (cbfgen.tachyon3.SCENARIOS); default stairs")
+    parser.add_argument("--out", type=Path, default=Path("out/mujoco"), help="output folder; default out/mujoco")
+    parser.add_argument("--max-time", type=float, default=None, help="simulated seconds at most per run")
+    parser.add_argument("--no-video", action="store_true", help="skip the GIF (needs no OpenGL then)")
+    args = parser.parse_args(argv)
+
+    if not args.no_video:
+        # Chooses MuJoCo's OpenGL back end, so it comes before anything imports mujoco.
+        from .render import FrameRecorder, write_side_by_side_gif
+    from .. import tachyon3 as t3
+    from .figures import write_figures
+    from .loop import run
+    from .model import ASSUMED
+
+    if args.scenario not in t3.SCENARIOS:
+        parser.error(f"unknown scenario {args.scenario!r}; one of {', '.join(t3.SCENARIOS)}")
+    args.out.mkdir(parents=True, exist_ok=True)
+    runs, recorders = {}, {}
+    for body_cbf in (True, False):
+        label = "with body CBF" if body_cbf else "without body CBF"
+        recorder = None if args.no_video else FrameRecorder()
+        print(f"physics: {args.scenario} {label} ...", file=sys.stderr, flush=True)
+        runs[body_cbf] = run(args.scenario, body_cbf, args.max_time, on_cycle=recorder)
+        recorders[body_cbf] = recorder
+        summary = runs[body_cbf].summary()
+        print(json.dumps(summary, indent=1))
+    report = {
+        "assumed": ASSUMED,
+        "with_body_cbf": runs[True].summary(),
+        "without_body_cbf": runs[False].summary(),
+    }
+    (args.out / f"{args.scenario}_physics.json").write_text(json.dumps(report, indent=1) + "\n")
+    written = write_figures(runs[True], runs[False], args.out)
+    if not args.no_video:
+        gif, stills = args.out / f"{args.scenario}_physics.gif", args.out / f"{args.scenario}_physics_stills.png"
+        end = min(r.t[-1] for r in runs.values())
+        frames = write_side_by_side_gif(
+            gif,
+            [("with body CBF", recorders[True]), ("without body CBF", recorders[False])],
+            stills=stills,
+            still_times=[end * f for f in (0.25, 0.7, 0.85)],
+        )
+        written += [gif, stills]
+        print(f"physics: {gif} has {frames} frames", file=sys.stderr)
+    print("wrote " + ", ".join(str(p) for p in [args.out / f"{args.scenario}_physics.json", *written]), file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,403 @@
+"""The filter on a physical Tachyon 3: MuJoCo's state in, joint targets out, at 1 kHz.
+
+Each cycle:
+
+1. **measure** — MuJoCo's body and wheel poses and velocities become the model's state
+   ``x`` (:meth:`PhysicalRobot.measure`): body and toes relative to the ground-moving
+   origin, whose own states (position, heading, speed) are the reference's, because the
+   origin is the planner's frame and has no physical counterpart;
+2. **plan and filter** — the gait's nominal input for ``x``, corrected by the ECBF-QP
+   filter on ``x``: the filter sees the physical robot;
+3. **integrate** — the reference state ``x_ref`` (the kinematic model the filter was
+   built on) takes one Euler step with the filtered input;
+4. **track** — the joint targets are ``x_ref``'s knee lengths and hip angles and their
+   rates (the joint-limit kernels' quantities, :func:`cbfgen.tachyon3.leg_joints`), and
+   each wheel's spin for its toe's ground speed; MuJoCo steps 1 ms.
+
+Because the gait and the filter act on the measured state while the servos chase the
+reference, the gait's feedback on the physical error accumulates in the reference: the
+legs carry the robot's weight (a stiff servo sags by a few millimetres, and the gait
+raises the reference until the body is where it wants it), and a wheel that slips is
+driven on until its toe catches up.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import CbfError
+from .. import tachyon3 as t3
+from .model import TIMESTEP, RobotParams, robot_mjcf
+
+try:
+    import mujoco
+except ImportError as missing:  # pragma: no cover - the message is the point
+    raise ImportError(
+        "cbfgen.physics needs MuJoCo's Python bindings: pip install -r python/requirements.txt "
+        "(or scripts/cbf setup)"
+    ) from missing
+
+BODY_FAMILY = "body_edge"
+
+MAX_CATCH_UP = 0.1
+"""Most the reference's speed along the course may differ from the robot's [m/s]."""
+
+MAX_LEAD = 0.05
+"""Furthest a wheel's angle target may run ahead of (or behind) the wheel, as rolled
+distance [m]: enough to catch up a slip of a few centimetres, little against the 35 cm
+of a tread, and no winding up of a wheel held by an obstacle."""
+
+
+def _rot_z(yaw: float) -> np.ndarray:
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _rot_y(angle: float) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
+
+def _quat_of(rotation: np.ndarray) -> np.ndarray:
+    q = np.zeros(4)
+    mujoco.mju_mat2Quat(q, np.ascontiguousarray(rotation).ravel())
+    return q
+
+
+class PhysicalRobot:
+    """Tachyon 3 in MuJoCo on one course's true terrain: pose it from a model state,
+    read its state back, drive its servos from a reference state."""
+
+    def __init__(self, course: t3.Course, params: RobotParams | None = None) -> None:
+        params = RobotParams() if params is None else params
+        self.params = params
+        self.model = mujoco.MjModel.from_xml_string(robot_mjcf(course, params))
+        self.data = mujoco.MjData(self.model)
+        m = self.model
+        name = mujoco.mj_name2id
+        self.body = name(m, mujoco.mjtObj.mjOBJ_BODY, "body")
+        self.body_geom = name(m, mujoco.mjtObj.mjOBJ_GEOM, "body")
+        self.wheels = [name(m, mujoco.mjtObj.mjOBJ_BODY, f"{leg}_wheel") for leg in t3.LEG_NAMES]
+        self.toe_geoms = [name(m, mujoco.mjtObj.mjOBJ_GEOM, f"{leg}_toe") for leg in t3.LEG_NAMES]
+        geom_names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or "" for g in range(m.ngeom)]
+        self.terrain_geoms = [g for g, n in enumerate(geom_names) if n.startswith("terrain")]
+
+        def joint(kind: str) -> tuple[list[int], list[int]]:
+            ids = [name(m, mujoco.mjtObj.mjOBJ_JOINT, f"{leg}_{kind}") for leg in t3.LEG_NAMES]
+            return [int(m.jnt_qposadr[j]) for j in ids], [int(m.jnt_dofadr[j]) for j in ids]
+
+        (self.hip_q, self.hip_v), (self.knee_q, self.knee_v), (self.wheel_q, self.wheel_v) = (
+            joint("hip"),
+            joint("knee"),
+            joint("wheel"),
+        )
+
+        def actuator(suffix: str) -> list[int]:
+            return [name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, f"{leg}_{suffix}") for leg in t3.LEG_NAMES]
+
+        self.hip_pos, self.hip_vel = actuator("hip_pos"), actuator("hip_vel")
+        self.knee_pos, self.knee_vel = actuator("knee_pos"), actuator("knee_vel")
+        self.wheel_pos, self.wheel_vel = actuator("wheel_pos"), actuator("wheel_vel")
+        self.outward = np.asarray(t3.HIP_OUTWARD)
+        self.hip_y = np.asarray(t3.HIP_POSITIONS)[:, 1]
+        self._velocity = np.zeros(6)
+
+    def pose(self, x: np.ndarray) -> None:
+        """Place the robot at model state ``x``, at rest relative to it."""
+        d = self.data
+        center, rotation, _ = t3.world_kinematics(x)
+        d.qpos[:] = 0.0
+        d.qvel[:] = 0.0
+        d.qpos[0:3] = center
+        d.qpos[3:7] = _quat_of(rotation)
+        joints = t3.leg_joints(x)
+        d.qpos[self.knee_q] = joints[:, 0]
+        d.qpos[self.hip_q] = joints[:, 1]
+        self.wheel_target = np.zeros(6)
+        self.command(x)
+        mujoco.mj_forward(self.model, d)
+
+    def _velocity_of(self, body: int) -> np.ndarray:
+        """(angular, linear) velocity of ``body``'s frame, world axes."""
+        mujoco.mj_objectVelocity(self.model, self.data, mujoco.mjtObj.mjOBJ_BODY, body, self._velocity, 0)
+        return self._velocity.copy()
+
+    def measure(self, reference: np.ndarray) -> tuple[np.ndarray, dict[str, float]]:
+        """The model state of the physical robot, its origin taken from ``reference``;
+        and what the model cannot hold (lateral offset, roll, heading error) as a dict."""
+        d = self.data
+        x = np.array(reference, dtype=float)
+        origin = x[0:3]
+        yaw, speed, yaw_rate = x[3], x[4], x[5]
+        to_origin = _rot_z(yaw).T
+        origin_velocity = _rot_z(yaw) @ np.array([speed, 0.0, 0.0])
+        spin = np.array([0.0, 0.0, yaw_rate])
+
+        def relative(position: np.ndarray, velocity: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            rel = to_origin @ (position - origin)
+            return rel, to_origin @ (velocity - origin_velocity) - np.cross(spin, rel)
+
+        angular_linear = self._velocity_of(self.body)
+        rel, rel_v = relative(d.xpos[self.body], angular_linear[3:])
+        body_in_origin = to_origin @ d.xmat[self.body].reshape(3, 3)
+        pitch = np.arctan2(body_in_origin[0, 2], body_in_origin[0, 0])
+        x[6:12] = rel[0], rel[2], pitch, rel_v[0], rel_v[2], (to_origin @ angular_linear[:3])[1]
+        for leg, wheel in enumerate(self.wheels):
+            toe, toe_v = relative(d.xpos[wheel], self._velocity_of(wheel)[3:])
+            x[12 + 4 * leg : 16 + 4 * leg] = toe[0], toe[2], toe_v[0], toe_v[2]
+        off_model = {
+            "lateral": float(rel[1]),
+            "roll": float(np.arctan2(body_in_origin[2, 1], body_in_origin[2, 2])),
+            "heading": float(np.arctan2(body_in_origin[1, 0], body_in_origin[0, 0])),
+        }
+        return x, off_model
+
+    def command(self, reference: np.ndarray) -> None:
+        """Servo targets for reference state ``reference``: hips and knees to its joint
+        positions and rates, each wheel to roll at its toe's ground speed."""
+        d = self.data
+        joints = t3.leg_joints(reference)
+        d.ctrl[self.knee_pos] = joints[:, 0]
+        d.ctrl[self.hip_pos] = joints[:, 1]
+        d.ctrl[self.knee_vel] = joints[:, 2]
+        d.ctrl[self.hip_vel] = joints[:, 3]
+        speed, yaw_rate, pitch_rate = reference[4], reference[5], reference[11]
+        toe_vx = reference[14::4]
+        ground_speed = speed - yaw_rate * self.hip_y + toe_vx
+        # A hinge about (0, -outward, 0) turns the shin about +y at -outward times its rate.
+        shin_spin = pitch_rate - self.outward * joints[:, 3]
+        spin = ground_speed / t3.TOE_RADIUS - shin_spin
+        # The angle target runs on with the spin, at most MAX_LEAD of rolling ahead of
+        # (or behind) the wheel: a wheel held by an obstacle is not wound up.
+        reach = MAX_LEAD / t3.TOE_RADIUS
+        angle = d.qpos[self.wheel_q]
+        self.wheel_target = np.clip(self.wheel_target + spin * TIMESTEP, angle - reach, angle + reach)
+        d.ctrl[self.wheel_pos] = self.wheel_target
+        d.ctrl[self.wheel_vel] = spin
+
+    def step(self) -> None:
+        mujoco.mj_step(self.model, self.data)
+
+    def contacts(self) -> tuple[bool, int]:
+        """(the body touches the terrain, toes touching a riser or an edge: a contact whose
+        normal is more than 30° from vertical)."""
+        d = self.data
+        body_contact, toe_riser = False, 0
+        toes = set(self.toe_geoms)
+        for c in d.contact[: d.ncon]:
+            pair = {int(c.geom1), int(c.geom2)}
+            if self.body_geom in pair:
+                body_contact = True
+            elif pair & toes and abs(c.frame[2]) < np.cos(np.radians(30.0)):
+                toe_riser += 1
+        return body_contact, toe_riser
+
+    def body_distance(self) -> float:
+        """MuJoCo's signed distance between the body box and the nearest terrain box [m]
+        (negative: penetration), up to 1 m."""
+        fromto = np.zeros(6)
+        return min(
+            mujoco.mj_geomDistance(self.model, self.data, self.body_geom, g, 1.0, fromto) for g in self.terrain_geoms
+        )
+
+    def slip(self) -> np.ndarray:
+        """Each wheel's slip speed where it touches the terrain [m/s] (NaN in the air):
+        the speed of the wheel's material at the contact point."""
+        d = self.data
+        out = np.full(6, np.nan)
+        for c in d.contact[: d.ncon]:
+            for leg, g in enumerate(self.toe_geoms):
+                if g in (int(c.geom1), int(c.geom2)):
+                    w = self._velocity_of(self.wheels[leg])
+                    offset = c.pos - d.xpos[self.wheels[leg]]
+                    point = w[3:] + np.cross(w[:3], offset)
+                    normal = c.frame[:3]
+                    tangential = point - normal * point.dot(normal)
+                    out[leg] = float(np.linalg.norm(tangential))
+        return out
+
+
+@dataclass
+class PhysicalRun:
+    """One run's record: per cycle, and what it came to."""
+
+    scenario: str
+    body_cbf: bool
+    t: list[float] = field(default_factory=list)
+    x: list[np.ndarray] = field(default_factory=list)
+    x_ref: list[np.ndarray] = field(default_factory=list)
+    body_contact: list[bool] = field(default_factory=list)
+    toe_riser_contacts: list[int] = field(default_factory=list)
+    body_distance: list[float] = field(default_factory=list)
+    clearance: list[tuple[float, float]] = field(default_factory=list)
+    slip: list[np.ndarray] = field(default_factory=list)
+    off_model: list[dict[str, float]] = field(default_factory=list)
+    min_h: list[dict[str, float]] = field(default_factory=list)
+    active_rows: list[int] = field(default_factory=list)
+    update_us: list[float] = field(default_factory=list)
+    finished: bool = False
+    error: str | None = None
+    finish_time: float | None = None
+    nominal_body_height: list[float] = field(default_factory=list)
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The series as numpy arrays."""
+        out = {
+            "t": np.asarray(self.t),
+            "x": np.asarray(self.x),
+            "x_ref": np.asarray(self.x_ref),
+            "body_contact": np.asarray(self.body_contact),
+            "toe_riser_contacts": np.asarray(self.toe_riser_contacts),
+            "body_distance": np.asarray(self.body_distance),
+            "clearance": np.asarray(self.clearance),
+            "slip": np.asarray(self.slip),
+            "active_rows": np.asarray(self.active_rows),
+            "update_us": np.asarray(self.update_us),
+        }
+        for key in ("lateral", "roll", "heading"):
+            out[key] = np.asarray([o[key] for o in self.off_model])
+        return out
+
+    def summary(self) -> dict[str, float | bool | str | None]:
+        a = self.arrays()
+        x, ref = a["x"], a["x_ref"]
+        toe_error = np.hypot(x[:, 12::4] - ref[:, 12::4], x[:, 13::4] - ref[:, 13::4])
+        stance_slip = a["slip"][np.isfinite(a["slip"])]
+        return {
+            "scenario": self.scenario,
+            "body_cbf": self.body_cbf,
+            "finished": self.finished,
+            "finish_time_s": self.finish_time,
+            "error": self.error,
+            "cycles": len(self.t),
+            "body_contact_cycles": int(a["body_contact"].sum()),
+            "toe_riser_contact_cycles": int((a["toe_riser_contacts"] > 0).sum()),
+            "min_body_distance_mm": 1e3 * float(a["body_distance"].min()),
+            "min_body_clearance_mm": 1e3 * float(a["clearance"][:, 0].min()),
+            "min_toe_clearance_mm": 1e3 * float(a["clearance"][:, 1].min()),
+            "max_body_height_error_mm": 1e3 * float(np.abs(x[:, 7] - ref[:, 7]).max()),
+            "max_body_x_error_mm": 1e3 * float(np.abs(x[:, 6] - ref[:, 6]).max()),
+            "max_pitch_error_deg": float(np.degrees(np.abs(x[:, 8] - ref[:, 8]).max())),
+            "max_toe_error_mm": 1e3 * float(toe_error.max()),
+            "p99_toe_error_mm": 1e3 * float(np.percentile(toe_error, 99)),
+            "max_lateral_mm": 1e3 * float(np.abs(a["lateral"]).max()),
+            "max_roll_deg": float(np.degrees(np.abs(a["roll"]).max())),
+            "median_slip_mm_s": 1e3 * float(np.median(stance_slip)) if stance_slip.size else 0.0,
+            "p99_slip_mm_s": 1e3 * float(np.percentile(stance_slip, 99)) if stance_slip.size else 0.0,
+        }
+
+
+def anchored(reference: np.ndarray, measured: np.ndarray) -> np.ndarray:
+    """``reference`` moved as one rigid body in the sagittal plane (a shift and a pitch
+    about its centroid, positions and velocities) to lie closest to ``measured``.
+
+    Rigid motions change no joint: the legs cannot make them, the ground does. Left in
+    the reference, the gait's push on an error the legs cannot remove (a wheel pressed a
+    millimetre into the floor by its weight) would integrate into them without bound.
+    One rigid rate is the wheels' to drive: the speed along the course. The reference
+    keeps its own there, up to :data:`MAX_CATCH_UP` faster or slower than the robot, so
+    that a robot slipping back (MuJoCo's soft contacts creep under load) is driven on
+    until it catches up, and one held by an obstacle is not driven ever harder."""
+    x = np.array(reference, dtype=float)
+    xs, zs = [6, *range(12, 36, 4)], [7, *range(13, 36, 4)]
+    p, q = np.stack([x[xs], x[zs]]), np.stack([measured[xs], measured[zs]])
+    center_p, center_q = p.mean(axis=1, keepdims=True), q.mean(axis=1, keepdims=True)
+    a, b = p - center_p, q - center_q
+    # Rotation about +y by d maps (x, z) to (x cos d + z sin d, -x sin d + z cos d).
+    d = np.arctan2((a[1] * b[0] - a[0] * b[1]).sum(), (a * b).sum())
+    turn = np.array([[np.cos(d), np.sin(d)], [-np.sin(d), np.cos(d)]])
+    moved = turn @ a + center_q
+    x[xs], x[zs] = moved
+    x[8] += d
+    # Velocities: the same rotation, then the rigid rates (vx, vz, spin about +y) that
+    # bring them closest to the measured ones, over the points and the body's pitch
+    # rate; a point at r moves by (spin r_z, -spin r_x) under the spin.
+    vxs, vzs = [9, *range(14, 36, 4)], [10, *range(15, 36, 4)]
+    v = turn @ np.stack([x[vxs], x[vzs]])
+    w = np.stack([measured[vxs], measured[vzs]])
+    r = moved - center_q
+    n = len(xs)
+    rows = np.vstack(
+        [
+            np.column_stack([np.ones(n), np.zeros(n), r[1]]),
+            np.column_stack([np.zeros(n), np.ones(n), -r[0]]),
+            [0.0, 0.0, 1.0],
+        ]
+    )
+    rhs = np.concatenate([w[0] - v[0], w[1] - v[1], [measured[11] - x[11]]])
+    (vx, vz, spin), *_ = np.linalg.lstsq(rows, rhs, rcond=None)
+    vx -= np.clip(vx, -MAX_CATCH_UP, MAX_CATCH_UP)
+    x[vxs], x[vzs] = v[0] + vx + spin * r[1], v[1] + vz - spin * r[0]
+    x[11] += spin
+    return x
+
+
+def _min_h_by_family(filt) -> dict[str, float]:
+    lie = filt.lie
+    applicable = filt.applicable
+    out: dict[str, float] = {}
+    for (family, _member, _instance, _row), row, used in zip(filt.layout, lie, applicable, strict=True):
+        if used:
+            out[family] = min(out.get(family, np.inf), float(row[0]))
+    return out
+
+
+def run(
+    scenario: str = "stairs",
+    body_cbf: bool = True,
+    max_time: float | None = None,
+    params: RobotParams | None = None,
+    settle: float = 0.3,
+    on_cycle=None,
+) -> PhysicalRun:
+    """The closed loop on the physical robot until the course is finished or
+    ``max_time`` [s] (the Rust simulation's limit when None). The robot first stands
+    ``settle`` seconds at its initial state so the legs take its weight. ``on_cycle(k,
+    robot)`` is called after every step (a renderer hooks in there)."""
+    course = t3.Course(scenario)
+    settings = {} if body_cbf else {"activation": {BODY_FAMILY: float("-inf")}}
+    filt = t3.ecbf_filter(**settings)
+    robot = PhysicalRobot(course, params)
+    x_ref = course.initial_state()
+    robot.pose(x_ref)
+    for _ in range(int(round(settle / TIMESTEP))):
+        robot.step()
+    limit = max_time if max_time is not None else (60.0 if scenario == "stairs" else 40.0)
+    record = PhysicalRun(scenario=scenario, body_cbf=body_cbf)
+    for k in range(int(round(limit / t3.DT))):
+        t = k * t3.DT
+        x, off_model = robot.measure(x_ref)
+        try:
+            u_ref = course.plan(t, x)
+            out = filt.update(x, u_ref, course.environment, t)
+        except CbfError as error:
+            # The physical robot left the model's domain (it fell, say): the run ends
+            # there, and says why.
+            record.error = f"t = {t:.3f} s: {error}"
+            break
+        x_ref = anchored(x_ref, x)
+        x_ref = x_ref + t3.DT * t3.SYSTEM.xdot(x_ref, out.u)
+        robot.command(x_ref)
+        robot.step()
+        body_contact, toe_riser = robot.contacts()
+        record.t.append(t)
+        record.x.append(x)
+        record.x_ref.append(x_ref.copy())
+        record.body_contact.append(body_contact)
+        record.toe_riser_contacts.append(toe_riser)
+        record.body_distance.append(robot.body_distance())
+        record.clearance.append(course.clearance(x))
+        record.slip.append(robot.slip())
+        record.off_model.append(off_model)
+        record.min_h.append(_min_h_by_family(filt))
+        record.active_rows.append(out.active_rows)
+        record.update_us.append(out.eval_time_us + out.solve_time_us)
+        record.nominal_body_height.append(course.nominal_body_height or np.nan)
+        if on_cycle is not None:
+            on_cycle(k, robot)
+        if course.finished(x):
+            record.finished, record.finish_time = True, t
+            break
+    return record

@@ -1,0 +1,154 @@
+"""Tachyon 3 in MuJoCo (cbfgen.physics): the model's kinematic tree against the generated
+kinematics, the state read back from MuJoCo, the reference's rigid re-anchoring, a short
+physical run within the stated tracking bounds, and the hardware-stairs climb with and
+without the body CBF.
+
+Tracking bounds (physical minus kinematic state), stated in docs/physics.md:
+* body height within 5 mm: the knees' servos sag by about 3.3 mm under the whole weight
+  on one tripod (61 kg x g / 3 legs / 60 000 N/m), plus about 1 mm of MuJoCo's soft
+  wheel-floor contact;
+* each toe within 15 mm: about twice the hips' static deflection under a tripod's
+  horizontal load (80 N m on 4000 N m/rad at 0.4 m of leg, 8 mm)."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+if os.environ.get("CBFGEN_REQUIRE_BINDINGS"):
+    import cbfgen
+    import mujoco
+else:
+    cbfgen = pytest.importorskip("cbfgen", reason="build it with `scripts/cbf setup`")
+    mujoco = pytest.importorskip("mujoco", reason="pip install -r python/requirements.txt")
+
+from cbfgen import tachyon3 as t3  # noqa: E402
+from cbfgen.physics import MAX_CATCH_UP, PhysicalRobot, anchored, run  # noqa: E402
+
+BODY_HEIGHT_BOUND = 0.005
+TOE_BOUND = 0.015
+
+
+def random_states(count: int, seed: int) -> list[np.ndarray]:
+    """States around the standard posture with every joint well inside its limits."""
+    rng = np.random.default_rng(seed)
+    out = []
+    while len(out) < count:
+        x = t3.standard_posture()
+        x[0:4] = rng.uniform([-2, -2, 0, -np.pi], [2, 2, 0.5, np.pi])
+        x[6:9] += rng.uniform([-0.1, 0.0, -0.3], [0.1, 0.2, 0.3])
+        x[12::4] += rng.uniform(-0.15, 0.15, 6)
+        x[13::4] += rng.uniform(0.0, 0.15, 6)
+        joints = t3.leg_joints(x)
+        ranges = np.asarray(t3.HIP_RANGES)
+        knee_lo, knee_hi = t3.KNEE_RANGE
+        if (
+            np.all(joints[:, 0] > knee_lo + 0.01)
+            and np.all(joints[:, 0] < knee_hi - 0.01)
+            and np.all(joints[:, 1] > ranges[:, 0] + 0.01)
+            and np.all(joints[:, 1] < ranges[:, 1] - 0.01)
+        ):
+            out.append(x)
+    return out
+
+
+def test_mujoco_kinematic_tree_matches_the_generated_kinematics():
+    """Posed by its joints alone (hip angle and knee length from the joint-limit kernels),
+    MuJoCo's own forward kinematics puts the body and every wheel centre where the
+    generated world kinematics do."""
+    robot = PhysicalRobot(t3.Course("step"))
+    for x in random_states(40, seed=1):
+        robot.pose(x)
+        center, rotation, toes = t3.world_kinematics(x)
+        np.testing.assert_allclose(robot.data.xpos[robot.body], center, atol=1e-9)
+        np.testing.assert_allclose(robot.data.xmat[robot.body].reshape(3, 3), rotation, atol=1e-9)
+        for leg, wheel in enumerate(robot.wheels):
+            np.testing.assert_allclose(robot.data.xpos[wheel], toes[leg], atol=1e-9)
+
+
+def test_the_joint_rates_are_the_derivatives_of_the_joints():
+    """leg_joints' rates against central differences of its positions along xdot."""
+    x = random_states(1, seed=2)[0]
+    rng = np.random.default_rng(3)
+    x[9:12] = rng.uniform(-0.3, 0.3, 3)
+    x[14::4], x[15::4] = rng.uniform(-0.3, 0.3, 6), rng.uniform(-0.3, 0.3, 6)
+    xdot = t3.SYSTEM.xdot(x, np.zeros(t3.NU))
+    step = 1e-6
+    numeric = (t3.leg_joints(x + step * xdot) - t3.leg_joints(x - step * xdot)) / (2 * step)
+    np.testing.assert_allclose(t3.leg_joints(x)[:, 2:], numeric[:, :2], atol=1e-7)
+
+
+def test_the_state_read_from_mujoco_is_the_state_it_was_posed_in():
+    robot = PhysicalRobot(t3.Course("step"))
+    for x in random_states(20, seed=4):
+        x[4:6] = 0.0  # at rest relative to the origin, so every velocity reads 0
+        robot.pose(x)
+        measured, off_model = robot.measure(x)
+        positions = [6, 7, 8, *range(12, 36, 4), *range(13, 36, 4)]
+        np.testing.assert_allclose(measured[positions], x[positions], atol=1e-9)
+        np.testing.assert_allclose(measured[[9, 10, 11, *range(14, 36, 4), *range(15, 36, 4)]], 0.0, atol=1e-9)
+        assert abs(off_model["lateral"]) < 1e-9 and abs(off_model["roll"]) < 1e-9
+
+
+def test_anchoring_moves_the_reference_rigidly_onto_the_robot_and_keeps_its_joints():
+    rng = np.random.default_rng(5)
+    for x in random_states(30, seed=6):
+        # The robot: the reference moved as one rigid body (a turn about a point, a
+        # shift), its velocities changed by a rigid rate too.
+        turn, shift = rng.uniform(-0.2, 0.2), rng.uniform(-0.1, 0.1, 2)
+        pivot = rng.uniform(-0.5, 0.5, 2)
+        c, s = np.cos(turn), np.sin(turn)
+        rotate = np.array([[c, s], [-s, c]])
+        robot = x.copy()
+        # (position x, z, velocity x, z) of the body and each toe.
+        points = [(6, 7, 9, 10), *[(12 + 4 * leg, 13 + 4 * leg, 14 + 4 * leg, 15 + 4 * leg) for leg in range(6)]]
+        for px, pz, vx_, vz_ in points:
+            robot[[px, pz]] = rotate @ (x[[px, pz]] - pivot) + pivot + shift
+            robot[[vx_, vz_]] = rotate @ x[[vx_, vz_]]
+        robot[8] += turn
+        vx, vz = rng.uniform(-0.3, 0.3, 2)
+        robot[[9, *range(14, 36, 4)]] += vx
+        robot[[10, *range(15, 36, 4)]] += vz
+        moved = anchored(x, robot)
+        positions = [6, 7, 8, *range(12, 36, 4), *range(13, 36, 4)]
+        np.testing.assert_allclose(moved[positions], robot[positions], atol=1e-9)
+        np.testing.assert_allclose(moved[[10, *range(15, 36, 4)]], robot[[10, *range(15, 36, 4)]], atol=1e-9)
+        # Along the course the reference keeps up to MAX_CATCH_UP of its own speed.
+        kept = np.clip(vx, -MAX_CATCH_UP, MAX_CATCH_UP)
+        np.testing.assert_allclose(moved[[9, *range(14, 36, 4)]], robot[[9, *range(14, 36, 4)]] - kept, atol=1e-9)
+        np.testing.assert_allclose(t3.leg_joints(moved)[:, :2], t3.leg_joints(x)[:, :2], atol=1e-9)
+
+
+def test_a_short_physical_run_tracks_the_kinematic_state_within_its_bounds():
+    """Three seconds of the step course: the legs take the weight and lift the body; no
+    body contact, and the physical state within the stated bounds of the kinematic one."""
+    record = run("step", body_cbf=True, max_time=3.0)
+    a, summary = record.arrays(), record.summary()
+    assert summary["error"] is None and summary["cycles"] == 3000
+    assert summary["body_contact_cycles"] == 0
+    assert summary["max_body_height_error_mm"] <= 1e3 * BODY_HEIGHT_BOUND
+    assert summary["max_toe_error_mm"] <= 1e3 * TOE_BOUND
+    # It moved: the gait raised the body by more than 5 cm over the run.
+    assert a["x"][-1, 7] - a["x"][0, 7] > 0.05
+
+
+@pytest.fixture(scope="module")
+def stairs_climbs():
+    return {body_cbf: run("stairs", body_cbf=body_cbf) for body_cbf in (True, False)}
+
+
+def test_with_the_filter_the_physical_robot_climbs_the_hardware_stairs_without_body_contact(stairs_climbs):
+    summary = stairs_climbs[True].summary()
+    assert summary["finished"], summary
+    assert summary["body_contact_cycles"] == 0, summary
+    assert summary["min_body_distance_mm"] > 0.0, summary
+    assert summary["max_body_height_error_mm"] <= 1e3 * BODY_HEIGHT_BOUND, summary
+    assert summary["max_toe_error_mm"] <= 1e3 * TOE_BOUND, summary
+
+
+def test_without_the_body_cbf_mujoco_reports_body_edge_contact(stairs_climbs):
+    summary = stairs_climbs[False].summary()
+    assert summary["body_contact_cycles"] > 100, summary
+    assert summary["min_body_distance_mm"] < 0.0, summary
