@@ -1,17 +1,25 @@
-//! Minimal SVG charts for every system's figures (stairs, LIP map, multi-layer traces, arm): lines, markers, filled rectangles, and
-//! optionally equal x/y scales for maps. SVG keeps text as text for the viewer to render,
-//! so no font has to be found or shipped at run time.
+//! Every system's figures (stairs, campaign, perception, LIP map, multi-layer traces, arm):
+//! a small declarative description ([`Chart`]: lines, dots, filled rectangles, optionally
+//! one scale on both axes for maps) drawn by `plotters` as SVG and as PNG.
+//!
+//! SVG keeps its text as text; the text is laid out, and drawn into the PNG, with DejaVu
+//! Sans, embedded in the binary, so no system font is looked for.
 
-use std::fmt::Write;
+use std::path::{Path, PathBuf};
+use std::sync::Once;
 
-/// One line of a chart.
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+/// One line (or set of dots) of a chart.
 #[derive(Debug, Clone)]
 pub struct Series {
-    /// Legend text.
+    /// Legend text; empty: drawn but not listed (one of many outlines of a kind).
     pub name: String,
-    /// SVG colour: a name or `#rrggbb`.
+    /// Colour: `#rrggbb`, or one of the names `black`, `gray`, `red`, `green`, `blue`,
+    /// `orange` (anything else draws black).
     pub color: &'static str,
-    /// Data points `(x, y)` in data units; non-finite ones are skipped when drawn.
+    /// Data points `(x, y)` in data units; a non-finite one breaks the line there.
     pub points: Vec<(f64, f64)>,
     /// Drawn dashed (reference lines).
     pub dashed: bool,
@@ -45,7 +53,7 @@ pub struct Area {
     pub min: (f64, f64),
     /// Upper-right corner `(x, y)` in data units.
     pub max: (f64, f64),
-    /// SVG fill colour: a name or `#rrggbb`.
+    /// Fill colour, as [`Series::color`].
     pub fill: &'static str,
 }
 
@@ -66,14 +74,16 @@ pub struct Chart {
     pub equal_axes: bool,
 }
 
-const WIDTH: f64 = 800.0;
-const HEIGHT: f64 = 420.0;
-const LEFT: f64 = 70.0;
-const RIGHT: f64 = 20.0;
-const TOP: f64 = 40.0;
-const BOTTOM: f64 = 50.0;
+/// Figure size in pixels (the PNG's; the SVG's in its units).
+pub const SIZE: (u32, u32) = (800, 440);
 /// Points drawn per series at most; longer series are thinned evenly.
 const MAX_POINTS: usize = 4000;
+// Margins around the plotting area, as the chart is built (caption, tick labels, axis
+// descriptions): what `equal_axes` divides the data's extent by.
+const CAPTION: u32 = 30;
+const MARGIN: u32 = 12;
+const X_LABELS: u32 = 45;
+const Y_LABELS: u32 = 70;
 
 impl Chart {
     /// An empty chart with its title and axis labels.
@@ -106,8 +116,31 @@ impl Chart {
         self
     }
 
-    /// The chart as an SVG document. Non-finite points are skipped.
-    pub fn to_svg(&self) -> String {
+    /// The chart as an SVG document.
+    ///
+    /// # Errors
+    /// What `plotters` reports while drawing (nothing, for an in-memory document).
+    pub fn to_svg(&self) -> std::io::Result<String> {
+        let mut svg = String::new();
+        self.draw(SVGBackend::with_string(&mut svg, SIZE).into_drawing_area())?;
+        Ok(svg)
+    }
+
+    /// Write the chart as `dir/stem.svg` and `dir/stem.png`; returns both paths.
+    ///
+    /// # Errors
+    /// A file that cannot be written.
+    pub fn write(&self, dir: &Path, stem: &str) -> std::io::Result<[PathBuf; 2]> {
+        std::fs::create_dir_all(dir)?;
+        let (svg, png) = (dir.join(format!("{stem}.svg")), dir.join(format!("{stem}.png")));
+        std::fs::write(&svg, self.to_svg()?)?;
+        self.draw(BitMapBackend::new(&png, SIZE).into_drawing_area())?;
+        Ok([svg, png])
+    }
+
+    /// The data's ranges, padded, and for `equal_axes` widened about their centres so
+    /// that a data unit takes as many pixels on either axis.
+    fn ranges(&self) -> ((f64, f64), (f64, f64)) {
         let finite = |&(x, y): &(f64, f64)| x.is_finite() && y.is_finite();
         let corners = self.areas.iter().flat_map(|a| [a.min, a.max]);
         let all = self.series.iter().flat_map(|s| s.points.iter().copied()).chain(corners).filter(finite);
@@ -115,148 +148,114 @@ impl Chart {
         for (x, y) in all {
             (x0, x1, y0, y1) = (x0.min(x), x1.max(x), y0.min(y), y1.max(y));
         }
-        // No finite point, or all at one x: a unit range around it.
-        if x0.partial_cmp(&x1) != Some(std::cmp::Ordering::Less) {
-            (x0, x1) = if x0.is_finite() { (x0 - 0.5, x0 + 0.5) } else { (0.0, 1.0) };
-        }
-        if y0.partial_cmp(&y1) != Some(std::cmp::Ordering::Less) {
-            (y0, y1) = if y0.is_finite() { (y0 - 0.5, y0 + 0.5) } else { (0.0, 1.0) };
-        }
+        // No finite point, or all at one value: a unit range around it.
+        let widen = |lo: f64, hi: f64| match lo.partial_cmp(&hi) {
+            Some(std::cmp::Ordering::Less) => (lo, hi),
+            _ if lo.is_finite() => (lo - 0.5, lo + 0.5),
+            _ => (0.0, 1.0),
+        };
+        let ((x0, x1), (y0, y1)) = (widen(x0, x1), widen(y0, y1));
         let pad = 0.05 * (y1 - y0);
-        (y0, y1) = (y0 - pad, y1 + pad);
-        let (pw, ph) = (WIDTH - LEFT - RIGHT, HEIGHT - TOP - BOTTOM);
-        if self.equal_axes {
-            // Widen the range that has more data per pixel, about its centre.
-            let scale = ((x1 - x0) / pw).max((y1 - y0) / ph);
-            let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
-            (x0, x1, y0, y1) =
-                (cx - 0.5 * scale * pw, cx + 0.5 * scale * pw, cy - 0.5 * scale * ph, cy + 0.5 * scale * ph);
+        let (y0, y1) = (y0 - pad, y1 + pad);
+        if !self.equal_axes {
+            return ((x0, x1), (y0, y1));
         }
-        let sx = |x: f64| LEFT + (x - x0) / (x1 - x0) * pw;
-        let sy = |y: f64| TOP + (1.0 - (y - y0) / (y1 - y0)) * ph;
+        let pw = f64::from(SIZE.0 - Y_LABELS - 2 * MARGIN);
+        let ph = f64::from(SIZE.1 - CAPTION - X_LABELS - 2 * MARGIN);
+        let scale = ((x1 - x0) / pw).max((y1 - y0) / ph);
+        let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+        ((cx - 0.5 * scale * pw, cx + 0.5 * scale * pw), (cy - 0.5 * scale * ph, cy + 0.5 * scale * ph))
+    }
 
-        let mut svg = String::new();
-        // Writing to a String cannot fail.
-        let _ = writeln!(
-            svg,
-            r#"<svg xmlns="http://www.w3.org/2000/svg" width="{WIDTH}" height="{HEIGHT}" font-family="sans-serif" font-size="12">"#
-        );
-        let _ = writeln!(svg, r#"<rect width="100%" height="100%" fill="white"/>"#);
-        let _ = writeln!(
-            svg,
-            r#"<text x="{}" y="22" font-size="15" text-anchor="middle">{}</text>"#,
-            WIDTH / 2.0,
-            escape(&self.title)
-        );
-        let _ = writeln!(svg, r#"<rect x="{LEFT}" y="{TOP}" width="{pw}" height="{ph}" fill="none" stroke="black"/>"#);
-        for x in round_ticks(x0, x1) {
-            let _ = writeln!(svg, r##"<line x1="{0}" y1="{TOP}" x2="{0}" y2="{1}" stroke="#ddd"/>"##, sx(x), TOP + ph);
-            let _ =
-                writeln!(svg, r#"<text x="{}" y="{}" text-anchor="middle">{}</text>"#, sx(x), TOP + ph + 16.0, tick(x));
+    fn draw<DB: DrawingBackend>(&self, root: DrawingArea<DB, Shift>) -> std::io::Result<()> {
+        // Text is laid out with the font's metrics for either backend.
+        register_font();
+        self.draw_on(&root).map_err(|e| std::io::Error::other(format!("drawing {:?}: {e}", self.title)))?;
+        root.present().map_err(|e| std::io::Error::other(format!("writing {:?}: {e}", self.title)))
+    }
+
+    fn draw_on<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+    ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+        root.fill(&WHITE)?;
+        let ((x0, x1), (y0, y1)) = self.ranges();
+        let mut chart = ChartBuilder::on(root)
+            .caption(&self.title, ("sans-serif", 18))
+            .margin(MARGIN)
+            .x_label_area_size(X_LABELS)
+            .y_label_area_size(Y_LABELS)
+            .build_cartesian_2d(x0..x1, y0..y1)?;
+        chart
+            .configure_mesh()
+            .x_desc(&self.x_label)
+            .y_desc(&self.y_label)
+            .light_line_style(RGBColor(240, 240, 240))
+            .bold_line_style(RGBColor(215, 215, 215))
+            .label_style(("sans-serif", 12))
+            .axis_desc_style(("sans-serif", 13))
+            .draw()?;
+        for a in self.areas.iter().filter(|a| [a.min.0, a.min.1, a.max.0, a.max.1].iter().all(|v| v.is_finite())) {
+            chart.draw_series(std::iter::once(Rectangle::new([a.min, a.max], rgb(a.fill).filled())))?;
         }
-        for y in round_ticks(y0, y1) {
-            let _ =
-                writeln!(svg, r##"<line x1="{LEFT}" y1="{0}" x2="{1}" y2="{0}" stroke="#ddd"/>"##, sy(y), LEFT + pw);
-            let _ =
-                writeln!(svg, r#"<text x="{}" y="{}" text-anchor="end">{}</text>"#, LEFT - 6.0, sy(y) + 4.0, tick(y));
-        }
-        let _ = writeln!(
-            svg,
-            r#"<text x="{}" y="{}" text-anchor="middle">{}</text>"#,
-            LEFT + pw / 2.0,
-            HEIGHT - 10.0,
-            escape(&self.x_label)
-        );
-        let _ = writeln!(
-            svg,
-            r#"<text x="16" y="{0}" text-anchor="middle" transform="rotate(-90 16 {0})">{1}</text>"#,
-            TOP + ph / 2.0,
-            escape(&self.y_label)
-        );
-        for a in self.areas.iter().filter(|a| finite(&a.min) && finite(&a.max)) {
-            let (left, top) = (sx(a.min.0), sy(a.max.1));
-            let (w, h) = (sx(a.max.0) - left, sy(a.min.1) - top);
-            let _ =
-                writeln!(svg, r#"<rect x="{left:.1}" y="{top:.1}" width="{w:.1}" height="{h:.1}" fill="{}"/>"#, a.fill);
-        }
-        // Legend rows for named series only: a series without a name (one of many outlines
-        // of the same kind) is drawn but not listed.
-        let mut row = 0usize;
         for s in &self.series {
-            let k = row;
-            row += usize::from(!s.name.is_empty());
+            let color = rgb(s.color);
+            let style = color.stroke_width(2);
+            let legend = !s.name.is_empty();
             if s.markers {
-                for (x, y) in s.points.iter().filter(|p| finite(p)) {
-                    let _ =
-                        writeln!(svg, r#"<circle cx="{:.1}" cy="{:.1}" r="3" fill="{}"/>"#, sx(*x), sy(*y), s.color);
-                }
-                if !s.name.is_empty() {
-                    let ly = TOP + 14.0 + 16.0 * k as f64;
-                    let _ =
-                        writeln!(svg, r#"<circle cx="{}" cy="{}" r="3" fill="{}"/>"#, LEFT + 20.0, ly - 4.0, s.color);
-                    let _ = writeln!(svg, r#"<text x="{}" y="{ly}">{}</text>"#, LEFT + 36.0, escape(&s.name));
+                let dots = s.points.iter().copied().filter(|(x, y)| x.is_finite() && y.is_finite());
+                let drawn = chart.draw_series(dots.map(|p| Circle::new(p, 3, color.filled())))?;
+                if legend {
+                    drawn.label(&s.name).legend(move |(x, y)| Circle::new((x + 10, y), 3, color.filled()));
                 }
                 continue;
             }
             let stride = s.points.len().div_ceil(MAX_POINTS).max(1);
-            let mut path = String::new();
-            for (x, y) in s.points.iter().step_by(stride).filter(|p| finite(p)) {
-                let _ = write!(path, "{:.1},{:.1} ", sx(*x), sy(*y));
+            let thinned: Vec<(f64, f64)> = s.points.iter().copied().step_by(stride).collect();
+            // A non-finite point ends one run of the line and the next finite one starts
+            // another; the legend entry goes with the first run.
+            let runs = thinned.split(|(x, y)| !(x.is_finite() && y.is_finite())).filter(|run| !run.is_empty());
+            for (k, run) in runs.enumerate() {
+                let drawn = if s.dashed {
+                    chart.draw_series(DashedLineSeries::new(run.iter().copied(), 6, 4, style))?
+                } else {
+                    chart.draw_series(LineSeries::new(run.iter().copied(), style))?
+                };
+                if legend && k == 0 {
+                    drawn.label(&s.name).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
+                }
             }
-            let dash = if s.dashed { r#" stroke-dasharray="6 4""# } else { "" };
-            let _ = writeln!(
-                svg,
-                r#"<polyline fill="none" stroke="{}" stroke-width="1.5"{dash} points="{path}"/>"#,
-                s.color
-            );
-            if s.name.is_empty() {
-                continue;
-            }
-            let ly = TOP + 14.0 + 16.0 * k as f64;
-            let _ = writeln!(
-                svg,
-                r#"<line x1="{0}" y1="{1}" x2="{2}" y2="{1}" stroke="{3}" stroke-width="2"{dash}/>"#,
-                LEFT + 10.0,
-                ly - 4.0,
-                LEFT + 30.0,
-                s.color
-            );
-            let _ = writeln!(svg, r#"<text x="{}" y="{ly}">{}</text>"#, LEFT + 36.0, escape(&s.name));
         }
-        svg.push_str("</svg>\n");
-        svg
+        if self.series.iter().any(|s| !s.name.is_empty()) {
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::UpperLeft)
+                .background_style(WHITE.mix(0.85))
+                .border_style(RGBColor(160, 160, 160))
+                .label_font(("sans-serif", 12))
+                .draw()?;
+        }
+        Ok(())
     }
 }
 
-/// Tick positions inside `[lo, hi]` at the smallest round step (1, 2 or 5 × 10^k) giving at
-/// most about 8 ticks.
-fn round_ticks(lo: f64, hi: f64) -> impl Iterator<Item = f64> {
-    let raw = (hi - lo) / 8.0;
-    let magnitude = 10f64.powf(raw.log10().floor());
-    let step = [1.0, 2.0, 5.0, 10.0].into_iter().map(|m| m * magnitude).find(|&s| s >= raw).unwrap_or(raw);
-    let first = (lo / step).ceil() as i64;
-    let last = (hi / step).floor() as i64;
-    // Multiples of the step, snapped so that 0.1 * 3 prints as 0.3.
-    (first..=last).map(move |k| (k as f64 * step / magnitude).round() * magnitude)
-}
-
-fn tick(v: f64) -> String {
-    if v == 0.0 || (1e-2..1e4).contains(&v.abs()) {
-        format!("{v:.3}").trim_end_matches('0').trim_end_matches('.').to_string()
-    } else {
-        format!("{v:.1e}")
+/// Writes each chart as `dir/<stem>.svg` and `dir/<stem>.png`; returns the paths written.
+///
+/// # Errors
+/// A file that cannot be written.
+pub fn write_charts(dir: &Path, charts: &[(String, Chart)]) -> std::io::Result<Vec<PathBuf>> {
+    let mut written = Vec::with_capacity(2 * charts.len());
+    for (stem, chart) in charts {
+        written.extend(chart.write(dir, stem)?);
     }
-}
-
-fn escape(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
+    Ok(written)
 }
 
 /// Create `dir` and write each `(file name, text)` into it; returns the paths written.
 ///
 /// # Errors
 /// The directory or a file cannot be written.
-pub fn write_files(dir: &std::path::Path, files: Vec<(String, String)>) -> std::io::Result<Vec<std::path::PathBuf>> {
+pub fn write_files(dir: &Path, files: Vec<(String, String)>) -> std::io::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir)?;
     files
         .into_iter()
@@ -268,50 +267,78 @@ pub fn write_files(dir: &std::path::Path, files: Vec<(String, String)>) -> std::
         .collect()
 }
 
+/// DejaVu Sans as plotters' "sans-serif", once per process: the metrics text is laid out
+/// with, and the glyphs the PNGs draw.
+fn register_font() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        // The embedded file is a valid font; were it not, the PNGs would lack their text.
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular());
+    });
+}
+
+/// A colour from `#rrggbb` or one of the few names the figures use; black otherwise.
+fn rgb(color: &str) -> RGBColor {
+    let named = match color {
+        "black" => Some(RGBColor(0, 0, 0)),
+        "gray" | "grey" => Some(RGBColor(128, 128, 128)),
+        "red" => Some(RGBColor(220, 30, 30)),
+        "green" => Some(RGBColor(40, 150, 40)),
+        "blue" => Some(RGBColor(30, 80, 200)),
+        "orange" => Some(RGBColor(255, 140, 0)),
+        _ => None,
+    };
+    named
+        .or_else(|| {
+            let hex = color.strip_prefix('#').filter(|h| h.len() == 6)?;
+            let byte = |i: usize| u8::from_str_radix(hex.get(i..i + 2)?, 16).ok();
+            Some(RGBColor(byte(0)?, byte(2)?, byte(4)?))
+        })
+        .unwrap_or(BLACK)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
-    fn ticks_fall_on_round_steps_inside_the_range() {
-        let ticks: Vec<f64> = round_ticks(-0.205, 6.145).collect();
-        assert_eq!(ticks, [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
-        let ticks: Vec<f64> = round_ticks(-1.625, 1.125).collect();
-        assert_eq!(ticks, [-1.5, -1.0, -0.5, 0.0, 0.5, 1.0]);
-        let ticks: Vec<String> = round_ticks(0.0, 9.999).map(tick).collect();
-        assert_eq!(ticks, ["0", "2", "4", "6", "8"]);
+    fn colours_parse_from_hex_and_names() {
+        assert_eq!(rgb("#1f77b4"), RGBColor(0x1f, 0x77, 0xb4));
+        assert_eq!(rgb("gray"), RGBColor(128, 128, 128));
+        assert_eq!(rgb("#12345"), BLACK);
+        assert_eq!(rgb("#gg0000"), BLACK);
     }
 
     #[test]
-    fn a_chart_maps_its_extremes_to_the_plot_corners() {
-        let svg = Chart::new("t <1>", "x", "y")
-            .with(Series::new("a", "red", vec![(0.0, 0.0), (1.0, 1.0), (0.5, f64::NAN)]))
-            .to_svg();
-        assert!(svg.contains("t &lt;1&gt;"));
-        // y spans [0, 1] padded by 5 %: the data's corners sit inside the frame.
-        let (pw, ph) = (WIDTH - LEFT - RIGHT, HEIGHT - TOP - BOTTOM);
-        let low = format!("{:.1},{:.1}", LEFT, TOP + ph * (1.0 - 0.05 / 1.1));
-        let high = format!("{:.1},{:.1}", LEFT + pw, TOP + ph * (0.05 / 1.1));
-        assert!(svg.contains(&low) && svg.contains(&high), "{svg}");
-        assert_eq!(svg.matches("<polyline").count(), 1);
-    }
-
-    #[test]
-    fn equal_axes_give_both_axes_one_scale_and_areas_and_markers_are_drawn() {
-        let svg = Chart::new("map", "x", "y")
+    fn equal_axes_give_a_data_unit_the_same_pixels_on_both_axes() {
+        let chart = Chart::new("map", "x", "y")
             .equal_axes()
-            .with_area(Area { min: (0.0, 0.0), max: (1.0, 1.0), fill: "gray" })
-            .with(Series::new("dots", "red", vec![(0.0, 0.0), (4.0, 1.0)]).markers())
-            .to_svg();
-        // The unit square must come out square in pixels.
-        let rect = svg.lines().find(|l| l.contains(r#"fill="gray""#)).expect("area drawn");
-        let attr = |name: &str| -> f64 {
-            let start = rect.find(&format!(r#" {name}=""#)).expect("attribute") + name.len() + 3;
-            rect[start..].split('"').next().and_then(|v| v.parse().ok()).expect("number")
-        };
-        assert!((attr("width") - attr("height")).abs() <= 0.2, "{rect}");
-        assert!(attr("width") > 10.0);
-        assert_eq!(svg.matches("<circle").count(), 3, "two dots and a legend dot");
-        assert_eq!(svg.matches("<polyline").count(), 0);
+            .with(Series::new("dots", "red", vec![(0.0, 0.0), (4.0, 1.0)]).markers());
+        let ((x0, x1), (y0, y1)) = chart.ranges();
+        let pw = f64::from(SIZE.0 - Y_LABELS - 2 * MARGIN);
+        let ph = f64::from(SIZE.1 - CAPTION - X_LABELS - 2 * MARGIN);
+        assert!(((x1 - x0) / pw - (y1 - y0) / ph).abs() < 1e-12);
+        // The data still fits.
+        assert!(x0 <= 0.0 && x1 >= 4.0 && y0 <= 0.0 && y1 >= 1.0);
+    }
+
+    #[test]
+    fn a_chart_is_drawn_as_svg_and_png_with_its_text() {
+        let dir = std::env::temp_dir().join(format!("cbfgen_chart_{}", std::process::id()));
+        let chart = Chart::new("title <1>", "time [s]", "h")
+            .with_area(Area { min: (0.2, 0.0), max: (0.4, 0.5), fill: "#f3d9d9" })
+            .with(Series::new("a", "#1f77b4", vec![(0.0, 0.0), (1.0, 1.0), (1.5, f64::NAN), (2.0, 0.5), (3.0, 0.7)]))
+            .with(Series::new("b", "black", vec![(0.0, 1.0), (3.0, 1.0)]).dashed());
+        let [svg, png] = chart.write(&dir, "chart").expect("written");
+        let text = std::fs::read_to_string(&svg).expect("svg");
+        assert!(text.contains("title &lt;1&gt;") && text.contains("time [s]"), "{text}");
+        // Three runs of line: "a" in two pieces around its NaN, and "b" (dashes are
+        // drawn as separate segments).
+        assert!(text.matches("<polyline").count() >= 3);
+        let bytes = std::fs::read(&png).expect("png");
+        assert_eq!(&bytes[1..4], b"PNG");
+        // Text drawn into the PNG: its pixels are not all background and lines.
+        assert!(bytes.len() > 5000);
+        std::fs::remove_dir_all(&dir).ok();
     }
 }

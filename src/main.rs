@@ -59,7 +59,7 @@ enum Command {
     },
     /// Closed-loop simulation at 1 kHz: the robot walks over a step or climbs five stairs
     /// with the ECBF filter correcting a naive gait. Writes a CSV and the paper's
-    /// Figs. 7-10 (SVG) to --out and prints a summary. Unless --no-body-cbf is given, the
+    /// Figs. 7-10 (SVG and PNG) to --out and prints a summary. Unless --no-body-cbf is given, the
     /// same course is also run without the body SSAT CBF for Fig. 7's comparison; unless
     /// --no-osqp-reference is given, also with the OSQP backend for Fig. 10's.
     Simulate {
@@ -129,7 +129,7 @@ enum Command {
     },
     /// Bipedal navigation: a 3D-LIP MPC with linear discrete CBFs walks from the origin
     /// to a goal past three rectangles. Prints a summary and writes the path figure
-    /// (lip_navigation.svg) and the barrier figure (lip_min_h.svg) to --out.
+    /// (lip_navigation.svg/.png) and the barrier figure (lip_min_h.svg/.png) to --out.
     Lip {
         /// Directory for the figures.
         #[arg(long, default_value = "out")]
@@ -141,7 +141,8 @@ enum Command {
     /// Multi-layer safety on a double integrator kept above a moving sinusoid: a kinematic
     /// MPC at 20 Hz (with a discrete-time CBF, a state constraint, or nothing) feeding an
     /// ID-CBF-QP at 1 kHz. Prints peak |u| and min h per variant and writes
-    /// multilayer_positions.svg and multilayer_inputs.svg (the paper's Fig. 3) to --out.
+    /// multilayer_positions and multilayer_inputs, SVG and PNG (the paper's Fig. 3), to
+    /// --out.
     Multilayer {
         /// Directory for the figures.
         #[arg(long, default_value = "out")]
@@ -150,7 +151,7 @@ enum Command {
     /// A Franka-Panda-like 7-DoF arm (symbolic/systems/panda.py) at 1 kHz: a joint-space
     /// PD sweeps the forearm through a box on a table, folds the hand onto the shoulder and
     /// pushes the elbow past its limit; run with the ECBF filter and without. Prints each
-    /// run's exact SAT separations and joint margins; writes CSVs and four SVG figures.
+    /// run's exact SAT separations and joint margins; writes CSVs and four figures (SVG and PNG).
     Arm {
         /// Directory for the CSVs and figures.
         #[arg(long, default_value = "out")]
@@ -162,7 +163,7 @@ enum Command {
     /// Perception on the hardware stairs (5 × 16.5 × 35 cm): four simulated LiDAR scans on
     /// the approach, accumulated; planes and edge cuboids extracted from the points alone.
     /// Prints each true nosing beside the cuboid found for it and writes side and top
-    /// views (SVG).
+    /// views (SVG and PNG).
     Perceive {
         /// Directory for the figures.
         #[arg(long, default_value = "out")]
@@ -586,13 +587,11 @@ fn perceive(out: &mut impl Write, dir: &std::path::Path, seed: u64) -> Result<()
             _ => writeln!(out, "  nosing {k} (x {:.3}, z {:.3}): not found", b.center().x, b.center().z)?,
         }
     }
-    let written = cbfgen::chart::write_files(
-        dir,
-        figure::side_and_top(&map, &found, &cuboids, &truth)
-            .into_iter()
-            .map(|(name, chart)| (format!("perception_{name}.svg"), chart.to_svg()))
-            .collect(),
-    )?;
+    let charts: Vec<(String, cbfgen::chart::Chart)> = figure::side_and_top(&map, &found, &cuboids, &truth)
+        .into_iter()
+        .map(|(name, chart)| (format!("perception_{name}"), chart))
+        .collect();
+    let written = cbfgen::chart::write_charts(dir, &charts)?;
     print_written(out, &written)?;
     Ok(())
 }

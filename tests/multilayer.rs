@@ -174,12 +174,24 @@ fn the_figures_show_every_variant_and_the_boundary() {
     let results = run_all(&config).unwrap();
     let dir = std::env::temp_dir().join(format!("cbfgen_multilayer_{}", std::process::id()));
     let written = scenario::write_figures(&dir, &config, &results).unwrap();
+    let names: Vec<_> = written.iter().map(|p| p.file_name().unwrap().to_str().unwrap()).collect();
+    assert_eq!(
+        names,
+        ["multilayer_positions.svg", "multilayer_positions.png", "multilayer_inputs.svg", "multilayer_inputs.png"]
+    );
     let positions = std::fs::read_to_string(&written[0]).unwrap();
-    let inputs = std::fs::read_to_string(&written[1]).unwrap();
-    assert!(written[0].ends_with("multilayer_positions.svg") && written[1].ends_with("multilayer_inputs.svg"));
-    assert_eq!(positions.matches("<polyline").count(), 4);
-    assert_eq!(inputs.matches("<polyline").count(), 3);
-    assert!(positions.contains("stroke-dasharray"), "the boundary is drawn dashed");
+    let inputs = std::fs::read_to_string(&written[2]).unwrap();
+    // Each variant's line in its own colour, once in the plot and once in the legend.
+    for colour in ["#1F77B4", "#D62728", "#2CA02C"] {
+        let line = format!(r#"stroke="{colour}""#);
+        assert_eq!(positions.matches(&line).count(), 2, "positions: {colour}");
+        assert_eq!(inputs.matches(&line).count(), 2, "inputs: {colour}");
+    }
+    // The boundary is dashed: many short black pieces.
+    assert!(positions.matches(r##"stroke="#000000""##).count() > 50, "the boundary is drawn dashed");
+    for png in [&written[1], &written[3]] {
+        assert_eq!(&std::fs::read(png).unwrap()[1..4], b"PNG");
+    }
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

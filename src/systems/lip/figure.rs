@@ -57,17 +57,14 @@ pub fn min_h_chart(run: &RunResult) -> Chart {
         .with(Series::new("h = 0 (CoM at distance δ)", "gray", zero).dashed())
 }
 
-/// Write `lip_navigation.svg` and `lip_min_h.svg` into `dir` (created if missing).
+/// Write `lip_navigation` and `lip_min_h`, as SVG and PNG, into `dir` (created if
+/// missing).
 ///
 /// # Errors
 /// The directory or a file cannot be written.
 pub fn write_all(dir: &Path, run: &RunResult) -> io::Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir)?;
-    let mut written = Vec::new();
-    for (name, chart) in [("lip_navigation.svg", navigation_chart(run)), ("lip_min_h.svg", min_h_chart(run))] {
-        let path = dir.join(name);
-        std::fs::write(&path, chart.to_svg())?;
-        written.push(path);
-    }
-    Ok(written)
+    crate::chart::write_charts(
+        dir,
+        &[("lip_navigation".to_string(), navigation_chart(run)), ("lip_min_h".to_string(), min_h_chart(run))],
+    )
 }

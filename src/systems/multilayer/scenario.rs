@@ -179,11 +179,8 @@ pub fn write_figures(dir: &Path, config: &ScenarioConfig, results: &[VariantResu
     let t = results.first().map(|r| r.trace.t.clone()).unwrap_or_default();
     let boundary = t.iter().map(|&t| (t, config.barrier.boundary(t))).collect();
     positions = positions.with(Series::new("boundary A sin(ωt) + c", "black", boundary).dashed());
-    let mut written = Vec::new();
-    for (name, chart) in [("multilayer_positions.svg", positions), ("multilayer_inputs.svg", inputs)] {
-        let path = dir.join(name);
-        std::fs::write(&path, chart.to_svg())?;
-        written.push(path);
-    }
-    Ok(written)
+    crate::chart::write_charts(
+        dir,
+        &[("multilayer_positions".to_string(), positions), ("multilayer_inputs".to_string(), inputs)],
+    )
 }

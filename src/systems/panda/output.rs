@@ -141,13 +141,14 @@ pub fn write_all(dir: &Path, with: &Run, without: Option<&Run>, every: usize) ->
     if let Some(run) = without {
         files.push(("arm_no_filter.csv".into(), csv(run, every)));
     }
-    for (name, chart) in [
+    let charts = [
         ("arm_clearance", clearance_chart(with, without)),
         ("arm_self_pairs", self_pairs_chart(with)),
         ("arm_joints", joints_chart(with, without)),
         ("arm_active_rows", active_rows_chart(with)),
-    ] {
-        files.push((format!("{name}.svg"), chart.to_svg()));
-    }
-    crate::chart::write_files(dir, files)
+    ]
+    .map(|(name, chart)| (name.to_string(), chart));
+    let mut written = crate::chart::write_files(dir, files)?;
+    written.extend(crate::chart::write_charts(dir, &charts)?);
+    Ok(written)
 }

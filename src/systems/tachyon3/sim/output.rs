@@ -87,23 +87,31 @@ pub fn write_all(
     for run in std::iter::once(main).chain(comparison) {
         files.push((format!("{}.csv", file_stem(&run.summary)), csv(&run.samples, every)));
     }
-    for (name, chart) in figures(main, comparison, osqp_reference) {
-        files.push((format!("{}_{name}.svg", main.summary.scenario.name()), chart.to_svg()));
-    }
+    let mut charts: Vec<(String, Chart)> = figures(main, comparison, osqp_reference)
+        .into_iter()
+        .map(|(name, chart)| (format!("{}_{name}", main.summary.scenario.name()), chart))
+        .collect();
     if let Some(perception) = &main.perception {
-        files.extend(perception_files(&file_stem(&main.summary), main.summary.scenario, perception)?);
+        let (more_files, more_charts) = perception_files(&file_stem(&main.summary), main.summary.scenario, perception)?;
+        files.extend(more_files);
+        charts.extend(more_charts);
     }
-    crate::chart::write_files(dir, files)
+    let mut written = crate::chart::write_files(dir, files)?;
+    written.extend(crate::chart::write_charts(dir, &charts)?);
+    Ok(written)
 }
 
 /// A perceived run's record: every update (`<stem>_perception.csv`), the last map
 /// (`<stem>_map.csv`: x, y, z and the returns each voxel averages), what the last update extracted (`<stem>_perceived.txt`:
 /// planes, cuboids) and its side and top views over the true edge cuboids.
+/// Text files `(name, contents)` and charts `(stem, chart)` to write.
+type NamedFiles = (Vec<(String, String)>, Vec<(String, Chart)>);
+
 fn perception_files(
     stem: &str,
     scenario: super::Scenario,
     perception: &super::PerceptionRun,
-) -> io::Result<Vec<(String, String)>> {
+) -> io::Result<NamedFiles> {
     use std::fmt::Write as _;
     let mut updates = String::from("requested_at,applied_at,map_points,planes,cuboids,levels,elapsed_ms\n");
     for u in &perception.updates {
@@ -120,7 +128,7 @@ fn perception_files(
         );
     }
     let mut files = vec![(format!("{stem}_perception.csv"), updates)];
-    let Some(last) = &perception.last else { return Ok(files) };
+    let Some(last) = &perception.last else { return Ok((files, Vec::new())) };
     let mut map = String::from("x,y,z,returns\n");
     for (p, n) in last.points.iter().zip(&last.weights) {
         let _ = writeln!(map, "{:.4},{:.4},{:.4},{n}", p.x, p.y, p.z);
@@ -155,10 +163,11 @@ fn perception_files(
     files.push((format!("{stem}_map.csv"), map));
     files.push((format!("{stem}_perceived.txt"), found));
     let truth = scenario.terrain().and_then(|t| t.edge_boxes()).map_err(io::Error::other)?;
-    for (name, chart) in crate::perception::figure::side_and_top(&last.points, &last.planes, &last.cuboids, &truth) {
-        files.push((format!("{stem}_perception_{name}.svg"), chart.to_svg()));
-    }
-    Ok(files)
+    let charts = crate::perception::figure::side_and_top(&last.points, &last.planes, &last.cuboids, &truth)
+        .into_iter()
+        .map(|(name, chart)| (format!("{stem}_perception_{name}"), chart))
+        .collect();
+    Ok((files, charts))
 }
 
 fn file_stem(s: &Summary) -> String {

@@ -81,18 +81,19 @@ pub fn csv(campaign: &Campaign) -> String {
     out
 }
 
-/// Write `episodes.csv`, `report.txt` and the figures (`campaign_*.svg`) into `dir`.
+/// Write `episodes.csv`, `report.txt` and the figures (`campaign_*.svg` and `.png`) into
+/// `dir`.
 /// Returns the paths written.
 ///
 /// # Errors
 /// Any I/O error.
 pub fn write_all(dir: &Path, campaign: &Campaign) -> io::Result<Vec<PathBuf>> {
-    let mut files =
-        vec![("episodes.csv".into(), csv(campaign)), ("report.txt".into(), format!("{}\n", campaign.report()))];
-    for (name, chart) in figures(campaign) {
-        files.push((format!("campaign_{name}.svg"), chart.to_svg()));
-    }
-    crate::chart::write_files(dir, files)
+    let files = vec![("episodes.csv".into(), csv(campaign)), ("report.txt".into(), format!("{}\n", campaign.report()))];
+    let charts: Vec<(String, Chart)> =
+        figures(campaign).into_iter().map(|(name, chart)| (format!("campaign_{name}"), chart)).collect();
+    let mut written = crate::chart::write_files(dir, files)?;
+    written.extend(crate::chart::write_charts(dir, &charts)?);
+    Ok(written)
 }
 
 const OUTCOME_COLORS: [(Outcome, &str); 3] =
