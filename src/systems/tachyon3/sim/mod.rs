@@ -8,6 +8,7 @@
 //! (exact SAT for the body, exact sphere–box distance for the toes).
 
 #[cfg(feature = "campaign")]
+pub mod animation;
 pub mod campaign;
 mod course;
 pub mod gait;

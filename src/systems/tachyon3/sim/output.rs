@@ -87,6 +87,12 @@ pub fn write_all(
     for run in std::iter::once(main).chain(comparison) {
         files.push((format!("{}.csv", file_stem(&run.summary)), csv(&run.samples, every)));
     }
+    // Every run of the course on one page, one clock.
+    let terrain = main.summary.scenario.terrain().map_err(io::Error::other)?;
+    let mut runs = vec![(if main.summary.body_cbf { "with the body CBF" } else { "without the body CBF" }, main)];
+    runs.extend(comparison.map(|run| ("without the body CBF", run)));
+    let page = super::animation::animation(&runs, &terrain).map_err(io::Error::other)?;
+    files.push((format!("{}_animation.html", main.summary.scenario.name()), page.html));
     let mut charts: Vec<(String, Chart)> = figures(main, comparison, osqp_reference)
         .into_iter()
         .map(|(name, chart)| (format!("{}_{name}", main.summary.scenario.name()), chart))
