@@ -58,8 +58,9 @@ enum Command {
         solver: SolverArgs,
     },
     /// Closed-loop simulation at 1 kHz: the robot walks over a step or climbs five stairs
-    /// with the ECBF filter correcting a naive gait. Writes a CSV and the paper's
-    /// Figs. 7-10 (SVG and PNG) to --out and prints a summary. Unless --no-body-cbf is given, the
+    /// with the ECBF filter correcting a naive gait. Writes a CSV, a page that plays the
+    /// runs back (<scenario>_animation.html) and the paper's Figs. 7-10 (SVG and PNG) to
+    /// --out and prints a summary. Unless --no-body-cbf is given, the
     /// same course is also run without the body SSAT CBF for Fig. 7's comparison; unless
     /// --no-osqp-reference is given, also with the OSQP backend for Fig. 10's.
     Simulate {
