@@ -7,8 +7,8 @@
 //! rows, the time spent (wall and thread CPU time) and the exact clearance of body and toes to every edge cuboid
 //! (exact SAT for the body, exact sphere–box distance for the toes).
 
-#[cfg(feature = "campaign")]
 pub mod animation;
+#[cfg(feature = "campaign")]
 pub mod campaign;
 mod course;
 pub mod gait;
