@@ -76,12 +76,18 @@ fn figures_and_the_documented_csv_are_written() {
     let result = sim::run(&config, |_| {}).expect("simulation");
     let dir = std::env::temp_dir().join(format!("cbfgen-sim-test-{}", std::process::id()));
     let written = output::write_all(&dir, &result, None, None, 10).expect("write");
-    assert_eq!(written.len(), 5, "one CSV and four figures: {written:?}");
+    assert_eq!(written.len(), 10, "one CSV, the animation page and four figures as SVG and PNG: {written:?}");
     for path in &written {
-        let text = std::fs::read_to_string(path).expect("readable");
-        assert!(text.len() > 500, "{} is nearly empty", path.display());
-        if path.extension().is_some_and(|e| e == "svg") {
-            assert!(text.starts_with("<svg") && text.contains("<polyline") && text.trim_end().ends_with("</svg>"));
+        let bytes = std::fs::read(path).expect("readable");
+        assert!(bytes.len() > 500, "{} is nearly empty", path.display());
+        match path.extension().and_then(|e| e.to_str()) {
+            Some("svg") => {
+                let text = String::from_utf8(bytes).expect("text");
+                assert!(text.starts_with("<svg") && text.contains("<polyline") && text.trim_end().ends_with("</svg>"));
+            }
+            Some("png") => assert_eq!(&bytes[1..4], b"PNG", "{}", path.display()),
+            Some("html") => assert!(String::from_utf8(bytes).expect("text").contains(r#"id="data""#)),
+            _ => {}
         }
     }
     let csv = std::fs::read_to_string(dir.join("step.csv")).expect("csv");
