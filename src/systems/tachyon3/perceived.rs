@@ -196,7 +196,7 @@ pub fn ground_from_planes(planes: &[Plane], max_tilt: f64) -> Option<Profile> {
 }
 
 /// One perception update of a run.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct PerceptionUpdate {
     /// Simulated time of the request \[s\].
     pub requested_at: f64,
@@ -212,6 +212,11 @@ pub struct PerceptionUpdate {
     pub levels: usize,
     /// Wall time of the update on the worker thread.
     pub elapsed: Duration,
+    /// The edge cuboids handed to the gait and filter, nearest the body first, widened
+    /// and raised as [`PerceptionSettings`] say (the filter takes up to its capacity).
+    pub edges: Vec<OrientedBox>,
+    /// The ground the gait stood on from then on.
+    pub ground: Profile,
 }
 
 /// Scans, requests and applies perception updates for one run.
@@ -334,14 +339,15 @@ impl Perceiver {
             .iter()
             .map(|c| {
                 let grown = widened(c, self.settings.edge_margin, self.settings.edge_lift)?;
-                Ok((sphere_box::exact_distance(body.center(), 0.0, c), EdgeCuboid::from_box(&grown)))
+                Ok((sphere_box::exact_distance(body.center(), 0.0, c), grown))
             })
-            .collect::<Result<Vec<(f64, EdgeCuboid)>, CbfError>>()?;
+            .collect::<Result<Vec<(f64, OrientedBox)>, CbfError>>()?;
         nearest.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let edges: Vec<EdgeCuboid> = nearest.into_iter().map(|(_, e)| e).collect();
+        let edge_boxes: Vec<OrientedBox> = nearest.into_iter().map(|(_, b)| b).collect();
+        let edges: Vec<EdgeCuboid> = edge_boxes.iter().map(EdgeCuboid::from_box).collect();
         let levels = ground.as_ref().map_or(0, |g| g.levels().len());
         let ground = ground.unwrap_or_else(|| course.ground().clone());
-        course.set_perceived(ground, &edges)?;
+        course.set_perceived(ground.clone(), &edges)?;
         self.updates.push(PerceptionUpdate {
             requested_at,
             applied_at: t,
@@ -350,6 +356,8 @@ impl Perceiver {
             cuboids: perceived.cuboids.len(),
             levels,
             elapsed: perceived.elapsed,
+            edges: edge_boxes,
+            ground,
         });
         self.last = Some(perceived);
         Ok(())

@@ -2,16 +2,19 @@
 //! anywhere) drawing the side view of every run of a course, one above the other on one
 //! clock: the terrain and its edge cuboids, the body box, the legs, the toe wheels, with
 //! the time, the smallest `h`, the body's exact clearance and the active rows as a
-//! ticker. Play, pause, scrub and speed are on the page; `page.html#N` opens at frame N.
+//! ticker. A run on perceived terrain also shows, at each moment, the ground and edge
+//! cuboids its latest perception update gave the gait and filter, over the true ones.
+//! Play, pause, scrub and speed are on the page; `page.html#N` opens at frame N.
 
 use std::fmt::Write as _;
 
 use super::{SimResult, DT};
 use crate::error::CbfError;
 use crate::generated::tachyon3 as gen;
+use crate::geometry::OrientedBox;
 use crate::systems::tachyon3::catalog::Family;
 use crate::systems::tachyon3::model::{HIP_POSITIONS, TOE_RADIUS};
-use crate::systems::tachyon3::terrain::Terrain;
+use crate::systems::tachyon3::terrain::{Profile, Terrain};
 
 /// Simulated time between frames \[s\] (25 frames per simulated second).
 pub const FRAME_PERIOD: f64 = 0.04;
@@ -34,25 +37,10 @@ pub fn animation(runs: &[(&str, &SimResult)], terrain: &Terrain) -> Result<Anima
     let mut data = String::new();
     let frames = runs.iter().map(|(_, r)| r.samples.len().div_ceil(every)).max().unwrap_or(0);
     let _ = write!(data, r#"{{"frames":{frames},"period":{FRAME_PERIOD},"toe_radius":{TOE_RADIUS},"ground":["#);
-    let levels = terrain.profile().levels();
     let (first, last) = (terrain.first_change() - 3.0, terrain.profile().last_change() + 3.0);
-    for (k, level) in levels.iter().enumerate() {
-        let (begin, end) = (level.begin.max(first), level.end.min(last));
-        let _ = write!(
-            data,
-            "{}[{},{}],[{},{}]",
-            if k == 0 { "" } else { "," },
-            num(begin),
-            num(level.height),
-            num(end),
-            num(level.height)
-        );
-    }
+    data.push_str(&ground_line(terrain.profile(), first, last));
     data.push_str(r#"],"edges":["#);
-    for (k, b) in terrain.edge_boxes()?.iter().enumerate() {
-        let (c, h) = (b.center(), b.half_extents());
-        let _ = write!(data, "{}[{},{},{},{}]", if k == 0 { "" } else { "," }, num(c.x), num(c.z), num(h.x), num(h.z));
-    }
+    data.push_str(&join(terrain.edge_boxes()?.iter().map(side_rect)));
     data.push_str(r#"],"runs":["#);
     for (k, (label, run)) in runs.iter().enumerate() {
         let picked: Vec<_> = run.samples.iter().step_by(every).collect();
@@ -69,17 +57,47 @@ pub fn animation(runs: &[(&str, &SimResult)], terrain: &Terrain) -> Result<Anima
         );
         let _ = write!(
             data,
-            r#""h_body":[{}],"h_min":[{}],"clearance":[{}],"rows":[{}]}}"#,
+            r#""h_body":[{}],"h_min":[{}],"clearance":[{}],"rows":[{}]"#,
             join(picked.iter().map(|s| num(s.min_h[Family::BodyEdge.index()]))),
             join(picked.iter().map(|s| num(s.min_h.iter().copied().fold(f64::INFINITY, f64::min)))),
             join(picked.iter().map(|s| num(s.body_clearance))),
             join(picked.iter().map(|s| s.active_rows.to_string())),
         );
+        // On perceived terrain: what each update handed the gait and filter, from when.
+        if let Some(perception) = &run.perception {
+            let updates = perception.updates.iter().map(|u| {
+                format!(
+                    r#"{{"t":{},"ground":[{}],"edges":[{}]}}"#,
+                    num(u.applied_at),
+                    ground_line(&u.ground, first, last),
+                    join(u.edges.iter().map(side_rect))
+                )
+            });
+            let _ = write!(data, r#","perceived":[{}]"#, join(updates));
+        }
+        data.push('}');
     }
     data.push_str("]}");
     let title = runs.first().map_or("run", |(_, r)| r.summary.scenario.name());
     let html = PAGE.replace("{{TITLE}}", title).replace("{{DATA}}", &data);
     Ok(Animation { html, frames })
+}
+
+/// The profile's levels as a polyline `[x, z]` from `first` to `last` (its infinite
+/// ends cut there).
+fn ground_line(profile: &Profile, first: f64, last: f64) -> String {
+    join(profile.levels().iter().filter(|l| l.end > first && l.begin < last).map(|l| {
+        let (begin, end) = (l.begin.max(first), l.end.min(last));
+        format!("[{},{}],[{},{}]", num(begin), num(l.height), num(end), num(l.height))
+    }))
+}
+
+/// A box's side view `[cx, cz, hx, hz]`: the rectangle bounding its projection on the
+/// x–z plane (exact for a box with an axis along y, as edges are).
+fn side_rect(b: &OrientedBox) -> String {
+    let (r, h, c) = (b.rotation().matrix(), b.half_extents(), b.center());
+    let reach = |i: usize| (0..3).map(|j| r[(i, j)].abs() * h[j]).sum::<f64>();
+    format!("[{},{},{},{}]", num(c.x), num(c.z), num(reach(0)), num(reach(2)))
 }
 
 /// `(body corners, hips, toes)` in the side view (x, z), flattened as JSON arrays.
@@ -116,7 +134,7 @@ const PAGE: &str = r##"<!DOCTYPE html>
 <style>
 body { font: 14px sans-serif; margin: 16px; color: #222; }
 canvas { border: 1px solid #ccc; display: block; margin-top: 4px; }
-.ticker { font-family: monospace; margin: 2px 0 14px; white-space: pre; }
+.ticker { font-family: monospace; margin: 2px 0 14px; white-space: pre-wrap; max-width: 960px; }
 .controls { margin-bottom: 10px; }
 </style></head><body>
 <h2>cbfgen: {{TITLE}}, side view</h2>
@@ -136,7 +154,8 @@ const x0 = Math.min(...xs) - 0.2, x1 = Math.max(...xs) + 0.2, z0 = Math.min(...z
 const s = (W - 2 * pad) / (x1 - x0), H = Math.ceil((z1 - z0) * s + 2 * pad);
 const px = x => pad + (x - x0) * s, pz = z => H - pad - (z - z0) * s;
 const views = data.runs.map(run => {
-  const title = document.createElement("div"); title.textContent = run.label;
+  const title = document.createElement("div");
+  title.textContent = run.label + (run.perceived ? " (on perceived terrain: true terrain and edge cuboids filled, what perception gave the filter in green outline)" : "");
   const canvas = document.createElement("canvas"); canvas.width = W; canvas.height = H;
   const ticker = document.createElement("div"); ticker.className = "ticker";
   document.getElementById("runs").append(title, canvas, ticker);
@@ -153,6 +172,16 @@ function draw(frame) {
     ctx.lineTo(px(data.ground[data.ground.length - 1][0]), pz(z0)); ctx.closePath(); ctx.fill(); ctx.stroke();
     ctx.fillStyle = "rgba(220,60,60,0.55)";
     for (const [cx, cz, hx, hz] of data.edges) ctx.fillRect(px(cx - hx), pz(cz + hz), 2 * hx * s, 2 * hz * s);
+    // On perceived terrain, what the gait and filter saw: the latest update applied.
+    let seen = null;
+    for (const u of run.perceived || []) if (u.t <= run.t[f] + 1e-9) seen = u;
+    if (seen) {
+      ctx.strokeStyle = "rgba(20,140,60,0.95)"; ctx.lineWidth = 1.5; ctx.setLineDash([6, 4]);
+      ctx.beginPath();
+      seen.ground.forEach(([x, z], i) => i === 0 ? ctx.moveTo(px(x), pz(z)) : ctx.lineTo(px(x), pz(z)));
+      ctx.stroke(); ctx.setLineDash([]);
+      for (const [cx, cz, hx, hz] of seen.edges) ctx.strokeRect(px(cx - hx), pz(cz + hz), 2 * hx * s, 2 * hz * s);
+    }
     const body = run.body[f], hips = run.hips[f], toes = run.toes[f];
     const touching = run.clearance[f] !== null && run.clearance[f] < 0;
     ctx.strokeStyle = "#444"; ctx.lineWidth = 3;
@@ -163,7 +192,7 @@ function draw(frame) {
     ctx.closePath(); ctx.fill();
     ctx.fillStyle = "rgba(30,30,30,0.75)";
     for (let k = 0; k < 6; k++) { ctx.beginPath(); ctx.arc(px(toes[2 * k]), pz(toes[2 * k + 1]), data.toe_radius * s, 0, 2 * Math.PI); ctx.fill(); }
-    ticker.textContent = `t ${run.t[f].toFixed(2)} s  min h: body–edge ${fmt(run.h_body[f], "", 1, 4)}, all rows ${fmt(run.h_min[f], "", 1, 4)}  body clearance ${fmt(run.clearance[f], " mm", 1000, 1)}  active rows ${run.rows[f]}` + (touching ? "  BODY IN AN EDGE" : "");
+    ticker.textContent = `t ${run.t[f].toFixed(2)} s  min h: body–edge ${fmt(run.h_body[f], "", 1, 4)}, all rows ${fmt(run.h_min[f], "", 1, 4)}  body clearance ${fmt(run.clearance[f], " mm", 1000, 1)}  active rows ${run.rows[f]}` + (seen ? `  perceived: ${seen.edges.length} cuboids, update at ${seen.t.toFixed(1)} s` : "") + (touching ? "  BODY IN AN EDGE" : "");
   }
   document.getElementById("time").textContent = `frame ${frame + 1} of ${data.frames}`;
 }
