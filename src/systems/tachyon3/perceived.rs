@@ -206,14 +206,13 @@ pub struct PerceptionUpdate {
     pub map_points: usize,
     /// Planes found.
     pub planes: usize,
-    /// Edge cuboids found (the filter takes the nearest, up to its capacity).
-    pub cuboids: usize,
     /// Levels of the perceived ground along the path (0: none seen, the last kept).
     pub levels: usize,
     /// Wall time of the update on the worker thread.
     pub elapsed: Duration,
-    /// The edge cuboids handed to the gait and filter, nearest the body first, widened
-    /// and raised as [`PerceptionSettings`] say (the filter takes up to its capacity).
+    /// Every edge cuboid found, as handed to the gait and filter: nearest the body first,
+    /// widened and raised as [`PerceptionSettings`] say (the filter takes the nearest, up
+    /// to its capacity).
     pub edges: Vec<OrientedBox>,
     /// The ground the gait stood on from then on.
     pub ground: Profile,
@@ -353,7 +352,6 @@ impl Perceiver {
             applied_at: t,
             map_points: perceived.points.len(),
             planes: perceived.planes.len(),
-            cuboids: perceived.cuboids.len(),
             levels,
             elapsed: perceived.elapsed,
             edges: edge_boxes,

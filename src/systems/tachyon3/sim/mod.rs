@@ -415,7 +415,7 @@ fn summarize(config: &SimConfig, samples: &[Sample], completed: bool, perception
                 median_ms,
                 max_ms,
                 last_map_points: p.updates.last().map_or(0, |u| u.map_points),
-                last_cuboids: p.updates.last().map_or(0, |u| u.cuboids),
+                last_cuboids: p.updates.last().map_or(0, |u| u.edges.len()),
             }
         }),
     }

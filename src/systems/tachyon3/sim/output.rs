@@ -128,7 +128,7 @@ fn perception_files(
             u.applied_at,
             u.map_points,
             u.planes,
-            u.cuboids,
+            u.edges.len(),
             u.levels,
             u.elapsed.as_secs_f64() * 1e3
         );
