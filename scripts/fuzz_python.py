@@ -481,7 +481,8 @@ def filter_settings(case: Case, cbfgen, system, p: float) -> dict:
     if case.chance(p):
         kw["activation"] = per_family(lambda f: case.scalar(-1.0, 2.0, p_non_finite=0.05))
     if case.chance(p):
-        kw["slack_weight"] = per_family(lambda f: case.scalar(1.0, 1e6))
+        kw["priority"] = per_family(lambda f: int(case.rng.integers(0, 16)) if not case.hostile(0.03)
+                                    else case.pick((16, 255, -1)))
     if case.chance(p):
         kw["poles"] = per_family(poles)
     if case.chance(p):

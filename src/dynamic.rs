@@ -30,7 +30,7 @@ use std::any::Any;
 use std::marker::PhantomData;
 
 use crate::error::CbfError;
-use crate::filter::{EcbfFilter, FilterSettings, Output, SolverSettings};
+use crate::filter::{Cause, EcbfFilter, FamilyRelaxation, FilterSettings, Output, SolverSettings};
 use crate::system::{
     BarrierSet, ControlAffine, FamilyInfo, FamilyParams, InstanceKind, Instances, RowLayout, MAX_RELATIVE_DEGREE,
 };
@@ -529,8 +529,17 @@ pub trait DynFilter: DynRows + Send {
     fn fallback_input(&self, u_ref: &[f64], out: &mut [f64]) -> Result<(), CbfError>;
     /// Which rows took part in the last QP.
     fn active(&self) -> &[bool];
-    /// The last QP's slacks, one per row.
+    /// Per row at the last returned input: by how much it is missed (see
+    /// [`EcbfFilter::delta`]).
     fn delta(&self) -> &[f64];
+    /// Per row: the slack relative to the row's terms, for relaxed rows (see
+    /// [`EcbfFilter::relative_slack`]).
+    fn relative_slack(&self) -> &[f64];
+    /// Per row: why it was relaxed, for rows missed beyond the tolerance (see
+    /// [`EcbfFilter::relaxed`]).
+    fn relaxed(&self) -> &[Option<Cause>];
+    /// Per family: the last update's relaxations (see [`EcbfFilter::relaxation`]).
+    fn relaxation(&self) -> &[FamilyRelaxation];
     /// The settings the filter was built with.
     fn settings(&self) -> DynSettings;
 }
@@ -788,6 +797,15 @@ impl<S: GeneratedSystem<NX, NU>, const NX: usize, const NU: usize> DynFilter for
     }
     fn delta(&self) -> &[f64] {
         self.0.delta()
+    }
+    fn relative_slack(&self) -> &[f64] {
+        self.0.relative_slack()
+    }
+    fn relaxed(&self) -> &[Option<Cause>] {
+        self.0.relaxed()
+    }
+    fn relaxation(&self) -> &[FamilyRelaxation] {
+        self.0.relaxation()
     }
     fn settings(&self) -> DynSettings {
         self.0.settings().clone().into()

@@ -272,9 +272,6 @@ struct SolverArgs {
     /// Iterations between ρ adaptations (0 turns adaptation off).
     #[arg(long)]
     adaptive_rho_interval: Option<u32>,
-    /// Slack weight w_δ of every family.
-    #[arg(long)]
-    slack_weight: Option<f64>,
 }
 
 impl SolverArgs {
@@ -297,9 +294,6 @@ impl SolverArgs {
             Some(0) => o.adaptive_rho = false,
             Some(n) => o.adaptive_rho_interval = n,
             None => {}
-        }
-        if let Some(w) = self.slack_weight {
-            s.families.iter_mut().for_each(|f| f.slack_weight = w);
         }
     }
 }

@@ -216,13 +216,18 @@ impl Gains {
     }
 }
 
-/// One family's ECBF tuning: its poles, slack weight and activation threshold.
+/// One family's ECBF tuning: its poles, priority and activation threshold.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FamilyParams {
     /// One pole per derivative, as many as the family's relative degree.
     pub poles: Poles,
-    /// `w_δ` of this family's slacks, relative to an input weight of 1. Larger is harder.
-    pub slack_weight: f64,
+    /// Who yields when rows conflict: 0 (the default) is met first, then 1 in the room
+    /// tier 0 leaves, and so on, up to
+    /// [`domain::MAX_PRIORITY`](crate::filter::domain::MAX_PRIORITY). A lexicographic
+    /// order, not a weight: no row of a higher number is kept at the cost of one of a
+    /// lower number, whatever units either is written in. Put what must hold (the
+    /// mechanism, the environment) at 0 and preferences (footholds, posture) after it.
+    pub priority: u8,
     /// The row takes part only while `h` is below this (in `h`'s own units;
     /// `f64::INFINITY` = always). Rows above it are relaxed through their bounds, not
     /// removed.
@@ -257,7 +262,7 @@ pub struct FamilyInfo {
     /// (`[]` a scalar, `[n]` a vector, `[r, c]` a matrix, flattened row by row where
     /// flat); empty for a family without parameters.
     pub params: &'static [(&'static str, &'static [usize])],
-    /// The spec's defaults for poles, slack weight and activation.
+    /// The spec's defaults for poles, priority and activation.
     pub defaults: FamilyParams,
 }
 

@@ -47,9 +47,8 @@ import symengine as se
 MAX_INPUT = 1e6
 MAX_INSTANCES = 10_000
 POLE_RANGE = (1e-6, 1e4)
-SLACK_WEIGHT_RANGE = (1e-3, 1e8)
+MAX_PRIORITY = 15
 DEFAULT_POLE = 10.0
-DEFAULT_SLACK_WEIGHT = 1e4
 
 _IDENT = re.compile(r"^[a-z][a-z0-9_]*$")
 # Names the generated code uses for its own locals and items (SymEngine's CSE temporaries
@@ -237,7 +236,7 @@ class Family:
     over: list[str] | None
     time: bool
     poles: list[float] | None
-    slack_weight: float
+    priority: int
     activation: float
     doc: str
 
@@ -454,7 +453,7 @@ class System:
                params: dict[str, object] | None = None, count: int | None = None,
                capacity: bool | int = False, optional: bool = False, over: Sequence[str] | None = None,
                time: bool = False, poles: Sequence[float] | None = None,
-               slack_weight: float = DEFAULT_SLACK_WEIGHT, activation: float = math.inf,
+               priority: int = 0, activation: float = math.inf,
                doc: str = "") -> None:
         """Declare a barrier family h(x, params[, t]) >= 0.
 
@@ -466,7 +465,11 @@ class System:
         instance be switched off at run time (its parameters are an ``Option``).
         ``poles`` must have one entry per derivative (the relative degree the Lie engine
         finds); omitted, they default to DEFAULT_POLE. ``activation``: the row takes part
-        only while h is below it (inf = always).
+        only while h is below it (inf = always). ``priority`` (0 to MAX_PRIORITY, default
+        0) says who yields when rows conflict: the filter meets every row exactly when the
+        input limits allow it; when they do not, priority 0 is met first (relaxed as little
+        as possible only where the limits leave no way), then 1 in the room 0 leaves, and
+        so on. Put the mechanism and the environment at 0 and preferences after them.
 
         ``over=["lf", "rf", ...]`` makes the family *indexed*: ``h`` is called once per
         member, with ``p.index`` / ``p.label`` saying which (a robot's legs, an arm's
@@ -524,10 +527,9 @@ class System:
             bad = [p for p in pole_list if not lo <= p <= hi]
             if bad:
                 raise SpecError(f"{where}: poles {bad} outside [{lo:g}, {hi:g}] 1/s")
-        slack_weight = _number(where, "slack_weight", slack_weight)
-        lo, hi = SLACK_WEIGHT_RANGE
-        if not lo <= slack_weight <= hi:
-            raise SpecError(f"{where}: slack_weight {slack_weight} outside [{lo:g}, {hi:g}]")
+        if isinstance(priority, bool) or not isinstance(priority, int) or not 0 <= priority <= MAX_PRIORITY:
+            raise SpecError(f"{where}: priority must be an integer in [0, {MAX_PRIORITY}] (0 is met first), "
+                            f"got {priority!r}")
         activation = _number(where, "activation", activation)
         if not activation > 0:
             raise SpecError(f"{where}: activation {activation} must be > 0 (inf = always active)")
@@ -535,7 +537,7 @@ class System:
             raise SpecError(f"{where}: doc must be a string")
         self.families.append(Family(name, h, parsed, None if capacity else count, capacity, max_capacity,
                                     optional, labels,
-                                    time, pole_list, slack_weight, activation, doc))
+                                    time, pole_list, priority, activation, doc))
 
     # -------------------------------------------------- constants and outputs
     def constant(self, name: str, value: object, doc: str) -> None:

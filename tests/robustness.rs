@@ -167,7 +167,7 @@ fn the_qp_refuses_negative_or_absurd_gains() {
     // Before: EcbfQp::new accepted negative gains (a barrier that may grow towards 0).
     let s = catalog::default_settings();
     for gains in [[-1.0, 5.0], [6.0, -5.0], [1e300, 1.0]] {
-        let spec = RowSpec { columns: &[0, 1], gains: Gains::new(&gains).expect("two gains"), slack_weight: 1e4 };
+        let spec = RowSpec { columns: &[0, 1], gains: Gains::new(&gains).expect("two gains"), priority: 0 };
         let qp = EcbfQp::new(&[spec], &s.input_weights, &s.input_min, &s.input_max, s.solver);
         assert!(matches!(qp, Err(CbfError::OutOfRange { what: "ECBF gain", .. })), "{gains:?}");
     }
@@ -179,7 +179,7 @@ fn finite_but_overflowing_rows_never_reach_the_solver() {
     // overflows is reported like a NaN row; one with huge finite L_g L_f h is normalised
     // without overflow and solved, with a finite answer.
     let s = catalog::default_settings();
-    let spec = RowSpec { columns: &[0, 1], gains: Gains::new(&[400.0, 40.0]).expect("two gains"), slack_weight: 1e4 };
+    let spec = RowSpec { columns: &[0, 1], gains: Gains::new(&[400.0, 40.0]).expect("two gains"), priority: 0 };
     let mut qp = EcbfQp::new(&[spec], &s.input_weights, &s.input_min, &s.input_max, s.solver).expect("qp");
     let overflowing = Row { lie: [1e307, 1e307, 1e307, 0.0, 0.0], lg: [0.0; NU], active: true };
     assert_eq!(qp.solve(&[0.0; NU], &[overflowing], &[true]), Err(CbfError::NonFiniteRow { row: 0 }));

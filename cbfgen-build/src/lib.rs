@@ -284,8 +284,12 @@ impl Generator {
             if !done.status.success() {
                 return Err(Error::Generator { spec: spec.clone(), message: last_line(&done.stderr) });
             }
-            // `depends <file>` per dependency, then `generated <file>` as the last line.
+            // `warning <text>` per warning about the spec, `depends <file>` per dependency,
+            // then `generated <file>` as the last line.
             let stdout = String::from_utf8_lossy(&done.stdout);
+            for warning in stdout.lines().filter_map(|l| l.strip_prefix("warning ")) {
+                println!("cargo:warning={warning}");
+            }
             for dependency in stdout.lines().filter_map(|l| l.strip_prefix("depends ")) {
                 println!("cargo:rerun-if-changed={dependency}");
             }

@@ -1,7 +1,7 @@
 # Type stubs for the Rust extension module (src/python/). The generic part is re-exported
 # by `cbfgen`, Tachyon 3's own by `cbfgen.tachyon3`. Arrays out are new float64 numpy
 # arrays, always finite: a kernel value that would be NaN or infinite raises CbfError
-# instead. "ArrayLike" inputs accept lists, tuples and arrays of booleans, integers or
+# instead, and a diagnostic array of rows (lie, lg_lf) that would hold one is None. "ArrayLike" inputs accept lists, tuples and arrays of booleans, integers or
 # floats, read as float64; complex, string and object arrays raise ValueError. Shapes
 # are exact: a vector of N values is (N,); a matrix parameter is (r, c) or its r*c values
 # row by row; a rotation is 9 row-major values (9,) or a 3x3 array.
@@ -42,7 +42,8 @@ class FamilyInfo(TypedDict):
     params: list[tuple[str, list[int]]]
     """(name, shape) per parameter: [] a scalar, [n] a vector, [r, c] a matrix."""
     poles: list[float]
-    slack_weight: float
+    priority: int
+    """Who yields when rows conflict: 0 is met first (0 ..= 15)."""
     activation: float
 
 class SolverSettings(TypedDict):
@@ -155,17 +156,41 @@ class Rows:
     @property
     def layout(self) -> list[RowPlace]: ...
     @property
-    def lie(self) -> Matrix:
-        """[h, L_f h, ..., L_f^r h] per row (zeros past its degree), (rows, max degree + 1)."""
+    def lie(self) -> Matrix | None:
+        """[h, L_f h, ..., L_f^r h] per row (zeros past its degree), (rows, max degree + 1);
+        None when a value is not finite (a degenerate state)."""
     @property
-    def lg_lf(self) -> Matrix:
-        """L_g L_f^(r-1) h per row, (rows, nu)."""
+    def lg_lf(self) -> Matrix | None:
+        """L_g L_f^(r-1) h per row, (rows, nu); None when a value is not finite."""
     @property
     def applicable(self) -> list[bool]: ...
     def __len__(self) -> int: ...
 
+class RelaxedRow(TypedDict):
+    """One row an update relaxed (FilterOutput.relaxed)."""
+
+    row: int
+    place: RowPlace
+    slack: float
+    """By how much it is missed, -(a.u + b), in the row's units (those of h^(r))."""
+    relative: float
+    """The slack over the row's terms |b| + sum_j |a_j u_j|."""
+    cause: Literal["input_limit", "higher_priority", "same_priority", "no_authority", "unsolved"]
+    input: str | None
+    """The input at its limit (cause "input_limit")."""
+    limit: Literal["min", "max"] | None
+    other_row: int | None
+    """The row it yields to (cause "higher_priority" or "same_priority")."""
+    other_place: RowPlace | None
+
+class FamilyRelaxation(TypedDict):
+    relaxed_rows: int
+    max_slack: float
+    max_relative: float
+
 class FilterOutput:
-    """One update's result."""
+    """One update's result: the input, how the solve ended, and (separately) whether every
+    active row holds at that input."""
 
     @property
     def u(self) -> Vector: ...
@@ -183,10 +208,25 @@ class FilterOutput:
         """Which solver answered: "dense" or "osqp"; None when no solve ran."""
     @property
     def dense_steps(self) -> int:
-        """Newton steps of the dense solve (0 when it did not run)."""
+        """Active-set changes of the dense solve over its stages (0 when it did not run)."""
     @property
     def dense_fallback(self) -> bool:
-        """The dense solve ran and did not verify within its budget (OSQP answered)."""
+        """The dense solve's first stage did not verify within its budget (OSQP ran)."""
+    @property
+    def verdict(self) -> Literal["met", "relaxed", "unassessed"]:
+        """Measured at u, whatever its source: every active row holds, some are relaxed
+        (see relaxed), or a row was not finite."""
+    @property
+    def relaxed_rows(self) -> int: ...
+    @property
+    def relaxed(self) -> list[RelaxedRow]:
+        """Every active row missed at u beyond the solver's tolerance, with why."""
+    @property
+    def worst(self) -> RelaxedRow | None:
+        """The relaxed row with the largest relative slack."""
+    @property
+    def relaxation(self) -> dict[str, FamilyRelaxation]:
+        """Per family name: its relaxed rows and their largest slack this update."""
     @property
     def polished(self) -> bool: ...
     @property
@@ -205,7 +245,7 @@ class FilterOutput:
 
 class EcbfFilter:
     """The ECBF-QP safety filter of any system. Keyword settings override the spec's
-    defaults: activation, slack_weight and poles map family names to values;
+    defaults: activation, priority and poles map family names to values;
     input_weights, input_min, input_max have nu values; backend picks the solver (one of
     SOLVERS, else ValueError) and dense_max_steps bounds the dense solve (1 ..=
     MAX_ITERATIONS, else CbfError); eps_abs, eps_rel, max_iter, polish and time_limit_us
@@ -217,7 +257,7 @@ class EcbfFilter:
         capacity: Mapping[str, int | Sequence[int]] | None = None,
         *,
         activation: Mapping[str, float] | None = None,
-        slack_weight: Mapping[str, float] | None = None,
+        priority: Mapping[str, int] | None = None,
         poles: Mapping[str, Sequence[float]] | None = None,
         input_weights: ArrayLike | None = None,
         input_min: ArrayLike | None = None,
@@ -243,18 +283,20 @@ class EcbfFilter:
     @property
     def layout(self) -> list[RowPlace]: ...
     @property
-    def lie(self) -> Matrix: ...
+    def lie(self) -> Matrix | None:
+        """Every row's [h, L_f h, ...] at the last update; None when a value is not finite."""
     @property
-    def lg_lf(self) -> Matrix: ...
+    def lg_lf(self) -> Matrix | None: ...
     @property
     def applicable(self) -> list[bool]: ...
     @property
     def active(self) -> list[bool]: ...
     @property
-    def slack(self) -> Vector: ...
+    def slack(self) -> Vector:
+        """Per row at the last returned input: by how much it is missed (0 when met)."""
     @property
-    def family_settings(self) -> dict[str, tuple[list[float], float, float]]:
-        """Per family: (poles, slack_weight, activation) in use."""
+    def family_settings(self) -> dict[str, tuple[list[float], int, float]]:
+        """Per family: (poles, priority, activation) in use."""
     @property
     def solver_settings(self) -> SolverSettings:
         """The solver settings in use, as the keywords of the same names set them."""

@@ -658,9 +658,10 @@ def test_the_slowest_accepted_solver_settings_end_an_update(system):
 
 @pytest.mark.parametrize("settings, error, message", [
     ({"activation": {"{f}": np.nan}}, cbfgen.CbfError, "activation threshold must be finite"),
-    ({"slack_weight": {"{f}": 0.0}}, cbfgen.CbfError, "slack weight"),
-    ({"slack_weight": {"{f}": np.inf}}, cbfgen.CbfError, "slack weight"),
-    ({"slack_weight": {"{f}": 1e300}}, cbfgen.CbfError, "slack weight"),
+    ({"priority": {"{f}": 16}}, cbfgen.CbfError, "priority tier"),
+    ({"priority": {"{f}": 255}}, cbfgen.CbfError, "priority tier"),
+    ({"priority": {"{f}": -1}}, OverflowError, None),
+    ({"priority": {"{f}": 1.5}}, TypeError, None),
     ({"poles": {"{f}": [10.0]}}, cbfgen.CbfError, "ECBF poles"),
     ({"poles": {"{f}": [10.0, 10.0, 10.0]}}, cbfgen.CbfError, "ECBF poles"),
     ({"poles": {"{f}": [0.0, 10.0]}}, cbfgen.CbfError, "ECBF pole"),

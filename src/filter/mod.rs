@@ -3,23 +3,38 @@
 //!
 //! Each cycle [`EcbfFilter::update`] evaluates every barrier row at the state, decides
 //! which rows take part (the barrier set's own flags, then each family's activation
-//! threshold on `h`), and solves
+//! threshold on `h`), and finds the input
 //!
 //! ```text
-//! min Σ_j w_j (u_j − u_ref,j)² + Σ_i w_δ,i δ_i²
-//! s.t. L_g L_f^{r−1} h_i · u + δ_i ≥ −(L_f^r h_i + Σ_k k_k L_f^k h_i)   (active rows)
-//!      input_min ≤ u ≤ input_max
+//! rows:  L_g L_f^{r−1} h_i · u ≥ −(L_f^r h_i + Σ_k k_k L_f^k h_i)   (active rows)
+//! box:   input_min ≤ u ≤ input_max
 //! ```
 //!
 //! where `r` is row `i`'s relative degree and the gains `k` place its poles
 //! ([`Gains::from_poles`](crate::system::Gains::from_poles)); rows of different degrees
 //! share the QP.
 //!
-//! exactly in input space ([`crate::qp::input_space`]), warm-started from the previous
-//! cycle's answer, with OSQP as the fallback when that solve has not verified within its
-//! budget and as a selectable reference backend ([`Solver`]). Everything is laid out when
-//! the filter is built; after that an update allocates nothing, on any backend (tested by
-//! counting every `malloc` over thousands of cycles).
+//! # The safety promise
+//! Every row is **met exactly when the rows and the input box are compatible**: the
+//! answer is then the closest input to the nominal one, `min Σ_j w_j (u_j − u_ref,j)²`.
+//! When they are not, the families' priorities decide
+//! ([`FamilyParams::priority`](crate::system::FamilyParams::priority)): tier 0 is met
+//! if the box allows it, else relaxed as little as possible (its largest violation, in
+//! input units, is the least possible, then the next largest, …); then tier 1 in the room
+//! tier 0 leaves, and so on — a lexicographic solve ([`crate::qp::lexicographic`]), so no
+//! row's strength depends on the units it is written in. And the filter **never reports
+//! safety it did not achieve**: each output carries a [`Safety`] verdict, measured at the
+//! input it returns ([`verdict`]), separate from the solve's status — every active row
+//! met, or how many were relaxed, the worst of them with its slack and its [`Cause`]
+//! (an input at its limit, a higher-priority row, a row of its own tier, no control
+//! authority at this state, or a solve that did not finish), and per family
+//! ([`EcbfFilter::relaxation`]) and per row ([`EcbfFilter::relaxed`]).
+//!
+//! The dense solve is exact and warm-started from the previous cycle's active sets, with
+//! OSQP as the fallback when its first stage has not verified within its budget and as a
+//! selectable reference backend ([`Solver`]). Everything is laid out when the filter is
+//! built; after that an update allocates nothing, on any backend (tested by counting every
+//! `malloc` over thousands of cycles).
 //!
 //! # The output contract
 //! **Every input `update` returns is finite and inside the input box**, whatever it is
@@ -30,30 +45,26 @@
 //!   input beyond [`domain::MAX_INPUT`], parameters (an environment) of another capacity. Extreme but
 //!   finite values are rejected, not rescaled: a nominal input of 10³⁰⁰ m/s² is a bug
 //!   upstream, and the filter says so instead of guessing.
-//! * Settings are checked once, in [`EcbfFilter::new`]: every weight, pole, limit and
-//!   solver setting has a documented range ([`domain`], [`SolverSettings::validate`]),
-//!   and capacities a maximum (for Tachyon 3, [`Capacity::validate`](crate::systems::tachyon3::catalog::Capacity::validate); for a generated system, [`system::MAX_INSTANCES`](crate::system::MAX_INSTANCES)). Every accepted setting ends a
-//!   solve within [`SolverSettings::MAX_ITERATIONS`] iterations.
-//! * OSQP stops at its iteration or time limit (or, under [`Solver::Dense`], the dense
-//!   solve at its step budget): `Ok`, with the iterate it stopped at
-//!   ([`InputSource::Unconverged`]). It already reflects this cycle's rows, and the next
-//!   cycle continues from it (warm start), so a hard instance converges over a few cycles
-//!   instead of stalling one. This happens when rows conflict with the input limits (large
-//!   slacks), where ADMM needs hundreds of iterations.
+//! * Settings are checked once, in [`EcbfFilter::new`]: every weight, pole, priority,
+//!   limit and solver setting has a documented range ([`domain`],
+//!   [`SolverSettings::validate`]), and capacities a maximum (for Tachyon 3, [`Capacity::validate`](crate::systems::tachyon3::catalog::Capacity::validate); for a generated system, [`system::MAX_INSTANCES`](crate::system::MAX_INSTANCES)).
+//! * [`InputSource::Qp`] means the verified optimum, and nothing else. A solve that
+//!   stops first — OSQP at its iteration or time limit, or with an answer the dense solve
+//!   could not verify; the dense solve at its step budget (under [`Solver::Dense`]) — is
+//!   `Ok` with the point it reached, [`InputSource::Unconverged`], its verdict measured
+//!   like any other. The next cycle's solve continues from where this one stopped, so a
+//!   hard instance converges over a few cycles instead of stalling one.
 //! * An active row that evaluates to NaN/inf (degenerate geometry such as a toe exactly at
 //!   its hip joint), an OSQP iterate with a non-finite entry ([`QpStatus::NonFinite`]:
 //!   discarded, and OSQP's workspace, warm start included, is rebuilt before the next
-//!   solve; a dense solve whose rows or steps are not finite is not accepted), an infeasibility
-//!   report or a
-//!   solver fault: `Ok`, with a **fallback input**: the last QP-solved input if there is
-//!   one ([`InputSource::LastSafe`]), else the nominal input
-//!   ([`InputSource::NominalClipped`]). Only a finite, clipped [`InputSource::Qp`] output
-//!   ever becomes the last safe input.
+//!   solve), an infeasibility report or a solver fault: `Ok`, with a **fallback input**:
+//!   the last QP-solved input if there is one ([`InputSource::LastSafe`]), else the
+//!   nominal input ([`InputSource::NominalClipped`]), its verdict measured on this cycle's
+//!   rows (or [`Verdict::Unassessed`] when a row was not finite). Only a finite, clipped
+//!   [`InputSource::Qp`] output ever becomes the last safe input.
 //!
-//! Every returned input is clipped to the input box (ADMM meets it only to its
-//! tolerance). [`FilterOutput::consecutive_fallbacks`] counts the cycles in a row whose
-//! source was not [`InputSource::Qp`]. The slacks make the QP feasible for any rows, so
-//! "infeasible" is a solver report, not a property of the problem.
+//! Every returned input is clipped to the input box. [`FilterOutput::consecutive_fallbacks`]
+//! counts the cycles in a row whose source was not [`InputSource::Qp`].
 //!
 //! ```
 //! use cbfgen::systems::tachyon3::catalog::{self, Capacity, Catalog, EdgeCuboid, Environment};
@@ -67,18 +78,21 @@
 //! env.push_edge(EdgeCuboid::from_box(&step))?;
 //! let out = filter.update(&standard_posture(), &[0.0; NU], &env)?;
 //! assert_eq!(out.source, InputSource::Qp);
+//! assert!(out.safety.is_met()); // every active row holds at the returned input
 //! assert!(out.u.iter().all(|u| u.abs() < 1e-3)); // at rest and safe: nothing to correct
 //! # Ok::<(), cbfgen::CbfError>(())
 //! ```
 
 mod qp;
 mod settings;
+pub mod verdict;
 
 use std::time::{Duration, Instant};
 
 pub(crate) use qp::Iterate;
 pub use qp::{Backend, EcbfQp, QpStatus, RowSpec};
 pub use settings::{domain, FilterSettings, Solver, SolverSettings};
+pub use verdict::{Cause, FamilyRelaxation, Limit, RelaxedRow, Safety, Verdict};
 
 use crate::cpu_time::Stopwatch;
 use crate::error::CbfError;
@@ -133,24 +147,28 @@ pub struct Output<U> {
     pub backend: Option<Backend>,
     /// Newton steps of the dense solve (0 when it did not run).
     pub dense_steps: u32,
-    /// The dense solve ran and did not verify within its budget: under the default
-    /// [`Solver::DenseThenOsqp`] OSQP answered this cycle instead (flagged here so a
-    /// caller can count such cycles).
+    /// The dense solve's first stage ran and did not verify within its budget: under the
+    /// default [`Solver::DenseThenOsqp`] OSQP ran this cycle (flagged here so a caller can
+    /// count such cycles).
     pub dense_fallback: bool,
+    /// Least-violation stages the dense solve ran: 0 when every row fitted.
+    pub elastic_stages: u32,
     /// The first active row that was not finite, if any.
     pub nonfinite_row: Option<usize>,
     /// OSQP's ADMM iterations this cycle; 0 when OSQP did not run.
     pub iterations: u32,
-    /// Whether `u` is OSQP's iterate polished to the verified optimum by the dense solve;
-    /// an unconverged OSQP iterate that polishes is reported as `Qp`.
+    /// Whether `u` came from OSQP's face, verified by the dense solve started from it.
     pub polished: bool,
     /// Rows that took part in the QP.
     pub active_rows: usize,
+    /// Every active row met at `u`, or which were relaxed and why (measured at `u`,
+    /// whatever its source; see [`verdict`]).
+    pub safety: Safety,
     /// Fallback cycles in a row, this one included (0 when `source` is `Qp`).
     pub consecutive_fallbacks: u32,
     /// Time in row evaluation and activation.
     pub eval_time: Duration,
-    /// Time in the QP update and solve.
+    /// Time in the QP update and solve, and the verdict's assessment.
     pub solve_time: Duration,
     /// The thread's CPU time over the whole update (evaluation and solve), beside its wall
     /// time `eval_time + solve_time`: a gap between the two is the thread waiting (a VM
@@ -169,10 +187,12 @@ impl<U> Output<U> {
             backend: self.backend,
             dense_steps: self.dense_steps,
             dense_fallback: self.dense_fallback,
+            elastic_stages: self.elastic_stages,
             nonfinite_row: self.nonfinite_row,
             iterations: self.iterations,
             polished: self.polished,
             active_rows: self.active_rows,
+            safety: self.safety,
             consecutive_fallbacks: self.consecutive_fallbacks,
             eval_time: self.eval_time,
             solve_time: self.solve_time,
@@ -192,6 +212,8 @@ pub struct EcbfFilter<B: BarrierSet<NU>, const NU: usize> {
     /// Per row: the family's activation threshold on `h`.
     activation: Vec<f64>,
     active: Vec<bool>,
+    /// Per family: this cycle's relaxations.
+    relaxation: Vec<FamilyRelaxation>,
     last_safe: Option<[f64; NU]>,
     output: FilterOutput<NU>,
 }
@@ -213,19 +235,21 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
             .map(|s| RowSpec {
                 columns: s.columns,
                 gains: gains[s.family],
-                slack_weight: settings.families[s.family].slack_weight,
+                priority: settings.families[s.family].priority,
             })
             .collect();
         let qp =
             EcbfQp::new(&specs, &settings.input_weights, &settings.input_min, &settings.input_max, settings.solver)?;
         let activation = barriers.layout().iter().map(|s| settings.families[s.family].activation).collect();
         let rows = barriers.layout().len();
+        let families = barriers.families().len();
         Ok(Self {
             barriers,
             settings,
             qp,
             activation,
             active: vec![false; rows],
+            relaxation: vec![FamilyRelaxation::default(); families],
             last_safe: None,
             output: FilterOutput {
                 u: [0.0; NU],
@@ -234,10 +258,12 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
                 backend: None,
                 dense_steps: 0,
                 dense_fallback: false,
+                elastic_stages: 0,
                 nonfinite_row: None,
                 iterations: 0,
                 polished: false,
                 active_rows: 0,
+                safety: Safety::UNASSESSED,
                 consecutive_fallbacks: 0,
                 eval_time: Duration::ZERO,
                 solve_time: Duration::ZERO,
@@ -291,8 +317,6 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
         let solved = self.qp.solve(u_ref, self.barriers.rows(), &self.active);
         let out = &mut self.output;
         out.eval_time = evaluated - start;
-        out.solve_time = evaluated.elapsed();
-        out.cpu_time = watch.elapsed().1;
         out.active_rows = active_rows;
         let ok = solved.is_ok();
         out.iterations = if ok { self.qp.iterations() } else { 0 };
@@ -300,6 +324,7 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
         out.backend = if ok { self.qp.backend() } else { None };
         out.dense_steps = if ok { self.qp.dense_steps() } else { 0 };
         out.dense_fallback = ok && self.qp.dense_fallback();
+        out.elastic_stages = if ok { self.qp.elastic_stages() } else { 0 };
         (out.status, out.nonfinite_row) = match solved {
             Ok(status) => (Some(status), None),
             Err(CbfError::NonFiniteRow { row }) => (None, Some(row)),
@@ -307,14 +332,15 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
             Err(_) => (Some(QpStatus::SolverFault), None),
         };
         (out.u, out.source) = match out.status {
-            Some(s) if s.is_solved() || out.polished => (*self.qp.u(), InputSource::Qp),
+            Some(QpStatus::Solved) if self.qp.verified() => (*self.qp.u(), InputSource::Qp),
             Some(QpStatus::MaxIterations | QpStatus::TimeLimit) => (*self.qp.u(), InputSource::Unconverged),
             _ => match self.last_safe {
                 Some(u) => (u, InputSource::LastSafe),
                 None => (*u_ref, InputSource::NominalClipped),
             },
         };
-        // ADMM meets the box only to its tolerance; the caller gets it exactly.
+        // The dense solve meets the box only to its tolerance, ADMM to its own; the caller
+        // gets it exactly.
         clip(&mut out.u, &self.settings.input_min, &self.settings.input_max);
         if out.source == InputSource::Qp {
             out.consecutive_fallbacks = 0;
@@ -322,6 +348,31 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
         } else {
             out.consecutive_fallbacks = out.consecutive_fallbacks.saturating_add(1);
         }
+        // The verdict, measured at the input returned.
+        self.relaxation.fill(FamilyRelaxation::default());
+        if out.nonfinite_row.is_some() {
+            self.qp.clear_assessment();
+            out.safety = Safety::UNASSESSED;
+        } else {
+            let relaxed_rows = self.qp.assess(&out.u);
+            let mut worst: Option<RelaxedRow> = None;
+            for (i, cause) in self.qp.relaxed().iter().enumerate() {
+                let Some(cause) = *cause else { continue };
+                let family = self.barriers.layout()[i].family;
+                let (slack, relative) = (self.qp.delta()[i], self.qp.relative_slack()[i]);
+                let f = &mut self.relaxation[family];
+                f.relaxed_rows += 1;
+                f.max_slack = f.max_slack.max(slack);
+                f.max_relative = f.max_relative.max(relative);
+                if worst.is_none_or(|w| relative > w.relative) {
+                    worst = Some(RelaxedRow { row: i, family, slack, relative, cause });
+                }
+            }
+            let verdict = if relaxed_rows == 0 { Verdict::Met } else { Verdict::Relaxed };
+            out.safety = Safety { verdict, relaxed_rows, worst };
+        }
+        out.solve_time = evaluated.elapsed();
+        out.cpu_time = watch.elapsed().1;
         Ok(&self.output)
     }
 
@@ -354,9 +405,29 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
         &self.active
     }
 
-    /// Slacks of the last QP iterate, one per row.
+    /// Per row, at the last returned input: by how much it is missed,
+    /// `max(0, −(a·u + b))`, in the row's units (0 for inactive rows, and for every row
+    /// after a cycle whose rows were not finite).
     pub fn delta(&self) -> &[f64] {
         self.qp.delta()
+    }
+
+    /// Per row, at the last returned input: the slack relative to the row's terms `|b| +
+    /// Σ_j |a_j u_j|`, for the rows relaxed (0 otherwise).
+    pub fn relative_slack(&self) -> &[f64] {
+        self.qp.relative_slack()
+    }
+
+    /// Per row, at the last returned input: why it was relaxed, for the rows missed beyond
+    /// [`verdict::MET_TOLERANCE`]; `None` for rows met or inactive.
+    pub fn relaxed(&self) -> &[Option<Cause>] {
+        self.qp.relaxed()
+    }
+
+    /// Per family (indexed like the barrier set's families): its relaxed rows in the last
+    /// update, and their largest slack and relative slack.
+    pub fn relaxation(&self) -> &[FamilyRelaxation] {
+        &self.relaxation
     }
 
     /// The settings the filter was built with.

@@ -1,26 +1,35 @@
-//! The ECBF quadratic program: solved exactly in input space ([`crate::qp::input_space`]),
-//! with OSQP as the fallback and the reference backend ([`Solver`]).
+//! The ECBF quadratic program with priority tiers: solved lexicographically and exactly in
+//! input space ([`crate::qp::lexicographic`]), with OSQP as the fallback and the reference
+//! backend ([`Solver`]).
 //!
 //! ```text
-//! minimise   Σ_j w_j (u_j − u_ref,j)² + Σ_i w_δ,i δ_i²
-//! subject to L_g L_f^{r−1} h_i · u + δ_i ≥ −(L_f^r h_i + Σ_k k_{i,k} L_f^k h_i)   (active rows)
-//!            u_min ≤ u ≤ u_max
+//! rows:  L_g L_f^{r−1} h_i · u + L_f^r h_i + Σ_k k_{i,k} L_f^k h_i ≥ 0   (active rows, tier τ_i)
+//! box:   u_min ≤ u ≤ u_max
 //! ```
 //!
-//! The dense solve eliminates the slacks and works in the `NU` inputs, warm-started from
-//! the previous answer's violated rows and saturated inputs. OSQP sees the QP with its
-//! sparsity fixed at construction, in scaled variables `ũ = √w ∘ u`, `s = √w_δ ∘ δ`, so that `P = I`, and with
-//! every ECBF row divided by its norm each cycle. The scaling is exact (the optimum is the
-//! same) and tracks the rows as they change, which OSQP's own set-up-time scaling cannot.
-//! Inactive rows keep their place with bounds `(−∞, ∞)` and zero coefficients.
+//! Tier 0 is met exactly whenever the box allows it, else with the least violation; then
+//! tier 1 in what room remains, and so on; among the inputs that do all that, the answer is
+//! the closest to `u_ref` in `Σ_j w_j (u_j − u_ref,j)²`.
+//!
+//! OSQP sees only the first stage — every row hard — in scaled variables `ũ = √w ∘ u`, so
+//! that `P = I`, with each row divided by its norm every cycle (exact, and it tracks the
+//! rows as they change, which OSQP's set-up-time scaling cannot). Its answer is never
+//! handed on as an optimum: the dense solve, started from the face OSQP's iterate suggests,
+//! verifies it (and runs the cascade when the rows do not fit), or the cycle is flagged
+//! [`QpStatus::MaxIterations`]. Inactive rows keep their place with bounds `(−∞, ∞)` and
+//! zero coefficients.
 
+
+// Index loops mirror the formulas (rows × inputs).
+#![allow(clippy::needless_range_loop)]
 use std::borrow::Cow;
 
 use osqp::{CscMatrix, Problem, Status};
 
 use super::settings::{domain, validate_inputs, validate_nominal, Solver, SolverSettings};
 use crate::error::CbfError;
-use crate::qp::input_space::{self, Bound, InputSpaceSolver, Outcome, SoftRow, Start};
+use crate::qp::dual_active_set::{ActiveRow, Side};
+use crate::qp::lexicographic::{Cause, LexicographicSolver, Outcome, TieredRow};
 use crate::qp::osqp_workspace::{self, OsqpQp};
 use crate::qp::recorded::{RecordedQp, RecordedRow};
 use crate::system::{Gains, Row};
@@ -32,28 +41,29 @@ pub struct RowSpec<'a> {
     pub columns: &'a [usize],
     /// The ECBF gains; their count is the row's relative degree.
     pub gains: Gains,
-    /// `w_δ` of this row's slack.
-    pub slack_weight: f64,
+    /// The row's priority tier, `0..`[`TIERS`](crate::qp::lexicographic::TIERS): 0 is met first.
+    pub priority: u8,
 }
 
 /// OSQP's primal and dual iterates, borrowed from its workspace.
 pub(crate) type Iterate<'a> = (&'a [f64], &'a [f64]);
 
-/// How a solve ended, as OSQP reported it.
+/// How a solve ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum QpStatus {
-    /// The dense solve verified its KKT conditions, or OSQP met its tolerances
-    /// (`eps_abs`, `eps_rel`).
+    /// The dense solve verified its KKT conditions (every stage of the filter's cascade),
+    /// or OSQP met its tolerances (`eps_abs`, `eps_rel`) on a QP whose answer is OSQP's
+    /// (the MPCs).
     Solved,
     /// Met the tolerances ×10 only (OSQP's "solved inaccurate").
     SolvedInaccurate,
-    /// Stopped at `max_iter` (OSQP) or `dense_max_steps` (the dense solve, under
-    /// [`Solver::Dense`]) before meeting the tolerances, with the iterate it reached.
+    /// Stopped before an answer was verified: at `max_iter` (OSQP), at `dense_max_steps`
+    /// or on rounding in a degenerate stage (the dense solve), or with an OSQP answer the
+    /// dense solve could not verify; with the point reached.
     MaxIterations,
     /// Stopped at `time_limit` before meeting the tolerances, with the iterate it reached.
     TimeLimit,
-    /// OSQP reported the constraints infeasible (accurately or not); no iterate. For the
-    /// ECBF QP, whose slacks make it feasible, this is a solver report, not a property.
+    /// OSQP reported the constraints infeasible (accurately or not); no iterate.
     PrimalInfeasible,
     /// OSQP reported the cost unbounded below (accurately or not); no iterate.
     DualInfeasible,
@@ -62,9 +72,8 @@ pub enum QpStatus {
     /// The solver wrapper panicked (a violated internal invariant); the solver is rebuilt
     /// on the next call.
     SolverFault,
-    /// OSQP reported an iterate, or the dense solve a row, step or gradient, with a NaN or
-    /// infinite entry.
-    /// It is discarded like a fault: the caller falls back, and the workspace (warm
+    /// OSQP reported an iterate, or the dense solve a stage, with a NaN or infinite entry.
+    /// It is discarded like a fault: the caller falls back, and OSQP's workspace (warm
     /// start, ρ) is rebuilt on the next call so the bad iterate cannot seed later cycles.
     NonFinite,
 }
@@ -127,9 +136,9 @@ impl QpStatus {
 /// Which solver produced an answer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Backend {
-    /// The exact input-space solve ([`crate::qp::input_space`]).
+    /// The exact dense solve ([`crate::qp::lexicographic`] for the filter).
     Dense,
-    /// OSQP (ADMM), polished by the dense solve where that verified.
+    /// OSQP (ADMM); for the filter, verified by the dense solve from OSQP's face.
     Osqp,
 }
 
@@ -143,36 +152,21 @@ impl Backend {
     }
 }
 
-/// A borrowed view of the constraint matrix (no copy, no allocation).
-fn constraint_matrix<'a, const NU: usize>(
-    rows: usize,
-    indptr: &'a [usize],
-    indices: &'a [usize],
-    data: &'a [f64],
-) -> CscMatrix<'a> {
-    CscMatrix {
-        nrows: rows + NU,
-        ncols: NU + rows,
-        indptr: Cow::Borrowed(indptr),
-        indices: Cow::Borrowed(indices),
-        data: Cow::Borrowed(data),
-    }
-}
-
 /// OSQP's `l`/`u` infinity.
 const INF: f64 = 1e30;
 
-/// OSQP's primal-infeasibility tolerance for the ECBF QP: small enough that no certificate
-/// ever passes (OSQP requires it positive).
-const PRIMAL_INFEASIBILITY_OFF: f64 = 1e-300;
+/// A row counts as met when `a·u + b ≥ −`this` · (|b| + Σ_j |a_j| (1 + |u_j|))`: ten times
+/// the dense solver's own feasibility tolerance, so that rounding in a verified answer
+/// (and the padding of a relaxation by it) is never reported as a relaxation.
+pub const MET_TOLERANCE: f64 = 1e-8;
 
-/// The QP, its OSQP workspace, and the last solution.
+/// The QP, its solvers, and the last answer and its assessment.
 pub struct EcbfQp<const NU: usize> {
     rows: usize,
     sqrt_w: [f64; NU],
     gains: Vec<Gains>,
-    /// `1/√w_δ,i`: the slack's coefficient in its row, in scaled variables.
-    slack_coef: Vec<f64>,
+    priority: Vec<u8>,
+    /// OSQP's constraint matrix (ECBF rows, then the box), column-major.
     a_indptr: Vec<usize>,
     a_indices: Vec<usize>,
     a_data: Vec<f64>,
@@ -180,26 +174,18 @@ pub struct EcbfQp<const NU: usize> {
     /// `a_data`, input column).
     row_start: Vec<usize>,
     row_entries: Vec<(usize, usize)>,
-    slack_entry: Vec<usize>,
-    /// Per row: `w_δ`, and this cycle's `b = L_f^r h + Σ k_i L_f^i h` (original units).
-    slack_weight: Vec<f64>,
-    row_bound: Vec<f64>,
-    /// The dense solve, and this cycle's active rows packed for it (with their indices).
-    dense: InputSpaceSolver<NU>,
-    packed: Vec<SoftRow<NU>>,
-    packed_row: Vec<usize>,
+    /// This cycle's rows as the dense solve takes them (`b = L_f^r h + Σ k_i L_f^i h`),
+    /// and which take part.
+    tiered: Vec<TieredRow<NU>>,
+    active: Vec<bool>,
+    dense: LexicographicSolver<NU>,
+    /// OSQP's suggested face, for the dense solve started from it.
+    osqp_face: Vec<ActiveRow>,
     /// This cycle's nominal input (for [`EcbfQp::recorded`]).
     u_ref: [f64; NU],
-    /// Per packed row: whether the previous answer had it violated (the warm start).
-    guess: Vec<bool>,
-    /// The last answer's violated rows (per row) and saturated inputs, when there is one.
-    warm_violated: Vec<bool>,
-    warm_held: [Bound; NU],
-    warm: bool,
-    /// The inputs OSQP's iterate holds at a bound (the polish's starting face).
-    osqp_held: [Bound; NU],
     backend: Option<Backend>,
     dense_steps: u32,
+    elastic_stages: u32,
     dense_fallback: bool,
     input_weights: [f64; NU],
     input_min: [f64; NU],
@@ -210,7 +196,13 @@ pub struct EcbfQp<const NU: usize> {
     settings: SolverSettings,
     problem: Option<Problem>,
     u: [f64; NU],
+    /// Whether `u` is the dense solve's verified answer (its causes apply).
+    verified: bool,
+    /// Per row at the assessed input: the slack `max(0, −(a·u + b))`, and why a row
+    /// missed beyond [`MET_TOLERANCE`] was relaxed.
     delta: Vec<f64>,
+    relative: Vec<f64>,
+    relaxed: Vec<Option<Cause>>,
     status: QpStatus,
     iterations: u32,
     polished: bool,
@@ -229,12 +221,14 @@ impl<const NU: usize> std::fmt::Debug for EcbfQp<NU> {
 }
 
 impl<const NU: usize> EcbfQp<NU> {
-    /// Lay out the QP for `rows` and set OSQP up once.
+    /// Lay out the QP for `rows` and set OSQP up once (unless the backend is
+    /// [`Solver::Dense`]).
     ///
     /// # Errors
-    /// Weights, limits, gains (`0 ≤ k ≤` [`domain::MAX_GAIN`]) or settings outside their
-    /// documented domain ([`domain`], [`SolverSettings::validate`]), a row naming an input
-    /// column twice or beyond `NU`, or OSQP refusing the set-up.
+    /// Weights, limits, gains (`0 ≤ k ≤` [`domain::MAX_GAIN`]), priorities (`<`
+    /// [`TIERS`](crate::qp::lexicographic::TIERS)) or settings outside their documented domain ([`domain`],
+    /// [`SolverSettings::validate`]), a row naming an input column twice or beyond `NU`,
+    /// or OSQP refusing the set-up.
     pub fn new(
         rows: &[RowSpec<'_>],
         input_weights: &[f64; NU],
@@ -245,9 +239,6 @@ impl<const NU: usize> EcbfQp<NU> {
         settings.validate()?;
         validate_inputs(input_weights, input_min, input_max)?;
         let m = rows.len();
-        let sqrt_w = input_weights.map(f64::sqrt);
-        let mut gains = Vec::with_capacity(m);
-        let mut slack_coef = Vec::with_capacity(m);
         for (i, r) in rows.iter().enumerate() {
             let mut seen = [false; NU];
             for &c in r.columns {
@@ -259,13 +250,12 @@ impl<const NU: usize> EcbfQp<NU> {
             for &g in r.gains.as_slice() {
                 domain::gain(g)?;
             }
-            gains.push(r.gains);
-            slack_coef.push(1.0 / domain::slack_weight(r.slack_weight)?.sqrt());
+            domain::priority(r.priority)?;
         }
 
-        // A is (m ECBF rows + NU box rows) × (NU inputs + m slacks), column-major.
-        let nnz = rows.iter().map(|r| r.columns.len() + 1).sum::<usize>() + NU;
-        let mut a_indptr = Vec::with_capacity(NU + m + 1);
+        // A is (m ECBF rows + NU box rows) × NU inputs, column-major.
+        let nnz = rows.iter().map(|r| r.columns.len()).sum::<usize>() + NU;
+        let mut a_indptr = Vec::with_capacity(NU + 1);
         let mut a_indices = Vec::with_capacity(nnz);
         let mut row_cols: Vec<Vec<(usize, usize)>> = vec![Vec::new(); m];
         a_indptr.push(0);
@@ -279,12 +269,6 @@ impl<const NU: usize> EcbfQp<NU> {
             a_indices.push(m + j);
             a_indptr.push(a_indices.len());
         }
-        let mut slack_entry = Vec::with_capacity(m);
-        for i in 0..m {
-            slack_entry.push(a_indices.len());
-            a_indices.push(i);
-            a_indptr.push(a_indices.len());
-        }
         let mut row_start = Vec::with_capacity(m + 1);
         let mut row_entries = Vec::with_capacity(nnz);
         row_start.push(0);
@@ -293,56 +277,49 @@ impl<const NU: usize> EcbfQp<NU> {
             row_start.push(row_entries.len());
         }
         let mut a_data = vec![0.0; a_indices.len()];
-        for i in 0..m {
-            a_data[slack_entry[i]] = slack_coef[i];
-        }
         for j in 0..NU {
             a_data[a_indptr[j + 1] - 1] = 1.0; // box row
         }
-
-        let n = NU + m;
+        let sqrt_w = input_weights.map(f64::sqrt);
         let mut lower = vec![-INF; m + NU];
         let mut upper = vec![INF; m + NU];
         for j in 0..NU {
             lower[m + j] = sqrt_w[j] * input_min[j];
             upper[m + j] = sqrt_w[j] * input_max[j];
         }
-        let q = vec![0.0; n];
+        let empty = TieredRow { a: [0.0; NU], b: 0.0, tier: 0 };
         let mut qp = Self {
             rows: m,
             sqrt_w,
-            gains,
-            slack_coef,
+            gains: rows.iter().map(|r| r.gains).collect(),
+            priority: rows.iter().map(|r| r.priority).collect(),
             a_indptr,
             a_indices,
             a_data,
             row_start,
             row_entries,
-            slack_entry,
-            slack_weight: rows.iter().map(|r| r.slack_weight).collect(),
-            row_bound: vec![0.0; m],
-            dense: InputSpaceSolver::new(m),
-            packed: Vec::with_capacity(m),
-            packed_row: Vec::with_capacity(m),
+            tiered: rows.iter().map(|r| TieredRow { tier: r.priority, ..empty }).collect(),
+            active: vec![false; m],
+            dense: LexicographicSolver::new(m, input_weights, input_min, input_max)?,
+            osqp_face: Vec::with_capacity(NU),
             u_ref: [0.0; NU],
-            guess: Vec::with_capacity(m),
-            warm_violated: vec![false; m],
-            warm_held: [Bound::Free; NU],
-            warm: false,
-            osqp_held: [Bound::Free; NU],
             backend: None,
             dense_steps: 0,
+            elastic_stages: 0,
             dense_fallback: false,
             input_weights: *input_weights,
             input_min: *input_min,
             input_max: *input_max,
-            q,
+            q: vec![0.0; NU],
             lower,
             upper,
             settings,
             problem: None,
             u: [0.0; NU],
+            verified: false,
             delta: vec![0.0; m],
+            relative: vec![0.0; m],
+            relaxed: vec![None; m],
             status: QpStatus::Solved,
             iterations: 0,
             polished: false,
@@ -359,7 +336,7 @@ impl<const NU: usize> EcbfQp<NU> {
         self.rows
     }
 
-    /// Non-zeros of the constraint matrix (ECBF rows, slacks and the input box).
+    /// Non-zeros of OSQP's constraint matrix (ECBF rows and the input box).
     pub fn nnz(&self) -> usize {
         self.a_data.len()
     }
@@ -368,14 +345,11 @@ impl<const NU: usize> EcbfQp<NU> {
     /// (`Row::active` is not read, so a caller can narrow it without copying rows). Does not
     /// allocate unless the previous call reported [`QpStatus::SolverFault`].
     ///
-    /// Under the default [`Solver::DenseThenOsqp`] the dense solve answers, warm-started
-    /// from the last answer; OSQP runs only when it has not verified within
-    /// `dense_max_steps` ([`EcbfQp::dense_fallback`]), and its iterate is then polished by
-    /// the dense solve started from it. [`EcbfQp::backend`] says who answered.
-    ///
-    /// On a status with an iterate (solved, inaccurate, iteration or time limit)
-    /// [`EcbfQp::u`] and [`EcbfQp::delta`] hold it, always finite: an iterate with a NaN or
-    /// infinite entry is reported as [`QpStatus::NonFinite`] and they keep the last one.
+    /// Under the default [`Solver::DenseThenOsqp`] the dense solve answers; OSQP runs only
+    /// when the dense solve's first stage has not verified within `dense_max_steps`
+    /// ([`EcbfQp::dense_fallback`]), and the dense solve then starts again from OSQP's
+    /// face. [`EcbfQp::backend`] says who answered, [`EcbfQp::verified`] whether the answer
+    /// is the verified optimum. Then [`EcbfQp::assess`] the input actually applied.
     ///
     /// # Errors
     /// `u_ref` outside its domain (finite, `|u_j| ≤` [`domain::MAX_INPUT`]), an active row
@@ -391,162 +365,189 @@ impl<const NU: usize> EcbfQp<NU> {
         validate_nominal(u_ref)?;
         for (i, (r, &on)) in rows.iter().zip(active).enumerate() {
             // Finite values can still overflow in the bound b = L_f^r h + Σ k_i L_f^i h.
-            if on && !(r.lg.iter().all(|v| v.is_finite()) && self.ecbf_bound(i, r).is_finite()) {
+            if on && !(r.lg.iter().all(|v| v.is_finite()) && self.gains[i].bound(&r.lie).is_finite()) {
                 return Err(CbfError::NonFiniteRow { row: i });
             }
         }
         self.u_ref = *u_ref;
-        self.packed.clear();
-        self.packed_row.clear();
-        self.guess.clear();
         for (i, (r, &on)) in rows.iter().zip(active).enumerate() {
+            self.active[i] = on;
             if on {
-                self.row_bound[i] = self.ecbf_bound(i, r);
-                self.packed.push(SoftRow { a: r.lg, b: self.row_bound[i], weight: self.slack_weight[i] });
-                self.packed_row.push(i);
-                self.guess.push(self.warm_violated[i]);
+                self.tiered[i].a = r.lg;
+                self.tiered[i].b = self.gains[i].bound(&r.lie);
             }
         }
-        (self.backend, self.dense_steps, self.dense_fallback, self.polished, self.iterations) =
-            (None, 0, false, false, 0);
+        (self.backend, self.dense_steps, self.elastic_stages, self.dense_fallback, self.polished, self.iterations) =
+            (None, 0, 0, false, false, 0);
+        self.verified = false;
+        let max_steps = self.settings.dense_max_steps;
 
         if self.settings.backend != Solver::Osqp {
-            let outcome = self.dense_solve(u_ref, true);
-            self.dense_steps = self.dense.steps();
-            let status = match outcome {
-                Outcome::Verified => QpStatus::Solved,
-                Outcome::StepLimit => QpStatus::MaxIterations,
-                Outcome::NonFinite => QpStatus::NonFinite,
-            };
-            self.dense_fallback = outcome != Outcome::Verified;
-            if outcome == Outcome::Verified || self.settings.backend == Solver::Dense {
-                if outcome != Outcome::NonFinite {
-                    self.keep_dense_answer(outcome == Outcome::Verified);
-                }
+            let outcome = self.dense_solve(u_ref, max_steps);
+            let first_stage_failed = outcome == Outcome::StepLimit && self.dense.elastic_stages() == 0;
+            if self.settings.backend == Solver::Dense || !first_stage_failed {
                 self.backend = Some(Backend::Dense);
-                self.status = status;
-                return Ok(status);
+                self.status = self.take_dense(outcome);
+                return Ok(self.status);
             }
+            self.dense_fallback = true;
         }
 
-        self.load_osqp(u_ref, rows, active);
-        let status = osqp_workspace::solve(self);
+        // OSQP on the first stage, then the dense solve from its face.
+        self.load_osqp(u_ref);
+        let osqp = osqp_workspace::solve(self);
         self.backend = Some(Backend::Osqp);
-        if self.settings.polish
-            && matches!(
-                status,
-                QpStatus::Solved | QpStatus::SolvedInaccurate | QpStatus::MaxIterations | QpStatus::TimeLimit
-            )
-            && self.dense_solve(u_ref, false) == Outcome::Verified
-        {
-            self.polished = true;
-            self.keep_dense_answer(true);
-        }
-        // `u` and `δ` are finite by construction: OSQP's iterate is read only when finite
-        // (`QpStatus::of`), and the dense solve's answer only when verified or inside the box.
-        self.status = status;
-        Ok(status)
-    }
-
-    /// The dense solve of the packed rows: warm-started from the last answer (`warm`), or
-    /// from the face OSQP's iterate suggests (a polish).
-    fn dense_solve(&mut self, u_ref: &[f64; NU], warm: bool) -> Outcome {
-        let problem = input_space::Problem {
-            weights: &self.input_weights,
-            u_ref,
-            input_min: &self.input_min,
-            input_max: &self.input_max,
-            rows: &self.packed,
-        };
-        let start = match (warm, self.warm) {
-            (true, true) => Start::Guess { violated: &self.guess, held: &self.warm_held },
-            (true, false) => Start::Cold,
-            (false, _) => Start::Guess { violated: &self.guess, held: &self.osqp_held },
-        };
-        let max_steps = self.settings.dense_max_steps;
-        // The data were checked on the way in (weights, limits, u_ref, finite rows), so the
-        // solver's own checks cannot fail; if they ever did, the answer is "no answer".
-        self.dense.solve(&problem, start, max_steps).unwrap_or(Outcome::NonFinite)
-    }
-
-    /// Take the dense solve's point as this cycle's `u` and `δ`; a verified one also
-    /// becomes the next cycle's warm start.
-    fn keep_dense_answer(&mut self, verified: bool) {
-        self.u = *self.dense.u();
-        self.delta.fill(0.0);
-        for (k, &i) in self.packed_row.iter().enumerate() {
-            self.delta[i] = (-self.dense.row_values()[k]).max(0.0);
-        }
-        if verified {
-            self.warm_violated.fill(false);
-            for (k, &i) in self.packed_row.iter().enumerate() {
-                self.warm_violated[i] = self.dense.violated()[k];
+        let has_iterate =
+            matches!(osqp, QpStatus::Solved | QpStatus::SolvedInaccurate | QpStatus::MaxIterations | QpStatus::TimeLimit);
+        if self.settings.polish && (has_iterate || osqp == QpStatus::PrimalInfeasible) {
+            let steps_before = self.dense_steps;
+            self.dense.suggest_first_face(&self.osqp_face);
+            let outcome = self.dense_solve(u_ref, max_steps);
+            self.dense_steps += steps_before;
+            if outcome == Outcome::Verified {
+                self.polished = true;
+                self.status = self.take_dense(outcome);
+                return Ok(self.status);
             }
-            self.warm_held = *self.dense.held();
-            self.warm = true;
+        }
+        // No verified answer: OSQP's iterate where it has one (read into `u` already),
+        // flagged as what it is.
+        self.status = match osqp {
+            QpStatus::Solved | QpStatus::SolvedInaccurate => QpStatus::MaxIterations,
+            other => other,
+        };
+        Ok(self.status)
+    }
+
+    /// The dense lexicographic solve of this cycle's rows.
+    fn dense_solve(&mut self, u_ref: &[f64; NU], max_steps: u32) -> Outcome {
+        // The rows were checked on the way in (finite, tiers in range, lengths), so the
+        // solver's own checks cannot fail; if they ever did, the answer is "no answer".
+        let outcome = self.dense.solve(u_ref, &self.tiered, &self.active, max_steps).unwrap_or(Outcome::NonFinite);
+        self.dense_steps = self.dense.steps();
+        self.elastic_stages = self.dense.elastic_stages();
+        outcome
+    }
+
+    /// The dense solve's point as this cycle's `u` (unless it is not finite), and its
+    /// status.
+    fn take_dense(&mut self, outcome: Outcome) -> QpStatus {
+        match outcome {
+            Outcome::Verified => {
+                self.u = *self.dense.u();
+                self.verified = true;
+                QpStatus::Solved
+            }
+            Outcome::StepLimit => {
+                self.u = *self.dense.u();
+                QpStatus::MaxIterations
+            }
+            Outcome::NonFinite => QpStatus::NonFinite,
         }
     }
 
-    /// Write this cycle's scaled problem into OSQP's data: each active row divided by its
-    /// norm (scaled variables), inactive rows unbounded with zero coefficients.
-    fn load_osqp(&mut self, u_ref: &[f64; NU], rows: &[Row<NU>], active: &[bool]) {
+    /// Measure every active row at the input `u` the filter applies: its slack, relative
+    /// size, and — beyond [`MET_TOLERANCE`] — why it was relaxed (the dense solve's cause
+    /// when `u` is its verified answer, else [`Cause::Unsolved`]; a row without authority
+    /// always says so). Returns how many rows were relaxed. Allocation-free.
+    pub fn assess(&mut self, u: &[f64; NU]) -> usize {
+        let answered = self.verified && u == &self.u;
+        let mut relaxed = 0;
+        for i in 0..self.rows {
+            (self.delta[i], self.relative[i], self.relaxed[i]) = (0.0, 0.0, None);
+            if !self.active[i] {
+                continue;
+            }
+            let row = &self.tiered[i];
+            let (mut value, mut terms, mut size) = (row.b, row.b.abs(), row.b.abs());
+            for j in 0..NU {
+                value += row.a[j] * u[j];
+                terms += (row.a[j] * u[j]).abs();
+                size += row.a[j].abs() * (1.0 + u[j].abs());
+            }
+            let slack = (-value).max(0.0);
+            self.delta[i] = slack;
+            if slack > MET_TOLERANCE * size {
+                self.relative[i] = if terms > 0.0 { slack / terms } else { f64::INFINITY };
+                let cause = self.dense.causes()[i];
+                self.relaxed[i] = Some(match cause {
+                    Some(Cause::NoAuthority) => Cause::NoAuthority,
+                    Some(c) if answered => c,
+                    _ => Cause::Unsolved,
+                });
+                relaxed += 1;
+            }
+        }
+        relaxed
+    }
+
+    /// Forget the last assessment: no row assessed (a cycle whose rows were not finite).
+    pub fn clear_assessment(&mut self) {
+        self.delta.fill(0.0);
+        self.relative.fill(0.0);
+        self.relaxed.fill(None);
+    }
+
+    /// Write this cycle's scaled first stage into OSQP's data: each active row divided by
+    /// its norm (scaled variables), inactive rows unbounded with zero coefficients.
+    fn load_osqp(&mut self, u_ref: &[f64; NU]) {
         for ((q, w), r) in self.q.iter_mut().zip(&self.sqrt_w).zip(u_ref) {
             *q = -w * r;
         }
-        for (i, (r, &on)) in rows.iter().zip(active).enumerate() {
+        for i in 0..self.rows {
             let entries = &self.row_entries[self.row_start[i]..self.row_start[i + 1]];
-            if !on {
+            let row = &self.tiered[i];
+            if !self.active[i] {
                 for &(k, _) in entries {
                     self.a_data[k] = 0.0;
                 }
-                self.a_data[self.slack_entry[i]] = self.slack_coef[i];
                 self.lower[i] = -INF;
                 continue;
             }
-            let bound = -self.row_bound[i];
-            // The row's 2-norm, computed relative to its largest entry so that squaring
-            // cannot overflow for any finite row.
-            let largest =
-                entries.iter().map(|&(_, c)| (r.lg[c] / self.sqrt_w[c]).abs()).fold(self.slack_coef[i], f64::max);
-            let mut norm2 = (self.slack_coef[i] / largest).powi(2);
-            for &(_, c) in entries {
-                norm2 += (r.lg[c] / self.sqrt_w[c] / largest).powi(2);
+            // The row's 2-norm in scaled variables, computed relative to its largest entry
+            // so that squaring cannot overflow for any finite row.
+            let largest = entries.iter().map(|&(_, c)| (row.a[c] / self.sqrt_w[c]).abs()).fold(0.0, f64::max);
+            if largest == 0.0 {
+                for &(k, _) in entries {
+                    self.a_data[k] = 0.0;
+                }
+                self.lower[i] = -INF; // no input acts: nothing for OSQP to do with it
+                continue;
             }
+            let norm2 = entries.iter().map(|&(_, c)| (row.a[c] / self.sqrt_w[c] / largest).powi(2)).sum::<f64>();
             let scale = 1.0 / (largest * norm2.sqrt());
             for &(k, c) in entries {
-                self.a_data[k] = r.lg[c] / self.sqrt_w[c] * scale;
+                self.a_data[k] = row.a[c] / self.sqrt_w[c] * scale;
             }
-            self.a_data[self.slack_entry[i]] = self.slack_coef[i] * scale;
             // A bound this large is a row that cannot bind; clamp so OSQP reads it as one.
-            self.lower[i] = (bound * scale).clamp(-INF, INF);
+            self.lower[i] = (-row.b * scale).clamp(-INF, INF);
         }
     }
 
-    /// `b = L_f^r h + Σ k_i L_f^i h` of row `i` (≥ 0 when the ECBF condition holds at
-    /// `u = 0`).
-    fn ecbf_bound(&self, i: usize, r: &Row<NU>) -> f64 {
-        self.gains[i].bound(&r.lie)
-    }
-
-    /// OSQP's own polish rule, as the dense solve's starting face: a row binds (its slack
-    /// is positive: violated in input space) when `A z − l < −y`, an input is held at its
-    /// lower bound when `z − l < −y`, at its upper when `u − z < y` (scaled problem).
-    fn guess_active_set(&mut self, z: &[f64], y: &[f64]) {
-        for (k, &i) in self.packed_row.iter().enumerate() {
+    /// OSQP's own polish rule, as the dense solve's starting face: a row or input bound is
+    /// active when `A z − l < −y` (lower) or `u − A z < y` (upper), scaled problem.
+    fn guess_face(&mut self, z: &[f64], y: &[f64]) {
+        self.osqp_face.clear();
+        for i in 0..self.rows {
+            if !self.active[i] || self.osqp_face.len() == NU {
+                continue;
+            }
             let entries = &self.row_entries[self.row_start[i]..self.row_start[i + 1]];
-            let value = entries.iter().map(|&(e, c)| self.a_data[e] * z[c]).sum::<f64>()
-                + self.a_data[self.slack_entry[i]] * z[NU + i];
-            self.guess[k] = value - self.lower[i] < -y[i];
+            let value = entries.iter().map(|&(e, c)| self.a_data[e] * z[c]).sum::<f64>();
+            if value - self.lower[i] < -y[i] {
+                self.osqp_face.push(ActiveRow { row: i, side: Side::Lower });
+            }
         }
         for j in 0..NU {
+            if self.osqp_face.len() == NU {
+                break;
+            }
             let (value, dual) = (z[j], y[self.rows + j]);
-            self.osqp_held[j] = if value - self.lower[self.rows + j] < -dual {
-                Bound::Lower
+            if value - self.lower[self.rows + j] < -dual {
+                self.osqp_face.push(ActiveRow { row: self.rows + j, side: Side::Lower });
             } else if self.upper[self.rows + j] - value < dual {
-                Bound::Upper
-            } else {
-                Bound::Free
-            };
+                self.osqp_face.push(ActiveRow { row: self.rows + j, side: Side::Upper });
+            }
         }
     }
 
@@ -560,11 +561,12 @@ impl<const NU: usize> EcbfQp<NU> {
             u_ref: self.u_ref.to_vec(),
             input_min: self.input_min.to_vec(),
             input_max: self.input_max.to_vec(),
-            rows: self
-                .packed
-                .iter()
-                .zip(&self.packed_row)
-                .map(|(r, &index)| RecordedRow { index, a: r.a.to_vec(), b: r.b, weight: r.weight })
+            rows: (0..self.rows)
+                .filter(|&i| self.active[i])
+                .map(|i| {
+                    let r = &self.tiered[i];
+                    RecordedRow { index: i, a: r.a.to_vec(), b: r.b, tier: r.tier }
+                })
                 .collect(),
         }
     }
@@ -574,25 +576,55 @@ impl<const NU: usize> EcbfQp<NU> {
         self.backend
     }
 
-    /// Newton steps of the last dense solve (0 when it did not run).
+    /// Active-set changes of the last dense solve, over all its stages (0 when it did not
+    /// run).
     pub fn dense_steps(&self) -> u32 {
         self.dense_steps
     }
 
-    /// Whether the last dense solve ran and did not verify (within its budget, or with a
-    /// non-finite step): under [`Solver::DenseThenOsqp`] OSQP then answered.
+    /// Elastic (least-violation) stages of the last dense solve: 0 when every row fitted.
+    pub fn elastic_stages(&self) -> u32 {
+        self.elastic_stages
+    }
+
+    /// Whether the last dense solve's first stage ran and did not verify within its
+    /// budget, so that under [`Solver::DenseThenOsqp`] OSQP ran.
     pub fn dense_fallback(&self) -> bool {
         self.dense_fallback
     }
 
-    /// The input of the last answer.
+    /// The input of the last answer: the verified optimum, or the point a solver stopped
+    /// at (see [`EcbfQp::verified`]).
     pub fn u(&self) -> &[f64; NU] {
         &self.u
     }
 
-    /// Slacks `δ` of the last iterate, one per row (≈ 0 for rows that hold).
+    /// Whether [`EcbfQp::u`] is the dense solve's verified lexicographic optimum.
+    pub fn verified(&self) -> bool {
+        self.verified
+    }
+
+    /// Per row, at the last assessed input: the slack `max(0, −(a·u + b))` in the row's
+    /// units (0 for inactive rows).
     pub fn delta(&self) -> &[f64] {
         &self.delta
+    }
+
+    /// Per row: the slack relative to the row's terms `|b| + Σ_j |a_j u_j|`, for rows
+    /// relaxed beyond [`MET_TOLERANCE`] (0 otherwise).
+    pub fn relative_slack(&self) -> &[f64] {
+        &self.relative
+    }
+
+    /// Per row: why it was relaxed, for rows missed beyond [`MET_TOLERANCE`] at the last
+    /// assessed input; `None` for rows met or inactive.
+    pub fn relaxed(&self) -> &[Option<Cause>] {
+        &self.relaxed
+    }
+
+    /// Per row: its priority tier.
+    pub fn priorities(&self) -> &[u8] {
+        &self.priority
     }
 
     /// How the last solve ended ([`QpStatus::Solved`] before the first; a call that
@@ -601,8 +633,7 @@ impl<const NU: usize> EcbfQp<NU> {
         self.status
     }
 
-    /// Whether the last answer is OSQP's iterate polished: the dense solve, started from
-    /// it, verified the optimum (see [`crate::qp::input_space`]).
+    /// Whether the last answer came from OSQP's face, verified by the dense solve.
     pub fn polished(&self) -> bool {
         self.polished
     }
@@ -613,27 +644,37 @@ impl<const NU: usize> EcbfQp<NU> {
     }
 }
 
+/// A borrowed view of the constraint matrix (no copy, no allocation).
+fn constraint_matrix<'a, const NU: usize>(
+    rows: usize,
+    indptr: &'a [usize],
+    indices: &'a [usize],
+    data: &'a [f64],
+) -> CscMatrix<'a> {
+    CscMatrix {
+        nrows: rows + NU,
+        ncols: NU,
+        indptr: Cow::Borrowed(indptr),
+        indices: Cow::Borrowed(indices),
+        data: Cow::Borrowed(data),
+    }
+}
+
 impl<const NU: usize> OsqpQp for EcbfQp<NU> {
     fn workspace(&mut self) -> &mut Option<Problem> {
         &mut self.problem
     }
 
     fn setup(&self) -> Result<Problem, CbfError> {
-        let n = NU + self.rows;
         let p = CscMatrix {
-            nrows: n,
-            ncols: n,
-            indptr: Cow::Owned((0..=n).collect()),
-            indices: Cow::Owned((0..n).collect()),
-            data: Cow::Owned(vec![1.0; n]),
+            nrows: NU,
+            ncols: NU,
+            indptr: Cow::Owned((0..=NU).collect()),
+            indices: Cow::Owned((0..NU).collect()),
+            data: Cow::Owned(vec![1.0; NU]),
         };
         let a = constraint_matrix::<NU>(self.rows, &self.a_indptr, &self.a_indices, &self.a_data);
-        // Every row has a slack, so this QP is feasible for any data: an infeasibility
-        // "certificate" can only be OSQP's test passing on a stiff slack's small column
-        // (w_δ = 1e8 makes it 1e-4 after scaling). The test is made unreachable, not
-        // trusted.
-        let settings = self.settings.to_osqp().eps_prim_inf(PRIMAL_INFEASIBILITY_OFF);
-        Problem::new(p, &self.q, a, &self.lower, &self.upper, &settings)
+        Problem::new(p, &self.q, a, &self.lower, &self.upper, &self.settings.to_osqp())
             .map_err(|e| CbfError::SolverSetup { reason: e.to_string() })
     }
 
@@ -645,14 +686,12 @@ impl<const NU: usize> OsqpQp for EcbfQp<NU> {
 
     fn read(&mut self, _status: QpStatus, iterate: Option<Iterate<'_>>, iterations: u32) {
         self.iterations = iterations;
+        self.osqp_face.clear();
         if let Some((z, y)) = iterate {
             for ((u, z), w) in self.u.iter_mut().zip(z).zip(&self.sqrt_w) {
                 *u = z / w;
             }
-            for i in 0..self.rows {
-                self.delta[i] = z[NU + i] * self.slack_coef[i];
-            }
-            self.guess_active_set(z, y);
+            self.guess_face(z, y);
         }
     }
 }

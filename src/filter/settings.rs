@@ -1,4 +1,4 @@
-//! What the ECBF filter can be tuned with: poles, slack weight and activation per family,
+//! What the ECBF filter can be tuned with: poles, priority and activation per family,
 //! input weights and limits, and the OSQP settings. Defaults come from the system's spec.
 
 use std::time::Duration;
@@ -17,10 +17,10 @@ use crate::system::{FamilyInfo, FamilyParams};
 /// * ρ adapts on a fixed iteration interval (not OSQP's default fraction of set-up time),
 ///   so iteration counts are reproducible across machines and runs;
 /// * loose tolerances (`eps_abs` 1e-3, `eps_rel` 1e-4, scaled units: m/s² for inputs of
-///   weight 1) because ADMM only has to find the active set: the filter then solves that
-///   set exactly and keeps the result only if it passes every KKT condition (the polish
-///   step, allocation-free). On the Clarabel cross-check and along the latency drive
-///   every cycle polishes; 1e-4 tolerances cost twice the p99 iterations for nothing;
+///   weight 1) because ADMM only has to find the active set: the filter's dense solve
+///   then starts from that face and answers only with a point that passes every KKT
+///   condition (the polish step, allocation-free); OSQP's own iterate is never reported
+///   as an optimum. 1e-4 tolerances cost twice the p99 iterations for nothing;
 /// * at most 200 iterations (about 1 ms here): a cycle that needs more hands back the
 ///   iterate, flagged, and the next cycle continues from it;
 /// * convergence is checked every 5 iterations: a check costs about one iteration, and
@@ -29,10 +29,11 @@ use crate::system::{FamilyInfo, FamilyParams};
 pub struct SolverSettings {
     /// Which solver answers ([`Solver::DenseThenOsqp`] by default).
     pub backend: Solver,
-    /// Most steps the dense solve may take before it gives up (Newton steps of the
-    /// filter's input-space solve; active-set changes of the MPCs' dual solve), 1 ..=
-    /// [`SolverSettings::MAX_ITERATIONS`]. Under [`Solver::DenseThenOsqp`] OSQP then runs;
-    /// under [`Solver::Dense`] the iterate it reached is handed back, flagged.
+    /// Most rows the dense solve may add to its active set in one stage before it gives
+    /// up, 1 ..= [`SolverSettings::MAX_ITERATIONS`] (the drops on the way are bounded by
+    /// the inputs and not counted). Under [`Solver::DenseThenOsqp`] OSQP then runs; under
+    /// [`Solver::Dense`] the point reached is handed back, flagged, and the next cycle's
+    /// solve continues from it.
     pub dense_max_steps: u32,
     /// OSQP's absolute tolerance, in the scaled problem's units (\[m/s²\] for an input of
     /// weight 1); within [`SolverSettings::MIN_TOLERANCE`] ..=
@@ -59,8 +60,10 @@ pub struct SolverSettings {
     pub check_termination: u32,
     /// Give up (flagged, with a fallback input) after this long; `None` = no limit.
     pub time_limit: Option<Duration>,
-    /// Solve ADMM's active set exactly and keep it when it passes the KKT test (this
-    /// crate's allocation-free polish, used by the ECBF filter; OSQP's own stays off).
+    /// Start the dense solve from ADMM's active set and keep its answer when it verifies
+    /// (this crate's allocation-free polish, used by the ECBF filter; OSQP's own stays
+    /// off). Without it the filter hands on OSQP's iterate flagged
+    /// [`QpStatus::MaxIterations`](super::QpStatus::MaxIterations), never as an optimum.
     pub polish: bool,
     /// OSQP's own Ruiz scaling passes, computed once at set-up: 0 (off) for a QP whose
     /// matrices change every cycle (the filter scales its rows itself), about 10 where
@@ -200,7 +203,9 @@ pub enum Solver {
     /// The dense solve only; when it does not verify within `dense_max_steps` its iterate
     /// is handed back, flagged unconverged.
     Dense,
-    /// OSQP only (the paper's path), with this crate's exact polish when `polish` is set.
+    /// OSQP on the QP with every row hard (the paper's path), then the dense solve from
+    /// OSQP's face when `polish` is set: it verifies the answer, or settles the priority
+    /// tiers when the rows do not fit.
     Osqp,
     /// The dense solve, and OSQP only when the dense solve has not verified within its
     /// budget.
@@ -243,10 +248,11 @@ impl Solver {
 
 /// Everything the [`EcbfFilter`](super::EcbfFilter) is built with.
 ///
-/// Cost: `Σ_j w_j (u_j − u_ref,j)² + Σ_i w_δ,i δ_i²`. A slack weight of `w_δ` makes one
-/// unit of ECBF violation (units of `h⁽ʳ⁾`) cost as much as `√w_δ` units of input change:
-/// with a weight of 10⁴ the filter bends the input a hundred times further before it
-/// lets a row slip. Much larger weights make the QP stiffer and slower to converge.
+/// The filter meets every row exactly when the input box allows it; where it does not,
+/// each family's priority decides who yields ([`FamilyParams::priority`]: tier 0 first, a
+/// lexicographic order, not a trade-off), and among the inputs that meet the rows as well
+/// as possible it picks the one closest to the nominal input in `Σ_j w_j (u_j −
+/// u_ref,j)²`.
 ///
 /// Start from a system's defaults ([`FilterSettings::defaults`], which generated code
 /// wraps as `default_settings()`) and tune from there.
@@ -320,7 +326,7 @@ impl<const NU: usize> FilterSettings<NU> {
             for &pole in p.poles.as_slice() {
                 domain::pole(pole)?;
             }
-            domain::slack_weight(p.slack_weight)?;
+            domain::priority(p.priority)?;
             if p.activation.is_nan() {
                 return Err(CbfError::NonFinite { what: "activation threshold", value: p.activation });
             }
@@ -342,9 +348,8 @@ pub mod domain {
     /// QP's condition number (with the slack weights'), and every digit of it is a digit
     /// the exact solve and its KKT check lose: at most 10⁶ between inputs.
     pub const MAX_WEIGHT_RATIO: f64 = 1e3;
-    /// Slack weights `w_δ` lie in `[1e-3, 1e8]`: at most 10¹¹ above the smallest input
-    /// weight, so the polish's `W + w_δ a aᵀ` keeps five digits of `W`.
-    pub const SLACK_WEIGHT_RANGE: [f64; 2] = [1e-3, 1e8];
+    /// Priority tiers run from 0 (met first) to this.
+    pub const MAX_PRIORITY: u8 = (crate::qp::lexicographic::TIERS - 1) as u8;
     /// ECBF poles lie in `[1e-6, 1e4]` 1/s; faster than 10 kHz is meaningless for a 1 kHz
     /// loop, and the gains `p1 p2` stay ≤ 1e8.
     pub const POLE_RANGE: [f64; 2] = [1e-6, 1e4];
@@ -367,9 +372,12 @@ pub mod domain {
         within("ECBF pole", value, POLE_RANGE[0], POLE_RANGE[1], "[1e-6, 1e4]")
     }
 
-    /// A slack weight within [`SLACK_WEIGHT_RANGE`].
-    pub(crate) fn slack_weight(value: f64) -> Result<f64, CbfError> {
-        within("slack weight", value, SLACK_WEIGHT_RANGE[0], SLACK_WEIGHT_RANGE[1], "[1e-3, 1e8]")
+    /// A priority tier within `0..=`[`MAX_PRIORITY`].
+    pub(crate) fn priority(value: u8) -> Result<u8, CbfError> {
+        if value > MAX_PRIORITY {
+            return Err(CbfError::TooLarge { what: "priority tier", value: usize::from(value), max: usize::from(MAX_PRIORITY) });
+        }
+        Ok(value)
     }
 
     /// An input weight within `[1/MAX_WEIGHT_RATIO, MAX_WEIGHT_RATIO]`.

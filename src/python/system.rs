@@ -13,7 +13,7 @@ use pyo3::types::{PyDict, PyList};
 use super::convert::{choice, matrix_from_fn, shaped, vector, Array1Out, Array2Out, ArrayIn};
 use crate::dynamic::{self, CapacityCount, DynFilter, DynParams, DynRows, DynSystem};
 use crate::error::{within, CbfError};
-use crate::filter::{Output, Solver, SolverSettings};
+use crate::filter::{Cause, FamilyRelaxation, Limit, Output, Solver, SolverSettings};
 use crate::system::{FamilyInfo, Poles};
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -143,7 +143,7 @@ fn family_dict<'py>(py: Python<'py>, f: &FamilyInfo) -> PyResult<Bound<'py, PyDi
     }
     d.set_item("params", params)?;
     d.set_item("poles", f.defaults.poles.as_slice().to_vec())?;
-    d.set_item("slack_weight", f.defaults.slack_weight)?;
+    d.set_item("priority", f.defaults.priority)?;
     d.set_item("activation", f.defaults.activation)?;
     Ok(d)
 }
@@ -476,8 +476,8 @@ impl PyParams {
 #[pyclass(name = "Rows", module = "cbfgen", frozen)]
 pub struct PyRows {
     layout: Vec<RowPlace>,
-    lie: Py<numpy::PyArray2<f64>>,
-    lg: Py<numpy::PyArray2<f64>>,
+    lie: Option<Py<numpy::PyArray2<f64>>>,
+    lg: Option<Py<numpy::PyArray2<f64>>>,
     applicable: Vec<bool>,
 }
 
@@ -493,15 +493,20 @@ fn layout(rows: &dyn DynRows) -> Vec<RowPlace> {
         .collect()
 }
 
-/// ``[h, L_f h, …]`` up to the highest relative degree of any family, per row.
-fn lie<'py>(py: Python<'py>, rows: &dyn DynRows) -> Array2Out<'py> {
+/// ``[h, L_f h, …]`` up to the highest relative degree of any family, per row; `None`
+/// when any value is not finite (a degenerate state): arrays out are finite or absent.
+fn lie<'py>(py: Python<'py>, rows: &dyn DynRows) -> Option<Array2Out<'py>> {
     let width = rows.families().iter().map(|f| f.relative_degree).max().unwrap_or(0) + 1;
     let n = rows.layout().len();
-    matrix_from_fn(py, n, width, |i, j| rows.row(i).map_or(f64::NAN, |r| r.lie[j]))
+    let finite = (0..n).all(|i| rows.row(i).is_some_and(|r| r.lie[..width].iter().all(|v| v.is_finite())));
+    finite.then(|| matrix_from_fn(py, n, width, |i, j| rows.row(i).map_or(0.0, |r| r.lie[j])))
 }
 
-fn lg<'py>(py: Python<'py>, rows: &dyn DynRows, nu: usize) -> Array2Out<'py> {
-    matrix_from_fn(py, rows.layout().len(), nu, |i, j| rows.row(i).map_or(f64::NAN, |r| r.lg[j]))
+/// ``L_g L_f^{r-1} h`` per row; `None` when any value is not finite.
+fn lg<'py>(py: Python<'py>, rows: &dyn DynRows, nu: usize) -> Option<Array2Out<'py>> {
+    let n = rows.layout().len();
+    let finite = (0..n).all(|i| rows.row(i).is_some_and(|r| r.lg[..nu].iter().all(|v| v.is_finite())));
+    finite.then(|| matrix_from_fn(py, n, nu, |i, j| rows.row(i).map_or(0.0, |r| r.lg[j])))
 }
 
 fn applicable(rows: &dyn DynRows) -> Vec<bool> {
@@ -512,8 +517,8 @@ impl PyRows {
     fn of(py: Python<'_>, rows: &dyn DynRows, nu: usize) -> PyResult<Self> {
         Ok(Self {
             layout: layout(rows),
-            lie: lie(py, rows).unbind(),
-            lg: lg(py, rows, nu).unbind(),
+            lie: lie(py, rows).map(Bound::unbind),
+            lg: lg(py, rows, nu).map(Bound::unbind),
             applicable: applicable(rows),
         })
     }
@@ -528,16 +533,17 @@ impl PyRows {
     }
 
     /// ``[h, L_f h, …, L_f^r h]`` per row (zeros past a row's own degree; rows that did
-    /// not apply keep zeros), shape (rows, highest degree + 1).
+    /// not apply keep zeros), shape (rows, highest degree + 1); None when a value is not
+    /// finite (a degenerate state, such as a toe at its hip).
     #[getter]
-    fn lie<'py>(&self, py: Python<'py>) -> Bound<'py, numpy::PyArray2<f64>> {
-        self.lie.bind(py).clone()
+    fn lie<'py>(&self, py: Python<'py>) -> Option<Bound<'py, numpy::PyArray2<f64>>> {
+        self.lie.as_ref().map(|a| a.bind(py).clone())
     }
 
-    /// ``L_g L_f^{r-1} h`` per row, shape (rows, nu).
+    /// ``L_g L_f^{r-1} h`` per row, shape (rows, nu); None when a value is not finite.
     #[getter]
-    fn lg_lf<'py>(&self, py: Python<'py>) -> Bound<'py, numpy::PyArray2<f64>> {
-        self.lg.bind(py).clone()
+    fn lg_lf<'py>(&self, py: Python<'py>) -> Option<Bound<'py, numpy::PyArray2<f64>>> {
+        self.lg.as_ref().map(|a| a.bind(py).clone())
     }
 
     /// Whether each row applied (its instance was present and switched on).
@@ -551,10 +557,72 @@ impl PyRows {
     }
 }
 
+/// One relaxed row, as Python sees it.
+#[derive(Debug, Clone)]
+struct RelaxedInfo {
+    row: usize,
+    place: RowPlace,
+    slack: f64,
+    relative: f64,
+    cause: Cause,
+    /// The input named by an `InputLimit`, or the row named by a priority conflict.
+    input: Option<&'static str>,
+    other: Option<(usize, RowPlace)>,
+}
+
 /// One update's result.
 #[pyclass(name = "FilterOutput", module = "cbfgen", frozen)]
 pub struct PyFilterOutput {
     out: Output<Vec<f64>>,
+    relaxed: Vec<RelaxedInfo>,
+    families: Vec<(&'static str, FamilyRelaxation)>,
+}
+
+impl PyFilterOutput {
+    /// The filter's last output with its safety report: every relaxed row placed and its
+    /// cause spelled out, and every family's relaxations.
+    fn of(filter: &dyn DynFilter, input_names: &'static [&'static str]) -> Self {
+        let places = layout(filter);
+        let delta = filter.delta();
+        let relative = filter.relative_slack();
+        let relaxed = filter
+            .relaxed()
+            .iter()
+            .enumerate()
+            .filter_map(|(row, cause)| {
+                let cause = (*cause)?;
+                let (input, other) = match cause {
+                    Cause::InputLimit { input, .. } => (input_names.get(input).copied(), None),
+                    Cause::HigherPriority { row } | Cause::SamePriority { row } => (None, Some((row, places[row]))),
+                    Cause::NoAuthority | Cause::Unsolved => (None, None),
+                };
+                Some(RelaxedInfo { row, place: places[row], slack: delta[row], relative: relative[row], cause, input, other })
+            })
+            .collect();
+        let families = filter.families().iter().map(|f| f.name).zip(filter.relaxation().iter().copied()).collect();
+        Self { out: filter.output().map_input(|u| u.to_vec()), relaxed, families }
+    }
+}
+
+fn relaxed_dict<'py>(py: Python<'py>, r: &RelaxedInfo) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("row", r.row)?;
+    d.set_item("place", r.place)?;
+    d.set_item("slack", r.slack)?;
+    d.set_item("relative", r.relative)?;
+    d.set_item("cause", r.cause.name())?;
+    d.set_item("input", r.input)?;
+    d.set_item(
+        "limit",
+        match r.cause {
+            Cause::InputLimit { limit: Limit::Min, .. } => Some("min"),
+            Cause::InputLimit { limit: Limit::Max, .. } => Some("max"),
+            _ => None,
+        },
+    )?;
+    d.set_item("other_row", r.other.map(|(row, _)| row))?;
+    d.set_item("other_place", r.other.map(|(_, place)| place))?;
+    Ok(d)
 }
 
 #[pymethods]
@@ -625,6 +693,51 @@ impl PyFilterOutput {
         self.out.consecutive_fallbacks
     }
 
+    /// The safety verdict, measured at ``u`` whatever its source: "met" (every active row
+    /// holds), "relaxed" (see ``relaxed``) or "unassessed" (an active row was not finite).
+    #[getter]
+    fn verdict(&self) -> &'static str {
+        self.out.safety.verdict.name()
+    }
+
+    /// Active rows relaxed beyond the tolerance.
+    #[getter]
+    fn relaxed_rows(&self) -> usize {
+        self.out.safety.relaxed_rows
+    }
+
+    /// Every relaxed row: ``row`` (its index), ``place`` (family, member, instance, row
+    /// name), ``slack`` (by how much it is missed, in the row's units), ``relative`` (the
+    /// slack over the row's terms), ``cause`` ("input_limit", "higher_priority",
+    /// "same_priority", "no_authority" or "unsolved"), and for an input limit the
+    /// ``input`` and its ``limit`` ("min"/"max"), for a priority conflict the
+    /// ``other_row`` and its ``other_place``.
+    #[getter]
+    fn relaxed<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        self.relaxed.iter().map(|r| relaxed_dict(py, r)).collect()
+    }
+
+    /// The relaxed row with the largest relative slack (as in ``relaxed``), or None.
+    #[getter]
+    fn worst<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let worst = self.out.safety.worst.and_then(|w| self.relaxed.iter().find(|r| r.row == w.row));
+        worst.map(|r| relaxed_dict(py, r)).transpose()
+    }
+
+    /// Per family name: ``relaxed_rows``, ``max_slack`` and ``max_relative`` this update.
+    #[getter]
+    fn relaxation<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for (name, f) in &self.families {
+            let e = PyDict::new(py);
+            e.set_item("relaxed_rows", f.relaxed_rows)?;
+            e.set_item("max_slack", f.max_slack)?;
+            e.set_item("max_relative", f.max_relative)?;
+            d.set_item(*name, e)?;
+        }
+        Ok(d)
+    }
+
     /// Row evaluation time \[µs\].
     #[getter]
     fn eval_time_us(&self) -> f64 {
@@ -649,8 +762,10 @@ impl PyFilterOutput {
     fn __repr__(&self) -> String {
         let status = self.status().map_or_else(|| "None".to_string(), |s| format!("'{s}'"));
         format!(
-            "FilterOutput(source='{}', status={status}, backend={}, dense_steps={}, iterations={}, polished={}, active_rows={})",
+            "FilterOutput(source='{}', verdict='{}', relaxed_rows={}, status={status}, backend={}, dense_steps={}, iterations={}, polished={}, active_rows={})",
             self.source(),
+            self.verdict(),
+            self.relaxed_rows(),
             self.out.backend.map_or("None".to_string(), |b| format!("'{}'", b.name())),
             self.out.dense_steps,
             self.out.iterations,
@@ -680,13 +795,13 @@ fn settings(system: &dyn DynSystem, kw: Option<&Bound<'_, PyDict>>) -> PyResult<
             continue; // None leaves the default, as an omitted keyword does
         }
         match key.as_str() {
-            "activation" | "slack_weight" | "poles" => {
+            "activation" | "priority" | "poles" => {
                 for (name, v) in value.extract::<HashMap<String, Bound<'_, PyAny>>>()? {
                     let (i, _) = family_of(system.families(), &name)?;
                     let p = &mut s.families[i];
                     match key.as_str() {
                         "activation" => p.activation = v.extract()?,
-                        "slack_weight" => p.slack_weight = v.extract()?,
+                        "priority" => p.priority = v.extract()?,
                         _ => p.poles = Poles::new(&v.extract::<Vec<f64>>()?)?,
                     }
                 }
@@ -786,7 +901,7 @@ impl PyEcbfFilter {
         py.detach(|| -> PyResult<PyFilterOutput> {
             let mut f = self.lock()?;
             f.update(t, &x, &u_ref, params)?;
-            Ok(PyFilterOutput { out: f.output().map_input(|u| u.to_vec()) })
+            Ok(PyFilterOutput::of(f.as_ref(), self.system.input_names()))
         })
     }
 
@@ -803,7 +918,7 @@ impl PyEcbfFilter {
     #[getter]
     fn output(&self) -> PyResult<PyFilterOutput> {
         let f = self.lock()?;
-        Ok(PyFilterOutput { out: f.output().map_input(|u| u.to_vec()) })
+        Ok(PyFilterOutput::of(f.as_ref(), self.system.input_names()))
     }
 
     /// Number of rows (fixed by the capacity).
@@ -819,15 +934,17 @@ impl PyEcbfFilter {
     }
 
     /// Every row's ``[h, L_f h, …, L_f^r h]`` at the last update, shape (rows, highest
-    /// degree + 1). Rows that did not apply keep stale values; see ``applicable``.
+    /// degree + 1). Rows that did not apply keep stale values; see ``applicable``. None
+    /// when a value is not finite (an update that fell back on a non-finite row).
     #[getter]
-    fn lie<'py>(&self, py: Python<'py>) -> PyResult<Array2Out<'py>> {
+    fn lie<'py>(&self, py: Python<'py>) -> PyResult<Option<Array2Out<'py>>> {
         Ok(lie(py, self.lock()?.as_ref()))
     }
 
-    /// Every row's ``L_g L_f^{r-1} h`` over all inputs, shape (rows, nu).
+    /// Every row's ``L_g L_f^{r-1} h`` over all inputs, shape (rows, nu); None when a
+    /// value is not finite.
     #[getter]
-    fn lg_lf<'py>(&self, py: Python<'py>) -> PyResult<Array2Out<'py>> {
+    fn lg_lf<'py>(&self, py: Python<'py>) -> PyResult<Option<Array2Out<'py>>> {
         Ok(lg(py, self.lock()?.as_ref(), self.system.nu()))
     }
 
@@ -843,23 +960,24 @@ impl PyEcbfFilter {
         Ok(self.lock()?.active().to_vec())
     }
 
-    /// The last QP's slack per row.
+    /// Per row, at the last returned input: by how much it is missed, ``max(0, −(a·u +
+    /// b))`` in the row's units (0 for inactive rows).
     #[getter]
     fn slack<'py>(&self, py: Python<'py>) -> PyResult<Array1Out<'py>> {
         Ok(vector(py, self.lock()?.delta()))
     }
 
-    /// Per family name: the ``poles``, ``slack_weight`` and ``activation`` in use.
+    /// Per family name: the ``poles``, ``priority`` and ``activation`` in use.
     #[getter]
-    #[allow(clippy::type_complexity)] // Python's view: {family: (poles, slack_weight, activation)}
-    fn family_settings(&self) -> PyResult<HashMap<&'static str, (Vec<f64>, f64, f64)>> {
+    #[allow(clippy::type_complexity)] // Python's view: {family: (poles, priority, activation)}
+    fn family_settings(&self) -> PyResult<HashMap<&'static str, (Vec<f64>, u8, f64)>> {
         let s = self.lock()?.settings();
         Ok(self
             .system
             .families()
             .iter()
             .zip(&s.families)
-            .map(|(f, p)| (f.name, (p.poles.as_slice().to_vec(), p.slack_weight, p.activation)))
+            .map(|(f, p)| (f.name, (p.poles.as_slice().to_vec(), p.priority, p.activation)))
             .collect())
     }
 

@@ -48,8 +48,11 @@
 //! * complementarity: a row with a non-zero multiplier is at its bound to the same tolerance;
 //! * dual signs: with OSQP's convention `P z + q + Aᵀ y = 0`, `y_i ≤ 0` on an active lower
 //!   bound, `y_i ≥ 0` on an active upper bound, any sign on an equality, 0 elsewhere;
-//! * stationarity, every variable: `|(P z + q + Aᵀ y)_j| ≤ ε (Σ_k |P_jk z_k| + |q_j| +
-//!   Σ_i |y_i a_ij|)`, relative to the gradient terms it sums.
+//! * stationarity, every variable: `|(P z + q + Aᵀ y)_j| ≤ ε (s_j + 10⁻⁴ max_k s_k)` with
+//!   `s_j = Σ_k |P_jk z_k| + |q_j| + Σ_i |y_i a_ij|` the size of the gradient terms it
+//!   sums, each variable's in units of `√P_jj`; the floor, a part in 10⁴ of the largest,
+//!   is the rounding the factorisation carries from one variable into another whose own
+//!   terms nearly vanish.
 //!
 //! Internally each row is divided by its Euclidean norm, so rows of very different scale
 //! compete fairly when the most violated one is chosen, and a row counts as violated when
@@ -58,14 +61,20 @@
 //! certificate `y` (`y_p = 1` on the violated row, `−r ≥ 0` on the active inequalities)
 //! whose combination of normals `e = Σ y_i n_i` is so small against its bound gap
 //! `g = Σ y_i b_i > 0` that every feasible point would lie beyond `10⁶ (1 + ‖z‖_∞)`
-//! (`g > 10⁶ (1 + ‖z‖_∞) ‖e‖₁`, `z` the iterate); otherwise the solve ends
-//! [`DenseStatus::Unverified`].
+//! (`g > 10⁶ (1 + ‖z‖_∞) ‖e‖₁`, `z` the iterate). Without a certificate, a row that
+//! depends on the active ones and is violated by no more than the check allows (a vertex
+//! of nearly parallel rows, off by their rounding) is left to the check instead of added;
+//! one violated by more ends the solve [`DenseStatus::Unverified`].
 //!
 //! # Budget, bad data, allocation
 //!
-//! A step is one row added to or dropped from the active set; a solve stops after
-//! `max_steps` with [`DenseStatus::MaxSteps`] and the (dual-feasible, finite) iterate it
-//! reached. NaN in any datum, or an infinite entry of `q` or `A`, gives
+//! A step is one row added to or dropped from the active set. The budget `max_steps`
+//! counts the rows added: a solve that would add one more stops with
+//! [`DenseStatus::MaxSteps`] and the (dual-feasible, finite) iterate it reached, whose
+//! active set, as a warm start, puts the next solve where this one stopped — so a small
+//! budget still makes progress from solve to solve. (The drops an addition makes on the
+//! way, at most one per active row, are not budgeted: counting them, a budget below one
+//! addition's drops would stop every solve at the same place.) NaN in any datum, or an infinite entry of `q` or `A`, gives
 //! [`DenseStatus::NonFiniteData`] before any arithmetic; a solve never panics and never
 //! hands back a non-finite point. Nothing allocates after [`DualActiveSet::new`].
 //!
@@ -106,6 +115,10 @@ pub const INFINITY: f64 = 1e30;
 
 /// `ε` of the KKT check (see the module docs): relative to the size of the terms.
 pub const KKT_TOLERANCE: f64 = 1e-9;
+
+/// The stationarity check's floor, as a fraction of the largest gradient term (all in
+/// units of `√P_jj`-scaled variables): see the module docs.
+const STATIONARITY_FLOOR: f64 = 1e-4;
 
 /// A row counts as violated, and is added, beyond this fraction of the KKT tolerance.
 const SELECT_FRACTION: f64 = 0.1;
@@ -223,7 +236,6 @@ enum AddOutcome {
     Added,
     Infeasible,
     NotCertified,
-    OutOfSteps,
 }
 
 /// The solver: the problem's data, `P`'s factor, and every buffer a solve uses.
@@ -231,6 +243,8 @@ enum AddOutcome {
 pub struct DualActiveSet {
     n: usize,
     m: usize,
+    /// Rows in use: the first `live` of the `m` (see [`DualActiveSet::set_rows_in_use`]).
+    live: usize,
     /// `P`, full symmetric, row-major (mirrored from the upper triangle given).
     hessian: Vec<f64>,
     /// `L⁻ᵀ` for `P = L Lᵀ`, column-major: the `J` every solve starts from.
@@ -248,6 +262,9 @@ pub struct DualActiveSet {
     unit_upper: Vec<f64>,
     /// Whether each row is in the active set.
     is_active: Vec<bool>,
+    /// Rows violated within the KKT tolerance that cannot be added (dependent on the active
+    /// rows, without a certificate): left out of the search, left to the check.
+    tolerated: Vec<bool>,
     /// `J = L⁻ᵀ Q`, column-major `n × n`.
     j: Vec<f64>,
     /// `R`, column-major `n × n`, upper triangle of the first `active.len()` columns.
@@ -271,6 +288,8 @@ pub struct DualActiveSet {
     /// The rows reported by [`DualActiveSet::active_set`].
     report: Vec<ActiveRow>,
     steps: u32,
+    /// Rows added in this solve: what the budget counts.
+    added: u32,
     status: DenseStatus,
 }
 
@@ -290,6 +309,7 @@ impl DualActiveSet {
         let mut solver = Self {
             n,
             m,
+            live: m,
             hessian: vec![0.0; n * n],
             j_start: vec![0.0; n * n],
             q: vec![0.0; n],
@@ -301,6 +321,7 @@ impl DualActiveSet {
             unit_lower: vec![f64::NEG_INFINITY; m],
             unit_upper: vec![f64::INFINITY; m],
             is_active: vec![false; m],
+            tolerated: vec![false; m],
             j: vec![0.0; n * n],
             r: vec![0.0; n * n],
             active: Vec::with_capacity(n),
@@ -315,6 +336,7 @@ impl DualActiveSet {
             warm: Vec::with_capacity(n),
             report: Vec::with_capacity(n),
             steps: 0,
+            added: 0,
             status: DenseStatus::Unverified,
         };
         solver.set_hessian(hessian)?;
@@ -395,9 +417,21 @@ impl DualActiveSet {
         self.m
     }
 
+    /// Solve with only the first `rows` rows (at most `m`): the others are ignored, data
+    /// and all, until this is called again. For a caller that packs the rows it needs this
+    /// time at the front, so that a solve costs what they cost, not what the capacity does.
+    pub fn set_rows_in_use(&mut self, rows: usize) {
+        self.live = rows.min(self.m);
+    }
+
     /// The data to write before a solve (kept between solves).
     pub fn data_mut(&mut self) -> QpData<'_> {
         QpData { q: &mut self.q, a: &mut self.a, lower: &mut self.lower, upper: &mut self.upper }
+    }
+
+    /// `A` as last written, row-major (`m × n`).
+    pub fn constraints(&self) -> &[f64] {
+        &self.a
     }
 
     /// `P`, full and row-major, as factorised.
@@ -432,10 +466,11 @@ impl DualActiveSet {
         self.status
     }
 
-    /// Solve the QP in its current data from `start`, taking at most `max_steps` active-set
-    /// changes. Does not allocate.
+    /// Solve the QP in its current data from `start`, adding at most `max_steps` rows to
+    /// the active set (module docs). Does not allocate.
     pub fn solve(&mut self, start: WarmStart<'_>, max_steps: u32) -> DenseStatus {
         self.steps = 0;
+        self.added = 0;
         self.status = self.run(start, max_steps);
         if !self.x.iter().all(|v| v.is_finite()) {
             self.x.fill(0.0);
@@ -466,7 +501,8 @@ impl DualActiveSet {
         self.active.clear();
         self.u.clear();
         self.is_active.fill(false);
-        for row in 0..self.m {
+        self.tolerated.fill(false);
+        for row in 0..self.live {
             if self.norm[row] > 0.0 && self.unit_lower[row] == self.unit_upper[row] {
                 self.seed(Constraint { row, sign: 1.0, equality: true });
             }
@@ -478,7 +514,7 @@ impl DualActiveSet {
             WarmStart::Given(rows) => rows,
         };
         for &ActiveRow { row, side } in hint.iter().take(self.n) {
-            if row >= self.m || self.is_active[row] || self.norm[row] == 0.0 {
+            if row >= self.live || self.is_active[row] || self.norm[row] == 0.0 {
                 continue;
             }
             let (lower, upper) = (self.unit_lower[row], self.unit_upper[row]);
@@ -496,20 +532,24 @@ impl DualActiveSet {
             loop {
                 self.equality_optimum();
                 let Some(k) = self.most_negative_multiplier() else { break };
-                if self.steps >= max_steps {
-                    return DenseStatus::MaxSteps;
-                }
                 self.steps += 1;
                 self.drop_active(k);
             }
             let Some(p) = self.most_violated() else {
                 return self.verify();
             };
-            match self.add(p, max_steps) {
+            // Out of budget before the addition starts, not half-way through its drops, so
+            // the active set reached is dual feasible and a warm start from it goes on.
+            if self.added >= max_steps {
+                return DenseStatus::MaxSteps;
+            }
+            match self.add(p) {
                 AddOutcome::Added => {}
                 AddOutcome::Infeasible => return DenseStatus::Infeasible,
+                // A dependent row off by less than the check allows is rounding of the
+                // rows it depends on (a vertex of nearly parallel rows): the check decides.
+                AddOutcome::NotCertified if self.within_check(p) => self.tolerated[p.row] = true,
                 AddOutcome::NotCertified => return DenseStatus::Unverified,
-                AddOutcome::OutOfSteps => return DenseStatus::MaxSteps,
             }
         }
     }
@@ -517,23 +557,28 @@ impl DualActiveSet {
     /// Check the data and normalise the rows. `Some(status)` when the solve ends here.
     fn prepare_rows(&mut self) -> Option<DenseStatus> {
         let n = self.n;
-        if !self.q.iter().chain(&self.a).all(|v| v.is_finite())
-            || self.lower.iter().chain(&self.upper).any(|v| v.is_nan())
+        let live = self.live;
+        if !self.q.iter().chain(&self.a[..live * n]).all(|v| v.is_finite())
+            || self.lower[..live].iter().chain(&self.upper[..live]).any(|v| v.is_nan())
         {
             return Some(DenseStatus::NonFiniteData);
         }
         let mut infeasible = false;
-        for i in 0..self.m {
+        for i in 0..self.live {
             let row = &self.a[i * n..(i + 1) * n];
             let (lower, upper) = (self.lower[i], self.upper[i]);
             let has_lower = lower > -INFINITY;
             let has_upper = upper < INFINITY;
             // A lower bound at +∞ or an upper one at −∞ cannot hold; nor can l > u.
             infeasible |= lower >= INFINITY || upper <= -INFINITY || (has_lower && has_upper && lower > upper);
-            // Euclidean norm without overflow or underflow: scaled by the largest entry.
+            // Euclidean norm without overflow or underflow: scaled by the largest entry
+            // when squaring could leave double precision's range.
             let largest = row.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            let norm = if largest > 0.0 {
-                largest * row.iter().map(|v| (v / largest) * (v / largest)).sum::<f64>().sqrt()
+            let norm = if (1e-100..=1e100).contains(&largest) {
+                row.iter().map(|v| v * v).sum::<f64>().sqrt()
+            } else if largest > 0.0 {
+                let inverse = 1.0 / largest;
+                largest * row.iter().map(|v| (v * inverse) * (v * inverse)).sum::<f64>().sqrt()
             } else {
                 0.0
             };
@@ -545,8 +590,9 @@ impl DualActiveSet {
                 (self.unit_lower[i], self.unit_upper[i]) = (f64::NEG_INFINITY, f64::INFINITY);
                 continue;
             }
+            let inverse = 1.0 / norm;
             for (unit, v) in self.unit[i * n..(i + 1) * n].iter_mut().zip(row) {
-                *unit = v / norm;
+                *unit = v * inverse;
             }
             // A bound that overflows when divided by a tiny norm stays an (unreachable) bound.
             self.unit_lower[i] = if has_lower { lower / norm } else { f64::NEG_INFINITY };
@@ -720,8 +766,8 @@ impl DualActiveSet {
     fn most_violated(&self) -> Option<Constraint> {
         let n = self.n;
         let mut best: Option<(Constraint, f64)> = None;
-        for row in 0..self.m {
-            if self.is_active[row] || self.norm[row] == 0.0 {
+        for row in 0..self.live {
+            if self.is_active[row] || self.tolerated[row] || self.norm[row] == 0.0 {
                 continue;
             }
             let (mut value, mut size) = (0.0, 0.0);
@@ -744,7 +790,7 @@ impl DualActiveSet {
 
     /// Steps of the dual method that make the violated row `p` active (dropping rows on
     /// the way), from a dual-feasible pair.
-    fn add(&mut self, p: Constraint, max_steps: u32) -> AddOutcome {
+    fn add(&mut self, p: Constraint) -> AddOutcome {
         let n = self.n;
         let mut multiplier = 0.0;
         loop {
@@ -782,10 +828,8 @@ impl DualActiveSet {
                         AddOutcome::NotCertified
                     };
                 }
-                if self.steps >= max_steps {
-                    return AddOutcome::OutOfSteps;
-                }
                 self.steps += 1;
+                self.added += 1;
                 // Full step: p joins the active set.
                 axpy(&mut self.x, full, &self.step);
                 for i in 0..q {
@@ -794,9 +838,6 @@ impl DualActiveSet {
                 self.push_active(p, multiplier + full);
                 return AddOutcome::Added;
             };
-            if self.steps >= max_steps {
-                return AddOutcome::OutOfSteps;
-            }
             self.steps += 1;
             // Partial step (a pure dual step when p depends on the active rows), then the
             // blocking row leaves.
@@ -840,6 +881,20 @@ impl DualActiveSet {
         gap > 0.0 && gap > CERTIFICATE_REACH * reach * residual
     }
 
+    /// Whether row `p`'s violation at the iterate is within the KKT check's tolerance (on
+    /// the data as given).
+    fn within_check(&self, p: Constraint) -> bool {
+        let n = self.n;
+        let row = &self.a[p.row * n..(p.row + 1) * n];
+        let (mut value, mut size) = (0.0, 0.0);
+        for (a, x) in row.iter().zip(&self.x) {
+            value += a * x;
+            size += a.abs() * (1.0 + x.abs());
+        }
+        let bound = if p.sign > 0.0 { self.lower[p.row] } else { self.upper[p.row] };
+        p.sign * (bound - value) <= KKT_TOLERANCE * (bound.abs() + size)
+    }
+
     /// The KKT check of the module docs, on the data as given; fills `y`.
     fn verify(&mut self) -> DenseStatus {
         let n = self.n;
@@ -848,7 +903,7 @@ impl DualActiveSet {
             // u multiplies the normalised signed normal: P x + q = Σ u n, n = σ a / ‖a‖.
             self.y[c.row] = -self.u[k] * c.sign / self.norm[c.row];
         }
-        for i in 0..self.m {
+        for i in 0..self.live {
             let row = &self.a[i * n..(i + 1) * n];
             let (mut value, mut size) = (0.0, 0.0);
             for (a, x) in row.iter().zip(&self.x) {
@@ -873,6 +928,9 @@ impl DualActiveSet {
                 return DenseStatus::Unverified;
             }
         }
+        // Gradient and the size of its terms per variable, in `w` and `c` (scratch here),
+        // both divided by √P_jj so that variables of different weights compare.
+        let mut largest: f64 = 0.0;
         for j in 0..n {
             let (mut gradient, mut size) = (self.q[j], self.q[j].abs());
             for k in 0..n {
@@ -885,8 +943,16 @@ impl DualActiveSet {
                 gradient += t;
                 size += t.abs();
             }
-            let stationary = gradient.abs() <= KKT_TOLERANCE * size; // false for NaN
-            if !stationary {
+            let scale = self.hessian[j * n + j].sqrt();
+            (self.w[j], self.c[j]) = (gradient / scale, size / scale);
+            largest = largest.max(self.c[j]);
+        }
+        for j in 0..n {
+            // A variable whose own terms nearly vanish still carries the rounding of the
+            // others (the factorisation mixes them): a floor of STATIONARITY_FLOOR of the
+            // largest term keeps that from failing an exact answer.
+            let allowed = KKT_TOLERANCE * (self.c[j] + STATIONARITY_FLOOR * largest);
+            if self.w[j].abs() > allowed || self.w[j].is_nan() {
                 return DenseStatus::Unverified;
             }
         }

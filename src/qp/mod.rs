@@ -1,8 +1,9 @@
 //! The quadratic-program solvers behind the filter and the MPCs.
 //!
-//! * [`input_space`] — the ECBF QP solved exactly in the `NU` inputs (its slacks
-//!   eliminated): a warm-started Newton / active-set method, allocation-free, verified by
-//!   its KKT conditions before it answers. The filter's first choice.
+//! * [`lexicographic`] — the filter's QP with priority tiers, solved exactly in the `NU`
+//!   inputs: every row hard when the rows fit the input box (one dual active-set solve,
+//!   warm-started), else tier by tier the least largest violation first; every stage
+//!   KKT-verified before it answers. The filter's first choice.
 //! * [`dual_active_set`] — a dense Goldfarb–Idnani dual active-set solver for small,
 //!   strictly convex QPs with hard rows: exact, warm-started, KKT-verified (the MPCs).
 //! * [`recorded`] — a cycle's QP kept to replay against any solver (test fixtures,
@@ -11,6 +12,6 @@
 //!   the crate hands to OSQP: the filter's fallback and reference backend, and the MPCs.
 
 pub mod dual_active_set;
-pub mod input_space;
+pub mod lexicographic;
 pub(crate) mod osqp_workspace;
 pub mod recorded;

@@ -1,8 +1,8 @@
 //! ECBF QPs as a filter posed them, kept to replay against any solver.
 //!
-//! A [`RecordedQp`] is one cycle's problem in input space (see [`crate::qp::input_space`]):
-//! weights, nominal input, box, and the active rows with their ECBF bounds and slack
-//! weights. [`EcbfFilter::recorded_qp`](crate::filter::EcbfFilter::recorded_qp) takes it
+//! A [`RecordedQp`] is one cycle's problem in input space (see
+//! [`crate::qp::lexicographic`]): weights, nominal input, box, and the active rows with
+//! their ECBF bounds and priority tiers. [`EcbfFilter::recorded_qp`](crate::filter::EcbfFilter::recorded_qp) takes it
 //! after an update; [`write()`] and [`read()`] keep many in a compact binary file (rows
 //! stored sparse: Tachyon 3's touch 1–6 of 17 inputs), so that a hard stretch of a run
 //! can be committed as a test fixture and benchmarked solver against solver.
@@ -11,16 +11,16 @@
 //! QP laid out as the filter's was (same rows, same sparsity, warm start from cycle to
 //! cycle), not only through a solver that takes the rows as they come.
 //!
-//! Format (little-endian): the magic `CBFQP\0v2`, `nu: u32`, `count: u32`, then per
+//! Format (little-endian): the magic `CBFQP\0v3`, `nu: u32`, `count: u32`, then per
 //! problem `t: f64`, `layout_rows: u32`, `nu` × (`weight`, `u_ref`, `min`, `max`: f64),
-//! `rows: u32`, and per row `index: u32`, `b: f64`, `weight: f64`, `nnz: u8`, `nnz` ×
+//! `rows: u32`, and per row `index: u32`, `b: f64`, `tier: u8`, `nnz: u8`, `nnz` ×
 //! (`column: u8`, `value: f64`).
 
 use std::io::{self, Read, Write};
 
-use super::input_space::SoftRow;
+use super::lexicographic::TieredRow;
 
-const MAGIC: &[u8; 8] = b"CBFQP\0v2";
+const MAGIC: &[u8; 8] = b"CBFQP\0v3";
 
 /// One recorded problem.
 #[derive(Debug, Clone, PartialEq)]
@@ -41,7 +41,7 @@ pub struct RecordedQp {
     pub rows: Vec<RecordedRow>,
 }
 
-/// One active row: `a·u + b + δ ≥ 0`, `δ` costing `weight · δ²`.
+/// One active row: `a·u + b ≥ 0`, of priority tier `tier`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RecordedRow {
     /// The row's index in the filter's layout.
@@ -50,8 +50,8 @@ pub struct RecordedRow {
     pub a: Vec<f64>,
     /// The ECBF bound `L_f^r h + Σ k_i L_f^i h`.
     pub b: f64,
-    /// The slack weight.
-    pub weight: f64,
+    /// Its priority tier (0 is met first).
+    pub tier: u8,
 }
 
 impl RecordedQp {
@@ -60,11 +60,11 @@ impl RecordedQp {
         self.weights.len()
     }
 
-    /// The rows as the input-space solver takes them, or `None` when `NU` is not
+    /// The rows as the lexicographic solver takes them, or `None` when `NU` is not
     /// [`RecordedQp::nu`].
-    pub fn soft_rows<const NU: usize>(&self) -> Option<Vec<SoftRow<NU>>> {
+    pub fn tiered_rows<const NU: usize>(&self) -> Option<Vec<TieredRow<NU>>> {
         (self.nu() == NU).then(|| {
-            self.rows.iter().map(|r| SoftRow { a: std::array::from_fn(|j| r.a[j]), b: r.b, weight: r.weight }).collect()
+            self.rows.iter().map(|r| TieredRow { a: std::array::from_fn(|j| r.a[j]), b: r.b, tier: r.tier }).collect()
         })
     }
 
@@ -74,18 +74,6 @@ impl RecordedQp {
     pub fn inputs<const NU: usize>(&self) -> Option<([f64; NU], [f64; NU], [f64; NU], [f64; NU])> {
         let array = |v: &[f64]| <[f64; NU]>::try_from(v).ok();
         Some((array(&self.weights)?, array(&self.u_ref)?, array(&self.input_min)?, array(&self.input_max)?))
-    }
-
-    /// The cost `Σ w_j (u_j − r_j)² + Σ s_i max(0, −(a_i·u + b_i))²` at `u`: what every
-    /// solver minimises, for comparing their answers.
-    pub fn cost(&self, u: &[f64]) -> f64 {
-        let inputs = (0..self.nu()).map(|j| self.weights[j] * (u[j] - self.u_ref[j]).powi(2)).sum::<f64>();
-        let rows = self
-            .rows
-            .iter()
-            .map(|r| r.weight * (r.a.iter().zip(u).map(|(a, x)| a * x).sum::<f64>() + r.b).min(0.0).powi(2))
-            .sum::<f64>();
-        inputs + rows
     }
 }
 
@@ -117,7 +105,7 @@ pub fn write(w: &mut impl Write, problems: &[RecordedQp]) -> io::Result<()> {
             }
             w.write_all(&u32::try_from(r.index).map_err(|_| invalid("row index too large"))?.to_le_bytes())?;
             w.write_all(&r.b.to_le_bytes())?;
-            w.write_all(&r.weight.to_le_bytes())?;
+            w.write_all(&[r.tier])?;
             let nnz = r.a.iter().filter(|v| **v != 0.0).count();
             w.write_all(&[nnz as u8])?;
             for (j, v) in r.a.iter().enumerate().filter(|(_, v)| **v != 0.0) {
@@ -158,7 +146,10 @@ pub fn read(r: &mut impl Read) -> io::Result<Vec<RecordedQp>> {
         let mut recorded_rows = Vec::new();
         for _ in 0..rows {
             let index = read_u32(r)? as usize;
-            let (b, weight) = (read_f64(r)?, read_f64(r)?);
+            let b = read_f64(r)?;
+            let mut tier = [0u8];
+            r.read_exact(&mut tier)?;
+            let tier = tier[0];
             let mut a = vec![0.0; nu];
             for _ in 0..read_u8(r)? {
                 let column = read_u8(r)? as usize;
@@ -167,7 +158,7 @@ pub fn read(r: &mut impl Read) -> io::Result<Vec<RecordedQp>> {
             if index >= layout_rows {
                 return Err(invalid("row index beyond the layout"));
             }
-            recorded_rows.push(RecordedRow { index, a, b, weight });
+            recorded_rows.push(RecordedRow { index, a, b, tier });
         }
         problems.push(RecordedQp { t, layout_rows, weights, u_ref, input_min, input_max, rows: recorded_rows });
     }
@@ -206,8 +197,8 @@ mod tests {
             input_min: vec![-1.0, -2.0, -3.0],
             input_max: vec![1.0, 2.0, 3.0],
             rows: vec![
-                RecordedRow { index: 3, a: vec![0.0, -1.5, 1e-300], b: 1300.25, weight: 1e8 },
-                RecordedRow { index: 268, a: vec![0.0; 3], b: -1.0, weight: 1e2 },
+                RecordedRow { index: 3, a: vec![0.0, -1.5, 1e-300], b: 1300.25, tier: 0 },
+                RecordedRow { index: 268, a: vec![0.0; 3], b: -1.0, tier: 3 },
             ],
         };
         let mut bytes = Vec::new();

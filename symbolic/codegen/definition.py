@@ -49,8 +49,11 @@ class FamilyDefinition:
     members: tuple[str, ...]  # the ``over`` labels; empty for a family that is not indexed
     time: bool
     poles: tuple[float, ...]
-    slack_weight: float
+    priority: int
     activation: float
+    # What the generator noticed about the family that a user should know (printed when
+    # it generates, and in the module's docs).
+    warnings: tuple[str, ...] = ()
 
     @property
     def indexed(self) -> bool:
@@ -180,7 +183,28 @@ def _family(system: System, family: Family) -> FamilyDefinition:
                             tuple(b.row_columns for b in built), tuple(family.params),
                             family.count, family.capacity, family.max_capacity, family.optional,
                             tuple(family.over or ()),
-                            family.time, poles, family.slack_weight, family.activation)
+                            family.time, poles, family.priority, family.activation,
+                            _one_sided_authority(system, family, built))
+
+
+def _one_sided_authority(system: System, family: Family, built: list) -> tuple[str, ...]:
+    """A warning when every row of ``family`` acts through one input whose limits let it
+    push one way only (thrust >= 0): wherever a row needs the other way, no input helps,
+    the row is relaxed, and if it shares that input with a row that must hold it can take
+    the input to its limit against it (a speed limit that cuts a drone's thrust to zero
+    while it falls through its floor). Priorities settle who yields."""
+    inputs = sorted({j for b in built for j in b.columns})
+    if len(inputs) != 1:
+        return ()
+    j = inputs[0]
+    limits = system.input_limits[j]
+    if limits.lower < 0.0 < limits.upper:
+        return ()
+    name = system.input_names[j]
+    return (f"{system.where}, family {family.name!r}: every row acts only through input {name!r}, whose limits "
+            f"[{limits.lower:g}, {limits.upper:g}] let it push one way only. Where a row needs the other way "
+            f"it is relaxed (cause: input at its limit); if families that must hold use {name!r} too, give "
+            f"{family.name!r} a higher priority number than theirs so that it yields to them.",)
 
 
 def _member(system: System, family: Family, where: str, kernel_name: str, index: int | None,

@@ -46,10 +46,16 @@ def render(spec: Path, runtime_crate: str = "cbfgen") -> tuple[str, str]:
 
 
 def render_with_dependencies(spec: Path, runtime_crate: str = "cbfgen") -> tuple[str, str, list[Path]]:
-    """:func:`render`, and the spec's dependency files (``System.dependencies``: modules
-    it imports from its folder, data files it names with ``depends_on``). The header lists
-    them relative to the spec's folder, one ``// depends: <path>`` line each, so a build
-    helper can recompute the hash without Python."""
+    name, text, files, _ = render_with_warnings(spec, runtime_crate)
+    return name, text, files
+
+
+def render_with_warnings(spec: Path, runtime_crate: str = "cbfgen") -> tuple[str, str, list[Path], list[str]]:
+    """:func:`render`, the spec's dependency files (``System.dependencies``: modules it
+    imports from its folder, data files it names with ``depends_on``) and the generator's
+    warnings about its families. The header lists the dependencies relative to the spec's
+    folder, one ``// depends: <path>`` line each, so a build helper can recompute the hash
+    without Python."""
     if not _RUNTIME_PATH.match(runtime_crate):
         raise SpecError(f"--runtime-crate {runtime_crate!r} is not a Rust path such as `cbfgen` or `crate`")
     spec = Path(spec)
@@ -68,14 +74,18 @@ def render_with_dependencies(spec: Path, runtime_crate: str = "cbfgen") -> tuple
         f"// Regenerate: python -m symbolic generate {label} --out <this directory> "
         f"--runtime-crate {runtime_crate}\n\n"
     )
-    return f"{system.name}.rs", rustfmt(header + emit_system(definition, runtime_crate)), files
+    warnings = [w for f in definition.families for w in f.warnings]
+    return f"{system.name}.rs", rustfmt(header + emit_system(definition, runtime_crate)), files, warnings
 
 
 def generate(spec: Path, out: Path, runtime_crate: str = "cbfgen", check: bool = False) -> int:
-    """Write (or with ``check``, compare) the module. Prints one ``depends <file>`` line
-    per dependency file (absolute) and then ``generated <file>`` as its last line; the
-    build helper reruns when any of them changes."""
-    name, text, files = render_with_dependencies(spec, runtime_crate)
+    """Write (or with ``check``, compare) the module. Prints one ``warning <text>`` line per
+    warning about the spec (the build helper shows them as cargo warnings), one ``depends
+    <file>`` line per dependency file (absolute) and then ``generated <file>`` as its last
+    line; the build helper reruns when any of them changes."""
+    name, text, files, warnings = render_with_warnings(spec, runtime_crate)
+    for warning in warnings:
+        print(f"warning {warning}")
     target = Path(out) / name
     current = target.is_file() and target.read_text() == text
     if check:

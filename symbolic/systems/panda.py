@@ -94,9 +94,9 @@ COLLISION_POLES = [4.0, 4.0]
 OBSTACLE_ACTIVATION = 0.3
 SELF_ACTIVATION = 0.3
 MAX_OBSTACLES = 64
-# Joint limits and collisions yield last; velocity limits are the actuators' and yield
-# first (see "Who yields when rows conflict" in the README).
-SLACK_WEIGHTS = {"joint_limits": 1e6, "obstacle": 1e6, "self_collision": 1e6, "velocity_limits": 1e4}
+# Who yields when rows conflict (lower numbers are met first): joint limits and collisions
+# hold; velocity limits are the actuators' and yield to them.
+PRIORITIES = {"joint_limits": 0, "obstacle": 0, "self_collision": 0, "velocity_limits": 1}
 
 OBSTACLE_PARAMS = {
     "center": ((3,), "obstacle box centre, world (base) frame [m]"),
@@ -165,7 +165,7 @@ def build() -> System:
             rows += [(f"q{i + 1}_min", q[i] - Q_MIN[i]), (f"q{i + 1}_max", Q_MAX[i] - q[i])]
         return rows
 
-    s.family("joint_limits", joint_limits, poles=POSITION_POLES, slack_weight=SLACK_WEIGHTS["joint_limits"],
+    s.family("joint_limits", joint_limits, poles=POSITION_POLES, priority=PRIORITIES["joint_limits"],
              doc="Joint angles inside Franka's published limits [rad].")
 
     def velocity_limits(p):
@@ -174,7 +174,7 @@ def build() -> System:
             rows += [(f"qd{i + 1}_min", qd[i] + QD_MAX[i]), (f"qd{i + 1}_max", QD_MAX[i] - qd[i])]
         return rows
 
-    s.family("velocity_limits", velocity_limits, poles=VELOCITY_POLES, slack_weight=SLACK_WEIGHTS["velocity_limits"],
+    s.family("velocity_limits", velocity_limits, poles=VELOCITY_POLES, priority=PRIORITIES["velocity_limits"],
              doc="Joint rates inside Franka's published limits [rad/s].")
 
     alpha, alpha_rot = se.RealDouble(SSAT_ALPHA), se.RealDouble(SSAT_ALPHA_ROT)
@@ -188,7 +188,7 @@ def build() -> System:
     # debug-info pass recurses through), and a user may check a link against only the
     # obstacles it can reach.
     s.family("obstacle", obstacle, params=OBSTACLE_PARAMS, over=list(LINK_BOXES), capacity=MAX_OBSTACLES,
-             poles=COLLISION_POLES, slack_weight=SLACK_WEIGHTS["obstacle"], activation=OBSTACLE_ACTIVATION,
+             poles=COLLISION_POLES, priority=PRIORITIES["obstacle"], activation=OBSTACLE_ACTIVATION,
              doc="A link box against an obstacle box by smooth SAT minus its certified margin [m]: h >= 0 proves "
                  f"no overlap. One member per link box, each with its obstacles. alpha = {SSAT_ALPHA}, alpha_rot = "
                  f"{SSAT_ALPHA_ROT}; active while "
@@ -202,7 +202,7 @@ def build() -> System:
         return [("self_collision", prim.ssat(p, link_box(a, poses), link_box(b, poses), alpha, alpha_rot))]
 
     s.family("self_collision", self_collision, over=[f"{a}_{b}" for a, b in SELF_PAIRS], poles=COLLISION_POLES,
-             slack_weight=SLACK_WEIGHTS["self_collision"], activation=SELF_ACTIVATION,
+             priority=PRIORITIES["self_collision"], activation=SELF_ACTIVATION,
              doc="Two non-adjacent link boxes by smooth SAT minus its certified margin [m]: h >= 0 proves they "
                  f"do not overlap. Active while h < {SELF_ACTIVATION} m.")
 

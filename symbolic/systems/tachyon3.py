@@ -41,32 +41,24 @@ EDGE_PARAMS = {
     "half": ((3,), "edge cuboid half extents [m]"),
 }
 
-# Who yields when rows conflict. Every row has a slack, so the QP is feasible whatever the
-# rows ask; a slack of weight w costs w * delta^2 against unit-weight input changes, so of two
-# conflicting rows of equal norm the one of weight w1 slips w2/w1 as far as the one of
-# weight w2. Tiers, from the last to yield:
-#   1e6  joint limits and collisions (body-edge SSAT, toe-edge): the mechanism and the
-#        environment; they yield only where no input within the actuator limits meets them.
-#   1e5  foot height: the toe above the floor plane. A wheel pressed into a tread is a
-#        collision too, but the floor under a toe is the gait's estimate, switched at
-#        risers, so it yields before the collision rows.
-#   1e4  static stability (eq. 13): an approximation with its own margin (a reach, not a
-#        support polygon).
-#   1e2  footholds: where the gait would like a swinging toe to stay.
-# The toe-edge rows need the top tier for a second reason: their h is a distance, with
-# about a thirtieth of the slope of the paper's superellipsoid at the cuboid's faces, so at
-# the old common weight (1e4) a swing leg pulled back into its foothold strip bought the
-# foothold's acceleration with toe-edge slack and sank 5.6 mm into a nosing.
-# Wider spreads hold no better in the Monte Carlo campaign but make the QP stiffer: with
-# 1e8 for the top tier, 26 of 5e6 updates needed OSQP after the dense solve's step budget
-# (over 1 ms of CPU time each), against 1 with these.
-SLACK_WEIGHTS = {
-    "joint_limits": 1e6,
-    "body_edge": 1e6,
-    "toe_edge": 1e6,
-    "foot_height": 1e5,
-    "stability": 1e4,
-    "foothold": 1e2,
+# Who yields when rows conflict. The filter meets every row exactly when the input limits
+# allow it; where they do not, lower numbers are met first, as a lexicographic order (no
+# ratio of weights, so a row's strength does not depend on the units its barrier is in):
+#   0  joint limits and collisions (body-edge SSAT, toe-edge): the mechanism and the
+#      environment; they yield only where no input within the actuator limits meets them.
+#   1  foot height: the toe above the floor plane. A wheel pressed into a tread is a
+#      collision too, but the floor under a toe is the gait's estimate, switched at
+#      risers, so it yields before the collision rows.
+#   2  static stability (eq. 13): an approximation with its own margin (a reach, not a
+#      support polygon).
+#   3  footholds: where the gait would like a swinging toe to stay.
+PRIORITIES = {
+    "joint_limits": 0,
+    "body_edge": 0,
+    "toe_edge": 0,
+    "foot_height": 1,
+    "stability": 2,
+    "foothold": 3,
 }
 
 
@@ -98,7 +90,7 @@ def build(model: Path | None = None) -> System:
         return [("knee_min", knee - m.knee_min), ("knee_max", m.knee_max - knee),
                 ("hip_min", hip - leg.hip_min), ("hip_max", leg.hip_max - hip)]
 
-    s.family("joint_limits", joint_limits, slack_weight=SLACK_WEIGHTS["joint_limits"], over=members, poles=poles,
+    s.family("joint_limits", joint_limits, priority=PRIORITIES["joint_limits"], over=members, poles=poles,
              doc=f"Joint limits (eq. 4-6): knee length in [{m.knee_min}, {m.knee_max}] m, hip angle "
                  "within the leg's range (model file).")
 
@@ -106,7 +98,7 @@ def build(model: Path | None = None) -> System:
         toe = _toe_world(p, robot, legs[p.label])
         return [("foot_height", toe[2] - m.toe_radius - p.floor_z)]
 
-    s.family("foot_height", foot_height, slack_weight=SLACK_WEIGHTS["foot_height"], over=members, poles=poles,
+    s.family("foot_height", foot_height, priority=PRIORITIES["foot_height"], over=members, poles=poles,
              params={"floor_z": ((), "height of the floor plane under the toe, world frame [m]")},
              doc="Toe above the floor plane: wheel bottom height minus floor height.")
 
@@ -114,7 +106,7 @@ def build(model: Path | None = None) -> System:
         t = p.label
         return [("stability", p.a * (robot.s[f"{t}_x"] - robot.s["bx"]) + p.b)]
 
-    s.family("stability", stability, slack_weight=SLACK_WEIGHTS["stability"], over=members, count=2, optional=True,
+    s.family("stability", stability, priority=PRIORITIES["stability"], over=members, count=2, optional=True,
              poles=poles,
              params={"a": ((), "slope a_i of eq. 13 (+1 / -1 for lower / upper bounds)"),
                      "b": ((), "offset b_i of eq. 13 [m]")},
@@ -139,7 +131,7 @@ def build(model: Path | None = None) -> System:
         # h - margin >= 0 certifies that the exact body and edge cuboid do not overlap.
         return [("body_edge", LSE(ys, alpha, shift, p.let) - certified_margin(p, LSE, axes, alpha))]
 
-    s.family("body_edge", body_edge, slack_weight=SLACK_WEIGHTS["body_edge"], capacity=MAX_EDGES, params=EDGE_PARAMS,
+    s.family("body_edge", body_edge, priority=PRIORITIES["body_edge"], capacity=MAX_EDGES, params=EDGE_PARAMS,
              poles=poles, activation=0.5,
              doc="Body vs edge cuboid by the smooth SAT (eq. 10), minus its certified margin: h >= 0 proves the "
                  f"boxes do not overlap. alpha = {m.ssat_alpha}, alpha_rot = {m.ssat_alpha_rot}. Active while "
@@ -156,7 +148,7 @@ def build(model: Path | None = None) -> System:
 
     toe_margin = float(sphere_box.margin(toe_alpha))
     s.family("toe_edge", toe_edge, capacity=MAX_EDGES, params=EDGE_PARAMS, poles=poles,
-             activation=TOE_EDGE_ACTIVATION, slack_weight=SLACK_WEIGHTS["toe_edge"],
+             activation=TOE_EDGE_ACTIVATION, priority=PRIORITIES["toe_edge"],
              doc="Every toe sphere vs an edge cuboid: a smooth distance from the toe centre to the cuboid "
                  f"minus the toe radius and a certified margin of {toe_margin * 1e3:.2f} mm (alpha = "
                  f"{m.toe_alpha}), so h >= 0 proves the sphere does not reach into the cuboid; one row per "
@@ -167,7 +159,7 @@ def build(model: Path | None = None) -> System:
         toe = _toe_world(p, robot, legs[p.label])
         return [("foothold", p.normal[0] * toe[0] + p.normal[1] * toe[1] + p.offset)]
 
-    s.family("foothold", foothold, slack_weight=SLACK_WEIGHTS["foothold"], over=members, capacity=MAX_FOOTHOLD_EDGES,
+    s.family("foothold", foothold, priority=PRIORITIES["foothold"], over=members, capacity=MAX_FOOTHOLD_EDGES,
              poles=poles,
              params={"normal": ((2,), "inward normal a of the foothold edge (world xy)"),
                      "offset": ((), "offset b of the edge: the row is a . p_xy + b >= 0 [m]")},

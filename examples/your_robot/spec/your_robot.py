@@ -27,7 +27,7 @@ def build() -> System:
     # Relative degree 2 (found by the generator): both inputs act on the second derivative.
     s.family("obstacle", lambda p: (px - p.center[0])**2 + (py - p.center[1])**2 - p.radius**2,
              params={"center": ((2,), "obstacle centre [m]"), "radius": ((), "robot + obstacle radius [m]")},
-             capacity=True, poles=[3.0, 3.0], slack_weight=1e6, activation=4.0,
+             capacity=True, poles=[3.0, 3.0], activation=4.0,
              doc="Centre outside the obstacle's disc, inflated by the robot's radius [m^2].")
     s.family("corridor", lambda p: prim.half_space([px, py], p.normal, p.offset),
              params={"normal": ((2,), "unit normal into the free side"), "offset": ((), "[m]")},

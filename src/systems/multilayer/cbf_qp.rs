@@ -90,7 +90,7 @@ impl IdCbfQp {
         let mut filter_settings = spec::default_settings();
         filter_settings.families[spec::family::SINE_BARRIER] = FamilyParams {
             poles: Poles::from(settings.poles),
-            slack_weight: domain::SLACK_WEIGHT_RANGE[1],
+            priority: 0,
             activation: f64::INFINITY,
         };
         filter_settings.input_min = [-u_max];

@@ -20,7 +20,7 @@ def build() -> System:
              docs=["x acceleration [m/s^2]", "y acceleration [m/s^2]"])
     s.dynamics(f=[vx, vy, 0, 0], g=[[0, 0], [0, 0], [1, 0], [0, 1]])
     s.family("speed_limit", lambda p: p.vmax**2 - vx**2 - vy**2,
-             params={"vmax": ((), "speed limit [m/s]")}, count=1, poles=[5.0], slack_weight=1e4,
+             params={"vmax": ((), "speed limit [m/s]")}, count=1, poles=[5.0], priority=1,
              activation=float("inf"), doc="Speed below vmax: h = vmax^2 - |v|^2 [m^2/s^2].")
     robot = prim.Box([px, py, se.Integer(0)], prim.identity(), [se.RealDouble(v) for v in ROBOT_HALF_EXTENTS])
 
@@ -31,6 +31,6 @@ def build() -> System:
              params={"center": ((3,), "wall centre, world frame [m]"),
                      "rotation": ((3, 3), "wall rotation, columns = its axes in the world frame"),
                      "half_extents": ((3,), "wall half extents [m]")},
-             capacity=True, poles=[10.0, 10.0], slack_weight=1e5, activation=2.0,
+             capacity=True, poles=[10.0, 10.0], activation=2.0,
              doc="The robot's box out of an oriented box wall: the smooth SAT minus its certified margin [m].")
     return s

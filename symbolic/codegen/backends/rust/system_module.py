@@ -352,7 +352,10 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
     w("/// Indices of the families in [`FAMILIES`] (and `RowLayout::family`).")
     w("pub mod family {")
     for i, f in enumerate(d.families):
-        w(f"    /// `{f.name}`.")
+        w(f"    /// `{f.name}` (priority {f.priority}).")
+        for warning in f.warnings:
+            w("    ///")
+            out.extend(_doc(f"Warning from the generator: {warning}", "    "))
         w(f"    pub const {f.name.upper()}: usize = {i};")
     w("}")
     w("")
@@ -468,7 +471,7 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
         w(f"        params: &[{', '.join(shapes)}],")
         w(f"        defaults: {rt}::system::FamilyParams {{")
         w(f"            poles: {_poles(f, rt)},")
-        w(f"            slack_weight: {float_literal(f.slack_weight)},")
+        w(f"            priority: {f.priority},")
         w(f"            activation: {_activation(f.activation)},")
         w("        },")
         w("    },")
