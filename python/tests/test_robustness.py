@@ -89,17 +89,33 @@ def family(system: cbfgen.System, name: str) -> dict:
 
 
 def sample_values(f: dict, scale: float = 0.25) -> dict:
-    """Valid values for one instance of family ``f``: ``scale`` everywhere, square
-    matrices (rotations) the identity."""
+    """Valid values for one instance of family ``f``, inside each parameter's domain:
+    ``scale`` everywhere (``lo + scale`` for an interval), square matrices (rotations) the
+    identity, unit vectors turned by ``scale`` radians from the first axis."""
     out = {}
     for name, shape in f["params"]:
+        kind, *bounds = f["domains"][name]
         if len(shape) == 2 and shape[0] == shape[1]:
             out[name] = np.eye(shape[0])
-        elif shape:
-            out[name] = np.full(shape, scale)
+        elif kind == "unit_vector":
+            out[name] = np.zeros(shape)
+            out[name][:2] = [np.cos(scale), np.sin(scale)]
         else:
-            out[name] = scale
+            value = bounds[0] + scale if kind == "interval" else scale
+            out[name] = np.full(shape, value) if shape else value
     return out
+
+
+def at_limit(f: dict) -> dict:
+    """Each parameter at PARAM_LIMIT where its domain reaches it, else at its sample value."""
+    reaches = {"real", "positive", "non_negative"}
+    return {p: np.full(np.shape(v), cbfgen.PARAM_LIMIT) if f["domains"][p][0] in reaches else v
+            for p, v in sample_values(f).items()}
+
+
+def outside_its_domain(family_name: str, param: str) -> str:
+    """The message of a value outside ``param``'s domain, whichever member and instance."""
+    return f"^{family_name}( member \\w+)? instance \\d+: parameter {param} is outside its domain"
 
 
 def flat(values: dict) -> np.ndarray:
@@ -403,19 +419,18 @@ def test_set_or_push_with_a_value_outside_the_domain_raises_and_keeps_the_value(
     for param, _ in f["params"]:
         bad = sample_values(f)
         bad[param] = np.where(np.ones_like(bad[param], dtype=bool), value, bad[param])
-        with pytest.raises(cbfgen.CbfError, match=f"{name}.{param}"):
+        with pytest.raises(cbfgen.CbfError, match=outside_its_domain(name, param)):
             params.set(name, bad, **kw)
         values = flat(bad)
-        with pytest.raises(cbfgen.CbfError, match=f"{name}.{param}"):
+        with pytest.raises(cbfgen.CbfError, match=outside_its_domain(name, param)):
             params.set(name, values, **kw)
         if f["instances"] == "capacity":
-            with pytest.raises(cbfgen.CbfError, match=f"{name}.{param}"):
+            with pytest.raises(cbfgen.CbfError, match=outside_its_domain(name, param)):
                 params.push(name, values, **kw)
     assert same(params.get(name, **kw), before)
     assert params.count(name, **kw) == count
-    # PARAM_LIMIT itself is inside.
-    at_limit = {p: np.full(np.shape(v), cbfgen.PARAM_LIMIT) for p, v in sample_values(f).items()}
-    params.set(name, at_limit, **kw)
+    # PARAM_LIMIT itself is inside (where the parameter's own domain reaches it).
+    params.set(name, at_limit(f), **kw)
 
 
 @pytest.mark.parametrize("system, name", PARAM_FAMILIES)
