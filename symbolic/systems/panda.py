@@ -98,6 +98,8 @@ MAX_OBSTACLES = 64
 # first (see "Who yields when rows conflict" in the README).
 SLACK_WEIGHTS = {"joint_limits": 1e6, "obstacle": 1e6, "self_collision": 1e6, "velocity_limits": 1e4}
 
+# No domains declared: prim.Box (in obstacle's h) gives the rotation its proper-rotation
+# domain and the half extents theirs (> 0), as it gives any user's spec.
 OBSTACLE_PARAMS = {
     "center": ((3,), "obstacle box centre, world (base) frame [m]"),
     "rotation": ((3, 3), "obstacle box rotation (columns = its axes in the world frame)"),
