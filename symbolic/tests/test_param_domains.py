@@ -24,8 +24,10 @@ from symbolic.spec import (
     SpecError,
     System,
     UnitVector,
+    load,
 )
 
+REPO = Path(__file__).resolve().parents[2]
 BOXED = Path(__file__).resolve().parent / "specs" / "boxed_robot.py"
 
 
@@ -39,12 +41,12 @@ def _planar(name: str, h, params: dict, **family) -> System:
     return s
 
 
-def _robot(px, py) -> prim.Box:
-    return prim.Box([px, py, 0], prim.identity(), [0.1, 0.1, 0.1])
-
-
 def _domains(s: System) -> dict[str, dict[str, object]]:
     return {f.name: {p.name: p.domain for p in f.params} for f in define(s).families}
+
+
+def _robot(px, py) -> prim.Box:
+    return prim.Box([px, py, 0], prim.identity(), [0.1, 0.1, 0.1])
 
 
 # ----------------------------------------------------------------- declaration
@@ -223,6 +225,23 @@ def test_every_member_of_an_indexed_family_asks_the_same_domain_once():
     fam = define(s).families[0]
     assert [(p.name, p.domain) for p in fam.params] == [("c", Real()), ("r", Rotation(DEFAULT_TOLERANCE)),
                                                         ("half", Positive())]
+
+
+# ------------------------------------------------------------------- built-ins
+def _spec_domains(path: str) -> dict[str, dict[str, object]]:
+    return {f.name: {p.name: p.domain for p in f.params} for f in define(load(REPO / path)).families}
+
+
+def test_the_built_in_families_declare_or_inherit_their_domains():
+    t3 = _spec_domains("symbolic/systems/tachyon3.py")
+    edge = {"center": Real(), "rotation": Rotation(1e-9), "half": Interval(1e-6, 1e4)}
+    assert t3["body_edge"] == edge and t3["toe_edge"] == edge
+    assert t3["foothold"] == {"normal": UnitVector(1e-9), "offset": Real()}
+    assert t3["foot_height"] == {"floor_z": Real()} and t3["stability"] == {"a": Real(), "b": Real()}
+    panda = _spec_domains("symbolic/systems/panda.py")
+    assert panda["obstacle"] == {"center": Real(), "rotation": Rotation(1e-9), "half": Positive()}
+    robot = _spec_domains("examples/your_robot/spec/your_robot.py")
+    assert robot["obstacle"]["radius"] == Positive() and robot["corridor"]["normal"] == UnitVector(1e-9)
 
 
 def test_the_generated_checks_carry_each_domain():
