@@ -165,6 +165,7 @@ impl fmt::Display for Site<'_> {
 /// `instance` left `None` for the caller to fill in ([`CbfError::in_instance`],
 /// [`CbfError::in_member`]). A [`Domain::Rotation`] on anything but a 2 × 2 or 3 × 3
 /// matrix (which the generator refuses) fails as not orthonormal.
+#[inline]
 pub fn check(
     family: &'static str,
     param: &'static str,
@@ -172,8 +173,64 @@ pub fn check(
     shape: &[usize],
     values: &[f64],
 ) -> Result<(), CbfError> {
-    let fail =
-        |domain, found| Err(CbfError::ParamOutOfDomain { family, member: None, instance: None, param, domain, found });
+    // Every evaluation of a barrier set runs this for every parameter: the test alone
+    // (inlined, so a constant domain folds away), the message only on failure.
+    if in_domain(domain, shape, values) {
+        Ok(())
+    } else {
+        Err(violation(family, param, domain, shape, values))
+    }
+}
+
+/// Within ±[`PARAM_LIMIT`]; false for NaN and ±∞.
+#[inline]
+fn within_limit(v: f64) -> bool {
+    v.abs() <= PARAM_LIMIT
+}
+
+/// What a per-entry domain asks of one (finite, within-limit) entry; true for the others.
+#[inline]
+fn entry_inside(domain: Domain, v: f64) -> bool {
+    match domain {
+        Domain::Positive => v > 0.0,
+        Domain::NonNegative => v >= 0.0,
+        Domain::Interval { lo, hi } => lo <= v && v <= hi,
+        Domain::Real | Domain::UnitVector { .. } | Domain::Rotation { .. } => true,
+    }
+}
+
+/// `| |v| − 1 | ≤ tolerance` on the squared norm (no square root on the hot path).
+#[inline]
+fn unit_length(squared_norm: f64, tolerance: f64) -> bool {
+    let (lo, hi) = (1.0 - tolerance, 1.0 + tolerance);
+    lo * lo <= squared_norm && squared_norm <= hi * hi
+}
+
+#[inline]
+fn squared_norm(values: &[f64]) -> f64 {
+    // Entries are within ±PARAM_LIMIT, so the squares cannot overflow.
+    values.iter().map(|v| v * v).sum()
+}
+
+#[inline]
+fn in_domain(domain: Domain, shape: &[usize], values: &[f64]) -> bool {
+    values.iter().all(|&v| within_limit(v) && entry_inside(domain, v))
+        && match domain {
+            Domain::UnitVector { tolerance } => unit_length(squared_norm(values), tolerance),
+            Domain::Rotation { tolerance } => {
+                let (deviation, det) = orthonormality_and_determinant(shape, values);
+                deviation <= tolerance && det > 0.0
+            }
+            Domain::Real | Domain::Positive | Domain::NonNegative | Domain::Interval { .. } => true,
+        }
+}
+
+/// The first violation [`in_domain`] found, as the error that reports it.
+#[cold]
+#[inline(never)]
+fn violation(family: &'static str, param: &'static str, domain: Domain, shape: &[usize], values: &[f64]) -> CbfError {
+    let error =
+        |domain, found| CbfError::ParamOutOfDomain { family, member: None, instance: None, param, domain, found };
     let rows = shape.first().copied().unwrap_or(1).max(1);
     let at = |i: usize, value: f64| match shape.len() {
         0 => Found::Value(value),
@@ -181,43 +238,32 @@ pub fn check(
         _ => Found::MatrixEntry { row: i % rows, col: i / rows, value },
     };
     for (i, &v) in values.iter().enumerate() {
-        if !(v.is_finite() && v.abs() <= PARAM_LIMIT) {
-            return fail(Domain::Real, at(i, v));
+        if !within_limit(v) {
+            return error(Domain::Real, at(i, v));
         }
-        let inside = match domain {
-            Domain::Positive => v > 0.0,
-            Domain::NonNegative => v >= 0.0,
-            Domain::Interval { lo, hi } => (lo..=hi).contains(&v),
-            Domain::Real | Domain::UnitVector { .. } | Domain::Rotation { .. } => true,
-        };
-        if !inside {
-            return fail(domain, at(i, v));
+        if !entry_inside(domain, v) {
+            return error(domain, at(i, v));
         }
     }
     match domain {
-        Domain::UnitVector { tolerance } => {
-            // Entries are within ±PARAM_LIMIT, so the squares cannot overflow.
-            let norm = values.iter().map(|v| v * v).sum::<f64>().sqrt();
-            if (norm - 1.0).abs() > tolerance {
-                return fail(domain, Found::Norm(norm));
+        Domain::UnitVector { .. } => error(domain, Found::Norm(squared_norm(values).sqrt())),
+        Domain::Rotation { tolerance } => match orthonormality_and_determinant(shape, values) {
+            (deviation, _) if deviation.is_nan() || deviation > tolerance => {
+                error(domain, Found::Orthonormality(deviation))
             }
+            (_, det) => error(domain, Found::Determinant(det)),
+        },
+        // Not reached (every entry passed the test in_domain failed on, and these domains ask
+        // nothing more); an error all the same, since this path must not panic.
+        Domain::Real | Domain::Positive | Domain::NonNegative | Domain::Interval { .. } => {
+            error(domain, Found::Value(f64::NAN))
         }
-        Domain::Rotation { tolerance } => {
-            let (deviation, det) = orthonormality_and_determinant(shape, values);
-            if deviation.is_nan() || deviation > tolerance {
-                return fail(domain, Found::Orthonormality(deviation));
-            }
-            if det.is_nan() || det <= 0.0 {
-                return fail(domain, Found::Determinant(det));
-            }
-        }
-        Domain::Real | Domain::Positive | Domain::NonNegative | Domain::Interval { .. } => {}
     }
-    Ok(())
 }
 
 /// Largest entry of `|RᵀR − I|` and `det R` of a 2 × 2 or 3 × 3 matrix stored column by
 /// column; `(∞, NaN)` for any other shape.
+#[inline]
 fn orthonormality_and_determinant(shape: &[usize], m: &[f64]) -> (f64, f64) {
     let n = match *shape {
         [2, 2] if m.len() == 4 => 2,
@@ -277,6 +323,19 @@ mod tests {
         let nan = found(Domain::Positive, &[3], &[1.0, f64::NAN, -1.0]);
         assert!(matches!(nan, Some((Domain::Real, Found::Entry { index: 1, value })) if value.is_nan()));
         assert_eq!(found(Domain::Interval { lo: 1.0, hi: 2.0 }, &[], &[2.0]), None);
+    }
+
+    #[test]
+    fn unit_vectors_are_measured_by_their_length() {
+        let unit = Domain::UnitVector { tolerance: 1e-9 };
+        assert_eq!(found(unit, &[2], &[0.6, 0.8]), None);
+        assert_eq!(found(unit, &[2], &[1.0 + 0.5e-9, 0.0]), None);
+        assert_eq!(found(unit, &[2], &[0.0, 1.0 - 0.5e-9]), None);
+        let long = found(unit, &[2], &[1.0 + 2e-9, 0.0]);
+        assert!(matches!(long, Some((_, Found::Norm(n))) if (n - (1.0 + 2e-9)).abs() < 1e-15), "{long:?}");
+        let short = found(unit, &[2], &[0.0, 1.0 - 2e-9]);
+        assert!(matches!(short, Some((_, Found::Norm(n))) if (n - (1.0 - 2e-9)).abs() < 1e-15), "{short:?}");
+        assert_eq!(found(unit, &[2], &[0.0, 0.0]), Some((unit, Found::Norm(0.0))));
     }
 
     #[test]
