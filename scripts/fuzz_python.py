@@ -293,6 +293,16 @@ def half_extents(case: Case) -> np.ndarray:
     return half
 
 
+def unit_normal(case: Case, n: int) -> np.ndarray:
+    """Mostly a unit vector (what a normal's domain accepts); sometimes scaled, zero or
+    perturbed, which its domain refuses."""
+    v = case.rng.normal(size=n)
+    v /= np.linalg.norm(v) or 1.0
+    if case.hostile(0.05):
+        v = v * case.pick((0.0, 2.0, 1.0 + 1e-6))
+    return case.perturbed(v, p_extreme=0.03)
+
+
 def box(case: Case, center, spread: float):
     centre = case.perturbed(np.asarray(center) + case.rng.uniform(-spread, spread, 3), p_extreme=0.03)
     return case.array_like(centre), rotation(case), case.array_like(half_extents(case))
@@ -367,6 +377,8 @@ def param_value(case: Case, name: str, shape: list[int]):
         return rotation(case)
     if name == "half" and list(shape) == [3]:
         return half_extents(case)
+    if name == "normal" and len(shape) == 1:
+        return unit_normal(case, shape[0])
     lo, hi = PARAM_RANGES.get(name, (-1.0, 1.0))
     if not shape:
         return case.scalar(lo, hi, p_extreme=0.05)

@@ -31,6 +31,7 @@ use std::marker::PhantomData;
 
 use crate::error::CbfError;
 use crate::filter::{Cause, EcbfFilter, FamilyRelaxation, FilterSettings, Output, SolverSettings};
+use crate::param_domain::Domain;
 use crate::system::{
     BarrierSet, ControlAffine, FamilyInfo, FamilyParams, InstanceKind, Instances, RowLayout, MAX_RELATIVE_DEGREE,
 };
@@ -44,11 +45,14 @@ pub trait FlatInstance: Copy + Default + Send + Sync + 'static {
     fn from_flat(values: &[f64]) -> Self;
     /// Write the instance's [`FlatInstance::LEN`] numbers into `out`.
     fn to_flat(&self, out: &mut [f64]);
-    /// The parameter struct's own domain check (finite, within
-    /// [`PARAM_LIMIT`](crate::system::PARAM_LIMIT)).
+    /// Each parameter's name and domain, in declaration order (the struct's `DOMAINS`).
+    const DOMAINS: &'static [(&'static str, Domain)];
+    /// The parameter struct's own domain check: every parameter in the domain its spec
+    /// declares (see [`param_domain`](crate::param_domain)).
     ///
     /// # Errors
-    /// As the struct's `validate`.
+    /// As the struct's `validate`: [`CbfError::ParamOutOfDomain`] naming the family and
+    /// parameter (not the instance, which the struct does not know).
     fn check(&self) -> Result<(), CbfError>;
 }
 
@@ -106,6 +110,8 @@ pub trait FamilyStore {
     fn kind(&self) -> InstanceKind;
     /// Numbers per instance.
     fn width(&self) -> usize;
+    /// Each parameter's name and domain, in declaration order ([`FlatInstance::DOMAINS`]).
+    fn domains(&self) -> &'static [(&'static str, Domain)];
     /// Instance slots: the fixed or optional count, or the capacity.
     fn slots(&self) -> usize;
     /// Instances present: every fixed one, the optional ones set, the capacity ones pushed.
@@ -124,12 +130,14 @@ pub trait FamilyStore {
     ///
     /// # Errors
     /// No such instance, `values` of another length than `width()`, or values outside
-    /// the parameters' domain (nothing changes then).
+    /// the parameters' domains ([`CbfError::ParamOutOfDomain`] naming family, instance
+    /// and parameter); nothing changes then.
     fn set(&mut self, instance: usize, values: &[f64]) -> Result<(), CbfError>;
     /// Append an instance (capacity families).
     ///
     /// # Errors
-    /// As [`FamilyStore::set`]; a full list; not a capacity family.
+    /// As [`FamilyStore::set`] (the instance named is the one it would have become); a
+    /// full list; not a capacity family.
     fn push(&mut self, values: &[f64]) -> Result<(), CbfError>;
     /// Empty optional slot `instance` (optional families).
     ///
@@ -155,12 +163,14 @@ fn unsupported(kind: InstanceKind, operation: &'static str) -> CbfError {
     CbfError::Unsupported { operation, kind: kind.name() }
 }
 
-fn instance_of<P: FlatInstance>(values: &[f64]) -> Result<P, CbfError> {
+/// `values` as the parameters of instance `instance`, checked against their domains (an
+/// error names the instance).
+fn instance_of<P: FlatInstance>(values: &[f64], instance: usize) -> Result<P, CbfError> {
     if values.len() != P::LEN {
         return Err(CbfError::LengthMismatch { what: "instance parameters", expected: P::LEN, got: values.len() });
     }
     let p = P::from_flat(values);
-    p.check()?;
+    p.check().map_err(|e| e.in_instance(instance))?;
     Ok(p)
 }
 
@@ -188,6 +198,9 @@ impl<P: FlatInstance, const N: usize> FamilyStore for [P; N] {
     fn width(&self) -> usize {
         P::LEN
     }
+    fn domains(&self) -> &'static [(&'static str, Domain)] {
+        P::DOMAINS
+    }
     fn slots(&self) -> usize {
         N
     }
@@ -198,8 +211,9 @@ impl<P: FlatInstance, const N: usize> FamilyStore for [P; N] {
         write(slot_ref(self, instance)?, out).map(|()| true)
     }
     fn set(&mut self, instance: usize, values: &[f64]) -> Result<(), CbfError> {
-        let p = instance_of(values)?;
-        *slot(self, instance)? = p;
+        // The slot first: a missing instance is refused as such, whatever the values.
+        let slot = slot(self, instance)?;
+        *slot = instance_of(values, instance)?;
         Ok(())
     }
     fn push(&mut self, _: &[f64]) -> Result<(), CbfError> {
@@ -226,6 +240,9 @@ impl<P: FlatInstance, const N: usize> FamilyStore for [Option<P>; N] {
     fn width(&self) -> usize {
         P::LEN
     }
+    fn domains(&self) -> &'static [(&'static str, Domain)] {
+        P::DOMAINS
+    }
     fn slots(&self) -> usize {
         N
     }
@@ -239,8 +256,8 @@ impl<P: FlatInstance, const N: usize> FamilyStore for [Option<P>; N] {
         }
     }
     fn set(&mut self, instance: usize, values: &[f64]) -> Result<(), CbfError> {
-        let p = instance_of(values)?;
-        *slot(self, instance)? = Some(p);
+        let slot = slot(self, instance)?;
+        *slot = Some(instance_of(values, instance)?);
         Ok(())
     }
     fn push(&mut self, _: &[f64]) -> Result<(), CbfError> {
@@ -269,6 +286,9 @@ impl<P: FlatInstance> FamilyStore for Instances<P> {
     fn width(&self) -> usize {
         P::LEN
     }
+    fn domains(&self) -> &'static [(&'static str, Domain)] {
+        P::DOMAINS
+    }
     fn slots(&self) -> usize {
         self.capacity()
     }
@@ -285,12 +305,17 @@ impl<P: FlatInstance> FamilyStore for Instances<P> {
         }
     }
     fn set(&mut self, instance: usize, values: &[f64]) -> Result<(), CbfError> {
-        let p = instance_of(values)?;
-        *slot(self.as_mut_slice(), instance)? = p;
+        let slot = slot(self.as_mut_slice(), instance)?;
+        *slot = instance_of(values, instance)?;
         Ok(())
     }
     fn push(&mut self, values: &[f64]) -> Result<(), CbfError> {
-        Instances::push(self, instance_of(values)?)
+        let instance = self.as_slice().len();
+        if instance == self.capacity() {
+            // Full: refused as such whatever the values (nothing is pushed).
+            return Instances::push(self, P::default());
+        }
+        Instances::push(self, instance_of(values, instance)?)
     }
     fn remove(&mut self, _: usize) -> Result<(), CbfError> {
         Err(unsupported(InstanceKind::Capacity, "remove"))
@@ -331,6 +356,11 @@ pub fn family_index(families: &[FamilyInfo], name: &str) -> Result<usize, CbfErr
     })
 }
 
+/// The name of member `member` of `family`, if that family is indexed.
+fn member_name(families: &[FamilyInfo], family: usize, member: usize) -> Option<&'static str> {
+    families.get(family).and_then(|f| f.members.get(member)).copied()
+}
+
 /// Any system's parameters, type-erased: the [`FlatParams`] of one generated `Params`.
 pub trait DynParams: Send + Sync {
     /// The system they belong to.
@@ -364,16 +394,20 @@ pub trait DynParams: Send + Sync {
     /// [`FamilyStore::set`] on `family`/`member`.
     ///
     /// # Errors
-    /// As [`DynParams::store_mut`] and [`FamilyStore::set`].
+    /// As [`DynParams::store_mut`] and [`FamilyStore::set`]; a
+    /// [`CbfError::ParamOutOfDomain`] names the member of an indexed family too.
     fn set(&mut self, family: usize, member: usize, instance: usize, values: &[f64]) -> Result<(), CbfError> {
-        self.store_mut(family, member)?.set(instance, values)
+        let name = member_name(self.families(), family, member);
+        self.store_mut(family, member)?.set(instance, values).map_err(|e| e.in_member(name))
     }
     /// [`FamilyStore::push`] on `family`/`member`.
     ///
     /// # Errors
-    /// As [`DynParams::store_mut`] and [`FamilyStore::push`].
+    /// As [`DynParams::store_mut`] and [`FamilyStore::push`]; a
+    /// [`CbfError::ParamOutOfDomain`] names the member of an indexed family too.
     fn push(&mut self, family: usize, member: usize, values: &[f64]) -> Result<(), CbfError> {
-        self.store_mut(family, member)?.push(values)
+        let name = member_name(self.families(), family, member);
+        self.store_mut(family, member)?.push(values).map_err(|e| e.in_member(name))
     }
 }
 

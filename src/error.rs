@@ -2,6 +2,8 @@
 
 use thiserror::Error;
 
+use crate::param_domain::{Domain, Found, FoundIn, Site};
+
 /// Everything that can go wrong in cbfgen's public API.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum CbfError {
@@ -147,9 +149,59 @@ pub enum CbfError {
         /// `det R` (negative for a reflection).
         determinant: f64,
     },
+    /// A run-time parameter outside the domain its spec declares (or a primitive it is used
+    /// in requires): a negative half extent, a reflection given as a rotation, a NaN. See
+    /// [`param_domain`](crate::param_domain). Holds no heap data, so the control path can
+    /// return it without allocating.
+    #[error(
+        "{site}: parameter {param} is outside its domain ({domain}): {found}",
+        site = Site(.family, .member, .instance),
+        found = FoundIn(.found, .param)
+    )]
+    ParamOutOfDomain {
+        /// The family, as in the spec.
+        family: &'static str,
+        /// The member of an indexed family, where known.
+        member: Option<&'static str>,
+        /// The instance (its slot among the family's instances), where known.
+        instance: Option<usize>,
+        /// The parameter, as in the spec.
+        param: &'static str,
+        /// What its domain asks ([`Domain::Real`] for a
+        /// value that is not finite or beyond [`PARAM_LIMIT`](crate::system::PARAM_LIMIT)).
+        domain: Domain,
+        /// What was found.
+        found: Found,
+    },
     /// The campaign's worker threads could not be started (the operating system's refusal).
     #[error("could not start the campaign's worker threads: {0}")]
     ThreadPool(String),
+}
+
+impl CbfError {
+    /// For [`CbfError::ParamOutOfDomain`] without an instance, the same error naming
+    /// instance `instance`; any other error unchanged.
+    #[must_use]
+    pub fn in_instance(self, instance: usize) -> Self {
+        match self {
+            CbfError::ParamOutOfDomain { family, member, instance: None, param, domain, found } => {
+                CbfError::ParamOutOfDomain { family, member, instance: Some(instance), param, domain, found }
+            }
+            other => other,
+        }
+    }
+
+    /// For [`CbfError::ParamOutOfDomain`] without a member, the same error naming member
+    /// `member` (`None`: a family that is not indexed); any other error unchanged.
+    #[must_use]
+    pub fn in_member(self, member: Option<&'static str>) -> Self {
+        match self {
+            CbfError::ParamOutOfDomain { family, member: None, instance, param, domain, found } => {
+                CbfError::ParamOutOfDomain { family, member, instance, param, domain, found }
+            }
+            other => other,
+        }
+    }
 }
 
 /// `Ok(value)` if finite, else [`CbfError::NonFinite`].

@@ -15,6 +15,8 @@
 //!   reference.
 //! * [`dynamic`] — every generated system behind object-safe traits, picked by name at
 //!   run time (what the Python bindings use).
+//! * [`param_domain`] — the domains run-time parameters declare (lengths `> 0`, proper
+//!   rotations), checked before a kernel reads them.
 //!
 //! Geometry every system can build barriers from:
 //!
@@ -39,6 +41,7 @@ pub mod dynamic;
 pub mod error;
 pub mod filter;
 pub mod geometry;
+pub mod param_domain;
 pub mod perception;
 pub mod qp;
 pub mod sat;

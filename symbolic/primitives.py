@@ -10,6 +10,15 @@ Lie engine differentiate through them.
 Conventions: a rotation is a 3x3 nested list whose columns are the body's axes in the
 world frame; a box is ``Box(center, rotation, half_extents)`` with 3, 3x3 and 3 entries
 (symbols, numbers or expressions).
+
+**Domains.** A primitive says what its inputs must be for its value to mean what it
+says (:meth:`~symbolic.spec.FamilyContext.require`): a box's rotation a proper rotation
+(``BOX_ROTATION``) and its half extents > 0, a sphere's radius > 0, a superellipsoid's
+inflation >= 0, a half-space's normal of unit length. Where those inputs are a family's
+parameters (``prim.Box(p.center, p.rotation, p.half)``), the domains are attached to the
+parameters, so the generated validation refuses a box with a negative half extent or a
+reflection for a rotation in every language, with no declaration in the spec. Numbers
+are checked when the spec is generated.
 """
 
 from __future__ import annotations
@@ -36,22 +45,50 @@ from .smoothing import (
     SmoothMax,
     SmoothRamp,
 )
-from .spec import FamilyContext
+from .spec import DEFAULT_TOLERANCE, FamilyContext, NonNegative, Positive, Rotation, UnitVector, require
 
 __all__ = [
-    "AXIS_COUNT", "BOLTZMANN", "LSE", "SMOOTH_ABS", "SMOOTH_MAX", "SQRT", "SQRT_RAMP", "SQRT_UNDER", "XTANH",
+    "AXIS_COUNT", "BOLTZMANN", "BOX_ROTATION", "LSE", "NORMAL", "SMOOTH_ABS", "SMOOTH_MAX", "SQRT", "SQRT_RAMP",
+    "SQRT_UNDER", "XTANH",
     "XTANH_ABS_GAP", "Box", "SmoothAbs", "SmoothMax", "SmoothRamp", "half_space", "identity", "matmul",
     "matvec", "rot_x", "rot_y", "rot_z", "sphere_box", "ssat", "superellipsoid", "transpose",
 ]
 
 
-class Box(NamedTuple):
-    """An oriented box: centre (3), rotation (3x3, columns = the box's axes in the world
-    frame) and half extents along its own axes (3)."""
+# A box's rotation: proper, orthonormal to the tolerance the runtime's OrientedBox accepts.
+BOX_ROTATION = Rotation(DEFAULT_TOLERANCE)
+# A half-space's normal: of unit length (the row is then a signed distance), to the same tolerance.
+NORMAL = UnitVector(DEFAULT_TOLERANCE)
 
+
+class _BoxFields(NamedTuple):
     center: Sequence[se.Expr]
     rotation: Sequence[Sequence[se.Expr]]
     half_extents: Sequence[se.Expr]
+
+
+class Box(_BoxFields):
+    """An oriented box: centre (3), rotation (3x3, columns = the box's axes in the world
+    frame) and half extents along its own axes (3).
+
+    Built inside a family's ``h``, it requires its rotation proper (``BOX_ROTATION``) and
+    its half extents > 0: a family parameter given as either gets that domain."""
+
+    __slots__ = ()
+
+    def __new__(cls, center: Sequence[se.Expr], rotation: Sequence[Sequence[se.Expr]],
+                half_extents: Sequence[se.Expr]) -> Box:
+        box = super().__new__(cls, center, rotation, half_extents)
+        _require_box(box, "prim.Box")
+        return box
+
+
+def _require_box(box: Sequence[object], who: str, p: FamilyContext | None = None) -> None:
+    """``box``'s rotation proper and half extents > 0, on ``p`` (else the running family's)."""
+    _, rotation, half = box
+    ask = require if p is None else p.require
+    ask(rotation, BOX_ROTATION, f"{who}'s box rotation")
+    ask(half, Positive(), f"{who}'s box half extents")
 
 
 # ------------------------------------------------------------------- rotations
@@ -73,9 +110,12 @@ def transpose(m: Sequence[Sequence[se.Expr]]) -> list[list[se.Expr]]:
 # ------------------------------------------------------------------ primitives
 def half_space(point: Sequence[se.Expr], normal: Sequence[se.Expr], offset: se.Expr) -> se.Expr:
     """``normal . point + offset``: >= 0 on the side the normal points to (the convex
-    foothold constraint of the Tachyon 3 paper, eq. 12, in any dimension)."""
+    foothold constraint of the Tachyon 3 paper, eq. 12, in any dimension). The normal must
+    have unit length (``NORMAL``), so h is the signed distance to the boundary and a
+    zero normal (a row no input can move) is refused."""
     if len(point) != len(normal):
         raise ValueError(f"half_space: point has {len(point)} entries, normal {len(normal)}")
+    require(list(normal), NORMAL, "prim.half_space's normal")
     return se.Add(*[n * q for n, q in zip(normal, point, strict=True)]) + offset
 
 
@@ -86,9 +126,12 @@ def superellipsoid(p: FamilyContext, point: Sequence[se.Expr], box: Box, n: int 
     radius, as the paper's eq. 11 folds the toe sphere into the edge cuboid). ``r`` is
     a named intermediate ``<name>_x/y/z``. Inscribed: not conservative at the edges and
     corners, so h >= 0 does not prove clearance; :func:`sphere_box` does (Tachyon 3's
-    toe rows used this, the paper's eq. 11, until it was replaced for that reason)."""
+    toe rows used this, the paper's eq. 11, until it was replaced for that reason).
+    Requires ``box``'s domains and ``inflate`` >= 0."""
     if not isinstance(n, int) or n < 1:
         raise ValueError(f"superellipsoid: n must be a positive integer, got {n!r}")
+    _require_box(box, "prim.superellipsoid", p)
+    p.require(inflate, NonNegative(), "prim.superellipsoid's inflation")
     c, rot, half = box
     rel = [p.let(f"{name}_{'xyz'[i]}", se.Add(*[rot[q][i] * (point[q] - c[q]) for q in range(3)]))
            for i in range(3)]
@@ -101,7 +144,11 @@ def sphere_box(p: FamilyContext, center: Sequence[se.Expr], radius: se.Expr, box
     smooth distance from the centre to the box, minus the radius and the certified margin
     (sqrt(3) + 0.001)/alpha, so h >= 0 proves the sphere does not reach into the box
     (:mod:`symbolic.families.sphere_box` has the proof). ``alpha`` [1/m] is the inverse
-    smoothing length: 1500 gives a 1.2 mm margin. Tachyon 3's toe-edge rows are this."""
+    smoothing length: 1500 gives a 1.2 mm margin. Tachyon 3's toe-edge rows are this.
+    Requires ``box``'s domains and ``radius`` > 0 (h subtracts it: a negative radius would
+    read as extra clearance)."""
+    _require_box(box, "prim.sphere_box", p)
+    p.require(radius, Positive(), "prim.sphere_box's radius")
     return _sphere_box.clearance(p.let, center, box.center, box.rotation, box.half_extents,
                                  se.sympify(radius), se.sympify(alpha))
 
@@ -113,10 +160,13 @@ def ssat(p: FamilyContext, a: Box, b: Box, alpha: se.Expr = 100.0, alpha_rot: se
     overlapping. ``alpha`` [1/m] sharpens the smooth max and |.| on distances,
     ``alpha_rot`` the |.| on rotation entries. With ``certified`` (the default) the
     certified margin is subtracted, so h >= 0 proves the exact boxes do not overlap.
+    Requires both boxes' domains (the proof is for boxes: proper rotations, half extents > 0).
 
     The relative pose, the smoothed |R_ij|, every axis value and the smooth max's pieces
     are named intermediates: L_f^2 h then costs O(15) instead of a dense Hessian.
     """
+    _require_box(a, "prim.ssat", p)
+    _require_box(b, "prim.ssat", p)
     alpha, alpha_rot = se.sympify(alpha), se.sympify(alpha_rot)
     t, rot = relative_pose(p.let, a.center, a.rotation, b.center, b.rotation)
     axes = separating_axes(t, rot, a.half_extents, b.half_extents, sabs, alpha, alpha_rot, p.let)

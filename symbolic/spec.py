@@ -27,11 +27,40 @@ named intermediates the Lie engine differentiates through (what the helpers of
 A family has ``count=N`` fixed instances (all always active), or ``capacity=True``:
 instances filled at run time up to a capacity fixed when the barrier set is built.
 
+**Parameters and their domains.** ``params`` maps each name to a shape (``()``, ``(n,)``,
+``(rows, cols)``), or to ``(shape, doc)``, ``(shape, domain)`` or ``(shape, doc, domain)``.
+The domain is what the parameter may be at run time::
+
+    params={"center": ((3,), "centre [m]"),                       # Real: the default
+            "half": ((3,), "half extents [m]", Positive()),        # every entry > 0
+            "margin": ((), NonNegative()),                         # >= 0
+            "gain": ((), "doc", Interval(0.1, 10.0)),              # in [lo, hi]
+            "normal": ((2,), UnitVector(1e-9)),                    # | |v| - 1 | <= tol
+            "rotation": ((3, 3), Rotation(1e-9))}                  # orthonormal within tol, det > 0
+
+Every domain also asks each entry finite with ``|entry| <= PARAM_LIMIT`` (all
+:class:`Real` asks); tolerances default to ``DEFAULT_TOLERANCE`` (1e-9, the runtime's
+rotation tolerance) and lie in ``TOLERANCE_RANGE``. ``UnitVector`` fits vectors only,
+``Rotation`` 2x2 and 3x3 matrices; anything else is a SpecError naming system, family
+and parameter. The generated ``validate()`` of each parameter struct checks the domain
+(in Rust, and so in Python): ``Params.set``/``push`` refuse a value outside it with an
+error naming family, member, instance and parameter, and change nothing, and a barrier
+set re-checks every evaluation, so a fixed instance never set (all zeros) is refused
+there rather than filtered against when its domain excludes zero.
+
+Primitives say what they need (:meth:`FamilyContext.require`): ``prim.Box`` a proper
+rotation and half extents > 0, ``prim.sphere_box`` a radius > 0, ``prim.superellipsoid``
+an inflation >= 0, ``prim.half_space`` a unit normal. Where those inputs are a family's
+parameters, the parameters get the domain with no declaration; a declared domain must lie
+within it (``Interval(0.01, 1.0)`` for half extents is, ``NonNegative`` is not: a
+SpecError).
+
 Every mistake is a :class:`SpecError` naming the system, the family and the key.
 """
 
 from __future__ import annotations
 
+import contextlib
 import importlib.util
 import keyword
 import math
@@ -49,6 +78,14 @@ MAX_INSTANCES = 10_000
 POLE_RANGE = (1e-6, 1e4)
 MAX_PRIORITY = 15
 DEFAULT_POLE = 10.0
+# Largest |runtime parameter| (src/system.rs PARAM_LIMIT): every domain lies within it.
+PARAM_LIMIT = 1e6
+# Tolerance of UnitVector and Rotation unless given: the runtime's geometry::ROTATION_TOLERANCE,
+# which OrientedBox (and so Tachyon 3's Environment.push_edge) accepts.
+DEFAULT_TOLERANCE = 1e-9
+# Tolerances a spec may give: from a few rounding errors above f64's (a rotation built from
+# angles is orthonormal to ~1e-15) to where a reflection could pass for a rotation.
+TOLERANCE_RANGE = (1e-12, 1e-2)
 
 _IDENT = re.compile(r"^[a-z][a-z0-9_]*$")
 # Names the generated code uses for its own locals and items (SymEngine's CSE temporaries
@@ -107,14 +144,211 @@ def _expr(where: str, key: str, value: object) -> se.Expr:
 Shape = tuple[()] | tuple[int] | tuple[int, int]
 
 
+def _num(v: float) -> str:
+    """A number as the runtime's messages print it: ``1e-6``, ``10000``, ``0.5``."""
+    v = float(v)
+    if v == 0 or not math.isfinite(v) or 1e-3 <= abs(v) < 1e6:
+        return f"{v:.15g}"
+    mantissa, exponent = f"{v:.14e}".split("e")
+    return f"{mantissa.rstrip('0').rstrip('.')}e{int(exponent)}"
+
+
+def _is_number(e: object) -> bool:
+    return (isinstance(e, (int, float)) and not isinstance(e, bool)) or (
+        isinstance(e, se.Basic) and e.is_Number)
+
+
+class Domain:
+    """The set of values a runtime parameter may take, checked by the generated
+    ``validate()`` in every language before a kernel reads the parameter. Every domain
+    also requires each entry finite with ``|entry| <= PARAM_LIMIT`` (what :class:`Real`
+    alone requires). A backend prints each kind as its runtime's counterpart."""
+
+    #: Whether the domain constrains each entry alone (so it applies to any shape).
+    elementwise = True
+
+    def applies_to(self, shape: Shape) -> str | None:
+        """Why a parameter of ``shape`` cannot have this domain (None: it can)."""
+        return None
+
+    def check(self) -> str | None:
+        """Why the domain's own numbers are invalid (None: they are valid)."""
+        return None
+
+    def within(self, other: Domain) -> bool:
+        """Whether every value of this domain is in ``other`` (self is a subset)."""
+        raise NotImplementedError
+
+    def violation(self, values: Sequence[float]) -> str | None:
+        """Why numbers ``values`` (a flat list; a matrix row by row) are outside the
+        domain, or None: what generation checks of constants handed to a primitive."""
+        raise NotImplementedError
+
+
+def _bounds(d: Domain) -> tuple[float, bool, float] | None:
+    """An elementwise domain as ``(lower, lower_open, upper)`` within +-PARAM_LIMIT."""
+    if isinstance(d, Real):
+        return (-PARAM_LIMIT, False, PARAM_LIMIT)
+    if isinstance(d, Positive):
+        return (0.0, True, PARAM_LIMIT)
+    if isinstance(d, NonNegative):
+        return (0.0, False, PARAM_LIMIT)
+    if isinstance(d, Interval):
+        return (d.lo, False, d.hi)
+    return None
+
+
+class _Elementwise(Domain):
+    def within(self, other: Domain) -> bool:
+        a, b = _bounds(self), _bounds(other)
+        if b is None:
+            return False
+        lo, lo_open, hi = a
+        other_lo, other_open, other_hi = b
+        return hi <= other_hi and (lo > other_lo or (lo == other_lo and (lo_open or not other_open)))
+
+    def violation(self, values: Sequence[float]) -> str | None:
+        lo, lo_open, hi = _bounds(self)
+        for i, v in enumerate(values):
+            if not (math.isfinite(v) and (v > lo if lo_open else v >= lo) and v <= hi):
+                return f"entry {i} is {v:g}, not {self}"
+        return None
+
+
+@dataclass(frozen=True)
+class Real(_Elementwise):
+    """Any finite number within +-PARAM_LIMIT (the default)."""
+
+    def __str__(self) -> str:
+        return f"finite, within +-{_num(PARAM_LIMIT)}"
+
+
+@dataclass(frozen=True)
+class Positive(_Elementwise):
+    """Every entry > 0: a length, a radius, a half extent."""
+
+    def __str__(self) -> str:
+        return "> 0"
+
+
+@dataclass(frozen=True)
+class NonNegative(_Elementwise):
+    """Every entry >= 0: an inflation, a margin."""
+
+    def __str__(self) -> str:
+        return ">= 0"
+
+
+@dataclass(frozen=True)
+class Interval(_Elementwise):
+    """Every entry in ``[lo, hi]`` (finite, lo < hi, both within +-PARAM_LIMIT)."""
+
+    lo: float
+    hi: float
+
+    def check(self) -> str | None:
+        if not all(_is_number(v) and math.isfinite(v) and abs(v) <= PARAM_LIMIT for v in (self.lo, self.hi)) \
+                or not self.lo < self.hi:
+            return f"Interval({self.lo!r}, {self.hi!r}) needs finite lo < hi within +-{_num(PARAM_LIMIT)}"
+        return None
+
+    def __str__(self) -> str:
+        return f"in [{_num(self.lo)}, {_num(self.hi)}]"
+
+
+def _tolerance_problem(kind: str, tol: object) -> str | None:
+    lo, hi = TOLERANCE_RANGE
+    if not (_is_number(tol) and lo <= tol <= hi):
+        return f"{kind}(tol={tol!r}): the tolerance must be a number in [{lo:g}, {hi:g}]"
+    return None
+
+
+@dataclass(frozen=True)
+class UnitVector(Domain):
+    """A vector of length 1: ``| |v| - 1 | <= tol`` (a plane's normal, an axis)."""
+
+    tol: float = DEFAULT_TOLERANCE
+    elementwise = False
+
+    def applies_to(self, shape: Shape) -> str | None:
+        return None if len(shape) == 1 else f"a unit vector is a vector, shape (n,), not {shape}"
+
+    def check(self) -> str | None:
+        return _tolerance_problem("UnitVector", self.tol)
+
+    def within(self, other: Domain) -> bool:
+        return isinstance(other, Real) or (isinstance(other, UnitVector) and self.tol <= other.tol)
+
+    def violation(self, values: Sequence[float]) -> str | None:
+        norm = math.hypot(*values)
+        return None if abs(norm - 1) <= self.tol else f"its length is {norm:g}, not {self}"
+
+    def __str__(self) -> str:
+        return f"a unit vector (| |v| - 1 | <= {_num(self.tol)})"
+
+
+@dataclass(frozen=True)
+class Rotation(Domain):
+    """A proper rotation matrix, 2x2 or 3x3: orthonormal (every entry of ``R^T R - I``
+    within ``tol``) with ``det R > 0`` (no reflection)."""
+
+    tol: float = DEFAULT_TOLERANCE
+    elementwise = False
+
+    def applies_to(self, shape: Shape) -> str | None:
+        return None if shape in ((2, 2), (3, 3)) else f"a rotation is a 2x2 or 3x3 matrix, not shape {shape}"
+
+    def check(self) -> str | None:
+        return _tolerance_problem("Rotation", self.tol)
+
+    def within(self, other: Domain) -> bool:
+        return isinstance(other, Real) or (isinstance(other, Rotation) and self.tol <= other.tol)
+
+    def violation(self, values: Sequence[float]) -> str | None:
+        n = math.isqrt(len(values))
+        cols = [[values[r * n + c] for r in range(n)] for c in range(n)]
+        deviation = max(abs(sum(a * b for a, b in zip(cols[i], cols[j], strict=True)) - (i == j))
+                        for i in range(n) for j in range(n))
+        if not deviation <= self.tol:
+            return f"max |R^T R - I| is {deviation:g}, not {self}"
+        det = (values[0] * values[3] - values[1] * values[2] if n == 2 else
+               values[0] * (values[4] * values[8] - values[5] * values[7])
+               - values[1] * (values[3] * values[8] - values[5] * values[6])
+               + values[2] * (values[3] * values[7] - values[4] * values[6]))
+        return None if det > 0 else f"det R is {det:g}, not {self}"
+
+    def __str__(self) -> str:
+        return f"a proper rotation (max |R^T R - I| <= {_num(self.tol)}, det R > 0)"
+
+
+def _domain(where: str, name: str, value: object) -> Domain:
+    """``value`` as a domain instance (a domain class without arguments is its default)."""
+    if isinstance(value, type) and issubclass(value, Domain) and value not in (Domain, _Elementwise):
+        try:
+            value = value()
+        except TypeError:
+            raise SpecError(f"{where}: parameter {name!r}: {value.__name__} needs its bounds, "
+                            f"e.g. {value.__name__}(lo, hi)") from None
+    if not isinstance(value, Domain) or type(value) in (Domain, _Elementwise):
+        raise SpecError(f"{where}: parameter {name!r}: {value!r} is not a domain (Real, Positive, NonNegative, "
+                        "Interval(lo, hi), UnitVector(tol), Rotation(tol))")
+    problem = value.check()
+    if problem:
+        raise SpecError(f"{where}: parameter {name!r}: {problem}")
+    return value
+
+
 @dataclass(frozen=True)
 class Param:
     """A runtime parameter of a family: ``shape`` is ``()`` (scalar), ``(n,)`` (vector)
-    or ``(rows, cols)`` (matrix, flattened row-major for the kernel)."""
+    or ``(rows, cols)`` (matrix, flattened row-major for the kernel). ``domain`` is the
+    one declared in the spec (None: not declared; :class:`Real` unless a primitive
+    requires more), and in a generated definition the one checked."""
 
     name: str
     shape: Shape
     doc: str
+    domain: Domain | None = None
 
     @property
     def size(self) -> int:
@@ -132,21 +366,34 @@ class Param:
 
 
 def _param(where: str, name: object, spec: object) -> Param:
-    """``spec`` is a shape, or ``(shape, doc)``."""
+    """``spec`` is a shape, or ``(shape, doc)``, ``(shape, domain)`` or ``(shape, doc, domain)``."""
     check_identifier(where, "parameter", name)
-    if name in ("let", "runtime_max"):
+    if name in ("let", "runtime_max", "require"):
         raise SpecError(f"{where}: parameter {name!r} is a method of the family context; choose another name")
-    doc = ""
-    if isinstance(spec, tuple) and len(spec) == 2 and isinstance(spec[1], str):
-        spec, doc = spec
+    doc, domain = "", None
+    if isinstance(spec, tuple) and spec and isinstance(spec[0], tuple) and 2 <= len(spec) <= 3:
+        shape, *rest = spec
+        if len(rest) == 2 or isinstance(rest[0], str):
+            doc = rest[0]
+            rest = rest[1:]
+        if not isinstance(doc, str):
+            raise SpecError(f"{where}: parameter {name!r}: the doc must be a string, got {doc!r}")
+        if rest:
+            domain = rest[0]
+        spec = shape
     if not isinstance(spec, tuple) or len(spec) > 2 or any(
             isinstance(n, bool) or not isinstance(n, int) or n < 1 for n in spec):
         raise SpecError(f"{where}: parameter {name!r} has shape {spec!r}; use () for a scalar, (n,) "
                         "for a vector or (rows, cols) for a matrix, sizes >= 1 (optionally "
-                        "(shape, 'doc'))")
+                        "(shape, 'doc'), (shape, domain) or (shape, 'doc', domain))")
     if math.prod(spec) > 1024:
         raise SpecError(f"{where}: parameter {name!r} has {math.prod(spec)} entries; at most 1024")
-    return Param(name, spec, doc)
+    if domain is not None:
+        domain = _domain(where, name, domain)
+        problem = domain.applies_to(spec)
+        if problem:
+            raise SpecError(f"{where}: parameter {name!r} is declared {type(domain).__name__}, but {problem}")
+    return Param(name, spec, doc, domain)
 
 
 class FamilyContext:
@@ -158,7 +405,8 @@ class FamilyContext:
     """
 
     def __init__(self, where: str, kernel, engine, params: dict[str, object], time: se.Symbol | None,
-                 index: int | None = None, label: str | None = None):
+                 index: int | None = None, label: str | None = None, declared: Sequence[Param] = (),
+                 required: dict[str, tuple[Domain, str]] | None = None):
         self._where = where
         self._kernel = kernel
         self._engine = engine
@@ -166,6 +414,10 @@ class FamilyContext:
         self._time = time
         self._index = index
         self._label = label
+        self._declared = {p.name: p for p in declared}
+        # Domains primitives asked of the family's parameters, with who asked: shared by
+        # every member of an indexed family.
+        self._required = {} if required is None else required
 
     def __getattr__(self, name: str):
         params = self.__dict__.get("_params", {})
@@ -219,6 +471,134 @@ class FamilyContext:
         """max() over ``exprs`` evaluated at run time; a constant for differentiation, so
         only for shifts the result does not depend on (a log-sum-exp's overflow guard)."""
         return self._kernel.runtime_max(self._fresh(name), exprs)
+
+    def require(self, exprs: object, domain: Domain | type[Domain], what: str) -> None:
+        """Declare that ``exprs`` must lie in ``domain`` for ``h`` to mean what it says: what
+        the primitives call for a box's rotation and half extents or a sphere's radius
+        (``what`` names the use, for messages: "prim.ssat's box half extents").
+
+        When ``exprs`` is exactly one parameter (``p.radius``, ``p.half``, ``p.rotation``;
+        a rotation may also be its transpose), or, for a per-entry domain (Positive,
+        NonNegative, Interval), a list whose entries are whole scalar parameters or
+        together every entry of one, the domain is attached to those parameters: the
+        generated ``validate()`` checks it. A parameter declared with a domain that is not
+        within ``domain`` is a SpecError, as are two uses asking incompatible domains, and
+        a domain asked of some entries of a parameter only (declare the parameter's domain,
+        or split it). Numbers among ``exprs`` are checked at once. Expressions (a centre
+        moving with the state, a rotation built from an angle) are left alone: they are
+        what they are by construction, or the spec's responsibility."""
+        domain = _domain(self._where, what, domain)
+        flat, shape = _flatten(exprs)
+        targets = [p for p in self._declared.values() if _is_whole(exprs, self._params[p.name], domain)]
+        if not targets:
+            entries: dict[str, set[int]] = {}
+            for e in flat:
+                for p in self._declared.values():
+                    index = _entry_index(self._params[p.name], e)
+                    if index is not None:
+                        entries.setdefault(p.name, set()).add(index)
+            for name, indices in entries.items():
+                p = self._declared[name]
+                if domain.elementwise and len(indices) == p.size:
+                    targets.append(p)
+                elif p.domain is None or not p.domain.within(domain):
+                    use = "some entries" if domain.elementwise else "entries"
+                    raise SpecError(f"{self._where}: {what} uses {use} of parameter {name!r} but not the parameter "
+                                    f"as a whole, and needs {domain}; pass p.{name} itself, or declare {name!r} "
+                                    f"with a domain within {domain} (or make those entries their own parameter)")
+        _check_numbers(self._where, what, exprs, flat, shape, domain)
+        for p in targets:
+            self._attach(p, domain, what)
+
+    def _attach(self, p: Param, domain: Domain, what: str) -> None:
+        if p.domain is not None and not p.domain.within(domain):
+            raise SpecError(f"{self._where}: parameter {p.name!r} is declared {type(p.domain).__name__} ({p.domain}), "
+                            f"but {what} needs {domain}; declare a domain within that, or none to take it from "
+                            f"{what}")
+        earlier = self._required.get(p.name)
+        if earlier is None or domain.within(earlier[0]):
+            self._required[p.name] = (domain, what)
+        elif not earlier[0].within(domain):
+            raise SpecError(f"{self._where}: parameter {p.name!r}: {what} needs {domain}, but {earlier[1]} needs "
+                            f"{earlier[0]}; no one domain satisfies both")
+
+    @contextlib.contextmanager
+    def active(self):
+        """Make this the context :func:`require` (and so the primitives that take no
+        context, ``prim.Box``, ``prim.half_space``) attaches domains through, while ``h``
+        runs."""
+        _ACTIVE.append(self)
+        try:
+            yield self
+        finally:
+            _ACTIVE.pop()
+
+
+# The family contexts whose h is running, innermost last.
+_ACTIVE: list[FamilyContext] = []
+
+
+def require(exprs: object, domain: Domain | type[Domain], what: str) -> None:
+    """:meth:`FamilyContext.require` on the family whose ``h`` is running; outside one,
+    only the numbers among ``exprs`` are checked (a constant box's half extents)."""
+    if _ACTIVE:
+        _ACTIVE[-1].require(exprs, domain, what)
+        return
+    domain = _domain(what, what, domain)
+    flat, shape = _flatten(exprs)
+    _check_numbers(what, what, exprs, flat, shape, domain)
+
+
+def _flatten(exprs: object) -> tuple[list[object], tuple[int, ...]]:
+    """Entries row by row, and the shape: () scalar, (n,) list, (r, c) list of lists."""
+    if isinstance(exprs, (list, tuple)):
+        if exprs and all(isinstance(r, (list, tuple)) for r in exprs):
+            return [e for r in exprs for e in r], (len(exprs), len(exprs[0]))
+        return list(exprs), (len(exprs),)
+    return [exprs], ()
+
+
+def _same(a: object, b: object) -> bool:
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b, strict=True))
+    if isinstance(a, (list, tuple)) or isinstance(b, (list, tuple)):
+        return False
+    return isinstance(a, se.Basic) and isinstance(b, se.Basic) and a == b
+
+
+def _is_whole(exprs: object, value: object, domain: Domain) -> bool:
+    """``exprs`` is the parameter ``value`` itself (or, for a rotation, its transpose)."""
+    if _same(exprs, value):
+        return True
+    if isinstance(domain, Rotation) and isinstance(value, list) and value and isinstance(value[0], list):
+        return _same(exprs, [list(col) for col in zip(*value, strict=True)])
+    return False
+
+
+def _entry_index(value: object, e: object) -> int | None:
+    """The position of symbol ``e`` among the parameter ``value``'s entries (row by row)."""
+    if not isinstance(e, se.Symbol):
+        return None
+    flat, _ = _flatten(value)
+    for i, sym in enumerate(flat):
+        if sym == e:
+            return i
+    return None
+
+
+def _check_numbers(where: str, what: str, exprs: object, flat: list[object], shape: tuple[int, ...],
+                   domain: Domain) -> None:
+    """Numbers handed where ``domain`` is needed: each one for a per-entry domain, the
+    whole when every entry of a unit vector or rotation is a number."""
+    if domain.elementwise:
+        numbers = [float(e) for e in flat if _is_number(e)]
+    elif all(_is_number(e) for e in flat) and domain.applies_to(shape) is None:
+        numbers = [float(e) for e in flat]
+    else:
+        return
+    problem = domain.violation(numbers) if numbers else None
+    if problem:
+        raise SpecError(f"{where}: {what} is {exprs!r}: {problem}")
 
 
 # -------------------------------------------------------------------- families
@@ -458,7 +838,8 @@ class System:
         """Declare a barrier family h(x, params[, t]) >= 0.
 
         ``params`` maps names to shapes (``()``, ``(n,)``, ``(rows, cols)``), or to
-        ``(shape, doc)``. ``count`` (default 1) fixes the number of instances; ``capacity=True``
+        ``(shape, doc)``, ``(shape, domain)`` or ``(shape, doc, domain)`` (see the
+        module's "Parameters and their domains"). ``count`` (default 1) fixes the number of instances; ``capacity=True``
         instead fills them at run time, up to a capacity chosen when the barrier set is
         built and at most MAX_INSTANCES (``capacity=N``: at most N, the largest count that
         makes sense for the system). ``optional=True`` (with ``count``) lets each fixed

@@ -9,6 +9,7 @@
 use cbfgen::dynamic::{self, CapacityCount, DynBarriers, DynParams, DynSystem};
 use cbfgen::filter::Output;
 use cbfgen::generated::{double_integrator as di, tachyon3 as gen};
+use cbfgen::param_domain::{Domain, Found};
 use cbfgen::system::{ControlAffine, InstanceKind};
 use cbfgen::systems::tachyon3::catalog::{self, EdgeCuboid, Environment, HalfPlane, StabilityBound, Tachyon3Filter};
 use cbfgen::systems::tachyon3::model::{self, State, BODY_X, NU, NX, TOE_BLOCK};
@@ -256,7 +257,6 @@ fn refused_updates_name_the_error_and_change_nothing() -> Result<(), CbfError> {
     let unchanged = |p: &dyn DynParams| {
         assert_eq!(p.downcast_ref::<gen::Params>(), before.downcast_ref::<gen::Params>());
     };
-    let range = "[-1e6, 1e6]";
 
     // Parameter stores.
     assert_err(p.push(feet, 0, &[0.0]), CbfError::Unsupported { operation: "push", kind: "fixed" });
@@ -270,20 +270,45 @@ fn refused_updates_name_the_error_and_change_nothing() -> Result<(), CbfError> {
     assert_err(p.set(feet, 0, 0, &[0.0, 1.0]), length(1, 2));
     assert_err(p.push(body, 0, &[0.0; 14]), length(15, 14));
     assert_err(p.store(stab, 1)?.get(0, &mut [0.0; 3]), length(2, 3));
-    for (family, member) in [(stab, 1), (body, 0)] {
-        let stored = get(p.as_ref(), family, member, 0)?;
+    // stability's b (member mf), and rotation entry (1, 1) of the edge (flat index 7):
+    // refused as outside Real, naming family, member, instance and parameter.
+    type Case = (usize, usize, usize, &'static str, Option<&'static str>, &'static str, fn(f64) -> Found);
+    let cases: [Case; 2] = [
+        (stab, 1, 1, "stability", Some("mf"), "b", Found::Value),
+        (body, 0, 7, "body_edge", None, "rotation", |value| Found::MatrixEntry { row: 1, col: 1, value }),
+    ];
+    for (family_index, member_index, k, family, member, param, found) in cases {
+        let stored = get(p.as_ref(), family_index, member_index, 0)?;
         let mut values = stored.clone().expect("set in the scene");
-        let k = values.len() / 2; // stability's b, an entry of the edge's rotation
-        values[k] = f64::NAN;
-        let nan = p.set(family, member, 0, &values);
-        assert!(matches!(nan, Err(CbfError::NonFinite { value, .. }) if value.is_nan()), "{nan:?}");
+        let refusal = |found| CbfError::ParamOutOfDomain {
+            family,
+            member,
+            instance: Some(0),
+            param,
+            domain: Domain::Real,
+            found,
+        };
         values[k] = 1e300;
-        let far = p.set(family, member, 0, &values);
-        assert!(matches!(far, Err(CbfError::OutOfRange { value: 1e300, range: r, .. }) if r == range), "{far:?}");
-        assert_eq!(get(p.as_ref(), family, member, 0)?, stored);
+        assert_err(p.set(family_index, member_index, 0, &values), refusal(found(1e300)));
+        // NaN compares unequal to itself, so the message says what was found.
+        values[k] = f64::NAN;
+        let nan = p.set(family_index, member_index, 0, &values).expect_err("NaN refused");
+        assert_eq!(nan.to_string(), refusal(found(f64::NAN)).to_string());
+        assert!(nan.to_string().ends_with("= NaN"), "{nan}");
+        assert_eq!(get(p.as_ref(), family_index, member_index, 0)?, stored);
     }
-    let far = p.push(hold, 0, &[1.0, 0.0, -1e300]);
-    assert_err(far, CbfError::OutOfRange { what: "foothold.offset", value: -1e300, range });
+    let far = p.set(hold, 0, 1, &[1.0, 0.0, -1e300]);
+    assert_err(
+        far,
+        CbfError::ParamOutOfDomain {
+            family: "foothold",
+            member: Some("lf"),
+            instance: Some(1),
+            param: "offset",
+            domain: Domain::Real,
+            found: Found::Value(-1e300),
+        },
+    );
     let no = |what, index, len| CbfError::NoSuchIndex { what, index, len };
     assert_err(p.set(feet, 0, 1, &[0.0]), no("instance", 1, 1));
     assert_err(p.set(stab, 0, 2, &[1.0, 0.0]), no("instance", 2, 2));
@@ -357,7 +382,17 @@ fn refused_updates_name_the_error_and_change_nothing() -> Result<(), CbfError> {
             0 => e == short,
             1 => e == CbfError::LengthMismatch { what: "nominal input", expected: NU, got: NU - 1 },
             2 => e == mismatch,
-            3 | 5 | 7 => matches!(e, CbfError::NonFinite { .. }),
+            3 | 5 => matches!(e, CbfError::NonFinite { .. }),
+            7 => matches!(
+                e,
+                CbfError::ParamOutOfDomain {
+                    family: "stability",
+                    member: Some("lf"),
+                    instance: Some(1),
+                    param: "a",
+                    ..
+                }
+            ),
             9 => matches!(e, CbfError::NonFinite { what: "time", .. }),
             4 => matches!(e, CbfError::OutOfRange { value: 1e6, .. }),
             6 => e == CbfError::CapacityMismatch,

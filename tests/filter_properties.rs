@@ -342,7 +342,11 @@ fn check_update(filter: &mut Tachyon3Filter, x: &State, u_ref: &Input, env: &Env
             }
         }
         Err(e) => {
-            prop_assert!(matches!(e, CbfError::OutOfRange { .. } | CbfError::NonFinite { .. }), "unexpected error {e}");
+            let refused_value = matches!(
+                e,
+                CbfError::OutOfRange { .. } | CbfError::NonFinite { .. } | CbfError::ParamOutOfDomain { .. }
+            );
+            prop_assert!(refused_value, "unexpected error {e}");
             prop_assert!(!in_domain(x, u_ref, env), "an in-domain update was refused: {e}");
             prop_assert_eq!(*filter.output(), before, "an Err changed the filter");
             prop_assert!(filter.fallback_input(u_ref).iter().all(|v| v.is_finite()));

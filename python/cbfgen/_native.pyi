@@ -31,6 +31,19 @@ Backend = Literal["dense", "osqp", "dense_then_osqp"]
 """A filter's solver (SOLVERS): the dense solve only, OSQP only, or the dense solve with
 OSQP when it does not verify within dense_max_steps."""
 
+ParamDomain = (
+    tuple[Literal["real"]]
+    | tuple[Literal["positive"]]
+    | tuple[Literal["non_negative"]]
+    | tuple[Literal["interval"], float, float]
+    | tuple[Literal["unit_vector"], float]
+    | tuple[Literal["rotation"], float]
+)
+"""A parameter's domain (every entry also finite, within PARAM_LIMIT): ("real",);
+("positive",) every entry > 0; ("non_negative",) >= 0; ("interval", lo, hi); ("unit_vector",
+tol) a vector of length 1 within tol; ("rotation", tol) a matrix with R^T R within tol of I
+and det R > 0."""
+
 class FamilyInfo(TypedDict):
     name: str
     relative_degree: int
@@ -41,6 +54,8 @@ class FamilyInfo(TypedDict):
     """Instances per member (fixed, optional), or the largest capacity per member."""
     params: list[tuple[str, list[int]]]
     """(name, shape) per parameter: [] a scalar, [n] a vector, [r, c] a matrix."""
+    domains: dict[str, ParamDomain]
+    """Each parameter's domain, which Params.set/push enforce (CbfError outside it)."""
     poles: list[float]
     priority: int
     """Who yields when rows conflict: 0 is met first (0 ..= 15)."""
@@ -132,9 +147,13 @@ class Params:
     def capacity(self) -> dict[str, int | list[int]]:
         """Slots of every family with parameters: a count, or a list per member."""
     def set(self, family: str, values: Values, *, member: Member | None = None, instance: int = 0) -> None:
-        """Set a fixed or optional instance, or one already pushed."""
+        """Set a fixed or optional instance, or one already pushed. CbfError (a ValueError)
+        for a value outside its parameter's domain (a half extent <= 0, a matrix that is
+        not a proper rotation, a normal not of unit length, NaN...), naming family,
+        member, instance and parameter; nothing changes then."""
     def push(self, family: str, values: Values, *, member: Member | None = None) -> None:
-        """Append an instance to a capacity family; CbfError when it is full."""
+        """Append an instance to a capacity family; CbfError when it is full, or for a
+        value outside its parameter's domain (as set)."""
     def get(
         self, family: str, *, member: Member | None = None, instance: int = 0
     ) -> dict[str, float | Vector | Matrix] | None:

@@ -89,17 +89,33 @@ def family(system: cbfgen.System, name: str) -> dict:
 
 
 def sample_values(f: dict, scale: float = 0.25) -> dict:
-    """Valid values for one instance of family ``f``: ``scale`` everywhere, square
-    matrices (rotations) the identity."""
+    """Valid values for one instance of family ``f``, inside each parameter's domain:
+    ``scale`` everywhere (``lo + scale`` for an interval), square matrices (rotations) the
+    identity, unit vectors turned by ``scale`` radians from the first axis."""
     out = {}
     for name, shape in f["params"]:
+        kind, *bounds = f["domains"][name]
         if len(shape) == 2 and shape[0] == shape[1]:
             out[name] = np.eye(shape[0])
-        elif shape:
-            out[name] = np.full(shape, scale)
+        elif kind == "unit_vector":
+            out[name] = np.zeros(shape)
+            out[name][:2] = [np.cos(scale), np.sin(scale)]
         else:
-            out[name] = scale
+            value = bounds[0] + scale if kind == "interval" else scale
+            out[name] = np.full(shape, value) if shape else value
     return out
+
+
+def at_limit(f: dict) -> dict:
+    """Each parameter at PARAM_LIMIT where its domain reaches it, else at its sample value."""
+    reaches = {"real", "positive", "non_negative"}
+    return {p: np.full(np.shape(v), cbfgen.PARAM_LIMIT) if f["domains"][p][0] in reaches else v
+            for p, v in sample_values(f).items()}
+
+
+def outside_its_domain(family_name: str, param: str) -> str:
+    """The message of a value outside ``param``'s domain, whichever member and instance."""
+    return f"^{family_name}( member \\w+)? instance \\d+: parameter {param} is outside its domain"
 
 
 def flat(values: dict) -> np.ndarray:
@@ -403,19 +419,18 @@ def test_set_or_push_with_a_value_outside_the_domain_raises_and_keeps_the_value(
     for param, _ in f["params"]:
         bad = sample_values(f)
         bad[param] = np.where(np.ones_like(bad[param], dtype=bool), value, bad[param])
-        with pytest.raises(cbfgen.CbfError, match=f"{name}.{param}"):
+        with pytest.raises(cbfgen.CbfError, match=outside_its_domain(name, param)):
             params.set(name, bad, **kw)
         values = flat(bad)
-        with pytest.raises(cbfgen.CbfError, match=f"{name}.{param}"):
+        with pytest.raises(cbfgen.CbfError, match=outside_its_domain(name, param)):
             params.set(name, values, **kw)
         if f["instances"] == "capacity":
-            with pytest.raises(cbfgen.CbfError, match=f"{name}.{param}"):
+            with pytest.raises(cbfgen.CbfError, match=outside_its_domain(name, param)):
                 params.push(name, values, **kw)
     assert same(params.get(name, **kw), before)
     assert params.count(name, **kw) == count
-    # PARAM_LIMIT itself is inside.
-    at_limit = {p: np.full(np.shape(v), cbfgen.PARAM_LIMIT) for p, v in sample_values(f).items()}
-    params.set(name, at_limit, **kw)
+    # PARAM_LIMIT itself is inside (where the parameter's own domain reaches it).
+    params.set(name, at_limit(f), **kw)
 
 
 @pytest.mark.parametrize("system, name", PARAM_FAMILIES)
@@ -1090,20 +1105,21 @@ DEGENERATE_BOXES = {
     "not_a_rotation": {"center": [0.6, 0.0, 0.3], "rotation": np.full((3, 3), 2.0), "half": [0.1, 0.1, 0.1]},
     "domain_corner": {"center": [-1e6, 1e6, -1e6], "rotation": np.full((3, 3), 1e6), "half": [1e6, -1e6, 1e6]},
 }
-"""Finite numbers within the parameter domain, so the generic parameters accept them
-(push_edge refuses them as boxes). While the toe rows were the paper's superellipsoid, a
-negative half extent made them divide by zero, and these tests checked that such rows
-raised and made the filter fall back. The certified clearance divides only by square
-roots of sums with a positive floor, so its rows are finite for every such box; the
-filter's handling of a NaN h is tested in tests/filter.rs."""
+"""Finite numbers within +-PARAM_LIMIT that are no box. While the toe rows were the paper's
+superellipsoid, a negative half extent made them divide by zero, and these tests checked
+that such rows raised and made the filter fall back. The generic parameters now refuse
+them as push_edge does (their domains: half extents in [1e-6, 1e4], a proper rotation),
+so no row is evaluated on them; the kernel itself, reached past the domains through the
+kernel table, stays finite on every such box: the certified clearance divides only by
+square roots of sums with a positive floor. The filter's handling of a NaN h is tested in
+tests/filter.rs."""
 
 
 @pytest.mark.parametrize("box", DEGENERATE_BOXES.values(), ids=DEGENERATE_BOXES.keys())
 def test_toe_rows_of_a_degenerate_edge_cuboid_are_finite(box):
-    env = t3.Environment(edges=1)
-    env.push("toe_edge", box)
-    rows = T3.rows(t3.standard_posture(), env)  # raises where a row that applies is not finite
-    assert_finite(np.asarray(rows.lie))
+    x = t3.standard_posture()
+    flat_box = np.concatenate([box["center"], np.ravel(box["rotation"]), box["half"]])
+    assert_finite(cbfgen.call_kernel("tachyon3", "toe_edge", np.concatenate([x, flat_box])))
 
 
 def test_rows_at_a_toe_at_its_hip_raise():
@@ -1113,9 +1129,11 @@ def test_rows_at_a_toe_at_its_hip_raise():
 
 
 @pytest.mark.parametrize("box", DEGENERATE_BOXES.values(), ids=DEGENERATE_BOXES.keys())
-def test_the_filter_solves_beside_a_degenerate_edge_cuboid(box):
+def test_a_degenerate_edge_cuboid_is_refused_and_the_filter_solves_without_it(box):
     env = t3.Environment(edges=1)
-    env.push("toe_edge", box)
+    with pytest.raises(cbfgen.CbfError, match=r"^toe_edge instance 0: parameter (half|rotation) is outside its domain"):
+        env.push("toe_edge", box)
+    assert env.count("toe_edge") == 0
     safety = t3.ecbf_filter(edges=1)
     out = safety.update(t3.standard_posture(), np.zeros(t3.NU), env)
     assert out.nonfinite_row is None and out.source == "qp"

@@ -8,12 +8,13 @@ use std::time::Duration;
 
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyList};
+use pyo3::types::{PyDict, PyList, PyTuple};
 
 use super::convert::{choice, matrix_from_fn, shaped, vector, Array1Out, Array2Out, ArrayIn};
-use crate::dynamic::{self, CapacityCount, DynFilter, DynParams, DynRows, DynSystem};
+use crate::dynamic::{self, CapacityCount, DynFilter, DynParams, DynRows, DynSystem, FamilyStore};
 use crate::error::{within, CbfError};
 use crate::filter::{Cause, FamilyRelaxation, Limit, Output, Solver, SolverSettings};
+use crate::param_domain::Domain;
 use crate::system::{FamilyInfo, Poles};
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -129,7 +130,30 @@ fn capacity(system: &dyn DynSystem, counts: Option<&Bound<'_, PyDict>>) -> PyRes
     Ok(out)
 }
 
-fn family_dict<'py>(py: Python<'py>, f: &FamilyInfo) -> PyResult<Bound<'py, PyDict>> {
+/// A parameter's domain as Python sees it: `("real",)`, `("positive",)`,
+/// `("non_negative",)`, `("interval", lo, hi)`, `("unit_vector", tolerance)` or
+/// `("rotation", tolerance)`.
+fn domain_tuple<'py>(py: Python<'py>, d: Domain) -> PyResult<Bound<'py, PyTuple>> {
+    Ok(match d {
+        Domain::Real => ("real",).into_pyobject(py)?,
+        Domain::Positive => ("positive",).into_pyobject(py)?,
+        Domain::NonNegative => ("non_negative",).into_pyobject(py)?,
+        Domain::Interval { lo, hi } => ("interval", lo, hi).into_pyobject(py)?,
+        Domain::UnitVector { tolerance } => ("unit_vector", tolerance).into_pyobject(py)?,
+        Domain::Rotation { tolerance } => ("rotation", tolerance).into_pyobject(py)?,
+    })
+}
+
+/// `{parameter: domain}` of one family's instances (empty for a parameter-free family).
+fn domains_dict<'py>(py: Python<'py>, store: Option<&dyn FamilyStore>) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    for &(name, domain) in store.map_or(&[][..], |s| s.domains()) {
+        d.set_item(name, domain_tuple(py, domain)?)?;
+    }
+    Ok(d)
+}
+
+fn family_dict<'py>(py: Python<'py>, f: &FamilyInfo, store: Option<&dyn FamilyStore>) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     d.set_item("name", f.name)?;
     d.set_item("relative_degree", f.relative_degree)?;
@@ -142,6 +166,7 @@ fn family_dict<'py>(py: Python<'py>, f: &FamilyInfo) -> PyResult<Bound<'py, PyDi
         params.append((*name, shape.to_vec()))?;
     }
     d.set_item("params", params)?;
+    d.set_item("domains", domains_dict(py, store)?)?;
     d.set_item("poles", f.defaults.poles.as_slice().to_vec())?;
     d.set_item("priority", f.defaults.priority)?;
     d.set_item("activation", f.defaults.activation)?;
@@ -215,11 +240,16 @@ impl PySystem {
     /// Every barrier family: a dict of ``name``, ``relative_degree``, ``row_names``,
     /// ``members`` (empty unless indexed), ``instances`` ("fixed", "optional" or
     /// "capacity"), ``count`` (instances per member, or the largest capacity), ``params``
-    /// (``(name, shape)`` per parameter) and the defaults ``poles``, ``slack_weight``,
-    /// ``activation``.
+    /// (``(name, shape)`` per parameter), ``domains`` (``{name: domain}``: ``("real",)``,
+    /// ``("positive",)``, ``("non_negative",)``, ``("interval", lo, hi)``,
+    /// ``("unit_vector", tolerance)`` or ``("rotation", tolerance)``) and the defaults
+    /// ``poles``, ``priority``, ``activation``.
     #[getter]
     fn families<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
-        self.inner.families().iter().map(|f| family_dict(py, f)).collect()
+        // The domains live with the parameter types: read them off empty parameters.
+        let params = self.inner.params(&[])?;
+        let families = self.inner.families().iter().enumerate();
+        families.map(|(i, f)| family_dict(py, f, params.store(i, 0).ok())).collect()
     }
 
     /// ``f(x)``, shape (nx,).
@@ -329,9 +359,13 @@ impl PyParams {
     }
 }
 
-/// `e` with the family it concerns in front of its message.
+/// `e` with the family it concerns in front of its message (unless the message names it:
+/// a parameter outside its domain names family, member, instance and parameter).
 fn in_family(f: &FamilyInfo, e: CbfError) -> PyErr {
-    super::CbfError::new_err(format!("family '{}': {e}", f.name))
+    match e {
+        CbfError::ParamOutOfDomain { .. } => e.into(),
+        _ => super::CbfError::new_err(format!("family '{}': {e}", f.name)),
+    }
 }
 
 #[pymethods]
@@ -360,7 +394,9 @@ impl PyParams {
     }
 
     /// Set instance ``instance`` of ``family`` (of ``member``): a fixed or optional
-    /// instance, or one already pushed. Nothing changes on an error.
+    /// instance, or one already pushed. Values outside a parameter's domain (a half extent
+    /// <= 0, a matrix that is not a proper rotation, NaN...) raise ``CbfError`` naming
+    /// family, member, instance and parameter. Nothing changes on an error.
     #[pyo3(signature = (family, values, *, member=None, instance=0))]
     fn set(
         &mut self,
@@ -372,16 +408,17 @@ impl PyParams {
         let (i, f) = self.family(family)?;
         let m = one_member(f, member.as_ref())?;
         let values = flat_values(f, values)?;
-        self.inner.store_mut(i, m).and_then(|s| s.set(instance, &values)).map_err(|e| in_family(f, e))
+        self.inner.set(i, m, instance, &values).map_err(|e| in_family(f, e))
     }
 
-    /// Append an instance to a capacity family (of ``member``).
+    /// Append an instance to a capacity family (of ``member``). Refuses values outside a
+    /// parameter's domain as ``set`` does; nothing changes on an error.
     #[pyo3(signature = (family, values, *, member=None))]
     fn push(&mut self, family: &str, values: &Bound<'_, PyAny>, member: Option<MemberArg>) -> PyResult<()> {
         let (i, f) = self.family(family)?;
         let m = one_member(f, member.as_ref())?;
         let values = flat_values(f, values)?;
-        self.inner.store_mut(i, m).and_then(|s| s.push(&values)).map_err(|e| in_family(f, e))
+        self.inner.push(i, m, &values).map_err(|e| in_family(f, e))
     }
 
     /// Instance ``instance`` as ``{name: value}`` (floats and numpy arrays of the
@@ -821,7 +858,7 @@ fn settings(system: &dyn DynSystem, kw: Option<&Bound<'_, PyDict>>) -> PyResult<
             "time_limit_us" => s.solver.time_limit = Some(time_limit(value.extract()?)?),
             other => {
                 return Err(PyValueError::new_err(format!(
-                    "unknown setting '{other}': expected activation, slack_weight, poles, input_weights, \
+                    "unknown setting '{other}': expected activation, priority, poles, input_weights, \
                      input_min, input_max, backend, dense_max_steps, eps_abs, eps_rel, max_iter, polish or \
                      time_limit_us"
                 )))
@@ -834,7 +871,7 @@ fn settings(system: &dyn DynSystem, kw: Option<&Bound<'_, PyDict>>) -> PyResult<
 /// The ECBF-QP safety filter of any system. Build once; each ``update`` evaluates every
 /// row at the state and returns the input closest to the nominal one that keeps every
 /// active row's ECBF condition (with penalised slack). Keyword settings override the
-/// spec's defaults: ``activation``, ``slack_weight`` and ``poles`` map family names to
+/// spec's defaults: ``activation``, ``priority`` and ``poles`` map family names to
 /// values; ``input_weights``, ``input_min``, ``input_max`` have nu values; ``backend``
 /// picks the solver (one of ``SOLVERS``: "dense", "osqp", "dense_then_osqp"), and
 /// ``dense_max_steps`` bounds the dense solve's steps (1 ..= ``MAX_ITERATIONS``);

@@ -10,7 +10,7 @@ nothing here knows a target language.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import symengine as se
@@ -21,11 +21,13 @@ from ..lie import MAX_RELATIVE_DEGREE, LieEngine
 from ..spec import (
     DEFAULT_POLE,
     Constant,
+    Domain,
     Family,
     FamilyContext,
     Limits,
     Output,
     Param,
+    Real,
     SpecError,
     System,
     check_identifier,
@@ -41,7 +43,7 @@ class FamilyDefinition:
     row_names: tuple[str, ...]
     columns: tuple[tuple[int, ...], ...]  # input columns, per kernel
     row_columns: tuple[tuple[tuple[int, ...], ...], ...]  # per kernel, per row: its own columns
-    params: tuple[Param, ...]
+    params: tuple[Param, ...]  # each with the domain its validation checks (never None)
     count: int | None  # fixed instances (per member); None for a capacity family
     capacity: bool
     max_capacity: int | None
@@ -156,10 +158,12 @@ def _declare_params(k: Kernel, family: Family) -> tuple[dict[str, object], dict[
 
 def _family(system: System, family: Family) -> FamilyDefinition:
     where = f"{system.where}, family {family.name!r}"
+    required: dict[str, tuple[Domain, str]] = {}  # what the primitives asked, across members
     if family.over is None:
-        built = [_member(system, family, where, family.name, None, None)]
+        built = [_member(system, family, where, family.name, None, None, required)]
     else:
-        built = [_member(system, family, f"{where}, member {label!r}", f"{family.name}_{label}", i, label)
+        built = [_member(system, family, f"{where}, member {label!r}", f"{family.name}_{label}", i, label,
+                         required)
                  for i, label in enumerate(family.over)]
     degrees = {b.degree for b in built}
     if len(degrees) != 1:
@@ -180,7 +184,7 @@ def _family(system: System, family: Family) -> FamilyDefinition:
         poles = tuple(family.poles)
     return FamilyDefinition(family.name, family.doc, tuple(b.kernel for b in built), degree,
                             built[0].row_names, tuple(b.columns for b in built),
-                            tuple(b.row_columns for b in built), tuple(family.params),
+                            tuple(b.row_columns for b in built), _checked_params(family, required),
                             family.count, family.capacity, family.max_capacity, family.optional,
                             tuple(family.over or ()),
                             family.time, poles, family.priority, family.activation,
@@ -207,8 +211,15 @@ def _one_sided_authority(system: System, family: Family, built: list) -> tuple[s
             f"{family.name!r} a higher priority number than theirs so that it yields to them.",)
 
 
+def _checked_params(family: Family, required: dict[str, tuple[Domain, str]]) -> tuple[Param, ...]:
+    """The family's parameters, each with the domain its validation checks: the one
+    declared (already found within what the primitives asked), else the primitives'
+    (:meth:`FamilyContext.require`), else Real."""
+    return tuple(replace(p, domain=p.domain or required.get(p.name, (Real(), ""))[0]) for p in family.params)
+
+
 def _member(system: System, family: Family, where: str, kernel_name: str, index: int | None,
-            label: str | None):
+            label: str | None, required: dict[str, tuple[Domain, str]]):
     """One row kernel of ``family`` (of member ``label`` of an indexed family)."""
     state_set = frozenset(system.x)
     time_sym = system.time
@@ -218,8 +229,9 @@ def _member(system: System, family: Family, where: str, kernel_name: str, index:
             values, param_symbols = _declare_params(k, family)
         except ValueError as exc:
             raise SpecError(f"{where}: {exc}") from exc
-        ctx = FamilyContext(where, k, eng, values, eng.time, index, label)
-        rows = _rows(where, family, family.h(ctx))
+        ctx = FamilyContext(where, k, eng, values, eng.time, index, label, family.params, required)
+        with ctx.active():
+            rows = _rows(where, family, family.h(ctx))
         base = _base_symbols(k)
         allowed = state_set | frozenset().union(*param_symbols.values())
         if family.time:

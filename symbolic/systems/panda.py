@@ -98,6 +98,8 @@ MAX_OBSTACLES = 64
 # hold; velocity limits are the actuators' and yield to them.
 PRIORITIES = {"joint_limits": 0, "obstacle": 0, "self_collision": 0, "velocity_limits": 1}
 
+# No domains declared: prim.Box (in obstacle's h) gives the rotation its proper-rotation
+# domain and the half extents theirs (> 0), as it gives any user's spec.
 OBSTACLE_PARAMS = {
     "center": ((3,), "obstacle box centre, world (base) frame [m]"),
     "rotation": ((3, 3), "obstacle box rotation (columns = its axes in the world frame)"),

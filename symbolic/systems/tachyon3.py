@@ -24,7 +24,7 @@ from symbolic.families import sphere_box
 from symbolic.families.ssat import certified_margin, relative_pose, separating_axes
 from symbolic.model import Leg, Tachyon3, load_model, load_tachyon3
 from symbolic.smoothing import LSE, XTANH
-from symbolic.spec import System
+from symbolic.spec import DEFAULT_TOLERANCE, Interval, Rotation, System, UnitVector
 
 AXES = "xyz"
 # Largest capacities: 1025 edge cuboids make 7175 collision rows, far beyond what a 1 ms
@@ -35,10 +35,17 @@ MAX_FOOTHOLD_EDGES = 256
 # (20, 20) a row's bound 40 h' + 400 h is still >= 0 at h = 0.3 m for a toe closing at
 # up to 3 m/s, so a row asks for no deceleration yet when it joins.
 TOE_EDGE_ACTIVATION = 0.3
+# An edge cuboid's parameters take exactly what the hand-written path takes
+# (Environment.push_edge through OrientedBox::new, src/geometry.rs): a centre within
+# +-1e6 m (PARAM_LIMIT, the Real default), half extents in [MIN_HALF_EXTENT, MAX_HALF_EXTENT]
+# (the domain the SSAT and sphere-box certificates are tested on) and a proper rotation
+# within ROTATION_TOLERANCE, so a box set through the generic Params is refused where
+# push_edge refuses it.
+MIN_HALF_EXTENT, MAX_HALF_EXTENT = 1e-6, 1e4
 EDGE_PARAMS = {
     "center": ((3,), "edge cuboid centre, world frame [m]"),
-    "rotation": ((3, 3), "edge cuboid rotation (columns = its axes in the world frame)"),
-    "half": ((3,), "edge cuboid half extents [m]"),
+    "rotation": ((3, 3), "edge cuboid rotation (columns = its axes in the world frame)", Rotation(DEFAULT_TOLERANCE)),
+    "half": ((3,), "edge cuboid half extents [m]", Interval(MIN_HALF_EXTENT, MAX_HALF_EXTENT)),
 }
 
 # Who yields when rows conflict. The filter meets every row exactly when the input limits
@@ -161,7 +168,8 @@ def build(model: Path | None = None) -> System:
 
     s.family("foothold", foothold, priority=PRIORITIES["foothold"], over=members, capacity=MAX_FOOTHOLD_EDGES,
              poles=poles,
-             params={"normal": ((2,), "inward normal a of the foothold edge (world xy)"),
+             params={"normal": ((2,), "inward unit normal a of the foothold edge (world xy); HalfPlane::new "
+                                       "normalises one", UnitVector(DEFAULT_TOLERANCE)),
                      "offset": ((), "offset b of the edge: the row is a . p_xy + b >= 0 [m]")},
              doc="Convex foothold half-space on the toe's world xy (eq. 12); switch a leg's set off while it "
                  "stands.")

@@ -174,9 +174,9 @@ impl Catalog {
     /// on time). Does not allocate; rows that do not apply are marked inactive.
     ///
     /// # Errors
-    /// A state outside [`system::validate_state`]'s domain, a parameter outside
-    /// [`system::validate_params`]'s, or an environment of another capacity. Rows are
-    /// left as they were.
+    /// A state outside [`system::validate_state`]'s domain, a parameter outside its domain
+    /// ([`CbfError::ParamOutOfDomain`]: an edge cuboid's as [`OrientedBox::new`] takes
+    /// them), or an environment of another capacity. Rows are left as they were.
     pub fn evaluate(&mut self, x: &State, env: &Environment) -> Result<(), CbfError> {
         BarrierSet::evaluate(self, 0.0, x, env)
     }
@@ -271,12 +271,19 @@ impl Environment {
     /// Add an edge cuboid: it fills the next body–edge and toe–edge slot.
     ///
     /// # Errors
-    /// [`CbfError::CapacityExceeded`] when every edge slot is taken.
+    /// [`CbfError::CapacityExceeded`] when every edge slot is taken;
+    /// [`CbfError::ParamOutOfDomain`] (naming the slot it would have filled) for a cuboid
+    /// [`OrientedBox::new`] would refuse, built field by field: half extents outside
+    /// [`MIN_HALF_EXTENT`](crate::geometry::MIN_HALF_EXTENT)..=[`MAX_HALF_EXTENT`](crate::geometry::MAX_HALF_EXTENT),
+    /// a rotation that is not proper, a centre beyond ±1e6 m or not finite (the spec gives
+    /// the generated parameters the same domain). Nothing changes then.
     pub fn push_edge(&mut self, edge: EdgeCuboid) -> Result<(), CbfError> {
         let capacity = self.body_edge.capacity().min(self.toe_edge.capacity());
-        if self.body_edge.as_slice().len().max(self.toe_edge.as_slice().len()) >= capacity {
+        let filled = self.body_edge.as_slice().len().max(self.toe_edge.as_slice().len());
+        if filled >= capacity {
             return Err(CbfError::CapacityExceeded { what: "edge cuboids", capacity });
         }
+        edge.validate().map_err(|e| e.in_instance(filled))?;
         self.body_edge.push(edge)?;
         self.toe_edge.push(gen::ToeEdgeParams { center: edge.center, rotation: edge.rotation, half: edge.half })
     }

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import json
 
+from ....spec import Domain, Interval, NonNegative, Positive, Real, Rotation, UnitVector
 from ...definition import FamilyDefinition, SystemDefinition
 from .emitter import emit_kernel, float_literal, kernel_fn_type, rustdoc_text
 from .kernel_table import emit_kernel_table
@@ -58,6 +59,19 @@ def _param_type(shape: tuple[int, ...], rt: str) -> str:
     return f"{rt}::nalgebra::SMatrix<f64, {shape[0]}, {shape[1]}>"
 
 
+def _domain(d: Domain, rt: str) -> str:
+    """The runtime's ``param_domain::Domain`` for spec domain ``d``."""
+    ty = f"{rt}::param_domain::Domain"
+    if isinstance(d, Interval):
+        return f"{ty}::Interval {{ lo: {float_literal(d.lo)}, hi: {float_literal(d.hi)} }}"
+    if isinstance(d, UnitVector):
+        return f"{ty}::UnitVector {{ tolerance: {float_literal(d.tol)} }}"
+    if isinstance(d, Rotation):
+        return f"{ty}::Rotation {{ tolerance: {float_literal(d.tol)} }}"
+    names = {Real: "Real", Positive: "Positive", NonNegative: "NonNegative"}
+    return f"{ty}::{names[type(d)]}"
+
+
 def _param_arg(var: str, name: str, shape: tuple[int, ...]) -> str:
     """The kernel argument for field ``name`` of ``var``: a scalar, or the flattened
     (row-major) array built element by element: no allocation, no copies beyond it."""
@@ -82,6 +96,7 @@ def _flat_instance(w, f: FamilyDefinition, ty: str, rt: str) -> None:
     total = sum(_flat_len(p.shape) for p in f.params)
     w(f"impl {rt}::dynamic::FlatInstance for {ty} {{")
     w(f"    const LEN: usize = {total};")
+    w(f"    const DOMAINS: &'static [(&'static str, {rt}::param_domain::Domain)] = &Self::DOMAINS;")
     w("")
     w("    fn from_flat(values: &[f64]) -> Self {")
     fields, o = [], 0
@@ -207,25 +222,29 @@ def _params_field_init(f: FamilyDefinition, rt: str) -> str:
 
 
 def _validate_family(w, f: FamilyDefinition) -> None:
-    """Every parameter the rows will read this cycle, checked before any row changes."""
+    """Every parameter the rows will read this cycle, checked before any row changes; an
+    error names the member and instance (a fixed instance never set is still at its zero
+    default, which a domain such as Positive refuses here)."""
     if not f.params:
         return
     src = f"params.{f.name}"
+    u = f.name.upper()
+    if f.indexed:
+        w(f"        for (member, instances) in {src}.iter().enumerate() {{")
+        w(f"            let member = {u}_MEMBERS.get(member).copied();")
+    else:
+        w("        {")
+        w("            let member = None;")
+        w(f"            let instances = &{src};")
     if f.capacity:
-        if f.indexed:
-            w(f"        for slots in &{src} {{")
-        else:
-            w(f"        for slots in core::iter::once(&{src}) {{")
-        w("            if slots.is_enabled() {")
-        w("                for p in slots.as_slice() {")
-        w("                    p.validate()?;")
-        w("                }")
-        w("            }")
-        w("        }")
-        return
-    chain = ".iter()" + ".flatten()" * (int(f.indexed) + int(f.optional))
-    w(f"        for p in {src}{chain} {{")
-    w("            p.validate()?;")
+        w("            let filled = if instances.is_enabled() { instances.as_slice() } else { &[] };")
+        w("            for (instance, p) in filled.iter().enumerate() {")
+    else:
+        w("            for (instance, p) in instances.iter().enumerate() {")
+        if f.optional:
+            w("                let Some(p) = p else { continue };")
+    w("                p.validate().map_err(|e| e.in_instance(instance).in_member(member))?;")
+    w("            }")
     w("        }")
 
 
@@ -434,20 +453,31 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
             pdoc = p.doc or f"`{p.name}`"
             if len(p.shape) == 2:
                 pdoc += f" ({p.shape[0]} x {p.shape[1]})"
+            if not isinstance(p.domain, Real):
+                pdoc += f". Domain: {p.domain}"
             out.extend(_doc(pdoc, "    "))
             w(f"    pub {p.name}: {_param_type(p.shape, rt)},")
         w("}")
         w("")
         w(f"impl {ty} {{")
-        w(f"    /// `Ok(())` when every number is finite and within `±{rt}::system::PARAM_LIMIT`.")
+        w(f"    /// The domain of each parameter, in declaration order (see `{rt}::param_domain`).")
+        w(f"    pub const DOMAINS: [(&'static str, {rt}::param_domain::Domain); {len(f.params)}] = [")
+        for p in f.params:
+            w(f"        ({_str(p.name)}, {_domain(p.domain, rt)}),")
+        w("    ];")
+        w("")
+        w("    /// `Ok(())` when every parameter lies in its domain ([`Self::DOMAINS`]; every number")
+        w(f"    /// finite and within `±{rt}::system::PARAM_LIMIT`, and what the spec declares).")
         w("    ///")
         w("    /// # Errors")
-        w(f"    /// [`{rt}::error::CbfError::NonFinite`] or [`{rt}::error::CbfError::OutOfRange`], "
-          "naming the parameter.")
+        w(f"    /// [`{rt}::error::CbfError::ParamOutOfDomain`] naming the family and parameter, what its")
+        w("    /// domain asks and what was found (the caller names the instance).")
         w(f"    pub fn validate(&self) -> Result<(), {rt}::error::CbfError> {{")
-        for p in f.params:
+        for i, p in enumerate(f.params):
             values = f"core::slice::from_ref(&self.{p.name})" if p.shape == () else f"self.{p.name}.as_slice()"
-            w(f'        {rt}::system::validate_params("{f.name}.{p.name}", {values})?;')
+            shape = "&[" + ", ".join(map(str, p.shape)) + "]"
+            w(f"        {rt}::param_domain::check({_str(f.name)}, {_str(p.name)}, Self::DOMAINS[{i}].1, {shape}, "
+              f"{values})?;")
         w("        Ok(())")
         w("    }")
         w("}")

@@ -1,4 +1,4 @@
-//! Two systems generated at build time by cbfgen-build.
+//! Three systems generated at build time by cbfgen-build.
 
 /// A planar robot with a speed limit (degree 1) and box walls (degree 2).
 pub mod planar_robot {
@@ -8,4 +8,9 @@ pub mod planar_robot {
 /// The triple integrator below a position limit (degree 3).
 pub mod triple_integrator {
     cbfgen::include_system!("triple_integrator");
+}
+
+/// A planar robot whose parameters take their domains from the primitives.
+pub mod boxed_robot {
+    cbfgen::include_system!("boxed_robot");
 }
