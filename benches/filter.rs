@@ -4,11 +4,11 @@
 //!   rows evaluated, the QP solved) on the robot pressed against a stair nosing (toe and
 //!   body rows binding), warm-started from the previous cycle as in the control loop;
 //! * `filter/solve_dense` and `filter/solve_osqp` — the QP alone, on the 500 committed
-//!   QPs of the stairs run (`tests/data/stairs_qps.bin`, every cycle of the hard window
+//!   QPs of the stairs run (`tests/data/stairs_qps.bin`, every cycle of the window
 //!   t = 25.10–25.30 s included), replayed in time order through a QP laid out as the
 //!   filter's; one iteration solves the next problem. `solve_osqp` is this crate's OSQP
-//!   path (`Solver::Osqp`: ADMM, then the exact polish), `solve_dense` the input-space
-//!   solve (`Solver::Dense`).
+//!   path (`Solver::Osqp`: ADMM, then the dense solve from its face), `solve_dense` the
+//!   lexicographic dense solve (`Solver::Dense`).
 //!
 //! For percentiles over a moving trajectory run `cbfgen latency`, or
 //! `cargo run --release --example replay_stairs_qps` on the fixture.

@@ -49,9 +49,9 @@ fn main() {
         let ([wm, w99, wmax], [cm, c99, cmax]) = (percentiles(wall), percentiles(cpu));
         medians.push(wm);
         let label = match backend {
-            Solver::Dense => "dense (input-space solve)",
+            Solver::Dense => "dense (lexicographic solve)",
             Solver::DenseThenOsqp => "dense_then_osqp (the default)",
-            Solver::Osqp => "osqp (ADMM + exact polish)",
+            Solver::Osqp => "osqp (ADMM, verified by the dense solve)",
         };
         println!("{label:<34} {wm:>9.1} {w99:>9.1} {wmax:>9.1} {cm:>9.1} {c99:>9.1} {cmax:>9.1}");
     }

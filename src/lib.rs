@@ -10,9 +10,11 @@
 //! * [`system`] — the contract a system's code implements (generated from a spec by
 //!   `python -m symbolic generate`, or by the `cbfgen-build` helper from a build script).
 //! * [`filter`] — the ECBF-QP safety filter over any [`system::BarrierSet`]: one
-//!   allocation-free control update.
-//! * [`qp`] — its solvers: an exact input-space solve first, OSQP as fallback and
-//!   reference.
+//!   allocation-free control update, every row met when the input box allows it, the
+//!   families' priorities deciding who yields when it does not, and a safety verdict
+//!   measured at the input returned.
+//! * [`qp`] — its solvers: an exact lexicographic solve in the inputs first, OSQP as
+//!   fallback and reference.
 //! * [`dynamic`] — every generated system behind object-safe traits, picked by name at
 //!   run time (what the Python bindings use).
 //! * [`param_domain`] — the domains run-time parameters declare (lengths `> 0`, proper

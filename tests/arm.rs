@@ -276,20 +276,14 @@ fn every_active_row_meets_its_ecbf_condition_at_the_returned_input() {
                 other => panic!("unexpected poles {other:?}"),
             };
             let lhs = bound + row.lg.iter().zip(&sample.u).map(|(g, u)| g * u).sum::<f64>();
-            let scale = 1.0 + bound.abs() + row.lg.iter().zip(&sample.u).map(|(g, u)| (g * u).abs()).sum::<f64>();
-            // Every row has a slack of weight w, so a row the nominal input violates by s is
-            // met only to within about s / (1 + w |L_g L_f h|^2): soft by design, and
-            // allowed here 1e-3 of the shortfall (w >= 1e4 in every tier) and 1e-4 of the
-            // row's scale (QP tolerances).
-            let nominal = bound + row.lg.iter().zip(&sample.u_ref).map(|(g, u)| g * u).sum::<f64>();
-            let shortfall = (-nominal).max(0.0);
+            let size = bound.abs() + row.lg.iter().zip(&sample.u).map(|(g, u)| g.abs() * (1.0 + u.abs())).sum::<f64>();
+            // Every row is hard where the input box allows it: met to the solver's rounding
+            // (1e-8 of its terms), or reported relaxed.
             let violation = (-lhs).max(0.0);
-            if shortfall > 0.0 {
-                worst_ratio = worst_ratio.max(violation / shortfall);
-            }
+            worst_ratio = worst_ratio.max(violation / size);
             assert!(
-                violation <= 1e-4 * scale + 1e-3 * shortfall,
-                "t = {:.3} s, {} row {k}: ECBF condition {lhs:e} < 0 (scale {scale:e}, nominal shortfall {shortfall:e})",
+                violation <= 1e-8 * size || sim.filter().relaxed()[k].is_some(),
+                "t = {:.3} s, {} row {k}: ECBF condition {lhs:e} < 0 (size {size:e}) and reported met",
                 sample.t,
                 gen::FAMILIES[layout.family].name
             );
@@ -297,7 +291,7 @@ fn every_active_row_meets_its_ecbf_condition_at_the_returned_input() {
         }
     }
     assert!(checked.iter().all(|&c| c > 100), "every family must have been active: {checked:?}");
-    println!("rows checked per family {checked:?}; largest violation / nominal shortfall {worst_ratio:e}");
+    println!("rows checked per family {checked:?}; largest violation / the row's size {worst_ratio:e}");
 }
 
 #[test]
@@ -338,4 +332,80 @@ fn bad_scenarios_are_typed_errors() {
             "{what}: {err:?}"
         );
     }
+}
+
+#[test]
+fn a_small_dense_budget_keeps_making_progress_on_a_hard_state() {
+    // Issue 32's reproducer: `Solver::Dense` with a budget of 10, one ordinary cycle, then
+    // a state the budget cannot finish from a cold start (the sweep at t = 0.986 s, where
+    // a budget of 10 left the old solve unverified from cold) given again and again. The
+    // old solve restarted each cycle from its last verified answer and handed back the
+    // same unconverged iterate forever; each cycle now continues from where the last
+    // stopped, and the answer is the full-budget one.
+    let scenario = Scenario::standard();
+    let mut sim = Simulation::new(&scenario).expect("simulation");
+    while sim.time() < 0.986 {
+        sim.step().expect("step");
+    }
+    let (x, u_ref) = (*sim.state(), scenario.nominal(sim.time(), sim.state()));
+    let capacity = Capacity { obstacle: [scenario.obstacles.len(); 8] };
+    let mut settings = gen::default_settings();
+    settings.solver.backend = cbfgen::filter::Solver::Dense;
+    settings.solver.dense_max_steps = 10;
+    let mut small = cbfgen::filter::EcbfFilter::new(Barriers::new(capacity).unwrap(), settings).unwrap();
+    let mut start = [0.0; NX];
+    start[..7].copy_from_slice(&scenario.start);
+    small.update(&start, &[0.0; NU], sim.params()).expect("an ordinary cycle");
+    let mut full = cbfgen::filter::EcbfFilter::new(Barriers::new(capacity).unwrap(), gen::default_settings()).unwrap();
+    let reference = *full.update(&x, &u_ref, sim.params()).expect("reference");
+    assert_eq!(reference.source, InputSource::Qp);
+    let mut qp = 0;
+    for cycle in 0..1000 {
+        let out = *small.update(&x, &u_ref, sim.params()).expect("update");
+        if out.source == InputSource::Qp {
+            qp += 1;
+            let du = (0..NU).map(|j| (out.u[j] - reference.u[j]).abs()).fold(0.0, f64::max);
+            assert!(du <= 1e-7, "cycle {cycle}: the small budget's answer is {du:.2e} from the full one");
+        }
+    }
+    assert!(qp >= 990, "only {qp} of 1000 cycles verified with a budget of 10");
+}
+
+#[test]
+fn a_small_dense_budget_keeps_making_progress_and_every_qp_answer_is_the_full_budget_one() {
+    // Issue 32: under `Solver::Dense` with a budget of 10, the old solve restarted from its
+    // last verified answer every cycle, so after one unfinished cycle every later one
+    // handed back the same unconverged iterate. Each stage now continues from where it
+    // stopped: the arm's whole course, re-solved cycle by cycle by a full-budget filter on
+    // the same states, gives the same answer wherever the small budget says `qp`, and
+    // unverified cycles stay rare and short.
+    let mut scenario = Scenario::standard();
+    scenario.settings.solver.backend = cbfgen::filter::Solver::Dense;
+    scenario.settings.solver.dense_max_steps = 10;
+    let mut sim = Simulation::new(&scenario).expect("simulation");
+    let mut full = cbfgen::filter::EcbfFilter::new(
+        Barriers::new(Capacity { obstacle: [scenario.obstacles.len(); 8] }).expect("barriers"),
+        gen::default_settings(),
+    )
+    .expect("filter");
+    let (mut unconverged, mut run, mut longest, mut cycles) = (0, 0, 0, 0);
+    while sim.time() < scenario.duration {
+        let x = *sim.state();
+        let sample = sim.step().expect("step");
+        cycles += 1;
+        let reference = *full.update(&x, &sample.u_ref, sim.params()).expect("reference");
+        assert_eq!(reference.source, InputSource::Qp);
+        if sample.source == Some(InputSource::Qp) {
+            run = 0;
+            let du = (0..NU).map(|j| (sample.u[j] - reference.u[j]).abs()).fold(0.0, f64::max);
+            assert!(du <= 1e-7, "t = {:.3}: the small budget's qp answer is {du:.2e} from the full one", sample.t);
+        } else {
+            unconverged += 1;
+            run += 1;
+            longest = longest.max(run);
+        }
+    }
+    eprintln!("{cycles} cycles, {unconverged} unconverged (longest run {longest})");
+    assert!(longest <= 3, "{longest} unconverged cycles in a row");
+    assert!(unconverged * 100 <= cycles, "{unconverged} of {cycles} cycles unconverged");
 }

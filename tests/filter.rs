@@ -323,6 +323,36 @@ fn an_unpolished_osqp_answer_is_never_reported_as_the_optimum() {
 }
 
 #[test]
+fn after_an_absurd_cycle_no_unverified_answer_is_labelled_qp() {
+    // Issue 32's reproducer: eps_rel = 1 (OSQP calls almost anything solved), a dense
+    // budget of 2, a box of ±1e6; one cycle at an absurd state inside the domain, then
+    // ordinary ones. The old filter labelled OSQP's unpolished iterate `qp` for 15 cycles
+    // (cost 1.7e13 against an optimum of 0). Every `qp` answer must be the optimum.
+    let mut settings = catalog::default_settings();
+    settings.solver.eps_rel = 1.0;
+    settings.solver.dense_max_steps = 2;
+    settings.input_min = [-1e6; NU];
+    settings.input_max = [1e6; NU];
+    let (drive, mut filter) = drive_and_filter(settings);
+    let mut absurd = drive.x;
+    for v in absurd.iter_mut().skip(4) {
+        *v *= 1e3;
+    }
+    let u_ref = drive.nominal_input();
+    let out = *filter.update(&absurd, &[1e5; NU], &drive.env).expect("in the domain");
+    assert!(out.u.iter().all(|v| v.is_finite()));
+    let mut qp = 0;
+    for _ in 0..30 {
+        let out = *filter.update(&drive.x, &u_ref, &drive.env).expect("finite");
+        if out.source == InputSource::Qp {
+            qp += 1;
+            check(&filter, &out.u, &u_ref).unwrap_or_else(|e| panic!("a qp answer that is not the optimum: {e}"));
+        }
+    }
+    assert!(qp >= 25, "the filter recovered in {} of 30 cycles", qp);
+}
+
+#[test]
 fn an_exhausted_dense_budget_falls_back_to_osqp_flagged_or_hands_back_its_iterate() {
     // A full command against the stairs from a cold start: one row added per stage cannot
     // find the rows and saturated inputs that bind.

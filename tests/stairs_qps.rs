@@ -64,4 +64,3 @@ fn every_backend_gives_the_verified_optimum_of_every_recorded_stairs_qp() {
         percentile(admm, 1.0),
     );
 }
-

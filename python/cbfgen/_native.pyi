@@ -1,8 +1,9 @@
 # Type stubs for the Rust extension module (src/python/). The generic part is re-exported
 # by `cbfgen`, Tachyon 3's own by `cbfgen.tachyon3`. Arrays out are new float64 numpy
 # arrays, always finite: a kernel value that would be NaN or infinite raises CbfError
-# instead, and a diagnostic array of rows (lie, lg_lf) that would hold one is None. "ArrayLike" inputs accept lists, tuples and arrays of booleans, integers or
-# floats, read as float64; complex, string and object arrays raise ValueError. Shapes
+# instead, and a diagnostic array of rows (lie, lg_lf) that would hold one is None.
+# "ArrayLike" inputs accept lists, tuples and arrays of booleans, integers or floats, read
+# as float64; complex, string and object arrays raise ValueError. Shapes
 # are exact: a vector of N values is (N,); a matrix parameter is (r, c) or its r*c values
 # row by row; a rotation is 9 row-major values (9,) or a 3x3 array.
 # Counts outside their integer type (negative, >= 2**64) raise OverflowError.

@@ -362,7 +362,7 @@ def test_type_stubs_list_exactly_the_module_names():
         elif isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
             declared.add(node.target.id)
     helpers = {"ArrayLike", "Vector", "Matrix", "Leg", "Member", "Values", "FamilyInfo", "SsatVariant",
-               "RowPlace", "Backend", "SolverSettings"}
+               "RowPlace", "Backend", "SolverSettings", "RelaxedRow", "FamilyRelaxation"}
     declared -= helpers
     native = {n for n in dir(cbfgen._native) if not n.startswith("_")}
     assert declared == native
@@ -406,3 +406,39 @@ def test_updates_on_threads_match_sequential_ones():
     for i in range(3):
         np.testing.assert_array_equal(results[i], expected)
     assert all(len(results[i]) == len(states) for i in (3, 4))
+
+
+def test_a_row_the_input_limits_cannot_meet_is_reported_relaxed_with_why():
+    # The double integrator falling at 2 m/s onto a still boundary 0.1 m below, with
+    # |u| <= 1: its ECBF row (poles 10, 10) asks u >= -(20 * -2 + 100 * 0.1) = 30, by hand.
+    # The filter brakes at the bound, and says the row is missed by 29 because input "u"
+    # is at its maximum; at rest above the boundary every row is met again.
+    system = cbfgen.System("double_integrator")
+    params = system.params()
+    params.set("sine_barrier", {"amplitude": 0.0, "omega": 1.0, "offset": 0.0})
+    safety = system.filter(input_min=[-1.0], input_max=[1.0])
+    out = safety.update([0.1, -2.0], [0.0], params)
+    assert out.source == "qp" and out.verdict == "relaxed" and out.relaxed_rows == 1
+    assert out.u[0] == pytest.approx(1.0, abs=1e-12)
+    (row,) = out.relaxed
+    assert row["place"] == ("sine_barrier", None, 0, "above_sine")
+    assert row["slack"] == pytest.approx(29.0, rel=1e-12)
+    assert row["relative"] == pytest.approx(29.0 / (30.0 + 1.0), rel=1e-12)  # slack / (|b| + |a u|)
+    assert (row["cause"], row["input"], row["limit"]) == ("input_limit", "u", "max")
+    assert out.worst == row
+    assert out.relaxation == {"sine_barrier": {"relaxed_rows": 1, "max_slack": pytest.approx(29.0),
+                                               "max_relative": pytest.approx(29.0 / 31.0)}}
+    np.testing.assert_allclose(safety.slack, [29.0], rtol=1e-12)
+    calm = safety.update([1.0, 0.0], [0.5], params)
+    assert calm.verdict == "met" and calm.relaxed == [] and calm.worst is None
+    assert calm.relaxation["sine_barrier"]["relaxed_rows"] == 0
+
+
+def test_priorities_are_settings_and_out_of_range_ones_raise():
+    safety = t3.ecbf_filter(priority={"foothold": 5})
+    poles, priority, activation = safety.family_settings["foothold"]
+    assert priority == 5 and safety.family_settings["joint_limits"][1] == 0
+    assert {f["name"]: f["priority"] for f in t3.SYSTEM.families} == {
+        "joint_limits": 0, "foot_height": 1, "stability": 2, "body_edge": 0, "toe_edge": 0, "foothold": 3}
+    with pytest.raises(cbfgen.CbfError, match="priority tier"):
+        t3.ecbf_filter(priority={"foothold": 16})

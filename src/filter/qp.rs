@@ -19,7 +19,6 @@
 //! [`QpStatus::MaxIterations`]. Inactive rows keep their place with bounds `(−∞, ∞)` and
 //! zero coefficients.
 
-
 // Index loops mirror the formulas (rows × inputs).
 #![allow(clippy::needless_range_loop)]
 use std::borrow::Cow;
@@ -397,8 +396,10 @@ impl<const NU: usize> EcbfQp<NU> {
         self.load_osqp(u_ref);
         let osqp = osqp_workspace::solve(self);
         self.backend = Some(Backend::Osqp);
-        let has_iterate =
-            matches!(osqp, QpStatus::Solved | QpStatus::SolvedInaccurate | QpStatus::MaxIterations | QpStatus::TimeLimit);
+        let has_iterate = matches!(
+            osqp,
+            QpStatus::Solved | QpStatus::SolvedInaccurate | QpStatus::MaxIterations | QpStatus::TimeLimit
+        );
         if self.settings.polish && (has_iterate || osqp == QpStatus::PrimalInfeasible) {
             let steps_before = self.dense_steps;
             self.dense.suggest_first_face(&self.osqp_face);

@@ -375,7 +375,11 @@ pub mod domain {
     /// A priority tier within `0..=`[`MAX_PRIORITY`].
     pub(crate) fn priority(value: u8) -> Result<u8, CbfError> {
         if value > MAX_PRIORITY {
-            return Err(CbfError::TooLarge { what: "priority tier", value: usize::from(value), max: usize::from(MAX_PRIORITY) });
+            return Err(CbfError::TooLarge {
+                what: "priority tier",
+                value: usize::from(value),
+                max: usize::from(MAX_PRIORITY),
+            });
         }
         Ok(value)
     }

@@ -633,7 +633,15 @@ impl PyFilterOutput {
                     Cause::HigherPriority { row } | Cause::SamePriority { row } => (None, Some((row, places[row]))),
                     Cause::NoAuthority | Cause::Unsolved => (None, None),
                 };
-                Some(RelaxedInfo { row, place: places[row], slack: delta[row], relative: relative[row], cause, input, other })
+                Some(RelaxedInfo {
+                    row,
+                    place: places[row],
+                    slack: delta[row],
+                    relative: relative[row],
+                    cause,
+                    input,
+                    other,
+                })
             })
             .collect();
         let families = filter.families().iter().map(|f| f.name).zip(filter.relaxation().iter().copied()).collect();

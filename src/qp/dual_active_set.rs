@@ -275,6 +275,8 @@ pub struct DualActiveSet {
     u: Vec<f64>,
     /// The iterate.
     x: Vec<f64>,
+    /// The non-zero entries' indices of the row being projected.
+    nonzero: Vec<usize>,
     /// Scratch: `Jᵀ n_p`, the primal step, the dual step, and two more.
     d: Vec<f64>,
     step: Vec<f64>,
@@ -327,6 +329,7 @@ impl DualActiveSet {
             active: Vec::with_capacity(n),
             u: Vec::with_capacity(n),
             x: vec![0.0; n],
+            nonzero: Vec::with_capacity(n),
             d: vec![0.0; n],
             step: vec![0.0; n],
             dual_step: vec![0.0; n],
@@ -459,6 +462,11 @@ impl DualActiveSet {
     /// Active-set changes (rows added or dropped) the last solve took.
     pub fn steps(&self) -> u32 {
         self.steps
+    }
+
+    /// Rows the last solve added to the active set: what `max_steps` bounds.
+    pub fn rows_added(&self) -> u32 {
+        self.added
     }
 
     /// How the last solve ended.
@@ -622,10 +630,15 @@ impl DualActiveSet {
     fn project(&mut self, c: Constraint) -> (f64, f64) {
         let n = self.n;
         let q = self.active.len();
+        // Rows are often sparse (an input bound has one entry, a robot's row a few): sum
+        // over the non-zeros only.
+        let normal = &self.unit[c.row * n..(c.row + 1) * n];
+        self.nonzero.clear();
+        self.nonzero.extend((0..n).filter(|&i| normal[i] != 0.0));
         let (mut all, mut free) = (0.0, 0.0);
         for k in 0..n {
             let col = &self.j[k * n..(k + 1) * n];
-            let v = c.sign * dot(col, &self.unit[c.row * n..(c.row + 1) * n]);
+            let v = c.sign * self.nonzero.iter().map(|&i| col[i] * normal[i]).sum::<f64>();
             self.d[k] = v;
             all += v * v;
             if k >= q {

@@ -48,12 +48,21 @@
 //! (`Σ_j |a_ij| (max_j − min_j) ≤` [`AUTHORITY_FRACTION`]` · |b_i|`), so no input helps
 //! and the row takes no part.
 //!
+//! # Rounding
+//! A tier is fixed at exactly the least violation its stage found, so the answer is exact
+//! to rounding. Rows meeting at a vertex can then leave a later stage infeasible by a
+//! rounding error alone; a cascade that ends unverified is run once more with every fixed
+//! relaxation padded by the dense solver's own feasibility tolerance (1e-9 of the row's
+//! terms). A warm start that leaves a point whose check drowns in rounding (nearly
+//! dependent rows seeded together) is retried from nothing.
+//!
 //! # Allocation, budget, bad data
 //! Everything is laid out by [`LexicographicSolver::new`]; a solve allocates nothing.
-//! Each stage gets the step budget; a stage that does not verify within it ends the
-//! solve with [`Outcome::StepLimit`] and the point it reached. The row data are the
-//! caller's to check (finite values); a non-finite stage reports [`Outcome::NonFinite`].
-
+//! Each stage may add `max_steps` rows to its active set and keeps its own warm start
+//! (the active set it reached, verified or not), so a stage that runs out continues where
+//! it stopped at the next solve; it ends this one with [`Outcome::StepLimit`] and the
+//! point it reached. The row data are the caller's to check (finite values); a
+//! non-finite stage reports [`Outcome::NonFinite`].
 
 // Index loops mirror the formulas (rows × inputs).
 #![allow(clippy::needless_range_loop)]
@@ -319,6 +328,9 @@ pub struct LexicographicSolver<const NU: usize> {
     /// Tiers present this solve, ascending.
     tiers: Vec<u8>,
     u: [f64; NU],
+    /// The padding of fixed relaxations, relative to a row's terms (see
+    /// [`LexicographicSolver::rounding_pad`]).
+    pad: f64,
     steps: u32,
     elastic_stages: u32,
     outcome: Outcome,
@@ -331,7 +343,12 @@ impl<const NU: usize> LexicographicSolver<NU> {
     /// # Errors
     /// A weight that is not finite and positive, a limit that is not finite or
     /// `input_min > input_max`.
-    pub fn new(rows: usize, weights: &[f64; NU], input_min: &[f64; NU], input_max: &[f64; NU]) -> Result<Self, CbfError> {
+    pub fn new(
+        rows: usize,
+        weights: &[f64; NU],
+        input_min: &[f64; NU],
+        input_max: &[f64; NU],
+    ) -> Result<Self, CbfError> {
         for j in 0..NU {
             if !(weights[j] > 0.0 && weights[j].is_finite()) {
                 return Err(CbfError::NotPositive { what: "input weight", value: weights[j] });
@@ -363,6 +380,7 @@ impl<const NU: usize> LexicographicSolver<NU> {
             cause: vec![None; rows],
             tiers: Vec::with_capacity(rows),
             u: [0.0; NU],
+            pad: 0.0,
             steps: 0,
             elastic_stages: 0,
             outcome: Outcome::Verified,
@@ -420,6 +438,19 @@ impl<const NU: usize> LexicographicSolver<NU> {
     }
 
     fn run(&mut self, u_ref: &[f64; NU], rows: &[TieredRow<NU>], active: &[bool], max_steps: u32) -> Outcome {
+        self.pad = 0.0;
+        let outcome = self.cascade(u_ref, rows, active, max_steps);
+        if outcome != Outcome::StepLimit || self.elastic_stages == 0 {
+            return outcome;
+        }
+        // A tier settled at exactly its least violation can leave the next stage
+        // infeasible by rounding (rows meeting at a vertex): settle again with every
+        // relaxation padded by the rounding a verified stage may leave.
+        self.pad = KKT_TOLERANCE;
+        self.cascade(u_ref, rows, active, max_steps)
+    }
+
+    fn cascade(&mut self, u_ref: &[f64; NU], rows: &[TieredRow<NU>], active: &[bool], max_steps: u32) -> Outcome {
         self.classify(rows, active);
         {
             let data = self.hard.qp.data_mut();
@@ -531,7 +562,7 @@ impl<const NU: usize> LexicographicSolver<NU> {
                     let u = *self.hard.qp.solution().first_chunk::<NU>().expect("NU variables");
                     for i in 0..m {
                         if self.unfixed(i, rows, tier) {
-                            self.relaxation[i] = rounding_pad(&rows[i], &u);
+                            self.relaxation[i] = self.rounding_pad(&rows[i], &u);
                             self.fixed[i] = true;
                         }
                     }
@@ -596,11 +627,10 @@ impl<const NU: usize> LexicographicSolver<NU> {
             self.elastic_stages += 1;
             let z = self.elastic.qp.solution();
             let (t, u): (f64, [f64; NU]) = (z[NU], std::array::from_fn(|j| z[j]));
-            // Fix the rows that bind at t (non-zero multipliers) at σ t, padded by the
-            // rounding a verified stage may leave so that the next stage, with them hard,
-            // is not made infeasible by it. Should the stage have found no conflict after
-            // all (t within rounding of 0) or no binding row (rounding), every row of the
-            // tier is fixed at its distance, which ends the tier.
+            // Fix the rows that bind at t (non-zero multipliers) at σ t (plus the rounding
+            // pad on a second attempt). Should the stage have found no conflict after all
+            // (t within rounding of 0) or no binding row (rounding), every row of the tier
+            // is fixed at its distance, which ends the tier.
             let fits = t <= self.t_tolerance(&u, u_ref);
             let threshold = MULTIPLIER_FRACTION * (0..m).map(|r| self.elastic.pull(r)).fold(0.0, f64::max);
             let mut fixed_any = false;
@@ -609,7 +639,7 @@ impl<const NU: usize> LexicographicSolver<NU> {
                     continue;
                 }
                 if self.elastic.multiplier(i) < 0.0 && self.elastic.pull(i) > threshold {
-                    self.relaxation[i] = self.sigma[i] * t + rounding_pad(&rows[i], &u);
+                    self.relaxation[i] = self.sigma[i] * t + self.rounding_pad(&rows[i], &u);
                     self.fixed[i] = true;
                     self.cause[i] = Some(self.stage_cause(i, tier, rows));
                     fixed_any = true;
@@ -619,7 +649,7 @@ impl<const NU: usize> LexicographicSolver<NU> {
                 for i in 0..m {
                     if self.unfixed(i, rows, tier) {
                         let value = dot(&rows[i].a, &u) + rows[i].b;
-                        self.relaxation[i] = (-value).max(0.0) + rounding_pad(&rows[i], &u);
+                        self.relaxation[i] = (-value).max(0.0) + self.rounding_pad(&rows[i], &u);
                         self.fixed[i] = true;
                         if value < 0.0 {
                             self.cause[i] = Some(self.stage_cause(i, tier, rows));
@@ -629,6 +659,14 @@ impl<const NU: usize> LexicographicSolver<NU> {
                 return Outcome::Verified;
             }
         }
+    }
+
+    /// What a verified stage may leave a row off by (the dense solver's feasibility
+    /// tolerance on it, times `pad`: 0 at first, see [`LexicographicSolver::run`]), added
+    /// to a fixed relaxation so that the next stage, with the row hard, is not made
+    /// infeasible by rounding.
+    fn rounding_pad(&self, row: &TieredRow<NU>, u: &[f64; NU]) -> f64 {
+        self.pad * (row.b.abs() + (0..NU).map(|j| row.a[j].abs() * (1.0 + u[j].abs())).sum::<f64>())
     }
 
     /// Whether row `i` is a hard row of `tier` that no stage has fixed yet.
@@ -720,13 +758,6 @@ impl<const NU: usize> LexicographicSolver<NU> {
     pub fn outcome(&self) -> Outcome {
         self.outcome
     }
-}
-
-/// What a verified stage may leave a row off by (the dense solver's threshold for adding
-/// a violated row), added to a fixed relaxation so the next stage, with the row hard,
-/// is not made infeasible by rounding.
-fn rounding_pad<const NU: usize>(row: &TieredRow<NU>, u: &[f64; NU]) -> f64 {
-    KKT_TOLERANCE * (row.b.abs() + (0..NU).map(|j| row.a[j].abs() * (1.0 + u[j].abs())).sum::<f64>())
 }
 
 fn dot<const NU: usize>(a: &[f64; NU], u: &[f64; NU]) -> f64 {

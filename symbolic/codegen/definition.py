@@ -10,6 +10,7 @@ nothing here knows a target language.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -187,28 +188,39 @@ def _family(system: System, family: Family) -> FamilyDefinition:
                             tuple(b.row_columns for b in built), _checked_params(family, required),
                             family.count, family.capacity, family.max_capacity, family.optional,
                             tuple(family.over or ()),
-                            family.time, poles, family.priority, family.activation,
-                            _one_sided_authority(system, family, built))
+                            family.time, poles, family.priority, family.activation)
 
 
-def _one_sided_authority(system: System, family: Family, built: list) -> tuple[str, ...]:
-    """A warning when every row of ``family`` acts through one input whose limits let it
-    push one way only (thrust >= 0): wherever a row needs the other way, no input helps,
-    the row is relaxed, and if it shares that input with a row that must hold it can take
-    the input to its limit against it (a speed limit that cuts a drone's thrust to zero
-    while it falls through its floor). Priorities settle who yields."""
-    inputs = sorted({j for b in built for j in b.columns})
-    if len(inputs) != 1:
-        return ()
-    j = inputs[0]
-    limits = system.input_limits[j]
-    if limits.lower < 0.0 < limits.upper:
-        return ()
-    name = system.input_names[j]
-    return (f"{system.where}, family {family.name!r}: every row acts only through input {name!r}, whose limits "
-            f"[{limits.lower:g}, {limits.upper:g}] let it push one way only. Where a row needs the other way "
-            f"it is relaxed (cause: input at its limit); if families that must hold use {name!r} too, give "
-            f"{family.name!r} a higher priority number than theirs so that it yields to them.",)
+def _one_sided_authority(system: System, families: tuple[FamilyDefinition, ...]) -> tuple[FamilyDefinition, ...]:
+    """Each family with a warning when every row of it acts through one input whose limits
+    let it push one way only (thrust >= 0): wherever a row needs the other way, no input
+    helps and the row is relaxed; and a family sharing that input can take it to its limit
+    against the others (a speed limit cutting a drone's thrust to zero while it falls
+    through its floor). Priorities settle who yields."""
+    def inputs(f: FamilyDefinition) -> set[int]:
+        return {j for columns in f.columns for j in columns}
+
+    out = []
+    for f in families:
+        used = inputs(f)
+        j = next(iter(used)) if len(used) == 1 else None
+        limits = system.input_limits[j] if j is not None else None
+        if limits is None or limits.lower < 0.0 < limits.upper:
+            out.append(f)
+            continue
+        name = system.input_names[j]
+        sharing = [g for g in families if g is not f and j in inputs(g)]
+        text = (f"{system.where}, family {f.name!r}: every row acts only through input {name!r}, whose limits "
+                f"[{limits.lower:g}, {limits.upper:g}] let it push one way only: where a row needs the other way "
+                "it is relaxed (cause: input at its limit).")
+        if sharing:
+            same = [g.name for g in sharing if g.priority == f.priority]
+            text += (f" It shares {name!r} with {[g.name for g in sharing]}, and may take it to its limit against "
+                     "them; the lower priority number holds, the higher yields")
+            text += (f" ({same} share its priority {f.priority}, so neither yields to the other: give the one "
+                     "that must hold the lower number)." if same else ".")
+        out.append(dataclasses.replace(f, warnings=(text,)))
+    return tuple(out)
 
 
 def _checked_params(family: Family, required: dict[str, tuple[Domain, str]]) -> tuple[Param, ...]:
@@ -306,7 +318,7 @@ def define(system: System) -> SystemDefinition:
                       "`xdot` multiplies, without the zeros.")
     nonzeros.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
     nonzeros.output_vector("g", [system.g[r][c] for r, c in pattern], "g(x) at `INPUT_MATRIX_PATTERN`")
-    families = tuple(_family(system, f) for f in system.families)
+    families = _one_sided_authority(system, tuple(_family(system, f) for f in system.families))
     outputs = tuple(_output(system, o) for o in system.outputs)
     return SystemDefinition(system.name, system.doc, tuple(system.state_names), tuple(system.state_docs),
                             tuple(system.input_names), tuple(system.input_docs), tuple(system.input_limits),

@@ -101,3 +101,22 @@ def test_a_kernel_too_deep_for_rustc_is_refused():
         assert "over=[...]" in str(exc)
     else:
         raise AssertionError("a kernel with more locals than rustc can nest was emitted")
+
+
+def test_a_family_acting_through_one_one_sided_input_is_warned_about(tmp_path):
+    # The quadrotor's speed limit and floor both act only through thrust >= 0 (issue 32):
+    # generating it prints one warning per family, naming the input, its limits and the
+    # family it competes with, for cbfgen-build to show as cargo warnings, and the
+    # module's docs carry them. A spec whose families have two-sided inputs gets none.
+    specs = REPO_ROOT / "symbolic" / "tests" / "specs"
+    done = subprocess.run([sys.executable, "-m", "symbolic", "generate", str(specs / "planar_quadrotor.py"),
+                           "--out", str(tmp_path)], cwd=REPO_ROOT, capture_output=True, text=True, check=True)
+    warnings = [line for line in done.stdout.splitlines() if line.startswith("warning ")]
+    assert len(warnings) == 2, done.stdout
+    assert "family 'speed_limit'" in warnings[0] and "'thrust'" in warnings[0] and "[0, 19.62]" in warnings[0]
+    assert "shares 'thrust' with ['floor']" in warnings[0] and "share its priority 0" in warnings[0]
+    assert "family 'floor'" in warnings[1]
+    assert (tmp_path / "planar_quadrotor.rs").read_text().count("Warning from the generator") == 2
+    done = subprocess.run([sys.executable, "-m", "symbolic", "generate", str(specs / "planar_robot.py"),
+                           "--out", str(tmp_path)], cwd=REPO_ROOT, capture_output=True, text=True, check=True)
+    assert not [line for line in done.stdout.splitlines() if line.startswith("warning ")], done.stdout

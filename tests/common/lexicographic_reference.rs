@@ -195,4 +195,3 @@ pub fn check_answer<const NU: usize>(
     }
     Ok(relaxed)
 }
-

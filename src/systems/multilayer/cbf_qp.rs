@@ -88,11 +88,8 @@ impl IdCbfQp {
         params.sine_barrier[0].validate()?;
         let u_max = settings.u_max.min(domain::MAX_INPUT);
         let mut filter_settings = spec::default_settings();
-        filter_settings.families[spec::family::SINE_BARRIER] = FamilyParams {
-            poles: Poles::from(settings.poles),
-            priority: 0,
-            activation: f64::INFINITY,
-        };
+        filter_settings.families[spec::family::SINE_BARRIER] =
+            FamilyParams { poles: Poles::from(settings.poles), priority: 0, activation: f64::INFINITY };
         filter_settings.input_min = [-u_max];
         filter_settings.input_max = [u_max];
         filter_settings.solver = settings.solver;

@@ -94,10 +94,15 @@ pub struct LatencyReport {
     pub fallbacks: usize,
     /// Cycles whose input is OSQP's iterate polished to the KKT-verified optimum.
     pub polished: usize,
-    /// Cycles answered by the dense input-space solve (KKT-verified).
+    /// Cycles answered by the dense solve (KKT-verified).
     pub dense: usize,
-    /// Cycles where the dense solve ran and did not verify within its budget.
+    /// Cycles where the dense solve's first stage did not verify within its budget.
     pub dense_fallbacks: usize,
+    /// Cycles whose safety verdict was not "every row met" (rows relaxed, or a row not
+    /// finite).
+    pub relaxed: usize,
+    /// Cycles whose rows did not all fit the input box (elastic stages ran).
+    pub conflicting: usize,
     /// Dense solve steps per cycle: median, p99, max.
     pub dense_steps: [u32; 3],
     /// Travel from start to end \[m\], and the robot front's final gap to the first riser.
@@ -123,6 +128,7 @@ pub fn run(cycles: usize, speed: f64, start_gap: f64, settings: FilterSettings<N
     let mut iterations = Vec::with_capacity(cycles);
     let (mut active_min, mut active_max, mut fallbacks, mut polished) = (usize::MAX, 0, 0, 0);
     let (mut dense, mut dense_fallbacks, mut steps) = (0, 0, Vec::with_capacity(cycles));
+    let (mut relaxed, mut conflicting) = (0, 0);
     for _ in 0..cycles {
         let u_ref = drive.nominal_input();
         // Wall time around the call; the filter reads the thread's CPU clock itself.
@@ -138,6 +144,8 @@ pub fn run(cycles: usize, speed: f64, start_gap: f64, settings: FilterSettings<N
         polished += usize::from(out.polished);
         dense += usize::from(out.backend == Some(crate::filter::Backend::Dense));
         dense_fallbacks += usize::from(out.dense_fallback);
+        relaxed += usize::from(!out.safety.is_met());
+        conflicting += usize::from(out.elastic_stages > 0);
         steps.push(out.dense_steps);
         drive.advance(&out.u, DT);
     }
@@ -164,6 +172,8 @@ pub fn run(cycles: usize, speed: f64, start_gap: f64, settings: FilterSettings<N
         polished,
         dense,
         dense_fallbacks,
+        relaxed,
+        conflicting,
         dense_steps: {
             steps.sort_unstable();
             [
@@ -205,8 +215,13 @@ impl fmt::Display for LatencyReport {
         writeln!(f, "active rows: {} to {}", self.active_rows[0], self.active_rows[1])?;
         writeln!(
             f,
-            "answered by the dense solve: {} cycles (steps median {}, p99 {}, max {}; {} fell back to OSQP); OSQP polished: {}; cycles not solved to tolerance: {}",
+            "answered by the dense solve: {} cycles (active-set changes median {}, p99 {}, max {}; {} fell back to OSQP); OSQP polished: {}; cycles not solved to tolerance: {}",
             self.dense, self.dense_steps[0], self.dense_steps[1], self.dense_steps[2], self.dense_fallbacks, self.polished, self.fallbacks
+        )?;
+        writeln!(
+            f,
+            "cycles whose rows did not all fit the input box: {}; cycles not reported safe (rows relaxed): {}",
+            self.conflicting, self.relaxed
         )?;
         write!(
             f,

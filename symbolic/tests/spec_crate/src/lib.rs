@@ -1,4 +1,4 @@
-//! Three systems generated at build time by cbfgen-build.
+//! Four systems generated at build time by cbfgen-build.
 
 /// A planar robot with a speed limit (degree 1) and box walls (degree 2).
 pub mod planar_robot {
@@ -13,4 +13,9 @@ pub mod triple_integrator {
 /// A planar robot whose parameters take their domains from the primitives.
 pub mod boxed_robot {
     cbfgen::include_system!("boxed_robot");
+}
+
+/// A planar quadrotor whose speed limit, through thrust alone, can starve its floor.
+pub mod planar_quadrotor {
+    cbfgen::include_system!("planar_quadrotor");
 }
