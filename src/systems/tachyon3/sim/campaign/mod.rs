@@ -29,14 +29,15 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
-use super::{Scenario, SimConfig, Summary};
+use super::{Approach, Scenario, SimConfig, Summary};
 use crate::error::CbfError;
 use crate::systems::tachyon3::catalog::Family;
 use crate::systems::tachyon3::perceived::PerceptionSettings;
 use crate::systems::tachyon3::terrain::Stairs;
 
-/// Penetration counted as a collision \[m\]: exact body or toe clearance below `−1 mm`.
-pub const PENETRATION_TOLERANCE: f64 = 1e-3;
+/// Penetration counted as a collision \[m\]: the body or a wheel more than 1 mm into a
+/// solid of the terrain, by exact geometry.
+pub use crate::systems::tachyon3::terrain::solid::PENETRATION_TOLERANCE;
 /// A joint-limit row below `−1e-4` (rad or m) counts as a violated joint limit.
 pub const JOINT_LIMIT_TOLERANCE: f64 = 1e-4;
 /// Most episodes one campaign runs.
@@ -314,6 +315,9 @@ pub fn run_episode(episode: &Episode, body_cbf: bool, perception: bool) -> Episo
 /// An episode id and the value it holds the record for.
 pub type Worst = Option<(u64, f64)>;
 
+/// An episode id and its closest approach that holds the record (part, solid, face, time).
+pub type WorstApproach = Option<(u64, Approach)>;
+
 /// What a campaign established: outcomes, safety counts against the documented tolerances,
 /// the worst episode of each kind, and the filter's time per update (thread CPU time beside
 /// wall time).
@@ -327,18 +331,24 @@ pub struct Report {
     pub not_finished: Vec<u64>,
     /// Episodes that ended with an error, with the message.
     pub errors: Vec<(u64, String)>,
-    /// Episodes whose body went more than [`PENETRATION_TOLERANCE`] into an edge cuboid
-    /// (exact SAT).
+    /// Episodes whose body went more than [`PENETRATION_TOLERANCE`] into a solid of the
+    /// terrain (exact SAT against the floor and every step as a block).
     pub body_penetrations: usize,
-    /// Episodes with a toe more than [`PENETRATION_TOLERANCE`] into an edge cuboid (exact
-    /// sphere–box distance).
+    /// Episodes with a wheel more than [`PENETRATION_TOLERANCE`] into a solid of the
+    /// terrain (exact sphere–box distance), tread or riser.
     pub toe_penetrations: usize,
+    /// Episodes with a cycle in which a wheel touched or entered a riser, and those
+    /// cycles in all.
+    pub riser_contacts: (usize, usize),
     /// Episodes with a joint-limit row below `−`[`JOINT_LIMIT_TOLERANCE`].
     pub joint_limit_violations: usize,
-    /// Smallest exact body clearance \[m\].
-    pub worst_body: Worst,
-    /// Smallest exact toe clearance \[m\].
-    pub worst_toe: Worst,
+    /// The body's closest approach to (or deepest into) the solid terrain.
+    pub worst_body: WorstApproach,
+    /// The deepest wheel into the solid terrain (about 0 where wheels only stood on
+    /// treads).
+    pub worst_toe: WorstApproach,
+    /// The closest approach of a wheel to a riser.
+    pub worst_toe_riser: WorstApproach,
     /// Smallest joint-limit `h` (rad or m).
     pub worst_joint_limit: Worst,
     /// Smallest foothold `h`: how far a swinging toe left its foothold strip \[m\] when negative.
@@ -371,9 +381,11 @@ impl Campaign {
             errors: Vec::new(),
             body_penetrations: 0,
             toe_penetrations: 0,
+            riser_contacts: (0, 0),
             joint_limit_violations: 0,
             worst_body: None,
             worst_toe: None,
+            worst_toe_riser: None,
             worst_joint_limit: None,
             worst_foothold: None,
             cycles: 0,
@@ -388,6 +400,13 @@ impl Campaign {
         let lowest = |worst: &mut Worst, id: u64, v: f64| {
             if v.is_finite() && worst.is_none_or(|(_, w)| v < w) {
                 *worst = Some((id, v));
+            }
+        };
+        let nearest = |worst: &mut WorstApproach, id: u64, a: Option<Approach>| {
+            if let Some(a) = a.filter(|a| a.contact.distance.is_finite()) {
+                if worst.is_none_or(|(_, w)| a.contact.distance < w.contact.distance) {
+                    *worst = Some((id, a));
+                }
             }
         };
         let highest = |worst: &mut Worst, id: u64, v: f64| {
@@ -412,12 +431,15 @@ impl Campaign {
                     s
                 }
             };
-            r.body_penetrations += usize::from(s.min_body_clearance < -PENETRATION_TOLERANCE);
-            r.toe_penetrations += usize::from(s.min_toe_clearance < -PENETRATION_TOLERANCE);
+            r.body_penetrations += usize::from(s.min_body_clearance() < -PENETRATION_TOLERANCE);
+            r.toe_penetrations += usize::from(s.min_toe_clearance() < -PENETRATION_TOLERANCE);
+            r.riser_contacts.0 += usize::from(s.riser_contact_cycles > 0);
+            r.riser_contacts.1 += s.riser_contact_cycles;
             let joint = s.min_h[Family::JointLimits.index()];
             r.joint_limit_violations += usize::from(joint < -JOINT_LIMIT_TOLERANCE);
-            lowest(&mut r.worst_body, id, s.min_body_clearance);
-            lowest(&mut r.worst_toe, id, s.min_toe_clearance);
+            nearest(&mut r.worst_body, id, s.body_nearest);
+            nearest(&mut r.worst_toe, id, s.toe_nearest);
+            nearest(&mut r.worst_toe_riser, id, s.toe_riser_nearest);
             lowest(&mut r.worst_joint_limit, id, joint);
             lowest(&mut r.worst_foothold, id, s.min_h[Family::Foothold.index()]);
             r.cycles += s.cycles;
