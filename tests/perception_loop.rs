@@ -77,6 +77,7 @@ fn bad_perception_settings_are_typed_errors() {
         PerceptionSettings { mount: [1e300, 0.0, 0.0], ..base },
         PerceptionSettings { edge_margin: -0.1, ..base },
         PerceptionSettings { edge_lift: f64::INFINITY, ..base },
+        PerceptionSettings { floor_lift: -0.001, ..base },
         PerceptionSettings { lidar: cbfgen::perception::scanner::Lidar { beams: 0, ..base.lidar }, ..base },
         PerceptionSettings {
             worker: cbfgen::perception::worker::WorkerSettings { map_voxel: f64::MAX, ..base.worker },
