@@ -178,6 +178,9 @@ fn bad_ranges_and_settings_are_typed_errors() {
     }
     let zero_threads = CampaignSettings { threads: Some(0), episodes: 1, ..CampaignSettings::default() };
     assert!(campaign::run(&zero_threads, |_| {}).is_err());
+    let threads =
+        CampaignSettings { threads: Some(campaign::MAX_THREADS + 1), episodes: 1, ..CampaignSettings::default() };
+    assert!(campaign::run(&threads, |_| {}).is_err());
     let too_many = CampaignSettings { episodes: campaign::MAX_EPISODES + 1, ..CampaignSettings::default() };
     assert!(campaign::run(&too_many, |_| {}).is_err());
     let overflow = CampaignSettings { first_id: u64::MAX, episodes: 2, ..CampaignSettings::default() };

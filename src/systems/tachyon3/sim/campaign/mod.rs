@@ -40,8 +40,13 @@ use crate::systems::tachyon3::terrain::Stairs;
 pub use crate::systems::tachyon3::terrain::solid::PENETRATION_TOLERANCE;
 /// A joint-limit row below `−1e-4` (rad or m) counts as a violated joint limit.
 pub const JOINT_LIMIT_TOLERANCE: f64 = 1e-4;
-/// Most episodes one campaign runs.
-pub const MAX_EPISODES: usize = 10_000_000;
+/// Most episodes one campaign runs: each keeps its record (under 0.5 KB) until the
+/// report, so a campaign's memory stays under 0.5 GB (and 10⁶ episodes are some 75 hours
+/// of two cores).
+pub const MAX_EPISODES: usize = 1_000_000;
+/// Most worker threads a campaign starts (each episode holds its samples, some 100 MB
+/// for the longest, while it runs).
+pub const MAX_THREADS: usize = 1024;
 
 /// Ranges the courses are drawn from, uniformly; `[lo, hi]` inclusive. The defaults are
 /// issue 15's: rise 5–20 cm, run 25–45 cm, 1–6 steps, start gap 10–60 cm, gait speed
@@ -259,8 +264,8 @@ pub struct Campaign {
 /// [`Outcome::Error`] with its message; the others go on.
 ///
 /// # Errors
-/// Invalid ranges, more than [`MAX_EPISODES`] episodes, zero threads, or a thread pool
-/// that cannot start.
+/// Invalid ranges, more than [`MAX_EPISODES`] episodes, zero threads or more than
+/// [`MAX_THREADS`], or a thread pool that cannot start.
 pub fn run(settings: &CampaignSettings, progress: impl Fn(usize) + Sync) -> Result<Campaign, CbfError> {
     settings.ranges.validate()?;
     if settings.episodes > MAX_EPISODES {
@@ -273,6 +278,9 @@ pub fn run(settings: &CampaignSettings, progress: impl Fn(usize) + Sync) -> Resu
     if let Some(threads) = settings.threads {
         if threads == 0 {
             return Err(CbfError::NotPositive { what: "threads", value: 0.0 });
+        }
+        if threads > MAX_THREADS {
+            return Err(CbfError::TooLarge { what: "threads", value: threads, max: MAX_THREADS });
         }
         pool = pool.num_threads(threads);
     }
