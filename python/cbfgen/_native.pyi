@@ -432,8 +432,8 @@ def campaign(
     ``ranges``: ``[lo, hi]`` per key ``rise``, ``run``, ``steps``, ``start_gap``, ``speed``
     (defaults as ``cbfgen campaign``). Returns one entry per episode in id order (numpy
     arrays: id, rise, run, steps, start_gap, speed, duration, min_body_clearance,
-    min_toe_clearance, min_toe_riser_clearance, riser_contact_cycles, min_h (n, 6), median/p99/max_cpu_us, median/p99/max_wall_us,
-    over_1ms_cpu, over_1ms_wall, cycles; ``outcome``, a list of "finished",
-    "not_finished", "error"), ``errors`` as (id, message) pairs and ``report``, the
+    min_toe_clearance, min_toe_riser_clearance, riser_contact_cycles, min_h (n, 6),
+    median/p99/max_cpu_us, median/p99/max_wall_us, over_1ms_cpu, over_1ms_wall, cycles;
+    ``outcome``, a list of "finished", "not_finished", "error"), ``errors`` as (id, message) pairs and ``report``, the
     printed table. Summary columns read 0 for an episode whose outcome is "error".
     Raises CbfError for invalid ranges or settings. Releases the GIL while it runs."""
