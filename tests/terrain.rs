@@ -13,6 +13,17 @@ fn inside(boxes: &[OrientedBox], p: Vector3<f64>) -> bool {
     })
 }
 
+/// The hardware stairs and the named shapes a flight does not make.
+fn shapes() -> [Terrain; 5] {
+    [
+        Stairs::HARDWARE.terrain().expect("stairs"),
+        Terrain::unequal_rises(),
+        Terrain::landing(),
+        Terrain::single_box(),
+        Terrain::platform(),
+    ]
+}
+
 #[test]
 fn the_hardware_stairs_profile_reads_the_heights_worked_by_hand() {
     let terrain = Stairs::HARDWARE.terrain().expect("terrain");
@@ -34,13 +45,7 @@ fn the_hardware_stairs_profile_reads_the_heights_worked_by_hand() {
 
 #[test]
 fn every_edge_cuboid_sits_in_the_corner_of_its_upper_level() {
-    for terrain in [
-        Stairs::HARDWARE.terrain().expect("stairs"),
-        Terrain::unequal_rises(),
-        Terrain::landing(),
-        Terrain::single_box(),
-        Terrain::platform(),
-    ] {
+    for terrain in shapes() {
         let solids = terrain.solid_boxes().expect("boxes");
         let edges = terrain.edges().expect("edges");
         assert_eq!(edges.len(), terrain.changes().len());
@@ -71,14 +76,8 @@ fn each_riser_box_spans_its_riser_and_is_all_of_the_step_a_wheel_before_it_can_r
     use rand::{Rng, SeedableRng};
     let r = cbfgen::systems::tachyon3::model::TOE_RADIUS;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(32);
-    for terrain in [
-        Stairs::HARDWARE.terrain().expect("stairs"),
-        Stairs { rise: 0.2, run: 0.25, count: 3, ..Stairs::HARDWARE }.terrain().expect("steep stairs"),
-        Terrain::unequal_rises(),
-        Terrain::landing(),
-        Terrain::single_box(),
-        Terrain::platform(),
-    ] {
+    let steep = Stairs { rise: 0.2, run: 0.25, count: 3, ..Stairs::HARDWARE }.terrain().expect("steep stairs");
+    for terrain in shapes().into_iter().chain([steep]) {
         let solids = terrain.solid_boxes().expect("boxes");
         let risers = terrain.riser_boxes().expect("riser boxes");
         assert_eq!(risers.len(), terrain.changes().len());
