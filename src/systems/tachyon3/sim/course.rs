@@ -9,7 +9,7 @@ use super::gait::{Gait, GaitParams, Plan};
 use super::Scenario;
 use crate::error::CbfError;
 use crate::generated::tachyon3 as gen;
-use crate::systems::tachyon3::catalog::{Capacity, EdgeCuboid, Environment, StabilityBound};
+use crate::systems::tachyon3::catalog::{Capacity, EdgeCuboid, Environment, HalfPlane, StabilityBound};
 use crate::systems::tachyon3::model::{self, State};
 use crate::systems::tachyon3::terrain::solid::TerrainClearance;
 use crate::systems::tachyon3::terrain::{Profile, SolidTerrain, Terrain};
@@ -17,6 +17,11 @@ use crate::systems::tachyon3::terrain::{Profile, SolidTerrain, Terrain};
 /// Each toe within this distance (x) of its hip, relative to the body: the stability
 /// bounds of eq. 13 \[m\].
 const STABILITY_REACH: f64 = 0.45;
+/// A standing wheel's centre stays this far past the start of the level it stands on,
+/// over its tread \[m\].
+const STANCE_INSET: f64 = 0.02;
+/// A level with no start (the first) bounds a standing wheel this far back \[m\].
+const STANCE_REACH: f64 = 100.0;
 
 /// The terrain, the edge cuboids the filter avoids, and the gait.
 ///
@@ -78,10 +83,21 @@ impl Course {
         let (_, _, toes) = gen::world_kinematics(x);
         self.env.set_floors(self.gait.ground().floors_under(&toes));
         let plan = self.gait.plan(t, x)?;
-        self.env.set_swing(plan.swing);
+        // Every leg's foothold rows apply: a swinging toe keeps to its strip, and a
+        // standing one keeps its centre STANCE_INSET past the start of the level it
+        // stands on. A wheel left on a nosing's corner with its centre before the riser
+        // (the middle rear one, dragged back as the body came down with its hip at the
+        // limit) reads clear to the toe rows, but a physical wheel rolls back off the
+        // step there (MuJoCo: it dropped 15 cm onto the tread below).
+        self.env.set_swing([true; 6]);
         for (leg, strip) in plan.footholds.iter().enumerate() {
-            if let Some(strip) = strip {
-                self.env.set_foothold(leg, strip)?;
+            match strip {
+                Some(strip) => self.env.set_foothold(leg, strip)?,
+                None => {
+                    let ground = self.gait.ground();
+                    let begin = ground.level_at(ground.standing_x(&toes[leg])).begin.max(-STANCE_REACH);
+                    self.env.set_foothold(leg, &[HalfPlane::new([1.0, 0.0], -(begin + STANCE_INSET))?])?;
+                }
             }
         }
         Ok(plan)
