@@ -176,20 +176,16 @@ def test_with_the_filter_the_physical_robot_climbs_the_hardware_stairs_without_b
     # What the run reports of its wheels against the solid stairs (its own exact
     # sphere-box geometry on MuJoCo's wheel centres) is what MuJoCo's distances say.
     np.testing.assert_allclose(record.arrays()["wheel_distance"][:, 0], wheels.nearest, atol=1e-6)
-    assert summary["wheel_riser_contact_cycles"] >= summary["toe_riser_contact_cycles"] > 0, summary
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="issue 32: MuJoCo's default soft contact lets a loaded wheel sink up to 2.8 mm into its tread "
-    "(7409 cycles over 1 mm), and the middle rear wheel, set down on step 4 at its hip's forward limit, "
-    "rolls back off the nosing (2.1 mm into the riser) and drops onto the tread below (7.4 mm in on "
-    "impact): the filter keeps no stance wheel over its tread",
-)
-def test_no_wheel_goes_more_than_1_mm_into_the_solid_stairs(stairs_climbs):
-    _, wheels = stairs_climbs[True]
+def test_no_wheel_goes_more_than_1_mm_into_the_solid_stairs_nor_touches_a_riser(stairs_climbs):
+    record, wheels = stairs_climbs[True]
     deepest = min(wheels.nearest)
     assert deepest > -PENETRATION_TOLERANCE, f"a wheel {-1e3 * deepest:.2f} mm into the stairs"
+    summary = record.summary()
+    assert summary["wheel_penetration_cycles"] == 0, summary
+    assert summary["wheel_riser_contact_cycles"] == 0 and summary["toe_riser_contact_cycles"] == 0, summary
+    assert summary["min_wheel_riser_distance_mm"] > 0.0, summary
 
 
 def test_without_the_body_cbf_mujoco_reports_body_edge_contact(stairs_climbs):
