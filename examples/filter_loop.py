@@ -74,7 +74,7 @@ def main() -> None:
     top.set_ylabel("body centre height [m]")
     top.legend()
     bottom.axhline(0.0, color="k", lw=0.8)
-    bottom.set_ylabel("body–edge clearance [mm]\n(exact SAT; < 0 = collision)")
+    bottom.set_ylabel("body clearance to the steps [mm]\n(exact SAT; < 0 = collision)")
     bottom.set_xlabel("time [s]")
     bottom.legend()
     top.set_title(f"cbfgen ECBF filter in a Python loop: {args.scenario}")

@@ -131,10 +131,10 @@ impl Chart {
     /// # Errors
     /// A file that cannot be written.
     pub fn write(&self, dir: &Path, stem: &str) -> std::io::Result<[PathBuf; 2]> {
-        std::fs::create_dir_all(dir)?;
+        std::fs::create_dir_all(dir).map_err(at(dir))?;
         let (svg, png) = (dir.join(format!("{stem}.svg")), dir.join(format!("{stem}.png")));
-        std::fs::write(&svg, self.to_svg()?)?;
-        self.draw(BitMapBackend::new(&png, SIZE).into_drawing_area())?;
+        std::fs::write(&svg, self.to_svg()?).map_err(at(&svg))?;
+        self.draw(BitMapBackend::new(&png, SIZE).into_drawing_area()).map_err(at(&png))?;
         Ok([svg, png])
     }
 
@@ -256,15 +256,20 @@ pub fn write_charts(dir: &Path, charts: &[(String, Chart)]) -> std::io::Result<V
 /// # Errors
 /// The directory or a file cannot be written.
 pub fn write_files(dir: &Path, files: Vec<(String, String)>) -> std::io::Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir)?;
+    std::fs::create_dir_all(dir).map_err(at(dir))?;
     files
         .into_iter()
         .map(|(name, text)| {
             let path = dir.join(name);
-            std::fs::write(&path, text)?;
+            std::fs::write(&path, text).map_err(at(&path))?;
             Ok(path)
         })
         .collect()
+}
+
+/// An I/O error that names the path it happened at (the OS's own message does not).
+pub fn at(path: &Path) -> impl Fn(std::io::Error) -> std::io::Error + '_ {
+    move |e| std::io::Error::new(e.kind(), format!("{}: {e}", path.display()))
 }
 
 /// DejaVu Sans as plotters' "sans-serif", once per process: the metrics text is laid out

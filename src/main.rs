@@ -1,11 +1,12 @@
 //! `cbfgen` command line.
 
-use cbfgen::filter::{FilterSettings, Solver};
+use cbfgen::filter::{FilterSettings, Solver, SolverSettings};
 use cbfgen::ssat::{self, SmoothParams};
 use cbfgen::systems::lip;
 use cbfgen::systems::multilayer;
 use cbfgen::systems::panda;
 use cbfgen::systems::tachyon3::catalog::{Capacity, Catalog, Environment, Family};
+use cbfgen::systems::tachyon3::latency;
 use cbfgen::systems::tachyon3::model::{self, NU};
 use cbfgen::systems::tachyon3::perceived::PerceptionSettings;
 use cbfgen::systems::tachyon3::sim::campaign::{self, CampaignSettings, CourseRanges, Episode};
@@ -28,14 +29,15 @@ enum Command {
     /// Smooth SAT between a robot body and a stair-edge cuboid below it: value,
     /// certified margin, exact SAT and gradient, for a body height you choose.
     Ssat {
-        /// Height of the body's underside above the step's top face \[m\].
-        #[arg(long, default_value_t = 0.075, allow_negative_numbers = true)]
+        /// Height of the body's underside above the step's top face \[m\], in [-1, 1].
+        #[arg(long, default_value_t = 0.075, allow_hyphen_values = true, value_parser = number(-1.0, 1.0, Closed))]
         clearance: f64,
-        /// Body pitch \[rad\].
-        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        /// Body pitch \[rad\], in [-3.15, 3.15].
+        #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = number(-3.15, 3.15, Closed))]
         pitch: f64,
-        /// Smooth-max / smooth-|x| sharpness α [1/m] (α_rot uses the same value).
-        #[arg(long, default_value_t = 200.0)]
+        /// Smooth-max / smooth-|x| sharpness α [1/m] (α_rot uses the same value), in [1e-6, 1e9].
+        #[arg(long, default_value_t = 200.0, allow_hyphen_values = true,
+              value_parser = number(ssat::ALPHA_MIN, ssat::ALPHA_MAX, Closed))]
         alpha: f64,
     },
     /// Evaluate the Tachyon 3 joint-limit rows (h, L_f h, L_f^2 h) at the standard
@@ -45,14 +47,14 @@ enum Command {
     /// into a staircase; prints median, p99 and max per update, in wall time and in the
     /// thread's CPU time (a VM stall adds wall time only), and the cycles over 1 ms of each.
     Latency {
-        /// Number of consecutive updates.
-        #[arg(long, default_value_t = 10_000)]
+        /// Number of consecutive updates, 1 to 1000000 (each keeps its timings).
+        #[arg(long, default_value_t = 10_000, allow_hyphen_values = true, value_parser = count(1, latency::MAX_CYCLES))]
         cycles: usize,
-        /// Commanded forward speed [m/s].
-        #[arg(long, default_value_t = 0.3)]
+        /// Commanded forward speed [m/s], in [0, 2].
+        #[arg(long, default_value_t = 0.3, allow_hyphen_values = true, value_parser = number(0.0, 2.0, Closed))]
         speed: f64,
-        /// Start with the robot's front (body or toe) this far from the first riser \[m\].
-        #[arg(long, default_value_t = 0.6)]
+        /// Start with the robot's front (body or toe) this far from the first riser \[m\], in [0, 10].
+        #[arg(long, default_value_t = 0.6, allow_hyphen_values = true, value_parser = number(0.0, 10.0, Closed))]
         gap: f64,
         #[command(flatten)]
         solver: SolverArgs,
@@ -75,19 +77,20 @@ enum Command {
         /// Directory for the CSV files and figures.
         #[arg(long, default_value = "out")]
         out: std::path::PathBuf,
-        /// Write every N-th cycle to the CSV (1 = every millisecond).
-        #[arg(long, default_value_t = 10)]
+        /// Write every N-th cycle to the CSV (1 = every millisecond), 1 to 1000000.
+        #[arg(long, default_value_t = 10, allow_hyphen_values = true, value_parser = count(1, MAX_CSV_EVERY))]
         csv_every: usize,
         /// Skip the reference run with the OSQP backend (the paper's solver), whose QP time
         /// Fig. 10 shows beside the default backend's.
         #[arg(long)]
         no_osqp_reference: bool,
         /// Run episode ID of a campaign instead of --scenario (with the campaign's --seed
-        /// and ranges): the course a `cbfgen campaign` line names.
-        #[arg(long, value_name = "ID")]
+        /// and ranges): the course a `cbfgen campaign` line names. Any id from 0 to 2^64 - 1.
+        #[arg(long, value_name = "ID", allow_hyphen_values = true, value_parser = count(0, u64::MAX))]
         episode: Option<u64>,
-        /// The campaign seed of --episode.
-        #[arg(long, default_value_t = 0, requires = "episode")]
+        /// The campaign seed of --episode, from 0 to 2^64 - 1.
+        #[arg(long, default_value_t = 0, requires = "episode", allow_hyphen_values = true,
+              value_parser = count(0, u64::MAX))]
         seed: u64,
         #[command(flatten)]
         ranges: RangeArgs,
@@ -103,20 +106,21 @@ enum Command {
     /// episodes, CPU and wall time per update) and writes episodes.csv, report.txt and
     /// figures to --out. Rerun one episode with `cbfgen simulate --episode ID --seed S`.
     Campaign {
-        /// Number of episodes.
-        #[arg(long, default_value_t = 200)]
+        /// Number of episodes, 1 to 1000000.
+        #[arg(long, default_value_t = 200, allow_hyphen_values = true, value_parser = count(1, campaign::MAX_EPISODES))]
         episodes: usize,
-        /// Seed of the courses.
-        #[arg(long, default_value_t = 0)]
+        /// Seed of the courses, from 0 to 2^64 - 1.
+        #[arg(long, default_value_t = 0, allow_hyphen_values = true, value_parser = count(0, u64::MAX))]
         seed: u64,
-        /// Id of the first episode.
-        #[arg(long, default_value_t = 0)]
+        /// Id of the first episode, from 0 to 2^64 - 1 - 1000000 (so that every id fits).
+        #[arg(long, default_value_t = 0, allow_hyphen_values = true,
+              value_parser = count(0, u64::MAX - campaign::MAX_EPISODES as u64))]
         first_id: u64,
         /// Run without the body SSAT CBF (the comparison).
         #[arg(long)]
         no_body_cbf: bool,
-        /// Worker threads (default: one per core).
-        #[arg(long)]
+        /// Worker threads, 1 to 1024 (default: one per core).
+        #[arg(long, allow_hyphen_values = true, value_parser = count(1, campaign::MAX_THREADS))]
         threads: Option<usize>,
         /// Directory for the CSV, the report and the figures.
         #[arg(long, default_value = "out/campaign")]
@@ -135,8 +139,8 @@ enum Command {
         /// Directory for the figures.
         #[arg(long, default_value = "out")]
         out: std::path::PathBuf,
-        /// Step budget.
-        #[arg(long, default_value_t = 150)]
+        /// Step budget, 1 to 10000.
+        #[arg(long, default_value_t = 150, allow_hyphen_values = true, value_parser = count(1usize, 10_000))]
         steps: usize,
     },
     /// Multi-layer safety on a double integrator kept above a moving sinusoid: a kinematic
@@ -157,8 +161,8 @@ enum Command {
         /// Directory for the CSVs and figures.
         #[arg(long, default_value = "out")]
         out: std::path::PathBuf,
-        /// Write every n-th cycle to the CSVs.
-        #[arg(long, default_value_t = 10)]
+        /// Write every n-th cycle to the CSVs, 1 to 1000000.
+        #[arg(long, default_value_t = 10, allow_hyphen_values = true, value_parser = count(1, MAX_CSV_EVERY))]
         csv_every: usize,
     },
     /// Perception on the hardware stairs (5 × 16.5 × 35 cm): four simulated LiDAR scans on
@@ -169,8 +173,8 @@ enum Command {
         /// Directory for the figures.
         #[arg(long, default_value = "out")]
         out: std::path::PathBuf,
-        /// Seed of the scans' noise and dropouts.
-        #[arg(long, default_value_t = 1)]
+        /// Seed of the scans' noise and dropouts, from 0 to 2^64 - 1.
+        #[arg(long, default_value_t = 1, allow_hyphen_values = true, value_parser = count(0, u64::MAX))]
         seed: u64,
     },
     /// Regenerate generated/ from symbolic/ (runs `python -m symbolic.generate`).
@@ -202,35 +206,40 @@ impl ScenarioArg {
 }
 
 /// The ranges campaign courses are drawn from (defaults: [`CourseRanges::default`]); a
-/// campaign episode reruns only with the same ranges.
+/// campaign episode reruns only with the same ranges. Each is `LO,HI`, checked against
+/// [`CourseRanges::validate`]'s domain.
 #[derive(clap::Args)]
 struct RangeArgs {
-    /// Step rise range \[m\], `LO,HI`.
-    #[arg(long, value_delimiter = ',', num_args = 2, default_values_t = CourseRanges::default().rise)]
-    rise: Vec<f64>,
-    /// Tread run range \[m\], `LO,HI`.
-    #[arg(long, value_delimiter = ',', num_args = 2, default_values_t = CourseRanges::default().run)]
-    run: Vec<f64>,
-    /// Number of steps, `LO,HI`.
-    #[arg(long, value_delimiter = ',', num_args = 2, default_values_t = CourseRanges::default().steps)]
-    steps: Vec<usize>,
-    /// Start gap range \[m\], `LO,HI`.
-    #[arg(long, value_delimiter = ',', num_args = 2, default_values_t = CourseRanges::default().start_gap)]
-    start_gap: Vec<f64>,
-    /// Gait speed range \[m/s\], `LO,HI`.
-    #[arg(long, value_delimiter = ',', num_args = 2, default_values_t = CourseRanges::default().speed)]
-    speed: Vec<f64>,
+    /// Step rise range \[m\], `LO,HI` with 0 < LO <= HI <= 0.3.
+    #[arg(long, value_name = "LO,HI", allow_hyphen_values = true, default_value_t = Span(CourseRanges::default().rise),
+          value_parser = span(Interval::new(0.0, CourseRanges::MAX_RISE, Open)))]
+    rise: Span<f64>,
+    /// Tread run range \[m\], `LO,HI` with 0.15 < LO <= HI <= 10.
+    #[arg(long, value_name = "LO,HI", allow_hyphen_values = true, default_value_t = Span(CourseRanges::default().run),
+          value_parser = span(Interval::new(0.15, 10.0, Open)))]
+    run: Span<f64>,
+    /// Number of steps, `LO,HI` with 1 <= LO <= HI <= 20.
+    #[arg(long, value_name = "LO,HI", allow_hyphen_values = true, default_value_t = Span(CourseRanges::default().steps),
+          value_parser = count_span(1, CourseRanges::MAX_STEPS))]
+    steps: Span<usize>,
+    /// Start gap range \[m\], `LO,HI` with 0 <= LO <= HI <= 10.
+    #[arg(long, value_name = "LO,HI", allow_hyphen_values = true,
+          default_value_t = Span(CourseRanges::default().start_gap), value_parser = span(Interval::new(0.0, 10.0, Closed)))]
+    start_gap: Span<f64>,
+    /// Gait speed range \[m/s\], `LO,HI` with 0 < LO <= HI <= 1.
+    #[arg(long, value_name = "LO,HI", allow_hyphen_values = true, default_value_t = Span(CourseRanges::default().speed),
+          value_parser = span(Interval::new(0.0, 1.0, Open)))]
+    speed: Span<f64>,
 }
 
 impl RangeArgs {
     fn ranges(&self) -> CourseRanges {
-        let pair = |v: &[f64]| [v[0], v[1]];
         CourseRanges {
-            rise: pair(&self.rise),
-            run: pair(&self.run),
-            steps: [self.steps[0], self.steps[1]],
-            start_gap: pair(&self.start_gap),
-            speed: pair(&self.speed),
+            rise: self.rise.0,
+            run: self.run.0,
+            steps: self.steps.0,
+            start_gap: self.start_gap.0,
+            speed: self.speed.0,
         }
     }
 }
@@ -244,33 +253,38 @@ enum BackendArg {
     DenseThenOsqp,
 }
 
-/// Solver overrides for tuning runs; defaults are [`cbfgen::filter::SolverSettings::default`].
+/// Solver overrides for tuning runs; defaults are [`cbfgen::filter::SolverSettings::default`],
+/// ranges [`SolverSettings::validate`]'s.
 #[derive(clap::Args)]
 struct SolverArgs {
     /// Which solver answers: the dense solve only, OSQP only, or the dense solve with OSQP
     /// when it does not verify in time.
     #[arg(long, value_enum)]
     backend: Option<BackendArg>,
-    /// Most steps of the dense solve.
-    #[arg(long)]
+    /// Most steps of the dense solve, 1 to 10000.
+    #[arg(long, allow_hyphen_values = true, value_parser = count(1, SolverSettings::MAX_ITERATIONS))]
     dense_max_steps: Option<u32>,
-    /// Absolute tolerance.
-    #[arg(long)]
+    /// Absolute tolerance, in [1e-12, 1e3].
+    #[arg(long, allow_hyphen_values = true,
+          value_parser = number(SolverSettings::MIN_TOLERANCE, SolverSettings::MAX_TOLERANCE, Closed))]
     eps_abs: Option<f64>,
-    /// Relative tolerance.
-    #[arg(long)]
+    /// Relative tolerance, in [1e-12, 1e3].
+    #[arg(long, allow_hyphen_values = true,
+          value_parser = number(SolverSettings::MIN_TOLERANCE, SolverSettings::MAX_TOLERANCE, Closed))]
     eps_rel: Option<f64>,
-    /// Initial ADMM step ρ.
-    #[arg(long)]
+    /// Initial ADMM step ρ, in [1e-6, 1e6].
+    #[arg(long, allow_hyphen_values = true,
+          value_parser = number(SolverSettings::RHO_RANGE[0], SolverSettings::RHO_RANGE[1], Closed))]
     rho: Option<f64>,
-    /// Over-relaxation α in (0, 2).
-    #[arg(long)]
+    /// Over-relaxation α, in [0.01, 1.99].
+    #[arg(long, allow_hyphen_values = true,
+          value_parser = number(SolverSettings::ALPHA_RANGE[0], SolverSettings::ALPHA_RANGE[1], Closed))]
     alpha: Option<f64>,
-    /// Iterations between convergence checks.
-    #[arg(long)]
+    /// Iterations between convergence checks, 1 to 10000.
+    #[arg(long, allow_hyphen_values = true, value_parser = count(1, SolverSettings::MAX_ITERATIONS))]
     check_termination: Option<u32>,
-    /// Iterations between ρ adaptations (0 turns adaptation off).
-    #[arg(long)]
+    /// Iterations between ρ adaptations, 0 to 10000 (0 turns adaptation off).
+    #[arg(long, allow_hyphen_values = true, value_parser = count(0, SolverSettings::MAX_ITERATIONS))]
     adaptive_rho_interval: Option<u32>,
 }
 
@@ -296,6 +310,121 @@ impl SolverArgs {
             None => {}
         }
     }
+}
+
+/// Most cycles between two CSV lines.
+const MAX_CSV_EVERY: usize = 1_000_000;
+
+/// Whether a range of numbers holds its lower end.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Lower {
+    Closed,
+    Open,
+}
+use Lower::{Closed, Open};
+
+/// The documented range of a number on the command line: `[lo, hi]` or `(lo, hi]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Interval {
+    lo: f64,
+    hi: f64,
+    lower: Lower,
+}
+
+impl Interval {
+    const fn new(lo: f64, hi: f64, lower: Lower) -> Self {
+        Self { lo, hi, lower }
+    }
+
+    fn contains(&self, v: f64) -> bool {
+        let above = match self.lower {
+            Closed => v >= self.lo,
+            Open => v > self.lo,
+        };
+        above && v <= self.hi
+    }
+
+    /// `text` as a number in the interval, or a message that names the interval.
+    fn parse(&self, text: &str) -> Result<f64, String> {
+        match text.trim().parse::<f64>() {
+            Ok(v) if self.contains(v) => Ok(v),
+            _ => Err(format!("`{text}` is not a number in {self}")),
+        }
+    }
+}
+
+impl std::fmt::Display for Interval {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        // 1e-12 rather than 0.000000000001.
+        let short =
+            |v: f64| if v != 0.0 && !(1e-3..1e5).contains(&v.abs()) { format!("{v:e}") } else { format!("{v}") };
+        let open = if self.lower == Closed { '[' } else { '(' };
+        write!(f, "{open}{}, {}]", short(self.lo), short(self.hi))
+    }
+}
+
+/// A value parser for a number in `[lo, hi]` (`lower == Open`: `(lo, hi]`); NaN and
+/// infinities are outside every interval.
+fn number(lo: f64, hi: f64, lower: Lower) -> impl Fn(&str) -> Result<f64, String> + Clone + Send + Sync + 'static {
+    let interval = Interval::new(lo, hi, lower);
+    move |text| interval.parse(text)
+}
+
+/// `text` as a whole number in `lo..=hi`, or a message that names the range.
+fn whole<T: std::str::FromStr + PartialOrd + std::fmt::Display>(text: &str, lo: &T, hi: &T) -> Result<T, String> {
+    match text.trim().parse::<T>() {
+        Ok(v) if (lo..=hi).contains(&&v) => Ok(v),
+        _ => Err(format!("`{text}` is not a whole number in {lo}..={hi}")),
+    }
+}
+
+/// A value parser for a whole number in `lo..=hi`.
+fn count<T>(lo: T, hi: T) -> impl Fn(&str) -> Result<T, String> + Clone + Send + Sync + 'static
+where
+    T: std::str::FromStr + PartialOrd + std::fmt::Display + Copy + Send + Sync + 'static,
+{
+    move |text| whole(text, &lo, &hi)
+}
+
+/// A range given on the command line as `LO,HI`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Span<T>([T; 2]);
+
+impl<T: std::fmt::Display> std::fmt::Display for Span<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{},{}", self.0[0], self.0[1])
+    }
+}
+
+/// `text` split as `LO,HI`, each end parsed by `end`, `LO <= HI`; messages name `range`.
+fn split_span<T: PartialOrd>(
+    text: &str,
+    range: &dyn std::fmt::Display,
+    end: impl Fn(&str) -> Result<T, String>,
+) -> Result<Span<T>, String> {
+    let message = || format!("`{text}` is not LO,HI with LO <= HI, both in {range}");
+    let (lo, hi) = text.split_once(',').ok_or_else(message)?;
+    let (lo, hi) = (end(lo).map_err(|_| message())?, end(hi).map_err(|_| message())?);
+    if lo > hi {
+        return Err(message());
+    }
+    Ok(Span([lo, hi]))
+}
+
+/// A value parser for `LO,HI`, both ends in `interval`.
+fn span(interval: Interval) -> impl Fn(&str) -> Result<Span<f64>, String> + Clone + Send + Sync + 'static {
+    move |text| split_span(text, &interval, |end| interval.parse(end))
+}
+
+/// A value parser for `LO,HI`, both ends whole numbers in `lo..=hi`.
+fn count_span(lo: usize, hi: usize) -> impl Fn(&str) -> Result<Span<usize>, String> + Clone + Send + Sync + 'static {
+    move |text| split_span(text, &format!("{lo}..={hi}"), |end| whole(end, &lo, &hi))
+}
+
+/// Create `dir` before any work, so that a run that cannot write its results stops at
+/// once, with the path named.
+fn output_dir(dir: &std::path::Path) -> Result<(), String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create the output directory {}: {e}", dir.display()))
 }
 
 /// One simulation run with a progress bar on stderr.
@@ -392,7 +521,7 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
         Command::Latency { cycles, speed, gap, solver } => {
             let mut settings = cbfgen::systems::tachyon3::catalog::default_settings();
             solver.apply(&mut settings);
-            writeln!(stdout, "{}", cbfgen::systems::tachyon3::latency::run(cycles, speed, gap, settings)?)?;
+            writeln!(stdout, "{}", latency::run(cycles, speed, gap, settings)?)?;
             Ok(())
         }
         Command::Simulate {
@@ -406,6 +535,7 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             ranges,
             perception,
         } => {
+            output_dir(&out)?;
             let config = |body_cbf: bool| -> Result<SimConfig, cbfgen::CbfError> {
                 Ok(match episode {
                     Some(id) => Episode::draw(seed, id, &ranges.ranges())?.config_with(body_cbf, perception),
@@ -440,6 +570,7 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             Ok(())
         }
         Command::Lip { out, steps } => {
+            output_dir(&out)?;
             let scenario = lip::scenario::Scenario { max_steps: steps, ..lip::scenario::Scenario::standard() };
             let result = lip::scenario::run(&scenario)?;
             writeln!(stdout, "{}", result.summary())?;
@@ -448,6 +579,7 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             Ok(())
         }
         Command::Multilayer { out } => {
+            output_dir(&out)?;
             let config = multilayer::ScenarioConfig::default();
             let results = multilayer::scenario::run_all(&config)?;
             let [a, omega, c] = config.barrier.parameters();
@@ -462,6 +594,7 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             Ok(())
         }
         Command::Arm { out, csv_every } => {
+            output_dir(&out)?;
             let scenario = panda::Scenario::standard();
             let with = panda::run(&scenario)?;
             let without = panda::run(&scenario.clone().without_filter())?;
@@ -470,8 +603,12 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             print_written(&mut stdout, &written)?;
             Ok(())
         }
-        Command::Perceive { out, seed } => perceive(&mut stdout, &out, seed),
+        Command::Perceive { out, seed } => {
+            output_dir(&out)?;
+            perceive(&mut stdout, &out, seed)
+        }
         Command::Campaign { episodes, seed, first_id, no_body_cbf, threads, out, ranges, perception } => {
+            output_dir(&out)?;
             let settings = CampaignSettings {
                 seed,
                 episodes,

@@ -26,19 +26,32 @@ fn gap_along(a: &OrientedBox, b: &OrientedBox, n: &Vector3<f64>) -> f64 {
 /// Negative or zero: they overlap or touch, and minus the value is the smallest
 /// translation along a candidate axis that would part them.
 pub fn separation(a: &OrientedBox, b: &OrientedBox) -> f64 {
+    separation_with_axis(a, b).0
+}
+
+/// [`separation`] and the unit candidate axis that gives it: the separating axis of
+/// boxes apart, the direction of least overlap of boxes that overlap. Its sign is
+/// arbitrary (an axis, not a normal).
+pub fn separation_with_axis(a: &OrientedBox, b: &OrientedBox) -> (f64, Vector3<f64>) {
     let ra = a.rotation().matrix();
     let rb = b.rotation().matrix();
-    let mut best = f64::NEG_INFINITY;
+    let mut best = (f64::NEG_INFINITY, Vector3::z());
+    let mut consider = |n: Vector3<f64>| {
+        let gap = gap_along(a, b, &n);
+        if gap > best.0 {
+            best = (gap, n);
+        }
+    };
     for k in 0..3 {
-        best = best.max(gap_along(a, b, &ra.column(k).into_owned()));
-        best = best.max(gap_along(a, b, &rb.column(k).into_owned()));
+        consider(ra.column(k).into_owned());
+        consider(rb.column(k).into_owned());
     }
     for i in 0..3 {
         for j in 0..3 {
             let n = ra.column(i).cross(&rb.column(j));
             let norm = n.norm();
             if norm > PARALLEL_EDGE_NORM {
-                best = best.max(gap_along(a, b, &(n / norm)));
+                consider(n / norm);
             }
         }
     }

@@ -1,21 +1,45 @@
-//! The Monte Carlo campaign: 200 seeded random staircases climbed with the filter, checked
-//! by exact geometry (SAT for the body, sphere–box distance for the toes) and by the
-//! joint-limit rows; episodes reproducible by id; and the courses that used to stop the
-//! gait (issue 15) now finish.
+//! The Monte Carlo campaign: 200 seeded random staircases of rises 5–20 cm climbed with
+//! the filter, checked against the solid terrain (the floor and every step as a block)
+//! by exact geometry and by the joint-limit rows, the hardest episodes again with the
+//! solids and the distances computed in the test (parry3d, `common/terrain_contact.rs`);
+//! episodes reproducible by id; and the courses that used to stop the gait (issue 15) or
+//! put a wheel into a riser (issue 32) now finish out of the terrain.
 
 use cbfgen::systems::tachyon3::catalog::Family;
 use cbfgen::systems::tachyon3::sim::campaign::{self, CampaignSettings, CourseRanges, Episode};
 use cbfgen::systems::tachyon3::sim::{self, Scenario, SimConfig, Summary};
 use cbfgen::systems::tachyon3::terrain::Stairs;
 
+#[path = "common/terrain_contact.rs"]
+mod terrain_contact;
+use terrain_contact::{assert_out_of_the_terrain, measured_run, Measured};
+
 /// Everything a summary says about safety and progress (its timings differ run to run).
-fn outcome_fields(s: &Summary) -> (bool, f64, f64, f64, [f64; 6], usize) {
-    (s.completed, s.duration, s.min_body_clearance, s.min_toe_clearance, s.min_h, s.cycles)
+fn outcome_fields(s: &Summary) -> (bool, f64, f64, f64, f64, usize, [f64; 6], usize) {
+    (
+        s.completed,
+        s.duration,
+        s.min_body_clearance(),
+        s.min_toe_clearance(),
+        s.min_toe_riser_clearance(),
+        s.riser_contact_cycles,
+        s.min_h,
+        s.cycles,
+    )
+}
+
+/// `episode` climbed again, every cycle measured against its solids in the test (and
+/// checked against what its summary reports); the summary must be the one `record` holds.
+fn remeasured(episode: &Episode, record: &Summary) -> Measured {
+    let result = sim::run(&episode.config(true), |_| {}).expect("simulation");
+    assert_eq!(outcome_fields(&result.summary), outcome_fields(record), "episode {}", episode.id);
+    measured_run(&episode.stairs.terrain().expect("terrain"), &result)
 }
 
 #[test]
 fn two_hundred_random_staircases_are_climbed_safely() {
     let settings = CampaignSettings { seed: 0, episodes: 200, ..CampaignSettings::default() };
+    assert_eq!(settings.ranges.rise, [0.05, 0.2], "CI's campaign covers rises up to 20 cm");
     let result = campaign::run(&settings, |_| {}).expect("campaign");
     assert_eq!(result.records.len(), 200);
     let mut failures = Vec::new();
@@ -31,10 +55,10 @@ fn two_hundred_random_staircases_are_climbed_safely() {
         if !s.completed {
             failures.push(format!("episode {id}: not finished ({:?})", r.episode));
         }
-        if s.min_body_clearance < -1e-3 || s.min_toe_clearance < -1e-3 {
+        if s.min_body_clearance() < -1e-3 || s.min_toe_clearance() < -1e-3 || s.riser_contact_cycles > 0 {
             failures.push(format!(
-                "episode {id}: penetration body {:.5} toe {:.5} m",
-                s.min_body_clearance, s.min_toe_clearance
+                "episode {id}: into the terrain: body {:?}, wheels {:?}; {} cycles with a wheel on a riser",
+                s.body_nearest, s.toe_nearest, s.riser_contact_cycles
             ));
         }
         let joint = s.min_h[Family::JointLimits.index()];
@@ -46,7 +70,26 @@ fn two_hundred_random_staircases_are_climbed_safely() {
     let report = result.report();
     assert!(report.all_safe_and_finished(), "{report}");
     assert_eq!(report.finished, 200);
+    assert_eq!(report.riser_contacts, (0, 0), "{report}");
     assert!(report.cycles > 200 * 10_000, "{report}");
+
+    // The hard cases again, measured in the test: every rise of 17.5 cm or more (where a
+    // wheel used to go into the riser below a 5 cm nosing cuboid) and the three episodes
+    // that came closest to a riser.
+    let mut closest: Vec<_> = result.records.iter().collect();
+    closest.sort_by(|a, b| {
+        let riser =
+            |r: &&campaign::EpisodeRecord| r.result.as_ref().map_or(f64::INFINITY, |s| s.min_toe_riser_clearance());
+        riser(a).total_cmp(&riser(b))
+    });
+    let hard: Vec<_> =
+        result.records.iter().filter(|r| r.episode.stairs.rise >= 0.175).chain(closest.into_iter().take(3)).collect();
+    assert!(hard.len() >= 20, "{} hard episodes", hard.len());
+    for r in hard {
+        let m = remeasured(&r.episode, r.result.as_ref().expect("summary"));
+        assert_out_of_the_terrain(&format!("episode {}", r.episode.id), m);
+        assert!(m.wheel_riser > 0.0, "episode {}: {m:?}", r.episode.id);
+    }
 
     // The CSV: a header and one line per episode, every line as many fields as the header,
     // each episode's outcome and clearance as its record holds them.
@@ -62,8 +105,14 @@ fn two_hundred_random_staircases_are_climbed_safely() {
         assert_eq!(fields.len(), header.len(), "{line}");
         assert_eq!(fields[column("id")], r.episode.id.to_string());
         assert_eq!(fields[column("outcome")], r.outcome().name());
+        let s = r.result.as_ref().expect("summary");
         let clearance: f64 = fields[column("min_body_clearance")].parse().expect("number");
-        assert!((clearance - r.result.as_ref().expect("summary").min_body_clearance).abs() < 1e-6);
+        assert!((clearance - s.min_body_clearance()).abs() < 1e-6);
+        let riser: f64 = fields[column("min_toe_riser_clearance")].parse().expect("number");
+        assert!((riser - s.min_toe_riser_clearance()).abs() < 1e-6);
+        let place = s.toe_riser_nearest.expect("a riser").contact.place();
+        assert_eq!(fields[column("toe_riser_nearest")], place);
+        assert!(place.ends_with(" riser"), "{place}");
     }
     for path in &written {
         assert!(std::fs::metadata(path).expect("written").len() > 100, "{}", path.display());
@@ -129,6 +178,9 @@ fn bad_ranges_and_settings_are_typed_errors() {
     }
     let zero_threads = CampaignSettings { threads: Some(0), episodes: 1, ..CampaignSettings::default() };
     assert!(campaign::run(&zero_threads, |_| {}).is_err());
+    let threads =
+        CampaignSettings { threads: Some(campaign::MAX_THREADS + 1), episodes: 1, ..CampaignSettings::default() };
+    assert!(campaign::run(&threads, |_| {}).is_err());
     let too_many = CampaignSettings { episodes: campaign::MAX_EPISODES + 1, ..CampaignSettings::default() };
     assert!(campaign::run(&too_many, |_| {}).is_err());
     let overflow = CampaignSettings { first_id: u64::MAX, episodes: 2, ..CampaignSettings::default() };
@@ -169,7 +221,7 @@ fn a_rise_of_19_cm_that_stalled_finishes() {
     let s = climb(0.19402977941729066, 0.27985359664416354, 2, 0.15603431389961311, 0.1539269307123865);
     assert!(s.completed && !s.collided(1e-3), "{s}");
     assert!(s.min_h[Family::JointLimits.index()] >= -1e-4, "{s}");
-    assert!(s.min_body_clearance > 0.0, "{s}");
+    assert!(s.min_body_clearance() > 0.0, "{s}");
 }
 
 /// Episode 80 of seed 2026 (rise 0.19 m, start gap 0.13 m): the stall raise came down as
@@ -181,4 +233,21 @@ fn a_stall_raise_holds_until_the_robot_rolls_clear() {
     let s = climb(0.19238, 0.26262, 2, 0.13122, 0.17660);
     assert!(s.completed && !s.collided(1e-3), "{s}");
     assert!(s.min_h[Family::JointLimits.index()] >= -1e-4, "{s}");
+}
+
+/// Issue 32's worst cases, which measured against the solid terrain put a wheel into the
+/// first riser below its 5 cm nosing cuboid: episode 105 of seed 777 (rear right wheel
+/// 9.8 mm in) and, with rises of 17.5–20 cm, episode 34 of the same seed (9.6 mm).
+/// With a box over each whole riser, both climb with every wheel off every riser.
+#[test]
+fn the_wheels_that_went_into_risers_stay_out() {
+    let steep = CourseRanges { rise: [0.175, 0.2], ..CourseRanges::default() };
+    for (id, ranges) in [(105, CourseRanges::default()), (34, steep)] {
+        let episode = Episode::draw(777, id, &ranges).expect("draw");
+        let result = sim::run(&episode.config(true), |_| {}).expect("simulation");
+        assert!(result.summary.completed, "{}", result.summary);
+        let m = measured_run(&episode.stairs.terrain().expect("terrain"), &result);
+        assert_out_of_the_terrain(&format!("episode {id}"), m);
+        assert!(m.wheel_riser > 1e-3, "episode {id}: {m:?}");
+    }
 }

@@ -1,6 +1,9 @@
-//! The closed-loop scenarios, checked with exact geometry: the filter gets the
-//! robot over the step and up five stairs without penetration, and without the body SSAT CBF the same
-//! gait drives the body into the edge (so the scenario really tests the CBF).
+//! The closed-loop scenarios, checked with exact geometry against the solid terrain (the
+//! floor and every step as a block, rebuilt in the test and measured with parry3d,
+//! `common/terrain_contact.rs`): the filter gets the robot over the step, up five stairs
+//! and over the other shapes with neither the body nor a wheel more than 1 mm into a
+//! solid and no wheel against a riser, and without the body SSAT CBF the same gait drives
+//! the body into the edge (so the scenario really tests the CBF).
 
 use cbfgen::systems::tachyon3::catalog::Family;
 use cbfgen::systems::tachyon3::model::STATE_NAMES;
@@ -9,9 +12,7 @@ use cbfgen::systems::tachyon3::terrain::Stairs;
 
 #[path = "common/terrain_contact.rs"]
 mod terrain_contact;
-use terrain_contact::body_into_terrain;
-
-const PENETRATION_TOLERANCE: f64 = 1e-3;
+use terrain_contact::{assert_out_of_the_terrain, measured_run, PENETRATION_TOLERANCE};
 
 #[test]
 fn the_filter_gets_the_robot_over_the_step_without_penetration() {
@@ -19,12 +20,10 @@ fn the_filter_gets_the_robot_over_the_step_without_penetration() {
     check_timings(&result);
     let s = result.summary;
     assert!(s.completed, "the robot must cross the step: {s}");
-    assert!(
-        !s.collided(PENETRATION_TOLERANCE),
-        "exact clearance body {:.4} m, toes {:.4} m",
-        s.min_body_clearance,
-        s.min_toe_clearance
-    );
+    let m = measured_run(&Scenario::Step.terrain().expect("terrain"), &result);
+    assert_out_of_the_terrain("step", m);
+    // The wheels keep off the riser: the toe rows' certified margin (1.2 mm) and more.
+    assert!(m.wheel_riser > 1e-3, "{m:?}");
     assert!(s.min_h[Family::JointLimits.index()] >= -1e-3, "joint limits: {}", s.min_h[Family::JointLimits.index()]);
     // Crossed: every toe ends on the step's top, the body centre beyond the riser.
     let last = result.samples.last().expect("samples");
@@ -60,13 +59,9 @@ fn check_timings(result: &sim::SimResult) {
 #[test]
 fn without_the_body_cbf_the_body_hits_the_step_edge() {
     let result = sim::run(&SimConfig::new(Scenario::Step, false), |_| {}).expect("simulation");
-    let s = result.summary;
-    assert!(
-        s.min_body_clearance < -PENETRATION_TOLERANCE,
-        "expected penetration, clearance {:.4} m",
-        s.min_body_clearance
-    );
-    assert!(s.min_toe_clearance >= -PENETRATION_TOLERANCE, "the toes are still protected: {:.4}", s.min_toe_clearance);
+    let m = measured_run(&Scenario::Step.terrain().expect("terrain"), &result);
+    assert!(m.body < -PENETRATION_TOLERANCE, "expected the body in the step: {m:?}");
+    assert!(m.wheel > -PENETRATION_TOLERANCE && m.wheel_riser > 0.0, "the wheels are still protected: {m:?}");
 }
 
 #[test]
@@ -106,7 +101,11 @@ fn figures_and_the_documented_csv_are_written() {
         "update_us",
         "cpu_us",
         "body_clearance",
+        "body_nearest",
         "toe_clearance",
+        "toe_nearest",
+        "toe_riser_clearance",
+        "toe_riser_nearest",
         "swinging",
     ]);
     assert_eq!(header, documented);
@@ -124,12 +123,10 @@ fn the_filter_gets_the_robot_up_all_five_stairs_without_penetration() {
     let top = Stairs::HARDWARE.count as f64 * Stairs::HARDWARE.rise;
     let (_, _, toes) = cbfgen::generated::tachyon3::world_kinematics(&result.samples.last().expect("samples").x);
     assert!(toes.iter().all(|t| t[2] > top), "toes {toes:?} below the top landing {top}");
-    assert!(
-        !s.collided(PENETRATION_TOLERANCE),
-        "exact clearance body {:.4} m, toes {:.4} m",
-        s.min_body_clearance,
-        s.min_toe_clearance
-    );
+    let m = measured_run(&Scenario::Stairs.terrain().expect("terrain"), &result);
+    assert_out_of_the_terrain("stairs", m);
+    assert!(m.body > 0.0 && m.wheel_riser > 1e-3, "{m:?}");
+    assert_eq!(s.riser_contact_cycles, 0, "{s}");
     // The body CBF is what lifts the body over the nosings: at the same time into the
     // run, the body stands well above where the same gait puts it without that CBF.
     let without = sim::run(&SimConfig::new(Scenario::Stairs, false), |_| {}).expect("simulation");
@@ -144,20 +141,17 @@ fn the_filter_gets_the_robot_up_all_five_stairs_without_penetration() {
 }
 
 /// The shapes a straight flight does not make (unequal rises, a landing, a box to cross, a
-/// platform to roll off): the robot finishes each, and neither the body nor a toe enters
-/// the true terrain by more than 1 mm: the body by the exact SAT against every solid box
-/// of the terrain (not only the edge cuboids the filter avoids), the toes by the exact
-/// sphere–box distance to the edges.
+/// platform to roll off): the robot finishes each, and neither the body nor a wheel enters
+/// the solid terrain by more than 1 mm, risers (up and down) and treads alike; the body
+/// does not touch it, nor a wheel a riser.
 #[test]
 fn unequal_rises_a_landing_a_box_and_a_platform_are_crossed_without_penetration() {
     for scenario in [Scenario::UnequalRises, Scenario::Landing, Scenario::Box, Scenario::Platform] {
         let result = sim::run(&SimConfig::new(scenario, true), |_| {}).expect("simulation");
         let s = result.summary;
         assert!(s.completed, "{}: {s}", scenario.name());
-        assert!(s.min_toe_clearance > -PENETRATION_TOLERANCE, "{}: toes {:.4} m", scenario.name(), s.min_toe_clearance);
-        let deepest = body_into_terrain(scenario, &result);
-        assert!(deepest > -PENETRATION_TOLERANCE, "{}: body {deepest:.4} m into the terrain", scenario.name());
-        // The body stays clear of the terrain, not only of the edge cuboids.
-        assert!(deepest > 0.0, "{}: body touches the terrain ({deepest:.4} m)", scenario.name());
+        let m = measured_run(&scenario.terrain().expect("terrain"), &result);
+        assert_out_of_the_terrain(scenario.name(), m);
+        assert!(m.body > 0.0 && m.wheel_riser > 0.0, "{}: {m:?}", scenario.name());
     }
 }

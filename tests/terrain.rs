@@ -13,6 +13,17 @@ fn inside(boxes: &[OrientedBox], p: Vector3<f64>) -> bool {
     })
 }
 
+/// The hardware stairs and the named shapes a flight does not make.
+fn shapes() -> [Terrain; 5] {
+    [
+        Stairs::HARDWARE.terrain().expect("stairs"),
+        Terrain::unequal_rises(),
+        Terrain::landing(),
+        Terrain::single_box(),
+        Terrain::platform(),
+    ]
+}
+
 #[test]
 fn the_hardware_stairs_profile_reads_the_heights_worked_by_hand() {
     let terrain = Stairs::HARDWARE.terrain().expect("terrain");
@@ -34,13 +45,7 @@ fn the_hardware_stairs_profile_reads_the_heights_worked_by_hand() {
 
 #[test]
 fn every_edge_cuboid_sits_in_the_corner_of_its_upper_level() {
-    for terrain in [
-        Stairs::HARDWARE.terrain().expect("stairs"),
-        Terrain::unequal_rises(),
-        Terrain::landing(),
-        Terrain::single_box(),
-        Terrain::platform(),
-    ] {
+    for terrain in shapes() {
         let solids = terrain.solid_boxes().expect("boxes");
         let edges = terrain.edges().expect("edges");
         assert_eq!(edges.len(), terrain.changes().len());
@@ -55,6 +60,63 @@ fn every_edge_cuboid_sits_in_the_corner_of_its_upper_level() {
             assert!((c.x - x).abs() - s < 1e-12, "{c:?}: not against the change at x = {x}");
             assert!(!inside(&solids, c + Vector3::new(outward * (s + 1e-4), 0.0, 0.0)), "{c:?}: not at the face");
             assert!(inside(&solids, c + Vector3::new(outward * (s - 1e-4), 0.0, s - 1e-4)), "{c:?}: corner");
+        }
+    }
+}
+
+/// The box the filter keeps the robot out of at each change of height: it spans the whole
+/// riser, from the lower tread to the upper, inside the terrain; a wheel standing on the
+/// lower tread up to 3 mm from the riser is certified clear of it (its toe row does not
+/// hold it off), as is one on the upper tread 2 cm past it; and a wheel before the riser,
+/// above the lower tread, is exactly as far from the upper level's solid as from the box:
+/// the box is all of that solid such a wheel can reach.
+#[test]
+fn each_riser_box_spans_its_riser_and_is_all_of_the_step_a_wheel_before_it_can_reach() {
+    use cbfgen::sphere_box::{self, Smoothing, Sphere};
+    use rand::{Rng, SeedableRng};
+    let r = cbfgen::systems::tachyon3::model::TOE_RADIUS;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(32);
+    let steep = Stairs { rise: 0.2, run: 0.25, count: 3, ..Stairs::HARDWARE }.terrain().expect("steep stairs");
+    for terrain in shapes().into_iter().chain([steep]) {
+        let solids = terrain.solid_boxes().expect("boxes");
+        let risers = terrain.riser_boxes().expect("riser boxes");
+        assert_eq!(risers.len(), terrain.changes().len());
+        let mut below = 0.0;
+        for (b, &[x, h]) in risers.iter().zip(terrain.changes()) {
+            let (lo, hi) = (f64::min(below, h), f64::max(below, h));
+            // Into the upper level: +x at a rise, -x at a drop.
+            let up = if h > below { 1.0 } else { -1.0 };
+            let (c, half) = (b.center(), b.half_extents());
+            // Worked by hand: 5 cm deep into the upper level from the riser, lower to upper
+            // tread, as wide as the terrain.
+            assert!((c.x - (x + up * 0.025)).abs() < 1e-12 && (half.x - 0.025).abs() < 1e-12, "{b:?}");
+            assert!((c.z - 0.5 * (lo + hi)).abs() < 1e-12 && (half.z - 0.5 * (hi - lo)).abs() < 1e-12, "{b:?}");
+            assert!((half.y - terrain.half_width()).abs() < 1e-12, "{b:?}");
+            assert!(inside(&solids, *c), "{b:?} not inside the terrain");
+            let upper = solids
+                .iter()
+                .find(|s| {
+                    let p = Vector3::new(x + up * 0.01, 0.0, hi - 0.01);
+                    let local = p - s.center();
+                    (0..3).all(|i| local[i].abs() < s.half_extents()[i])
+                })
+                .expect("the upper level's solid");
+            let p = Smoothing::default();
+            let clear =
+                |center: Vector3<f64>| sphere_box::certified_separated(&Sphere::new(center, r).expect("sphere"), b, &p);
+            assert!(clear(Vector3::new(x - up * (r + 0.003), 0.0, lo + r)), "{b:?}: lower tread");
+            assert!(clear(Vector3::new(x + up * (0.05 + 0.02), 0.0, hi + r)), "{b:?}: upper tread");
+            for _ in 0..2000 {
+                let center = Vector3::new(
+                    x - up * rng.random_range(0.0..0.4),
+                    rng.random_range(-0.5..0.5),
+                    lo + r + rng.random_range(0.0..0.5),
+                );
+                let to_box = sphere_box::exact_distance(&center, r, b);
+                let to_solid = sphere_box::exact_distance(&center, r, upper);
+                assert!((to_box - to_solid).abs() < 1e-12, "{center:?}: {to_box} to the box, {to_solid} to the solid");
+            }
+            below = h;
         }
     }
 }

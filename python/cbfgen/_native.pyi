@@ -431,14 +431,19 @@ class Course:
         """The gait's nominal body-centre height at the last plan [m]; None before."""
     @property
     def swinging(self) -> int | None: ...
-    def clearance(self, x: ArrayLike) -> tuple[float, float]: ...
+    def clearance(self, x: ArrayLike) -> tuple[float, float, float]:
+        """Exact (body, wheel, wheel_riser) clearance to the true terrain's solids [m]
+        (terrain_boxes); negative = depth into a solid. The nearest wheel reads about 0
+        on a tread; wheel_riser is the nearest wheel to a riser (contact normal more than
+        30° from vertical), inf if none."""
     def finished(self, x: ArrayLike) -> bool: ...
     def floor_height(self, x: float) -> float: ...
     def terrain_boxes(self) -> list[tuple[Vector, Matrix, Vector]]:
         """The true terrain as solid boxes (center, rotation, half_extents): a floor with
         its top at z = 0 and one box per raised level."""
     def edge_boxes(self) -> list[tuple[Vector, Matrix, Vector]]:
-        """The true edge cuboids, one per change of height, as terrain_boxes gives boxes."""
+        """The true edge cuboids (nosings), one per change of height, as terrain_boxes
+        gives boxes."""
 
 def simulate(
     scenario: _Scenario = "stairs",
@@ -461,7 +466,13 @@ def simulate(
     (*_update_us) and of cpu_us (*_cpu_us), and over_period_wall / over_period_cpu, the
     cycles over 1 ms on each clock.
 
-    ``min_h`` is inf where no row of a family applied; every other series is finite.
+    Clearances (body_clearance, toe_clearance, toe_riser_clearance per cycle; the
+    summary's min_*_clearance, where each was in body_nearest / toe_nearest /
+    toe_riser_nearest, and riser_contact_cycles) are measured against the true terrain's
+    solids, as Course.clearance.
+
+    ``min_h`` is inf where no row of a family applied, ``toe_riser_clearance`` where no
+    wheel faces a riser; every other series is finite.
     Raises CbfError for a max_time outside [DT, MAX_SIM_TIME]. Samples are stored as the
     run goes (a run that completes early holds only its own). Releases the GIL while it
     runs."""
@@ -483,8 +494,8 @@ def campaign(
     ``ranges``: ``[lo, hi]`` per key ``rise``, ``run``, ``steps``, ``start_gap``, ``speed``
     (defaults as ``cbfgen campaign``). Returns one entry per episode in id order (numpy
     arrays: id, rise, run, steps, start_gap, speed, duration, min_body_clearance,
-    min_toe_clearance, min_h (n, 6), median/p99/max_cpu_us, median/p99/max_wall_us,
-    over_1ms_cpu, over_1ms_wall, cycles; ``outcome``, a list of "finished",
-    "not_finished", "error"), ``errors`` as (id, message) pairs and ``report``, the
+    min_toe_clearance, min_toe_riser_clearance, riser_contact_cycles, min_h (n, 6),
+    median/p99/max_cpu_us, median/p99/max_wall_us, over_1ms_cpu, over_1ms_wall, cycles;
+    ``outcome``, a list of "finished", "not_finished", "error"), ``errors`` as (id, message) pairs and ``report``, the
     printed table. Summary columns read 0 for an episode whose outcome is "error".
     Raises CbfError for invalid ranges or settings. Releases the GIL while it runs."""

@@ -1,7 +1,9 @@
 """Tachyon 3 in MuJoCo (cbfgen.physics): the model's kinematic tree against the generated
 kinematics, the state read back from MuJoCo, the reference's rigid re-anchoring, a short
 physical run within the stated tracking bounds, and the hardware-stairs climb with and
-without the body CBF.
+without the body CBF: with it, neither a wheel nor the body more than 1 mm into the solid
+stairs, by MuJoCo's own distance queries on the physical poses (checked here, beside
+what the run reports from its own exact geometry).
 
 Tracking bounds (physical minus kinematic state), stated in docs/physics.md:
 * body height within 5 mm: the knees' servos sag by about 3.3 mm under the whole weight
@@ -25,7 +27,7 @@ else:
     mujoco = pytest.importorskip("mujoco", reason="pip install -r python/requirements.txt")
 
 from cbfgen import tachyon3 as t3  # noqa: E402
-from cbfgen.physics import MAX_CATCH_UP, PhysicalRobot, anchored, run  # noqa: E402
+from cbfgen.physics import MAX_CATCH_UP, PENETRATION_TOLERANCE, PhysicalRobot, anchored, run  # noqa: E402
 
 BODY_HEIGHT_BOUND = 0.005
 TOE_BOUND = 0.015
@@ -134,21 +136,59 @@ def test_a_short_physical_run_tracks_the_kinematic_state_within_its_bounds():
     assert a["x"][-1, 7] - a["x"][0, 7] > 0.05
 
 
+class WheelDistances:
+    """Per cycle, MuJoCo's own signed distance (``mj_geomDistance``) from each wheel to
+    each terrain box, on the physical poses: an independent measure of what the run
+    reports from its exact sphere–box geometry."""
+
+    def __init__(self) -> None:
+        self.nearest: list[float] = []
+
+    def __call__(self, _k: int, robot: PhysicalRobot) -> None:
+        fromto = np.zeros(6)
+        self.nearest.append(
+            min(
+                mujoco.mj_geomDistance(robot.model, robot.data, toe, g, 1.0, fromto)
+                for toe in robot.toe_geoms
+                for g in robot.terrain_geoms
+            )
+        )
+
+
 @pytest.fixture(scope="module")
 def stairs_climbs():
-    return {body_cbf: run("stairs", body_cbf=body_cbf) for body_cbf in (True, False)}
+    out = {}
+    for body_cbf in (True, False):
+        wheels = WheelDistances()
+        out[body_cbf] = (run("stairs", body_cbf=body_cbf, on_cycle=wheels), wheels)
+    return out
 
 
 def test_with_the_filter_the_physical_robot_climbs_the_hardware_stairs_without_body_contact(stairs_climbs):
-    summary = stairs_climbs[True].summary()
+    record, wheels = stairs_climbs[True]
+    summary = record.summary()
     assert summary["finished"], summary
     assert summary["body_contact_cycles"] == 0, summary
     assert summary["min_body_distance_mm"] > 0.0, summary
+    assert summary["body_penetration_cycles"] == 0, summary
     assert summary["max_body_height_error_mm"] <= 1e3 * BODY_HEIGHT_BOUND, summary
     assert summary["max_toe_error_mm"] <= 1e3 * TOE_BOUND, summary
+    # What the run reports of its wheels against the solid stairs (its own exact
+    # sphere-box geometry on MuJoCo's wheel centres) is what MuJoCo's distances say.
+    np.testing.assert_allclose(record.arrays()["wheel_distance"][:, 0], wheels.nearest, atol=1e-6)
+
+
+def test_no_wheel_goes_more_than_1_mm_into_the_solid_stairs_nor_touches_a_riser(stairs_climbs):
+    record, wheels = stairs_climbs[True]
+    deepest = min(wheels.nearest)
+    assert deepest > -PENETRATION_TOLERANCE, f"a wheel {-1e3 * deepest:.2f} mm into the stairs"
+    summary = record.summary()
+    assert summary["wheel_penetration_cycles"] == 0, summary
+    assert summary["wheel_riser_contact_cycles"] == 0 and summary["toe_riser_contact_cycles"] == 0, summary
+    assert summary["min_wheel_riser_distance_mm"] > 0.0, summary
 
 
 def test_without_the_body_cbf_mujoco_reports_body_edge_contact(stairs_climbs):
-    summary = stairs_climbs[False].summary()
+    summary = stairs_climbs[False][0].summary()
     assert summary["body_contact_cycles"] > 100, summary
     assert summary["min_body_distance_mm"] < 0.0, summary

@@ -170,6 +170,24 @@ fn support(points: &[Vector3<f64>], plane: &Plane, a: &Vector3<f64>, b: &Vector3
 /// # Errors
 /// Invalid settings.
 pub fn edge_cuboids(planes: &[Plane], points: &[Vector3<f64>], s: &EdgeSettings) -> Result<Vec<OrientedBox>, CbfError> {
+    Ok(found_edges(planes, points, s)?.into_iter().map(|e| e.cuboid).collect())
+}
+
+/// An edge found in the planes: its cuboid and the level below its drop.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FoundEdge {
+    /// The cuboid along the edge, as [`edge_cuboids`] gives it.
+    pub cuboid: OrientedBox,
+    /// Height of the plane seen beyond the drop, below the edge \[m\]: where the riser
+    /// under the edge ends.
+    pub lower: f64,
+}
+
+/// [`edge_cuboids`], each with the height of the level below its drop.
+///
+/// # Errors
+/// Invalid settings.
+pub fn found_edges(planes: &[Plane], points: &[Vector3<f64>], s: &EdgeSettings) -> Result<Vec<FoundEdge>, CbfError> {
     s.validate()?;
     let mut out = Vec::new();
     for (k, plane) in planes.iter().enumerate().filter(|(_, p)| is_level(p, s)) {
@@ -250,7 +268,10 @@ pub fn edge_cuboids(planes: &[Plane], points: &[Vector3<f64>], s: &EdgeSettings)
                 Vector3::z().cross(&x_axis),
                 Vector3::z(),
             ]));
-            out.push(OrientedBox::new(center, rotation, Vector3::new(length / 2.0, h, h))?);
+            out.push(FoundEdge {
+                cuboid: OrientedBox::new(center, rotation, Vector3::new(length / 2.0, h, h))?,
+                lower,
+            });
         }
     }
     Ok(out)

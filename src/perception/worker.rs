@@ -15,7 +15,7 @@ use std::time::{Duration, Instant};
 
 use nalgebra::Vector3;
 
-use super::edges::{edge_cuboids, EdgeSettings};
+use super::edges::{found_edges, EdgeSettings};
 use super::map::VoxelMap;
 use super::planes::{segment_weighted, Plane, SegmentSettings};
 use crate::error::{within, CbfError};
@@ -72,6 +72,9 @@ pub struct Perceived {
     pub planes: Vec<Plane>,
     /// The edge cuboids found.
     pub cuboids: Vec<OrientedBox>,
+    /// For each cuboid, the height of the level seen below its drop \[m\] (where the
+    /// riser under the edge ends).
+    pub lower_levels: Vec<f64>,
     /// Wall time of the segmentation and edge extraction on the worker thread.
     pub elapsed: Duration,
 }
@@ -193,6 +196,7 @@ fn update(
     let started = Instant::now();
     let (points, weights) = map.points_near(center, settings.map_radius);
     let planes = segment_weighted(&points, &weights, &SegmentSettings { viewpoint: *viewpoint, ..settings.segment })?;
-    let cuboids = edge_cuboids(&planes, &points, &EdgeSettings { viewpoint: Some(*viewpoint), ..settings.edges })?;
-    Ok(Perceived { points, weights, planes, cuboids, elapsed: started.elapsed() })
+    let found = found_edges(&planes, &points, &EdgeSettings { viewpoint: Some(*viewpoint), ..settings.edges })?;
+    let (cuboids, lower_levels) = found.into_iter().map(|e| (e.cuboid, e.lower)).unzip();
+    Ok(Perceived { points, weights, planes, cuboids, lower_levels, elapsed: started.elapsed() })
 }

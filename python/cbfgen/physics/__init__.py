@@ -24,6 +24,8 @@ from importlib import import_module
 _HOME = {
     "MAX_CATCH_UP": "loop",
     "MAX_LEAD": "loop",
+    "PENETRATION_TOLERANCE": "loop",
+    "RISER_ANGLE": "loop",
     "PhysicalRobot": "loop",
     "PhysicalRun": "loop",
     "anchored": "loop",
@@ -45,6 +47,8 @@ __all__ = [
     "ASSUMED",
     "MAX_CATCH_UP",
     "MAX_LEAD",
+    "PENETRATION_TOLERANCE",
+    "RISER_ANGLE",
     "TIMESTEP",
     "PhysicalRobot",
     "PhysicalRun",

@@ -41,6 +41,14 @@ except ImportError as missing:  # pragma: no cover - the message is the point
 
 BODY_FAMILY = "body_edge"
 
+PENETRATION_TOLERANCE = 0.001
+"""Depth into a solid of the terrain that counts as penetration [m]: a wheel standing
+on a tread touches it, and MuJoCo's soft contact lets it a little way in."""
+
+RISER_ANGLE = np.radians(30.0)
+"""A contact whose normal is more than this from vertical is a riser's (or a nosing met
+from the front, or a side) rather than a tread's."""
+
 MAX_CATCH_UP = 0.1
 """Most the reference's speed along the course may differ from the robot's [m/s]."""
 
@@ -83,6 +91,8 @@ class PhysicalRobot:
         self.toe_geoms = [name(m, mujoco.mjtObj.mjOBJ_GEOM, f"{leg}_toe") for leg in t3.LEG_NAMES]
         geom_names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or "" for g in range(m.ngeom)]
         self.terrain_geoms = [g for g, n in enumerate(geom_names) if n.startswith("terrain")]
+        # The solids as (centre, rotation, half extents), for the wheels' exact distances.
+        self.solids = [(np.asarray(c), np.asarray(r), np.asarray(h)) for c, r, h in course.terrain_boxes()]
 
         def joint(kind: str) -> tuple[list[int], list[int]]:
             ids = [name(m, mujoco.mjtObj.mjOBJ_JOINT, f"{leg}_{kind}") for leg in t3.LEG_NAMES]
@@ -182,7 +192,7 @@ class PhysicalRobot:
 
     def contacts(self) -> tuple[bool, int]:
         """(the body touches the terrain, toes touching a riser or an edge: a contact whose
-        normal is more than 30° from vertical)."""
+        normal is more than :data:`RISER_ANGLE` from vertical)."""
         d = self.data
         body_contact, toe_riser = False, 0
         toes = set(self.toe_geoms)
@@ -190,7 +200,7 @@ class PhysicalRobot:
             pair = {int(c.geom1), int(c.geom2)}
             if self.body_geom in pair:
                 body_contact = True
-            elif pair & toes and abs(c.frame[2]) < np.cos(np.radians(30.0)):
+            elif pair & toes and abs(c.frame[2]) < np.cos(RISER_ANGLE):
                 toe_riser += 1
         return body_contact, toe_riser
 
@@ -201,6 +211,31 @@ class PhysicalRobot:
         return min(
             mujoco.mj_geomDistance(self.model, self.data, self.body_geom, g, 1.0, fromto) for g in self.terrain_geoms
         )
+
+    def wheel_distances(self) -> tuple[float, float]:
+        """(nearest wheel to a solid of the terrain, nearest wheel to a riser) [m] by exact
+        sphere–box distance from MuJoCo's wheel centres: the gap, or minus the depth.
+        A riser is where the normal from the solid's nearest point to the wheel's centre
+        (or, for a centre inside, the face it is least deep under) is more than
+        :data:`RISER_ANGLE` from vertical, as :meth:`contacts` reads MuJoCo's normals."""
+        nearest, riser = np.inf, np.inf
+        for wheel in self.wheels:
+            center = self.data.xpos[wheel]
+            for c, rot, half in self.solids:
+                local = rot.T @ (center - c)
+                outward = local - np.clip(local, -half, half)
+                if outward.any():
+                    distance = float(np.linalg.norm(outward)) - t3.TOE_RADIUS
+                    normal = outward
+                else:
+                    depth = half - np.abs(local)
+                    axis = int(np.argmin(depth))
+                    distance = -float(depth[axis]) - t3.TOE_RADIUS
+                    normal = np.eye(3)[axis]
+                nearest = min(nearest, distance)
+                if abs((rot @ normal)[2]) < np.cos(RISER_ANGLE) * np.linalg.norm(normal):
+                    riser = min(riser, distance)
+        return nearest, riser
 
     def slip(self) -> np.ndarray:
         """Each wheel's slip speed where it touches the terrain [m/s] (NaN in the air):
@@ -231,7 +266,8 @@ class PhysicalRun:
     body_contact: list[bool] = field(default_factory=list)
     toe_riser_contacts: list[int] = field(default_factory=list)
     body_distance: list[float] = field(default_factory=list)
-    clearance: list[tuple[float, float]] = field(default_factory=list)
+    wheel_distance: list[tuple[float, float]] = field(default_factory=list)
+    clearance: list[tuple[float, float, float]] = field(default_factory=list)
     slip: list[np.ndarray] = field(default_factory=list)
     off_model: list[dict[str, float]] = field(default_factory=list)
     min_h: list[dict[str, float]] = field(default_factory=list)
@@ -251,6 +287,7 @@ class PhysicalRun:
             "body_contact": np.asarray(self.body_contact),
             "toe_riser_contacts": np.asarray(self.toe_riser_contacts),
             "body_distance": np.asarray(self.body_distance),
+            "wheel_distance": np.asarray(self.wheel_distance),
             "clearance": np.asarray(self.clearance),
             "slip": np.asarray(self.slip),
             "active_rows": np.asarray(self.active_rows),
@@ -275,8 +312,14 @@ class PhysicalRun:
             "body_contact_cycles": int(a["body_contact"].sum()),
             "toe_riser_contact_cycles": int((a["toe_riser_contacts"] > 0).sum()),
             "min_body_distance_mm": 1e3 * float(a["body_distance"].min()),
+            "min_wheel_distance_mm": 1e3 * float(a["wheel_distance"][:, 0].min()),
+            "min_wheel_riser_distance_mm": 1e3 * float(a["wheel_distance"][:, 1].min()),
+            "wheel_riser_contact_cycles": int((a["wheel_distance"][:, 1] <= 0.0).sum()),
+            "body_penetration_cycles": int((a["body_distance"] < -PENETRATION_TOLERANCE).sum()),
+            "wheel_penetration_cycles": int((a["wheel_distance"][:, 0] < -PENETRATION_TOLERANCE).sum()),
             "min_body_clearance_mm": 1e3 * float(a["clearance"][:, 0].min()),
             "min_toe_clearance_mm": 1e3 * float(a["clearance"][:, 1].min()),
+            "min_toe_riser_clearance_mm": 1e3 * float(a["clearance"][:, 2].min()),
             "max_body_height_error_mm": 1e3 * float(np.abs(x[:, 7] - ref[:, 7]).max()),
             "max_body_x_error_mm": 1e3 * float(np.abs(x[:, 6] - ref[:, 6]).max()),
             "max_pitch_error_deg": float(np.degrees(np.abs(x[:, 8] - ref[:, 8]).max())),
@@ -388,6 +431,7 @@ def run(
         record.body_contact.append(body_contact)
         record.toe_riser_contacts.append(toe_riser)
         record.body_distance.append(robot.body_distance())
+        record.wheel_distance.append(robot.wheel_distances())
         record.clearance.append(course.clearance(x))
         record.slip.append(robot.slip())
         record.off_model.append(off_model)

@@ -102,11 +102,18 @@ impl PyCourse {
         self.inner.swinging()
     }
 
-    /// Exact ``(body, toe)`` clearance at ``x`` to the nearest edge cuboid \[m\];
-    /// negative = penetration.
-    fn clearance(&self, x: ArrayIn<'_>) -> PyResult<(f64, f64)> {
+    /// Exact ``(body, wheel, wheel_riser)`` clearance at ``x`` to the true terrain's solids
+    /// (:meth:`terrain_boxes`: the floor and every step as a block) \[m\]; negative = depth
+    /// into a solid. ``body`` by the exact SAT; ``wheel``, the nearest wheel by the exact
+    /// sphere–box distance (about 0 for a wheel on a tread); ``wheel_riser``, the nearest
+    /// wheel to a riser (contact normal more than 30° from vertical; inf if none).
+    fn clearance(&self, x: ArrayIn<'_>) -> PyResult<(f64, f64, f64)> {
         let c = self.inner.clearance(&state(&x)?)?;
-        Ok((finite("body clearance", c.body)?, finite("toe clearance", c.toe)?))
+        Ok((
+            finite("body clearance", c.body.distance)?,
+            finite("wheel clearance", c.wheel.distance)?,
+            c.wheel_riser.map_or(f64::INFINITY, |r| r.distance),
+        ))
     }
 
     /// Every toe on the top level, the body past the last riser, no tripod swinging.
@@ -121,8 +128,8 @@ impl PyCourse {
         Ok(self.inner.terrain().solid_boxes()?.iter().map(|b| box_out(py, b)).collect())
     }
 
-    /// The true edge cuboids, one along each change of height, in order, as
-    /// :meth:`terrain_boxes` gives boxes: what the exact clearance is measured to.
+    /// The true edge cuboids (the nosings), one along each change of height, in order, as
+    /// :meth:`terrain_boxes` gives boxes.
     fn edge_boxes<'py>(&self, py: Python<'py>) -> PyResult<Vec<BoxOut<'py>>> {
         Ok(self.inner.terrain().edge_boxes()?.iter().map(|b| box_out(py, b)).collect())
     }
@@ -148,7 +155,11 @@ fn box_out<'py>(py: Python<'py>, b: &crate::geometry::OrientedBox) -> BoxOut<'py
 /// ``FAMILIES`` order (inf where no row applied), ``active_rows``, ``iterations``,
 /// ``source`` (index into ``INPUT_SOURCES``), ``eval_us``, ``solve_us``, ``update_us`` (wall
 /// time), ``cpu_us`` (the thread's CPU time over the update), ``body_clearance``,
-/// ``toe_clearance``, ``swinging`` (-1: none); and ``summary``, a dict.
+/// ``toe_clearance``, ``toe_riser_clearance`` (as :meth:`Course.clearance`: to the solid
+/// terrain, inf where no wheel faces a riser), ``swinging`` (-1: none); and ``summary``, a
+/// dict (``min_body_clearance``, ``min_toe_clearance``, ``min_toe_riser_clearance`` with
+/// where each was, as ``"RR step 2 riser"``, in ``body_nearest``, ``toe_nearest``,
+/// ``toe_riser_nearest``; ``riser_contact_cycles``; …).
 /// With ``episode`` (and ``seed``, ``ranges`` as given to :func:`campaign`), the course is
 /// that campaign episode's instead of ``scenario``. With ``perception=True`` the gait and
 /// filter see only what a LiDAR on the body perceives (``summary["perception_updates"]``
@@ -193,8 +204,10 @@ fn simulate<'py>(
     out.set_item("solve_us", vector(py, &column(&|s| s.solve_us)))?;
     out.set_item("update_us", vector(py, &column(&|s| s.update_us)))?;
     out.set_item("cpu_us", vector(py, &column(&|s| s.cpu_us)))?;
-    out.set_item("body_clearance", vector(py, &column(&|s| s.body_clearance)))?;
-    out.set_item("toe_clearance", vector(py, &column(&|s| s.toe_clearance)))?;
+    out.set_item("body_clearance", vector(py, &column(&|s| s.clearance.body.distance)))?;
+    out.set_item("toe_clearance", vector(py, &column(&|s| s.clearance.wheel.distance)))?;
+    let riser = |s: &sim::Sample| s.clearance.wheel_riser.map_or(f64::INFINITY, |r| r.distance);
+    out.set_item("toe_riser_clearance", vector(py, &column(&riser)))?;
     out.set_item("swinging", vector(py, &column(&|s| f64::from(s.swinging))))?;
 
     let m = &run.summary;
@@ -203,8 +216,15 @@ fn simulate<'py>(
     summary.set_item("body_cbf", m.body_cbf)?;
     summary.set_item("completed", m.completed)?;
     summary.set_item("duration", m.duration)?;
-    summary.set_item("min_body_clearance", m.min_body_clearance)?;
-    summary.set_item("min_toe_clearance", m.min_toe_clearance)?;
+    summary.set_item("min_body_clearance", m.min_body_clearance())?;
+    summary.set_item("min_toe_clearance", m.min_toe_clearance())?;
+    summary.set_item("min_toe_riser_clearance", m.min_toe_riser_clearance())?;
+    for (key, approach) in
+        [("body_nearest", m.body_nearest), ("toe_nearest", m.toe_nearest), ("toe_riser_nearest", m.toe_riser_nearest)]
+    {
+        summary.set_item(key, approach.map(|a| a.contact.place()))?;
+    }
+    summary.set_item("riser_contact_cycles", m.riser_contact_cycles)?;
     let min_h = PyDict::new(py);
     for f in Family::ALL {
         min_h.set_item(f.name(), m.min_h[f.index()])?;
@@ -257,7 +277,9 @@ fn course_ranges(ranges: Option<&Bound<'_, PyDict>>) -> PyResult<CourseRanges> {
 /// ``rise``, ``run``, ``steps``, ``start_gap``, ``speed``; defaults as ``cbfgen campaign``),
 /// episode ids from ``first_id``. Returns a dict of numpy arrays, one entry per episode in id
 /// order: ``id``, ``rise``, ``run``, ``steps``, ``start_gap``, ``speed``, ``outcome`` (a list
-/// of ``"finished"``, ``"not_finished"``, ``"error"``), ``duration``, ``min_body_clearance``, ``min_toe_clearance``, ``min_h`` (n, 6),
+/// of ``"finished"``, ``"not_finished"``, ``"error"``), ``duration``, ``min_body_clearance``, ``min_toe_clearance``,
+/// ``min_toe_riser_clearance`` (to the solid terrain, as :func:`simulate`'s summary),
+/// ``riser_contact_cycles``, ``min_h`` (n, 6),
 /// ``median_cpu_us``, ``p99_cpu_us``, ``max_cpu_us``, ``median_wall_us``, ``p99_wall_us``,
 /// ``max_wall_us``, ``over_1ms_cpu``, ``over_1ms_wall``, ``cycles`` (all 0 for an episode
 /// whose outcome is ``"error"``: no output of the module is NaN); ``errors``, a list of ``(id, message)``; and ``report``, the
@@ -292,8 +314,10 @@ fn campaign<'py>(
     out.set_item("speed", vector(py, &episode(&|e| e.speed)))?;
     out.set_item("outcome", r.iter().map(|x| x.outcome().name()).collect::<Vec<_>>())?;
     out.set_item("duration", vector(py, &summary(&|s| s.duration)))?;
-    out.set_item("min_body_clearance", vector(py, &summary(&|s| s.min_body_clearance)))?;
-    out.set_item("min_toe_clearance", vector(py, &summary(&|s| s.min_toe_clearance)))?;
+    out.set_item("min_body_clearance", vector(py, &summary(&|s| s.min_body_clearance())))?;
+    out.set_item("min_toe_clearance", vector(py, &summary(&|s| s.min_toe_clearance())))?;
+    out.set_item("min_toe_riser_clearance", vector(py, &summary(&|s| s.min_toe_riser_clearance())))?;
+    out.set_item("riser_contact_cycles", vector(py, &summary(&|s| s.riser_contact_cycles as f64)))?;
     let min_h = |i: usize, j: usize| r[i].result.as_ref().map_or(0.0, |s| s.min_h[j]);
     out.set_item("min_h", matrix_from_fn(py, r.len(), Family::ALL.len(), min_h))?;
     out.set_item("median_cpu_us", vector(py, &summary(&|s| s.median_cpu_us)))?;

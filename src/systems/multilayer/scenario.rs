@@ -162,7 +162,7 @@ const COLORS: [&str; 3] = ["#1f77b4", "#d62728", "#2ca02c"];
 /// # Errors
 /// The directory or a file cannot be written.
 pub fn write_figures(dir: &Path, config: &ScenarioConfig, results: &[VariantResult]) -> std::io::Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir)?;
+    std::fs::create_dir_all(dir).map_err(crate::chart::at(dir))?;
     let series = |r: &VariantResult, i: usize, values: &[f64]| {
         Series::new(
             r.mode.name(),

@@ -112,11 +112,22 @@ pub struct LatencyReport {
     pub final_gap: f64,
 }
 
+/// Most updates one [`run`] times: it keeps about 100 bytes per update for its
+/// percentiles (100 MB at this limit).
+pub const MAX_CYCLES: usize = 1_000_000;
+
 /// Run `cycles` updates at 1 kHz from `start_gap` metres before the stairs at `speed`.
 ///
 /// # Errors
-/// Filter construction or an update returning an error (bad state).
+/// `cycles` outside `1..=`[`MAX_CYCLES`] (checked before anything is allocated), filter
+/// construction or an update returning an error (bad state).
 pub fn run(cycles: usize, speed: f64, start_gap: f64, settings: FilterSettings<NU>) -> Result<LatencyReport, CbfError> {
+    if cycles == 0 {
+        return Err(CbfError::NotPositive { what: "latency cycles", value: 0.0 });
+    }
+    if cycles > MAX_CYCLES {
+        return Err(CbfError::TooLarge { what: "latency cycles", value: cycles, max: MAX_CYCLES });
+    }
     let capacity = Capacity::PAPER_WORST_CASE;
     let stairs = Stairs::HARDWARE;
     let backend = settings.solver.backend;
@@ -272,5 +283,14 @@ mod tests {
         }
         let text = r.to_string();
         assert!(text.contains("whole update, thread CPU") && text.contains("> 1 ms"), "{text}");
+    }
+
+    #[test]
+    fn cycle_counts_outside_the_range_are_refused_before_any_allocation() {
+        let settings = crate::systems::tachyon3::catalog::default_settings();
+        // A trillion cycles would ask for about 100 TB before the first update.
+        for cycles in [0, MAX_CYCLES + 1, 1_000_000_000_000] {
+            assert!(run(cycles, 0.3, 0.6, settings.clone()).is_err(), "{cycles}");
+        }
     }
 }

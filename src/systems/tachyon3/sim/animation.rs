@@ -1,7 +1,8 @@
 //! A run played back: one self-contained HTML page (no script or style fetched from
 //! anywhere) drawing the side view of every run of a course, one above the other on one
-//! clock: the terrain and its edge cuboids, the body box, the legs, the toe wheels, with
-//! the time, the smallest `h`, the body's exact clearance and the active rows as a
+//! clock: the terrain and the riser boxes the filter avoids (nosing and riser of each
+//! change of height, [`Terrain::riser_boxes`]), the body box, the legs, the toe wheels, with
+//! the time, the smallest `h`, the body's exact clearance to the solid terrain and the active rows as a
 //! ticker. A run on perceived terrain also shows, at each moment, the ground and edge
 //! cuboids its latest perception update gave the gait and filter, over the true ones.
 //! Play, pause, scrub and speed are on the page; `page.html#N` opens at frame N.
@@ -31,7 +32,7 @@ pub struct Animation {
 /// The animation of `runs` (label, run) on `terrain`.
 ///
 /// # Errors
-/// A terrain whose edge boxes cannot be built (never, for one built by [`Terrain::new`]).
+/// A terrain whose riser boxes cannot be built (never, for one built by [`Terrain::new`]).
 pub fn animation(runs: &[(&str, &SimResult)], terrain: &Terrain) -> Result<Animation, CbfError> {
     let every = (FRAME_PERIOD / DT).round() as usize;
     let mut data = String::new();
@@ -40,7 +41,7 @@ pub fn animation(runs: &[(&str, &SimResult)], terrain: &Terrain) -> Result<Anima
     let (first, last) = (terrain.first_change() - 3.0, terrain.profile().last_change() + 3.0);
     data.push_str(&ground_line(terrain.profile(), first, last));
     data.push_str(r#"],"edges":["#);
-    data.push_str(&join(terrain.edge_boxes()?.iter().map(side_rect)));
+    data.push_str(&join(terrain.riser_boxes()?.iter().map(side_rect)));
     data.push_str(r#"],"runs":["#);
     for (k, (label, run)) in runs.iter().enumerate() {
         let picked: Vec<_> = run.samples.iter().step_by(every).collect();
@@ -60,7 +61,7 @@ pub fn animation(runs: &[(&str, &SimResult)], terrain: &Terrain) -> Result<Anima
             r#""h_body":[{}],"h_min":[{}],"clearance":[{}],"rows":[{}]"#,
             join(picked.iter().map(|s| num(s.min_h[Family::BodyEdge.index()]))),
             join(picked.iter().map(|s| num(s.min_h.iter().copied().fold(f64::INFINITY, f64::min)))),
-            join(picked.iter().map(|s| num(s.body_clearance))),
+            join(picked.iter().map(|s| num(s.clearance.body.distance))),
             join(picked.iter().map(|s| s.active_rows.to_string())),
         );
         // On perceived terrain: what each update handed the gait and filter, from when.
@@ -192,7 +193,7 @@ function draw(frame) {
     ctx.closePath(); ctx.fill();
     ctx.fillStyle = "rgba(30,30,30,0.75)";
     for (let k = 0; k < 6; k++) { ctx.beginPath(); ctx.arc(px(toes[2 * k]), pz(toes[2 * k + 1]), data.toe_radius * s, 0, 2 * Math.PI); ctx.fill(); }
-    ticker.textContent = `t ${run.t[f].toFixed(2)} s  min h: body–edge ${fmt(run.h_body[f], "", 1, 4)}, all rows ${fmt(run.h_min[f], "", 1, 4)}  body clearance ${fmt(run.clearance[f], " mm", 1000, 1)}  active rows ${run.rows[f]}` + (seen ? `  perceived: ${seen.edges.length} cuboids, update at ${seen.t.toFixed(1)} s` : "") + (touching ? "  BODY IN AN EDGE" : "");
+    ticker.textContent = `t ${run.t[f].toFixed(2)} s  min h: body–edge ${fmt(run.h_body[f], "", 1, 4)}, all rows ${fmt(run.h_min[f], "", 1, 4)}  body clearance ${fmt(run.clearance[f], " mm", 1000, 1)}  active rows ${run.rows[f]}` + (seen ? `  perceived: ${seen.edges.length} cuboids, update at ${seen.t.toFixed(1)} s` : "") + (touching ? "  BODY IN THE TERRAIN" : "");
   }
   document.getElementById("time").textContent = `frame ${frame + 1} of ${data.frames}`;
 }

@@ -5,21 +5,23 @@
 //! (floor under each toe, which legs swing, the swing legs' foothold strips) and returns
 //! the gait's nominal input. The caller filters that input and integrates.
 
-use nalgebra::Vector3;
-
 use super::gait::{Gait, GaitParams, Plan};
 use super::Scenario;
 use crate::error::CbfError;
 use crate::generated::tachyon3 as gen;
-use crate::geometry::OrientedBox;
-use crate::sphere_box;
-use crate::systems::tachyon3::catalog::{Capacity, EdgeCuboid, Environment, StabilityBound};
-use crate::systems::tachyon3::model::{self, State, TOE_RADIUS};
-use crate::systems::tachyon3::terrain::{Profile, Terrain};
+use crate::systems::tachyon3::catalog::{Capacity, EdgeCuboid, Environment, HalfPlane, StabilityBound};
+use crate::systems::tachyon3::model::{self, State};
+use crate::systems::tachyon3::terrain::solid::TerrainClearance;
+use crate::systems::tachyon3::terrain::{Profile, SolidTerrain, Terrain};
 
 /// Each toe within this distance (x) of its hip, relative to the body: the stability
 /// bounds of eq. 13 \[m\].
 const STABILITY_REACH: f64 = 0.45;
+/// A standing wheel's centre stays this far past the start of the level it stands on,
+/// over its tread \[m\].
+const STANCE_INSET: f64 = 0.02;
+/// A level with no start (the first) bounds a standing wheel this far back \[m\].
+const STANCE_REACH: f64 = 100.0;
 
 /// The terrain, the edge cuboids the filter avoids, and the gait.
 ///
@@ -30,18 +32,9 @@ const STABILITY_REACH: f64 = 0.45;
 pub struct Course {
     terrain: Terrain,
     env: Environment,
-    /// The true edge cuboids, as validated boxes for the exact clearance checks.
-    edges: Vec<OrientedBox>,
+    /// The true terrain's solids, for the exact clearance checks.
+    solids: SolidTerrain,
     gait: Gait,
-}
-
-/// Exact clearances of the robot to the nearest edge cuboid \[m\]; negative = penetration.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Clearance {
-    /// Body box to the nearest edge, by the exact SAT.
-    pub body: f64,
-    /// The closest toe sphere to the nearest edge (exact sphere–box distance).
-    pub toe: f64,
 }
 
 impl Course {
@@ -54,9 +47,8 @@ impl Course {
     pub fn new(scenario: Scenario, gait: GaitParams) -> Result<Self, CbfError> {
         let terrain = scenario.terrain()?;
         let mut env = Environment::new(Self::CAPACITY)?;
-        let edges = terrain.edge_boxes()?;
-        for edge in &edges {
-            env.push_edge(EdgeCuboid::from_box(edge))?;
+        for riser in terrain.riser_cuboids()? {
+            env.push_edge(riser)?;
         }
         for (leg, hip) in model::HIP_POSITIONS.iter().enumerate() {
             env.stability[leg] = [
@@ -65,7 +57,8 @@ impl Course {
             ];
         }
         let gait = Gait::new(gait, terrain.profile().clone());
-        Ok(Self { terrain, env, edges, gait })
+        let solids = SolidTerrain::new(&terrain)?;
+        Ok(Self { terrain, env, solids, gait })
     }
 
     /// The capacity every course's environment is laid out for; build the filter with it.
@@ -90,10 +83,21 @@ impl Course {
         let (_, _, toes) = gen::world_kinematics(x);
         self.env.set_floors(self.gait.ground().floors_under(&toes));
         let plan = self.gait.plan(t, x)?;
-        self.env.set_swing(plan.swing);
+        // Every leg's foothold rows apply: a swinging toe keeps to its strip, and a
+        // standing one keeps its centre STANCE_INSET past the start of the level it
+        // stands on. A wheel left on a nosing's corner with its centre before the riser
+        // (the middle rear one, dragged back as the body came down with its hip at the
+        // limit) reads clear to the toe rows, but a physical wheel rolls back off the
+        // step there (MuJoCo: it dropped 15 cm onto the tread below).
+        self.env.set_swing([true; 6]);
         for (leg, strip) in plan.footholds.iter().enumerate() {
-            if let Some(strip) = strip {
-                self.env.set_foothold(leg, strip)?;
+            match strip {
+                Some(strip) => self.env.set_foothold(leg, strip)?,
+                None => {
+                    let ground = self.gait.ground();
+                    let begin = ground.level_at(ground.standing_x(&toes[leg])).begin.max(-STANCE_REACH);
+                    self.env.set_foothold(leg, &[HalfPlane::new([1.0, 0.0], -(begin + STANCE_INSET))?])?;
+                }
             }
         }
         Ok(plan)
@@ -135,20 +139,18 @@ impl Course {
         self.gait.swinging()
     }
 
-    /// Exact clearance of body and toes at `x` to the nearest edge cuboid.
+    /// Exact clearances of the body and the wheels at `x` to the true terrain's solids
+    /// ([`SolidTerrain::clearance`]).
     ///
     /// # Errors
     /// A state whose body rotation is not a rotation (non-finite entries).
-    pub fn clearance(&self, x: &State) -> Result<Clearance, CbfError> {
-        let (_, _, toes) = gen::world_kinematics(x);
-        let body = model::body_box(x)?;
-        let body_clearance = self.edges.iter().map(|e| crate::sat::separation(e, &body)).fold(f64::INFINITY, f64::min);
-        let toe_clearance = self
-            .edges
-            .iter()
-            .flat_map(|e| toes.iter().map(move |toe| sphere_box::exact_distance(&Vector3::from(*toe), TOE_RADIUS, e)))
-            .fold(f64::INFINITY, f64::min);
-        Ok(Clearance { body: body_clearance, toe: toe_clearance })
+    pub fn clearance(&self, x: &State) -> Result<TerrainClearance, CbfError> {
+        self.solids.clearance(x)
+    }
+
+    /// The true terrain's solids, floor first.
+    pub fn solids(&self) -> &SolidTerrain {
+        &self.solids
     }
 
     /// Every toe stands on the true terrain's last level, the body centre is past its

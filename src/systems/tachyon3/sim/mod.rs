@@ -4,8 +4,10 @@
 //! Two scenarios: `step` (one 16.5 cm step, the robot starting in its low standard
 //! posture) and `stairs` (five steps, 16.5 cm high and 35 cm deep, as in the hardware
 //! experiment). Every cycle records the state, each family's minimum `h`, the active
-//! rows, the time spent (wall and thread CPU time) and the exact clearance of body and toes to every edge cuboid
-//! (exact SAT for the body, exact sphere–box distance for the toes).
+//! rows, the time spent (wall and thread CPU time) and the exact clearance of the body
+//! and the wheels to the true terrain's solids, the floor and every step as a block
+//! (exact SAT for the body, exact sphere–box distance for the wheels; see
+//! [`terrain::solid`](crate::systems::tachyon3::terrain::solid)).
 
 pub mod animation;
 #[cfg(feature = "campaign")]
@@ -14,7 +16,7 @@ mod course;
 pub mod gait;
 pub mod output;
 
-pub use course::{Clearance, Course};
+pub use course::Course;
 
 use std::time::Instant;
 
@@ -25,6 +27,7 @@ use crate::perception::worker::Perceived;
 use crate::systems::tachyon3::catalog::{self, Catalog, Family};
 use crate::systems::tachyon3::model::{self, State, NU};
 use crate::systems::tachyon3::perceived::{Perceiver, PerceptionSettings, PerceptionUpdate};
+use crate::systems::tachyon3::terrain::solid::{Contact, TerrainClearance, PENETRATION_TOLERANCE};
 use crate::systems::tachyon3::terrain::{Stairs, Terrain};
 use gait::GaitParams;
 
@@ -172,12 +175,9 @@ pub struct Sample {
     /// the platform has no thread clock. Well below `update_us` means the thread waited
     /// (a VM stall, preemption) rather than worked.
     pub cpu_us: f64,
-    /// Exact clearance to the nearest edge cuboid \[m\]: body (SAT separation) and the
-    /// closest toe (sphere–box distance). Negative = penetration.
-    pub body_clearance: f64,
-    /// Exact signed distance of the closest toe sphere to the nearest edge cuboid \[m\];
-    /// negative = penetration.
-    pub toe_clearance: f64,
+    /// Exact clearances of the body and the wheels to the true terrain's solids, with
+    /// where each is nearest.
+    pub clearance: TerrainClearance,
     /// Body centre height above the gait's nominal \[m\].
     pub body_raise: f64,
     /// Which tripod swings (-1: none).
@@ -199,10 +199,17 @@ pub struct Summary {
     pub duration: f64,
     /// Control cycles run (filter updates).
     pub cycles: usize,
-    /// Smallest [`Sample::body_clearance`] over the run \[m\]; negative = penetration.
-    pub min_body_clearance: f64,
-    /// Smallest [`Sample::toe_clearance`] over the run \[m\]; negative = penetration.
-    pub min_toe_clearance: f64,
+    /// The body's closest approach to the solid terrain over the run (its deepest
+    /// overlap with a solid, if it went in); `None` for a run of no cycle.
+    pub body_nearest: Option<Approach>,
+    /// The closest approach of any wheel to the solid terrain (about 0: a wheel on its
+    /// tread touches it; negative = depth into a solid).
+    pub toe_nearest: Option<Approach>,
+    /// The closest approach of any wheel to a riser (a contact normal more than 30° from
+    /// vertical, [`Face::Riser`](crate::systems::tachyon3::terrain::solid::Face::Riser)).
+    pub toe_riser_nearest: Option<Approach>,
+    /// Cycles in which a wheel touched or entered a riser (riser clearance ≤ 0).
+    pub riser_contact_cycles: usize,
     /// Minimum `h` of each family over the run, [`Family::index`] order, in each family's own
     /// units (`f64::INFINITY` where no row ever applied).
     pub min_h: [f64; 6],
@@ -248,10 +255,42 @@ pub struct PerceptionSummary {
     pub last_cuboids: usize,
 }
 
+/// Where and when a part of the robot came closest to (or went deepest into) the solid
+/// terrain.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Approach {
+    /// Time \[s\].
+    pub t: f64,
+    /// Which part, which solid, which face, how far.
+    pub contact: Contact,
+}
+
 impl Summary {
-    /// Penetration beyond `tolerance` \[m\] by body or toes.
+    /// Smallest exact clearance of the body to the solid terrain over the run \[m\];
+    /// negative = depth into a solid; `+∞` for a run of no cycle.
+    pub fn min_body_clearance(&self) -> f64 {
+        self.body_nearest.map_or(f64::INFINITY, |a| a.contact.distance)
+    }
+
+    /// Smallest exact clearance of any wheel to the solid terrain over the run \[m\]:
+    /// about 0 (a wheel on its tread); negative = depth into a solid.
+    pub fn min_toe_clearance(&self) -> f64 {
+        self.toe_nearest.map_or(f64::INFINITY, |a| a.contact.distance)
+    }
+
+    /// Smallest exact clearance of any wheel to a riser over the run \[m\].
+    pub fn min_toe_riser_clearance(&self) -> f64 {
+        self.toe_riser_nearest.map_or(f64::INFINITY, |a| a.contact.distance)
+    }
+
+    /// The body or a wheel went more than `tolerance` \[m\] into a solid of the terrain.
     pub fn collided(&self, tolerance: f64) -> bool {
-        self.min_body_clearance < -tolerance || self.min_toe_clearance < -tolerance
+        self.min_body_clearance() < -tolerance || self.min_toe_clearance() < -tolerance
+    }
+
+    /// [`Summary::collided`] beyond the documented [`PENETRATION_TOLERANCE`] (1 mm).
+    pub fn penetrated(&self) -> bool {
+        self.collided(PENETRATION_TOLERANCE)
     }
 }
 
@@ -340,8 +379,7 @@ pub fn run_observed(
             solve_us: out.solve_time.as_secs_f64() * 1e6,
             update_us,
             cpu_us: out.cpu_time.as_secs_f64() * 1e6,
-            body_clearance: clearance.body,
-            toe_clearance: clearance.toe,
+            clearance,
             body_raise: body_center[2] - plan.body_height,
             swinging: course.swinging().map_or(-1, |s| s as i8),
         });
@@ -374,12 +412,19 @@ fn percentiles(samples: &[Sample], f: fn(&Sample) -> f64) -> [f64; 3] {
     crate::cpu_time::median_p99_max(&mut samples.iter().map(f).collect::<Vec<_>>())
 }
 
+/// The sample at which `contact` of its clearance is nearest, as an [`Approach`].
+fn nearest(samples: &[Sample], contact: fn(&TerrainClearance) -> Option<Contact>) -> Option<Approach> {
+    samples
+        .iter()
+        .filter_map(|s| contact(&s.clearance).map(|contact| Approach { t: s.t, contact }))
+        .min_by(|a, b| a.contact.distance.total_cmp(&b.contact.distance))
+}
+
 fn summarize(config: &SimConfig, samples: &[Sample], completed: bool, perception: Option<&PerceptionRun>) -> Summary {
     let [median_update_us, p99_update_us, max_update_us] = percentiles(samples, |s| s.update_us);
     let [median_cpu_us, p99_cpu_us, max_cpu_us] = percentiles(samples, |s| s.cpu_us);
     let period_us = crate::systems::tachyon3::latency::PERIOD.as_micros() as f64;
     let over = |f: fn(&Sample) -> f64| samples.iter().filter(|&s| f(s) > period_us).count();
-    let fold = |f: fn(&Sample) -> f64| samples.iter().map(f).fold(f64::INFINITY, f64::min);
     let mut min_h = [f64::INFINITY; 6];
     for s in samples {
         for (m, h) in min_h.iter_mut().zip(s.min_h) {
@@ -393,8 +438,13 @@ fn summarize(config: &SimConfig, samples: &[Sample], completed: bool, perception
         completed,
         duration: samples.last().map_or(0.0, |s| s.t),
         cycles: samples.len(),
-        min_body_clearance: fold(|s| s.body_clearance),
-        min_toe_clearance: fold(|s| s.toe_clearance),
+        body_nearest: nearest(samples, |c| Some(c.body)),
+        toe_nearest: nearest(samples, |c| Some(c.wheel)),
+        toe_riser_nearest: nearest(samples, |c| c.wheel_riser),
+        riser_contact_cycles: samples
+            .iter()
+            .filter(|s| s.clearance.wheel_riser.is_some_and(|c| c.distance <= 0.0))
+            .count(),
         min_h,
         max_body_raise: samples.iter().map(|s| s.body_raise).fold(f64::NEG_INFINITY, f64::max),
         max_update_us,

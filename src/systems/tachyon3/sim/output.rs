@@ -12,14 +12,16 @@
 //! | `active_rows`, `iterations`, `source` | rows in the QP, ADMM iterations, where `u` came from (`InputSource::name`: qp, unconverged, last_safe, nominal_clipped) |
 //! | `eval_us`, `solve_us`, `update_us` | row evaluation, QP, whole filter update: wall time \[µs\] |
 //! | `cpu_us` | the thread's CPU time over the whole filter update \[µs\] (0 without a thread clock); far below `update_us` = the thread waited, not worked |
-//! | `body_clearance`, `toe_clearance` | exact distance of body / nearest toe to the nearest edge cuboid \[m\]; negative = penetration |
+//! | `body_clearance`, `body_nearest` | exact signed distance of the body to the solid terrain (floor and steps as blocks) \[m\], negative = depth into a solid; and where (`body step 2 riser`: the solid and, by the SAT's axis, tread or riser) |
+//! | `toe_clearance`, `toe_nearest` | the same for the nearest wheel (toe sphere): about 0 for a wheel on its tread; where (`RR floor tread`) |
+//! | `toe_riser_clearance`, `toe_riser_nearest` | the nearest wheel to a riser (contact normal over 30° from vertical) \[m\], and where |
 //! | `swinging` | tripod in swing: 0 = (LR, RR, MF), 1 = (MR, LF, RF), -1 = none |
 
 use std::fmt::{self, Write as _};
 use std::io;
 use std::path::{Path, PathBuf};
 
-use super::{Sample, SimResult, Summary};
+use super::{Approach, Sample, SimResult, Summary};
 use crate::chart::{Chart, Series};
 use crate::systems::tachyon3::catalog::Family;
 use crate::systems::tachyon3::model::{BODY_Z, STATE_NAMES};
@@ -36,7 +38,7 @@ pub fn csv(samples: &[Sample], every: usize) -> String {
         let _ = write!(out, ",min_h_{}", f.name());
     }
     out.push_str(
-        ",active_rows,iterations,source,eval_us,solve_us,update_us,cpu_us,body_clearance,toe_clearance,swinging\n",
+        ",active_rows,iterations,source,eval_us,solve_us,update_us,cpu_us,body_clearance,body_nearest,toe_clearance,toe_nearest,toe_riser_clearance,toe_riser_nearest,swinging\n",
     );
     for s in samples.iter().step_by(every.max(1)) {
         let _ = write!(out, "{:.3}", s.t);
@@ -51,9 +53,11 @@ pub fn csv(samples: &[Sample], every: usize) -> String {
                 out.push(',');
             }
         }
+        let c = &s.clearance;
+        let riser = c.wheel_riser.map_or((String::new(), String::new()), |r| (format!("{:.6}", r.distance), r.place()));
         let _ = writeln!(
             out,
-            ",{},{},{},{:.1},{:.1},{:.1},{:.1},{:.6},{:.6},{}",
+            ",{},{},{},{:.1},{:.1},{:.1},{:.1},{:.6},{},{:.6},{},{},{},{}",
             s.active_rows,
             s.iterations,
             s.source.name(),
@@ -61,8 +65,12 @@ pub fn csv(samples: &[Sample], every: usize) -> String {
             s.solve_us,
             s.update_us,
             s.cpu_us,
-            s.body_clearance,
-            s.toe_clearance,
+            c.body.distance,
+            c.body.place(),
+            c.wheel.distance,
+            c.wheel.place(),
+            riser.0,
+            riser.1,
             s.swinging
         );
     }
@@ -235,7 +243,6 @@ pub fn figures(
 
 impl fmt::Display for Summary {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let mm = |v: f64| v * 1e3;
         writeln!(
             f,
             "scenario {}{} {} body SSAT CBF, QP backend {}: {} after {:.1} s",
@@ -246,12 +253,19 @@ impl fmt::Display for Summary {
             if self.completed { "climbed" } else { "did NOT finish" },
             self.duration
         )?;
+        let approach = |a: Option<Approach>| a.map_or_else(|| "-".into(), |a| format!("{} at {:.2} s", a.contact, a.t));
         writeln!(
             f,
-            "  exact clearance to the edges, minimum: body {:.1} mm, toes {:.1} mm ({})",
-            mm(self.min_body_clearance),
-            mm(self.min_toe_clearance),
-            if self.collided(1e-3) { "PENETRATION beyond 1 mm" } else { "no penetration beyond 1 mm" }
+            "  exact clearance to the solid terrain ({}):",
+            if self.penetrated() { "PENETRATION beyond 1 mm" } else { "no penetration beyond 1 mm" }
+        )?;
+        writeln!(f, "    body, nearest: {}", approach(self.body_nearest))?;
+        writeln!(f, "    wheels, nearest (0 on a tread): {}", approach(self.toe_nearest))?;
+        writeln!(
+            f,
+            "    wheels to a riser, nearest: {}; cycles with a wheel on a riser: {}",
+            approach(self.toe_riser_nearest),
+            self.riser_contact_cycles
         )?;
         write!(f, "  minimum h:")?;
         for fam in Family::ALL {

@@ -5,13 +5,17 @@
 //! * [`Stairs`] — a straight flight of equal steps (the hardware experiment's, and the
 //!   Monte Carlo campaign's courses);
 //! * [`Terrain`] — any profile of flat levels, and the shapes a flight does not make;
-//! * [`Profile`] — the ground along the path as the gait reads it, true or perceived.
+//! * [`Profile`] — the ground along the path as the gait reads it, true or perceived;
+//! * [`SolidTerrain`] — the floor and every step as solid blocks, which the robot's
+//!   wheels and body are measured against by exact geometry.
 
 pub mod profile;
 pub mod shapes;
+pub mod solid;
 
 pub use profile::{Level, Profile};
 pub use shapes::Terrain;
+pub use solid::SolidTerrain;
 
 use nalgebra::Vector3;
 

@@ -72,6 +72,14 @@ impl Profile {
         Ok(Self { levels })
     }
 
+    /// The same levels, each `lift` higher \[m\].
+    ///
+    /// # Errors
+    /// A height that leaves ±100 m.
+    pub fn lifted(&self, lift: f64) -> Result<Self, CbfError> {
+        Self::new(self.levels.iter().map(|l| Level { height: l.height + lift, ..*l }).collect())
+    }
+
     /// The levels, in order of x.
     pub fn levels(&self) -> &[Level] {
         &self.levels

@@ -121,6 +121,50 @@ impl Terrain {
         Ok(out)
     }
 
+    /// The box along each change of height that the filter keeps the wheels and the body
+    /// out of: the nosing and the whole riser below it, one box from the lower level's
+    /// height to the upper level's top, `2 · edge_half_section` deep into the upper
+    /// level (its section as wide as the edge cuboid's, [`Terrain::edge_boxes`], which is
+    /// its top).
+    ///
+    /// Why one box from the lower tread to the upper: a nosing cuboid alone leaves the
+    /// riser below it open, and a wheel (radius 0.1 m) rolling on the lower tread meets
+    /// the riser at its own centre's height, 10 cm up, below a 5 cm cuboid under a rise
+    /// over 15 cm (it could go 13 mm into a 20 cm riser with the cuboid's rows met). Its
+    /// top is the tread's own height, as the nosing's: a wheel standing on the upper
+    /// tread stays outside it (its rows hold such a wheel a margin above its first
+    /// 5 cm, as they did over the nosing); its bottom is the lower tread's, whose wheels
+    /// meet only its face. A box cannot reach past the rise into the upper step without
+    /// meeting wheels on that tread, and need not: a wheel outside this box whose
+    /// centre is before the riser cannot reach the step's solid beyond the box
+    /// (`tests/terrain.rs` checks it), and a wheel past the riser stands on the upper
+    /// level, where its foot-height row keeps it above the tread.
+    ///
+    /// # Errors
+    /// None for a terrain built by [`Terrain::new`] (the boxes are checked again).
+    pub fn riser_boxes(&self) -> Result<Vec<OrientedBox>, CbfError> {
+        let s = self.edge_half_section;
+        let mut below = 0.0;
+        let mut out = Vec::with_capacity(self.changes.len());
+        for &[x, h] in &self.changes {
+            // In the upper level: past the riser at a rise, before the drop at a drop.
+            let cx = if h > below { x + s } else { x - s };
+            let (lo, hi) = (below.min(h), below.max(h));
+            let center = Vector3::new(cx, 0.0, 0.5 * (lo + hi));
+            out.push(OrientedBox::axis_aligned(center, Vector3::new(s, self.half_width, 0.5 * (hi - lo)))?);
+            below = h;
+        }
+        Ok(out)
+    }
+
+    /// The riser boxes ([`Terrain::riser_boxes`]), in order, as the filter takes them.
+    ///
+    /// # Errors
+    /// As [`Terrain::riser_boxes`].
+    pub fn riser_cuboids(&self) -> Result<Vec<EdgeCuboid>, CbfError> {
+        Ok(self.riser_boxes()?.iter().map(EdgeCuboid::from_box).collect())
+    }
+
     /// The edge cuboid along each change of height, in order, as the filter takes them.
     ///
     /// # Errors

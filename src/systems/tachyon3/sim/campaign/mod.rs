@@ -29,18 +29,24 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
-use super::{Scenario, SimConfig, Summary};
+use super::{Approach, Scenario, SimConfig, Summary};
 use crate::error::CbfError;
 use crate::systems::tachyon3::catalog::Family;
 use crate::systems::tachyon3::perceived::PerceptionSettings;
 use crate::systems::tachyon3::terrain::Stairs;
 
-/// Penetration counted as a collision \[m\]: exact body or toe clearance below `−1 mm`.
-pub const PENETRATION_TOLERANCE: f64 = 1e-3;
+/// Penetration counted as a collision \[m\]: the body or a wheel more than 1 mm into a
+/// solid of the terrain, by exact geometry.
+pub use crate::systems::tachyon3::terrain::solid::PENETRATION_TOLERANCE;
 /// A joint-limit row below `−1e-4` (rad or m) counts as a violated joint limit.
 pub const JOINT_LIMIT_TOLERANCE: f64 = 1e-4;
-/// Most episodes one campaign runs.
-pub const MAX_EPISODES: usize = 10_000_000;
+/// Most episodes one campaign runs: each keeps its record (under 0.5 KB) until the
+/// report, so a campaign's memory stays under 0.5 GB (and 10⁶ episodes are some 75 hours
+/// of two cores).
+pub const MAX_EPISODES: usize = 1_000_000;
+/// Most worker threads a campaign starts (each episode holds its samples, some 100 MB
+/// for the longest, while it runs).
+pub const MAX_THREADS: usize = 1024;
 
 /// Ranges the courses are drawn from, uniformly; `[lo, hi]` inclusive. The defaults are
 /// issue 15's: rise 5–20 cm, run 25–45 cm, 1–6 steps, start gap 10–60 cm, gait speed
@@ -258,8 +264,8 @@ pub struct Campaign {
 /// [`Outcome::Error`] with its message; the others go on.
 ///
 /// # Errors
-/// Invalid ranges, more than [`MAX_EPISODES`] episodes, zero threads, or a thread pool
-/// that cannot start.
+/// Invalid ranges, more than [`MAX_EPISODES`] episodes, zero threads or more than
+/// [`MAX_THREADS`], or a thread pool that cannot start.
 pub fn run(settings: &CampaignSettings, progress: impl Fn(usize) + Sync) -> Result<Campaign, CbfError> {
     settings.ranges.validate()?;
     if settings.episodes > MAX_EPISODES {
@@ -272,6 +278,9 @@ pub fn run(settings: &CampaignSettings, progress: impl Fn(usize) + Sync) -> Resu
     if let Some(threads) = settings.threads {
         if threads == 0 {
             return Err(CbfError::NotPositive { what: "threads", value: 0.0 });
+        }
+        if threads > MAX_THREADS {
+            return Err(CbfError::TooLarge { what: "threads", value: threads, max: MAX_THREADS });
         }
         pool = pool.num_threads(threads);
     }
@@ -314,6 +323,9 @@ pub fn run_episode(episode: &Episode, body_cbf: bool, perception: bool) -> Episo
 /// An episode id and the value it holds the record for.
 pub type Worst = Option<(u64, f64)>;
 
+/// An episode id and its closest approach that holds the record (part, solid, face, time).
+pub type WorstApproach = Option<(u64, Approach)>;
+
 /// What a campaign established: outcomes, safety counts against the documented tolerances,
 /// the worst episode of each kind, and the filter's time per update (thread CPU time beside
 /// wall time).
@@ -327,18 +339,24 @@ pub struct Report {
     pub not_finished: Vec<u64>,
     /// Episodes that ended with an error, with the message.
     pub errors: Vec<(u64, String)>,
-    /// Episodes whose body went more than [`PENETRATION_TOLERANCE`] into an edge cuboid
-    /// (exact SAT).
+    /// Episodes whose body went more than [`PENETRATION_TOLERANCE`] into a solid of the
+    /// terrain (exact SAT against the floor and every step as a block).
     pub body_penetrations: usize,
-    /// Episodes with a toe more than [`PENETRATION_TOLERANCE`] into an edge cuboid (exact
-    /// sphere–box distance).
+    /// Episodes with a wheel more than [`PENETRATION_TOLERANCE`] into a solid of the
+    /// terrain (exact sphere–box distance), tread or riser.
     pub toe_penetrations: usize,
+    /// Episodes with a cycle in which a wheel touched or entered a riser, and those
+    /// cycles in all.
+    pub riser_contacts: (usize, usize),
     /// Episodes with a joint-limit row below `−`[`JOINT_LIMIT_TOLERANCE`].
     pub joint_limit_violations: usize,
-    /// Smallest exact body clearance \[m\].
-    pub worst_body: Worst,
-    /// Smallest exact toe clearance \[m\].
-    pub worst_toe: Worst,
+    /// The body's closest approach to (or deepest into) the solid terrain.
+    pub worst_body: WorstApproach,
+    /// The deepest wheel into the solid terrain (about 0 where wheels only stood on
+    /// treads).
+    pub worst_toe: WorstApproach,
+    /// The closest approach of a wheel to a riser.
+    pub worst_toe_riser: WorstApproach,
     /// Smallest joint-limit `h` (rad or m).
     pub worst_joint_limit: Worst,
     /// Smallest foothold `h`: how far a swinging toe left its foothold strip \[m\] when negative.
@@ -371,9 +389,11 @@ impl Campaign {
             errors: Vec::new(),
             body_penetrations: 0,
             toe_penetrations: 0,
+            riser_contacts: (0, 0),
             joint_limit_violations: 0,
             worst_body: None,
             worst_toe: None,
+            worst_toe_riser: None,
             worst_joint_limit: None,
             worst_foothold: None,
             cycles: 0,
@@ -388,6 +408,13 @@ impl Campaign {
         let lowest = |worst: &mut Worst, id: u64, v: f64| {
             if v.is_finite() && worst.is_none_or(|(_, w)| v < w) {
                 *worst = Some((id, v));
+            }
+        };
+        let nearest = |worst: &mut WorstApproach, id: u64, a: Option<Approach>| {
+            if let Some(a) = a.filter(|a| a.contact.distance.is_finite()) {
+                if worst.is_none_or(|(_, w)| a.contact.distance < w.contact.distance) {
+                    *worst = Some((id, a));
+                }
             }
         };
         let highest = |worst: &mut Worst, id: u64, v: f64| {
@@ -412,12 +439,15 @@ impl Campaign {
                     s
                 }
             };
-            r.body_penetrations += usize::from(s.min_body_clearance < -PENETRATION_TOLERANCE);
-            r.toe_penetrations += usize::from(s.min_toe_clearance < -PENETRATION_TOLERANCE);
+            r.body_penetrations += usize::from(s.min_body_clearance() < -PENETRATION_TOLERANCE);
+            r.toe_penetrations += usize::from(s.min_toe_clearance() < -PENETRATION_TOLERANCE);
+            r.riser_contacts.0 += usize::from(s.riser_contact_cycles > 0);
+            r.riser_contacts.1 += s.riser_contact_cycles;
             let joint = s.min_h[Family::JointLimits.index()];
             r.joint_limit_violations += usize::from(joint < -JOINT_LIMIT_TOLERANCE);
-            lowest(&mut r.worst_body, id, s.min_body_clearance);
-            lowest(&mut r.worst_toe, id, s.min_toe_clearance);
+            nearest(&mut r.worst_body, id, s.body_nearest);
+            nearest(&mut r.worst_toe, id, s.toe_nearest);
+            nearest(&mut r.worst_toe_riser, id, s.toe_riser_nearest);
             lowest(&mut r.worst_joint_limit, id, joint);
             lowest(&mut r.worst_foothold, id, s.min_h[Family::Foothold.index()]);
             r.cycles += s.cycles;

@@ -10,7 +10,9 @@
 //! | `rise`, `run`, `steps`, `start_gap`, `speed` | the course \[m\] and the gait speed \[m/s\] |
 //! | `outcome` | `finished`, `not_finished` or `error` |
 //! | `duration` | simulated time \[s\] |
-//! | `min_body_clearance`, `min_toe_clearance` | exact clearance to the edge cuboids \[m\]; negative = penetration |
+//! | `min_body_clearance`, `body_nearest`, `body_nearest_t` | the body's smallest exact clearance to the solid terrain (floor and steps as blocks) \[m\], negative = depth into a solid; where (`body step 2 riser`) and when \[s\] |
+//! | `min_toe_clearance`, `toe_nearest`, `toe_nearest_t` | the same for the wheels: about 0 for wheels that only stood on treads (`RR floor tread`) |
+//! | `min_toe_riser_clearance`, `toe_riser_nearest`, `riser_contact_cycles` | the wheels' smallest clearance to a riser (contact normal over 30° from vertical) \[m\], where, and the cycles with a wheel touching or in a riser |
 //! | `min_h_<family>` | smallest `h` of that family's active rows over the run (empty if none) |
 //! | `median_cpu_us`, `p99_cpu_us`, `max_cpu_us` | filter update, thread CPU time \[µs\] |
 //! | `median_wall_us`, `p99_wall_us`, `max_wall_us` | filter update, wall time \[µs\] |
@@ -21,14 +23,17 @@ use std::fmt::{self, Write as _};
 use std::io;
 use std::path::{Path, PathBuf};
 
-use super::{Campaign, EpisodeRecord, Outcome, Report, Worst, JOINT_LIMIT_TOLERANCE, PENETRATION_TOLERANCE};
+use super::{
+    Campaign, EpisodeRecord, Outcome, Report, Worst, WorstApproach, JOINT_LIMIT_TOLERANCE, PENETRATION_TOLERANCE,
+};
 use crate::chart::{Chart, Series};
 use crate::systems::tachyon3::catalog::Family;
+use crate::systems::tachyon3::sim::Approach;
 
 /// The CSV text of the campaign, one line per episode in id order.
 pub fn csv(campaign: &Campaign) -> String {
     let mut out =
-        String::from("id,seed,rise,run,steps,start_gap,speed,outcome,duration,min_body_clearance,min_toe_clearance");
+        String::from("id,seed,rise,run,steps,start_gap,speed,outcome,duration,min_body_clearance,body_nearest,body_nearest_t,min_toe_clearance,toe_nearest,toe_nearest_t,min_toe_riser_clearance,toe_riser_nearest,riser_contact_cycles");
     for f in Family::ALL {
         let _ = write!(out, ",min_h_{}", f.name());
     }
@@ -52,8 +57,14 @@ pub fn csv(campaign: &Campaign) -> String {
         );
         match &r.result {
             Ok(s) => {
-                let _ =
-                    write!(out, ",{:.3},{},{}", s.duration, number(s.min_body_clearance), number(s.min_toe_clearance));
+                let _ = write!(out, ",{:.3}", s.duration);
+                for a in [s.body_nearest, s.toe_nearest] {
+                    let (d, place, t) =
+                        a.map_or((f64::NAN, String::new(), f64::NAN), |a| (a.contact.distance, a.contact.place(), a.t));
+                    let _ = write!(out, ",{},{place},{}", number(d), number(t));
+                }
+                let riser = s.toe_riser_nearest.map_or(String::new(), |a| a.contact.place());
+                let _ = write!(out, ",{},{riser},{}", number(s.min_toe_riser_clearance()), s.riser_contact_cycles);
                 for h in s.min_h {
                     let _ = write!(out, ",{}", number(h));
                 }
@@ -73,7 +84,7 @@ pub fn csv(campaign: &Campaign) -> String {
                 );
             }
             Err(message) => {
-                out.push_str(&",".repeat(3 + Family::ALL.len() + 10));
+                out.push_str(&",".repeat(10 + Family::ALL.len() + 10));
                 let _ = writeln!(out, ",\"{}\"", message.replace('"', "\"\""));
             }
         }
@@ -131,11 +142,12 @@ fn scatter(
 pub fn figures(campaign: &Campaign) -> Vec<(&'static str, Chart)> {
     let rise = |r: &EpisodeRecord| r.episode.stairs.rise;
     let speed = |r: &EpisodeRecord| r.episode.speed;
-    let clearance =
-        |r: &EpisodeRecord| r.result.as_ref().map_or(f64::NAN, |s| s.min_body_clearance.min(s.min_toe_clearance) * 1e3);
+    let clearance = |r: &EpisodeRecord| {
+        r.result.as_ref().map_or(f64::NAN, |s| s.min_body_clearance().min(s.min_toe_clearance()) * 1e3)
+    };
     let joint = |r: &EpisodeRecord| r.min_joint_limit_h();
     let tol_mm = -PENETRATION_TOLERANCE * 1e3;
-    let clearance_label = "min exact clearance, body or toe [mm]";
+    let clearance_label = "min exact clearance to the solid terrain, body or wheel [mm]";
     let joint_label = "min joint-limit h [rad or m]";
     let mut map = Chart::new("Outcome per episode", "rise [m]", "gait speed [m/s]");
     for (outcome, color) in OUTCOME_COLORS {
@@ -194,6 +206,10 @@ fn worst(w: Worst, scale: f64, unit: &str) -> String {
     w.map_or_else(|| "-".into(), |(id, v)| format!("{:.3} {unit} (episode {id})", v * scale))
 }
 
+fn worst_approach(w: WorstApproach) -> String {
+    w.map_or_else(|| "-".into(), |(id, Approach { t, contact })| format!("{contact} (episode {id}, t {t:.2} s)"))
+}
+
 impl fmt::Display for Report {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let pct = |n: usize, of: usize| if of == 0 { 0.0 } else { 100.0 * n as f64 / of as f64 };
@@ -203,11 +219,17 @@ impl fmt::Display for Report {
         writeln!(f, "| finished | {} ({:.2} %) |", self.finished, pct(self.finished, n))?;
         writeln!(f, "| not finished | {} ({:.2} %) |", self.not_finished.len(), pct(self.not_finished.len(), n))?;
         writeln!(f, "| errors | {} |", self.errors.len())?;
-        writeln!(f, "| body penetration > 1 mm | {} |", self.body_penetrations)?;
-        writeln!(f, "| toe penetration > 1 mm | {} |", self.toe_penetrations)?;
+        writeln!(f, "| body more than 1 mm into the solid terrain | {} |", self.body_penetrations)?;
+        writeln!(f, "| wheel more than 1 mm into the solid terrain | {} |", self.toe_penetrations)?;
+        writeln!(
+            f,
+            "| wheel touching a riser | {} episodes, {} cycles |",
+            self.riser_contacts.0, self.riser_contacts.1
+        )?;
         writeln!(f, "| joint-limit h < -1e-4 | {} |", self.joint_limit_violations)?;
-        writeln!(f, "| worst body clearance | {} |", worst(self.worst_body, 1e3, "mm"))?;
-        writeln!(f, "| worst toe clearance | {} |", worst(self.worst_toe, 1e3, "mm"))?;
+        writeln!(f, "| worst body clearance | {} |", worst_approach(self.worst_body))?;
+        writeln!(f, "| deepest wheel (0: on a tread) | {} |", worst_approach(self.worst_toe))?;
+        writeln!(f, "| worst wheel clearance to a riser | {} |", worst_approach(self.worst_toe_riser))?;
         writeln!(f, "| worst joint-limit h | {} |", worst(self.worst_joint_limit, 1.0, "rad or m"))?;
         writeln!(f, "| worst foothold h (toe outside its strip) | {} |", worst(self.worst_foothold, 1e3, "mm"))?;
         writeln!(f, "| filter updates | {} |", self.cycles)?;
