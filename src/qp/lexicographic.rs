@@ -14,7 +14,10 @@
 //!
 //! # Stages
 //! Every stage is a small strictly convex QP with hard rows, solved exactly by the dense
-//! dual active-set method ([`DualActiveSet`], KKT-verified before it answers):
+//! dual active-set method ([`DualActiveSet`], KKT-verified before it answers). Stages work
+//! in the scaled inputs `z_j = √w_j u_j`, where the weights appear only in the rows
+//! (`a_ij / √w_j`) and the box, and every cost matrix is the identity: weights however far
+//! apart leave the solver's conditioning, and its checks, as they are.
 //! * **H (hard)**: `min ½ Σ w_j (u_j − r_j)²` over the box with every row hard at its
 //!   current relaxation, `a_i·u + b_i + ρ_i ≥ 0` (`ρ_i = 0` until a stage fixes it). When
 //!   the rows and the box are compatible — the usual case — this one solve is the answer:
@@ -37,8 +40,7 @@
 //! term makes the minimum sharp, so once `μ` (= [`PENALTY`] times the inputs' scale)
 //! outweighs the pull of the proximal term, the stage's `t` is the linear program's own
 //! (not a regularised approximation of it), usually in the first round; the second
-//! confirms it and starts from the last active set, taking no step. The cost matrix is the
-//! hard stage's, `diag(w, 1)`: no worse conditioned.
+//! confirms it and starts from the last active set, taking no step.
 //!
 //! # Why a row was relaxed
 //! A row fixed by an elastic stage records what held it back, read from the stage's
@@ -311,7 +313,8 @@ impl PackedStage {
 /// The solver: the box, the weights and the buffers of both stages, laid out once.
 #[derive(Debug, Clone)]
 pub struct LexicographicSolver<const NU: usize> {
-    weights: [f64; NU],
+    /// `√w_j`: every stage works in the scaled inputs `z_j = √w_j u_j` (module docs).
+    root_weights: [f64; NU],
     input_min: [f64; NU],
     input_max: [f64; NU],
     rows: usize,
@@ -363,11 +366,11 @@ impl<const NU: usize> LexicographicSolver<NU> {
                 });
             }
         }
-        let hard = PackedStage::new(&diagonal(weights.iter().copied()), NU, NU, rows, HARD_SLOTS)?;
-        let elastic_diagonal = diagonal(weights.iter().copied().chain([1.0]));
-        let elastic = PackedStage::new(&elastic_diagonal, NU + 1, NU + 1, rows, TIERS)?;
+        let hard = PackedStage::new(&identity(NU), NU, NU, rows, HARD_SLOTS)?;
+        let elastic = PackedStage::new(&identity(NU + 1), NU + 1, NU + 1, rows, TIERS)?;
+        let root_weights = weights.map(f64::sqrt);
         let mut solver = Self {
-            weights: *weights,
+            root_weights,
             input_min: *input_min,
             input_max: *input_max,
             rows,
@@ -391,8 +394,8 @@ impl<const NU: usize> LexicographicSolver<NU> {
             let data = stage.qp.data_mut();
             for j in 0..NU {
                 data.a[j * n + j] = 1.0;
-                data.lower[j] = input_min[j];
-                data.upper[j] = input_max[j];
+                data.lower[j] = root_weights[j] * input_min[j];
+                data.upper[j] = root_weights[j] * input_max[j];
             }
         }
         let data = solver.elastic.qp.data_mut();
@@ -455,7 +458,7 @@ impl<const NU: usize> LexicographicSolver<NU> {
         {
             let data = self.hard.qp.data_mut();
             for j in 0..NU {
-                data.q[j] = -self.weights[j] * u_ref[j];
+                data.q[j] = -self.root_weights[j] * u_ref[j];
             }
         }
         match self.solve_hard(rows, u8::MAX, WarmSlot::First.index(), max_steps) {
@@ -497,19 +500,24 @@ impl<const NU: usize> LexicographicSolver<NU> {
     /// Stage H's point as `u`, inside the box (the dense solver meets the box only to its
     /// tolerance).
     fn take_hard_point(&mut self) {
-        let x = self.hard.qp.solution();
-        for j in 0..NU {
-            self.u[j] = x[j].clamp(self.input_min[j], self.input_max[j]);
-        }
+        self.u = self.inputs(self.hard.qp.solution());
     }
 
     /// Stage E's point as `u` (a stage that did not finish).
     fn take_elastic_point(&mut self) -> Outcome {
-        let x = self.elastic.qp.solution();
-        for j in 0..NU {
-            self.u[j] = x[j].clamp(self.input_min[j], self.input_max[j]);
-        }
+        self.u = self.inputs(self.elastic.qp.solution());
         Outcome::StepLimit
+    }
+
+    /// The inputs `u = z / √w` of a stage's scaled point, inside the box (the dense
+    /// solver meets the box only to its tolerance).
+    fn inputs(&self, z: &[f64]) -> [f64; NU] {
+        std::array::from_fn(|j| (z[j] / self.root_weights[j]).clamp(self.input_min[j], self.input_max[j]))
+    }
+
+    /// Row `a` in the scaled inputs: `a_j / √w_j`.
+    fn scaled_row(&self, a: &[f64; NU]) -> [f64; NU] {
+        std::array::from_fn(|j| a[j] / self.root_weights[j])
     }
 
     /// Which rows take part, their `σ`, and the tiers present; every relaxation back to 0.
@@ -543,7 +551,8 @@ impl<const NU: usize> LexicographicSolver<NU> {
         self.hard.clear();
         for (i, row) in rows.iter().enumerate() {
             if self.standing[i] == Standing::Hard && row.tier <= through {
-                self.hard.push(i, &row.a, 0.0, -row.b - self.relaxation[i]);
+                let a = self.scaled_row(&row.a);
+                self.hard.push(i, &a, 0.0, -row.b - self.relaxation[i]);
             }
         }
         let status = self.hard.solve(slot, max_steps);
@@ -559,7 +568,7 @@ impl<const NU: usize> LexicographicSolver<NU> {
             // Do the tier's unfixed rows fit, with the higher tiers and its fixed rows?
             match self.solve_hard(rows, tier, WarmSlot::Restricted(tier).index(), max_steps) {
                 DenseStatus::Solved => {
-                    let u = *self.hard.qp.solution().first_chunk::<NU>().expect("NU variables");
+                    let u = self.inputs(self.hard.qp.solution());
                     for i in 0..m {
                         if self.unfixed(i, rows, tier) {
                             self.relaxation[i] = self.rounding_pad(&rows[i], &u);
@@ -576,7 +585,7 @@ impl<const NU: usize> LexicographicSolver<NU> {
             // tier's other rows elastic (by σ, needed only here), lower tiers out.
             for i in 0..m {
                 if self.unfixed(i, rows, tier) {
-                    self.sigma[i] = scaled_norm(&rows[i].a, &self.weights);
+                    self.sigma[i] = scaled_norm(&rows[i].a, &self.root_weights);
                 }
             }
             self.elastic.clear();
@@ -585,15 +594,16 @@ impl<const NU: usize> LexicographicSolver<NU> {
                     continue;
                 }
                 let elastic = if self.unfixed(i, rows, tier) { self.sigma[i] } else { 0.0 };
-                self.elastic.push(i, &row.a, elastic, -row.b - self.relaxation[i]);
+                let a = self.scaled_row(&row.a);
+                self.elastic.push(i, &a, elastic, -row.b - self.relaxation[i]);
             }
             // The proximal rounds, centred first on the nominal input, then each on the
             // last answer, until a round does not move: its multipliers are then the
-            // linear program's, free of the proximal term's pull. While t still falls,
-            // the penalty grows a hundredfold a round (a degenerate program's optimum can
-            // lie far along a direction where t falls slowly). A round that does not
-            // verify ends them, and the last verified round is solved again for its
-            // multipliers.
+            // linear program's, free of the proximal term's pull. While the answer still
+            // moves, the penalty grows a hundredfold a round (a degenerate program's
+            // optimum can lie far along a direction where t falls slowly, 1e-7 a round
+            // at the first penalty). A round that does not verify ends them, and the last
+            // verified round is solved again for its multipliers.
             let mut centre = *u_ref;
             let mut previous: Option<([f64; NU], f64, f64)> = None;
             let mut penalty = PENALTY;
@@ -613,20 +623,18 @@ impl<const NU: usize> LexicographicSolver<NU> {
                 }
                 let z = self.elastic.qp.solution();
                 let t = z[NU];
-                let tolerance = self.t_tolerance(&z[..NU], u_ref);
-                let moved = (0..NU).map(|j| self.weights[j].sqrt() * (z[j] - centre[j]).abs()).fold(0.0, f64::max);
+                let u = self.inputs(z);
+                let tolerance = self.t_tolerance(&u, u_ref);
+                let moved = (0..NU).map(|j| (z[j] - self.root_weights[j] * centre[j]).abs()).fold(0.0, f64::max);
                 if moved <= tolerance {
                     break;
                 }
-                if previous.is_some_and(|(_, before, _)| before - t > tolerance) {
-                    penalty = (penalty * PENALTY_GROWTH).min(MAX_PENALTY);
-                }
                 previous = Some((centre, t, penalty));
-                centre.copy_from_slice(&z[..NU]);
+                penalty = (penalty * PENALTY_GROWTH).min(MAX_PENALTY);
+                centre = std::array::from_fn(|j| z[j] / self.root_weights[j]);
             }
             self.elastic_stages += 1;
-            let z = self.elastic.qp.solution();
-            let (t, u): (f64, [f64; NU]) = (z[NU], std::array::from_fn(|j| z[j]));
+            let (t, u) = (self.elastic.qp.solution()[NU], self.inputs(self.elastic.qp.solution()));
             // Fix the rows that bind at t (non-zero multipliers) at σ t (plus the rounding
             // pad on a second attempt). Should the stage have found no conflict after all
             // (t within rounding of 0) or no binding row (rounding), every row of the tier
@@ -677,11 +685,11 @@ impl<const NU: usize> LexicographicSolver<NU> {
     /// One proximal round of stage E centred on `centre`, warm-started from the last.
     fn solve_elastic(&mut self, tier: u8, centre: &[f64; NU], penalty: f64, max_steps: u32) -> DenseStatus {
         let scale = (0..NU)
-            .map(|j| self.weights[j].sqrt() * self.input_min[j].abs().max(self.input_max[j].abs()).max(centre[j].abs()))
+            .map(|j| self.root_weights[j] * self.input_min[j].abs().max(self.input_max[j].abs()).max(centre[j].abs()))
             .fold(1.0, f64::max);
         let data = self.elastic.qp.data_mut();
         for j in 0..NU {
-            data.q[j] = -self.weights[j] * centre[j];
+            data.q[j] = -self.root_weights[j] * centre[j];
         }
         data.q[NU] = penalty * scale;
         let status = self.elastic.solve(usize::from(tier), max_steps);
@@ -692,7 +700,7 @@ impl<const NU: usize> LexicographicSolver<NU> {
     /// `t` within rounding of 0: the dense solver's tolerance in the units of `t`
     /// (weighted input).
     fn t_tolerance(&self, u: &[f64], u_ref: &[f64; NU]) -> f64 {
-        let size = (0..NU).map(|j| self.weights[j].sqrt() * (u[j].abs() + u_ref[j].abs())).fold(0.0, f64::max);
+        let size = (0..NU).map(|j| self.root_weights[j] * (u[j].abs() + u_ref[j].abs())).fold(0.0, f64::max);
         KKT_TOLERANCE * (1.0 + size)
     }
 
@@ -814,22 +822,20 @@ impl WarmStarts {
     }
 }
 
-/// `diag(values)`, row-major.
-fn diagonal(values: impl Iterator<Item = f64>) -> Vec<f64> {
-    let values: Vec<f64> = values.collect();
-    let n = values.len();
+/// The `n × n` identity, row-major.
+fn identity(n: usize) -> Vec<f64> {
     let mut m = vec![0.0; n * n];
-    for (k, v) in values.into_iter().enumerate() {
-        m[k * n + k] = v;
+    for k in 0..n {
+        m[k * n + k] = 1.0;
     }
     m
 }
 
-/// `‖a‖_{W⁻¹} = (Σ_j a_j² / w_j)^{1/2}`, without overflow for any finite row.
-fn scaled_norm<const NU: usize>(a: &[f64; NU], weights: &[f64; NU]) -> f64 {
-    let largest = (0..NU).map(|j| (a[j] / weights[j].sqrt()).abs()).fold(0.0, f64::max);
+/// `‖a‖_{W⁻¹} = (Σ_j a_j² / w_j)^{1/2}` from `√w`, without overflow for any finite row.
+fn scaled_norm<const NU: usize>(a: &[f64; NU], root_weights: &[f64; NU]) -> f64 {
+    let largest = (0..NU).map(|j| (a[j] / root_weights[j]).abs()).fold(0.0, f64::max);
     if largest == 0.0 || !largest.is_finite() {
         return largest;
     }
-    largest * (0..NU).map(|j| (a[j] / weights[j].sqrt() / largest).powi(2)).sum::<f64>().sqrt()
+    largest * (0..NU).map(|j| (a[j] / root_weights[j] / largest).powi(2)).sum::<f64>().sqrt()
 }
