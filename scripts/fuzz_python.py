@@ -219,7 +219,8 @@ def first_non_finite(value, path: str = "result"):
         return None
     kind = type(value).__name__
     if kind == "FilterOutput":
-        return first_non_finite(value.u, f"{path}.u")
+        return first_non_finite(value.u, f"{path}.u") or first_non_finite(
+            [r["slack"] for r in value.relaxed] + [r["relative"] for r in value.relaxed], f"{path}.relaxed")
     if kind == "Rows":
         return first_non_finite(value.lie, f"{path}.lie") or first_non_finite(value.lg_lf, f"{path}.lg_lf")
     if isinstance(value, dict):
@@ -692,12 +693,18 @@ def other_params(case: Case, cbfgen, system):
 
 
 def inspect_filter(case: Case, safety) -> None:
-    """The filter's getters: shapes and settings always; its slack must be finite (its
-    ``lie`` and ``lg_lf`` keep a non-finite row's values for diagnosis)."""
+    """The filter's getters: shapes and settings always; every array finite (``lie`` or
+    ``lg_lf`` is None after a cycle whose rows were not finite)."""
     case.call("EcbfFilter.output", lambda: safety.output)
     case.call("EcbfFilter.slack", lambda: safety.slack)
-    case.call("EcbfFilter.layout", lambda: (safety.row_count, len(safety.layout), safety.lie.shape,
-                                            safety.lg_lf.shape, len(safety.applicable), len(safety.active)))
+
+    def shapes():
+        lie, lg = safety.lie, safety.lg_lf
+        return (safety.row_count, len(safety.layout), None if lie is None else lie.shape,
+                None if lg is None else lg.shape, len(safety.applicable), len(safety.active))
+
+    case.call("EcbfFilter.layout", shapes)
+    case.call("EcbfFilter.lie", lambda: safety.lie)
     # (Default activations are inf: "always on".)
     case.call("EcbfFilter.family_settings", lambda: sorted(safety.family_settings))
 

@@ -469,7 +469,8 @@ def simulate(
     Clearances (body_clearance, toe_clearance, toe_riser_clearance per cycle; the
     summary's min_*_clearance, where each was in body_nearest / toe_nearest /
     toe_riser_nearest, and riser_contact_cycles) are measured against the true terrain's
-    solids, as Course.clearance.
+    solids, as Course.clearance. ``summary["relaxed_cycles"]`` counts, per family, the
+    cycles in which the filter reported rows of it relaxed.
 
     ``min_h`` is inf where no row of a family applied, ``toe_riser_clearance`` where no
     wheel faces a riser; every other series is finite.

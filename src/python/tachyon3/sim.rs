@@ -240,6 +240,11 @@ fn simulate<'py>(
     summary.set_item("over_period_wall", m.over_period_wall)?;
     summary.set_item("over_period_cpu", m.over_period_cpu)?;
     summary.set_item("fallback_cycles", m.fallback_cycles)?;
+    let relaxed = PyDict::new(py);
+    for f in Family::ALL {
+        relaxed.set_item(f.name(), m.relaxed_cycles[f.index()])?;
+    }
+    summary.set_item("relaxed_cycles", relaxed)?;
     summary.set_item("perception_updates", m.perception.map_or(0, |p| p.updates))?;
     out.set_item("summary", summary)?;
     Ok(out)

@@ -160,6 +160,9 @@ pub struct Sample {
     pub min_h: [f64; 6],
     /// Rows that took part in the QP (applicable and below their family's activation threshold).
     pub active_rows: usize,
+    /// Rows each family had relaxed at the applied input (the filter's verdict,
+    /// [`Family::index`] order): 0 everywhere when every active row was met.
+    pub relaxed_rows: [usize; 6],
     /// OSQP's ADMM iterations in this cycle's solve.
     pub iterations: u32,
     /// Where the applied input came from: the QP's optimum or one of the fallbacks.
@@ -236,6 +239,9 @@ pub struct Summary {
     /// Cycles whose input was not a QP optimum ([`InputSource::Qp`]): unconverged iterates and
     /// fallbacks.
     pub fallback_cycles: usize,
+    /// Per family ([`Family::index`] order): cycles in which the filter reported rows of it
+    /// relaxed (missed at the applied input, beyond the solver's rounding).
+    pub relaxed_cycles: [usize; 6],
     /// Perception's figures, for a run on perceived terrain.
     pub perception: Option<PerceptionSummary>,
 }
@@ -373,6 +379,8 @@ pub fn run_observed(
             x,
             min_h,
             active_rows: out.active_rows,
+            // The filter's families are the spec's, which `Family` follows.
+            relaxed_rows: std::array::from_fn(|f| filter.relaxation()[f].relaxed_rows),
             iterations: out.iterations,
             source: out.source,
             eval_us: out.eval_time.as_secs_f64() * 1e6,
@@ -456,6 +464,7 @@ fn summarize(config: &SimConfig, samples: &[Sample], completed: bool, perception
         over_period_wall: over(|s| s.update_us),
         over_period_cpu: over(|s| s.cpu_us),
         fallback_cycles: samples.iter().filter(|s| s.source != InputSource::Qp).count(),
+        relaxed_cycles: std::array::from_fn(|f| samples.iter().filter(|s| s.relaxed_rows[f] > 0).count()),
         perception: perception.map(|p| {
             let [median_ms, _, max_ms] = crate::cpu_time::median_p99_max(
                 &mut p.updates.iter().map(|u| u.elapsed.as_secs_f64() * 1e3).collect::<Vec<_>>(),

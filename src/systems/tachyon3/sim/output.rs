@@ -287,6 +287,10 @@ impl fmt::Display for Summary {
             self.median_cpu_us, self.p99_cpu_us, self.max_cpu_us, self.over_period_cpu
         )?;
         write!(f, "  cycles not solved to tolerance: {}", self.fallback_cycles)?;
+        write!(f, "\n  cycles with rows relaxed (the filter's verdict), per family:")?;
+        for family in Family::ALL {
+            write!(f, " {} {}", family.name(), self.relaxed_cycles[family.index()])?;
+        }
         if let Some(p) = &self.perception {
             write!(
                 f,

@@ -377,6 +377,10 @@ pub struct Report {
     pub max_wall: Worst,
     /// Updates whose input was not a verified QP optimum (flagged fallbacks).
     pub fallback_cycles: usize,
+    /// Per family ([`Family::index`](crate::systems::tachyon3::catalog::Family::index)
+    /// order): updates in which the filter reported rows of it relaxed, and the episodes
+    /// holding any.
+    pub relaxed_cycles: [(usize, usize); 6],
 }
 
 impl Campaign {
@@ -404,6 +408,7 @@ impl Campaign {
             max_cpu: None,
             max_wall: None,
             fallback_cycles: 0,
+            relaxed_cycles: [(0, 0); 6],
         };
         let lowest = |worst: &mut Worst, id: u64, v: f64| {
             if v.is_finite() && worst.is_none_or(|(_, w)| v < w) {
@@ -460,6 +465,9 @@ impl Campaign {
             highest(&mut r.max_cpu, id, s.max_cpu_us);
             highest(&mut r.max_wall, id, s.max_update_us);
             r.fallback_cycles += s.fallback_cycles;
+            for (total, &n) in r.relaxed_cycles.iter_mut().zip(&s.relaxed_cycles) {
+                *total = (total.0 + n, total.1 + usize::from(n > 0));
+            }
         }
         medians.sort_unstable_by(f64::total_cmp);
         r.median_cpu_us = crate::systems::tachyon3::latency::nearest_rank(&medians, 0.5).unwrap_or(0.0);

@@ -17,6 +17,7 @@
 //! | `median_cpu_us`, `p99_cpu_us`, `max_cpu_us` | filter update, thread CPU time \[µs\] |
 //! | `median_wall_us`, `p99_wall_us`, `max_wall_us` | filter update, wall time \[µs\] |
 //! | `over_1ms_cpu`, `over_1ms_wall`, `cycles`, `fallback_cycles` | update counts |
+//! | `relaxed_<family>` | updates in which the filter reported rows of that family relaxed |
 //! | `error` | the error message, quoted |
 
 use std::fmt::{self, Write as _};
@@ -38,8 +39,12 @@ pub fn csv(campaign: &Campaign) -> String {
         let _ = write!(out, ",min_h_{}", f.name());
     }
     out.push_str(
-        ",median_cpu_us,p99_cpu_us,max_cpu_us,median_wall_us,p99_wall_us,max_wall_us,over_1ms_cpu,over_1ms_wall,cycles,fallback_cycles,error\n",
+        ",median_cpu_us,p99_cpu_us,max_cpu_us,median_wall_us,p99_wall_us,max_wall_us,over_1ms_cpu,over_1ms_wall,cycles,fallback_cycles",
     );
+    for f in Family::ALL {
+        let _ = write!(out, ",relaxed_{}", f.name());
+    }
+    out.push_str(",error\n");
     let number = |v: f64| if v.is_finite() { format!("{v:.6}") } else { String::new() };
     for r in &campaign.records {
         let e = &r.episode;
@@ -68,9 +73,9 @@ pub fn csv(campaign: &Campaign) -> String {
                 for h in s.min_h {
                     let _ = write!(out, ",{}", number(h));
                 }
-                let _ = writeln!(
+                let _ = write!(
                     out,
-                    ",{:.1},{:.1},{:.1},{:.1},{:.1},{:.1},{},{},{},{},",
+                    ",{:.1},{:.1},{:.1},{:.1},{:.1},{:.1},{},{},{},{}",
                     s.median_cpu_us,
                     s.p99_cpu_us,
                     s.max_cpu_us,
@@ -82,9 +87,13 @@ pub fn csv(campaign: &Campaign) -> String {
                     s.cycles,
                     s.fallback_cycles
                 );
+                for n in s.relaxed_cycles {
+                    let _ = write!(out, ",{n}");
+                }
+                out.push_str(",\n");
             }
             Err(message) => {
-                out.push_str(&",".repeat(10 + Family::ALL.len() + 10));
+                out.push_str(&",".repeat(10 + 2 * Family::ALL.len() + 10));
                 let _ = writeln!(out, ",\"{}\"", message.replace('"', "\"\""));
             }
         }
@@ -247,7 +256,13 @@ impl fmt::Display for Report {
             "| updates over 1 ms, wall | {} of {} in {} episodes |",
             self.over_period_wall.0, self.cycles, self.over_period_wall.1
         )?;
-        write!(f, "| updates not solved to tolerance | {} |", self.fallback_cycles)?;
+        writeln!(f, "| updates not solved to tolerance | {} |", self.fallback_cycles)?;
+        write!(f, "| updates with rows relaxed (the filter's verdict), per family |")?;
+        for family in Family::ALL {
+            let (cycles, episodes) = self.relaxed_cycles[family.index()];
+            write!(f, " {} {cycles} in {episodes} episodes;", family.name())?;
+        }
+        write!(f, " |")?;
         if !self.not_finished.is_empty() {
             let ids: Vec<String> = self.not_finished.iter().take(20).map(u64::to_string).collect();
             let more = if self.not_finished.len() > 20 { ", ..." } else { "" };
