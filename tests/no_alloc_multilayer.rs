@@ -119,8 +119,9 @@ fn every_multilayer_path_allocates_nothing() {
     // Construction allocates by design, so every solver and box is made here.
     let barrier = config.barrier;
     let mode = config.modes()[1];
-    // OSQP only: the dense solve would answer this QP exactly before OSQP ran.
-    let one_iteration = SolverSettings { backend: Solver::Osqp, max_iter: 1, ..config.qp.solver };
+    // OSQP only, unpolished: the dense solve would answer this QP exactly, before OSQP ran
+    // or from its face.
+    let one_iteration = SolverSettings { backend: Solver::Osqp, max_iter: 1, polish: false, ..config.qp.solver };
     let cbf_qp = |settings: CbfQpSettings| IdCbfQp::new(settings, barrier).expect("CBF-QP");
     let one_iteration_qp = CbfQpSettings { solver: one_iteration, ..config.qp };
     let mpc_solver = |solver: SolverSettings| MpcSettings { solver, ..config.mpc };
