@@ -96,12 +96,12 @@ pub enum CbfError {
         reason: String,
     },
     /// A QP of the multi-layer controller ended without a usable iterate (infeasible,
-    /// non-convex or a solver fault); `status` is [`QpStatus::name`](crate::filter::QpStatus::name).
+    /// non-convex or a solver fault); `status` is [`QpStatus::name`](crate::qp::QpStatus::name).
     #[error("{layer}: QP not solved ({status})")]
     QpFailed {
         /// Which QP failed (e.g. `"kinematic MPC"`).
         layer: &'static str,
-        /// How it ended: a [`QpStatus::name`](crate::filter::QpStatus::name).
+        /// How it ended: a [`QpStatus::name`](crate::qp::QpStatus::name).
         status: &'static str,
     },
     /// A family, member or instance index beyond what exists.

@@ -253,7 +253,7 @@ enum BackendArg {
     DenseThenOsqp,
 }
 
-/// Solver overrides for tuning runs; defaults are [`cbfgen::filter::SolverSettings::default`],
+/// Solver overrides for tuning runs; defaults are [`cbfgen::qp::SolverSettings::default`],
 /// ranges [`SolverSettings::validate`]'s.
 #[derive(clap::Args)]
 struct SolverArgs {

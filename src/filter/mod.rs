@@ -89,9 +89,9 @@ pub mod verdict;
 
 use std::time::{Duration, Instant};
 
-pub(crate) use qp::Iterate;
-pub use qp::{Backend, EcbfQp, QpStatus, RowSpec};
-pub use settings::{domain, FilterSettings, Solver, SolverSettings};
+pub use crate::qp::{Backend, QpStatus, Solver, SolverSettings};
+pub use qp::{EcbfQp, RowSpec};
+pub use settings::{domain, FilterSettings};
 pub use verdict::{Cause, FamilyRelaxation, Limit, RelaxedRow, Safety, Verdict};
 
 use crate::cpu_time::Stopwatch;

@@ -21,16 +21,16 @@
 
 // Index loops mirror the formulas (rows × inputs).
 #![allow(clippy::needless_range_loop)]
-use std::borrow::Cow;
+use osqp::Problem;
 
-use osqp::{CscMatrix, Problem, Status};
-
-use super::settings::{domain, validate_inputs, validate_nominal, Solver, SolverSettings};
+use super::settings::{domain, validate_inputs, validate_nominal};
 use crate::error::CbfError;
+use crate::qp::csc::Csc;
 use crate::qp::dual_active_set::{ActiveRow, Side};
 use crate::qp::lexicographic::{Cause, LexicographicSolver, Outcome, TieredRow};
 use crate::qp::osqp_workspace::{self, OsqpQp};
 use crate::qp::recorded::{RecordedQp, RecordedRow};
+use crate::qp::{Backend, Iterate, QpStatus, Solver, SolverSettings, INFINITY as INF};
 use crate::system::{Gains, Row};
 
 /// One ECBF row's fixed description.
@@ -44,116 +44,6 @@ pub struct RowSpec<'a> {
     pub priority: u8,
 }
 
-/// OSQP's primal and dual iterates, borrowed from its workspace.
-pub(crate) type Iterate<'a> = (&'a [f64], &'a [f64]);
-
-/// How a solve ended.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum QpStatus {
-    /// The dense solve verified its KKT conditions (every stage of the filter's cascade),
-    /// or OSQP met its tolerances (`eps_abs`, `eps_rel`) on a QP whose answer is OSQP's
-    /// (the MPCs).
-    Solved,
-    /// Met the tolerances ×10 only (OSQP's "solved inaccurate").
-    SolvedInaccurate,
-    /// Stopped before an answer was verified: at `max_iter` (OSQP), at `dense_max_steps`
-    /// or on rounding in a degenerate stage (the dense solve), or with an OSQP answer the
-    /// dense solve could not verify; with the point reached.
-    MaxIterations,
-    /// Stopped at `time_limit` before meeting the tolerances, with the iterate it reached.
-    TimeLimit,
-    /// OSQP reported the constraints infeasible (accurately or not); no iterate.
-    PrimalInfeasible,
-    /// OSQP reported the cost unbounded below (accurately or not); no iterate.
-    DualInfeasible,
-    /// OSQP reported the cost matrix not positive semidefinite; no iterate.
-    NonConvex,
-    /// The solver wrapper panicked (a violated internal invariant); the solver is rebuilt
-    /// on the next call.
-    SolverFault,
-    /// OSQP reported an iterate, or the dense solve a stage, with a NaN or infinite entry.
-    /// It is discarded like a fault: the caller falls back, and OSQP's workspace (warm
-    /// start, ρ) is rebuilt on the next call so the bad iterate cannot seed later cycles.
-    NonFinite,
-}
-
-impl QpStatus {
-    /// Whether the returned iterate is an optimum to the set tolerances.
-    pub fn is_solved(self) -> bool {
-        matches!(self, QpStatus::Solved | QpStatus::SolvedInaccurate)
-    }
-
-    /// OSQP's report, with the primal and dual iterates where it returned them: an
-    /// optimum, or the point it stopped at on an iteration or time limit. Shared by every
-    /// OSQP problem in the crate.
-    ///
-    /// An iterate with a NaN or infinite entry is never handed on: it reads as
-    /// [`QpStatus::NonFinite`], without an iterate, whatever OSQP called it (OSQP's
-    /// residual check passes NaN).
-    pub(crate) fn of<'a>(result: &'a Status<'a>) -> (QpStatus, Option<Iterate<'a>>) {
-        match Self::of_unchecked(result) {
-            (_, Some((x, y))) if !x.iter().chain(y).all(|v| v.is_finite()) => (QpStatus::NonFinite, None),
-            read => read,
-        }
-    }
-
-    /// Whether the solver's workspace must be rebuilt before the next solve: after a
-    /// fault, or after a non-finite iterate (its warm start and ρ may hold NaN).
-    pub(crate) fn needs_rebuild(self) -> bool {
-        matches!(self, QpStatus::SolverFault | QpStatus::NonFinite)
-    }
-
-    fn of_unchecked<'a>(result: &'a Status<'a>) -> (QpStatus, Option<Iterate<'a>>) {
-        match result {
-            Status::Solved(s) => (QpStatus::Solved, Some((s.x(), s.y()))),
-            Status::SolvedInaccurate(s) => (QpStatus::SolvedInaccurate, Some((s.x(), s.y()))),
-            Status::MaxIterationsReached(s) => (QpStatus::MaxIterations, Some((s.x(), s.y()))),
-            Status::TimeLimitReached(s) => (QpStatus::TimeLimit, Some((s.x(), s.y()))),
-            Status::PrimalInfeasible(_) | Status::PrimalInfeasibleInaccurate(_) => (QpStatus::PrimalInfeasible, None),
-            Status::DualInfeasible(_) | Status::DualInfeasibleInaccurate(_) => (QpStatus::DualInfeasible, None),
-            Status::NonConvex(_) => (QpStatus::NonConvex, None),
-            _ => (QpStatus::SolverFault, None),
-        }
-    }
-
-    /// Snake-case name, as shown in Python.
-    pub const fn name(self) -> &'static str {
-        match self {
-            QpStatus::Solved => "solved",
-            QpStatus::SolvedInaccurate => "solved_inaccurate",
-            QpStatus::MaxIterations => "max_iterations",
-            QpStatus::TimeLimit => "time_limit",
-            QpStatus::PrimalInfeasible => "primal_infeasible",
-            QpStatus::DualInfeasible => "dual_infeasible",
-            QpStatus::NonConvex => "non_convex",
-            QpStatus::SolverFault => "solver_fault",
-            QpStatus::NonFinite => "non_finite",
-        }
-    }
-}
-
-/// Which solver produced an answer.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Backend {
-    /// The exact dense solve ([`crate::qp::lexicographic`] for the filter).
-    Dense,
-    /// OSQP (ADMM); for the filter, verified by the dense solve from OSQP's face.
-    Osqp,
-}
-
-impl Backend {
-    /// Snake-case name, as written to CSV and shown in Python.
-    pub const fn name(self) -> &'static str {
-        match self {
-            Backend::Dense => "dense",
-            Backend::Osqp => "osqp",
-        }
-    }
-}
-
-/// OSQP's `l`/`u` infinity.
-const INF: f64 = 1e30;
-
 /// A row counts as met when `a·u + b ≥ −`this` · (|b| + Σ_j |a_j| (1 + |u_j|))`: ten times
 /// the dense solver's own feasibility tolerance, so that rounding in a verified answer
 /// (and the padding of a relaxation by it) is never reported as a relaxation.
@@ -165,12 +55,10 @@ pub struct EcbfQp<const NU: usize> {
     sqrt_w: [f64; NU],
     gains: Vec<Gains>,
     priority: Vec<u8>,
-    /// OSQP's constraint matrix (ECBF rows, then the box), column-major.
-    a_indptr: Vec<usize>,
-    a_indices: Vec<usize>,
-    a_data: Vec<f64>,
+    /// OSQP's constraint matrix (ECBF rows, then the box).
+    a: Csc,
     /// Row `i`'s entries are `row_entries[row_start[i]..row_start[i + 1]]`: (index into
-    /// `a_data`, input column).
+    /// `a.data`, input column).
     row_start: Vec<usize>,
     row_entries: Vec<(usize, usize)>,
     /// This cycle's rows as the dense solve takes them (`b = L_f^r h + Σ k_i L_f^i h`),
@@ -211,7 +99,7 @@ impl<const NU: usize> std::fmt::Debug for EcbfQp<NU> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("EcbfQp")
             .field("rows", &self.rows)
-            .field("nnz", &self.a_data.len())
+            .field("nnz", &self.a.data.len())
             .field("status", &self.status)
             .field("iterations", &self.iterations)
             .field("polished", &self.polished)
@@ -252,32 +140,25 @@ impl<const NU: usize> EcbfQp<NU> {
             domain::priority(r.priority)?;
         }
 
-        // A is (m ECBF rows + NU box rows) × NU inputs, column-major.
-        let nnz = rows.iter().map(|r| r.columns.len()).sum::<usize>() + NU;
-        let mut a_indptr = Vec::with_capacity(NU + 1);
-        let mut a_indices = Vec::with_capacity(nnz);
-        let mut row_cols: Vec<Vec<(usize, usize)>> = vec![Vec::new(); m];
-        a_indptr.push(0);
-        for j in 0..NU {
-            for (i, r) in rows.iter().enumerate() {
-                if r.columns.contains(&j) {
-                    row_cols[i].push((a_indices.len(), j));
-                    a_indices.push(i);
-                }
-            }
-            a_indices.push(m + j);
-            a_indptr.push(a_indices.len());
+        // A is (m ECBF rows + NU box rows) × NU inputs; row i's entries, then the box.
+        let mut entries = Vec::new();
+        let mut row_cols: Vec<Vec<usize>> = vec![Vec::new(); m];
+        for (i, r) in rows.iter().enumerate() {
+            row_cols[i] = (0..NU).filter(|j| r.columns.contains(j)).collect();
+            entries.extend(row_cols[i].iter().map(|&j| (i, j)));
         }
+        entries.extend((0..NU).map(|j| (m + j, j)));
+        let (mut a, slots) = Csc::from_entries(m + NU, NU, &entries);
         let mut row_start = Vec::with_capacity(m + 1);
-        let mut row_entries = Vec::with_capacity(nnz);
+        let mut row_entries = Vec::with_capacity(entries.len());
         row_start.push(0);
-        for entries in &row_cols {
-            row_entries.extend_from_slice(entries);
+        for cols in &row_cols {
+            let first = row_entries.len();
+            row_entries.extend(cols.iter().enumerate().map(|(k, &j)| (slots[first + k], j)));
             row_start.push(row_entries.len());
         }
-        let mut a_data = vec![0.0; a_indices.len()];
         for j in 0..NU {
-            a_data[a_indptr[j + 1] - 1] = 1.0; // box row
+            a.data[slots[row_entries.len() + j]] = 1.0; // box row
         }
         let sqrt_w = input_weights.map(f64::sqrt);
         let mut lower = vec![-INF; m + NU];
@@ -292,9 +173,7 @@ impl<const NU: usize> EcbfQp<NU> {
             sqrt_w,
             gains: rows.iter().map(|r| r.gains).collect(),
             priority: rows.iter().map(|r| r.priority).collect(),
-            a_indptr,
-            a_indices,
-            a_data,
+            a,
             row_start,
             row_entries,
             tiered: rows.iter().map(|r| TieredRow { tier: r.priority, ..empty }).collect(),
@@ -337,7 +216,7 @@ impl<const NU: usize> EcbfQp<NU> {
 
     /// Non-zeros of OSQP's constraint matrix (ECBF rows and the input box).
     pub fn nnz(&self) -> usize {
-        self.a_data.len()
+        self.a.data.len()
     }
 
     /// Solve for `u_ref` and this cycle's `rows`; only rows with `active[i]` constrain
@@ -500,7 +379,7 @@ impl<const NU: usize> EcbfQp<NU> {
             let row = &self.tiered[i];
             if !self.active[i] {
                 for &(k, _) in entries {
-                    self.a_data[k] = 0.0;
+                    self.a.data[k] = 0.0;
                 }
                 self.lower[i] = -INF;
                 continue;
@@ -510,7 +389,7 @@ impl<const NU: usize> EcbfQp<NU> {
             let largest = entries.iter().map(|&(_, c)| (row.a[c] / self.sqrt_w[c]).abs()).fold(0.0, f64::max);
             if largest == 0.0 {
                 for &(k, _) in entries {
-                    self.a_data[k] = 0.0;
+                    self.a.data[k] = 0.0;
                 }
                 self.lower[i] = -INF; // no input acts: nothing for OSQP to do with it
                 continue;
@@ -518,7 +397,7 @@ impl<const NU: usize> EcbfQp<NU> {
             let norm2 = entries.iter().map(|&(_, c)| (row.a[c] / self.sqrt_w[c] / largest).powi(2)).sum::<f64>();
             let scale = 1.0 / (largest * norm2.sqrt());
             for &(k, c) in entries {
-                self.a_data[k] = row.a[c] / self.sqrt_w[c] * scale;
+                self.a.data[k] = row.a[c] / self.sqrt_w[c] * scale;
             }
             // A bound this large is a row that cannot bind; clamp so OSQP reads it as one.
             self.lower[i] = (-row.b * scale).clamp(-INF, INF);
@@ -534,7 +413,7 @@ impl<const NU: usize> EcbfQp<NU> {
                 continue;
             }
             let entries = &self.row_entries[self.row_start[i]..self.row_start[i + 1]];
-            let value = entries.iter().map(|&(e, c)| self.a_data[e] * z[c]).sum::<f64>();
+            let value = entries.iter().map(|&(e, c)| self.a.data[e] * z[c]).sum::<f64>();
             if value - self.lower[i] < -y[i] {
                 self.osqp_face.push(ActiveRow { row: i, side: Side::Lower });
             }
@@ -645,44 +524,21 @@ impl<const NU: usize> EcbfQp<NU> {
     }
 }
 
-/// A borrowed view of the constraint matrix (no copy, no allocation).
-fn constraint_matrix<'a, const NU: usize>(
-    rows: usize,
-    indptr: &'a [usize],
-    indices: &'a [usize],
-    data: &'a [f64],
-) -> CscMatrix<'a> {
-    CscMatrix {
-        nrows: rows + NU,
-        ncols: NU,
-        indptr: Cow::Borrowed(indptr),
-        indices: Cow::Borrowed(indices),
-        data: Cow::Borrowed(data),
-    }
-}
-
 impl<const NU: usize> OsqpQp for EcbfQp<NU> {
     fn workspace(&mut self) -> &mut Option<Problem> {
         &mut self.problem
     }
 
     fn setup(&self) -> Result<Problem, CbfError> {
-        let p = CscMatrix {
-            nrows: NU,
-            ncols: NU,
-            indptr: Cow::Owned((0..=NU).collect()),
-            indices: Cow::Owned((0..NU).collect()),
-            data: Cow::Owned(vec![1.0; NU]),
-        };
-        let a = constraint_matrix::<NU>(self.rows, &self.a_indptr, &self.a_indices, &self.a_data);
-        Problem::new(p, &self.q, a, &self.lower, &self.upper, &self.settings.to_osqp())
+        let p = Csc::identity(NU);
+        Problem::new(p.view(), &self.q, self.a.view(), &self.lower, &self.upper, &self.settings.to_osqp())
             .map_err(|e| CbfError::SolverSetup { reason: e.to_string() })
     }
 
     fn update(&self, problem: &mut Problem) {
         problem.update_lin_cost(&self.q);
         problem.update_bounds(&self.lower, &self.upper);
-        problem.update_A(constraint_matrix::<NU>(self.rows, &self.a_indptr, &self.a_indices, &self.a_data));
+        problem.update_A(self.a.view());
     }
 
     fn read(&mut self, _status: QpStatus, iterate: Option<Iterate<'_>>, iterations: u32) {

@@ -49,13 +49,13 @@ impl From<crate::CbfError> for PyErr {
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
     m.add("CbfError", py.get_type::<CbfError>())?;
-    m.add("MAX_ITERATIONS", crate::filter::SolverSettings::MAX_ITERATIONS)?;
-    m.add("MAX_TIME_LIMIT_US", crate::filter::SolverSettings::MAX_TIME_LIMIT.as_secs_f64() * 1e6)?;
+    m.add("MAX_ITERATIONS", crate::qp::SolverSettings::MAX_ITERATIONS)?;
+    m.add("MAX_TIME_LIMIT_US", crate::qp::SolverSettings::MAX_TIME_LIMIT.as_secs_f64() * 1e6)?;
     m.add("MAX_INPUT", crate::filter::domain::MAX_INPUT)?;
     m.add("STATE_LIMIT", crate::system::STATE_LIMIT)?;
     m.add("PARAM_LIMIT", crate::system::PARAM_LIMIT)?;
     m.add("MAX_INSTANCES", crate::system::MAX_INSTANCES)?;
-    m.add("SOLVERS", crate::filter::Solver::ALL.map(crate::filter::Solver::name).to_vec())?;
+    m.add("SOLVERS", crate::qp::Solver::ALL.map(crate::qp::Solver::name).to_vec())?;
     m.add("INPUT_SOURCES", crate::filter::InputSource::ALL.map(crate::filter::InputSource::name).to_vec())?;
     m.add("SSAT_ALPHA_RANGE", (crate::ssat::ALPHA_MIN, crate::ssat::ALPHA_MAX))?;
     m.add("MAX_COORDINATE", crate::geometry::MAX_COORDINATE)?;

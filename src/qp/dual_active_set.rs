@@ -107,11 +107,9 @@
 //! # Ok::<(), cbfgen::CbfError>(())
 //! ```
 
+use super::QpStatus;
+pub use super::INFINITY;
 use crate::error::CbfError;
-use crate::filter::QpStatus;
-
-/// Bounds at or beyond this magnitude (and infinite ones) stand for "no bound", as in OSQP.
-pub const INFINITY: f64 = 1e30;
 
 /// `ε` of the KKT check (see the module docs): relative to the size of the terms.
 pub const KKT_TOLERANCE: f64 = 1e-9;

@@ -8,10 +8,23 @@
 //!   strictly convex QPs with hard rows: exact, warm-started, KKT-verified (the MPCs).
 //! * [`recorded`] — a cycle's QP kept to replay against any solver (test fixtures,
 //!   benchmarks).
+//! * [`QpStatus`], [`Backend`], [`SolverSettings`], [`Solver`] — the vocabulary every
+//!   solver here speaks, which the filter and the MPCs read.
+//! * `csc` — the one compressed-sparse-column builder for the matrices handed to OSQP.
 //! * `osqp_workspace` — one OSQP lifecycle (set-up, update, guarded solve) for every QP
 //!   the crate hands to OSQP: the filter's fallback and reference backend, and the MPCs.
 
+pub(crate) mod csc;
 pub mod dual_active_set;
 pub mod lexicographic;
 pub(crate) mod osqp_workspace;
 pub mod recorded;
+mod settings;
+mod status;
+
+pub use settings::{Solver, SolverSettings};
+pub use status::{Backend, Iterate, QpStatus};
+
+/// Bounds at or beyond this magnitude (and infinite ones) stand for "no bound", as in
+/// OSQP (its `OSQP_INFTY`): every QP in the crate writes a missing bound as `±INFINITY`.
+pub const INFINITY: f64 = 1e30;

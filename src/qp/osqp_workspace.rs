@@ -8,8 +8,8 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use osqp::Problem;
 
+use super::{Iterate, QpStatus};
 use crate::error::CbfError;
-use crate::filter::{Iterate, QpStatus};
 
 /// A QP solved by OSQP through [`solve`].
 pub(crate) trait OsqpQp {

@@ -61,21 +61,18 @@
 //! `update_A`, `update_bounds`) and warm-starts from its previous iterate. After
 //! construction nothing allocates, on either path.
 
-use std::borrow::Cow;
 use std::f64::consts::PI;
 
-use osqp::{CscMatrix, Problem};
+use osqp::Problem;
 
 use super::model::{LipInput, LipState};
 use super::obstacles::HalfPlane;
 use super::LipParams;
 use crate::error::CbfError;
-use crate::filter::{Backend, Iterate, QpStatus, Solver, SolverSettings};
+use crate::qp::csc::Csc;
 use crate::qp::dual_active_set::{ActiveRow, DenseStatus, DualActiveSet, WarmStart};
 use crate::qp::osqp_workspace::{self, OsqpQp};
-
-/// OSQP's infinity for `l`/`u`.
-const INF: f64 = 1e30;
+use crate::qp::{Backend, Iterate, QpStatus, Solver, SolverSettings, INFINITY as INF};
 
 /// An obstacle slot that does not constrain: zero normal (its rows get bounds (−∞, ∞)).
 const UNUSED_PLANE: HalfPlane = HalfPlane { normal: [0.0, 0.0], point: [0.0, 0.0], delta: 0.0, inside: false };
@@ -302,20 +299,14 @@ impl Linearisation {
     }
 
     /// `P = 2 Σ_k G_kᵀ G_k` (the same for both axes), upper triangle, column-major.
-    fn hessian(&self) -> (Vec<usize>, Vec<usize>, Vec<f64>) {
+    fn hessian(&self) -> Csc {
         let l = self.layout;
-        let (mut indptr, mut indices, mut data) = (vec![0], Vec::new(), Vec::new());
-        for col in 0..l.vars() {
-            let (j, axis) = (col / 2, col % 2);
-            for i in 0..=j {
-                // Feet f_i and f_j both move p_k for k > j.
-                let value: f64 = (j + 1..=l.n).map(|k| 2.0 * self.gain[k][i][0] * self.gain[k][j][0]).sum();
-                indices.push(l.foot_var(i, axis));
-                data.push(value);
-            }
-            indptr.push(indices.len());
-        }
-        (indptr, indices, data)
+        // Feet f_i and f_j (i ≤ j) both move p_k for k > j; an axis meets only itself.
+        let value = |r: usize, c: usize| -> f64 {
+            let (i, j) = (r / 2, c / 2);
+            (j + 1..=l.n).map(|k| 2.0 * self.gain[k][i][0] * self.gain[k][j][0]).sum()
+        };
+        Csc::new(l.vars(), l.vars(), |r, c| r <= c && r % 2 == c % 2, value)
     }
 
     /// `q = 2 Σ_k G_kᵀ (free p_k − g)`.
@@ -353,14 +344,10 @@ pub fn wrap_angle(a: f64) -> f64 {
 /// [`SolverSettings::backend`] can use it).
 pub struct LipMpc {
     lin: Linearisation,
-    p_indptr: Vec<usize>,
-    p_indices: Vec<usize>,
-    p_data: Vec<f64>,
-    /// `a_data[entry_slot[t]]` is the `t`-th coefficient [`Linearisation::expand`] yields.
+    p: Csc,
+    /// `a.data[entry_slot[t]]` is the `t`-th coefficient [`Linearisation::expand`] yields.
     entry_slot: Vec<usize>,
-    a_indptr: Vec<usize>,
-    a_indices: Vec<usize>,
-    a_data: Vec<f64>,
+    a: Csc,
     scratch: Vec<f64>,
     q: Vec<f64>,
     lower: Vec<f64>,
@@ -390,7 +377,7 @@ impl std::fmt::Debug for LipMpc {
             .field("horizon", &self.lin.layout.n)
             .field("obstacles", &self.lin.layout.obstacles)
             .field("rows", &self.lin.layout.rows())
-            .field("nnz", &self.a_data.len())
+            .field("nnz", &self.a.data.len())
             .field("status", &self.status)
             .field("answered_by", &self.answered_by)
             .finish_non_exhaustive()
@@ -428,30 +415,15 @@ impl LipMpc {
         let n = layout.n;
         // The pattern: every entry the value pass will ever write, sorted column-major.
         let mut scratch = vec![0.0; layout.vars()];
-        let mut triplets = Vec::new();
-        lin.expand(&mut scratch, |row, col, _| triplets.push((col, row, triplets.len())), |_, _, _| {});
-        triplets.sort_unstable();
-        let mut entry_slot = vec![0; triplets.len()];
-        let mut a_indptr = vec![0; layout.vars() + 1];
-        let mut a_indices = Vec::with_capacity(triplets.len());
-        for (slot, &(col, row, t)) in triplets.iter().enumerate() {
-            entry_slot[t] = slot;
-            a_indices.push(row);
-            a_indptr[col + 1] = slot + 1;
-        }
-        for col in 0..layout.vars() {
-            a_indptr[col + 1] = a_indptr[col + 1].max(a_indptr[col]);
-        }
-        let (p_indptr, p_indices, p_data) = lin.hessian();
+        let mut entries = Vec::new();
+        lin.expand(&mut scratch, |row, col, _| entries.push((row, col)), |_, _, _| {});
+        let (a, entry_slot) = Csc::from_entries(layout.rows(), layout.vars(), &entries);
+        let p = lin.hessian();
         let mut mpc = Self {
             lin,
-            p_indptr,
-            p_indices,
-            p_data,
+            p,
             entry_slot,
-            a_indptr,
-            a_indices,
-            a_data: vec![0.0; triplets.len()],
+            a,
             scratch,
             q: vec![0.0; layout.vars()],
             lower: vec![-INF; layout.rows()],
@@ -480,8 +452,8 @@ impl LipMpc {
             // P dense from its upper triangle (the dense solver reads only that half).
             let mut hessian = vec![0.0; vars * vars];
             for col in 0..vars {
-                for k in mpc.p_indptr[col]..mpc.p_indptr[col + 1] {
-                    hessian[mpc.p_indices[k] * vars + col] = mpc.p_data[k];
+                for k in mpc.p.indptr[col]..mpc.p.indptr[col + 1] {
+                    hessian[mpc.p.indices[k] * vars + col] = mpc.p.data[k];
                 }
             }
             mpc.dense = Some(DualActiveSet::new(&hessian, vars, layout.rows())?);
@@ -492,19 +464,9 @@ impl LipMpc {
         Ok(mpc)
     }
 
-    fn constraint_matrix(&self) -> CscMatrix<'_> {
-        CscMatrix {
-            nrows: self.lin.layout.rows(),
-            ncols: self.lin.layout.vars(),
-            indptr: Cow::Borrowed(&self.a_indptr),
-            indices: Cow::Borrowed(&self.a_indices),
-            data: Cow::Borrowed(&self.a_data),
-        }
-    }
-
     /// Rewrite `A`, `q` and the bounds from the current linearisation.
     fn write_values(&mut self) {
-        let (slots, data, lower, upper) = (&self.entry_slot, &mut self.a_data, &mut self.lower, &mut self.upper);
+        let (slots, data, lower, upper) = (&self.entry_slot, &mut self.a.data, &mut self.lower, &mut self.upper);
         let mut t = 0;
         self.lin.expand(
             &mut self.scratch,
@@ -580,8 +542,8 @@ impl LipMpc {
         let vars = self.lin.layout.vars();
         let data = dense.data_mut();
         for col in 0..vars {
-            for k in self.a_indptr[col]..self.a_indptr[col + 1] {
-                data.a[self.a_indices[k] * vars + col] = self.a_data[k];
+            for k in self.a.indptr[col]..self.a.indptr[col + 1] {
+                data.a[self.a.indices[k] * vars + col] = self.a.data[k];
             }
         }
         data.q.copy_from_slice(&self.q);
@@ -652,13 +614,13 @@ impl LipMpc {
     /// with other solvers: `min ½ zᵀPz + qᵀz s.t. l ≤ Az ≤ u`, `z` the feet.
     pub fn qp(&self) -> QpView<'_> {
         QpView {
-            p_indptr: &self.p_indptr,
-            p_indices: &self.p_indices,
-            p_data: &self.p_data,
+            p_indptr: &self.p.indptr,
+            p_indices: &self.p.indices,
+            p_data: &self.p.data,
             q: &self.q,
-            a_indptr: &self.a_indptr,
-            a_indices: &self.a_indices,
-            a_data: &self.a_data,
+            a_indptr: &self.a.indptr,
+            a_indices: &self.a.indices,
+            a_data: &self.a.data,
             lower: &self.lower,
             upper: &self.upper,
             infinity: INF,
@@ -703,21 +665,13 @@ impl OsqpQp for LipMpc {
     }
 
     fn setup(&self) -> Result<Problem, CbfError> {
-        let vars = self.lin.layout.vars();
-        let p = CscMatrix {
-            nrows: vars,
-            ncols: vars,
-            indptr: Cow::Borrowed(&self.p_indptr),
-            indices: Cow::Borrowed(&self.p_indices),
-            data: Cow::Borrowed(&self.p_data),
-        };
-        Problem::new(p, &self.q, self.constraint_matrix(), &self.lower, &self.upper, &self.settings.to_osqp())
+        Problem::new(self.p.view(), &self.q, self.a.view(), &self.lower, &self.upper, &self.settings.to_osqp())
             .map_err(|e| CbfError::SolverSetup { reason: e.to_string() })
     }
 
     fn update(&self, problem: &mut Problem) {
         problem.update_lin_cost(&self.q);
-        problem.update_A(self.constraint_matrix());
+        problem.update_A(self.a.view());
         problem.update_bounds(&self.lower, &self.upper);
     }
 

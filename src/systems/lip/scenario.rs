@@ -13,7 +13,7 @@ use super::mpc::LipMpc;
 use super::obstacles::{HalfPlane, Rectangle};
 use super::LipParams;
 use crate::error::{finite, positive, CbfError};
-use crate::filter::{Backend, QpStatus, SolverSettings};
+use crate::qp::{Backend, QpStatus, SolverSettings};
 
 /// Start, goal, obstacles and limits of one navigation run.
 #[derive(Debug, Clone, PartialEq)]

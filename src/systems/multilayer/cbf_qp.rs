@@ -17,8 +17,9 @@
 
 use super::barrier::{BarrierRow, SineBarrier, State};
 use crate::error::CbfError;
-use crate::filter::{domain, InputSource, QpStatus, SolverSettings};
+use crate::filter::{domain, InputSource};
 use crate::generated::double_integrator as spec;
+use crate::qp::{QpStatus, SolverSettings};
 use crate::system::{FamilyParams, Poles};
 
 /// Gains, input bound and solver settings of the CBF-QP.

@@ -27,7 +27,6 @@ pub mod cbf_qp;
 pub mod controller;
 pub mod mpc;
 pub mod scenario;
-mod solver;
 
 pub use barrier::{BarrierRow, SineBarrier, State};
 pub use cbf_qp::{CbfQpOutput, CbfQpSettings, IdCbfQp};

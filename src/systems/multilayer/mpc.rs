@@ -44,11 +44,12 @@
 use osqp::Problem;
 
 use super::barrier::{check_state, SineBarrier, State};
-use super::solver::{Csc, INF};
 use crate::error::{within, CbfError};
-use crate::filter::{Backend, Iterate, QpStatus, Solver, SolverSettings};
+use crate::qp::csc::Csc;
 use crate::qp::dual_active_set::{ActiveRow, DenseStatus, DualActiveSet, WarmStart};
 use crate::qp::osqp_workspace::{self, OsqpQp};
+use crate::qp::INFINITY as INF;
+use crate::qp::{Backend, Iterate, QpStatus, Solver, SolverSettings};
 
 /// Longest MPC horizon accepted (steps): the condensed QP grows with its square.
 pub const MAX_HORIZON: usize = 1000;

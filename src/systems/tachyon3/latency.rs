@@ -153,7 +153,7 @@ pub fn run(cycles: usize, speed: f64, start_gap: f64, settings: FilterSettings<N
         active_max = active_max.max(out.active_rows);
         fallbacks += usize::from(out.source != InputSource::Qp);
         polished += usize::from(out.polished);
-        dense += usize::from(out.backend == Some(crate::filter::Backend::Dense));
+        dense += usize::from(out.backend == Some(crate::qp::Backend::Dense));
         dense_fallbacks += usize::from(out.dense_fallback);
         relaxed += usize::from(!out.safety.is_met());
         conflicting += usize::from(out.elastic_stages > 0);

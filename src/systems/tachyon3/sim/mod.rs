@@ -195,7 +195,7 @@ pub struct Summary {
     /// Whether the body–edge SSAT rows could take part (see [`SimConfig::body_cbf`]).
     pub body_cbf: bool,
     /// The filter's QP backend in this run.
-    pub backend: crate::filter::Solver,
+    pub backend: crate::qp::Solver,
     /// Every toe stands on the top level, and the body centre is past the last riser.
     pub completed: bool,
     /// Time of the last recorded cycle \[s\] (a completed run goes on 1 s past completion).
