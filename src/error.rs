@@ -42,18 +42,12 @@ pub enum CbfError {
         /// Its documented maximum.
         max: usize,
     },
-    /// The perception thread has stopped (it panicked, or could not be started).
-    #[error("the perception worker thread is not running")]
+    /// A worker thread has stopped (it panicked, or could not be started).
+    #[error("the worker thread is not running")]
     WorkerGone,
-    /// An environment sized for another catalog capacity.
-    #[error("environment and catalog were built for different capacities")]
+    /// Parameters (an environment) sized for other capacities than the filter's rows.
+    #[error("the parameters were built for other capacities than the filter")]
     CapacityMismatch,
-    /// A leg index outside 0..6.
-    #[error("no leg {leg}: legs are 0..6 in LEG_NAMES order")]
-    NoSuchLeg {
-        /// The leg index given.
-        leg: usize,
-    },
     /// A setting outside its allowed range.
     #[error("{what} = {value} is outside {range}")]
     OutOfRange {
@@ -104,10 +98,10 @@ pub enum CbfError {
         /// How it ended: a [`QpStatus::name`](crate::qp::QpStatus::name).
         status: &'static str,
     },
-    /// A family, member or instance index beyond what exists.
+    /// An index beyond what exists (a family, member, instance, leg…).
     #[error("no {what} {index}: there are {len}")]
     NoSuchIndex {
-        /// What was indexed (`"family"`, `"member"`, `"instance"`).
+        /// What was indexed (`"family"`, `"member"`, `"instance"`, `"leg"`).
         what: &'static str,
         /// The index given.
         index: usize,
@@ -173,8 +167,8 @@ pub enum CbfError {
         /// What was found.
         found: Found,
     },
-    /// The campaign's worker threads could not be started (the operating system's refusal).
-    #[error("could not start the campaign's worker threads: {0}")]
+    /// Worker threads could not be started (the operating system's refusal).
+    #[error("could not start worker threads: {0}")]
     ThreadPool(String),
 }
 

@@ -91,9 +91,10 @@ const RADIUS_RANGE: &str = "[0, 1e4] m";
 /// [module docs](self#rounding-guard)).
 pub const ROUNDING_GUARD: f64 = 256.0 * f64::EPSILON;
 
-/// Tachyon 3's toe sharpness (`toe_alpha` in `symbolic/models/tachyon3.toml`), the
-/// default: a certified margin of 1.2 mm.
-pub const DEFAULT_ALPHA: f64 = crate::generated::tachyon3::TOE_ALPHA;
+/// The default sharpness, 1500 /m: a smoothing length of 0.67 mm and a certified margin
+/// of 1.2 mm, the scale of a legged robot's feet and a step's edge. A system chooses its
+/// own in its spec (Tachyon 3's is `toe_alpha` in `symbolic/models/tachyon3.toml`).
+pub const DEFAULT_ALPHA: f64 = 1500.0;
 
 /// A sphere: centre in the world frame and radius, validated into the
 /// [domain](self#domain).
@@ -149,7 +150,7 @@ impl Smoothing {
 }
 
 impl Default for Smoothing {
-    /// [`DEFAULT_ALPHA`], Tachyon 3's toe–edge sharpness.
+    /// [`DEFAULT_ALPHA`].
     fn default() -> Self {
         Self { alpha: DEFAULT_ALPHA }
     }

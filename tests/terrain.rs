@@ -101,7 +101,7 @@ fn each_riser_box_spans_its_riser_and_is_all_of_the_step_a_wheel_before_it_can_r
                     (0..3).all(|i| local[i].abs() < s.half_extents()[i])
                 })
                 .expect("the upper level's solid");
-            let p = Smoothing::default();
+            let p = Smoothing::new(cbfgen::generated::tachyon3::TOE_ALPHA).expect("alpha");
             let clear =
                 |center: Vector3<f64>| sphere_box::certified_separated(&Sphere::new(center, r).expect("sphere"), b, &p);
             assert!(clear(Vector3::new(x - up * (r + 0.003), 0.0, lo + r)), "{b:?}: lower tread");

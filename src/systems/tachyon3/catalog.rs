@@ -328,7 +328,8 @@ impl Environment {
     /// # Errors
     /// More edges than the leg's capacity, or `leg >= 6`.
     pub fn set_foothold(&mut self, leg: usize, edges: &[HalfPlane]) -> Result<(), CbfError> {
-        let set = self.foothold.get_mut(leg).ok_or(CbfError::NoSuchLeg { leg })?;
+        let len = self.foothold.len();
+        let set = self.foothold.get_mut(leg).ok_or(CbfError::NoSuchIndex { what: "leg", index: leg, len })?;
         if edges.len() > set.capacity() {
             return Err(CbfError::CapacityExceeded { what: "foothold edges", capacity: set.capacity() });
         }
