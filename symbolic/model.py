@@ -22,6 +22,8 @@ from pathlib import Path
 
 import symengine as se
 
+from .spec import MAX_INPUT, POLE_RANGE
+
 MODELS_DIR = Path(__file__).resolve().parent / "models"
 
 
@@ -55,13 +57,13 @@ class RobotModel:
 
 
 # The runtime's documented domains (src/ssat.rs ALPHA_MIN/ALPHA_MAX, which
-# src/sphere_box.rs shares for toe_alpha, src/geometry.rs
-# MIN/MAX_HALF_EXTENT, src/filter/settings.rs POLE_RANGE and MAX_INPUT): a model outside
-# them would bake numbers into the kernels that the safe API refuses at run time.
+# src/sphere_box.rs shares for toe_alpha, src/geometry.rs MIN/MAX_HALF_EXTENT; the
+# filter's POLE_RANGE and MAX_INPUT are spec.py's): a model outside them would bake numbers
+# into the kernels that the safe API refuses at run time. python/tests/test_runtime_domains.py
+# checks every one against the built module.
 SSAT_ALPHA_RANGE = (1e-6, 1e9)
 HALF_EXTENT_RANGE = (1e-6, 1e4)
-POLE_RANGE = (1e-6, 1e4)
-INPUT_LIMIT_RANGE = (0.0, 1e6)
+INPUT_LIMIT_RANGE = (0.0, MAX_INPUT)
 
 
 def _number(table: dict, key: str, where: str, positive: bool = False,

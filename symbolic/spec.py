@@ -72,7 +72,8 @@ from pathlib import Path
 import symengine as se
 
 # Bounds the runtime enforces too (src/system.rs, src/filter): checked here so a spec fails
-# when it is generated, not when the filter is built.
+# when it is generated, not when the filter is built. python/tests/test_runtime_domains.py
+# checks them against the built module, which exports the runtime's own.
 MAX_INPUT = 1e6
 MAX_INSTANCES = 10_000
 POLE_RANGE = (1e-6, 1e4)

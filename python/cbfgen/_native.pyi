@@ -86,6 +86,10 @@ PARAM_LIMIT: float
 """Largest |parameter value| a family accepts."""
 MAX_INSTANCES: int
 """Largest capacity of one capacity family (each family may set a lower one)."""
+POLE_RANGE: tuple[float, float]
+"""Accepted ECBF poles, inclusive."""
+MAX_PRIORITY: int
+"""Largest family priority (0 is met first)."""
 SSAT_ALPHA_RANGE: tuple[float, float]
 """Accepted SSAT alpha and alpha_rot, inclusive."""
 MAX_COORDINATE: float

@@ -55,6 +55,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("STATE_LIMIT", crate::system::STATE_LIMIT)?;
     m.add("PARAM_LIMIT", crate::system::PARAM_LIMIT)?;
     m.add("MAX_INSTANCES", crate::system::MAX_INSTANCES)?;
+    m.add("POLE_RANGE", (crate::filter::domain::POLE_RANGE[0], crate::filter::domain::POLE_RANGE[1]))?;
+    m.add("MAX_PRIORITY", crate::filter::domain::MAX_PRIORITY)?;
     m.add("SOLVERS", crate::qp::Solver::ALL.map(crate::qp::Solver::name).to_vec())?;
     m.add("INPUT_SOURCES", crate::filter::InputSource::ALL.map(crate::filter::InputSource::name).to_vec())?;
     m.add("SSAT_ALPHA_RANGE", (crate::ssat::ALPHA_MIN, crate::ssat::ALPHA_MAX))?;

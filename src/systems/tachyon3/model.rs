@@ -17,14 +17,22 @@ pub type State = [f64; NX];
 /// An input vector.
 pub type Input = [f64; NU];
 
-/// Index of the first toe block; toe `leg` occupies `TOE_BLOCK + 4 * leg ..+4` (x, z, vx, vz).
-pub const TOE_BLOCK: usize = 12;
-/// Body states: x, z, pitch at 6, 7, 8.
-pub const BODY_X: usize = 6;
-/// Index of the body centre's height relative to the origin \[m\]; its rate is at `BODY_Z + 3`.
-pub const BODY_Z: usize = 7;
-/// Index of the body's pitch \[rad\]; its rate is at `BODY_PITCH + 3`.
-pub const BODY_PITCH: usize = 8;
+/// Index of the first toe block (the generated `state::LF_X`); toe `leg` occupies
+/// `TOE_BLOCK + 4 * leg ..+4` (x, z, vx, vz).
+pub const TOE_BLOCK: usize = gen::state::LF_X;
+/// The body's x, z \[m\] and pitch \[rad\] relative to the origin (the generated
+/// `state::BX`, `BZ`, `PITCH`); each rate is 3 further on.
+pub use gen::state::{BX as BODY_X, BZ as BODY_Z, PITCH as BODY_PITCH};
+
+// The layout the `+ 3` and `4 * leg` arithmetic above relies on, held to the generated
+// indices when this compiles.
+const _: () = assert!(
+    gen::state::BVX == BODY_X + 3
+        && gen::state::BVZ == BODY_Z + 3
+        && gen::state::PITCH_RATE == BODY_PITCH + 3
+        && gen::state::LF_VZ == TOE_BLOCK + 3
+        && gen::state::MF_X == TOE_BLOCK + 4
+);
 
 /// The core's state domain, here too: inside it every generated Tachyon 3 row is finite
 /// except where the geometry itself is singular (a toe exactly at its hip joint, where
