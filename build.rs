@@ -2,9 +2,9 @@
 //!
 //! Every generated file records the SHA-256 of the generator's inputs. This script
 //! recomputes that hash (same rule as `symbolic/inputs_hash.py`); when it differs, it
-//! runs `python -m symbolic.generate` with the interpreter from `CBFGEN_PYTHON`, else
-//! the project venv, else `python3`. A fresh clone has current files and needs no
-//! Python at all.
+//! runs `python -m symbolic.generate` with the interpreter `cbfgen-build` finds
+//! (`CBFGEN_PYTHON`, the active virtual environment, the project's `.venv`, `python3`).
+//! A fresh clone has current files and needs no Python at all.
 
 use cbfgen_build::inputs_hash::{package_files, package_hash};
 use std::fs;
@@ -16,6 +16,7 @@ const HASH_PREFIX: &str = "// inputs-sha256: ";
 fn main() {
     let root = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets this"));
     println!("cargo:rerun-if-env-changed=CBFGEN_PYTHON");
+    println!("cargo:rerun-if-env-changed=VIRTUAL_ENV");
     let symbolic = root.join("symbolic");
     if !symbolic.is_dir() {
         return; // a packaged crate: generated/ is all there is
@@ -77,20 +78,8 @@ fn stale_files(generated: &Path, digest: &str) -> Vec<String> {
         .collect()
 }
 
-fn python(root: &Path) -> PathBuf {
-    if let Ok(p) = std::env::var("CBFGEN_PYTHON") {
-        return PathBuf::from(p);
-    }
-    let venv = root.join(".venv").join("bin").join("python");
-    if venv.is_file() {
-        venv
-    } else {
-        PathBuf::from("python3")
-    }
-}
-
 fn regenerate(root: &Path) -> Result<(), String> {
-    let py = python(root);
+    let py = cbfgen_build::python_interpreter(&[root]);
     let out = Command::new(&py)
         .args(["-m", "symbolic.generate"])
         .current_dir(root)

@@ -55,7 +55,10 @@
 //! Nothing is written outside `OUT_DIR` unless [`Generator::checked_in`] asks for it.
 //!
 //! # Finding Python
-//! The interpreter is `CBFGEN_PYTHON` if set, else `python3`. When it is missing or lacks
+//! The interpreter is, first found ([`python_interpreter`], the rule cbfgen's own build
+//! uses too): `CBFGEN_PYTHON`; the active virtual environment (`VIRTUAL_ENV`); a `.venv`
+//! in the crate's folder or one above it, or in the cbfgen source tree (the one
+//! `scripts/cbf setup` makes there); else `python3`. When it is missing or lacks
 //! SymEngine, the build stops with one line naming the fix (in checked-in mode, the
 //! committed files are verified instead).
 //! The generator itself (the `symbolic` package) is taken from the cbfgen source tree this
@@ -65,6 +68,7 @@
 pub mod inputs_hash;
 
 use inputs_hash::Header;
+use std::ffi::OsString;
 use std::fmt;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -244,6 +248,7 @@ impl Generator {
 
     fn generate_in(&self, env: &Env) -> Result<Vec<PathBuf>, Error> {
         println!("cargo:rerun-if-env-changed=CBFGEN_PYTHON");
+        println!("cargo:rerun-if-env-changed=VIRTUAL_ENV");
         println!("cargo:rerun-if-env-changed=CBFGEN_SYMBOLIC");
         println!("cargo:rerun-if-env-changed={ALLOW_STALE}");
         let out = match (&self.checked_in, &env.out_dir) {
@@ -418,10 +423,33 @@ enum Verdict {
     Missing,
 }
 
+/// The Python that runs the generator: `CBFGEN_PYTHON` if set; else the active virtual
+/// environment's (`VIRTUAL_ENV`); else `.venv/bin/python` in the first of `near` (or a
+/// folder above it) that has one; else `python3` from `PATH`. Shared by every build
+/// script that runs the generator (cbfgen's own and [`Generator`]'s).
+pub fn python_interpreter(near: &[&Path]) -> PathBuf {
+    python_from(std::env::var_os("CBFGEN_PYTHON"), std::env::var_os("VIRTUAL_ENV"), near)
+}
+
+/// [`python_interpreter`] with the environment given.
+fn python_from(cbfgen_python: Option<OsString>, virtual_env: Option<OsString>, near: &[&Path]) -> PathBuf {
+    fn venv_python(dir: &Path) -> Option<PathBuf> {
+        let python = dir.join("bin").join("python");
+        python.is_file().then_some(python)
+    }
+    if let Some(python) = cbfgen_python {
+        return PathBuf::from(python);
+    }
+    virtual_env
+        .and_then(|v| venv_python(Path::new(&v)))
+        .or_else(|| near.iter().flat_map(|dir| dir.ancestors()).find_map(|dir| venv_python(&dir.join(".venv"))))
+        .unwrap_or_else(|| PathBuf::from("python3"))
+}
+
 /// What a build reads from its environment, gathered once.
 #[derive(Debug, Clone)]
 struct Env {
-    /// `CBFGEN_PYTHON`, else `python3`.
+    /// See [`python_interpreter`].
     python: PathBuf,
     /// `CBFGEN_SYMBOLIC`: the folder that contains `symbolic/`.
     symbolic: Option<PathBuf>,
@@ -434,7 +462,12 @@ struct Env {
 impl Env {
     fn from_process() -> Env {
         Env {
-            python: std::env::var_os("CBFGEN_PYTHON").map_or_else(|| PathBuf::from("python3"), PathBuf::from),
+            python: {
+                let manifest = std::env::var_os("CARGO_MANIFEST_DIR").map(PathBuf::from);
+                let source_tree = PathBuf::from(SOURCE_TREE);
+                let near: Vec<&Path> = manifest.iter().map(PathBuf::as_path).chain([source_tree.as_path()]).collect();
+                python_interpreter(&near)
+            },
             symbolic: std::env::var_os("CBFGEN_SYMBOLIC").map(PathBuf::from),
             out_dir: std::env::var_os("OUT_DIR").map(PathBuf::from),
             allow_stale: std::env::var_os(ALLOW_STALE).is_some_and(|v| v == "1"),
@@ -529,13 +562,30 @@ mod tests {
     }
 
     /// The interpreter that runs the Python side of the cross-checks (only the standard
-    /// library is needed): `CBFGEN_PYTHON`, else the source tree's venv, else `python3`.
+    /// library is needed), found as a build finds it.
     fn python() -> PathBuf {
-        let venv = Path::new(SOURCE_TREE).join(".venv").join("bin").join("python");
-        std::env::var_os("CBFGEN_PYTHON")
-            .map(PathBuf::from)
-            .or_else(|| venv.is_file().then_some(venv))
-            .unwrap_or_else(|| PathBuf::from("python3"))
+        python_interpreter(&[Path::new(SOURCE_TREE)])
+    }
+
+    #[test]
+    fn python_is_found_in_the_documented_order() {
+        let tree = Scratch::new("python-order");
+        let crate_venv = tree.write("user/.venv/bin/python", b"");
+        let active = tree.write("active/bin/python", b"");
+        let source_venv = tree.write("cbfgen/.venv/bin/python", b"");
+        let (user, nested, cbfgen) = (tree.0.join("user"), tree.0.join("user/src/deep"), tree.0.join("cbfgen"));
+        let (none, nowhere) = (None, tree.0.join("elsewhere"));
+        // CBFGEN_PYTHON wins, then the active environment, then a .venv near the crate
+        // (in a folder above it too), then the source tree's, then python3.
+        let explicit = Some(OsString::from("/opt/py/bin/python3"));
+        assert_eq!(
+            python_from(explicit, Some(tree.0.join("active").into()), &[&user]),
+            Path::new("/opt/py/bin/python3")
+        );
+        assert_eq!(python_from(none.clone(), Some(tree.0.join("active").into()), &[&user]), active);
+        assert_eq!(python_from(none.clone(), Some(nowhere.clone().into()), &[&nested, &cbfgen]), crate_venv);
+        assert_eq!(python_from(none.clone(), None, &[&nowhere, &cbfgen]), source_venv);
+        assert_eq!(python_from(none, None, &[&nowhere]), Path::new("python3"));
     }
 
     fn run_python(code: &str, args: &[&Path]) -> String {
