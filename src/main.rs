@@ -28,157 +28,189 @@ struct Cli {
 enum Command {
     /// Smooth SAT between a robot body and a stair-edge cuboid below it: value,
     /// certified margin, exact SAT and gradient, for a body height you choose.
-    Ssat {
-        /// Height of the body's underside above the step's top face \[m\], in [-1, 1].
-        #[arg(long, default_value_t = 0.075, allow_hyphen_values = true, value_parser = number(-1.0, 1.0, Closed))]
-        clearance: f64,
-        /// Body pitch \[rad\], in [-3.15, 3.15].
-        #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = number(-3.15, 3.15, Closed))]
-        pitch: f64,
-        /// Smooth-max / smooth-|x| sharpness α [1/m] (α_rot uses the same value), in [1e-6, 1e9].
-        #[arg(long, default_value_t = 200.0, allow_hyphen_values = true,
-              value_parser = number(ssat::ALPHA_MIN, ssat::ALPHA_MAX, Closed))]
-        alpha: f64,
-    },
+    Ssat(SsatArgs),
     /// Evaluate the Tachyon 3 joint-limit rows (h, L_f h, L_f^2 h) at the standard
     /// posture: edit symbolic/models/tachyon3.toml, rebuild, and watch them change.
     Rows,
     /// Time the ECBF filter: consecutive 269-row updates at 1 kHz while the robot rolls
     /// into a staircase; prints median, p99 and max per update, in wall time and in the
     /// thread's CPU time (a VM stall adds wall time only), and the cycles over 1 ms of each.
-    Latency {
-        /// Number of consecutive updates, 1 to 1000000 (each keeps its timings).
-        #[arg(long, default_value_t = 10_000, allow_hyphen_values = true, value_parser = count(1, latency::MAX_CYCLES))]
-        cycles: usize,
-        /// Commanded forward speed [m/s], in [0, 2].
-        #[arg(long, default_value_t = 0.3, allow_hyphen_values = true, value_parser = number(0.0, 2.0, Closed))]
-        speed: f64,
-        /// Start with the robot's front (body or toe) this far from the first riser \[m\], in [0, 10].
-        #[arg(long, default_value_t = 0.6, allow_hyphen_values = true, value_parser = number(0.0, 10.0, Closed))]
-        gap: f64,
-        #[command(flatten)]
-        solver: SolverArgs,
-    },
+    Latency(LatencyArgs),
     /// Closed-loop simulation at 1 kHz: the robot walks over a step or climbs five stairs
     /// with the ECBF filter correcting a naive gait. Writes a CSV, a page that plays the
     /// runs back (<scenario>_animation.html) and the paper's Figs. 7-10 (SVG and PNG) to
     /// --out and prints a summary. Unless --no-body-cbf is given, the
     /// same course is also run without the body SSAT CBF for Fig. 7's comparison; unless
     /// --no-osqp-reference is given, also with the OSQP backend for Fig. 10's.
-    Simulate {
-        /// Course: one 16.5 cm step, five steps of 16.5 x 35 cm, four steps of unequal
-        /// rise, steps with a landing, a 12 cm box to cross, a 20 cm platform to climb
-        /// onto and roll off.
-        #[arg(long, value_enum, default_value_t = ScenarioArg::Stairs)]
-        scenario: ScenarioArg,
-        /// Run only without the body SSAT CBF (the body hits the edge).
-        #[arg(long)]
-        no_body_cbf: bool,
-        /// Directory for the CSV files and figures.
-        #[arg(long, default_value = "out")]
-        out: std::path::PathBuf,
-        /// Write every N-th cycle to the CSV (1 = every millisecond), 1 to 1000000.
-        #[arg(long, default_value_t = 10, allow_hyphen_values = true, value_parser = count(1, MAX_CSV_EVERY))]
-        csv_every: usize,
-        /// Skip the reference run with the OSQP backend (the paper's solver), whose QP time
-        /// Fig. 10 shows beside the default backend's.
-        #[arg(long)]
-        no_osqp_reference: bool,
-        /// Run episode ID of a campaign instead of --scenario (with the campaign's --seed
-        /// and ranges): the course a `cbfgen campaign` line names. Any id from 0 to 2^64 - 1.
-        #[arg(long, value_name = "ID", allow_hyphen_values = true, value_parser = count(0, u64::MAX))]
-        episode: Option<u64>,
-        /// The campaign seed of --episode, from 0 to 2^64 - 1.
-        #[arg(long, default_value_t = 0, requires = "episode", allow_hyphen_values = true,
-              value_parser = count(0, u64::MAX))]
-        seed: u64,
-        #[command(flatten)]
-        ranges: RangeArgs,
-        /// The gait and filter see only what a LiDAR on the body perceives (planes and
-        /// edge cuboids at 1 Hz on a worker thread), never the true terrain; writes the
-        /// map, what was extracted and side and top views too.
-        #[arg(long)]
-        perception: bool,
-    },
+    Simulate(SimulateArgs),
     /// Monte Carlo safety campaign: climb many randomised staircases (rise, run, steps,
     /// start gap and gait speed drawn per episode from --seed and the episode id) in
     /// parallel. Prints a table (outcomes, penetrations, joint-limit violations, worst
     /// episodes, CPU and wall time per update) and writes episodes.csv, report.txt and
     /// figures to --out. Rerun one episode with `cbfgen simulate --episode ID --seed S`.
-    Campaign {
-        /// Number of episodes, 1 to 1000000.
-        #[arg(long, default_value_t = 200, allow_hyphen_values = true, value_parser = count(1, campaign::MAX_EPISODES))]
-        episodes: usize,
-        /// Seed of the courses, from 0 to 2^64 - 1.
-        #[arg(long, default_value_t = 0, allow_hyphen_values = true, value_parser = count(0, u64::MAX))]
-        seed: u64,
-        /// Id of the first episode, from 0 to 2^64 - 1 - 1000000 (so that every id fits).
-        #[arg(long, default_value_t = 0, allow_hyphen_values = true,
-              value_parser = count(0, u64::MAX - campaign::MAX_EPISODES as u64))]
-        first_id: u64,
-        /// Run without the body SSAT CBF (the comparison).
-        #[arg(long)]
-        no_body_cbf: bool,
-        /// Worker threads, 1 to 1024 (default: one per core).
-        #[arg(long, allow_hyphen_values = true, value_parser = count(1, campaign::MAX_THREADS))]
-        threads: Option<usize>,
-        /// Directory for the CSV, the report and the figures.
-        #[arg(long, default_value = "out/campaign")]
-        out: std::path::PathBuf,
-        #[command(flatten)]
-        ranges: RangeArgs,
-        /// Every episode on perceived terrain (see `simulate --perception`); rerun one
-        /// with `cbfgen simulate --episode ID --seed S --perception`.
-        #[arg(long)]
-        perception: bool,
-    },
+    Campaign(CampaignArgs),
     /// Bipedal navigation: a 3D-LIP MPC with linear discrete CBFs walks from the origin
     /// to a goal past three rectangles. Prints a summary and writes the path figure
     /// (lip_navigation.svg/.png) and the barrier figure (lip_min_h.svg/.png) to --out.
-    Lip {
-        /// Directory for the figures.
-        #[arg(long, default_value = "out")]
-        out: std::path::PathBuf,
-        /// Step budget, 1 to 10000.
-        #[arg(long, default_value_t = 150, allow_hyphen_values = true, value_parser = count(1usize, 10_000))]
-        steps: usize,
-    },
+    Lip(LipArgs),
     /// Multi-layer safety on a double integrator kept above a moving sinusoid: a kinematic
     /// MPC at 20 Hz (with a discrete-time CBF, a state constraint, or nothing) feeding an
     /// ID-CBF-QP at 1 kHz. Prints peak |u| and min h per variant and writes
     /// multilayer_positions and multilayer_inputs, SVG and PNG (the paper's Fig. 3), to
     /// --out.
-    Multilayer {
-        /// Directory for the figures.
-        #[arg(long, default_value = "out")]
-        out: std::path::PathBuf,
-    },
+    Multilayer(MultilayerArgs),
     /// A Franka-Panda-like 7-DoF arm (symbolic/systems/panda.py) at 1 kHz: a joint-space
     /// PD sweeps the forearm through a box on a table, folds the hand onto the shoulder and
     /// pushes the elbow past its limit; run with the ECBF filter and without. Prints each
     /// run's exact SAT separations and joint margins; writes CSVs and four figures (SVG and PNG).
-    Arm {
-        /// Directory for the CSVs and figures.
-        #[arg(long, default_value = "out")]
-        out: std::path::PathBuf,
-        /// Write every n-th cycle to the CSVs, 1 to 1000000.
-        #[arg(long, default_value_t = 10, allow_hyphen_values = true, value_parser = count(1, MAX_CSV_EVERY))]
-        csv_every: usize,
-    },
+    Arm(ArmArgs),
     /// Perception on the hardware stairs (5 × 16.5 × 35 cm): four simulated LiDAR scans on
     /// the approach, accumulated; planes and edge cuboids extracted from the points alone.
     /// Prints each true nosing beside the cuboid found for it and writes side and top
     /// views (SVG and PNG).
-    Perceive {
-        /// Directory for the figures.
-        #[arg(long, default_value = "out")]
-        out: std::path::PathBuf,
-        /// Seed of the scans' noise and dropouts, from 0 to 2^64 - 1.
-        #[arg(long, default_value_t = 1, allow_hyphen_values = true, value_parser = count(0, u64::MAX))]
-        seed: u64,
-    },
+    Perceive(PerceiveArgs),
     /// Regenerate generated/ from symbolic/ (runs `python -m symbolic.generate`).
     Generate,
+}
+
+/// `cbfgen ssat`.
+#[derive(clap::Args)]
+struct SsatArgs {
+    /// Height of the body's underside above the step's top face \[m\], in [-1, 1].
+    #[arg(long, default_value_t = 0.075, allow_hyphen_values = true, value_parser = number(-1.0, 1.0, Closed))]
+    clearance: f64,
+    /// Body pitch \[rad\], in [-3.15, 3.15].
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = number(-3.15, 3.15, Closed))]
+    pitch: f64,
+    /// Smooth-max / smooth-|x| sharpness α [1/m] (α_rot uses the same value), in [1e-6, 1e9].
+    #[arg(long, default_value_t = 200.0, allow_hyphen_values = true,
+          value_parser = number(ssat::ALPHA_MIN, ssat::ALPHA_MAX, Closed))]
+    alpha: f64,
+}
+
+/// `cbfgen latency`.
+#[derive(clap::Args)]
+struct LatencyArgs {
+    /// Number of consecutive updates, 1 to 1000000 (each keeps its timings).
+    #[arg(long, default_value_t = 10_000, allow_hyphen_values = true, value_parser = count(1, latency::MAX_CYCLES))]
+    cycles: usize,
+    /// Commanded forward speed [m/s], in [0, 2].
+    #[arg(long, default_value_t = 0.3, allow_hyphen_values = true, value_parser = number(0.0, 2.0, Closed))]
+    speed: f64,
+    /// Start with the robot's front (body or toe) this far from the first riser \[m\], in [0, 10].
+    #[arg(long, default_value_t = 0.6, allow_hyphen_values = true, value_parser = number(0.0, 10.0, Closed))]
+    gap: f64,
+    #[command(flatten)]
+    solver: SolverArgs,
+}
+
+/// `cbfgen simulate`.
+#[derive(clap::Args)]
+struct SimulateArgs {
+    /// Course: one 16.5 cm step, five steps of 16.5 x 35 cm, four steps of unequal
+    /// rise, steps with a landing, a 12 cm box to cross, a 20 cm platform to climb
+    /// onto and roll off.
+    #[arg(long, value_enum, default_value_t = ScenarioArg::Stairs)]
+    scenario: ScenarioArg,
+    /// Run only without the body SSAT CBF (the body hits the edge).
+    #[arg(long)]
+    no_body_cbf: bool,
+    /// Directory for the CSV files and figures.
+    #[arg(long, default_value = "out")]
+    out: std::path::PathBuf,
+    /// Write every N-th cycle to the CSV (1 = every millisecond), 1 to 1000000.
+    #[arg(long, default_value_t = 10, allow_hyphen_values = true, value_parser = count(1, MAX_CSV_EVERY))]
+    csv_every: usize,
+    /// Skip the reference run with the OSQP backend (the paper's solver), whose QP time
+    /// Fig. 10 shows beside the default backend's.
+    #[arg(long)]
+    no_osqp_reference: bool,
+    /// Run episode ID of a campaign instead of --scenario (with the campaign's --seed
+    /// and ranges): the course a `cbfgen campaign` line names. Any id from 0 to 2^64 - 1.
+    #[arg(long, value_name = "ID", allow_hyphen_values = true, value_parser = count(0, u64::MAX))]
+    episode: Option<u64>,
+    /// The campaign seed of --episode, from 0 to 2^64 - 1.
+    #[arg(long, default_value_t = 0, requires = "episode", allow_hyphen_values = true,
+          value_parser = count(0, u64::MAX))]
+    seed: u64,
+    #[command(flatten)]
+    ranges: RangeArgs,
+    /// The gait and filter see only what a LiDAR on the body perceives (planes and
+    /// edge cuboids at 1 Hz on a worker thread), never the true terrain; writes the
+    /// map, what was extracted and side and top views too.
+    #[arg(long)]
+    perception: bool,
+}
+
+/// `cbfgen campaign`.
+#[derive(clap::Args)]
+struct CampaignArgs {
+    /// Number of episodes, 1 to 1000000.
+    #[arg(long, default_value_t = 200, allow_hyphen_values = true, value_parser = count(1, campaign::MAX_EPISODES))]
+    episodes: usize,
+    /// Seed of the courses, from 0 to 2^64 - 1.
+    #[arg(long, default_value_t = 0, allow_hyphen_values = true, value_parser = count(0, u64::MAX))]
+    seed: u64,
+    /// Id of the first episode, from 0 to 2^64 - 1 - 1000000 (so that every id fits).
+    #[arg(long, default_value_t = 0, allow_hyphen_values = true,
+          value_parser = count(0, u64::MAX - campaign::MAX_EPISODES as u64))]
+    first_id: u64,
+    /// Run without the body SSAT CBF (the comparison).
+    #[arg(long)]
+    no_body_cbf: bool,
+    /// Worker threads, 1 to 1024 (default: one per core).
+    #[arg(long, allow_hyphen_values = true, value_parser = count(1, campaign::MAX_THREADS))]
+    threads: Option<usize>,
+    /// Directory for the CSV, the report and the figures.
+    #[arg(long, default_value = "out/campaign")]
+    out: std::path::PathBuf,
+    #[command(flatten)]
+    ranges: RangeArgs,
+    /// Every episode on perceived terrain (see `simulate --perception`); rerun one
+    /// with `cbfgen simulate --episode ID --seed S --perception`.
+    #[arg(long)]
+    perception: bool,
+}
+
+/// `cbfgen lip`.
+#[derive(clap::Args)]
+struct LipArgs {
+    /// Directory for the figures.
+    #[arg(long, default_value = "out")]
+    out: std::path::PathBuf,
+    /// Step budget, 1 to 10000.
+    #[arg(long, default_value_t = 150, allow_hyphen_values = true, value_parser = count(1usize, 10_000))]
+    steps: usize,
+}
+
+/// `cbfgen multilayer`.
+#[derive(clap::Args)]
+struct MultilayerArgs {
+    /// Directory for the figures.
+    #[arg(long, default_value = "out")]
+    out: std::path::PathBuf,
+}
+
+/// `cbfgen arm`.
+#[derive(clap::Args)]
+struct ArmArgs {
+    /// Directory for the CSVs and figures.
+    #[arg(long, default_value = "out")]
+    out: std::path::PathBuf,
+    /// Write every n-th cycle to the CSVs, 1 to 1000000.
+    #[arg(long, default_value_t = 10, allow_hyphen_values = true, value_parser = count(1, MAX_CSV_EVERY))]
+    csv_every: usize,
+}
+
+/// `cbfgen perceive`.
+#[derive(clap::Args)]
+struct PerceiveArgs {
+    /// Directory for the figures.
+    #[arg(long, default_value = "out")]
+    out: std::path::PathBuf,
+    /// Seed of the scans' noise and dropouts, from 0 to 2^64 - 1.
+    #[arg(long, default_value_t = 1, allow_hyphen_values = true, value_parser = count(0, u64::MAX))]
+    seed: u64,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -461,206 +493,222 @@ fn main() -> ExitCode {
 fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
     let mut stdout = std::io::stdout().lock();
     match cli.command {
-        Command::Ssat { clearance, pitch, alpha } => {
-            let params = SmoothParams::new(alpha, alpha)?;
-            // A 0.9 x 0.5 x 0.2 m body over a 4 cm edge cuboid running along y at x = 0.
-            let half_body = Vector3::new(0.45, 0.25, 0.10);
-            let edge = OrientedBox::axis_aligned(Vector3::new(0.0, 0.0, -0.02), Vector3::new(0.02, 1.0, 0.02))?;
-            let body = OrientedBox::new(
-                Vector3::new(0.0, 0.0, clearance + half_body.z),
-                Rotation3::from_euler_angles(0.0, pitch, 0.0),
-                half_body,
-            )?;
-            let d = ssat::ssat_with_derivatives(&edge, &body, &params);
-            let margin = ssat::certified_margin(&edge, &body, &params);
-            writeln!(stdout, "body over stair edge, clearance {clearance:.4} m, pitch {pitch:.3} rad, alpha {alpha}")?;
-            writeln!(stdout, "  smooth SAT h          {:+.6} m", d.value)?;
-            writeln!(stdout, "  certified margin m    {:.6} m", margin)?;
-            // The certificate is h − m beyond a rounding guard (ssat::certified_clearance).
-            let certified = ssat::certified_separated(&edge, &body, &params);
+        Command::Ssat(args) => args.run(&mut stdout),
+        Command::Rows => rows_command(&mut stdout),
+        Command::Latency(args) => args.run(&mut stdout),
+        Command::Simulate(args) => args.run(&mut stdout),
+        Command::Lip(args) => args.run(&mut stdout),
+        Command::Multilayer(args) => args.run(&mut stdout),
+        Command::Arm(args) => args.run(&mut stdout),
+        Command::Perceive(args) => args.run(&mut stdout),
+        Command::Campaign(args) => args.run(&mut stdout),
+        Command::Generate => generate_command(),
+    }
+}
+
+impl SsatArgs {
+    fn run(self, stdout: &mut impl Write) -> Result<(), Box<dyn std::error::Error>> {
+        let Self { clearance, pitch, alpha } = self;
+        let params = SmoothParams::new(alpha, alpha)?;
+        // A 0.9 x 0.5 x 0.2 m body over a 4 cm edge cuboid running along y at x = 0.
+        let half_body = Vector3::new(0.45, 0.25, 0.10);
+        let edge = OrientedBox::axis_aligned(Vector3::new(0.0, 0.0, -0.02), Vector3::new(0.02, 1.0, 0.02))?;
+        let body = OrientedBox::new(
+            Vector3::new(0.0, 0.0, clearance + half_body.z),
+            Rotation3::from_euler_angles(0.0, pitch, 0.0),
+            half_body,
+        )?;
+        let d = ssat::ssat_with_derivatives(&edge, &body, &params);
+        let margin = ssat::certified_margin(&edge, &body, &params);
+        writeln!(stdout, "body over stair edge, clearance {clearance:.4} m, pitch {pitch:.3} rad, alpha {alpha}")?;
+        writeln!(stdout, "  smooth SAT h          {:+.6} m", d.value)?;
+        writeln!(stdout, "  certified margin m    {:.6} m", margin)?;
+        // The certificate is h − m beyond a rounding guard (ssat::certified_clearance).
+        let certified = ssat::certified_separated(&edge, &body, &params);
+        writeln!(
+            stdout,
+            "  h - m                 {:+.6} m  ({})",
+            d.value - margin,
+            if certified { "certified apart" } else { "not certified" }
+        )?;
+        writeln!(stdout, "  exact SAT separation  {:+.6} m", sat::separation(&edge, &body))?;
+        writeln!(stdout, "  dh/dp_body            [{:+.4}, {:+.4}, {:+.4}]", d.gradient.x, d.gradient.y, d.gradient.z)?;
+        Ok(())
+    }
+}
+
+fn rows_command(stdout: &mut impl Write) -> Result<(), Box<dyn std::error::Error>> {
+    let env = Environment::new(Capacity::PAPER_WORST_CASE)?;
+    let mut catalog = Catalog::new(Capacity::PAPER_WORST_CASE)?;
+    catalog.evaluate(&model::standard_posture(), &env)?;
+    writeln!(stdout, "joint-limit rows at the standard posture (body underside {} m up)", model::NOMINAL_CLEARANCE)?;
+    writeln!(stdout, "{:<4} {:<9} {:>12} {:>12} {:>12}", "leg", "row", "h", "L_f h", "L_f^2 h")?;
+    let names = cbfgen::generated::tachyon3::JOINT_LIMITS_LF_ROW_NAMES;
+    for (slot, row) in catalog.slots().zip(catalog.rows()) {
+        if let (Family::JointLimits, Some(leg)) = (slot.family, slot.leg) {
             writeln!(
                 stdout,
-                "  h - m                 {:+.6} m  ({})",
-                d.value - margin,
-                if certified { "certified apart" } else { "not certified" }
+                "{:<4} {:<9} {:>12.6} {:>12.6} {:>12.6}",
+                model::LEG_NAMES[leg],
+                names[slot.instance],
+                row.lie[0],
+                row.lie[1],
+                row.lie[2]
             )?;
-            writeln!(stdout, "  exact SAT separation  {:+.6} m", sat::separation(&edge, &body))?;
-            writeln!(
-                stdout,
-                "  dh/dp_body            [{:+.4}, {:+.4}, {:+.4}]",
-                d.gradient.x, d.gradient.y, d.gradient.z
-            )?;
-            Ok(())
-        }
-        Command::Rows => {
-            let env = Environment::new(Capacity::PAPER_WORST_CASE)?;
-            let mut catalog = Catalog::new(Capacity::PAPER_WORST_CASE)?;
-            catalog.evaluate(&model::standard_posture(), &env)?;
-            writeln!(
-                stdout,
-                "joint-limit rows at the standard posture (body underside {} m up)",
-                model::NOMINAL_CLEARANCE
-            )?;
-            writeln!(stdout, "{:<4} {:<9} {:>12} {:>12} {:>12}", "leg", "row", "h", "L_f h", "L_f^2 h")?;
-            let names = cbfgen::generated::tachyon3::JOINT_LIMITS_LF_ROW_NAMES;
-            for (slot, row) in catalog.slots().zip(catalog.rows()) {
-                if let (Family::JointLimits, Some(leg)) = (slot.family, slot.leg) {
-                    writeln!(
-                        stdout,
-                        "{:<4} {:<9} {:>12.6} {:>12.6} {:>12.6}",
-                        model::LEG_NAMES[leg],
-                        names[slot.instance],
-                        row.lie[0],
-                        row.lie[1],
-                        row.lie[2]
-                    )?;
-                }
-            }
-            Ok(())
-        }
-        Command::Latency { cycles, speed, gap, solver } => {
-            let mut settings = cbfgen::systems::tachyon3::catalog::default_settings();
-            solver.apply(&mut settings);
-            writeln!(stdout, "{}", latency::run(cycles, speed, gap, settings)?)?;
-            Ok(())
-        }
-        Command::Simulate {
-            scenario,
-            no_body_cbf,
-            out,
-            csv_every,
-            no_osqp_reference,
-            episode,
-            seed,
-            ranges,
-            perception,
-        } => {
-            output_dir(&out)?;
-            let config = |body_cbf: bool| -> Result<SimConfig, cbfgen::CbfError> {
-                Ok(match episode {
-                    Some(id) => Episode::draw(seed, id, &ranges.ranges())?.config_with(body_cbf, perception),
-                    None => SimConfig {
-                        perception: perception.then(PerceptionSettings::default),
-                        ..SimConfig::new(scenario.scenario(), body_cbf)
-                    },
-                })
-            };
-            if let Some(id) = episode {
-                let e = Episode::draw(seed, id, &ranges.ranges())?;
-                writeln!(
-                    stdout,
-                    "episode {id} of seed {seed}: {} steps of {:.4} x {:.4} m, start gap {:.4} m, gait speed {:.4} m/s",
-                    e.stairs.count, e.stairs.rise, e.stairs.run, e.start_gap, e.speed
-                )?;
-            }
-            let main = simulate(&config(!no_body_cbf)?)?;
-            let comparison = if no_body_cbf { None } else { Some(simulate(&config(false)?)?) };
-            let osqp_reference = if no_osqp_reference || main.summary.backend == Solver::Osqp {
-                None
-            } else {
-                let mut config = config(!no_body_cbf)?;
-                config.filter.solver.backend = Solver::Osqp;
-                Some(simulate(&config)?)
-            };
-            for run in std::iter::once(&main).chain(comparison.as_ref()).chain(osqp_reference.as_ref()) {
-                writeln!(stdout, "{}", run.summary)?;
-            }
-            let written = output::write_all(&out, &main, comparison.as_ref(), osqp_reference.as_ref(), csv_every)?;
-            print_written(&mut stdout, &written)?;
-            Ok(())
-        }
-        Command::Lip { out, steps } => {
-            output_dir(&out)?;
-            let scenario = lip::scenario::Scenario { max_steps: steps, ..lip::scenario::Scenario::standard() };
-            let result = lip::scenario::run(&scenario)?;
-            writeln!(stdout, "{}", result.summary())?;
-            let written = lip::figure::write_all(&out, &result)?;
-            print_written(&mut stdout, &written)?;
-            Ok(())
-        }
-        Command::Multilayer { out } => {
-            output_dir(&out)?;
-            let config = multilayer::ScenarioConfig::default();
-            let results = multilayer::scenario::run_all(&config)?;
-            let [a, omega, c] = config.barrier.parameters();
-            writeln!(
-                stdout,
-                "double integrator above {a} sin({omega} t) + ({c}) m, from q = {} m at rest, {} s",
-                config.x0[0], config.duration
-            )?;
-            write!(stdout, "{}", multilayer::scenario::table(&results))?;
-            let written = multilayer::scenario::write_figures(&out, &config, &results)?;
-            print_written(&mut stdout, &written)?;
-            Ok(())
-        }
-        Command::Arm { out, csv_every } => {
-            output_dir(&out)?;
-            let scenario = panda::Scenario::standard();
-            let with = panda::run(&scenario)?;
-            let without = panda::run(&scenario.clone().without_filter())?;
-            write!(stdout, "{with}{without}")?;
-            let written = panda::output::write_all(&out, &with, Some(&without), csv_every)?;
-            print_written(&mut stdout, &written)?;
-            Ok(())
-        }
-        Command::Perceive { out, seed } => {
-            output_dir(&out)?;
-            perceive(&mut stdout, &out, seed)
-        }
-        Command::Campaign { episodes, seed, first_id, no_body_cbf, threads, out, ranges, perception } => {
-            output_dir(&out)?;
-            let settings = CampaignSettings {
-                seed,
-                episodes,
-                first_id,
-                ranges: ranges.ranges(),
-                body_cbf: !no_body_cbf,
-                threads,
-                perception,
-            };
-            let bar = indicatif::ProgressBar::new(episodes as u64);
-            bar.set_style(
-                indicatif::ProgressStyle::with_template(
-                    "campaign {bar:40} {pos}/{len} episodes, {elapsed} (eta {eta})",
-                )
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-            );
-            let started = std::time::Instant::now();
-            let result = campaign::run(&settings, |_| bar.inc(1))?;
-            bar.finish_and_clear();
-            writeln!(
-                stdout,
-                "campaign: {episodes} episodes of seed {seed} {} body SSAT CBF, {:.0} s",
-                if no_body_cbf { "without" } else { "with" },
-                started.elapsed().as_secs_f64()
-            )?;
-            let report = result.report();
-            writeln!(stdout, "{report}")?;
-            let written = campaign::output::write_all(&out, &result)?;
-            print_written(&mut stdout, &written)?;
-            if !report.errors.is_empty() {
-                return Err(format!("{} episodes ended with an error", report.errors.len()).into());
-            }
-            Ok(())
-        }
-        Command::Generate => {
-            let root = env!("CARGO_MANIFEST_DIR");
-            let python = std::env::var("CBFGEN_PYTHON").unwrap_or_else(|_| {
-                let venv = format!("{root}/.venv/bin/python");
-                if std::path::Path::new(&venv).is_file() {
-                    venv
-                } else {
-                    "python3".into()
-                }
-            });
-            let status =
-                std::process::Command::new(&python).args(["-m", "symbolic.generate"]).current_dir(root).status()?;
-            if !status.success() {
-                return Err(format!("`{python} -m symbolic.generate` failed; run `scripts/cbf setup` first").into());
-            }
-            Ok(())
         }
     }
+    Ok(())
+}
+
+impl LatencyArgs {
+    fn run(self, stdout: &mut impl Write) -> Result<(), Box<dyn std::error::Error>> {
+        let Self { cycles, speed, gap, solver } = self;
+        let mut settings = cbfgen::systems::tachyon3::catalog::default_settings();
+        solver.apply(&mut settings);
+        writeln!(stdout, "{}", latency::run(cycles, speed, gap, settings)?)?;
+        Ok(())
+    }
+}
+
+impl SimulateArgs {
+    fn run(self, stdout: &mut impl Write) -> Result<(), Box<dyn std::error::Error>> {
+        let Self { scenario, no_body_cbf, out, csv_every, no_osqp_reference, episode, seed, ranges, perception } = self;
+        output_dir(&out)?;
+        let config = |body_cbf: bool| -> Result<SimConfig, cbfgen::CbfError> {
+            Ok(match episode {
+                Some(id) => Episode::draw(seed, id, &ranges.ranges())?.config_with(body_cbf, perception),
+                None => SimConfig {
+                    perception: perception.then(PerceptionSettings::default),
+                    ..SimConfig::new(scenario.scenario(), body_cbf)
+                },
+            })
+        };
+        if let Some(id) = episode {
+            let e = Episode::draw(seed, id, &ranges.ranges())?;
+            writeln!(
+                stdout,
+                "episode {id} of seed {seed}: {} steps of {:.4} x {:.4} m, start gap {:.4} m, gait speed {:.4} m/s",
+                e.stairs.count, e.stairs.rise, e.stairs.run, e.start_gap, e.speed
+            )?;
+        }
+        let main = simulate(&config(!no_body_cbf)?)?;
+        let comparison = if no_body_cbf { None } else { Some(simulate(&config(false)?)?) };
+        let osqp_reference = if no_osqp_reference || main.summary.backend == Solver::Osqp {
+            None
+        } else {
+            let mut config = config(!no_body_cbf)?;
+            config.filter.solver.backend = Solver::Osqp;
+            Some(simulate(&config)?)
+        };
+        for run in std::iter::once(&main).chain(comparison.as_ref()).chain(osqp_reference.as_ref()) {
+            writeln!(stdout, "{}", run.summary)?;
+        }
+        let written = output::write_all(&out, &main, comparison.as_ref(), osqp_reference.as_ref(), csv_every)?;
+        print_written(stdout, &written)?;
+        Ok(())
+    }
+}
+
+impl LipArgs {
+    fn run(self, stdout: &mut impl Write) -> Result<(), Box<dyn std::error::Error>> {
+        let Self { out, steps } = self;
+        output_dir(&out)?;
+        let scenario = lip::scenario::Scenario { max_steps: steps, ..lip::scenario::Scenario::standard() };
+        let result = lip::scenario::run(&scenario)?;
+        writeln!(stdout, "{}", result.summary())?;
+        let written = lip::figure::write_all(&out, &result)?;
+        print_written(stdout, &written)?;
+        Ok(())
+    }
+}
+
+impl MultilayerArgs {
+    fn run(self, stdout: &mut impl Write) -> Result<(), Box<dyn std::error::Error>> {
+        let Self { out } = self;
+        output_dir(&out)?;
+        let config = multilayer::ScenarioConfig::default();
+        let results = multilayer::scenario::run_all(&config)?;
+        let [a, omega, c] = config.barrier.parameters();
+        writeln!(
+            stdout,
+            "double integrator above {a} sin({omega} t) + ({c}) m, from q = {} m at rest, {} s",
+            config.x0[0], config.duration
+        )?;
+        write!(stdout, "{}", multilayer::scenario::table(&results))?;
+        let written = multilayer::scenario::write_figures(&out, &config, &results)?;
+        print_written(stdout, &written)?;
+        Ok(())
+    }
+}
+
+impl ArmArgs {
+    fn run(self, stdout: &mut impl Write) -> Result<(), Box<dyn std::error::Error>> {
+        let Self { out, csv_every } = self;
+        output_dir(&out)?;
+        let scenario = panda::Scenario::standard();
+        let with = panda::run(&scenario)?;
+        let without = panda::run(&scenario.clone().without_filter())?;
+        write!(stdout, "{with}{without}")?;
+        let written = panda::output::write_all(&out, &with, Some(&without), csv_every)?;
+        print_written(stdout, &written)?;
+        Ok(())
+    }
+}
+
+impl PerceiveArgs {
+    fn run(self, stdout: &mut impl Write) -> Result<(), Box<dyn std::error::Error>> {
+        let Self { out, seed } = self;
+        output_dir(&out)?;
+        perceive(stdout, &out, seed)
+    }
+}
+
+impl CampaignArgs {
+    fn run(self, stdout: &mut impl Write) -> Result<(), Box<dyn std::error::Error>> {
+        let Self { episodes, seed, first_id, no_body_cbf, threads, out, ranges, perception } = self;
+        output_dir(&out)?;
+        let settings = CampaignSettings {
+            seed,
+            episodes,
+            first_id,
+            ranges: ranges.ranges(),
+            body_cbf: !no_body_cbf,
+            threads,
+            perception,
+        };
+        let bar = indicatif::ProgressBar::new(episodes as u64);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template("campaign {bar:40} {pos}/{len} episodes, {elapsed} (eta {eta})")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        let started = std::time::Instant::now();
+        let result = campaign::run(&settings, |_| bar.inc(1))?;
+        bar.finish_and_clear();
+        writeln!(
+            stdout,
+            "campaign: {episodes} episodes of seed {seed} {} body SSAT CBF, {:.0} s",
+            if no_body_cbf { "without" } else { "with" },
+            started.elapsed().as_secs_f64()
+        )?;
+        let report = result.report();
+        writeln!(stdout, "{report}")?;
+        let written = campaign::output::write_all(&out, &result)?;
+        print_written(stdout, &written)?;
+        if !report.errors.is_empty() {
+            return Err(format!("{} episodes ended with an error", report.errors.len()).into());
+        }
+        Ok(())
+    }
+}
+
+fn generate_command() -> Result<(), Box<dyn std::error::Error>> {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let python = cbfgen_build::python_interpreter(&[root]);
+    let status = std::process::Command::new(&python).args(["-m", "symbolic.generate"]).current_dir(root).status()?;
+    if !status.success() {
+        return Err(format!("`{} -m symbolic.generate` failed; run `scripts/cbf setup` first", python.display()).into());
+    }
+    Ok(())
 }
 
 /// The "wrote a, b, c" line every command that writes files ends with.
