@@ -2,8 +2,8 @@
 //! one frame per 40 ms of the run, and a body that is the body box.
 
 use cbfgen::systems::tachyon3::model::BODY_HALF_EXTENTS;
-use cbfgen::systems::tachyon3::perceived::PerceptionSettings;
 use cbfgen::systems::tachyon3::sim::animation::{animation, FRAME_PERIOD};
+use cbfgen::systems::tachyon3::sim::perceived::PerceptionSettings;
 use cbfgen::systems::tachyon3::sim::{self, Scenario, SimConfig};
 use nalgebra::Vector3;
 

@@ -5,7 +5,7 @@
 //! and every step as a block, risers and treads) by more than 1 mm, measured in the test
 //! with parry3d (`common/terrain_contact.rs`).
 
-use cbfgen::systems::tachyon3::perceived::PerceptionSettings;
+use cbfgen::systems::tachyon3::sim::perceived::PerceptionSettings;
 use cbfgen::systems::tachyon3::sim::{self, Scenario, SimConfig, SimResult};
 
 #[path = "common/terrain_contact.rs"]

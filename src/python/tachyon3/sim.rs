@@ -10,9 +10,9 @@ use crate::filter::InputSource;
 use crate::python::convert::{choice, matrix, matrix_from_fn, vector, Array1Out, Array2Out, ArrayIn};
 use crate::systems::tachyon3::catalog::Family;
 use crate::systems::tachyon3::model::NX;
-use crate::systems::tachyon3::perceived::PerceptionSettings;
 use crate::systems::tachyon3::sim::campaign::{self as monte_carlo, CampaignSettings, CourseRanges, Episode};
 use crate::systems::tachyon3::sim::gait::GaitParams;
+use crate::systems::tachyon3::sim::perceived::PerceptionSettings;
 use crate::systems::tachyon3::sim::{self, Course, Scenario, SimConfig};
 
 const SCENARIOS: [Scenario; 6] = Scenario::NAMED;

@@ -15,6 +15,7 @@ pub mod campaign;
 mod course;
 pub mod gait;
 pub mod output;
+pub mod perceived;
 
 pub use course::Course;
 
@@ -26,7 +27,7 @@ use crate::generated::tachyon3 as gen;
 use crate::perception::worker::Perceived;
 use crate::systems::tachyon3::catalog::{self, Catalog, Family};
 use crate::systems::tachyon3::model::{self, State, NU};
-use crate::systems::tachyon3::perceived::{Perceiver, PerceptionSettings, PerceptionUpdate};
+use crate::systems::tachyon3::sim::perceived::{Perceiver, PerceptionSettings, PerceptionUpdate};
 use crate::systems::tachyon3::terrain::solid::{Contact, TerrainClearance, PENETRATION_TOLERANCE};
 use crate::systems::tachyon3::terrain::{Stairs, Terrain};
 use gait::GaitParams;
@@ -124,7 +125,7 @@ pub struct SimConfig {
     /// The ECBF-QP filter's settings (gains, weights, activation thresholds, OSQP).
     pub filter: FilterSettings<NU>,
     /// With `Some`, the gait and the filter see only what a LiDAR on the body perceives
-    /// of the terrain ([`perceived`](crate::systems::tachyon3::perceived)); with `None`
+    /// of the terrain ([`perceived`](crate::systems::tachyon3::sim::perceived)); with `None`
     /// (the default), the true terrain.
     pub perception: Option<PerceptionSettings>,
 }

@@ -1,7 +1,7 @@
 //! The ground along the robot's path as the gait reads it: flat levels one after another
 //! in world x, each with its height and the half width of ground it offers either side of
 //! the path (y = 0). Built from the true terrain ([`Terrain`](super::Terrain)) or from
-//! perceived planes ([`perceived`](crate::systems::tachyon3::perceived)).
+//! perceived planes ([`perceived`](crate::systems::tachyon3::sim::perceived)).
 
 use crate::error::CbfError;
 use crate::systems::tachyon3::model::TOE_RADIUS;

@@ -32,7 +32,7 @@ use rayon::prelude::*;
 use super::{Approach, Scenario, SimConfig, Summary};
 use crate::error::CbfError;
 use crate::systems::tachyon3::catalog::Family;
-use crate::systems::tachyon3::perceived::PerceptionSettings;
+use crate::systems::tachyon3::sim::perceived::PerceptionSettings;
 use crate::systems::tachyon3::terrain::Stairs;
 
 /// Penetration counted as a collision \[m\]: the body or a wheel more than 1 mm into a

@@ -287,7 +287,7 @@ impl Perceiver {
     /// A state outside the model's domain; a failed update.
     pub fn step(&mut self, t: f64, x: &State, course: &mut Course) -> Result<(), CbfError> {
         // Half a cycle of slack: `t` is k · DT, which rounds.
-        let slack = 0.5 * super::sim::DT;
+        let slack = 0.5 * super::DT;
         if t + slack >= self.next_scan {
             self.scan(x)?;
             self.next_scan += self.settings.scan_period;
