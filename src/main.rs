@@ -720,6 +720,7 @@ fn print_written(out: &mut impl Write, written: &[std::path::PathBuf]) -> std::i
 /// with the true nosings and draw both views.
 fn perceive(out: &mut impl Write, dir: &std::path::Path, seed: u64) -> Result<(), Box<dyn std::error::Error>> {
     use cbfgen::perception::{edges, figure, planes, scanner::Lidar};
+    use cbfgen::systems::tachyon3::terrain::edge_match;
     use rand::SeedableRng;
 
     let terrain = cbfgen::systems::tachyon3::terrain::Stairs::HARDWARE.terrain()?;
@@ -741,30 +742,17 @@ fn perceive(out: &mut impl Write, dir: &std::path::Path, seed: u64) -> Result<()
         )?;
     }
     let truth = terrain.edge_boxes()?;
-    for (k, b) in truth.iter().enumerate() {
-        // The found cuboid whose axis passes closest to the true one's centre.
-        let nearest = cuboids
-            .iter()
-            .map(|c| {
-                let axis = c.rotation().matrix().column(0).into_owned();
-                let d = b.center() - c.center();
-                ((d - axis * d.dot(&axis)).norm(), c)
-            })
-            .min_by(|a, b| a.0.total_cmp(&b.0));
-        match nearest {
-            Some((d, c)) if d < 0.05 => {
-                let axis = c.rotation().matrix().column(0).into_owned();
-                let angle = axis.angle(&Vector3::y()).min(axis.angle(&-Vector3::y())).to_degrees();
-                writeln!(
-                    out,
-                    "  nosing {k} (x {:.3}, z {:.3}): found {:.1} mm off, {angle:.2} deg, {:.2} m long",
-                    b.center().x,
-                    b.center().z,
-                    d * 1e3,
-                    2.0 * c.half_extents().x
-                )?;
-            }
-            _ => writeln!(out, "  nosing {k} (x {:.3}, z {:.3}): not found", b.center().x, b.center().z)?,
+    for (k, (b, matched)) in truth.iter().zip(edge_match::match_nosings(&truth, &cuboids)).enumerate() {
+        let (x, z) = (b.center().x, b.center().z);
+        match matched {
+            Some(m) => writeln!(
+                out,
+                "  nosing {k} (x {x:.3}, z {z:.3}): found {:.1} mm off, {:.2} deg, {:.2} m long",
+                m.offset * 1e3,
+                m.skew_deg,
+                m.length
+            )?,
+            None => writeln!(out, "  nosing {k} (x {x:.3}, z {z:.3}): not found")?,
         }
     }
     let charts: Vec<(String, cbfgen::chart::Chart)> = figure::side_and_top(&map, &found, &cuboids, &truth)

@@ -7,8 +7,10 @@
 //! * [`Terrain`] — any profile of flat levels, and the shapes a flight does not make;
 //! * [`Profile`] — the ground along the path as the gait reads it, true or perceived;
 //! * [`SolidTerrain`] — the floor and every step as solid blocks, which the robot's
-//!   wheels and body are measured against by exact geometry.
+//!   wheels and body are measured against by exact geometry;
+//! * [`edge_match`] — perceived edge cuboids matched to the true nosings.
 
+pub mod edge_match;
 pub mod profile;
 pub mod shapes;
 pub mod solid;
