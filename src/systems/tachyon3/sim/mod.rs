@@ -125,7 +125,7 @@ pub struct SimConfig {
     /// The ECBF-QP filter's settings (gains, weights, activation thresholds, OSQP).
     pub filter: FilterSettings<NU>,
     /// With `Some`, the gait and the filter see only what a LiDAR on the body perceives
-    /// of the terrain ([`perceived`](crate::systems::tachyon3::sim::perceived)); with `None`
+    /// of the terrain ([`perceived`]); with `None`
     /// (the default), the true terrain.
     pub perception: Option<PerceptionSettings>,
 }
