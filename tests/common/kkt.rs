@@ -11,7 +11,7 @@ use cbfgen::qp::lexicographic::TieredRow;
 use cbfgen::systems::tachyon3::catalog::Tachyon3Filter;
 use cbfgen::systems::tachyon3::model::{Input, NU};
 
-use crate::lexicographic_reference::{check_answer, hard_qp, violation, RefRow};
+use crate::lexicographic_reference::{check_answer, hard_qp, terms, violation, RefRow};
 
 /// Every row of the filter's last update as `a·u + b ≥ 0` with its tier, and which took
 /// part.
@@ -51,8 +51,7 @@ pub fn clarabel_reference(filter: &Tachyon3Filter, u: &Input, u_ref: &Input) -> 
         .zip(&active)
         .filter(|(_, &on)| on)
         .map(|(r, _)| {
-            let size = r.b.abs() + (0..NU).map(|j| r.a[j].abs() * (1.0 + u[j].abs())).sum::<f64>();
-            RefRow { a: r.a.to_vec(), lower: -r.b - violation(r, u) - 1e-10 * size, elastic: 0.0 }
+            RefRow { a: r.a.to_vec(), lower: -r.b - violation(r, u) - 1e-10 * terms(r, u), elastic: 0.0 }
         })
         .collect();
     let x = hard_qp(&s.input_weights, u_ref, &s.input_min, &s.input_max, &refs).expect("clarabel must solve it");
