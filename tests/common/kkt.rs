@@ -50,9 +50,7 @@ pub fn clarabel_reference(filter: &Tachyon3Filter, u: &Input, u_ref: &Input) -> 
         .iter()
         .zip(&active)
         .filter(|(_, &on)| on)
-        .map(|(r, _)| {
-            RefRow { a: r.a.to_vec(), lower: -r.b - violation(r, u) - 1e-10 * terms(r, u), elastic: 0.0 }
-        })
+        .map(|(r, _)| RefRow { a: r.a.to_vec(), lower: -r.b - violation(r, u) - 1e-10 * terms(r, u), elastic: 0.0 })
         .collect();
     let x = hard_qp(&s.input_weights, u_ref, &s.input_min, &s.input_max, &refs).expect("clarabel must solve it");
     let x: Input = std::array::from_fn(|j| x[j]);
