@@ -14,6 +14,7 @@ use std::process::Command;
 const HASH_PREFIX: &str = "// inputs-sha256: ";
 
 fn main() {
+    check_cmake();
     let root = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets this"));
     println!("cargo:rerun-if-env-changed=CBFGEN_PYTHON");
     println!("cargo:rerun-if-env-changed=VIRTUAL_ENV");
@@ -52,6 +53,33 @@ fn main() {
     let still = stale_files(&generated, &digest);
     if !still.is_empty() {
         println!("cargo::error=regenerated generated/ but {} still records another inputs hash", still[0]);
+    }
+}
+
+/// OSQP's C sources build with CMake (the `osqp-sys` build script runs it), whose absence
+/// there ends in a question ("is `cmake` not installed?"). Said here first, with the fix.
+fn check_cmake() {
+    println!("cargo:rerun-if-env-changed=CMAKE");
+    println!("cargo:rerun-if-env-changed=CMAKE_POLICY_VERSION_MINIMUM");
+    let cmake = std::env::var_os("CMAKE").map_or_else(|| PathBuf::from("cmake"), PathBuf::from);
+    let fix = "`pip install cmake==3.31.10` (what `scripts/cbf setup` puts in the cbfgen repository's \
+               .venv/bin: put that folder on PATH), or your system's cmake 3.x";
+    let version = Command::new(&cmake).arg("--version").output().ok().filter(|o| o.status.success());
+    let Some(version) = version else {
+        println!(
+            "cargo::error=cbfgen needs CMake to build OSQP's C sources and `{}` does not run: {fix}",
+            cmake.display()
+        );
+        return;
+    };
+    // CMake 4 refuses the minimum version OSQP 0.6's CMakeLists asks for, unless told to.
+    let text = String::from_utf8_lossy(&version.stdout);
+    let major = text.split_whitespace().nth(2).and_then(|v| v.split('.').next()?.parse::<u32>().ok());
+    if major.is_some_and(|m| m >= 4) && std::env::var_os("CMAKE_POLICY_VERSION_MINIMUM").is_none() {
+        println!(
+            "cargo::error=CMake {} cannot build OSQP 0.6's C sources as they are: set CMAKE_POLICY_VERSION_MINIMUM=3.5, or use {fix}",
+            text.split_whitespace().nth(2).unwrap_or("4")
+        );
     }
 }
 

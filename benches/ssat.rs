@@ -2,8 +2,7 @@
 //! SSAT variants, the exact SAT and parry3d's GJK, all on the same 1024 random pairs.
 //! Criterion reports the time for all 1024 pairs; divide by 1024 for one query.
 
-#[path = "../tests/common/mod.rs"]
-mod common;
+use cbfgen_testkit::boxes as common;
 
 use cbfgen::ssat::{self, SmoothAbs, SmoothMax, SmoothParams};
 use cbfgen::{sat, OrientedBox};

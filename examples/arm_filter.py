@@ -1,6 +1,6 @@
 """The 7-DoF arm's safety filter from Python, through the generic bindings, plotted.
 
-A joint-space PD sweeps the base joint of the `panda` system (symbolic/systems/panda.py)
+A joint-space PD sweeps the base joint of the `panda` system (systems/panda/spec/panda.py)
 across a box standing 0.5 m in front of it: the forearm and wrist would pass through
 the box. Each 1 ms cycle `cbfgen.EcbfFilter` corrects the PD's joint accelerations; the
 loop integrates q'' = u exactly. It runs with the filter and without, and plots the
@@ -10,7 +10,7 @@ obstacle do not overlap) and the base joint's angle.
     scripts/cbf python examples/arm_filter.py [--seconds 6] [--out FILE.png]
 
 The same scenario, with exact separations, self-collision and joint limits, is
-`cbfgen arm` (src/systems/panda/).
+`cbfgen arm` (systems/panda/src/).
 """
 
 from __future__ import annotations

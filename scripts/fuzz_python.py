@@ -80,7 +80,7 @@ FINITE_EXTREMES = (0.0, -0.0, 5e-324, -5e-324, 2.2250738585072014e-308, 1e-300, 
 NON_FINITE = (math.nan, math.inf, -math.inf)
 INT_EXTREMES = (-1, 0, 1, 2**31, 2**32 - 1, 2**32, 2**62, 2**63 - 1, 2**64 // 7 + 1, 2**64 - 1, 2**64,
                 10**6, 10**9, -(2**63))
-# Hip mount height in the body frame (generated/tachyon3.rs HIP_POSITIONS[..][2]); the
+# Hip mount height in the body frame (systems/tachyon3/generated/tachyon3.rs HIP_POSITIONS[..][2]); the
 # hips' x equal the toes' x in the standard posture.
 HIP_Z = 0.12
 # Tachyon 3 has many families, capacities and the course; the double integrator is small.

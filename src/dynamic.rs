@@ -10,21 +10,9 @@
 //! four small traits [`FlatInstance`], [`FlatCapacity`], [`FlatParams`] and
 //! [`GeneratedSystem`], and [`Erased`] does the rest for every system alike.
 //!
-//! ```
-//! use cbfgen::dynamic::{system, CapacityCount};
-//!
-//! let planar = system("double_integrator").expect("built in");
-//! assert_eq!((planar.nx(), planar.nu()), (2, 1));
-//! let mut params = planar.params(&[])?;
-//! let sine = params.family_index("sine_barrier")?;
-//! params.set(sine, 0, 0, &[0.0, 1.0, -0.01])?; // amplitude, omega, offset: h = q + 0.01
-//! let mut filter = planar.filter(&[], &planar.default_settings())?;
-//! filter.update(0.0, &[0.0, 0.0], &[-3.0], params.as_ref())?;
-//! // At rest 1 cm above the boundary, poles (10, 10): u ≥ −k₀ h = −100 · 0.01.
-//! assert!((filter.output().u[0] + 1.0).abs() < 1e-2);
-//! # let _: &[CapacityCount] = &[];
-//! # Ok::<(), cbfgen::CbfError>(())
-//! ```
+//! A binary or binding that links system crates lists them in a [`Registry`] and picks
+//! one by name; the `cbfgen-double-integrator` crate's docs show the whole round trip
+//! (parameters set by name, a filter update) on its system.
 
 use std::any::Any;
 use std::marker::PhantomData;
@@ -846,12 +834,50 @@ impl<S: GeneratedSystem<NX, NU>, const NX: usize, const NU: usize> DynFilter for
     }
 }
 
-/// The built-in system named `name` (see [`systems`]).
-pub fn system(name: &str) -> Option<&'static dyn DynSystem> {
-    systems().iter().copied().find(|s| s.name() == name)
+/// Systems by name, filled by whoever links them: a binary or binding lists the system
+/// crates it depends on (each generated module has a `SYSTEM`), and users pick one by
+/// name at run time. The core itself knows no system.
+///
+/// ```
+/// use cbfgen::dynamic::{DynSystem, Registry};
+///
+/// static NONE: Registry = Registry::new(&[]);
+/// assert!(NONE.get("pvtol").is_err());
+/// assert_eq!(NONE.names().count(), 0);
+/// ```
+#[derive(Clone, Copy)]
+pub struct Registry {
+    systems: &'static [&'static dyn DynSystem],
 }
 
-/// Every system built into this crate, in the generator's order.
-pub fn systems() -> &'static [&'static dyn DynSystem] {
-    crate::generated::SYSTEMS
+impl Registry {
+    /// The systems given, in the order given (names should be unique; the first wins).
+    pub const fn new(systems: &'static [&'static dyn DynSystem]) -> Self {
+        Self { systems }
+    }
+
+    /// The system named `name`, or [`CbfError::UnknownName`] listing the names there are.
+    pub fn get(&self, name: &str) -> Result<&'static dyn DynSystem, CbfError> {
+        self.systems.iter().copied().find(|s| s.name() == name).ok_or_else(|| CbfError::UnknownName {
+            what: "system",
+            name: name.to_string(),
+            known: self.names().collect::<Vec<_>>().join(", "),
+        })
+    }
+
+    /// Every system, in order.
+    pub fn systems(&self) -> &'static [&'static dyn DynSystem] {
+        self.systems
+    }
+
+    /// Every system's name, in order.
+    pub fn names(&self) -> impl Iterator<Item = &'static str> + '_ {
+        self.systems.iter().map(|s| s.name())
+    }
+}
+
+impl std::fmt::Debug for Registry {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_list().entries(self.names()).finish()
+    }
 }

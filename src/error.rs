@@ -1,14 +1,13 @@
 //! The crate's error type.
 
-use thiserror::Error;
+use std::fmt;
 
-use crate::param_domain::{Domain, Found, FoundIn, Site};
+use crate::param_domain::kinds::{Domain, Found, FoundIn, Site};
 
 /// Everything that can go wrong in cbfgen's public API.
-#[derive(Debug, Clone, PartialEq, Error)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum CbfError {
     /// A value that must be finite was NaN or infinite.
-    #[error("{what} must be finite, got {value}")]
     NonFinite {
         /// Which value, as named in the message.
         what: &'static str,
@@ -16,7 +15,6 @@ pub enum CbfError {
         value: f64,
     },
     /// A value that must be strictly positive was not.
-    #[error("{what} must be > 0, got {value}")]
     NotPositive {
         /// Which value, as named in the message.
         what: &'static str,
@@ -24,7 +22,6 @@ pub enum CbfError {
         value: f64,
     },
     /// More obstacles or foothold edges than the catalog was sized for.
-    #[error("too many {what}: capacity is {capacity}")]
     CapacityExceeded {
         /// What ran out of slots (e.g. `"edge cuboids"`, `"foothold edges"`).
         what: &'static str,
@@ -32,8 +29,7 @@ pub enum CbfError {
         capacity: usize,
     },
     /// A capacity (or another count) above its documented maximum, e.g.
-    /// [`Capacity::MAX_EDGES`](crate::systems::tachyon3::catalog::Capacity::MAX_EDGES).
-    #[error("{what} = {value} is above the maximum of {max}")]
+    /// [`MAX_INSTANCES`](crate::system::MAX_INSTANCES).
     TooLarge {
         /// Which count, as named in the message.
         what: &'static str,
@@ -43,13 +39,10 @@ pub enum CbfError {
         max: usize,
     },
     /// A worker thread has stopped (it panicked, or could not be started).
-    #[error("the worker thread is not running")]
     WorkerGone,
     /// Parameters (an environment) sized for other capacities than the filter's rows.
-    #[error("the parameters were built for other capacities than the filter")]
     CapacityMismatch,
     /// A setting outside its allowed range.
-    #[error("{what} = {value} is outside {range}")]
     OutOfRange {
         /// Which value, as named in the message.
         what: &'static str,
@@ -59,7 +52,6 @@ pub enum CbfError {
         range: &'static str,
     },
     /// A slice of the wrong length for what it was passed to.
-    #[error("{what}: expected length {expected}, got {got}")]
     LengthMismatch {
         /// Which slice, as named in the message.
         what: &'static str,
@@ -69,7 +61,6 @@ pub enum CbfError {
         got: usize,
     },
     /// A constraint row named an input column twice or beyond the input dimension.
-    #[error("constraint row {row}: input column {column} is repeated or out of range")]
     BadRowPattern {
         /// Index of the offending row among the rows given.
         row: usize,
@@ -77,21 +68,18 @@ pub enum CbfError {
         column: usize,
     },
     /// An active constraint row evaluated to NaN or infinity (degenerate geometry or state).
-    #[error("constraint row {row} is not finite")]
     NonFiniteRow {
         /// Index of the first such row in the QP's row order (the catalog's, for the
         /// ECBF filter; 0 for the single-row QPs).
         row: usize,
     },
     /// OSQP refused the problem at set-up.
-    #[error("QP solver set-up failed: {reason}")]
     SolverSetup {
         /// OSQP's set-up error, as text.
         reason: String,
     },
     /// A QP of the multi-layer controller ended without a usable iterate (infeasible,
     /// non-convex or a solver fault); `status` is [`QpStatus::name`](crate::qp::QpStatus::name).
-    #[error("{layer}: QP not solved ({status})")]
     QpFailed {
         /// Which QP failed (e.g. `"kinematic MPC"`).
         layer: &'static str,
@@ -99,7 +87,6 @@ pub enum CbfError {
         status: &'static str,
     },
     /// An index beyond what exists (a family, member, instance, leg…).
-    #[error("no {what} {index}: there are {len}")]
     NoSuchIndex {
         /// What was indexed (`"family"`, `"member"`, `"instance"`, `"leg"`).
         what: &'static str,
@@ -109,7 +96,6 @@ pub enum CbfError {
         len: usize,
     },
     /// A name (of a family, member or system) that does not exist.
-    #[error("no {what} named {name:?}; known: {known}")]
     UnknownName {
         /// What was looked up.
         what: &'static str,
@@ -120,7 +106,6 @@ pub enum CbfError {
     },
     /// An operation a family's kind of instances does not have (pushing onto a fixed
     /// family, a capacity for a fixed-count family...).
-    #[error("{operation} is not available for {kind} families")]
     Unsupported {
         /// What was asked.
         operation: &'static str,
@@ -128,7 +113,6 @@ pub enum CbfError {
         kind: &'static str,
     },
     /// Parameters of one system handed to another system's rows or filter.
-    #[error("parameters of system {got} given to system {expected}")]
     SystemMismatch {
         /// The system that was asked.
         expected: &'static str,
@@ -136,7 +120,6 @@ pub enum CbfError {
         got: &'static str,
     },
     /// A rotation matrix was not orthonormal with determinant +1.
-    #[error("rotation is not a proper rotation (|R^T R - I| = {deviation:.3e}, det R = {determinant:.6})")]
     NotARotation {
         /// Largest entry of `|RᵀR − I|`.
         deviation: f64,
@@ -147,11 +130,6 @@ pub enum CbfError {
     /// in requires): a negative half extent, a reflection given as a rotation, a NaN. See
     /// [`param_domain`](crate::param_domain). Holds no heap data, so the control path can
     /// return it without allocating.
-    #[error(
-        "{site}: parameter {param} is outside its domain ({domain}): {found}",
-        site = Site(.family, .member, .instance),
-        found = FoundIn(.found, .param)
-    )]
     ParamOutOfDomain {
         /// The family, as in the spec.
         family: &'static str,
@@ -168,9 +146,51 @@ pub enum CbfError {
         found: Found,
     },
     /// Worker threads could not be started (the operating system's refusal).
-    #[error("could not start worker threads: {0}")]
     ThreadPool(String),
 }
+
+// The messages, written out rather than derived: the core's dependency list stays at
+// nalgebra, libc and osqp (no proc-macro crates for a user's build to compile).
+impl fmt::Display for CbfError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            CbfError::NonFinite { what, value } => write!(f, "{what} must be finite, got {value}"),
+            CbfError::NotPositive { what, value } => write!(f, "{what} must be > 0, got {value}"),
+            CbfError::CapacityExceeded { what, capacity } => write!(f, "too many {what}: capacity is {capacity}"),
+            CbfError::TooLarge { what, value, max } => write!(f, "{what} = {value} is above the maximum of {max}"),
+            CbfError::WorkerGone => f.write_str("the worker thread is not running"),
+            CbfError::CapacityMismatch => f.write_str("the parameters were built for other capacities than the filter"),
+            CbfError::OutOfRange { what, value, range } => write!(f, "{what} = {value} is outside {range}"),
+            CbfError::LengthMismatch { what, expected, got } => {
+                write!(f, "{what}: expected length {expected}, got {got}")
+            }
+            CbfError::BadRowPattern { row, column } => {
+                write!(f, "constraint row {row}: input column {column} is repeated or out of range")
+            }
+            CbfError::NonFiniteRow { row } => write!(f, "constraint row {row} is not finite"),
+            CbfError::SolverSetup { reason } => write!(f, "QP solver set-up failed: {reason}"),
+            CbfError::QpFailed { layer, status } => write!(f, "{layer}: QP not solved ({status})"),
+            CbfError::NoSuchIndex { what, index, len } => write!(f, "no {what} {index}: there are {len}"),
+            CbfError::UnknownName { what, name, known } => write!(f, "no {what} named {name:?}; known: {known}"),
+            CbfError::Unsupported { operation, kind } => write!(f, "{operation} is not available for {kind} families"),
+            CbfError::SystemMismatch { expected, got } => {
+                write!(f, "parameters of system {got} given to system {expected}")
+            }
+            CbfError::NotARotation { deviation, determinant } => {
+                write!(f, "rotation is not a proper rotation (|R^T R - I| = {deviation:.3e}, det R = {determinant:.6})")
+            }
+            CbfError::ParamOutOfDomain { family, member, instance, param, domain, found } => write!(
+                f,
+                "{}: parameter {param} is outside its domain ({domain}): {}",
+                Site(family, member, instance),
+                FoundIn(found, param)
+            ),
+            CbfError::ThreadPool(reason) => write!(f, "could not start worker threads: {reason}"),
+        }
+    }
+}
+
+impl std::error::Error for CbfError {}
 
 impl CbfError {
     /// For [`CbfError::ParamOutOfDomain`] without an instance, the same error naming
@@ -199,7 +219,7 @@ impl CbfError {
 }
 
 /// `Ok(value)` if finite, else [`CbfError::NonFinite`].
-pub(crate) fn finite(what: &'static str, value: f64) -> Result<f64, CbfError> {
+pub fn finite(what: &'static str, value: f64) -> Result<f64, CbfError> {
     if value.is_finite() {
         Ok(value)
     } else {
@@ -209,7 +229,7 @@ pub(crate) fn finite(what: &'static str, value: f64) -> Result<f64, CbfError> {
 
 /// `Ok(value)` if finite and within `[lo, hi]`, else [`CbfError::NonFinite`] or
 /// [`CbfError::OutOfRange`] naming `range` (the documented domain, for the message).
-pub(crate) fn within(what: &'static str, value: f64, lo: f64, hi: f64, range: &'static str) -> Result<f64, CbfError> {
+pub fn within(what: &'static str, value: f64, lo: f64, hi: f64, range: &'static str) -> Result<f64, CbfError> {
     if (lo..=hi).contains(&finite(what, value)?) {
         Ok(value)
     } else {
@@ -218,7 +238,7 @@ pub(crate) fn within(what: &'static str, value: f64, lo: f64, hi: f64, range: &'
 }
 
 /// `Ok(value)` if finite and > 0.
-pub(crate) fn positive(what: &'static str, value: f64) -> Result<f64, CbfError> {
+pub fn positive(what: &'static str, value: f64) -> Result<f64, CbfError> {
     if finite(what, value)? > 0.0 {
         Ok(value)
     } else {

@@ -128,7 +128,7 @@ impl OrientedBox {
     }
 
     /// Arguments in the layout the generated kernels take.
-    pub(crate) fn kernel_args(&self) -> ([f64; 3], [f64; 9], [f64; 3]) {
+    pub fn kernel_args(&self) -> ([f64; 3], [f64; 9], [f64; 3]) {
         let m = self.rotation.matrix();
         (
             [self.center.x, self.center.y, self.center.z],

@@ -14,26 +14,7 @@
 
 use crate::error::{within, CbfError};
 
-/// Highest relative degree a family may have (the symbolic stage stops looking there).
-pub const MAX_RELATIVE_DEGREE: usize = 4;
-
-/// Largest capacity of one capacity-sized family: a bound on rows laid out, so an absurd
-/// capacity is a typed error instead of an allocation failure.
-pub const MAX_INSTANCES: usize = 10_000;
-
-/// Largest |state entry| a barrier set evaluates at (metres, radians and their rates, for
-/// every system): 100 km, far past any course, and far from where a generated row's
-/// squares and products overflow. World numbers in the same units (floors, goals, planes)
-/// share it.
-pub const STATE_LIMIT: f64 = 1e5;
-
-/// Largest |runtime parameter| a generated barrier set accepts (positions, sizes, gains of
-/// a boundary, in the parameter's own units); parameters are checked every evaluation.
-pub const PARAM_LIMIT: f64 = 1e6;
-
-/// Largest |t| \[s\] a time-varying barrier accepts: about 30 years of run time, and far
-/// below where `sin(ω t)` loses every digit.
-pub const TIME_LIMIT: f64 = 1e9;
+pub use crate::limits::{MAX_INSTANCES, MAX_RELATIVE_DEGREE, PARAM_LIMIT, STATE_LIMIT, TIME_LIMIT};
 
 /// One evaluated ECBF row.
 ///
@@ -431,7 +412,7 @@ impl<T> Instances<T> {
 
 /// `Ok(value)` when it is finite with `|value| ≤` [`STATE_LIMIT`]: the check for a state
 /// entry and for every world number measured in the same units (floors, goals, planes).
-pub(crate) fn coordinate(what: &'static str, value: f64) -> Result<f64, CbfError> {
+pub fn coordinate(what: &'static str, value: f64) -> Result<f64, CbfError> {
     within(what, value, -STATE_LIMIT, STATE_LIMIT, "[-1e5, 1e5]")
 }
 

@@ -1,30 +1,31 @@
-"""Write generated/ from the symbolic definitions: ``python -m symbolic.generate``.
+"""The repository's one generation entry point: ``python -m symbolic.generate``.
 
-Deterministic: the same inputs give byte-identical files. Every file starts with the
-hash of its inputs (see :mod:`symbolic.inputs_hash`), which build.rs compares to decide
-whether generation must run again.
+Writes the core's ``generated/`` (the primitives: SSAT variants, the sphere-box
+clearance) and each built-in system crate's ``systems/<name>/generated/<name>.rs`` from
+its ``systems/<name>/spec/<name>.py``, exactly as ``cbfgen-build`` in that crate's
+build.rs writes it (checked-in mode, runtime crate ``cbfgen``). Deterministic: the same
+inputs give byte-identical files. Every file starts with the hash of its inputs (see
+:mod:`symbolic.inputs_hash`), which build.rs and cbfgen-build compare to decide whether
+generation must run again.
 """
 
 from __future__ import annotations
 
 import argparse
-import shutil
-import subprocess
 import sys
 from collections.abc import Callable
 from pathlib import Path
 
 from .codegen.backends.rust.emitter import RawRust, emit_kernel, rustdoc_text
 from .codegen.backends.rust.kernel_table import emit_kernel_table
-from .codegen.backends.rust.system_module import emit_system
 from .codegen.definition import SystemDefinition, define
+from .codegen.generate import render_with_warnings
+from .codegen.output import HASH_PREFIX, REPO_ROOT, rustfmt
 from .families import sphere_box, ssat
 from .inputs_hash import inputs_hash
 from .kernel import Kernel
 from .spec import load
 
-REPO_ROOT = Path(__file__).resolve().parent.parent
-HASH_PREFIX = "// inputs-sha256: "
 REGENERATE = "scripts/cbf generate  (or: python -m symbolic.generate)"
 
 # Kernel libraries that are not systems (the SSAT variants the benches and cross-checks
@@ -33,13 +34,19 @@ MODULES: dict[str, tuple[str, Callable[[], list[Kernel | RawRust]]]] = {
     "ssat": (ssat.MODULE_DOC, ssat.kernels),
     "sphere_box": (sphere_box.MODULE_DOC, sphere_box.kernels),
 }
-# Built-in systems: every spec file here becomes a module of generated/, by its system name.
-SYSTEMS_DIR = Path(__file__).resolve().parent / "systems"
+# Built-in systems: each crate under systems/ whose spec/<crate folder>.py exists.
+SYSTEMS_ROOT = REPO_ROOT / "systems"
+SYSTEM_RUNTIME_CRATE = "cbfgen"
+
+
+def builtin_specs() -> list[Path]:
+    """The built-in systems' spec files, in crate-folder order."""
+    return [p for d in sorted(SYSTEMS_ROOT.iterdir()) if (p := d / "spec" / f"{d.name}.py").is_file()]
 
 
 def builtin_systems() -> list[SystemDefinition]:
-    """The built-in systems, from their spec files in name order."""
-    return [define(load(p)) for p in sorted(SYSTEMS_DIR.glob("*.py")) if not p.name.startswith("_")]
+    """The built-in systems, from their spec files in crate-folder order."""
+    return [define(load(p)) for p in builtin_specs()]
 
 
 def all_kernels() -> dict[str, list[Kernel]]:
@@ -59,23 +66,8 @@ def _header(digest: str) -> str:
     )
 
 
-def rustfmt(text: str, repo_root: Path = REPO_ROOT) -> str:
-    """``text`` formatted by rustfmt with the repository's rustfmt.toml, so generated code
-    passes the same ``cargo fmt --check`` as the hand-written code. rustfmt ships with
-    every rustup toolchain; its absence stops generation with the fix named."""
-    exe = shutil.which("rustfmt")
-    if exe is None:
-        raise SystemExit("symbolic.generate: rustfmt not found on PATH; install it with "
-                         "'rustup component add rustfmt'")
-    done = subprocess.run([exe, "--edition", "2021", "--config-path", str(repo_root / "rustfmt.toml")],
-                          input=text, capture_output=True, text=True, check=False)
-    if done.returncode != 0:
-        raise SystemExit(f"symbolic.generate: rustfmt rejected the generated code:\n{done.stderr}")
-    return done.stdout
-
-
 def render(repo_root: Path = REPO_ROOT) -> dict[str, str]:
-    """File name -> contents for the whole of generated/."""
+    """File name -> contents for the whole of the core's generated/."""
     digest = inputs_hash(repo_root)
     files: dict[str, str] = {}
     mod_lines = [_header(digest), "//! Kernels emitted by the symbolic stage.\n"]
@@ -88,45 +80,40 @@ def render(repo_root: Path = REPO_ROOT) -> dict[str, str]:
                 "#![allow(clippy::excessive_precision, clippy::too_many_arguments)]\n")
         files[f"{name}.rs"] = rustfmt(_header(digest) + module_doc + lint + "\n" + body, repo_root)
         mod_lines.append(f"pub mod {name};\n")
-    for definition in builtin_systems():
-        name = definition.name
-        files[f"{name}.rs"] = rustfmt(_header(digest) + "\n" + emit_system(definition, "crate"), repo_root)
-        doc = definition.doc or f"The `{name}` system."
-        mod_lines.append("".join(f"/// {rustdoc_text(line)}".rstrip() + "\n" for line in doc.splitlines())
-                         + f"pub mod {name};\n")
-    names = [line.split()[-1].rstrip(";") for line in "".join(mod_lines).splitlines() if line.startswith("pub mod ")]
     mod_lines.append("/// Every module's uniform kernel table, by module name (for cross-checks and tools).\n"
                      "pub const KERNELS: &[(&str, &[crate::system::KernelEntry])] = &["
-                     + "".join(f'("{n}", {n}::KERNELS),' for n in names) + "];\n")
-    systems = [d.name for d in builtin_systems()]
-    mod_lines.append("/// Every built-in system behind `crate::dynamic::DynSystem`, in name order.\n"
-                     "pub const SYSTEMS: &[&dyn crate::dynamic::DynSystem] = &["
-                     + "".join(f"{n}::SYSTEM," for n in systems) + "];\n")
+                     + "".join(f'("{n}", {n}::KERNELS),' for n in MODULES) + "];\n")
     files["mod.rs"] = rustfmt("".join(mod_lines), repo_root)
     return files
 
 
+def render_all(repo_root: Path = REPO_ROOT) -> dict[Path, str]:
+    """Path -> contents of every generated file in the repository: the core's generated/
+    and each built-in system crate's generated/<system>.rs."""
+    out = {repo_root / "generated" / name: text for name, text in render(repo_root).items()}
+    for spec in builtin_specs():
+        name, text, _, _ = render_with_warnings(spec, SYSTEM_RUNTIME_CRATE)
+        out[spec.parent.parent / "generated" / name] = text
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m symbolic.generate", description=__doc__)
-    parser.add_argument("--out", type=Path, default=REPO_ROOT / "generated",
-                        help="directory to write (default: generated/)")
     parser.add_argument("--check", action="store_true",
-                        help="write nothing; exit 1 if --out differs from a fresh generation")
+                        help="write nothing; exit 1 if a generated file differs from a fresh generation")
     args = parser.parse_args(argv)
 
-    files = render()
+    files = render_all()
     if args.check:
-        stale = [n for n, text in files.items()
-                 if not (args.out / n).is_file() or (args.out / n).read_text() != text]
-        for n in stale:
-            print(f"stale: {args.out / n}", file=sys.stderr)
+        stale = [p for p, text in files.items() if not p.is_file() or p.read_text() != text]
+        for p in stale:
+            print(f"stale: {p.relative_to(REPO_ROOT)}", file=sys.stderr)
         return 1 if stale else 0
-    args.out.mkdir(parents=True, exist_ok=True)
-    for name, text in files.items():
-        target = args.out / name
+    for target, text in files.items():
+        target.parent.mkdir(parents=True, exist_ok=True)
         if not target.is_file() or target.read_text() != text:
             target.write_text(text)
-    print(f"generated {len(files)} files in {args.out}")
+    print(f"generated {len(files)} files")
     return 0
 
 

@@ -4,9 +4,8 @@
 //! largest violation (a linear program) given what the higher tiers achieved, and then
 //! the closest input that achieves all of it.
 
-mod common;
-#[path = "common/lexicographic_reference.rs"]
-mod lexicographic_reference;
+use cbfgen_testkit::boxes as common;
+use cbfgen_testkit::lexicographic_reference;
 
 use cbfgen::qp::lexicographic::{Cause, LexicographicSolver, Limit, Outcome, TieredRow};
 use lexicographic_reference::check_answer;

@@ -1,6 +1,6 @@
 //! The exact SAT agrees with an independent collision library (parry3d-f64).
 
-mod common;
+use cbfgen_testkit::boxes as common;
 
 use cbfgen::{sat, OrientedBox};
 use parry3d_f64::math::{Pose, Rot3, Vec3};

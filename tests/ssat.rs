@@ -1,6 +1,6 @@
 //! Smooth SAT against the exact SAT and against finite differences.
 
-mod common;
+use cbfgen_testkit::boxes as common;
 
 use cbfgen::ssat::{self, SmoothAbs, SmoothMax, SmoothParams};
 use cbfgen::{sat, OrientedBox};

@@ -385,7 +385,7 @@ fn kernels_have_decades_of_headroom_beyond_the_alpha_domain() {
 // Properties over the whole domain.
 
 /// `PROPTEST_CASES` and `PROPTEST_RNG_SEED` as proptest reads them; without a seed the
-/// draws are fixed, so CI runs the same cases every time (as tests/filter_properties.rs).
+/// draws are fixed, so CI runs the same cases every time (as systems/tachyon3/tests/filter_properties.rs).
 fn config(ci_cases: u32) -> Config {
     let base = Config::default();
     let cases = std::env::var("PROPTEST_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(ci_cases);

@@ -37,14 +37,13 @@
 //!   only into Cargo's `OUT_DIR`. Every build machine needs Python 3 with SymEngine.
 //!   Use this while the spec changes often, and wherever Python is at hand.
 //! * **Checked in ([`Generator::checked_in`]).** The generated file lives in a folder of
-//!   your crate that you commit. With Python and SymEngine present the file is
-//!   regenerated (byte-identical when current). Without them, the committed file is
-//!   *verified*: its inputs hash is recomputed in Rust from the spec, the dependency files
-//!   its header lists, the generator's files and the runtime crate path, and compared
-//!   with the header.
-//!   * Current: the file is used as it is, with a cargo warning saying so.
-//!   * Stale (the spec, a dependency, the generator or the runtime crate changed since
-//!     it was generated), or its header unreadable: the build stops with one line giving
+//!   your crate that you commit. Its inputs hash is recomputed in Rust from the spec, the
+//!   dependency files its header lists, the generator's files and the runtime crate path,
+//!   and compared with the header.
+//!   * Current: the file is used as it is, with or without Python (nothing runs).
+//!   * Not current, with Python and SymEngine present: the file is regenerated.
+//!   * Not current without Python (the spec, a dependency, the generator or the runtime
+//!     crate changed since it was generated), or its header unreadable: the build stops with one line giving
 //!     the command that regenerates it on a machine with Python ([`Error::StaleCheckedIn`]).
 //!     With `CBFGEN_ALLOW_STALE=1` the stale file is used instead, with a cargo warning.
 //!
@@ -266,6 +265,13 @@ impl Generator {
         for file in inputs_hash::package_files(&generator) {
             println!("cargo:rerun-if-changed={}", file.display());
         }
+        // A committed file that is current is used as it is: nothing to run, and a fresh
+        // clone builds the same with or without Python.
+        if let Some(dir) = &self.checked_in {
+            if let Some(current) = self.all_current(dir, &generator) {
+                return Ok(current);
+            }
+        }
         match check_python(&env.python) {
             Ok(()) => {}
             Err(e) if self.checked_in.is_some() => return self.use_checked_in(&out, &generator, &e, env.allow_stale),
@@ -312,19 +318,7 @@ impl Generator {
         why: &Error,
         allow_stale: bool,
     ) -> Result<Vec<PathBuf>, Error> {
-        let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-            .map(|entries| {
-                entries.flatten().map(|e| e.path()).filter(|p| p.extension().is_some_and(|x| x == "rs")).collect()
-            })
-            .unwrap_or_default();
-        files.sort();
-        let headers: Vec<(PathBuf, Option<Header>)> = files
-            .into_iter()
-            .map(|f| {
-                let header = std::fs::read_to_string(&f).ok().map(|text| Header::parse(&text));
-                (f, header)
-            })
-            .collect();
+        let headers = checked_in_headers(dir);
         let package = inputs_hash::package_hash(generator).map_err(|e| Error::Generator {
             spec: generator.join("symbolic"),
             message: format!("cannot read the generator's files to hash them: {e}"),
@@ -356,6 +350,19 @@ impl Generator {
             dir.display()
         );
         Ok(used)
+    }
+
+    /// Every spec's committed file, when each one is current.
+    fn all_current(&self, dir: &Path, generator: &Path) -> Option<Vec<PathBuf>> {
+        let headers = checked_in_headers(dir);
+        let package = inputs_hash::package_hash(generator).ok()?;
+        self.specs
+            .iter()
+            .map(|spec| match self.verify(spec, generator, &package, &headers) {
+                Verdict::Current(file) => Some(file),
+                _ => None,
+            })
+            .collect()
     }
 
     /// Which committed file was generated from `spec`, and whether it is current.
@@ -410,6 +417,23 @@ impl Generator {
         }
         named.or(unnamed).unwrap_or(Verdict::Missing)
     }
+}
+
+/// Every `.rs` file in `dir`, in name order, with its header when it can be read.
+fn checked_in_headers(dir: &Path) -> Vec<(PathBuf, Option<Header>)> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map(|entries| {
+            entries.flatten().map(|e| e.path()).filter(|p| p.extension().is_some_and(|x| x == "rs")).collect()
+        })
+        .unwrap_or_default();
+    files.sort();
+    files
+        .into_iter()
+        .map(|f| {
+            let header = std::fs::read_to_string(&f).ok().map(|text| Header::parse(&text));
+            (f, header)
+        })
+        .collect()
 }
 
 /// A committed file checked against its spec.

@@ -1,4 +1,4 @@
-# Type stubs for the Rust extension module (src/python/). The generic part is re-exported
+# Type stubs for the Rust extension module (python/src/). The generic part is re-exported
 # by `cbfgen`, Tachyon 3's own by `cbfgen.tachyon3`. Arrays out are new float64 numpy
 # arrays, always finite: a kernel value that would be NaN or infinite raises CbfError
 # instead, and a diagnostic array of rows (lie, lg_lf) that would hold one is None.

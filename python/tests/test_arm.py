@@ -1,4 +1,4 @@
-"""The 7-DoF arm (symbolic/systems/panda.py) through the generic bindings: its spec's
+"""The 7-DoF arm (systems/panda/spec/panda.py) through the generic bindings: its spec's
 families as the module reports them, and the example's closed loop (examples/arm_filter.py)
 keeping every certified obstacle row non-negative, which it does not without the filter."""
 

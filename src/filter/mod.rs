@@ -47,7 +47,7 @@
 //!   upstream, and the filter says so instead of guessing.
 //! * Settings are checked once, in [`EcbfFilter::new`]: every weight, pole, priority,
 //!   limit and solver setting has a documented range ([`domain`],
-//!   [`SolverSettings::validate`]), and capacities a maximum (for Tachyon 3, [`Capacity::validate`](crate::systems::tachyon3::catalog::Capacity::validate); for a generated system, [`system::MAX_INSTANCES`](crate::system::MAX_INSTANCES)).
+//!   [`SolverSettings::validate`]), and capacities a maximum (for a generated system, [`system::MAX_INSTANCES`](crate::system::MAX_INSTANCES)).
 //! * [`InputSource::Qp`] means the verified optimum, and nothing else. A solve that
 //!   stops first — OSQP at its iteration or time limit, or with an answer the dense solve
 //!   could not verify; the dense solve at its step budget (under [`Solver::Dense`]) — is
@@ -66,20 +66,57 @@
 //! Every returned input is clipped to the input box. [`FilterOutput::consecutive_fallbacks`]
 //! counts the cycles in a row whose source was not [`InputSource::Qp`].
 //!
-//! ```
-//! use cbfgen::systems::tachyon3::catalog::{self, Capacity, Catalog, EdgeCuboid, Environment};
-//! use cbfgen::filter::{EcbfFilter, InputSource};
-//! use cbfgen::systems::tachyon3::model::{standard_posture, NU};
-//! use nalgebra::Vector3;
+//! A system is anything that implements [`BarrierSet`]; generated code does, and so can a
+//! few hand-written lines. A cart on a rail, `x = (p, v)`, input the acceleration `a`,
+//! kept behind a wall at `p = wall`: `h = wall − p`, `ḣ = −v`, `ḧ = −a`, so relative
+//! degree 2 with `L_f h = −v`, `L_f² h = 0`, `L_g L_f h = −1`. With poles (10, 10) the row
+//! reads `−20 v + 100 h − a ≥ 0`: at `p = 0.9`, `v = 0.5` the most it allows is
+//! `a = 100 · 0.1 − 20 · 0.5 = 0`.
 //!
-//! let mut filter = EcbfFilter::new(Catalog::new(Capacity::PAPER_WORST_CASE)?, catalog::default_settings())?;
-//! let mut env = Environment::new(Capacity::PAPER_WORST_CASE)?;
-//! let step = cbfgen::OrientedBox::axis_aligned(Vector3::new(0.8, 0.0, 0.15), Vector3::new(0.02, 1.0, 0.02))?;
-//! env.push_edge(EdgeCuboid::from_box(&step))?;
-//! let out = filter.update(&standard_posture(), &[0.0; NU], &env)?;
+//! ```
+//! use cbfgen::filter::{EcbfFilter, FilterSettings, InputSource};
+//! use cbfgen::system::{BarrierSet, FamilyInfo, FamilyParams, InstanceKind, Poles, Row, RowLayout};
+//!
+//! struct Wall([Row<1>; 1]);
+//!
+//! const FAMILIES: [FamilyInfo; 1] = [FamilyInfo {
+//!     name: "wall",
+//!     relative_degree: 2,
+//!     row_names: &["wall"],
+//!     members: &[],
+//!     instances: InstanceKind::Fixed,
+//!     count: 1,
+//!     params: &[("wall", &[])],
+//!     defaults: FamilyParams { poles: Poles::from_array([10.0, 10.0]), priority: 0, activation: f64::INFINITY },
+//! }];
+//! const LAYOUT: [RowLayout; 1] = [RowLayout { family: 0, member: 0, instance: 0, row: 0, columns: &[0] }];
+//!
+//! impl BarrierSet<1> for Wall {
+//!     type State = [f64; 2];
+//!     type Params = f64; // where the wall is
+//!     fn families(&self) -> &[FamilyInfo] {
+//!         &FAMILIES
+//!     }
+//!     fn layout(&self) -> &[RowLayout] {
+//!         &LAYOUT
+//!     }
+//!     fn rows(&self) -> &[Row<1>] {
+//!         &self.0
+//!     }
+//!     fn evaluate(&mut self, _t: f64, x: &[f64; 2], wall: &f64) -> Result<(), cbfgen::CbfError> {
+//!         self.0[0].store(&[wall - x[0], -x[1], 0.0], &[-1.0], &[0]);
+//!         Ok(())
+//!     }
+//! }
+//!
+//! let settings = FilterSettings::defaults(&FAMILIES, [-5.0], [5.0]);
+//! let mut filter = EcbfFilter::new(Wall([Row::ZERO]), settings)?;
+//! let out = filter.update(&[0.9, 0.5], &[3.0], &1.0)?; // the nominal input speeds up
 //! assert_eq!(out.source, InputSource::Qp);
-//! assert!(out.safety.is_met()); // every active row holds at the returned input
-//! assert!(out.u.iter().all(|u| u.abs() < 1e-3)); // at rest and safe: nothing to correct
+//! assert!(out.safety.is_met()); // the wall row holds at the returned input
+//! assert!(out.u[0].abs() < 1e-6); // the closest input to 3 with −20 v + 100 h − a ≥ 0
+//! let out = filter.update(&[0.0, 0.0], &[3.0], &1.0)?; // far from the wall
+//! assert!((out.u[0] - 3.0).abs() < 1e-6); // nothing to correct
 //! # Ok::<(), cbfgen::CbfError>(())
 //! ```
 

@@ -1,4 +1,5 @@
-//! The one compressed-sparse-column matrix the crate hands to OSQP: its pattern laid out
+//! The one compressed-sparse-column matrix handed to OSQP (by the filter and by the
+//! systems' MPCs): its pattern laid out
 //! once, its values rewritten in place every cycle, lent to OSQP without a copy.
 
 use std::borrow::Cow;
@@ -8,11 +9,16 @@ use osqp::CscMatrix;
 /// A `rows × cols` matrix in column-major sparse storage. The pattern (`indptr`,
 /// `indices`) is fixed when it is built; `data` is the caller's to rewrite.
 #[derive(Debug, Clone, PartialEq)]
-pub(crate) struct Csc {
+pub struct Csc {
+    /// Number of rows.
     pub rows: usize,
+    /// Number of columns.
     pub cols: usize,
+    /// Where each column's entries start in `indices` and `data` (`cols + 1` offsets).
     pub indptr: Vec<usize>,
+    /// Each entry's row, column by column.
     pub indices: Vec<usize>,
+    /// Each entry's value, in the order of `indices`.
     pub data: Vec<f64>,
 }
 

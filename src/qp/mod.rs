@@ -14,10 +14,10 @@
 //! * `osqp_workspace` — one OSQP lifecycle (set-up, update, guarded solve) for every QP
 //!   the crate hands to OSQP: the filter's fallback and reference backend, and the MPCs.
 
-pub(crate) mod csc;
+pub mod csc;
 pub mod dual_active_set;
 pub mod lexicographic;
-pub(crate) mod osqp_workspace;
+pub mod osqp_workspace;
 pub mod recorded;
 mod settings;
 mod status;

@@ -1,5 +1,5 @@
 //! One OSQP lifecycle for every QP in the crate: set up once, then each cycle update the
-//! data, solve behind `catch_unwind`, read the outcome through [`QpStatus::of`] (so no
+//! data, solve behind `catch_unwind`, read the outcome through `QpStatus::of` (so no
 //! non-finite iterate is ever handed on), and rebuild the workspace before the next solve
 //! after a fault or a non-finite iterate. A QP supplies only what is its own: how to set
 //! the problem up, what to write into it each cycle, and what to keep of a solve.
@@ -12,7 +12,7 @@ use super::{Iterate, QpStatus};
 use crate::error::CbfError;
 
 /// A QP solved by OSQP through [`solve`].
-pub(crate) trait OsqpQp {
+pub trait OsqpQp {
     /// The slot holding the OSQP workspace (`None` until set up, or after a fault).
     fn workspace(&mut self) -> &mut Option<Problem>;
     /// Build the workspace from the current data (allocates).
@@ -28,7 +28,7 @@ pub(crate) trait OsqpQp {
 ///
 /// # Errors
 /// OSQP refusing the set-up.
-pub(crate) fn set_up(qp: &mut impl OsqpQp) -> Result<(), CbfError> {
+pub fn set_up(qp: &mut impl OsqpQp) -> Result<(), CbfError> {
     let problem = qp.setup()?;
     *qp.workspace() = Some(problem);
     Ok(())
@@ -37,7 +37,7 @@ pub(crate) fn set_up(qp: &mut impl OsqpQp) -> Result<(), CbfError> {
 /// One solve of `qp`. Allocation-free, except that a workspace dropped after a fault or
 /// a non-finite iterate is rebuilt first. A panic inside OSQP's wrapper (a violated
 /// invariant) reads as [`QpStatus::SolverFault`].
-pub(crate) fn solve(qp: &mut impl OsqpQp) -> QpStatus {
+pub fn solve(qp: &mut impl OsqpQp) -> QpStatus {
     let mut slot = qp.workspace().take();
     let status = catch_unwind(AssertUnwindSafe(|| {
         if slot.is_none() {

@@ -171,7 +171,9 @@ impl SolverSettings {
         Ok(Duration::from_secs_f64(secs).max(Duration::from_nanos(1)))
     }
 
-    pub(crate) fn to_osqp(self) -> osqp::Settings {
+    /// These settings in OSQP's terms (quiet, warm-started, not polished), for a solver
+    /// built outside the filter (the systems' MPCs) as for the filter's own.
+    pub fn to_osqp(self) -> osqp::Settings {
         osqp::Settings::default()
             .verbose(false)
             .polish(false)
@@ -219,7 +221,7 @@ impl Solver {
     /// Solve `qp` as this choice says — the dense solve, OSQP, or the dense solve and OSQP
     /// only when it did not return [`QpStatus::Solved`] — and say who answered. Shared by
     /// the QPs whose dense solve and OSQP solve are separate steps (the MPCs).
-    pub(crate) fn run<Q>(
+    pub fn run<Q>(
         self,
         qp: &mut Q,
         mut dense: impl FnMut(&mut Q) -> QpStatus,

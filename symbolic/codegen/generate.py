@@ -20,11 +20,11 @@ import re
 import sys
 from pathlib import Path
 
-from ..generate import HASH_PREFIX, REPO_ROOT, rustfmt
 from ..inputs_hash import dependency_entries, spec_inputs_hash
 from ..spec import SpecError, load
 from .backends.rust.system_module import emit_system
 from .definition import define
+from .output import HASH_PREFIX, REPO_ROOT, rustfmt
 
 DEPENDS_PREFIX = "// depends: "
 _RUNTIME_PATH = re.compile(r"^(crate|(::)?[A-Za-z_][A-Za-z0-9_]*)(::[A-Za-z_][A-Za-z0-9_]*)*$")

@@ -233,12 +233,12 @@ def _spec_domains(path: str) -> dict[str, dict[str, object]]:
 
 
 def test_the_built_in_families_declare_or_inherit_their_domains():
-    t3 = _spec_domains("symbolic/systems/tachyon3.py")
+    t3 = _spec_domains("systems/tachyon3/spec/tachyon3.py")
     edge = {"center": Real(), "rotation": Rotation(1e-9), "half": Interval(1e-6, 1e4)}
     assert t3["body_edge"] == edge and t3["toe_edge"] == edge
     assert t3["foothold"] == {"normal": UnitVector(1e-9), "offset": Real()}
     assert t3["foot_height"] == {"floor_z": Real()} and t3["stability"] == {"a": Real(), "b": Real()}
-    panda = _spec_domains("symbolic/systems/panda.py")
+    panda = _spec_domains("systems/panda/spec/panda.py")
     assert panda["obstacle"] == {"center": Real(), "rotation": Rotation(1e-9), "half": Positive()}
     robot = _spec_domains("examples/your_robot/spec/your_robot.py")
     assert robot["obstacle"]["radius"] == Positive() and robot["corridor"]["normal"] == UnitVector(1e-9)

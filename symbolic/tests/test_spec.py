@@ -21,7 +21,7 @@ from symbolic.spec import MAX_INPUT, SpecError, System, load
 SPECS = Path(__file__).resolve().parent / "specs"
 PLANAR = SPECS / "planar_robot.py"
 TRIPLE = SPECS / "triple_integrator.py"
-DOUBLE = REPO_ROOT / "symbolic" / "systems" / "double_integrator.py"
+DOUBLE = REPO_ROOT / "systems" / "double_integrator" / "spec" / "double_integrator.py"
 
 
 # ------------------------------------------------------------------ definitions

@@ -1,0 +1,23 @@
+//! The systems this module is built with: one line per system crate it links, the
+//! registry the core's type-erased layer picks from by name. A new built-in system is a
+//! line here and a dependency in Cargo.toml; its classes need no binding code.
+
+use cbfgen::dynamic::Registry;
+use cbfgen::system::KernelEntry;
+
+/// Every built-in system, in name order.
+pub static SYSTEMS: Registry = Registry::new(&[
+    cbfgen_double_integrator::SYSTEM,
+    cbfgen_panda::generated::SYSTEM,
+    cbfgen_tachyon3::generated::SYSTEM,
+]);
+
+/// Every generated module's uniform kernel table, by module name: the core's primitives
+/// and each system's.
+pub const KERNELS: &[(&str, &[KernelEntry])] = &[
+    ("ssat", cbfgen::generated::ssat::KERNELS),
+    ("sphere_box", cbfgen::generated::sphere_box::KERNELS),
+    ("double_integrator", cbfgen_double_integrator::KERNELS),
+    ("panda", cbfgen_panda::generated::KERNELS),
+    ("tachyon3", cbfgen_tachyon3::generated::KERNELS),
+];

@@ -1,0 +1,344 @@
+//! The simulation scenarios for Python: `Course`, for a control loop written in Python,
+//! and `simulate`, the whole Rust closed loop returning its time series as numpy arrays.
+
+use pyo3::prelude::*;
+
+use crate::PyResult;
+use pyo3::types::PyDict;
+
+use super::{initializer, state, PyEnvironment};
+use crate::convert::{choice, matrix, matrix_from_fn, vector, Array1Out, Array2Out, ArrayIn};
+use cbfgen::error::finite;
+use cbfgen::filter::InputSource;
+use cbfgen_tachyon3::catalog::Family;
+use cbfgen_tachyon3::model::NX;
+use cbfgen_tachyon3::sim::campaign::{self as monte_carlo, CampaignSettings, CourseRanges, Episode};
+use cbfgen_tachyon3::sim::gait::GaitParams;
+use cbfgen_tachyon3::sim::perceived::PerceptionSettings;
+use cbfgen_tachyon3::sim::{self, Course, Scenario, SimConfig};
+
+const SCENARIOS: [Scenario; 6] = Scenario::NAMED;
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("SCENARIOS", SCENARIOS.map(Scenario::name).to_vec())?;
+    m.add_class::<PyCourse>()?;
+    m.add_function(wrap_pyfunction!(simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(campaign, m)?)?;
+    Ok(())
+}
+
+fn scenario(name: &str) -> PyResult<Scenario> {
+    Ok(SCENARIOS[choice("scenario", name, &SCENARIOS.map(Scenario::name))?])
+}
+
+/// A scenario's stairs and nominal gait, stepped by your own loop:
+///
+/// ```python
+/// course = Course("step")
+/// filt = ecbf_filter()
+/// x = course.initial_state()
+/// for k in range(n):
+///     u_ref = course.plan(k * DT, x)          # also updates course.environment
+///     out = filt.update(x, u_ref, course.environment)
+///     x = x + DT * xdot(x, out.u)
+/// ```
+#[pyclass(name = "Course", module = "cbfgen.tachyon3")]
+pub struct PyCourse {
+    inner: Course,
+    env: Py<PyEnvironment>,
+    nominal_body_height: Option<f64>,
+}
+
+#[pymethods]
+impl PyCourse {
+    #[new]
+    #[pyo3(signature = (scenario="step"))]
+    fn new(py: Python<'_>, scenario: &str) -> PyResult<Self> {
+        let inner = Course::new(self::scenario(scenario)?, GaitParams::default())?;
+        let env = Py::new(py, initializer(inner.environment().clone()))?;
+        Ok(Self { inner, env, nominal_body_height: None })
+    }
+
+    /// The standard posture with the robot's foremost point ``start_gap`` metres before
+    /// the first riser, shape (NX,).
+    #[pyo3(signature = (start_gap=0.3))]
+    fn initial_state<'py>(&self, py: Python<'py>, start_gap: f64) -> PyResult<Array1Out<'py>> {
+        Ok(vector(py, &self.inner.initial_state(finite("start gap", start_gap)?)))
+    }
+
+    /// The gait's nominal input at time ``t`` \[s\] for state ``x``, shape (NU,). Updates
+    /// ``environment`` (floors under the toes, swing legs, their foothold strips).
+    fn plan<'py>(&mut self, py: Python<'py>, t: f64, x: ArrayIn<'py>) -> PyResult<Array1Out<'py>> {
+        let plan = self.inner.plan(finite("time", t)?, &state(&x)?)?;
+        for &v in &plan.u_ref {
+            finite("nominal input", v)?;
+        }
+        finite("nominal body height", plan.body_height)?;
+        self.nominal_body_height = Some(plan.body_height);
+        let mut env = self.env.borrow_mut(py);
+        let params = &mut env.as_super().inner;
+        match params.downcast_mut::<cbfgen_tachyon3::catalog::Environment>() {
+            Some(e) => e.clone_from(self.inner.environment()),
+            // Only reachable if the wrapped parameters were replaced: restore them.
+            None => *params = Box::new(self.inner.environment().clone()),
+        }
+        Ok(vector(py, &plan.u_ref))
+    }
+
+    /// The environment the filter must respect, as of the last ``plan``.
+    #[getter]
+    fn environment(&self, py: Python<'_>) -> Py<PyEnvironment> {
+        self.env.clone_ref(py)
+    }
+
+    /// The gait's nominal body-centre height at the last ``plan`` \[m\]; None before the
+    /// first (not NaN: no output of the module is NaN).
+    #[getter]
+    fn nominal_body_height(&self) -> Option<f64> {
+        self.nominal_body_height
+    }
+
+    /// Which tripod swings (0: LR RR MF, 1: MR LF RF), or None.
+    #[getter]
+    fn swinging(&self) -> Option<usize> {
+        self.inner.swinging()
+    }
+
+    /// Exact ``(body, wheel, wheel_riser)`` clearance at ``x`` to the true terrain's solids
+    /// (:meth:`terrain_boxes`: the floor and every step as a block) \[m\]; negative = depth
+    /// into a solid. ``body`` by the exact SAT; ``wheel``, the nearest wheel by the exact
+    /// sphere–box distance (about 0 for a wheel on a tread); ``wheel_riser``, the nearest
+    /// wheel to a riser (contact normal more than 30° from vertical; inf if none).
+    fn clearance(&self, x: ArrayIn<'_>) -> PyResult<(f64, f64, f64)> {
+        let c = self.inner.clearance(&state(&x)?)?;
+        Ok((
+            finite("body clearance", c.body.distance)?,
+            finite("wheel clearance", c.wheel.distance)?,
+            c.wheel_riser.map_or(f64::INFINITY, |r| r.distance),
+        ))
+    }
+
+    /// Every toe on the top level, the body past the last riser, no tripod swinging.
+    fn finished(&self, x: ArrayIn<'_>) -> PyResult<bool> {
+        Ok(self.inner.finished(&state(&x)?))
+    }
+
+    /// The true terrain as solid boxes, ``[(center (3,), rotation (3, 3), half_extents
+    /// (3,))]``: a floor with its top at z = 0 and one box per raised level (what a
+    /// physics engine or a scanner is given).
+    fn terrain_boxes<'py>(&self, py: Python<'py>) -> PyResult<Vec<BoxOut<'py>>> {
+        Ok(self.inner.terrain().solid_boxes()?.iter().map(|b| box_out(py, b)).collect())
+    }
+
+    /// The true edge cuboids (the nosings), one along each change of height, in order, as
+    /// :meth:`terrain_boxes` gives boxes.
+    fn edge_boxes<'py>(&self, py: Python<'py>) -> PyResult<Vec<BoxOut<'py>>> {
+        Ok(self.inner.terrain().edge_boxes()?.iter().map(|b| box_out(py, b)).collect())
+    }
+
+    /// Ground height at world ``x`` \[m\].
+    fn floor_height(&self, x: f64) -> PyResult<f64> {
+        Ok(self.inner.ground().height_at(finite("x", x)?))
+    }
+}
+
+type BoxOut<'py> = (Array1Out<'py>, Array2Out<'py>, Array1Out<'py>);
+
+fn box_out<'py>(py: Python<'py>, b: &cbfgen::geometry::OrientedBox) -> BoxOut<'py> {
+    let r = b.rotation().matrix();
+    let rows: [[f64; 3]; 3] = std::array::from_fn(|i| std::array::from_fn(|j| r[(i, j)]));
+    (vector(py, &<[f64; 3]>::from(*b.center())), matrix(py, &rows), vector(py, &<[f64; 3]>::from(*b.half_extents())))
+}
+
+/// Run a scenario's closed loop in Rust (gait → filter → Euler at 1 kHz) and return its
+/// time series as a dict of numpy arrays, one entry per cycle:
+///
+/// ``t`` (n,), ``x`` (n, NX), ``body_z_world`` and ``body_raise`` (n,), ``min_h`` (n, 6) in
+/// ``FAMILIES`` order (inf where no row applied), ``active_rows``, ``iterations``,
+/// ``source`` (index into ``INPUT_SOURCES``), ``eval_us``, ``solve_us``, ``update_us`` (wall
+/// time), ``cpu_us`` (the thread's CPU time over the update), ``body_clearance``,
+/// ``toe_clearance``, ``toe_riser_clearance`` (as :meth:`Course.clearance`: to the solid
+/// terrain, inf where no wheel faces a riser), ``swinging`` (-1: none); and ``summary``, a
+/// dict (``min_body_clearance``, ``min_toe_clearance``, ``min_toe_riser_clearance`` with
+/// where each was, as ``"RR step 2 riser"``, in ``body_nearest``, ``toe_nearest``,
+/// ``toe_riser_nearest``; ``riser_contact_cycles``; …).
+/// With ``episode`` (and ``seed``, ``ranges`` as given to :func:`campaign`), the course is
+/// that campaign episode's instead of ``scenario``. With ``perception=True`` the gait and
+/// filter see only what a LiDAR on the body perceives (``summary["perception_updates"]``
+/// counts the 1 Hz updates). The GIL is released while it runs.
+#[pyfunction]
+#[pyo3(signature = (scenario="stairs", body_cbf=true, max_time=None, episode=None, seed=0, ranges=None, perception=false))]
+#[allow(clippy::too_many_arguments)] // one per keyword argument of the Python function
+fn simulate<'py>(
+    py: Python<'py>,
+    scenario: &str,
+    body_cbf: bool,
+    max_time: Option<f64>,
+    episode: Option<u64>,
+    seed: u64,
+    ranges: Option<&Bound<'py, PyDict>>,
+    perception: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    let mut config = match episode {
+        Some(id) => Episode::draw(seed, id, &course_ranges(ranges)?)?.config_with(body_cbf, perception),
+        None => SimConfig {
+            perception: perception.then(PerceptionSettings::default),
+            ..SimConfig::new(self::scenario(scenario)?, body_cbf)
+        },
+    };
+    if let Some(t) = max_time {
+        config.max_time = cbfgen::error::positive("max_time", t)?;
+    }
+    let run = py.detach(|| sim::run(&config, |_| {}))?;
+    let s = &run.samples;
+    let column = |f: &dyn Fn(&sim::Sample) -> f64| -> Vec<f64> { s.iter().map(f).collect() };
+    let out = PyDict::new(py);
+    out.set_item("t", vector(py, &column(&|s| s.t)))?;
+    out.set_item("x", matrix_from_fn(py, s.len(), NX, |i, j| s[i].x[j]))?;
+    out.set_item("body_z_world", vector(py, &column(&|s| s.x[2] + s.x[cbfgen_tachyon3::model::BODY_Z])))?;
+    out.set_item("body_raise", vector(py, &column(&|s| s.body_raise)))?;
+    out.set_item("min_h", matrix_from_fn(py, s.len(), Family::ALL.len(), |i, j| s[i].min_h[j]))?;
+    out.set_item("active_rows", vector(py, &column(&|s| s.active_rows as f64)))?;
+    out.set_item("iterations", vector(py, &column(&|s| f64::from(s.iterations))))?;
+    let source_index = |s: &sim::Sample| InputSource::ALL.iter().position(|&k| k == s.source).unwrap_or(0) as f64;
+    out.set_item("source", vector(py, &column(&source_index)))?;
+    out.set_item("eval_us", vector(py, &column(&|s| s.eval_us)))?;
+    out.set_item("solve_us", vector(py, &column(&|s| s.solve_us)))?;
+    out.set_item("update_us", vector(py, &column(&|s| s.update_us)))?;
+    out.set_item("cpu_us", vector(py, &column(&|s| s.cpu_us)))?;
+    out.set_item("body_clearance", vector(py, &column(&|s| s.clearance.body.distance)))?;
+    out.set_item("toe_clearance", vector(py, &column(&|s| s.clearance.wheel.distance)))?;
+    let riser = |s: &sim::Sample| s.clearance.wheel_riser.map_or(f64::INFINITY, |r| r.distance);
+    out.set_item("toe_riser_clearance", vector(py, &column(&riser)))?;
+    out.set_item("swinging", vector(py, &column(&|s| f64::from(s.swinging))))?;
+
+    let m = &run.summary;
+    let summary = PyDict::new(py);
+    summary.set_item("scenario", m.scenario.name())?;
+    summary.set_item("body_cbf", m.body_cbf)?;
+    summary.set_item("completed", m.completed)?;
+    summary.set_item("duration", m.duration)?;
+    summary.set_item("min_body_clearance", m.min_body_clearance())?;
+    summary.set_item("min_toe_clearance", m.min_toe_clearance())?;
+    summary.set_item("min_toe_riser_clearance", m.min_toe_riser_clearance())?;
+    for (key, approach) in
+        [("body_nearest", m.body_nearest), ("toe_nearest", m.toe_nearest), ("toe_riser_nearest", m.toe_riser_nearest)]
+    {
+        summary.set_item(key, approach.map(|a| a.contact.place()))?;
+    }
+    summary.set_item("riser_contact_cycles", m.riser_contact_cycles)?;
+    let min_h = PyDict::new(py);
+    for f in Family::ALL {
+        min_h.set_item(f.name(), m.min_h[f.index()])?;
+    }
+    summary.set_item("min_h", min_h)?;
+    summary.set_item("max_body_raise", m.max_body_raise)?;
+    summary.set_item("median_update_us", m.median_update_us)?;
+    summary.set_item("p99_update_us", m.p99_update_us)?;
+    summary.set_item("max_update_us", m.max_update_us)?;
+    summary.set_item("median_cpu_us", m.median_cpu_us)?;
+    summary.set_item("p99_cpu_us", m.p99_cpu_us)?;
+    summary.set_item("max_cpu_us", m.max_cpu_us)?;
+    summary.set_item("over_period_wall", m.over_period_wall)?;
+    summary.set_item("over_period_cpu", m.over_period_cpu)?;
+    summary.set_item("fallback_cycles", m.fallback_cycles)?;
+    let relaxed = PyDict::new(py);
+    for f in Family::ALL {
+        relaxed.set_item(f.name(), m.relaxed_cycles[f.index()])?;
+    }
+    summary.set_item("relaxed_cycles", relaxed)?;
+    summary.set_item("perception_updates", m.perception.map_or(0, |p| p.updates))?;
+    out.set_item("summary", summary)?;
+    Ok(out)
+}
+
+/// Course ranges from a dict of ``[lo, hi]`` pairs (keys ``rise``, ``run``, ``steps``,
+/// ``start_gap``, ``speed``); missing keys keep their defaults, unknown keys are errors.
+fn course_ranges(ranges: Option<&Bound<'_, PyDict>>) -> PyResult<CourseRanges> {
+    let mut out = CourseRanges::default();
+    let Some(ranges) = ranges else { return Ok(out) };
+    for (key, value) in ranges.iter() {
+        let key: String = key.extract()?;
+        match key.as_str() {
+            "rise" => out.rise = value.extract()?,
+            "run" => out.run = value.extract()?,
+            "steps" => out.steps = value.extract()?,
+            "start_gap" => out.start_gap = value.extract()?,
+            "speed" => out.speed = value.extract()?,
+            _ => {
+                return Err(cbfgen::error::CbfError::UnknownName {
+                    what: "course range",
+                    name: key,
+                    known: "rise, run, steps, start_gap, speed".into(),
+                }
+                .into())
+            }
+        }
+    }
+    out.validate()?;
+    Ok(out)
+}
+
+/// Run a Monte Carlo campaign in Rust (rayon threads, the GIL released): ``episodes``
+/// random staircases drawn from ``seed`` and ``ranges`` (a dict of ``[lo, hi]`` pairs:
+/// ``rise``, ``run``, ``steps``, ``start_gap``, ``speed``; defaults as ``cbfgen campaign``),
+/// episode ids from ``first_id``. Returns a dict of numpy arrays, one entry per episode in id
+/// order: ``id``, ``rise``, ``run``, ``steps``, ``start_gap``, ``speed``, ``outcome`` (a list
+/// of ``"finished"``, ``"not_finished"``, ``"error"``), ``duration``, ``min_body_clearance``, ``min_toe_clearance``,
+/// ``min_toe_riser_clearance`` (to the solid terrain, as :func:`simulate`'s summary),
+/// ``riser_contact_cycles``, ``min_h`` (n, 6),
+/// ``median_cpu_us``, ``p99_cpu_us``, ``max_cpu_us``, ``median_wall_us``, ``p99_wall_us``,
+/// ``max_wall_us``, ``over_1ms_cpu``, ``over_1ms_wall``, ``cycles`` (all 0 for an episode
+/// whose outcome is ``"error"``: no output of the module is NaN); ``errors``, a list of ``(id, message)``; and ``report``, the
+/// printed table as text. Rerun one episode with ``simulate(episode=id, seed=seed)``. With
+/// ``perception=True`` every episode runs on perceived terrain.
+#[pyfunction]
+#[pyo3(signature = (episodes=200, seed=0, first_id=0, body_cbf=true, threads=None, ranges=None, perception=false))]
+#[allow(clippy::too_many_arguments)] // one per keyword argument of the Python function
+fn campaign<'py>(
+    py: Python<'py>,
+    episodes: usize,
+    seed: u64,
+    first_id: u64,
+    body_cbf: bool,
+    threads: Option<usize>,
+    ranges: Option<&Bound<'py, PyDict>>,
+    perception: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    let settings =
+        CampaignSettings { seed, episodes, first_id, ranges: course_ranges(ranges)?, body_cbf, threads, perception };
+    let result = py.detach(|| monte_carlo::run(&settings, |_| {}))?;
+    let r = &result.records;
+    let episode = |f: &dyn Fn(&Episode) -> f64| -> Vec<f64> { r.iter().map(|x| f(&x.episode)).collect() };
+    let summary =
+        |f: &dyn Fn(&sim::Summary) -> f64| -> Vec<f64> { r.iter().map(|x| x.result.as_ref().map_or(0.0, f)).collect() };
+    let out = PyDict::new(py);
+    out.set_item("id", vector(py, &episode(&|e| e.id as f64)))?;
+    out.set_item("rise", vector(py, &episode(&|e| e.stairs.rise)))?;
+    out.set_item("run", vector(py, &episode(&|e| e.stairs.run)))?;
+    out.set_item("steps", vector(py, &episode(&|e| e.stairs.count as f64)))?;
+    out.set_item("start_gap", vector(py, &episode(&|e| e.start_gap)))?;
+    out.set_item("speed", vector(py, &episode(&|e| e.speed)))?;
+    out.set_item("outcome", r.iter().map(|x| x.outcome().name()).collect::<Vec<_>>())?;
+    out.set_item("duration", vector(py, &summary(&|s| s.duration)))?;
+    out.set_item("min_body_clearance", vector(py, &summary(&|s| s.min_body_clearance())))?;
+    out.set_item("min_toe_clearance", vector(py, &summary(&|s| s.min_toe_clearance())))?;
+    out.set_item("min_toe_riser_clearance", vector(py, &summary(&|s| s.min_toe_riser_clearance())))?;
+    out.set_item("riser_contact_cycles", vector(py, &summary(&|s| s.riser_contact_cycles as f64)))?;
+    let min_h = |i: usize, j: usize| r[i].result.as_ref().map_or(0.0, |s| s.min_h[j]);
+    out.set_item("min_h", matrix_from_fn(py, r.len(), Family::ALL.len(), min_h))?;
+    out.set_item("median_cpu_us", vector(py, &summary(&|s| s.median_cpu_us)))?;
+    out.set_item("p99_cpu_us", vector(py, &summary(&|s| s.p99_cpu_us)))?;
+    out.set_item("max_cpu_us", vector(py, &summary(&|s| s.max_cpu_us)))?;
+    out.set_item("median_wall_us", vector(py, &summary(&|s| s.median_update_us)))?;
+    out.set_item("p99_wall_us", vector(py, &summary(&|s| s.p99_update_us)))?;
+    out.set_item("max_wall_us", vector(py, &summary(&|s| s.max_update_us)))?;
+    out.set_item("over_1ms_cpu", vector(py, &summary(&|s| s.over_period_cpu as f64)))?;
+    out.set_item("over_1ms_wall", vector(py, &summary(&|s| s.over_period_wall as f64)))?;
+    out.set_item("cycles", vector(py, &summary(&|s| s.cycles as f64)))?;
+    let errors: Vec<(u64, String)> =
+        r.iter().filter_map(|x| x.result.as_ref().err().map(|e| (x.episode.id, e.clone()))).collect();
+    out.set_item("errors", errors)?;
+    out.set_item("report", result.report().to_string())?;
+    Ok(out)
+}

@@ -1,0 +1,481 @@
+//! Closed-loop simulation of the Tachyon 3 kinematic model at 1 kHz (paper section V-B):
+//! the nominal gait of [`gait`] → [`EcbfFilter`] → explicit Euler on `ẋ = f(x) + g(x) u`.
+//!
+//! Two scenarios: `step` (one 16.5 cm step, the robot starting in its low standard
+//! posture) and `stairs` (five steps, 16.5 cm high and 35 cm deep, as in the hardware
+//! experiment). Every cycle records the state, each family's minimum `h`, the active
+//! rows, the time spent (wall and thread CPU time) and the exact clearance of the body
+//! and the wheels to the true terrain's solids, the floor and every step as a block
+//! (exact SAT for the body, exact sphere–box distance for the wheels; see
+//! [`terrain::solid`](crate::terrain::solid)).
+
+pub mod animation;
+pub mod campaign;
+mod course;
+pub mod gait;
+pub mod output;
+pub mod perceived;
+
+pub use course::Course;
+
+use std::time::Instant;
+
+use crate::catalog::{self, Catalog, Family};
+use crate::generated as gen;
+use crate::model::{self, State, NU};
+use crate::sim::perceived::{Perceiver, PerceptionSettings, PerceptionUpdate};
+use crate::terrain::solid::{Contact, TerrainClearance, PENETRATION_TOLERANCE};
+use crate::terrain::{Stairs, Terrain};
+use cbfgen::error::CbfError;
+use cbfgen::filter::{EcbfFilter, FilterSettings, InputSource};
+use cbfgen_perception::worker::Perceived;
+use gait::GaitParams;
+
+/// Control period \[s\].
+pub const DT: f64 = 1e-3;
+
+/// Longest simulated time \[s\] a run accepts: 6·10⁵ cycles, about 250 MB of samples.
+/// The courses finish in under a minute; the limit only stops a typo from asking for
+/// terabytes.
+pub const MAX_SIM_TIME: f64 = 600.0;
+
+/// Time a run on `terrain` gets to finish \[s\]: 20 s to reach the first change and
+/// settle at the end, and 10 s per change of height (the slowest gait climbs a step in
+/// about 6 s), at most [`MAX_SIM_TIME`].
+pub fn time_allowed(terrain: &Terrain) -> f64 {
+    (20.0 + 10.0 * terrain.changes().len() as f64).min(MAX_SIM_TIME)
+}
+
+/// Which course the robot runs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Scenario {
+    /// One step of the hardware stairs' size.
+    Step,
+    /// Five steps, 16.5 cm × 35 cm.
+    Stairs,
+    /// A staircase of any dimensions (the Monte Carlo campaign's courses, see
+    /// `campaign`).
+    Custom(Stairs),
+    /// Four steps of unequal rise and run ([`Terrain::unequal_rises`]).
+    UnequalRises,
+    /// Three steps, a landing, two steps ([`Terrain::landing`]).
+    Landing,
+    /// A single 12 cm box to cross, up and down ([`Terrain::single_box`]).
+    Box,
+    /// A 20 cm platform to climb onto and roll off ([`Terrain::platform`]).
+    Platform,
+}
+
+impl Scenario {
+    /// The named scenarios, in the order the CLI and Python list them.
+    pub const NAMED: [Scenario; 6] = [
+        Scenario::Step,
+        Scenario::Stairs,
+        Scenario::UnequalRises,
+        Scenario::Landing,
+        Scenario::Box,
+        Scenario::Platform,
+    ];
+
+    /// The terrain of this course.
+    ///
+    /// # Errors
+    /// Custom stairs that fail [`Stairs::validate`].
+    pub fn terrain(self) -> Result<Terrain, CbfError> {
+        match self {
+            Scenario::Step => Stairs::SINGLE_STEP.terrain(),
+            Scenario::Stairs => Stairs::HARDWARE.terrain(),
+            Scenario::Custom(stairs) => stairs.terrain(),
+            Scenario::UnequalRises => Ok(Terrain::unequal_rises()),
+            Scenario::Landing => Ok(Terrain::landing()),
+            Scenario::Box => Ok(Terrain::single_box()),
+            Scenario::Platform => Ok(Terrain::platform()),
+        }
+    }
+
+    /// Short name, as used in file names and printouts: `step`, `stairs`, `custom`,
+    /// `unequal_rises`, `landing`, `box` or `platform`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Scenario::Step => "step",
+            Scenario::Stairs => "stairs",
+            Scenario::Custom(_) => "custom",
+            Scenario::UnequalRises => "unequal_rises",
+            Scenario::Landing => "landing",
+            Scenario::Box => "box",
+            Scenario::Platform => "platform",
+        }
+    }
+}
+
+/// One simulation run's set-up.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimConfig {
+    /// The course to run.
+    pub scenario: Scenario,
+    /// With `false`, the body–edge SSAT rows never take part (the paper's comparison).
+    pub body_cbf: bool,
+    /// Give up after this long \[s\], at most [`MAX_SIM_TIME`].
+    pub max_time: f64,
+    /// Start with the robot's foremost point this far from the first riser \[m\].
+    pub start_gap: f64,
+    /// The nominal gait's speeds, timings and step geometry.
+    pub gait: GaitParams,
+    /// The ECBF-QP filter's settings (gains, weights, activation thresholds, OSQP).
+    pub filter: FilterSettings<NU>,
+    /// With `Some`, the gait and the filter see only what a LiDAR on the body perceives
+    /// of the terrain ([`perceived`]); with `None`
+    /// (the default), the true terrain.
+    pub perception: Option<PerceptionSettings>,
+}
+
+impl SimConfig {
+    /// The standard run of `scenario`: default gait and filter settings, 0.3 m start gap, and
+    /// 25 s (step), 60 s (stairs) or [`time_allowed`] (the others) to finish. With `body_cbf == false` the body–edge family's
+    /// activation threshold is set to −∞, so its rows never take part.
+    pub fn new(scenario: Scenario, body_cbf: bool) -> Self {
+        let mut filter = catalog::default_settings();
+        if !body_cbf {
+            filter.family_mut(Family::BodyEdge.index()).activation = f64::NEG_INFINITY;
+        }
+        let max_time = match scenario {
+            Scenario::Step => 25.0,
+            Scenario::Stairs => 60.0,
+            // A terrain that fails to build fails the run instead, with its error.
+            other => other.terrain().map_or(MAX_SIM_TIME, |t| time_allowed(&t)),
+        };
+        Self { scenario, body_cbf, max_time, start_gap: 0.3, gait: GaitParams::default(), filter, perception: None }
+    }
+}
+
+/// One control cycle's record.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sample {
+    /// Time at the start of the cycle \[s\].
+    pub t: f64,
+    /// State at the start of the cycle, before this cycle's input is applied.
+    pub x: State,
+    /// Minimum `h` over each family's applicable rows, [`Family::index`] order
+    /// (`f64::INFINITY` where none applies).
+    pub min_h: [f64; 6],
+    /// Rows that took part in the QP (applicable and below their family's activation threshold).
+    pub active_rows: usize,
+    /// Rows each family had relaxed at the applied input (the filter's verdict,
+    /// [`Family::index`] order): 0 everywhere when every active row was met.
+    pub relaxed_rows: [usize; 6],
+    /// OSQP's ADMM iterations in this cycle's solve.
+    pub iterations: u32,
+    /// Where the applied input came from: the QP's optimum or one of the fallbacks.
+    pub source: InputSource,
+    /// Time in row evaluation and activation \[µs\].
+    pub eval_us: f64,
+    /// Time in the QP update and solve \[µs\].
+    pub solve_us: f64,
+    /// The whole filter update, timed around the call \[µs\].
+    pub update_us: f64,
+    /// The thread's CPU time over the whole filter update
+    /// ([`FilterOutput::cpu_time`](cbfgen::filter::FilterOutput::cpu_time)) \[µs\]; 0 where
+    /// the platform has no thread clock. Well below `update_us` means the thread waited
+    /// (a VM stall, preemption) rather than worked.
+    pub cpu_us: f64,
+    /// Exact clearances of the body and the wheels to the true terrain's solids, with
+    /// where each is nearest.
+    pub clearance: TerrainClearance,
+    /// Body centre height above the gait's nominal \[m\].
+    pub body_raise: f64,
+    /// Which tripod swings (-1: none).
+    pub swinging: i8,
+}
+
+/// What a run established.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Summary {
+    /// The course that was run.
+    pub scenario: Scenario,
+    /// Whether the body–edge SSAT rows could take part (see [`SimConfig::body_cbf`]).
+    pub body_cbf: bool,
+    /// The filter's QP backend in this run.
+    pub backend: cbfgen::qp::Solver,
+    /// Every toe stands on the top level, and the body centre is past the last riser.
+    pub completed: bool,
+    /// Time of the last recorded cycle \[s\] (a completed run goes on 1 s past completion).
+    pub duration: f64,
+    /// Control cycles run (filter updates).
+    pub cycles: usize,
+    /// The body's closest approach to the solid terrain over the run (its deepest
+    /// overlap with a solid, if it went in); `None` for a run of no cycle.
+    pub body_nearest: Option<Approach>,
+    /// The closest approach of any wheel to the solid terrain (about 0: a wheel on its
+    /// tread touches it; negative = depth into a solid).
+    pub toe_nearest: Option<Approach>,
+    /// The closest approach of any wheel to a riser (a contact normal more than 30° from
+    /// vertical, [`Face::Riser`](crate::terrain::solid::Face::Riser)).
+    pub toe_riser_nearest: Option<Approach>,
+    /// Cycles in which a wheel touched or entered a riser (riser clearance ≤ 0).
+    pub riser_contact_cycles: usize,
+    /// Minimum `h` of each family over the run, [`Family::index`] order, in each family's own
+    /// units (`f64::INFINITY` where no row ever applied).
+    pub min_h: [f64; 6],
+    /// Largest excess of the body centre height over the gait's nominal \[m\].
+    pub max_body_raise: f64,
+    /// Slowest filter update \[µs\].
+    pub max_update_us: f64,
+    /// 99th-percentile filter update time (nearest rank) \[µs\].
+    pub p99_update_us: f64,
+    /// Median filter update time (nearest rank) \[µs\].
+    pub median_update_us: f64,
+    /// Largest thread CPU time of a filter update ([`Sample::cpu_us`]) \[µs\].
+    pub max_cpu_us: f64,
+    /// 99th-percentile thread CPU time of a filter update (nearest rank) \[µs\].
+    pub p99_cpu_us: f64,
+    /// Median thread CPU time of a filter update (nearest rank) \[µs\].
+    pub median_cpu_us: f64,
+    /// Cycles whose filter update took longer than the 1 ms control period of wall time
+    /// ([`Sample::update_us`] above 1000).
+    pub over_period_wall: usize,
+    /// Cycles whose filter update took longer than the 1 ms control period of CPU time
+    /// ([`Sample::cpu_us`] above 1000).
+    pub over_period_cpu: usize,
+    /// Cycles whose input was not a QP optimum ([`InputSource::Qp`]): unconverged iterates and
+    /// fallbacks.
+    pub fallback_cycles: usize,
+    /// Per family ([`Family::index`] order): cycles in which the filter reported rows of it
+    /// relaxed (missed at the applied input, beyond the solver's rounding).
+    pub relaxed_cycles: [usize; 6],
+    /// Perception's figures, for a run on perceived terrain.
+    pub perception: Option<PerceptionSummary>,
+}
+
+/// What perception did in a run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PerceptionSummary {
+    /// Updates applied (the one before the start included).
+    pub updates: usize,
+    /// Median wall time of an update on the worker thread \[ms\].
+    pub median_ms: f64,
+    /// Slowest update on the worker thread \[ms\].
+    pub max_ms: f64,
+    /// Map points (voxel centroids) the last update segmented.
+    pub last_map_points: usize,
+    /// Edge cuboids the last update found.
+    pub last_cuboids: usize,
+}
+
+/// Where and when a part of the robot came closest to (or went deepest into) the solid
+/// terrain.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Approach {
+    /// Time \[s\].
+    pub t: f64,
+    /// Which part, which solid, which face, how far.
+    pub contact: Contact,
+}
+
+impl Summary {
+    /// Smallest exact clearance of the body to the solid terrain over the run \[m\];
+    /// negative = depth into a solid; `+∞` for a run of no cycle.
+    pub fn min_body_clearance(&self) -> f64 {
+        self.body_nearest.map_or(f64::INFINITY, |a| a.contact.distance)
+    }
+
+    /// Smallest exact clearance of any wheel to the solid terrain over the run \[m\]:
+    /// about 0 (a wheel on its tread); negative = depth into a solid.
+    pub fn min_toe_clearance(&self) -> f64 {
+        self.toe_nearest.map_or(f64::INFINITY, |a| a.contact.distance)
+    }
+
+    /// Smallest exact clearance of any wheel to a riser over the run \[m\].
+    pub fn min_toe_riser_clearance(&self) -> f64 {
+        self.toe_riser_nearest.map_or(f64::INFINITY, |a| a.contact.distance)
+    }
+
+    /// The body or a wheel went more than `tolerance` \[m\] into a solid of the terrain.
+    pub fn collided(&self, tolerance: f64) -> bool {
+        self.min_body_clearance() < -tolerance || self.min_toe_clearance() < -tolerance
+    }
+
+    /// [`Summary::collided`] beyond the documented [`PENETRATION_TOLERANCE`] (1 mm).
+    pub fn penetrated(&self) -> bool {
+        self.collided(PENETRATION_TOLERANCE)
+    }
+}
+
+/// A finished run.
+#[derive(Debug, Clone)]
+pub struct SimResult {
+    /// One record per control cycle, in time order.
+    pub samples: Vec<Sample>,
+    /// What the run established.
+    pub summary: Summary,
+    /// For a run on perceived terrain: every update, and the last one's map, planes and
+    /// cuboids.
+    pub perception: Option<PerceptionRun>,
+}
+
+/// Perception's record of a run.
+#[derive(Debug, Clone)]
+pub struct PerceptionRun {
+    /// Every update applied, in order.
+    pub updates: Vec<PerceptionUpdate>,
+    /// The last update's output.
+    pub last: Option<Perceived>,
+}
+
+/// Run `config` to completion or `max_time`, calling `progress(t)` every 100 cycles. With
+/// [`SimConfig::perception`], a perception worker thread runs beside the loop.
+///
+/// # Errors
+/// `max_time` outside `(0, MAX_SIM_TIME]`, filter construction, or a state that left
+/// the model's domain.
+pub fn run(config: &SimConfig, progress: impl FnMut(f64)) -> Result<SimResult, CbfError> {
+    run_observed(config, progress, |_, _| {})
+}
+
+/// [`run`], calling `observe(t, filter)` after every filter update: to look at (or
+/// record, with [`EcbfFilter::recorded_qp`]) what the filter saw and solved each cycle.
+///
+/// # Errors
+/// As [`run`].
+pub fn run_observed(
+    config: &SimConfig,
+    mut progress: impl FnMut(f64),
+    mut observe: impl FnMut(f64, &EcbfFilter<Catalog, NU>),
+) -> Result<SimResult, CbfError> {
+    cbfgen::error::within("max_time [s]", config.max_time, DT, MAX_SIM_TIME, "[0.001, 600]")?;
+    let mut course = Course::new(config.scenario, config.gait)?;
+    let mut filter = EcbfFilter::new(Catalog::new(Course::CAPACITY)?, config.filter.clone())?;
+    let mut x = course.initial_state(config.start_gap);
+    let mut perceiver = config.perception.map(|p| Perceiver::new(p, course.terrain())).transpose()?;
+    if let Some(perceiver) = &mut perceiver {
+        perceiver.start(&x, &mut course)?;
+    }
+
+    let steps = (config.max_time / DT).ceil() as usize;
+    // Grown as the run goes: a run that finishes early never holds max_time's worth.
+    let mut samples = Vec::new();
+    let mut completed_at = None;
+    for k in 0..steps {
+        let t = k as f64 * DT;
+        if let Some(perceiver) = &mut perceiver {
+            perceiver.step(t, &x, &mut course)?;
+        }
+        let plan = course.plan(t, &x)?;
+        let start = Instant::now();
+        let out = *filter.update(&x, &plan.u_ref, course.environment())?;
+        let update_us = start.elapsed().as_secs_f64() * 1e6;
+
+        observe(t, &filter);
+        let clearance = course.clearance(&x)?;
+        let mut min_h = [f64::INFINITY; 6];
+        for (row, slot) in filter.rows().iter().zip(filter.barriers().slots()) {
+            if row.active {
+                let m = &mut min_h[slot.family.index()];
+                *m = m.min(row.h());
+            }
+        }
+        let (body_center, _, _) = gen::world_kinematics(&x);
+        samples.push(Sample {
+            t,
+            x,
+            min_h,
+            active_rows: out.active_rows,
+            // The filter's families are the spec's, which `Family` follows.
+            relaxed_rows: std::array::from_fn(|f| filter.relaxation()[f].relaxed_rows),
+            iterations: out.iterations,
+            source: out.source,
+            eval_us: out.eval_time.as_secs_f64() * 1e6,
+            solve_us: out.solve_time.as_secs_f64() * 1e6,
+            update_us,
+            cpu_us: out.cpu_time.as_secs_f64() * 1e6,
+            clearance,
+            body_raise: body_center[2] - plan.body_height,
+            swinging: course.swinging().map_or(-1, |s| s as i8),
+        });
+        let finished = course.finished(&x);
+
+        let dx = model::xdot(&x, &out.u);
+        for (v, d) in x.iter_mut().zip(dx) {
+            *v += d * DT;
+        }
+        if k % 100 == 0 {
+            progress(t);
+        }
+        match completed_at {
+            None if finished => completed_at = Some(t),
+            Some(done) if t - done > 1.0 => break,
+            _ => {}
+        }
+    }
+    let perception = perceiver.map(|p| {
+        let (updates, last) = p.finish();
+        PerceptionRun { updates, last }
+    });
+    let summary = summarize(config, &samples, completed_at.is_some(), perception.as_ref());
+    Ok(SimResult { samples, summary, perception })
+}
+
+/// `[median, p99, max]` (nearest rank) of one timing of the samples \[µs\], zeros when there
+/// are none.
+fn percentiles(samples: &[Sample], f: fn(&Sample) -> f64) -> [f64; 3] {
+    cbfgen::cpu_time::median_p99_max(&mut samples.iter().map(f).collect::<Vec<_>>())
+}
+
+/// The sample at which `contact` of its clearance is nearest, as an [`Approach`].
+fn nearest(samples: &[Sample], contact: fn(&TerrainClearance) -> Option<Contact>) -> Option<Approach> {
+    samples
+        .iter()
+        .filter_map(|s| contact(&s.clearance).map(|contact| Approach { t: s.t, contact }))
+        .min_by(|a, b| a.contact.distance.total_cmp(&b.contact.distance))
+}
+
+fn summarize(config: &SimConfig, samples: &[Sample], completed: bool, perception: Option<&PerceptionRun>) -> Summary {
+    let [median_update_us, p99_update_us, max_update_us] = percentiles(samples, |s| s.update_us);
+    let [median_cpu_us, p99_cpu_us, max_cpu_us] = percentiles(samples, |s| s.cpu_us);
+    let period_us = crate::latency::PERIOD.as_micros() as f64;
+    let over = |f: fn(&Sample) -> f64| samples.iter().filter(|&s| f(s) > period_us).count();
+    let mut min_h = [f64::INFINITY; 6];
+    for s in samples {
+        for (m, h) in min_h.iter_mut().zip(s.min_h) {
+            *m = m.min(h);
+        }
+    }
+    Summary {
+        scenario: config.scenario,
+        body_cbf: config.body_cbf,
+        backend: config.filter.solver.backend,
+        completed,
+        duration: samples.last().map_or(0.0, |s| s.t),
+        cycles: samples.len(),
+        body_nearest: nearest(samples, |c| Some(c.body)),
+        toe_nearest: nearest(samples, |c| Some(c.wheel)),
+        toe_riser_nearest: nearest(samples, |c| c.wheel_riser),
+        riser_contact_cycles: samples
+            .iter()
+            .filter(|s| s.clearance.wheel_riser.is_some_and(|c| c.distance <= 0.0))
+            .count(),
+        min_h,
+        max_body_raise: samples.iter().map(|s| s.body_raise).fold(f64::NEG_INFINITY, f64::max),
+        max_update_us,
+        p99_update_us,
+        median_update_us,
+        max_cpu_us,
+        p99_cpu_us,
+        median_cpu_us,
+        over_period_wall: over(|s| s.update_us),
+        over_period_cpu: over(|s| s.cpu_us),
+        fallback_cycles: samples.iter().filter(|s| s.source != InputSource::Qp).count(),
+        relaxed_cycles: std::array::from_fn(|f| samples.iter().filter(|s| s.relaxed_rows[f] > 0).count()),
+        perception: perception.map(|p| {
+            let [median_ms, _, max_ms] = cbfgen::cpu_time::median_p99_max(
+                &mut p.updates.iter().map(|u| u.elapsed.as_secs_f64() * 1e3).collect::<Vec<_>>(),
+            );
+            PerceptionSummary {
+                updates: p.updates.len(),
+                median_ms,
+                max_ms,
+                last_map_points: p.updates.last().map_or(0, |u| u.map_points),
+                last_cuboids: p.updates.last().map_or(0, |u| u.edges.len()),
+            }
+        }),
+    }
+}

@@ -1,0 +1,354 @@
+//! The generated constraint rows against numerical Lie derivatives and hand-built cases.
+
+use cbfgen_testkit::boxes as common;
+#[path = "common/tachyon3_state.rs"]
+mod tachyon3_state;
+
+use cbfgen_tachyon3::catalog::{Capacity, Catalog, EdgeCuboid, Environment, Family, HalfPlane, StabilityBound};
+use cbfgen_tachyon3::generated as gen;
+use cbfgen_tachyon3::model::{self, State, BODY_PITCH, BODY_X, BODY_Z, NU, NX, TOE_BLOCK};
+use common::{random_rotation, random_vector, rng};
+use nalgebra::Rotation3;
+use rand::Rng;
+use tachyon3_state::random_state;
+
+/// One kernel's rows at a state: per row [h, L_f h, L_f² h] and the dense L_g L_f h.
+type Rows = Vec<([f64; 3], [f64; NU])>;
+type RowFn = Box<dyn Fn(&State) -> Rows>;
+
+fn dense<const C: usize>(lg: &[f64; C], columns: &[usize]) -> [f64; NU] {
+    let mut out = [0.0; NU];
+    for (&c, &v) in columns.iter().zip(lg) {
+        out[c] = v;
+    }
+    out
+}
+
+fn rows_of<const R: usize, const C: usize>(out: ([[f64; 3]; R], [[f64; C]; R]), columns: &[usize]) -> Rows {
+    (0..R).map(|i| (out.0[i], dense(&out.1[i], columns))).collect()
+}
+
+/// An edge cuboid near the robot in the kernels' argument layout: centre, row-major
+/// rotation (yaw-only half of the time, like stair edges), half extents.
+fn random_edge(r: &mut impl Rng) -> ([f64; 3], [f64; 9], [f64; 3]) {
+    let rot = if r.random_bool(0.5) {
+        Rotation3::from_euler_angles(0.0, 0.0, r.random_range(-3.0..3.0))
+    } else {
+        random_rotation(r)
+    };
+    let (c, h, m) = (random_vector(r, -1.5, 1.5), random_vector(r, 0.02, 0.5), rot.matrix());
+    ([c.x, c.y, c.z], std::array::from_fn(|k| m[(k / 3, k % 3)]), [h.x, h.y, h.z])
+}
+
+/// Every row kernel of the model with freshly drawn runtime parameters.
+fn kernels_with_random_params(r: &mut impl Rng) -> Vec<(String, RowFn)> {
+    let mut out: Vec<(String, RowFn)> = Vec::new();
+    let (ca, ra, ha) = random_edge(r);
+    out.push((
+        "body_edge_ssat".into(),
+        Box::new(move |x| rows_of(gen::body_edge(x, &ca, &ra, &ha), &gen::BODY_EDGE_INPUT_COLUMNS)),
+    ));
+    let normal = {
+        let a: f64 = r.random_range(-3.2..3.2);
+        [a.cos(), a.sin()]
+    };
+    let offset = r.random_range(-1.0..1.0);
+    let floor = r.random_range(-0.2..0.2);
+    let (sa, sb) = (if r.random_bool(0.5) { 1.0 } else { -1.0 }, r.random_range(-0.5..0.5));
+    for leg in 0..6 {
+        let name = gen::LEG_NAMES[leg];
+        out.push((
+            format!("joint_limits[{name}]"),
+            Box::new(move |x| rows_of(gen::JOINT_LIMITS[leg](x), gen::JOINT_LIMITS_INPUT_COLUMNS[leg])),
+        ));
+        out.push((
+            format!("toe_edge[{name}]"),
+            Box::new(move |x| {
+                // One kernel gives every toe's row, on the union of their columns.
+                let (lie, lg) = gen::toe_edge(x, &ca, &ra, &ha);
+                rows_of(([lie[leg]], [lg[leg]]), &gen::TOE_EDGE_INPUT_COLUMNS)
+            }),
+        ));
+        out.push((
+            format!("foothold[{name}]"),
+            Box::new(move |x| rows_of(gen::FOOTHOLD[leg](x, &normal, offset), gen::FOOTHOLD_INPUT_COLUMNS[leg])),
+        ));
+        out.push((
+            format!("foot_height[{name}]"),
+            Box::new(move |x| rows_of(gen::FOOT_HEIGHT[leg](x, floor), gen::FOOT_HEIGHT_INPUT_COLUMNS[leg])),
+        ));
+        out.push((
+            format!("stability[{name}]"),
+            Box::new(move |x| rows_of(gen::STABILITY[leg](x, sa, sb), gen::STABILITY_INPUT_COLUMNS[leg])),
+        ));
+    }
+    out
+}
+
+fn shifted(x: &State, dir: &State, eps: f64) -> State {
+    std::array::from_fn(|k| x[k] + eps * dir[k])
+}
+
+/// Column u of g(x) as a state-space direction.
+fn g_column(x: &State, u: usize) -> State {
+    let mut dir = [0.0; NX];
+    for (&(row, col), v) in gen::INPUT_MATRIX_PATTERN.iter().zip(gen::input_matrix_nonzeros(x)) {
+        if col == u {
+            dir[row] = v;
+        }
+    }
+    dir
+}
+
+/// A central difference of values of magnitude `scale` with step `step` is trusted to
+/// 1e-6 relative (truncation) plus its rounding error, ~1e-15 * scale / step.
+fn assert_close(numeric: f64, analytic: f64, scale: f64, step: f64, what: &str) {
+    let tol = 1e-6 * analytic.abs().max(1.0) + 1e-15 * scale / step;
+    assert!((numeric - analytic).abs() <= tol, "{what}: analytic {analytic} vs FD {numeric} (tol {tol:e})");
+}
+
+#[test]
+fn lie_derivatives_match_finite_differences_along_f_and_g() {
+    let mut r = rng(17);
+    let eps = 1e-6;
+    // L_f h is linear in the velocity states g moves, so a long step along g is exact.
+    let eps_g = 1e-3;
+    let mut checked = 0usize;
+    let mut nonzero_seen: std::collections::HashMap<(String, usize), bool> = Default::default();
+    for _ in 0..1000 {
+        let x = random_state(&mut r);
+        let f = gen::drift(&x);
+        for (name, kernel) in kernels_with_random_params(&mut r) {
+            let at = kernel(&x);
+            let plus_f = kernel(&shifted(&x, &f, eps));
+            let minus_f = kernel(&shifted(&x, &f, -eps));
+            for (k, (lie, lg)) in at.iter().enumerate() {
+                // L_f h and L_f^2 h: derivatives along f of the kernel's own h and L_f h.
+                let lf_fd = (plus_f[k].0[0] - minus_f[k].0[0]) / (2.0 * eps);
+                let lf2_fd = (plus_f[k].0[1] - minus_f[k].0[1]) / (2.0 * eps);
+                let h_scale = plus_f[k].0[0].abs().max(minus_f[k].0[0].abs());
+                let lf_scale = plus_f[k].0[1].abs().max(minus_f[k].0[1].abs());
+                assert_close(lf_fd, lie[1], h_scale, eps, &format!("{name} row {k}: L_f h"));
+                assert_close(lf2_fd, lie[2], lf_scale, eps, &format!("{name} row {k}: L_f^2 h"));
+                for (u, &lg_u) in lg.iter().enumerate() {
+                    let gu = g_column(&x, u);
+                    let (p, m) = (kernel(&shifted(&x, &gu, eps_g)), kernel(&shifted(&x, &gu, -eps_g)));
+                    // Relative degree 2: h itself does not see the input...
+                    assert_eq!(p[k].0[0], m[k].0[0], "{name} row {k}: h depends on input {u}");
+                    // ...and L_g L_f h is zero outside the listed columns, right inside them.
+                    let lglf_fd = (p[k].0[1] - m[k].0[1]) / (2.0 * eps_g);
+                    let scale = p[k].0[1].abs().max(m[k].0[1].abs());
+                    assert_close(lglf_fd, lg_u, scale, eps_g, &format!("{name} row {k}: L_g L_f h[{u}]"));
+                    if lg_u.abs() > 1e-9 {
+                        nonzero_seen.insert((name.clone(), u), true);
+                    }
+                }
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked >= 1000 * 34);
+    // Every listed column is structurally non-zero: it was seen non-zero somewhere.
+    for leg in 0..6 {
+        let n = gen::LEG_NAMES[leg];
+        for (family, cols) in [
+            ("joint_limits", gen::JOINT_LIMITS_INPUT_COLUMNS[leg]),
+            ("toe_edge", gen::TOE_EDGE_ROW_COLUMNS[leg]),
+            ("foothold", gen::FOOTHOLD_INPUT_COLUMNS[leg]),
+            ("foot_height", gen::FOOT_HEIGHT_INPUT_COLUMNS[leg]),
+            ("stability", gen::STABILITY_INPUT_COLUMNS[leg]),
+        ] {
+            for &u in cols {
+                assert!(
+                    nonzero_seen.contains_key(&(format!("{family}[{n}]"), u)),
+                    "{family}[{n}] column {u} never non-zero"
+                );
+            }
+        }
+    }
+    for &u in &gen::BODY_EDGE_INPUT_COLUMNS {
+        assert!(
+            nonzero_seen.contains_key(&("body_edge_ssat".to_string(), u)),
+            "body_edge_ssat column {u} never non-zero"
+        );
+    }
+}
+
+/// Place toe `leg` so its knee length is `length` and its hip angle (positive outward)
+/// is `angle`, computing the geometry with nalgebra rotations, not the generated code.
+fn place_toe(x: &mut State, leg: usize, length: f64, angle: f64) {
+    let pitch = Rotation3::from_euler_angles(0.0, x[BODY_PITCH], 0.0);
+    let hip_body = nalgebra::Vector3::from(model::HIP_POSITIONS[leg]);
+    let hip = nalgebra::Vector3::new(x[BODY_X], 0.0, x[BODY_Z]) + pitch * hip_body;
+    let leg_body = nalgebra::Vector3::new(model::HIP_OUTWARD[leg] * length * angle.sin(), 0.0, -length * angle.cos());
+    let toe = hip + pitch * leg_body;
+    x[TOE_BLOCK + 4 * leg] = toe.x;
+    x[TOE_BLOCK + 4 * leg + 1] = toe.z;
+}
+
+#[test]
+fn joint_rows_vanish_exactly_at_each_limit() {
+    let [kmin, kmax] = model::KNEE_RANGE;
+    for leg in 0..6 {
+        let [hmin, hmax] = model::HIP_RANGES[leg];
+        let mut x = model::standard_posture();
+        x[BODY_X] = 0.05;
+        x[BODY_Z] = 0.35;
+        x[BODY_PITCH] = 0.2;
+        // (row that must vanish, knee length, hip angle)
+        for (row, length, angle) in [(0, kmin, 0.1), (1, kmax, 0.1), (2, 0.3, hmin), (3, 0.3, hmax)] {
+            place_toe(&mut x, leg, length, angle);
+            let (lie, _) = gen::JOINT_LIMITS[leg](&x);
+            assert!(lie[row][0].abs() < 1e-12, "leg {leg} row {row}: h = {}", lie[row][0]);
+            for other in (0..4).filter(|&o| o != row) {
+                assert!(lie[other][0] > 0.0, "leg {leg}: row {other} should hold strictly");
+            }
+        }
+    }
+}
+
+#[test]
+fn toe_on_a_foothold_edge_and_on_the_floor_gives_zero() {
+    let mut x = model::standard_posture();
+    x[0] = 0.3;
+    x[1] = -0.2;
+    x[2] = 0.05;
+    x[3] = 0.7; // yaw
+    for leg in 0..6 {
+        let y_hip = model::HIP_POSITIONS[leg][1];
+        let (s, c) = x[3].sin_cos();
+        // Foothold edge: world x <= 1.2, i.e. (-1, 0) . p + 1.2 >= 0; put the toe on it.
+        x[TOE_BLOCK + 4 * leg] = (1.2 - x[0] + y_hip * s) / c;
+        let (lie, _) = gen::FOOTHOLD[leg](&x, &[-1.0, 0.0], 1.2);
+        assert!(lie[0][0].abs() < 1e-12, "foothold leg {leg}: h = {}", lie[0][0]);
+        // Floor at z = 0.13: wheel centre one radius above it.
+        x[TOE_BLOCK + 4 * leg + 1] = 0.13 + model::TOE_RADIUS - x[2];
+        let (lie, _) = gen::FOOT_HEIGHT[leg](&x, 0.13);
+        assert!(lie[0][0].abs() < 1e-12, "foot height leg {leg}: h = {}", lie[0][0]);
+    }
+}
+
+fn full_environment(r: &mut impl Rng) -> Environment {
+    let cap = Capacity::PAPER_WORST_CASE;
+    let mut env = Environment::new(cap).unwrap();
+    for _ in 0..cap.body_edge {
+        let (c, rot, h) = random_edge(r);
+        let m = nalgebra::Matrix3::from_row_slice(&rot);
+        let b = cbfgen::OrientedBox::new(c.into(), Rotation3::from_matrix_unchecked(m), h.into()).unwrap();
+        env.push_edge(EdgeCuboid::from_box(&b)).unwrap();
+    }
+    for leg in 0..6 {
+        let planes: Vec<_> = (0..cap.foothold[leg])
+            .map(|k| {
+                let a = k as f64 * 0.4;
+                HalfPlane::new([a.cos(), a.sin()], 1.0).unwrap()
+            })
+            .collect();
+        env.set_foothold(leg, &planes).unwrap();
+        env.stability[leg] = [Some(StabilityBound { a: 1.0, b: 0.3 }), Some(StabilityBound { a: -1.0, b: 0.3 })];
+    }
+    env.set_swing([true; 6]);
+    env.set_floors([-0.01; 6]);
+    env
+}
+
+#[test]
+fn the_paper_worst_case_has_269_rows_all_evaluated() {
+    let mut r = rng(4);
+    let env = full_environment(&mut r);
+    let mut catalog = Catalog::new(Capacity::PAPER_WORST_CASE).unwrap();
+    assert_eq!(catalog.len(), 269);
+    let x = random_state(&mut r);
+    catalog.evaluate(&x, &env).unwrap();
+    assert!(catalog.rows().iter().all(|row| row.active && row.lie.iter().all(|v| v.is_finite())));
+    let count = |f: Family| catalog.slots().filter(|s| s.family == f).count();
+    assert_eq!(count(Family::BodyEdge) + count(Family::ToeEdge), 140);
+    assert_eq!((count(Family::JointLimits), count(Family::FootHeight), count(Family::Stability)), (24, 6, 12));
+    // Each slot holds what its own kernel returns for its own parameters.
+    for (slot, row) in catalog.slots().zip(catalog.rows()) {
+        let e = slot.instance;
+        let expected = match slot.family {
+            Family::BodyEdge => {
+                let (c, r, h) = env.edges()[e].kernel_args();
+                gen::body_edge(&x, &c, &r, &h).0[0]
+            }
+            Family::ToeEdge => {
+                let (c, r, h) = env.edges()[e].kernel_args();
+                gen::toe_edge(&x, &c, &r, &h).0[slot.leg.unwrap()]
+            }
+            Family::JointLimits => gen::JOINT_LIMITS[slot.leg.unwrap()](&x).0[e],
+            _ => continue,
+        };
+        assert_eq!(row.lie[..3], expected, "{slot:?}");
+        assert_eq!(row.lie[3..], [0.0; 2], "{slot:?}");
+        for (u, v) in row.lg.iter().enumerate() {
+            assert!(*v == 0.0 || slot.columns.contains(&u), "{slot:?}: value outside its columns");
+        }
+    }
+}
+
+#[test]
+fn bad_input_is_an_error_not_a_panic() {
+    let mut r = rng(5);
+    let env = full_environment(&mut r);
+    let mut catalog = Catalog::new(Capacity::PAPER_WORST_CASE).unwrap();
+    let mut x = model::standard_posture();
+    x[7] = f64::NAN;
+    assert!(catalog.evaluate(&x, &env).is_err());
+    x[7] = f64::INFINITY;
+    assert!(catalog.evaluate(&x, &env).is_err());
+    let mut small = Environment::new(Capacity::edges(1, [1; 6])).unwrap();
+    assert!(catalog.evaluate(&model::standard_posture(), &small).is_err(), "capacity mismatch");
+    let edge = env.edges()[0];
+    small.push_edge(edge).unwrap();
+    assert!(small.push_edge(edge).is_err());
+    assert!(small.set_foothold(6, &[]).is_err());
+    assert!(HalfPlane::new([0.0, 0.0], 1.0).is_err());
+}
+
+#[test]
+fn world_kinematics_matches_an_independent_pose_and_the_body_row() {
+    // Body: p + Rz(yaw)(bx, 0, bz), rotation Rz(yaw) Ry(pitch); toes: p + Rz(yaw)(x, hip_y, z).
+    // And the body-edge row's h equals the exact smooth SAT of that pose minus its margin.
+    let mut r = rng(41);
+    for _ in 0..500 {
+        let x = random_state(&mut r);
+        let (center, rotation, toes) = gen::world_kinematics(&x);
+        let p = nalgebra::Vector3::new(x[0], x[1], x[2]);
+        let rz = Rotation3::from_axis_angle(&nalgebra::Vector3::z_axis(), x[3]);
+        let ry = Rotation3::from_axis_angle(&nalgebra::Vector3::y_axis(), x[BODY_PITCH]);
+        let want_center = p + rz * nalgebra::Vector3::new(x[BODY_X], 0.0, x[BODY_Z]);
+        let want_rotation = rz * ry;
+        for i in 0..3 {
+            assert!((center[i] - want_center[i]).abs() < 1e-12);
+            for j in 0..3 {
+                assert!((rotation[i][j] - want_rotation[(i, j)]).abs() < 1e-12);
+            }
+        }
+        for (leg, toe) in toes.iter().enumerate() {
+            let rel = nalgebra::Vector3::new(
+                x[TOE_BLOCK + 4 * leg],
+                model::HIP_POSITIONS[leg][1],
+                x[TOE_BLOCK + 4 * leg + 1],
+            );
+            let want = p + rz * rel;
+            assert!((0..3).all(|i| (toe[i] - want[i]).abs() < 1e-12), "toe {leg}");
+        }
+        let (ec, er, eh) = random_edge(&mut r);
+        let edge = cbfgen::OrientedBox::new(
+            nalgebra::Vector3::from(ec),
+            Rotation3::from_matrix_unchecked(nalgebra::Matrix3::from_row_slice(&er)),
+            nalgebra::Vector3::from(eh),
+        )
+        .expect("valid edge");
+        let rot = nalgebra::Matrix3::from_fn(|i, j| rotation[i][j]);
+        let half = nalgebra::Vector3::from(model::BODY_HALF_EXTENTS);
+        let body =
+            cbfgen::OrientedBox::new(nalgebra::Vector3::from(center), Rotation3::from_matrix_unchecked(rot), half)
+                .expect("valid body");
+        let params = cbfgen::ssat::SmoothParams::default();
+        let want_h = cbfgen::ssat::ssat(&edge, &body, &params) - cbfgen::ssat::certified_margin(&edge, &body, &params);
+        let (lie, _) = gen::body_edge(&x, &ec, &er, &eh);
+        assert!((lie[0][0] - want_h).abs() <= 1e-9 * (1.0 + want_h.abs()), "{} vs {want_h}", lie[0][0]);
+    }
+}

@@ -1,0 +1,90 @@
+//! The closed loop on perceived terrain: a LiDAR on the body, planes and edge cuboids at
+//! 1 Hz on a worker thread, and a gait and filter that never see the true terrain. On the
+//! step, the stairs and the four shapes a straight flight does not make, the robot
+//! finishes, and neither the body nor a wheel enters the true solid terrain (the floor
+//! and every step as a block, risers and treads) by more than 1 mm, measured in the test
+//! with parry3d (`common/terrain_contact.rs`).
+
+use cbfgen_tachyon3::sim::perceived::PerceptionSettings;
+use cbfgen_tachyon3::sim::{self, Scenario, SimConfig, SimResult};
+
+#[path = "common/terrain_contact.rs"]
+mod terrain_contact;
+use terrain_contact::{assert_out_of_the_terrain, measured_run};
+
+fn perceived_run(scenario: Scenario) -> SimResult {
+    let config = SimConfig { perception: Some(PerceptionSettings::default()), ..SimConfig::new(scenario, true) };
+    sim::run(&config, |_| {}).expect("simulation")
+}
+
+fn check(scenario: Scenario) {
+    let result = perceived_run(scenario);
+    let s = result.summary;
+    let name = scenario.name();
+    assert!(s.completed, "{name}: {s}");
+    let m = measured_run(&scenario.terrain().expect("terrain"), &result);
+    assert_out_of_the_terrain(name, m);
+    // Perception ran at 1 Hz through the whole run, beside the loop.
+    let perception = result.perception.as_ref().expect("perception record");
+    let p = s.perception.expect("perception summary");
+    assert_eq!(p.updates, perception.updates.len());
+    assert!(p.updates as f64 >= s.duration.floor(), "{name}: {} updates in {:.1} s", p.updates, s.duration);
+    for pair in perception.updates.windows(2) {
+        assert!((pair[1].requested_at - pair[0].requested_at - 1.0).abs() < 1e-6 || pair[0].requested_at == 0.0);
+        assert!((pair[1].applied_at - pair[1].requested_at - 0.5).abs() < 1e-6, "{:?}", pair[1]);
+    }
+}
+
+#[test]
+fn the_step_and_the_stairs_are_climbed_on_perceived_terrain_without_penetration() {
+    check(Scenario::Step);
+    check(Scenario::Stairs);
+}
+
+#[test]
+fn unequal_rises_a_landing_a_box_and_a_platform_are_crossed_on_perceived_terrain() {
+    for scenario in [Scenario::UnequalRises, Scenario::Landing, Scenario::Box, Scenario::Platform] {
+        check(scenario);
+    }
+}
+
+/// A perceived run is reproducible: the worker thread's timing does not reach the result.
+#[test]
+fn a_perceived_run_repeats_exactly() {
+    let a = perceived_run(Scenario::Step);
+    let b = perceived_run(Scenario::Step);
+    assert_eq!(a.samples.len(), b.samples.len());
+    assert!(a.samples.iter().zip(&b.samples).all(|(p, q)| p.x == q.x), "the two runs' states differ");
+}
+
+/// Without the body CBF the same perceived course drives the body into the true edge: the
+/// perceived edges are what keeps it off.
+#[test]
+fn without_the_body_cbf_the_body_hits_the_true_edge_on_perceived_terrain() {
+    let config = SimConfig { perception: Some(PerceptionSettings::default()), ..SimConfig::new(Scenario::Step, false) };
+    let result = sim::run(&config, |_| {}).expect("simulation");
+    assert!(result.summary.min_body_clearance() < -0.01, "{}", result.summary);
+}
+
+#[test]
+fn bad_perception_settings_are_typed_errors() {
+    let base = PerceptionSettings::default();
+    for bad in [
+        PerceptionSettings { scan_period: 0.0, ..base },
+        PerceptionSettings { scan_period: f64::NAN, ..base },
+        PerceptionSettings { update_period: 0.01, ..base },
+        PerceptionSettings { latency: 2.0, ..base },
+        PerceptionSettings { mount: [1e300, 0.0, 0.0], ..base },
+        PerceptionSettings { edge_margin: -0.1, ..base },
+        PerceptionSettings { edge_lift: f64::INFINITY, ..base },
+        PerceptionSettings { floor_lift: -0.001, ..base },
+        PerceptionSettings { lidar: cbfgen_perception::scanner::Lidar { beams: 0, ..base.lidar }, ..base },
+        PerceptionSettings {
+            worker: cbfgen_perception::worker::WorkerSettings { map_voxel: f64::MAX, ..base.worker },
+            ..base
+        },
+    ] {
+        let config = SimConfig { perception: Some(bad), ..SimConfig::new(Scenario::Step, true) };
+        assert!(sim::run(&config, |_| {}).is_err(), "{bad:?}");
+    }
+}
