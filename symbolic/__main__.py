@@ -3,7 +3,8 @@
 * ``generate SPEC --out DIR [--runtime-crate cbfgen] [--check]`` writes ``DIR/<system>.rs``
   from a spec file (see :mod:`symbolic.spec` and :mod:`symbolic.codegen.generate`).
 
-The repository's own ``generated/`` is written by ``python -m symbolic.generate``.
+The repository's own generated files (the core's ``generated/`` and each built-in system
+crate's) are written by ``python -m symbolic.generate``.
 """
 
 from __future__ import annotations

@@ -16,7 +16,7 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
-from .codegen.backends.rust.emitter import RawRust, emit_kernel, rustdoc_text
+from .codegen.backends.rust.emitter import emit_kernel, rustdoc_text
 from .codegen.backends.rust.kernel_table import emit_kernel_table
 from .codegen.definition import SystemDefinition, define
 from .codegen.generate import render_with_warnings
@@ -30,7 +30,7 @@ REGENERATE = "scripts/cbf generate  (or: python -m symbolic.generate)"
 
 # Kernel libraries that are not systems (the SSAT variants the benches and cross-checks
 # compare, the certified sphere-box clearance): module name -> (doc, kernel builder).
-MODULES: dict[str, tuple[str, Callable[[], list[Kernel | RawRust]]]] = {
+MODULES: dict[str, tuple[str, Callable[[], list[Kernel]]]] = {
     "ssat": (ssat.MODULE_DOC, ssat.kernels),
     "sphere_box": (sphere_box.MODULE_DOC, sphere_box.kernels),
 }
@@ -52,7 +52,7 @@ def builtin_systems() -> list[SystemDefinition]:
 def all_kernels() -> dict[str, list[Kernel]]:
     """Module name -> every kernel generated/ holds for it: the generator's own list, which
     the SymEngine cross-check iterates (adding a system adds no test code)."""
-    out = {name: [k for k in build() if isinstance(k, Kernel)] for name, (_, build) in MODULES.items()}
+    out = {name: build() for name, (_, build) in MODULES.items()}
     for definition in builtin_systems():
         out[definition.name] = definition.kernels()
     return out
@@ -73,8 +73,8 @@ def render(repo_root: Path = REPO_ROOT) -> dict[str, str]:
     mod_lines = [_header(digest), "//! Kernels emitted by the symbolic stage.\n"]
     for name, (doc, build) in MODULES.items():
         items = build()
-        body = "\n".join(item.text if isinstance(item, RawRust) else emit_kernel(item) for item in items)
-        body += "\n" + emit_kernel_table([i for i in items if isinstance(i, Kernel)], "crate", f"`{name}`")
+        body = "\n".join(emit_kernel(item) for item in items)
+        body += "\n" + emit_kernel_table(items, "crate", f"`{name}`")
         module_doc = "".join(f"//! {rustdoc_text(line)}".rstrip() + "\n" for line in doc.strip().splitlines())
         lint = ("#![allow(clippy::all, clippy::pedantic, unused_parens, unused_variables)]\n"
                 "#![allow(clippy::excessive_precision, clippy::too_many_arguments)]\n")

@@ -16,7 +16,8 @@ A spec is a Python file with a ``build()`` that returns a :class:`System`::
 
 Nothing here knows a target language: :mod:`symbolic.codegen` turns the system into
 kernels (differentiating every family to its relative degree, which is *found*, never
-given) and a backend prints them.
+given) and a backend prints them; the names a backend reserves come from the backends
+(:mod:`symbolic.codegen.backends`).
 
 **Families.** ``h`` is called once with a :class:`FamilyContext` ``p``: its parameters as
 attributes (a scalar is a symbol, a vector a list of symbols, a matrix a list of rows),
@@ -71,6 +72,8 @@ from pathlib import Path
 
 import symengine as se
 
+from .codegen.backends import MODULE_ITEMS, RESERVED_LOCALS, RESERVED_WORDS
+
 # Bounds the runtime enforces too (src/system.rs, src/filter): checked here so a spec fails
 # when it is generated, not when the filter is built. python/tests/test_runtime_domains.py
 # checks them against the built module, which exports the runtime's own.
@@ -89,20 +92,6 @@ DEFAULT_TOLERANCE = 1e-9
 TOLERANCE_RANGE = (1e-12, 1e-2)
 
 _IDENT = re.compile(r"^[a-z][a-z0-9_]*$")
-# Names the generated code uses for its own locals and items (SymEngine's CSE temporaries
-# x0.., the emitter's t0.. and pw.., the time argument t and the state argument x).
-_RESERVED_PATTERN = re.compile(r"^(x\d+|t\d+|pw\d*|x|t)$")
-# Rust keywords, reserved words and names the Rust backend's module defines itself.
-_RUST_WORDS = frozenset("""
-    as async await break const continue crate dyn else enum extern false fn for gen if impl in let
-    loop match mod move mut pub ref return self static struct super trait true type unsafe use
-    where while abstract become box do final macro override priv try typeof unsized virtual yield
-    union
-""".split())
-_MODULE_ITEMS = frozenset({"state", "input", "drift", "input_matrix", "default_settings", "core", "std",
-                           "nalgebra", "alloc"})
-
-
 class SpecError(ValueError):
     """A system spec that cannot be generated; the message names system, family and key."""
 
@@ -120,9 +109,9 @@ def check_identifier(where: str, key: str, name: object, *, module_item: bool = 
     if not isinstance(name, str) or not _IDENT.match(name) or "__" in name or name.endswith("_"):
         raise SpecError(f"{where}: {key} {name!r} is not a snake_case identifier "
                         "(lower-case letters, digits and single underscores, starting with a letter)")
-    if local and (name in _RUST_WORDS or keyword.iskeyword(name) or _RESERVED_PATTERN.match(name)):
+    if local and (name in RESERVED_WORDS or keyword.iskeyword(name) or any(p.match(name) for p in RESERVED_LOCALS)):
         raise SpecError(f"{where}: {key} {name!r} is reserved in generated code; choose another name")
-    if module_item and name in _MODULE_ITEMS:
+    if module_item and name in MODULE_ITEMS:
         raise SpecError(f"{where}: {key} {name!r} is the name of an item every generated module "
                         "defines; choose another name")
     return name

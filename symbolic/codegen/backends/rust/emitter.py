@@ -1,10 +1,9 @@
-"""Turn a :class:`~symbolic.kernel.Kernel` into one straight-line Rust function.
+"""Print a :class:`~symbolic.kernel.Kernel` as one straight-line Rust function.
 
-All outputs of a kernel (value, gradient, Hessian, ...) go through a single
-``symengine.cse`` pass, so work is shared between them. Statements are then emitted on
-demand, depth first from the outputs, so every temporary, ``let_`` and runtime max is
-computed exactly once and only if something needs it. The output is plain f64
-arithmetic: no loops, no heap, integer powers as products, ``sqrt`` for half powers.
+The statements and their order come from the language-neutral
+:func:`~symbolic.codegen.straight_line.straight_line`; this module prints them
+(:class:`RustPrinter` for expressions): plain f64 arithmetic, no loops, no heap, integer
+powers as products, ``sqrt`` for half powers.
 """
 
 from __future__ import annotations
@@ -16,13 +15,7 @@ import symengine as se
 
 from ....kernel import Kernel
 from ....spec import SpecError
-
-
-class RawRust:
-    """Rust items a family emits verbatim (tables over its kernels, for instance)."""
-
-    def __init__(self, text: str):
-        self.text = text if text.endswith("\n") else text + "\n"
+from ...straight_line import StraightLine, straight_line
 
 _ADD, _MUL, _UNARY, _ATOM = 1, 2, 3, 4
 
@@ -228,108 +221,52 @@ def kernel_fn_type(kernel: Kernel) -> str:
     return f"fn({args}) -> {kernel_signature(kernel)[1]}"
 
 
-def emit_kernel(kernel: Kernel, attributes: Sequence[str] = ()) -> str:
-    """The Rust text of one kernel: constants, then the function. ``attributes`` (outer
-    attributes such as ``#[allow(...)]``) go on the function, before its ``#[inline]``."""
-    flat: list[se.Expr] = [let.expr for let in kernel.lets]
-    for red in kernel.reductions:
-        flat.extend(red.exprs)
-    for out in kernel.outputs:
-        flat.extend(out.exprs)
-    replacements, reduced = se.cse(flat)
-
-    # Every symbol the body may define, with the expression(s) defining it.
-    defs: dict[se.Symbol, tuple[str, Sequence[se.Expr]]] = {}
-    order: dict[se.Symbol, int] = {}
-    pos = 0
-    for let in kernel.lets:
-        defs[let.symbol] = ("let", [reduced[pos]])
-        pos += 1
-    for red in kernel.reductions:
-        defs[red.symbol] = ("max", reduced[pos:pos + len(red.exprs)])
-        pos += len(red.exprs)
-    out_exprs = reduced[pos:]
-    for sym, rhs in replacements:
-        defs[sym] = ("tmp", [rhs])
-    for i, sym in enumerate([let.symbol for let in kernel.lets] + [r.symbol for r in kernel.reductions]
-                            + [s for s, _ in replacements]):
-        order[sym] = i
-
-    names: dict[se.Symbol, str] = {}
-    for inp in kernel.inputs:
-        for sym in inp.symbols:
-            names[sym] = str(sym)
-    for sym, (kind, _) in defs.items():
-        if kind != "tmp":
-            names[sym] = str(sym)
-
-    emitted: list[tuple[se.Symbol, str, Sequence[se.Expr]]] = []
-    done: set = set()
-    used_inputs: set = set()
-
-    def visit(expr: se.Expr) -> None:
-        for sym in sorted(expr.free_symbols, key=lambda s: order.get(s, -1)):
-            if sym in defs:
-                if sym in done:
-                    continue
-                done.add(sym)
-                kind, rhs = defs[sym]
-                for r in rhs:
-                    visit(r)
-                if kind == "tmp":
-                    names[sym] = f"t{sum(1 for e in emitted if e[1] == 'tmp')}"
-                emitted.append((sym, kind, rhs))
-            else:
-                used_inputs.add(sym)
-
-    for e in out_exprs:
-        visit(e)
-    if len(emitted) > MAX_KERNEL_LOCALS:
-        raise SpecError(
-            f"kernel {kernel.name!r} needs {len(emitted)} locals, more than {MAX_KERNEL_LOCALS}: every `let` "
-            "nests a scope, and rustc's debug-info pass overflows its stack on one function with about "
-            "15 000 of them. Split the family: rows that share little into members (over=[...]).")
-
-    p = RustPrinter(names)
-    lines: list[str] = []
-    for line in kernel.doc.strip().splitlines():
-        lines.append(f"/// {rustdoc_text(line)}".rstrip())
-    lines.append("///")
-    lines.append("/// # Arguments")
+def _doc_lines(kernel: Kernel) -> list[str]:
+    """The kernel's rustdoc: its doc, then its arguments and results."""
+    lines = [f"/// {rustdoc_text(line)}".rstrip() for line in kernel.doc.strip().splitlines()]
+    lines += ["///", "/// # Arguments"]
     for inp in kernel.inputs:
         comps = ", ".join(str(s) for s in inp.symbols) if inp.is_array else ""
         suffix = f" (components {comps})" if comps else ""
         lines.append(f"/// * `{inp.name}` - {rustdoc_text(inp.doc)}{suffix}")
-    lines.append("///")
-    lines.append("/// # Returns")
-    for out in kernel.outputs:
-        lines.append(f"/// * `{out.name}` - {rustdoc_text(out.doc)}")
+    lines += ["///", "/// # Returns"]
+    lines += [f"/// * `{out.name}` - {rustdoc_text(out.doc)}" for out in kernel.outputs]
+    return lines
 
-    args, ret = kernel_signature(kernel)
-    lines.extend(attributes)
-    lines.append("#[inline]")
-    lines.append(f"pub fn {kernel.name}({args}) -> {ret} {{")
-    # Scalar inputs are already locals under their own name; arrays are unpacked.
-    for inp in filter(lambda i: i.is_array, kernel.inputs):
-        for k, sym in enumerate(inp.symbols):
-            if sym in used_inputs:
-                lines.append(f"    let {names[sym]} = {inp.name}[{k}];")
-    for sym, kind, rhs in emitted:
-        if kind == "max":
-            # f64::max for the first pair fixes the type even when it starts with a literal.
-            text = p(rhs[0]) if len(rhs) == 1 else (
-                f"f64::max({p(rhs[0])}, {p(rhs[1])})" + "".join(f".max({p(r)})" for r in rhs[2:]))
+
+def _local_names(kernel: Kernel, code: StraightLine) -> dict[se.Symbol, str]:
+    """Inputs, lets and maxima keep their spec names; temporaries are t0, t1, ... in order."""
+    names = {sym: str(sym) for inp in kernel.inputs for sym in inp.symbols}
+    temporaries = 0
+    for step in code.steps:
+        if step.kind == "tmp":
+            names[step.symbol] = f"t{temporaries}"
+            temporaries += 1
         else:
-            text = p(rhs[0])
-        # A constant temporary (pi/4, printed as a literal) needs its type
-        # spelled out, or `t.sin()` on an unsuffixed float literal does not compile.
-        typed = ": f64" if kind != "max" and not rhs[0].free_symbols else ""
-        lines.append(f"    let {names[sym]}{typed} = {text};")
+            names[step.symbol] = str(step.symbol)
+    return names
 
+
+def _statement(p: RustPrinter, name: str, kind: str, rhs: Sequence[se.Expr]) -> str:
+    if kind == "max":
+        # f64::max for the first pair fixes the type even when it starts with a literal.
+        text = p(rhs[0]) if len(rhs) == 1 else (
+            f"f64::max({p(rhs[0])}, {p(rhs[1])})" + "".join(f".max({p(r)})" for r in rhs[2:]))
+    else:
+        text = p(rhs[0])
+    # A constant temporary (pi/4, printed as a literal) needs its type spelled out, or
+    # `t.sin()` on an unsuffixed float literal does not compile.
+    typed = ": f64" if kind != "max" and not rhs[0].free_symbols else ""
+    return f"    let {name}{typed} = {text};"
+
+
+def _results(kernel: Kernel, parts_of: Sequence[str], lines: list[str]) -> str:
+    """The returned value: each output as its Rust shape (a symmetric matrix binds its upper
+    triangle once, into ``lines``, and repeats it below the diagonal)."""
     results: list[str] = []
     pos = 0
     for out in kernel.outputs:
-        parts = [p(e) for e in out_exprs[pos:pos + len(out.exprs)]]
+        parts = parts_of[pos:pos + len(out.exprs)]
         pos += len(out.exprs)
         if out.kind == "scalar":
             results.append(parts[0])
@@ -339,21 +276,37 @@ def emit_kernel(kernel: Kernel, attributes: Sequence[str] = ()) -> str:
             rows = [parts[r * out.cols:(r + 1) * out.cols] for r in range(out.dim)]
             results.append("[" + ", ".join("[" + ", ".join(r) + "]" for r in rows) + "]")
         else:
-            n, k, idx = out.dim, 0, {}
-            for i in range(n):
-                for j in range(i, n):
-                    idx[(i, j)] = k
-                    k += 1
-            # Bind the upper triangle once; the lower triangle repeats it.
-            for (i, j), k in idx.items():
+            n = out.dim
+            upper = [(i, j) for i in range(n) for j in range(i, n)]
+            for k, (i, j) in enumerate(upper):
                 lines.append(f"    let {out.name}_{i}{j} = {parts[k]};")
             rows = ["[" + ", ".join(f"{out.name}_{min(i, j)}{max(i, j)}" for j in range(n)) + "]"
                     for i in range(n)]
             results.append("[" + ", ".join(rows) + "]")
-    body = results[0] if len(results) == 1 else "(" + ", ".join(results) + ")"
-    lines.append(f"    {body}")
-    lines.append("}")
+    return results[0] if len(results) == 1 else "(" + ", ".join(results) + ")"
 
+
+def emit_kernel(kernel: Kernel, attributes: Sequence[str] = ()) -> str:
+    """The Rust text of one kernel: constants, then the function. ``attributes`` (outer
+    attributes such as ``#[allow(...)]``) go on the function, before its ``#[inline]``."""
+    code = straight_line(kernel)
+    if len(code.steps) > MAX_KERNEL_LOCALS:
+        raise SpecError(
+            f"kernel {kernel.name!r} needs {len(code.steps)} locals, more than {MAX_KERNEL_LOCALS}: every `let` "
+            "nests a scope, and rustc's debug-info pass overflows its stack on one function with about "
+            "15 000 of them. Split the family: rows that share little into members (over=[...]).")
+    names = _local_names(kernel, code)
+    p = RustPrinter(names)
+    args, ret = kernel_signature(kernel)
+    lines = _doc_lines(kernel) + list(attributes) + ["#[inline]", f"pub fn {kernel.name}({args}) -> {ret} {{"]
+    # Scalar inputs are already locals under their own name; arrays are unpacked.
+    for inp in filter(lambda i: i.is_array, kernel.inputs):
+        for k, sym in enumerate(inp.symbols):
+            if sym in code.used_inputs:
+                lines.append(f"    let {names[sym]} = {inp.name}[{k}];")
+    lines += [_statement(p, names[step.symbol], step.kind, step.rhs) for step in code.steps]
+    body = _results(kernel, [p(e) for e in code.outputs], lines)
+    lines += [f"    {body}", "}"]
     consts: list[str] = []
     for c in kernel.constants:
         consts.append(f"/// {rustdoc_text(c.doc)}")

@@ -310,8 +310,8 @@ class _Names:
         return name
 
 
-def emit_system(d: SystemDefinition, rt: str) -> str:
-    """The module text (before rustfmt), ``rt`` being the path to the runtime crate."""
+def _reserve_names(d: SystemDefinition) -> None:
+    """Every item name the module will define, so a clash is a SpecError naming both."""
     sys_type = camel(d.name)
     names = _Names(d.name)
     for item, what in [("DOC", "the module doc"), ("NX", "the state count"), ("NU", "the input count"),
@@ -345,11 +345,12 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
     for c in d.constants:
         names.add(c.name.upper(), f"constant `{c.name}`")
 
-    nx, nu = len(d.state_names), len(d.input_names)
-    out: list[str] = []
-    w = out.append
 
-    # ------------------------------------------------------------ description
+def _emit_description(out: list[str], d: SystemDefinition, rt: str) -> None:
+    """`DOC`, the sizes and the index modules of states, inputs and families."""
+    w = out.append
+    nx, nu = len(d.state_names), len(d.input_names)
+    doc = d.doc.strip() or f"The {d.name} system."
     doc = d.doc.strip() or f"The {d.name} system."
     w(f"/// What the `{d.name}` module is: the spec's description.")
     w(f"pub const DOC: &str = {_str(doc)};")
@@ -379,7 +380,13 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
     w("}")
     w("")
 
-    # ----------------------------------------------------------------- system
+
+def _emit_system_type(out: list[str], d: SystemDefinition, rt: str) -> None:
+    """The system type and its `ControlAffine` impl, the layouts, `xdot` and the spec's constants."""
+    w = out.append
+    sys_type = camel(d.name)
+    nx, nu = len(d.state_names), len(d.input_names)
+    doc = d.doc.strip() or f"The {d.name} system."
     out.extend(_doc(doc))
     w("///")
     w(f"/// The control-affine model x' = f(x) + g(x) u, with {nx} state{'s' * (nx != 1)} (see [`state`]) "
@@ -429,7 +436,10 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
     if d.constants:
         w("")
 
-    # ---------------------------------------------------------------- kernels
+
+def _emit_kernels(out: list[str], d: SystemDefinition, rt: str) -> None:
+    """Every kernel, each family's row columns and an indexed family's member tables."""
+    w = out.append
     for k in d.kernels():
         w(emit_kernel(k, attributes=[KERNEL_ALLOWS]))
     for f in d.families:
@@ -441,7 +451,10 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
         if f.indexed:
             _member_tables(w, f)
 
-    # ------------------------------------------------------------- parameters
+
+def _emit_parameter_structs(out: list[str], d: SystemDefinition, rt: str) -> None:
+    """Each family's parameter struct: fields, domains, `validate`, flat access."""
+    w = out.append
     for f in d.families:
         if not f.params:
             continue
@@ -484,7 +497,10 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
         w("")
         _flat_instance(w, f, ty, rt)
 
-    # --------------------------------------------------------------- families
+
+def _emit_family_table(out: list[str], d: SystemDefinition, rt: str) -> None:
+    """`FAMILIES`: each family's description and defaults."""
+    w = out.append
     w("/// The barrier families, in spec order (indexed by `RowLayout::family`, see [`family`]).")
     w(f"pub const FAMILIES: [{rt}::system::FamilyInfo; {len(d.families)}] = [")
     for f in d.families:
@@ -508,6 +524,10 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
     w("];")
     w("")
 
+
+def _emit_capacity(out: list[str], d: SystemDefinition, rt: str) -> None:
+    """`Capacity`: the room each capacity family has, its check and row count."""
+    w = out.append
     cap_families = [f for f in d.families if f.capacity]
     for f in cap_families:
         w(f"/// The largest capacity `{f.name}` accepts{' per member' if f.indexed else ''} (the spec's).")
@@ -565,6 +585,12 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
     w("    }")
     w("}")
     w("")
+
+
+def _emit_params(out: list[str], d: SystemDefinition, rt: str) -> None:
+    """`Params`: every family's instances, and their flat access."""
+    w = out.append
+    cap_families = [f for f in d.families if f.capacity]
     w("/// Every family's runtime instances: what [`Barriers`] reads besides the state and time.")
     w("#[derive(Debug, Clone, PartialEq)]")
     w("pub struct Params {")
@@ -628,7 +654,10 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
     w("}")
     w("")
 
-    # --------------------------------------------------------------- barriers
+
+def _emit_barriers(out: list[str], d: SystemDefinition, rt: str) -> None:
+    """`Barriers`: the row layout for a capacity and the `BarrierSet` that evaluates it."""
+    w = out.append
     w("/// The rows of every family, laid out once for a [`Capacity`] and evaluated each cycle")
     w("/// into preallocated storage. Row order: families in spec order; within a family,")
     w("/// instance by instance, the rows of one instance consecutive.")
@@ -711,7 +740,11 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
     w("}")
     w("")
 
-    # ----------------------------------------------------------------- filter
+
+def _emit_filter_and_system(out: list[str], d: SystemDefinition, rt: str) -> None:
+    """`default_settings`, `Filter`, and the system behind the core's type-erased layer."""
+    w = out.append
+    sys_type = camel(d.name)
     w("/// The spec's defaults: every family's poles, slack weight and activation, and the")
     w("/// input limits.")
     w(f"pub fn default_settings() -> {rt}::filter::FilterSettings<NU> {{")
@@ -751,6 +784,14 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
     w(f"pub const SYSTEM: &dyn {rt}::dynamic::DynSystem = &{rt}::dynamic::Erased::<{sys_type}, NX, NU>::NEW;")
     w("")
 
-    # ------------------------------------------------------------ kernel table
-    w(emit_kernel_table(d.kernels(), rt, f"`{d.name}`", attributes=[KERNEL_ALLOWS]))
+
+def emit_system(d: SystemDefinition, rt: str) -> str:
+    """The module text (before rustfmt), ``rt`` being the path to the runtime crate: one
+    emitter per item, in the module's order."""
+    _reserve_names(d)
+    out: list[str] = []
+    for emit in (_emit_description, _emit_system_type, _emit_kernels, _emit_parameter_structs,
+                 _emit_family_table, _emit_capacity, _emit_params, _emit_barriers, _emit_filter_and_system):
+        emit(out, d, rt)
+    out.append(emit_kernel_table(d.kernels(), rt, f"`{d.name}`", attributes=[KERNEL_ALLOWS]))
     return "\n".join(out) + "\n"
