@@ -38,8 +38,14 @@ pub enum CbfError {
         /// Its documented maximum.
         max: usize,
     },
-    /// A worker thread has stopped (it panicked, or could not be started).
-    WorkerGone,
+    /// Threads a system crate runs beside the filter failed: one stopped (it panicked), or
+    /// they could not be started. The crate that runs them names them and says why.
+    Thread {
+        /// Which threads, as their crate names them (e.g. `"perception worker"`).
+        what: &'static str,
+        /// What happened to them.
+        reason: String,
+    },
     /// Parameters (an environment) sized for other capacities than the filter's rows.
     CapacityMismatch,
     /// A setting outside its allowed range.
@@ -145,8 +151,6 @@ pub enum CbfError {
         /// What was found.
         found: Found,
     },
-    /// Worker threads could not be started (the operating system's refusal).
-    ThreadPool(String),
 }
 
 // The messages, written out rather than derived: the core's dependency list stays at
@@ -158,7 +162,7 @@ impl fmt::Display for CbfError {
             CbfError::NotPositive { what, value } => write!(f, "{what} must be > 0, got {value}"),
             CbfError::CapacityExceeded { what, capacity } => write!(f, "too many {what}: capacity is {capacity}"),
             CbfError::TooLarge { what, value, max } => write!(f, "{what} = {value} is above the maximum of {max}"),
-            CbfError::WorkerGone => f.write_str("the worker thread is not running"),
+            CbfError::Thread { what, reason } => write!(f, "{what} threads: {reason}"),
             CbfError::CapacityMismatch => f.write_str("the parameters were built for other capacities than the filter"),
             CbfError::OutOfRange { what, value, range } => write!(f, "{what} = {value} is outside {range}"),
             CbfError::LengthMismatch { what, expected, got } => {
@@ -185,7 +189,6 @@ impl fmt::Display for CbfError {
                 Site(family, member, instance),
                 FoundIn(found, param)
             ),
-            CbfError::ThreadPool(reason) => write!(f, "could not start worker threads: {reason}"),
         }
     }
 }

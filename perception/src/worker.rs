@@ -128,12 +128,12 @@ impl Worker {
                     }
                 }
             })
-            .map_err(|_| CbfError::WorkerGone)?;
+            .map_err(|e| gone(format!("could not start: {e}")))?;
         Ok(Self { jobs: Some(jobs), results, thread: Some(thread) })
     }
 
     fn send(&self, job: Job) -> Result<(), CbfError> {
-        self.jobs.as_ref().and_then(|j| j.send(job).ok()).ok_or(CbfError::WorkerGone)
+        self.jobs.as_ref().and_then(|j| j.send(job).ok()).ok_or_else(|| gone("not running".into()))
     }
 
     /// Hand a scan (world frame) to the map. Never blocks. A scan with a non-finite or
@@ -141,7 +141,7 @@ impl Worker {
     /// that refusal (the update after it runs normally).
     ///
     /// # Errors
-    /// [`CbfError::WorkerGone`] if the thread has stopped.
+    /// [`CbfError::Thread`] if the thread has stopped.
     pub fn add_scan(&mut self, points: Vec<Vector3<f64>>) -> Result<(), CbfError> {
         self.send(Job::Scan(points))
     }
@@ -150,7 +150,7 @@ impl Worker {
     /// `viewpoint` (the sensor). Never blocks.
     ///
     /// # Errors
-    /// [`CbfError::WorkerGone`] if the thread has stopped; a non-finite point.
+    /// [`CbfError::Thread`] if the thread has stopped; a non-finite point.
     pub fn request(&mut self, center: &Vector3<f64>, viewpoint: &Vector3<f64>) -> Result<(), CbfError> {
         for &c in center.iter().chain(viewpoint.iter()) {
             within("perception request point [m]", c, -1e5, 1e5, "[-1e5, 1e5]")?;
@@ -163,7 +163,7 @@ impl Worker {
         match self.results.try_recv() {
             Ok(r) => Some(r),
             Err(TryRecvError::Empty) => None,
-            Err(TryRecvError::Disconnected) => Some(Err(CbfError::WorkerGone)),
+            Err(TryRecvError::Disconnected) => Some(Err(gone("not running".into()))),
         }
     }
 
@@ -171,9 +171,9 @@ impl Worker {
     /// still while the worker catches up. Never call it from a real-time loop.
     ///
     /// # Errors
-    /// The update's own error, or [`CbfError::WorkerGone`].
+    /// The update's own error, or [`CbfError::Thread`] if the thread has stopped.
     pub fn wait_result(&mut self) -> Result<Perceived, CbfError> {
-        self.results.recv().map_err(|_| CbfError::WorkerGone)?
+        self.results.recv().map_err(|_| gone("not running".into()))?
     }
 }
 
@@ -199,4 +199,9 @@ fn update(
     let found = found_edges(&planes, &points, &EdgeSettings { viewpoint: Some(*viewpoint), ..settings.edges })?;
     let (cuboids, lower_levels) = found.into_iter().map(|e| (e.cuboid, e.lower)).unzip();
     Ok(Perceived { points, weights, planes, cuboids, lower_levels, elapsed: started.elapsed() })
+}
+
+/// The worker's thread failed (`reason`): started or stopped, it is not there to answer.
+fn gone(reason: String) -> CbfError {
+    CbfError::Thread { what: "perception worker", reason }
 }

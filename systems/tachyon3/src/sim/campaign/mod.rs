@@ -284,7 +284,8 @@ pub fn run(settings: &CampaignSettings, progress: impl Fn(usize) + Sync) -> Resu
         }
         pool = pool.num_threads(threads);
     }
-    let pool = pool.build().map_err(|e| CbfError::ThreadPool(e.to_string()))?;
+    let pool =
+        pool.build().map_err(|e| CbfError::Thread { what: "campaign", reason: format!("could not start: {e}") })?;
     let done = AtomicUsize::new(0);
     let ids = settings.first_id..settings.first_id + settings.episodes as u64;
     let records = pool.install(|| {
