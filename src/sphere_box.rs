@@ -93,7 +93,7 @@ pub const ROUNDING_GUARD: f64 = 256.0 * f64::EPSILON;
 
 /// The default sharpness, 1500 /m: a smoothing length of 0.67 mm and a certified margin
 /// of 1.2 mm, the scale of a legged robot's feet and a step's edge. A system chooses its
-/// own in its spec (Tachyon 3's is `toe_alpha` in `symbolic/models/tachyon3.toml`).
+/// own in its spec (Tachyon 3's is `toe_alpha` in `systems/tachyon3/spec/tachyon3.toml`).
 pub const DEFAULT_ALPHA: f64 = 1500.0;
 
 /// A sphere: centre in the world frame and radius, validated into the

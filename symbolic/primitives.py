@@ -1,7 +1,7 @@
 """The library's building blocks for barrier functions, in one place for spec authors.
 
 Everything here is a re-export or a thin wrapper over what the built-in families use
-(:mod:`symbolic.smoothing`, :mod:`symbolic.families.ssat`, :mod:`symbolic.model`), so a
+(:mod:`symbolic.smoothing`, :mod:`symbolic.families.ssat`, :mod:`symbolic.linalg`), so a
 user's barrier is the same mathematics as the library's own. Helpers that build named
 intermediates take the family context ``p`` (the argument of a family's ``h``) first:
 its ``let`` / ``runtime_max`` keep the expressions the size of the formula and let the
@@ -30,7 +30,7 @@ import symengine as se
 
 from .families import sphere_box as _sphere_box
 from .families.ssat import AXIS_COUNT, certified_margin, relative_pose, separating_axes
-from .model import matmul, matvec, rot_y, rot_z
+from .linalg import matmul, matvec, rot_y, rot_z
 from .smoothing import (
     BOLTZMANN,
     LSE,

@@ -84,6 +84,14 @@ MAX_PRIORITY = 15
 DEFAULT_POLE = 10.0
 # Largest |runtime parameter| (src/system.rs PARAM_LIMIT): every domain lies within it.
 PARAM_LIMIT = 1e6
+# More of the runtime's documented domains (src/ssat.rs ALPHA_MIN/ALPHA_MAX, which
+# src/sphere_box.rs shares for smoothing sharpness, src/geometry.rs MIN/MAX_HALF_EXTENT): a
+# model outside them would bake numbers into the kernels that the safe API refuses at run
+# time. python/tests/test_runtime_domains.py
+# checks every one against the built module.
+SSAT_ALPHA_RANGE = (1e-6, 1e9)
+HALF_EXTENT_RANGE = (1e-6, 1e4)
+INPUT_LIMIT_RANGE = (0.0, MAX_INPUT)
 # Tolerance of UnitVector and Rotation unless given: the runtime's geometry::ROTATION_TOLERANCE,
 # which OrientedBox (and so Tachyon 3's Environment.push_edge) accepts.
 DEFAULT_TOLERANCE = 1e-9

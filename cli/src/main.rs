@@ -27,7 +27,7 @@ enum Command {
     /// certified margin, exact SAT and gradient, for a body height you choose.
     Ssat(SsatArgs),
     /// Evaluate the Tachyon 3 joint-limit rows (h, L_f h, L_f^2 h) at the standard
-    /// posture: edit symbolic/models/tachyon3.toml, rebuild, and watch them change.
+    /// posture: edit systems/tachyon3/spec/tachyon3.toml, rebuild, and watch them change.
     Rows,
     /// Time the ECBF filter: consecutive 269-row updates at 1 kHz while the robot rolls
     /// into a staircase; prints median, p99 and max per update, in wall time and in the

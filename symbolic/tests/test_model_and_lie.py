@@ -1,29 +1,48 @@
 """Relative-degree detection, model-file validation, and model edits reaching the output."""
 
-import shutil
+import importlib.util
+import sys
 
 import pytest
 import symengine as se
 
 from symbolic.codegen.backends.rust.emitter import emit_kernel
 from symbolic.codegen.definition import define
+from symbolic.codegen.generate import render
 from symbolic.generate import REPO_ROOT
-from symbolic.inputs_hash import inputs_hash
 from symbolic.kernel import Kernel
 from symbolic.lie import LieEngine, RelativeDegreeError
-from symbolic.model import MODELS_DIR, ModelError, Tachyon3, load_model
 
-MODEL = MODELS_DIR / "tachyon3.toml"
-TACHYON3_SPEC = REPO_ROOT / "systems" / "tachyon3" / "spec" / "tachyon3.py"
+SPEC_DIR = REPO_ROOT / "systems" / "tachyon3" / "spec"
+MODEL = SPEC_DIR / "tachyon3.toml"
+
+
+def _load(name: str, path):
+    """A module of the Tachyon 3 crate's spec folder, loaded by path (the spec imports its
+    model module by plain name, as it is when cbfgen-build loads it). What it imports is
+    taken out of ``sys.modules`` again, as the spec loader does, so a spec loaded later
+    from another folder finds its own model module."""
+    before = set(sys.modules)
+    sys.path.insert(0, str(SPEC_DIR))
+    try:
+        loader = importlib.util.spec_from_file_location(name, path)
+        module = importlib.util.module_from_spec(loader)
+        sys.modules[name] = module  # dataclasses look their module up by name
+        loader.loader.exec_module(module)
+    finally:
+        sys.path.remove(str(SPEC_DIR))
+        for added in set(sys.modules) - before:
+            del sys.modules[added]
+    return module
+
+
+_model = _load("tachyon3_model", SPEC_DIR / "tachyon3_model.py")
+ModelError, Tachyon3, load_model = _model.ModelError, _model.Tachyon3, _model.load_model
 
 
 def _tachyon3_spec():
-    """The Tachyon 3 spec module (its crate's spec/tachyon3.py), loaded by path."""
-    import importlib.util
-    loader = importlib.util.spec_from_file_location("tachyon3_spec", TACHYON3_SPEC)
-    module = importlib.util.module_from_spec(loader)
-    loader.loader.exec_module(module)
-    return module
+    """The Tachyon 3 spec module (its crate's spec/tachyon3.py)."""
+    return _load("tachyon3_spec", SPEC_DIR / "tachyon3.py")
 
 
 @pytest.fixture(scope="module")
@@ -80,14 +99,18 @@ def test_moving_a_hip_regenerates_exactly_the_kernels_that_depend_on_it(tmp_path
 
 
 def test_editing_the_model_changes_the_inputs_hash(tmp_path):
-    copy = tmp_path / "repo"
-    shutil.copytree(REPO_ROOT / "symbolic", copy / "symbolic",
-                    ignore=shutil.ignore_patterns("__pycache__", "tests"))
-    before = inputs_hash(copy)
-    assert before == inputs_hash(REPO_ROOT)
-    model = copy / "symbolic" / "models" / "tachyon3.toml"
+    """The model file is a dependency of the spec: its header lists it and an edit changes
+    the inputs hash (what cbfgen-build compares), so the crate regenerates."""
+    copy = tmp_path / "spec"
+    copy.mkdir()
+    for name in ("tachyon3.py", "tachyon3_model.py", "tachyon3.toml"):
+        (copy / name).write_text((SPEC_DIR / name).read_text())
+    _, before = render(copy / "tachyon3.py")
+    assert "// depends: tachyon3.toml\n// depends: tachyon3_model.py\n" in before
+    model = copy / "tachyon3.toml"
     model.write_text(model.read_text().replace("radius = 0.10", "radius = 0.11"))
-    assert inputs_hash(copy) != before
+    _, after = render(copy / "tachyon3.py")
+    assert before.splitlines()[1] != after.splitlines()[1]
 
 
 @pytest.mark.parametrize("edit, message", [

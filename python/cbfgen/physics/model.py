@@ -1,5 +1,5 @@
 """Tachyon 3 as a MuJoCo model (MJCF), built from the constants the generated code was
-built from (``symbolic/models/tachyon3.toml`` via ``cbfgen.tachyon3``), on a course's true
+built from (``systems/tachyon3/spec/tachyon3.toml`` via ``cbfgen.tachyon3``), on a course's true
 terrain.
 
 Each leg is a hip hinge at its mount (axis chosen so the joint angle *is* the model's hip

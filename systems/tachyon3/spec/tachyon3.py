@@ -1,7 +1,7 @@
 """Tachyon 3 (the reference paper's hexapod on wheels) as a system spec.
 
-The robot's numbers live in ``symbolic/models/tachyon3.toml``; :mod:`symbolic.model`
-reads them and builds the kinematics (the ground-moving origin, the origin-relative body
+The robot's numbers live in ``tachyon3.toml`` beside this file; ``tachyon3_model.py``
+(also beside it) reads them and builds the kinematics (the ground-moving origin, the origin-relative body
 and six toes in their legs' lateral planes, paper section II-B). This file declares what
 the generator needs from them: the states and inputs, x' = f(x) + g(x) u, the six ECBF
 constraint families of the paper's section IV, the world kinematics the simulation
@@ -22,9 +22,9 @@ import symengine as se
 
 from symbolic.families import sphere_box
 from symbolic.families.ssat import certified_margin, relative_pose, separating_axes
-from symbolic.model import Leg, Tachyon3, load_model, load_tachyon3
 from symbolic.smoothing import LSE, XTANH
 from symbolic.spec import DEFAULT_TOLERANCE, Interval, Rotation, System, UnitVector
+from tachyon3_model import MODEL_FILE, Leg, Tachyon3, load_model
 
 AXES = "xyz"
 # Largest capacities: 1025 edge cuboids make 7175 collision rows, far beyond what a 1 ms
@@ -74,14 +74,16 @@ def _toe_world(p, robot: Tachyon3, leg: Leg) -> list[se.Symbol]:
 
 
 def build(model: Path | None = None) -> System:
-    """The system from ``model`` (default: ``symbolic/models/tachyon3.toml``)."""
-    robot = load_tachyon3() if model is None else Tachyon3(load_model(model))
+    """The system from ``model`` (default: ``tachyon3.toml`` beside this file)."""
+    model = MODEL_FILE if model is None else Path(model)
+    robot = Tachyon3(load_model(model))
     m = robot.model
     legs = {leg.name.lower(): leg for leg in m.legs}
     members = list(legs)
 
-    s = System("tachyon3", doc="The Tachyon 3 model (symbolic/models/tachyon3.toml): a hexapod on wheels "
+    s = System("tachyon3", doc="The Tachyon 3 model (systems/tachyon3/spec/tachyon3.toml): a hexapod on wheels "
                                "climbing stairs, with the six ECBF families of the paper's section IV.")
+    s.depends_on(model)  # the robot's numbers: editing them regenerates the module
     s.states(robot.state_names)
     s.inputs(robot.input_names, limits=[(-lim, lim) for lim in m.input_limits])
     s.dynamics(f=robot.f, g=robot.g)

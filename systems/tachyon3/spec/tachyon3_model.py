@@ -1,4 +1,6 @@
-"""The Tachyon 3 kinematic model: state layout, kinematics and control-affine dynamics.
+"""The Tachyon 3 kinematic model: state layout, kinematics and control-affine dynamics,
+read from ``tachyon3.toml`` beside this file (the spec imports it; both are its
+dependencies, so editing either regenerates the crate's module).
 
 Tachyon 3 paper, section II-B (DESIGN.md "Model"). State x in R^36, input u in R^17:
 
@@ -22,9 +24,11 @@ from pathlib import Path
 
 import symengine as se
 
-from .spec import MAX_INPUT, POLE_RANGE
+from symbolic.linalg import matmul, matvec, rot_y, rot_z
+from symbolic.spec import HALF_EXTENT_RANGE, INPUT_LIMIT_RANGE, POLE_RANGE, SSAT_ALPHA_RANGE
 
-MODELS_DIR = Path(__file__).resolve().parent / "models"
+# The robot's numbers, beside this file.
+MODEL_FILE = Path(__file__).resolve().parent / "tachyon3.toml"
 
 
 class ModelError(ValueError):
@@ -54,16 +58,6 @@ class RobotModel:
     toe_alpha: float
     ecbf_poles: tuple[float, ...]
     input_limits: tuple[float, ...]
-
-
-# The runtime's documented domains (src/ssat.rs ALPHA_MIN/ALPHA_MAX, which
-# src/sphere_box.rs shares for toe_alpha, src/geometry.rs MIN/MAX_HALF_EXTENT; the
-# filter's POLE_RANGE and MAX_INPUT are spec.py's): a model outside them would bake numbers
-# into the kernels that the safe API refuses at run time. python/tests/test_runtime_domains.py
-# checks every one against the built module.
-SSAT_ALPHA_RANGE = (1e-6, 1e9)
-HALF_EXTENT_RANGE = (1e-6, 1e4)
-INPUT_LIMIT_RANGE = (0.0, MAX_INPUT)
 
 
 def _number(table: dict, key: str, where: str, positive: bool = False,
@@ -167,24 +161,6 @@ def input_names(model: RobotModel) -> list[str]:
     return names
 
 
-def rot_z(a: se.Expr) -> list[list[se.Expr]]:
-    c, s = se.cos(a), se.sin(a)
-    return [[c, -s, 0], [s, c, 0], [0, 0, 1]]
-
-
-def rot_y(a: se.Expr) -> list[list[se.Expr]]:
-    c, s = se.cos(a), se.sin(a)
-    return [[c, 0, s], [0, 1, 0], [-s, 0, c]]
-
-
-def matmul(a, b):
-    return [[se.Add(*[a[i][k] * b[k][j] for k in range(3)]) for j in range(3)] for i in range(3)]
-
-
-def matvec(a, v):
-    return [se.Add(*[a[i][k] * v[k] for k in range(3)]) for i in range(3)]
-
-
 @dataclass
 class Tachyon3:
     """Symbols and expressions of the model. ``x`` are the kernels' state symbols
@@ -258,5 +234,5 @@ class Tachyon3:
         return leg.outward * (se.atan2(dx, -dz) + self.s["pitch"])
 
 
-def load_tachyon3(name: str = "tachyon3") -> Tachyon3:
-    return Tachyon3(load_model(MODELS_DIR / f"{name}.toml"))
+def load_tachyon3(path: Path = MODEL_FILE) -> Tachyon3:
+    return Tachyon3(load_model(path))

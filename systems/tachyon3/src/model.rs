@@ -1,5 +1,5 @@
 //! The Tachyon 3 model's layout and dynamics, as generated from its spec
-//! (`systems/tachyon3/spec/tachyon3.py`, numbers from `symbolic/models/tachyon3.toml`).
+//! (`systems/tachyon3/spec/tachyon3.py`, numbers from `systems/tachyon3/spec/tachyon3.toml`).
 //!
 //! State (36) and input (17) layouts are [`STATE_NAMES`] and [`INPUT_NAMES`]: the
 //! ground-moving origin (world position, yaw, speed, yaw rate), the origin-relative body
