@@ -1,5 +1,5 @@
 //! Every generated kernel of every built-in system behind one uniform call: the table
-//! [`KERNELS`] lists each generated module's table, so a new system needs no binding code
+//! [`kernels`] lists each generated module's table, so a new system needs no binding code
 //! here to be called (and cross-checked against SymEngine) from Python.
 
 use pyo3::prelude::*;
@@ -7,7 +7,7 @@ use pyo3::prelude::*;
 use crate::PyResult;
 
 use super::convert::{values, vector, Array1Out, ArrayIn};
-use crate::registry::KERNELS;
+use crate::registry::kernels;
 use cbfgen::error::{finite, CbfError};
 use cbfgen::system::KernelEntry;
 
@@ -24,8 +24,7 @@ type Slot = (&'static str, usize);
 /// ``(name, length)`` in the kernel's order.
 #[pyfunction]
 fn kernel_table() -> Vec<(&'static str, &'static str, Vec<Slot>, Vec<Slot>)> {
-    KERNELS
-        .iter()
+    kernels()
         .flat_map(|(module, kernels)| {
             kernels.iter().map(move |k| (*module, k.name, k.inputs.to_vec(), k.outputs.to_vec()))
         })
@@ -56,8 +55,7 @@ fn call_kernel<'py>(py: Python<'py>, module: &str, name: &str, inputs: ArrayIn<'
 }
 
 fn find(module: &str, name: &str) -> PyResult<&'static KernelEntry> {
-    KERNELS
-        .iter()
+    kernels()
         .filter(|(m, _)| *m == module)
         .flat_map(|(_, kernels)| kernels.iter())
         .find(|k| k.name == name)

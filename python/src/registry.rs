@@ -12,12 +12,16 @@ pub static SYSTEMS: Registry = Registry::new(&[
     cbfgen_tachyon3::generated::SYSTEM,
 ]);
 
-/// Every generated module's uniform kernel table, by module name: the core's primitives
-/// and each system's.
-pub const KERNELS: &[(&str, &[KernelEntry])] = &[
-    ("ssat", cbfgen::generated::ssat::KERNELS),
-    ("sphere_box", cbfgen::generated::sphere_box::KERNELS),
+/// Each built-in system's uniform kernel table, by module name; the core's primitives
+/// (`cbfgen::generated::KERNELS`) come first in [`kernels`].
+const SYSTEM_KERNELS: &[(&str, &[KernelEntry])] = &[
     ("double_integrator", cbfgen_double_integrator::KERNELS),
     ("panda", cbfgen_panda::generated::KERNELS),
     ("tachyon3", cbfgen_tachyon3::generated::KERNELS),
 ];
+
+/// Every generated module's kernel table, by module name: the core's primitives, then
+/// each system's.
+pub fn kernels() -> impl Iterator<Item = &'static (&'static str, &'static [KernelEntry])> {
+    cbfgen::generated::KERNELS.iter().chain(SYSTEM_KERNELS)
+}

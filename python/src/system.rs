@@ -35,10 +35,6 @@ fn systems() -> Vec<&'static str> {
     SYSTEMS.names().collect()
 }
 
-fn find_system(name: &str) -> Result<&'static dyn DynSystem, CbfError> {
-    SYSTEMS.get(name)
-}
-
 /// A system given by name or as a `System`.
 #[derive(FromPyObject)]
 pub enum SystemArg<'py> {
@@ -49,7 +45,7 @@ pub enum SystemArg<'py> {
 impl SystemArg<'_> {
     fn get(&self) -> Result<&'static dyn DynSystem, CbfError> {
         match self {
-            SystemArg::Name(n) => find_system(n),
+            SystemArg::Name(n) => SYSTEMS.get(n),
             SystemArg::System(s) => Ok(s.inner),
         }
     }
@@ -185,7 +181,7 @@ pub struct PySystem {
 impl PySystem {
     #[new]
     fn new(name: &str) -> PyResult<Self> {
-        Ok(Self { inner: find_system(name)? })
+        Ok(Self { inner: SYSTEMS.get(name)? })
     }
 
     #[getter]

@@ -24,6 +24,7 @@ from symbolic.families import sphere_box
 from symbolic.families.ssat import certified_margin, relative_pose, separating_axes
 from symbolic.smoothing import LSE, XTANH
 from symbolic.spec import DEFAULT_TOLERANCE, Interval, Rotation, System, UnitVector
+
 from tachyon3_model import MODEL_FILE, Leg, Tachyon3, load_model
 
 AXES = "xyz"

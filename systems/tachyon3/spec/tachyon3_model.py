@@ -232,7 +232,3 @@ class Tachyon3:
         plus the body pitch, which equals atan2 of the body-frame vector while the leg
         points downward."""
         return leg.outward * (se.atan2(dx, -dz) + self.s["pitch"])
-
-
-def load_tachyon3(path: Path = MODEL_FILE) -> Tachyon3:
-    return Tachyon3(load_model(path))
