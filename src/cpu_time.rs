@@ -7,7 +7,8 @@ use std::time::Duration;
 /// per-thread clock (this crate reads `CLOCK_THREAD_CPUTIME_ID` on Unix).
 ///
 /// One reading is a system call on Linux (the thread clock has no vDSO path): about
-/// 0.2–0.5 µs, small beside an update and paid twice per update.
+/// 0.2–0.5 µs, paid twice per update when
+/// [`FilterSettings::measure_cpu_time`](crate::filter::FilterSettings::measure_cpu_time) is on.
 pub fn thread_cpu_time() -> Option<Duration> {
     #[cfg(unix)]
     {

@@ -464,6 +464,9 @@ pub struct RowView<'a> {
     pub lg: &'a [f64],
     /// Whether the row applied at the last evaluation.
     pub active: bool,
+    /// Whether it was culled: `lie[0]` is then a lower bound on `h` above the activation
+    /// threshold, not `h` ([`crate::system::Row::culled`]).
+    pub culled: bool,
 }
 
 /// Any system's rows: layout, families and values.
@@ -501,6 +504,12 @@ pub struct DynSettings {
     pub input_max: Vec<f64>,
     /// OSQP's settings.
     pub solver: SolverSettings,
+    /// Read the thread's CPU clock around each update
+    /// ([`FilterSettings::measure_cpu_time`]).
+    pub measure_cpu_time: bool,
+    /// Skip rows whose lower bound is above their activation threshold
+    /// ([`FilterSettings::cull_far_rows`]).
+    pub cull_far_rows: bool,
 }
 
 impl<const NU: usize> From<FilterSettings<NU>> for DynSettings {
@@ -511,6 +520,8 @@ impl<const NU: usize> From<FilterSettings<NU>> for DynSettings {
             input_min: s.input_min.to_vec(),
             input_max: s.input_max.to_vec(),
             solver: s.solver,
+            measure_cpu_time: s.measure_cpu_time,
+            cull_far_rows: s.cull_far_rows,
         }
     }
 }
@@ -529,6 +540,8 @@ impl<const NU: usize> TryFrom<&DynSettings> for FilterSettings<NU> {
             input_min: sized("input_min", &s.input_min)?,
             input_max: sized("input_max", &s.input_max)?,
             solver: s.solver,
+            measure_cpu_time: s.measure_cpu_time,
+            cull_far_rows: s.cull_far_rows,
         })
     }
 }
@@ -743,7 +756,7 @@ impl<S: GeneratedSystem<NX, NU>, const NX: usize, const NU: usize> DynSystem for
 }
 
 fn row_view<const NU: usize>(row: &crate::system::Row<NU>) -> RowView<'_> {
-    RowView { lie: &row.lie, lg: &row.lg, active: row.active }
+    RowView { lie: &row.lie, lg: &row.lg, active: row.active, culled: row.culled }
 }
 
 struct ErasedBarriers<B, const NX: usize, const NU: usize>(B);

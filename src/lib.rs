@@ -16,7 +16,9 @@
 //!   [`dynamic::Registry`] the caller fills (what the Python bindings use).
 //! * [`param_domain`] — the domains run-time parameters declare (lengths `> 0`, proper
 //!   rotations), checked before a kernel reads them.
-//! * [`cpu_time`] — the thread CPU clock every update reads beside wall time.
+//! * [`lanes`] — `exp`, `tanh` and `ln` of many arguments at once in SIMD lanes, with
+//!   stated error bounds: what generated kernels call.
+//! * [`cpu_time`] — the thread CPU clock an update reads beside wall time when asked to.
 //!
 //! Geometry every system can build barriers from:
 //!
@@ -34,6 +36,7 @@ pub mod dynamic;
 pub mod error;
 pub mod filter;
 pub mod geometry;
+pub mod lanes;
 pub mod limits;
 pub mod param_domain;
 pub mod qp;

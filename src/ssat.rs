@@ -38,20 +38,30 @@
 //! error of the computed `h − m` is a multiple of `u·S`. Tallied per step, all errors
 //! aligned:
 //!
+//! * the transcendental functions are the runtime's own ([`crate::lanes`]), each within a
+//!   stated distance of the correctly rounded value: `tanh` within
+//!   [`TANH_MAX_ULP`](crate::lanes::TANH_MAX_ULP)` = 2` ulp (relative error `≤ 4u`),
+//!   `exp` and `ln` within [`EXP_MAX_ULP`](crate::lanes::EXP_MAX_ULP)` =`
+//!   [`LN_MAX_ULP`](crate::lanes::LN_MAX_ULP)` = 1` ulp (`≤ 2u`); the tally below counts
+//!   those bounds, and a compile-time check stops the build if they grow;
 //! * an axis's centre term: the projection `n·Δp` (at most two rotated products of
 //!   `Δp`) `≲ 18u·‖Δp‖₁`, then its smoothed `|·|` (Lipschitz ≤ 1.2) and that
-//!   surrogate's own rounding, `≲ 3.5u` of its size (√: `≲ 2.5u·(|x| + 1/α)`, `1/α ≤ m`);
+//!   surrogate's own rounding, `≲ 5.5u` of its size (`x·tanh`: `4u` from `tanh`, `1.5u`
+//!   from the products; √: `≲ 2.5u·(|x| + 1/α)`, `1/α ≤ m`);
 //! * its extent terms and the parallel-edge term `D·R⁸`: `≲ 45u·D`, plus `≲ 15u·|y_i|`
 //!   for the √ surrogate, whose extent terms can exceed `D` when `alpha_rot < 1`;
 //! * so each `y_i` is off by `≲ 85u·S` on the axes that carry weight (`|y_i| ≲ |h| + m`
 //!   there; axes far below the max are damped by their weight). The smooth max passes
 //!   that on with a Lipschitz constant of 1 (LSE) or `≲ 2` (Boltzmann) and adds
-//!   `≲ 35u·S` of its own `exp`/`ln` or weighted-mean rounding;
+//!   `≲ 35u·S` of its own rounding: for LSE the 15 `exp` (`2u` each, relative) and their
+//!   sum (`14u`) make `Σ` relatively `≲ 16u` off, which `ln` (`2u` of `ln Σ ≤ ln 15`)
+//!   passes on as `≲ 22u/α ≤ 8u·m`; the Boltzmann weights' `exp` and the weighted mean
+//!   `≲ 35u` of the largest `|y_i|`;
 //! * the margin kernel `≲ 10u·m` and the final subtraction `u·|h − m|`;
 //! * stored rotations are orthonormal to `8·EPSILON` ([`OrientedBox::new`] projects
 //!   them), and the frame algebra that assumes `RᵀR = I` adds `≲ 16u·(‖Δp‖₁ + D)`.
 //!
-//! That is at most `≈ 230u·S ≈ 115·EPSILON·S`. The guard is [`ROUNDING_GUARD`]` · S`
+//! That is at most `≈ 240u·S ≈ 120·EPSILON·S`. The guard is [`ROUNDING_GUARD`]` · S`
 //! with `ROUNDING_GUARD = 256·EPSILON`, above the tally: [`certified_separated`] accepts
 //! only when `h − m − 256·EPSILON·S ≥ 0`, which is [`certified_clearance`] `≥ 0`. At robot
 //! scale (0.5 m boxes 1 m apart, `S ≈ 6` m) the guard is `≈ 3e-13` m; it only decides
@@ -110,6 +120,13 @@ const ALPHA_RANGE: &str = "[1e-6, 1e9]";
 /// The certificate's rounding guard relative to the problem's scale `S` (see the
 /// [module docs](self#rounding-guard)): above the tallied rounding error of `h − m`.
 pub const ROUNDING_GUARD: f64 = 256.0 * f64::EPSILON;
+
+// The guard's tally assumes these bounds of the transcendentals the kernels call; looser
+// ones need the tally redone before the guard is trusted.
+const _: () = assert!(
+    crate::lanes::TANH_MAX_ULP <= 2 && crate::lanes::EXP_MAX_ULP <= 1 && crate::lanes::LN_MAX_ULP <= 1,
+    "the SSAT rounding guard's tally counts tanh <= 2 ulp, exp and ln <= 1 ulp"
+);
 
 /// The smooth replacement for `max(y_1..y_15)`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

@@ -31,11 +31,15 @@ pub struct Row<const NU: usize> {
     /// Whether the row applies this cycle (its instance is filled, its condition holds);
     /// set by [`BarrierSet::evaluate`]. An inactive row keeps stale values.
     pub active: bool,
+    /// The row was not evaluated this cycle: its family's lower bound on `h` for the
+    /// instance was above the activation threshold ([`BarrierSet::cull_above`]), so it
+    /// could not take part. `lie[0]` holds that bound (≤ the true `h`); the rest is zero.
+    pub culled: bool,
 }
 
 impl<const NU: usize> Row<NU> {
     /// An inactive row of zeros: the value storage starts from.
-    pub const ZERO: Self = Self { lie: [0.0; MAX_RELATIVE_DEGREE + 1], lg: [0.0; NU], active: false };
+    pub const ZERO: Self = Self { lie: [0.0; MAX_RELATIVE_DEGREE + 1], lg: [0.0; NU], active: false, culled: false };
 
     /// The barrier value `h = lie[0]`, safe when ≥ 0.
     pub fn h(&self) -> f64 {
@@ -56,6 +60,18 @@ impl<const NU: usize> Row<NU> {
             self.lg[col] = v;
         }
         self.active = true;
+        self.culled = false;
+    }
+
+    /// Store a row that was not evaluated because `bound ≤ h` is above its activation
+    /// threshold: `h` reads as the bound, the derivatives as zero, and the row stays out
+    /// of the QP as a far row always does.
+    pub fn cull(&mut self, bound: f64) {
+        self.lie = [0.0; MAX_RELATIVE_DEGREE + 1];
+        self.lie[0] = bound;
+        self.lg = [0.0; NU];
+        self.active = true;
+        self.culled = true;
     }
 }
 
@@ -341,6 +357,16 @@ pub trait BarrierSet<const NU: usize> {
     /// A state, time or parameter outside its domain, or `params` laid out for another
     /// capacity. Rows are left as they were.
     fn evaluate(&mut self, t: f64, x: &Self::State, params: &Self::Params) -> Result<(), CbfError>;
+
+    /// From now on, skip the rows of an instance of family `k` whose family's lower bound
+    /// on `h` (declared in the spec, `lower_bound=`) exceeds `thresholds[k]`: they are
+    /// stored with [`Row::cull`] instead of evaluated. The filter passes each family's
+    /// activation threshold, above which a row takes no part anyway, so culling changes
+    /// the cost of an update, never its input. `+∞` (the start) culls nothing. Barrier
+    /// sets without bounds ignore it.
+    fn cull_above(&mut self, thresholds: &[f64]) {
+        let _ = thresholds;
+    }
 }
 
 /// Instances of one capacity-sized family, filled at run time up to a capacity fixed at
@@ -493,8 +519,8 @@ mod tests {
 
     #[test]
     fn a_stored_row_keeps_only_its_own_derivatives_and_columns() {
-        let mut row = Row::<3> { lie: [9.0; MAX_RELATIVE_DEGREE + 1], lg: [9.0; 3], active: false };
+        let mut row = Row::<3> { lie: [9.0; MAX_RELATIVE_DEGREE + 1], lg: [9.0; 3], active: false, culled: true };
         row.store(&[1.0, 2.0, 3.0], &[4.0], &[2]);
-        assert_eq!(row, Row { lie: [1.0, 2.0, 3.0, 0.0, 0.0], lg: [0.0, 0.0, 4.0], active: true });
+        assert_eq!(row, Row { lie: [1.0, 2.0, 3.0, 0.0, 0.0], lg: [0.0, 0.0, 4.0], active: true, culled: false });
     }
 }

@@ -73,7 +73,7 @@ def render(repo_root: Path = REPO_ROOT) -> dict[str, str]:
     mod_lines = [_header(digest), "//! Kernels emitted by the symbolic stage.\n"]
     for name, (doc, build) in MODULES.items():
         items = build()
-        body = "\n".join(emit_kernel(item) for item in items)
+        body = "\n".join(emit_kernel(item, "crate") for item in items)
         body += "\n" + emit_kernel_table(items, "crate", f"`{name}`")
         module_doc = "".join(f"//! {rustdoc_text(line)}".rstrip() + "\n" for line in doc.strip().splitlines())
         lint = ("#![allow(clippy::all, clippy::pedantic, unused_parens, unused_variables)]\n"

@@ -617,6 +617,7 @@ class Family:
     priority: int
     activation: float
     doc: str
+    lower_bound: Callable[[FamilyContext], se.Expr] | None = None
 
     @property
     def instances_doc(self) -> str:
@@ -832,6 +833,7 @@ class System:
                capacity: bool | int = False, optional: bool = False, over: Sequence[str] | None = None,
                time: bool = False, poles: Sequence[float] | None = None,
                priority: int = 0, activation: float = math.inf,
+               lower_bound: Callable[[FamilyContext], se.Expr] | None = None,
                doc: str = "") -> None:
         """Declare a barrier family h(x, params[, t]) >= 0.
 
@@ -855,6 +857,15 @@ class System:
         links), and each member gets its own kernel, its own instances (``count`` or a
         capacity per member) and rows, members in ``over`` order. All members share the
         parameters, row names, relative degree and defaults.
+
+        ``lower_bound=lambda p: ...`` (with an ``activation`` threshold and parameters)
+        gives one cheap expression of the same ``p`` that is **never above any row's h**
+        of the instance, at any state and parameter value (bounding spheres, face axes:
+        ``symbolic.families.ssat.lower_bound``, ``sphere_box.lower_bound``). Where it
+        exceeds the activation threshold the instance's rows are not evaluated that cycle:
+        they could not take part. It changes the cost of an update, never its input, as
+        long as it is a true bound: the generated ``<family>_lower_bound`` kernel is in the
+        module's kernel table, so test it against the rows (a property test over states).
         """
         where = f"{self.where}, family {name!r}"
         check_identifier(self.where, "family name", name, module_item=True)
@@ -914,9 +925,15 @@ class System:
             raise SpecError(f"{where}: activation {activation} must be > 0 (inf = always active)")
         if not isinstance(doc, str):
             raise SpecError(f"{where}: doc must be a string")
+        if lower_bound is not None:
+            if not callable(lower_bound):
+                raise SpecError(f"{where}: lower_bound must be a function of the parameters (lambda p: ...)")
+            if not parsed or math.isinf(activation):
+                raise SpecError(f"{where}: lower_bound skips instances above the activation threshold; it needs "
+                                "params (instances) and a finite activation")
         self.families.append(Family(name, h, parsed, None if capacity else count, capacity, max_capacity,
                                     optional, labels,
-                                    time, pole_list, priority, activation, doc))
+                                    time, pole_list, priority, activation, doc, lower_bound))
 
     # -------------------------------------------------- constants and outputs
     def constant(self, name: str, value: object, doc: str) -> None:

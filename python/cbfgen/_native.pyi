@@ -262,10 +262,11 @@ class FilterOutput:
     @property
     def solve_time_us(self) -> float: ...
     @property
-    def cpu_time_us(self) -> float:
+    def cpu_time_us(self) -> float | None:
         """The thread's CPU time over the whole update [us], beside its wall time
-        eval_time_us + solve_time_us (far less CPU than wall = the thread waited). 0
-        where the platform has no per-thread clock."""
+        eval_time_us + solve_time_us (far less CPU than wall = the thread waited). None
+        unless the filter was built with measure_cpu_time=True, or where the platform has
+        no per-thread clock."""
 
 class EcbfFilter:
     """The ECBF-QP safety filter of any system. Keyword settings override the spec's
@@ -273,7 +274,10 @@ class EcbfFilter:
     input_weights, input_min, input_max have nu values; backend picks the solver (one of
     SOLVERS, else ValueError) and dense_max_steps bounds the dense solve (1 ..=
     MAX_ITERATIONS, else CbfError); eps_abs, eps_rel, max_iter, polish and time_limit_us
-    tune OSQP."""
+    tune OSQP; measure_cpu_time=True reads the thread's CPU clock around each update
+    (off by default: each reading is a system call); cull_far_rows=False evaluates every
+    row every cycle (by default rows whose lower bound is above their activation threshold
+    are skipped: the same input, less work)."""
 
     def __init__(
         self,
@@ -293,6 +297,8 @@ class EcbfFilter:
         max_iter: int | None = None,
         polish: bool | None = None,
         time_limit_us: float | None = None,
+        measure_cpu_time: bool | None = None,
+        cull_far_rows: bool | None = None,
     ) -> None: ...
     @property
     def system(self) -> str: ...
@@ -313,6 +319,10 @@ class EcbfFilter:
     def lg_lf(self) -> Matrix | None: ...
     @property
     def applicable(self) -> list[bool]: ...
+    @property
+    def culled(self) -> list[bool]:
+        """Rows not evaluated at the last update: their family's lower bound was above the
+        activation threshold (h holds that bound). All False with cull_far_rows=False."""
     @property
     def active(self) -> list[bool]: ...
     @property

@@ -789,11 +789,12 @@ impl PyFilterOutput {
 
     /// The thread's CPU time over the whole update (evaluation and solve) \[µs\], beside
     /// its wall time ``eval_time_us + solve_time_us``: far less CPU than wall time means
-    /// the thread waited (a VM stall, preemption) rather than worked. 0 where the platform
-    /// has no per-thread clock.
+    /// the thread waited (a VM stall, preemption) rather than worked. None unless the
+    /// filter was built with ``measure_cpu_time=True`` (one clock reading costs a system
+    /// call), or where the platform has no per-thread clock.
     #[getter]
-    fn cpu_time_us(&self) -> f64 {
-        self.out.cpu_time.as_secs_f64() * 1e6
+    fn cpu_time_us(&self) -> Option<f64> {
+        self.out.cpu_time.map(|t| t.as_secs_f64() * 1e6)
     }
 
     fn __repr__(&self) -> String {
@@ -856,11 +857,13 @@ fn settings(system: &dyn DynSystem, kw: Option<&Bound<'_, PyDict>>) -> PyResult<
             "max_iter" => s.solver.max_iter = value.extract()?,
             "polish" => s.solver.polish = value.extract()?,
             "time_limit_us" => s.solver.time_limit = Some(time_limit(value.extract()?)?),
+            "measure_cpu_time" => s.measure_cpu_time = value.extract()?,
+            "cull_far_rows" => s.cull_far_rows = value.extract()?,
             other => {
                 return Err(crate::value_error(format!(
                     "unknown setting '{other}': expected activation, priority, poles, input_weights, \
-                     input_min, input_max, backend, dense_max_steps, eps_abs, eps_rel, max_iter, polish or \
-                     time_limit_us"
+                     input_min, input_max, backend, dense_max_steps, eps_abs, eps_rel, max_iter, polish, \
+                     time_limit_us, measure_cpu_time or cull_far_rows"
                 )))
             }
         }
@@ -875,8 +878,12 @@ fn settings(system: &dyn DynSystem, kw: Option<&Bound<'_, PyDict>>) -> PyResult<
 /// values; ``input_weights``, ``input_min``, ``input_max`` have nu values; ``backend``
 /// picks the solver (one of ``SOLVERS``: "dense", "osqp", "dense_then_osqp"), and
 /// ``dense_max_steps`` bounds the dense solve's steps (1 ..= ``MAX_ITERATIONS``);
-/// ``eps_abs``, ``eps_rel``, ``max_iter``, ``polish`` and ``time_limit_us`` tune OSQP. See
-/// the Rust docs of ``cbfgen::filter`` for the failure policy.
+/// ``eps_abs``, ``eps_rel``, ``max_iter``, ``polish`` and ``time_limit_us`` tune OSQP;
+/// ``measure_cpu_time=True`` reads the thread's CPU clock around each update (off by
+/// default: a system call per reading); ``cull_far_rows=False`` evaluates every row every
+/// cycle (by default rows whose spec-declared lower bound is above their activation
+/// threshold are skipped: the same input, less work). See the Rust docs of ``cbfgen::filter`` for the
+/// failure policy.
 #[pyclass(name = "EcbfFilter", module = "cbfgen")]
 pub struct PyEcbfFilter {
     system: &'static dyn DynSystem,
@@ -989,6 +996,16 @@ impl PyEcbfFilter {
     #[getter]
     fn applicable(&self) -> PyResult<Vec<bool>> {
         Ok(applicable(self.lock()?.as_ref()))
+    }
+
+    /// Whether each row was culled at the last update: its family's lower bound was above
+    /// the activation threshold, so the row was not evaluated (its ``h`` holds that bound)
+    /// and could not take part. All False with ``cull_far_rows=False``.
+    #[getter]
+    fn culled(&self) -> PyResult<Vec<bool>> {
+        let f = self.lock()?;
+        let rows = f.as_ref();
+        Ok((0..rows.layout().len()).map(|i| rows.row(i).is_some_and(|r| r.culled)).collect())
     }
 
     /// Whether each row took part in the last QP (applicable and below its activation).

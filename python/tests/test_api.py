@@ -268,9 +268,16 @@ def test_a_setting_given_as_none_keeps_the_spec_default():
     assert t3.ecbf_filter(poles={"body_edge": [5.0, 6.0]}).family_settings["body_edge"][0] == [5.0, 6.0]
 
 
+def test_cpu_time_is_measured_only_when_asked_for():
+    course = t3.Course("step")
+    x = course.initial_state()
+    out = t3.ecbf_filter().update(x, course.plan(0.0, x), course.environment)
+    assert out.cpu_time_us is None
+
+
 def test_cpu_time_is_reported_beside_wall_time():
     course = t3.Course("step")
-    safety = t3.ecbf_filter()
+    safety = t3.ecbf_filter(measure_cpu_time=True)
     x = course.initial_state()
     cpu, wall = [], []
     for k in range(30):
@@ -443,3 +450,24 @@ def test_priorities_are_settings_and_out_of_range_ones_raise():
         "joint_limits": 0, "foot_height": 1, "stability": 2, "body_edge": 0, "toe_edge": 0, "foothold": 3}
     with pytest.raises(cbfgen.CbfError, match="priority tier"):
         t3.ecbf_filter(priority={"foothold": 16})
+
+
+def test_culled_rows_change_no_input_and_hold_a_bound_below_h():
+    # The stairs at their start: the upper steps' edge cuboids are far from the robot. A
+    # filter that culls them and one that evaluates every row return the same input; a
+    # culled row's h is a lower bound, above its family's activation, of the full h.
+    course = t3.Course("stairs")
+    culling, full = t3.ecbf_filter(), t3.ecbf_filter(cull_far_rows=False)
+    x = course.initial_state()
+    for k in range(20):
+        u_ref = course.plan(k * t3.DT, x)
+        a = culling.update(x, u_ref, course.environment)
+        b = full.update(x, u_ref, course.environment)
+        assert np.array_equal(a.u, b.u)
+        culled = np.array(culling.culled)
+        assert not np.any(full.culled)
+        assert not np.any(culled & np.array(culling.active))
+        h_bound, h_full = culling.lie[:, 0], full.lie[:, 0]
+        assert np.all(h_bound[culled] <= h_full[culled])
+        x = x + t3.DT * t3.SYSTEM.xdot(x, a.u)
+    assert culled.sum() > 0, "nothing was far enough to cull"

@@ -131,7 +131,7 @@ pub use qp::{EcbfQp, RowSpec};
 pub use settings::{domain, FilterSettings};
 pub use verdict::{Cause, FamilyRelaxation, Limit, RelaxedRow, Safety, Verdict};
 
-use crate::cpu_time::Stopwatch;
+use crate::cpu_time::thread_cpu_time;
 use crate::error::CbfError;
 use crate::system::{BarrierSet, Row};
 
@@ -209,9 +209,10 @@ pub struct Output<U> {
     pub solve_time: Duration,
     /// The thread's CPU time over the whole update (evaluation and solve), beside its wall
     /// time `eval_time + solve_time`: a gap between the two is the thread waiting (a VM
-    /// stall, preemption), not work. `Duration::ZERO` where the platform has no thread
-    /// clock ([`crate::cpu_time`]).
-    pub cpu_time: Duration,
+    /// stall, preemption), not work. `None` unless
+    /// [`FilterSettings::measure_cpu_time`] asks for it, or where the platform has no
+    /// thread clock ([`crate::cpu_time`]).
+    pub cpu_time: Option<Duration>,
 }
 
 impl<U> Output<U> {
@@ -263,8 +264,12 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
     /// Settings outside their domain or not matching the families
     /// ([`FilterSettings::validate`]), a row naming an input column twice, or an OSQP
     /// set-up failure.
-    pub fn new(barriers: B, settings: FilterSettings<NU>) -> Result<Self, CbfError> {
+    pub fn new(mut barriers: B, settings: FilterSettings<NU>) -> Result<Self, CbfError> {
         settings.validate(barriers.families())?;
+        if settings.cull_far_rows {
+            let thresholds: Vec<f64> = settings.families.iter().map(|p| p.activation).collect();
+            barriers.cull_above(&thresholds);
+        }
         let gains: Vec<_> = settings.families.iter().map(|p| p.gains()).collect();
         let specs: Vec<RowSpec<'_>> = barriers
             .layout()
@@ -304,7 +309,7 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
                 consecutive_fallbacks: 0,
                 eval_time: Duration::ZERO,
                 solve_time: Duration::ZERO,
-                cpu_time: Duration::ZERO,
+                cpu_time: None,
             },
         })
     }
@@ -340,7 +345,7 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
         params: &B::Params,
     ) -> Result<&FilterOutput<NU>, CbfError> {
         settings::validate_nominal(u_ref)?;
-        let watch = Stopwatch::start();
+        let cpu_start = if self.settings.measure_cpu_time { thread_cpu_time() } else { None };
         let start = Instant::now();
         self.barriers.evaluate(t, x, params)?;
         let mut active_rows = 0;
@@ -409,7 +414,7 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
             out.safety = Safety { verdict, relaxed_rows, worst };
         }
         out.solve_time = evaluated.elapsed();
-        out.cpu_time = watch.elapsed().1;
+        out.cpu_time = cpu_start.and_then(|a| Some(thread_cpu_time()?.saturating_sub(a)));
         Ok(&self.output)
     }
 

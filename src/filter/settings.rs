@@ -28,11 +28,24 @@ pub struct FilterSettings<const NU: usize> {
     pub input_max: [f64; NU],
     /// OSQP's settings for the QP.
     pub solver: SolverSettings,
+    /// Read the thread's CPU clock around each update ([`Output::cpu_time`]). Off by
+    /// default: on Linux one reading is a system call (0.2–0.5 µs, two per update), more
+    /// than a small system's whole update; simulations and latency harnesses turn it on.
+    ///
+    /// [`Output::cpu_time`]: super::Output::cpu_time
+    pub measure_cpu_time: bool,
+    /// Skip evaluating the rows whose family's lower bound on `h` already puts them above
+    /// the activation threshold ([`BarrierSet::cull_above`]): on by default. The input is
+    /// the same bit for bit either way; off, every row is evaluated every cycle (to read
+    /// every far row's exact `h`).
+    ///
+    /// [`BarrierSet::cull_above`]: crate::system::BarrierSet::cull_above
+    pub cull_far_rows: bool,
 }
 
 impl<const NU: usize> FilterSettings<NU> {
     /// The families' own defaults (from their spec), unit input weights, these input
-    /// limits and [`SolverSettings::default`].
+    /// limits, [`SolverSettings::default`], no CPU clock, far rows culled.
     pub fn defaults(families: &[FamilyInfo], input_min: [f64; NU], input_max: [f64; NU]) -> Self {
         Self {
             families: families.iter().map(|f| f.defaults).collect(),
@@ -40,6 +53,8 @@ impl<const NU: usize> FilterSettings<NU> {
             input_min,
             input_max,
             solver: SolverSettings::default(),
+            measure_cpu_time: false,
+            cull_far_rows: true,
         }
     }
 

@@ -54,6 +54,9 @@ class FamilyDefinition:
     poles: tuple[float, ...]
     priority: int
     activation: float
+    # Per member (as ``kernels``), the value kernel of the spec's ``lower_bound``; empty
+    # when the family declares none.
+    bounds: tuple[Kernel, ...] = ()
     # What the generator noticed about the family that a user should know (printed when
     # it generates, and in the module's docs).
     warnings: tuple[str, ...] = ()
@@ -88,7 +91,7 @@ class SystemDefinition:
     def kernels(self) -> list[Kernel]:
         """Every kernel, in the order a backend emits them."""
         return ([self.drift, self.input_matrix, self.input_nonzeros]
-                + [k for f in self.families for k in f.kernels] + list(self.outputs))
+                + [k for f in self.families for k in (*f.kernels, *f.bounds)] + list(self.outputs))
 
 
 def _base_symbols(kernel: Kernel):
@@ -183,12 +186,18 @@ def _family(system: System, family: Family) -> FamilyDefinition:
                         f"{degree}; give {degree} poles (or omit poles for {degree} x {DEFAULT_POLE:g})")
     else:
         poles = tuple(family.poles)
+    bounds = ()
+    if family.lower_bound is not None:
+        labels = family.over or [None]
+        bounds = tuple(_lower_bound(system, family, f"{where}, lower_bound" + (f", member {lb!r}" if lb else ""),
+                                    b.kernel.name, i if lb else None, lb, required)
+                       for i, (lb, b) in enumerate(zip(labels, built, strict=True)))
     return FamilyDefinition(family.name, family.doc, tuple(b.kernel for b in built), degree,
                             built[0].row_names, tuple(b.columns for b in built),
                             tuple(b.row_columns for b in built), _checked_params(family, required),
                             family.count, family.capacity, family.max_capacity, family.optional,
                             tuple(family.over or ()),
-                            family.time, poles, family.priority, family.activation)
+                            family.time, poles, family.priority, family.activation, bounds)
 
 
 def _one_sided_authority(system: System, families: tuple[FamilyDefinition, ...]) -> tuple[FamilyDefinition, ...]:
@@ -288,6 +297,40 @@ def _member(system: System, family: Family, where: str, kernel_name: str, index:
         elif "share a relative degree" in text:
             text = f"its rows have different relative degrees; split them into families ({text})"
         raise SpecError(f"{where}: {text}") from exc
+
+
+def _lower_bound(system: System, family: Family, where: str, row_kernel: str, index: int | None,
+                 label: str | None, required: dict[str, tuple[Domain, str]]) -> Kernel:
+    """The value kernel of ``family.lower_bound`` for one member: the row kernel's inputs,
+    one scalar out, no derivatives."""
+    k = Kernel(f"{row_kernel}_lower_bound",
+               f"A lower bound on every row's h of one instance of `{row_kernel}` (the spec's `lower_bound`): "
+               "where it is above the family's activation threshold, the rows are not evaluated.")
+    k.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
+    time = k.scalar_input("t", "time t [s]") if family.time else None
+    try:
+        values, param_symbols = _declare_params(k, family)
+    except ValueError as exc:
+        raise SpecError(f"{where}: {exc}") from exc
+    # The kernel itself lets and takes maxima: nothing here is differentiated.
+    ctx = FamilyContext(where, k, k, values, time, index, label, family.params, required)
+    with ctx.active():
+        bound = family.lower_bound(ctx)
+    if isinstance(bound, (list, tuple)):
+        raise SpecError(f"{where}: returns one expression (a bound for every row of the instance), got a list")
+    try:
+        bound = se.sympify(bound)
+    except (TypeError, ValueError, se.SympifyError) as exc:
+        raise SpecError(f"{where}: returns {bound!r}, not an expression") from exc
+    allowed = frozenset(system.x) | frozenset().union(*param_symbols.values())
+    if time is not None:
+        allowed |= {time}
+    stray = _base_symbols(k)(bound) - allowed
+    if stray:
+        raise SpecError(f"{where}: uses {sorted(map(str, stray))}, which are not states, time or declared "
+                        "parameters")
+    k.output_scalar("bound", bound, "never above any row's h of the instance")
+    return k
 
 
 def _output(system: System, output: Output) -> Kernel:

@@ -5,6 +5,11 @@ All outputs of a kernel (value, gradient, Hessian, ...) go through a single
 demand, depth first from the outputs, so every temporary, ``let`` and runtime max is
 computed exactly once and only if something needs it. A backend prints the steps in
 order; nothing here knows a target language.
+
+Transcendental calls (``exp``, ``tanh``, ``log``) are gathered into batches the runtime
+evaluates in SIMD lanes: the calls of one function whose arguments need the same number
+of earlier transcendental calls (the SSAT value's 24 ``tanh`` at depth 1, its 15 ``exp`` at
+depth 2) become one ``"lanes"`` step, computed once all their arguments are.
 """
 
 from __future__ import annotations
@@ -16,16 +21,22 @@ import symengine as se
 
 from ..kernel import Kernel
 
+# The functions the runtime evaluates in lanes, by SymEngine's name for them.
+LANE_FUNCTIONS = ("exp", "tanh", "log")
+
 
 @dataclass(frozen=True)
 class Step:
     """One assignment: ``symbol`` from ``rhs``. ``kind`` is ``"let"`` (a named
-    intermediate of the spec), ``"max"`` (a runtime max over ``rhs``) or ``"tmp"`` (a
-    common subexpression)."""
+    intermediate of the spec), ``"max"`` (a runtime max over ``rhs``), ``"tmp"`` (a
+    common subexpression) or ``"lanes"``: ``symbols[i] = function(rhs[i])`` for every
+    ``i``, one batched call (``symbol`` is ``symbols[0]``)."""
 
     symbol: se.Symbol
     kind: str
     rhs: Sequence[se.Expr]
+    function: str = ""
+    symbols: tuple[se.Symbol, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -63,6 +74,8 @@ def straight_line(kernel: Kernel) -> StraightLine:
     order = {sym: i for i, sym in enumerate([let.symbol for let in kernel.lets]
                                             + [r.symbol for r in kernel.reductions]
                                             + [s for s, _ in replacements])}
+    batches = _gather_lanes(defs, order, outputs)
+    order.update({sym: len(order) + i for i, sym in enumerate(batches)})
 
     steps: list[Step] = []
     done: set = set()
@@ -70,9 +83,17 @@ def straight_line(kernel: Kernel) -> StraightLine:
 
     def visit(expr: se.Expr) -> None:
         for sym in sorted(expr.free_symbols, key=lambda s: order.get(s, -1)):
-            if sym not in defs:
+            if sym in done:
+                continue
+            if sym in batches:
+                function, symbols, args = batches[sym]
+                done.update(symbols)
+                for a in args:
+                    visit(a)
+                steps.append(Step(symbols[0], "lanes", args, function, symbols))
+            elif sym not in defs:
                 used_inputs.add(sym)
-            elif sym not in done:
+            else:
                 done.add(sym)
                 kind, rhs = defs[sym]
                 for r in rhs:
@@ -82,3 +103,87 @@ def straight_line(kernel: Kernel) -> StraightLine:
     for e in outputs:
         visit(e)
     return StraightLine(steps, outputs, used_inputs)
+
+
+def _lane_call(e: se.Expr) -> tuple[str, se.Expr] | None:
+    """``(function, argument)`` if ``e`` is a call the runtime batches, else None."""
+    if isinstance(e, se.Pow) and e.args[0] == se.E:
+        return "exp", e.args[1]
+    name = type(e).__name__
+    if name in ("tanh", "log") and len(e.args) == 1:
+        return name, e.args[0]
+    return None
+
+
+def _gather_lanes(defs: dict, order: dict, outputs: list[se.Expr]
+                  ) -> dict[se.Symbol, tuple[str, tuple[se.Symbol, ...], list[se.Expr]]]:
+    """Replace every batched call in ``defs`` and ``outputs`` (in place) by a new symbol,
+    and group the calls by function and depth (how many batched calls deep their argument
+    is). Returns, for each new symbol, its group: ``(function, symbols, arguments)``.
+    Deterministic: symbols are numbered in the order the calls are met, definitions in
+    ``order`` first, then the outputs."""
+    calls: dict[tuple[str, se.Expr], se.Symbol] = {}
+    call_args: dict[se.Symbol, tuple[str, se.Expr]] = {}
+    rebuilt: dict[se.Expr, se.Expr] = {}
+
+    def rebuild(e: se.Expr) -> se.Expr:
+        if not e.args or not e.free_symbols:
+            return e  # atoms, and constant calls such as ln(15), which print as literals
+        hit = rebuilt.get(e)
+        if hit is not None:
+            return hit
+        args = [rebuild(a) for a in e.args]
+        call = _lane_call(e)
+        if call is not None:
+            function = call[0]
+            argument = args[1] if function == "exp" else args[0]
+            key = (function, argument)
+            out = calls.get(key)
+            if out is None:
+                out = se.Symbol(f"_lane{len(calls)}")
+                calls[key] = out
+                call_args[out] = key
+        elif any(a is not b for a, b in zip(args, e.args, strict=True)):
+            out = e.func(*args)
+        else:
+            out = e
+        rebuilt[e] = out
+        return out
+
+    for sym in sorted(defs, key=lambda s: order.get(s, -1)):
+        kind, rhs = defs[sym]
+        defs[sym] = (kind, [rebuild(r) for r in rhs])
+    outputs[:] = [rebuild(e) for e in outputs]
+    if not calls:
+        return {}
+
+    depth: dict[se.Symbol, int] = {}
+
+    def depth_of(sym: se.Symbol) -> int:
+        # Iterative over the definitions' symbols: kernels nest thousands deep.
+        stack = [sym]
+        while stack:
+            top = stack[-1]
+            if top in depth:
+                stack.pop()
+                continue
+            exprs = [call_args[top][1]] if top in call_args else defs[top][1] if top in defs else []
+            pending = [s for e in exprs for s in e.free_symbols
+                       if (s in defs or s in call_args) and s not in depth]
+            if pending:
+                stack.extend(pending)
+                continue
+            below = max((depth[s] for e in exprs for s in e.free_symbols if s in depth), default=0)
+            depth[top] = below + (1 if top in call_args else 0)
+            stack.pop()
+        return depth[sym]
+
+    groups: dict[tuple[str, int], list[se.Symbol]] = {}
+    for sym in call_args:  # in the order the calls were met
+        groups.setdefault((call_args[sym][0], depth_of(sym)), []).append(sym)
+    batches = {}
+    for (function, _), symbols in groups.items():
+        group = (function, tuple(symbols), [call_args[s][1] for s in symbols])
+        for s in symbols:
+            batches[s] = group
+    return batches

@@ -92,6 +92,23 @@ def clearance(let_, point: Sequence[se.Expr], center: Sequence[se.Expr], rotatio
     return smooth_distance(rel, half, alpha, let_) - radius - margin(alpha)
 
 
+BOUND_ROUNDING = 1e-12
+"""Relative allowance :func:`lower_bound` subtracts, of the scale |rel|_1 + sum(half) +
+radius + 1/alpha: h and its bound each round by far less."""
+
+
+def lower_bound(let_, runtime_max, point: Sequence[se.Expr], center: Sequence[se.Expr],
+                rotation: Sequence[Sequence[se.Expr]], half: Sequence[se.Expr], radius: se.Expr, alpha: se.Expr,
+                name: str = "bound_rel") -> se.Expr:
+    """A cheap bound never above :func:`clearance`: the exact distance D from the centre to
+    the box is at least the largest ``|rel_i| - half_i`` (0 inside), and h >= D - radius -
+    ``conservatism`` everywhere (see the module doc). Square-root free."""
+    rel = relative_position(let_, point, center, rotation, name)
+    gaps = [se.Abs(rel[i]) - half[i] for i in range(3)]
+    scale = se.Add(*[se.Abs(c) for c in rel]) + se.Add(*half) + radius + 1 / alpha
+    return runtime_max(f"{name}_gap", gaps) - radius - conservatism(alpha) - BOUND_ROUNDING * scale
+
+
 # ---------------------------------------------------------------- kernel library
 class _Inputs:
     def __init__(self, k: Kernel, with_pose: bool = True):

@@ -111,6 +111,35 @@ def relative_pose(let_, p_a, r_a, p_b, r_b):
     return t, rot
 
 
+BOUND_ROUNDING = 1e-12
+"""Relative allowance the lower bounds subtract, of the pair's scale (sum of |t| and of
+the half extents): both h and its bound round by about 1e-14 of it (the runtime's SSAT
+rounding guard tallies h's at 240 u), so a bound that is tight in exact arithmetic stays
+below the computed h."""
+
+
+def lower_bound(let_, runtime_max, t: Sequence[se.Expr], rot: Sequence[Sequence[se.Expr]],
+                half_a: Sequence[se.Expr], half_b: Sequence[se.Expr], sabs: SmoothAbs, smax: SmoothMax,
+                alpha: se.Expr, alpha_rot: se.Expr, margin: se.Expr) -> se.Expr:
+    """A cheap bound never above ``smax(ys) - margin`` (the SSAT row's h): the six face axes
+    of the exact SAT, less what smoothing can take from each, less the margin. Along a
+    face axis the smoothed centre term is at most ``sabs.under(alpha)`` below ``|t|`` and
+    each smoothed extent ``|R_ij|`` at most ``sabs.over(alpha_rot)`` above it; log-sum-exp
+    is never below its largest argument. (The Boltzmann operator can be far below it:
+    no bound from the axes.) About 60 operations and no transcendental call, against the
+    row's value and Lie derivatives."""
+    if smax is not SMOOTH_MAX["lse"]:
+        raise ValueError(f"lower_bound needs a smooth max never below the max (lse), not {smax.name}")
+    slack = sabs.under(alpha) + sabs.over(alpha_rot) * (se.Add(*half_a) + se.Add(*half_b))
+    faces = [se.Abs(t[i]) - half_a[i] - se.Add(*[half_b[j] * se.Abs(rot[i][j]) for j in range(3)])
+             for i in range(3)]
+    for j in range(3):
+        proj = se.Add(*[rot[i][j] * t[i] for i in range(3)])
+        faces.append(se.Abs(proj) - half_b[j] - se.Add(*[half_a[i] * se.Abs(rot[i][j]) for i in range(3)]))
+    scale = se.Add(*[se.Abs(c) for c in t]) + se.Add(*half_a) + se.Add(*half_b)
+    return runtime_max("face_sat", faces) - slack - margin - BOUND_ROUNDING * scale
+
+
 def certified_margin(kernel: Kernel, smax: SmoothMax, axes, alpha: se.Expr) -> se.Expr:
     """m with h - m >= 0 => no overlap: the smooth max's overshoot plus the worst axis's
     overshoot bound (the second element of each ``separating_axes`` pair)."""

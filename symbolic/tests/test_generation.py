@@ -54,10 +54,35 @@ def test_kernel_signature_and_unpacking():
     v = k.array_input("v", "xy", "a vector")
     s = k.scalar_input("s", "a scalar")
     k.output_vector("out", [se.tanh(s * v[0]) * v[1] ** 3, se.log(v[1] ** 2 + 1) / (v[0] - 3)], "outputs")
-    text = emit_kernel(k)
+    text = emit_kernel(k, "cbfgen")
     assert "pub fn probe(v: &[f64; 2], s: f64) -> [f64; 2] {" in text
     assert "let v_x = v[0];" in text and "let v_y = v[1];" in text
-    assert ".tanh()" in text and ".ln()" in text and "powf" not in text
+    # Lone transcendental calls take the runtime's bounded one-argument forms, not libm's.
+    assert "cbfgen::lanes::tanh1(" in text and "cbfgen::lanes::ln1(" in text
+    assert ".tanh()" not in text and ".ln()" not in text and "powf" not in text
+
+
+def test_independent_transcendental_calls_are_batched_by_depth():
+    from symbolic.codegen.straight_line import straight_line
+
+    k = Kernel("batched", "Three tanh, two exp over them, one log over those.")
+    v = k.array_input("v", "xyz", "a vector")
+    a = k.scalar_input("a", "a sharpness")
+    t = [se.tanh(a * c) * c for c in v]
+    e = [se.exp(t[0] - t[1]), se.exp(t[2] * v[0])]
+    k.output_scalar("out", se.log(e[0] + e[1] + 1) + t[0], "a value")
+    code = straight_line(k)
+    batches = [(s.function, len(s.symbols)) for s in code.steps if s.kind == "lanes"]
+    assert batches == [("tanh", 3), ("exp", 2), ("log", 1)]
+    # Every batch comes after all its arguments' definitions and before any use.
+    defined = {sym for inp in k.inputs for sym in inp.symbols}
+    for step in code.steps:
+        for r in step.rhs:
+            assert r.free_symbols <= defined, step
+        defined |= set(step.symbols or (step.symbol,))
+    text = emit_kernel(k, "crate")
+    assert text.count("crate::lanes::tanh([") == 1 and text.count("crate::lanes::exp([") == 1
+    assert text.count("crate::lanes::ln1(") == 1
 
 
 def test_doc_text_escapes_brackets_outside_code_spans_only():
@@ -77,7 +102,7 @@ def test_a_literal_temporary_compiles(tmp_path):
     angle = se.RealDouble(0.25) * se.pi  # stays symbolic until printed
     k.output_vector("out", [se.sin(angle) * v[0] + se.cos(angle) * v[1], se.cos(angle) * v[0]], "outputs")
     source = tmp_path / "literal.rs"
-    source.write_text(emit_kernel(k))
+    source.write_text(emit_kernel(k, "crate"))
     done = subprocess.run(["rustc", "--edition", "2021", "--crate-type", "lib", "--emit", "metadata",
                            "-o", str(tmp_path / "literal.rmeta"), str(source)], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
@@ -96,7 +121,7 @@ def test_a_kernel_too_deep_for_rustc_is_refused():
         outs.append(e)
     k.output_vector("out", outs, "every link of the chain")
     try:
-        emit_kernel(k)
+        emit_kernel(k, "crate")
     except SpecError as exc:
         assert "over=[...]" in str(exc)
     else:

@@ -89,7 +89,7 @@ def test_moving_a_hip_regenerates_exactly_the_kernels_that_depend_on_it(tmp_path
     assert edited != text
     (tmp_path / "tachyon3.toml").write_text(edited)
     before, after = _definition(), _definition(tmp_path / "tachyon3.toml")
-    texts = [{k.name: emit_kernel(k) for k in d.kernels()} for d in (before, after)]
+    texts = [{k.name: emit_kernel(k, "cbfgen") for k in d.kernels()} for d in (before, after)]
     changed = {name for name in texts[0] if texts[0][name] != texts[1][name]}
     assert "joint_limits_lf" in changed
     # The toes move in the hips' lateral planes: only the hip's y reaches the toe rows.

@@ -119,7 +119,8 @@ impl Scenario {
             kd: 8.0,
             cruise_speed: 0.8,
             filter: true,
-            settings: gen::default_settings(),
+            // The samples report the update's CPU time beside its wall time.
+            settings: FilterSettings { measure_cpu_time: true, ..gen::default_settings() },
         }
     }
 
@@ -230,7 +231,8 @@ pub struct Sample {
     /// Exact SAT separation of each checked pair \[m\] (< 0: overlap), in
     /// [`Scenario::pair_names`] order.
     pub separation: Vec<f64>,
-    /// The filter update's thread CPU time (zero without the filter).
+    /// The filter update's thread CPU time (zero without the filter, or when its settings do
+    /// not measure it).
     pub cpu_time: Duration,
     /// The filter update's wall time, evaluation and solve (zero without the filter).
     pub wall_time: Duration,
@@ -304,7 +306,7 @@ impl Simulation {
         let u_ref = self.scenario.nominal(t, &x);
         let (u, source, cpu_time, wall_time) = if self.scenario.filter {
             let out = self.filter.update(&x, &u_ref, &self.params)?;
-            (out.u, Some(out.source), out.cpu_time, out.eval_time + out.solve_time)
+            (out.u, Some(out.source), out.cpu_time.unwrap_or_default(), out.eval_time + out.solve_time)
         } else {
             // The rows are still evaluated, for the figures' h.
             self.unfiltered.evaluate(0.0, &x, &self.params)?;

@@ -2,8 +2,9 @@
 //! and the whole catalog at the paper's worst case (269 rows), on the standard posture
 //! in front of a staircase of 20 edge cuboids.
 
+use cbfgen::system::BarrierSet;
 use cbfgen::OrientedBox;
-use cbfgen_tachyon3::catalog::{Capacity, Catalog, EdgeCuboid, Environment, HalfPlane, StabilityBound};
+use cbfgen_tachyon3::catalog::{self, Capacity, Catalog, EdgeCuboid, Environment, HalfPlane, StabilityBound};
 use cbfgen_tachyon3::generated as gen;
 use cbfgen_tachyon3::model::{self, State};
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -40,6 +41,8 @@ fn per_row(c: &mut Criterion) {
     let (ec, er, eh) = (&ec, &er, &eh);
     let mut g = c.benchmark_group("constraint_row");
     g.bench_function("body_edge_ssat", |b| b.iter(|| gen::body_edge(black_box(&x), ec, er, eh)));
+    g.bench_function("body_edge_lower_bound", |b| b.iter(|| gen::body_edge_lower_bound(black_box(&x), ec, er, eh)));
+    g.bench_function("toe_edge_lower_bound", |b| b.iter(|| gen::toe_edge_lower_bound(black_box(&x), ec, er, eh)));
     g.bench_function("toe_edge (6 rows, one per toe)", |b| b.iter(|| gen::toe_edge(black_box(&x), ec, er, eh)));
     g.bench_function("joint_limits (4 rows)", |b| b.iter(|| gen::JOINT_LIMITS[0](black_box(&x))));
     g.bench_function("foothold", |b| b.iter(|| gen::FOOTHOLD[0](black_box(&x), &[0.6, 0.8], 0.4)));
@@ -70,6 +73,14 @@ fn whole_catalog(c: &mut Criterion) {
     catalog.evaluate(&x, &env).expect("finite");
     assert_eq!(catalog.rows().iter().filter(|r| r.active).count(), 269);
     c.bench_function("catalog/269_rows", |b| b.iter(|| catalog.evaluate(black_box(&x), &env)));
+    // As the filter evaluates them: instances whose lower bound is above their family's
+    // activation threshold are culled, the rest evaluated in full.
+    let thresholds: Vec<f64> = catalog::default_settings().families.iter().map(|f| f.activation).collect();
+    catalog.cull_above(&thresholds);
+    catalog.evaluate(&x, &env).expect("finite");
+    let culled = catalog.rows().iter().filter(|r| r.culled).count();
+    println!("catalog/269_rows_culled: {culled} of 269 rows culled at this posture");
+    c.bench_function("catalog/269_rows_culled", |b| b.iter(|| catalog.evaluate(black_box(&x), &env)));
 }
 
 criterion_group!(benches, per_row, whole_catalog);

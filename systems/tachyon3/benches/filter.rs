@@ -26,9 +26,12 @@ use std::hint::black_box;
 fn update(c: &mut Criterion) {
     let capacity = Capacity::PAPER_WORST_CASE;
     let mut g = c.benchmark_group("filter");
-    for backend in [Solver::DenseThenOsqp, Solver::Osqp] {
+    let runs =
+        [(Solver::DenseThenOsqp, true, ""), (Solver::DenseThenOsqp, false, "/no_culling"), (Solver::Osqp, true, "")];
+    for (backend, cull_far_rows, suffix) in runs {
         let mut settings = catalog::default_settings();
         settings.solver.backend = backend;
+        settings.cull_far_rows = cull_far_rows;
         let mut filter = EcbfFilter::with_capacity(capacity, settings).expect("filter");
         let mut drive = Approach::new(capacity, Stairs::HARDWARE, 0.1, 0.3).expect("drive");
         // 1.5 s of closed loop: the front toes reach the first nosing and the filter holds them.
@@ -40,7 +43,7 @@ fn update(c: &mut Criterion) {
         let out = *filter.update(&x, &u_ref, &drive.env).expect("finite");
         let exact = out.backend == Some(Backend::Dense) || out.polished;
         assert!(out.active_rows > 100 && exact, "a binding instance: {out:?}");
-        g.bench_function(format!("update_269_rows_at_stair_edge/{}", backend.name()), |b| {
+        g.bench_function(format!("update_269_rows_at_stair_edge/{}{suffix}", backend.name()), |b| {
             b.iter(|| filter.update(black_box(&x), black_box(&u_ref), &drive.env).map(|o| o.u))
         });
     }

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import symengine as se
 
-from symbolic.families import sphere_box
+from symbolic.families import sphere_box, ssat
 from symbolic.families.ssat import certified_margin, relative_pose, separating_axes
 from symbolic.smoothing import LSE, XTANH
 from symbolic.spec import DEFAULT_TOLERANCE, Interval, Rotation, System, UnitVector
@@ -126,13 +126,16 @@ def build(model: Path | None = None) -> System:
     alpha, alpha_rot = se.RealDouble(m.ssat_alpha), se.RealDouble(m.ssat_alpha_rot)
     body_half = [se.RealDouble(v) for v in m.body_half_extents]
 
-    def body_edge(p):
+    def body_and_edge(p):
         pos = [p.let(f"body_{c}", e) for c, e in zip(AXES, robot.body_position_world(), strict=True)]
         rb = robot.body_rotation_world()
         rb = [[p.let(f"body_r{i}{j}", rb[i][j]) for j in range(3)] for i in range(3)]
         # Box A = the edge cuboid, box B = the body: the SSAT formulation in A's frame.
         t, rot = relative_pose(p.let, p.center, p.rotation, pos, rb)
-        axes = separating_axes(t, rot, p.half, body_half, XTANH, alpha, alpha_rot, p.let)
+        return t, rot, separating_axes(t, rot, p.half, body_half, XTANH, alpha, alpha_rot, p.let)
+
+    def body_edge(p):
+        t, rot, axes = body_and_edge(p)
         # Axis values, and below the LSE's exponentials and sum, as lets: the engine then
         # carries per-axis rates (y', y'') and L_f^2 h costs O(15), not a dense Hessian
         # over the twelve pose intermediates or an n^2 expansion of the smooth max.
@@ -141,8 +144,14 @@ def build(model: Path | None = None) -> System:
         # h - margin >= 0 certifies that the exact body and edge cuboid do not overlap.
         return [("body_edge", LSE(ys, alpha, shift, p.let) - certified_margin(p, LSE, axes, alpha))]
 
+    def body_edge_bound(p):
+        # The exact SAT's face axes less the smoothing's slack: no transcendental call.
+        t, rot, axes = body_and_edge(p)
+        return ssat.lower_bound(p.let, p.runtime_max, t, rot, p.half, body_half, XTANH, LSE, alpha, alpha_rot,
+                                certified_margin(p, LSE, axes, alpha))
+
     s.family("body_edge", body_edge, priority=PRIORITIES["body_edge"], capacity=MAX_EDGES, params=EDGE_PARAMS,
-             poles=poles, activation=0.5,
+             poles=poles, activation=0.5, lower_bound=body_edge_bound,
              doc="Body vs edge cuboid by the smooth SAT (eq. 10), minus its certified margin: h >= 0 proves the "
                  f"boxes do not overlap. alpha = {m.ssat_alpha}, alpha_rot = {m.ssat_alpha_rot}. Active while "
                  "h < 0.5 m.")
@@ -156,9 +165,16 @@ def build(model: Path | None = None) -> System:
                                            se.RealDouble(m.toe_radius), toe_alpha))
                 for name, leg in legs.items()]
 
+    def toe_edge_bound(p):
+        # The nearest toe's distance to the cuboid along its own axes, less the smoothing.
+        toes = [sphere_box.lower_bound(p.let, p.runtime_max, _toe_world(p, robot, leg), p.center, p.rotation,
+                                       p.half, se.RealDouble(m.toe_radius), toe_alpha, name=f"rel_{name}")
+                for name, leg in legs.items()]
+        return -p.runtime_max("farthest_below", [-b for b in toes])
+
     toe_margin = float(sphere_box.margin(toe_alpha))
     s.family("toe_edge", toe_edge, capacity=MAX_EDGES, params=EDGE_PARAMS, poles=poles,
-             activation=TOE_EDGE_ACTIVATION, priority=PRIORITIES["toe_edge"],
+             activation=TOE_EDGE_ACTIVATION, priority=PRIORITIES["toe_edge"], lower_bound=toe_edge_bound,
              doc="Every toe sphere vs an edge cuboid: a smooth distance from the toe centre to the cuboid "
                  f"minus the toe radius and a certified margin of {toe_margin * 1e3:.2f} mm (alpha = "
                  f"{m.toe_alpha}), so h >= 0 proves the sphere does not reach into the cuboid; one row per "

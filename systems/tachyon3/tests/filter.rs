@@ -139,7 +139,7 @@ fn one_row_is_the_weighted_projection_onto_its_half_space_by_hand() {
         let b = lie[2] + 5.0 * lie[1] + 6.0 * lie[0];
         let a_r = (0..NU).map(|j| lg[j] * u_ref[j]).sum::<f64>() + b;
         let lambda = (-a_r).max(0.0) / (0..NU).map(|j| lg[j] * lg[j] / weights[j]).sum::<f64>();
-        let row = Row { lie: [lie[0], lie[1], lie[2], 0.0, 0.0], lg, active: true };
+        let row = Row { lie: [lie[0], lie[1], lie[2], 0.0, 0.0], lg, active: true, culled: false };
         assert_eq!(qp.solve(&u_ref, &[row], &[true]), Ok(QpStatus::Solved));
         for j in 0..NU {
             let want = u_ref[j] + lambda * lg[j] / weights[j];
@@ -154,7 +154,7 @@ fn one_row_is_the_weighted_projection_onto_its_half_space_by_hand() {
 fn without_binding_rows_the_input_box_is_a_clip_by_hand() {
     let mut qp = single_row_qp(&[0, 3], &[1.0; NU], 2.0);
     let u_ref: Input = std::array::from_fn(|j| 4.0 * ((j as f64) / 8.0 - 1.0)); // −4 … 4
-    let row = Row { lie: [1.0, 0.0, 0.0, 0.0, 0.0], lg: [0.0; NU], active: true };
+    let row = Row { lie: [1.0, 0.0, 0.0, 0.0, 0.0], lg: [0.0; NU], active: true, culled: false };
     assert_eq!(qp.solve(&u_ref, &[row], &[false]), Ok(QpStatus::Solved));
     for j in 0..NU {
         assert!((qp.u()[j] - u_ref[j].clamp(-2.0, 2.0)).abs() <= 1e-6, "u[{j}]");
@@ -451,7 +451,7 @@ impl cbfgen::system::BarrierSet<1> for OneRow {
     }
 
     fn evaluate(&mut self, _t: f64, _x: &[f64; 1], h: &f64) -> Result<(), CbfError> {
-        self.rows[0] = cbfgen::system::Row { lie: [*h, 0.0, 0.0, 0.0, 0.0], lg: [1.0], active: true };
+        self.rows[0] = cbfgen::system::Row { lie: [*h, 0.0, 0.0, 0.0, 0.0], lg: [1.0], active: true, culled: false };
         Ok(())
     }
 }

@@ -137,6 +137,8 @@ fn settings() -> impl Strategy<Value = FilterSettings<NU>> {
             input_min,
             input_max,
             solver,
+            measure_cpu_time: false,
+            cull_far_rows: true,
         },
     )
 }

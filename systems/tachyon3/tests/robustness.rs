@@ -182,11 +182,11 @@ fn finite_but_overflowing_rows_never_reach_the_solver() {
     let s = catalog::default_settings();
     let spec = RowSpec { columns: &[0, 1], gains: Gains::new(&[400.0, 40.0]).expect("two gains"), priority: 0 };
     let mut qp = EcbfQp::new(&[spec], &s.input_weights, &s.input_min, &s.input_max, s.solver).expect("qp");
-    let overflowing = Row { lie: [1e307, 1e307, 1e307, 0.0, 0.0], lg: [0.0; NU], active: true };
+    let overflowing = Row { lie: [1e307, 1e307, 1e307, 0.0, 0.0], lg: [0.0; NU], active: true, culled: false };
     assert_eq!(qp.solve(&[0.0; NU], &[overflowing], &[true]), Err(CbfError::NonFiniteRow { row: 0 }));
     let mut lg = [0.0; NU];
     (lg[0], lg[1]) = (1e300, -1e300);
-    let steep = Row { lie: [-1.0, 0.0, 0.0, 0.0, 0.0], lg, active: true };
+    let steep = Row { lie: [-1.0, 0.0, 0.0, 0.0, 0.0], lg, active: true, culled: false };
     let status = qp.solve(&[1.0; NU], &[steep], &[true]).expect("finite row");
     assert!(status.is_solved(), "{status:?}");
     assert!(qp.u().iter().chain(qp.delta()).all(|v| v.is_finite()));

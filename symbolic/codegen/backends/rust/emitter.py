@@ -3,7 +3,9 @@
 The statements and their order come from the language-neutral
 :func:`~symbolic.codegen.straight_line.straight_line`; this module prints them
 (:class:`RustPrinter` for expressions): plain f64 arithmetic, no loops, no heap, integer
-powers as products, ``sqrt`` for half powers.
+powers as products, ``sqrt`` for half powers, and ``exp``/``tanh``/``ln`` through the
+runtime's ``lanes`` module (batched where the straight line batches them, its one-argument
+forms otherwise), whose error bounds the certificates count.
 """
 
 from __future__ import annotations
@@ -235,16 +237,31 @@ def _doc_lines(kernel: Kernel) -> list[str]:
 
 
 def _local_names(kernel: Kernel, code: StraightLine) -> dict[se.Symbol, str]:
-    """Inputs, lets and maxima keep their spec names; temporaries are t0, t1, ... in order."""
+    """Inputs, lets and maxima keep their spec names; temporaries (batched calls' results
+    among them) are t0, t1, ... in order."""
     names = {sym: str(sym) for inp in kernel.inputs for sym in inp.symbols}
     temporaries = 0
     for step in code.steps:
-        if step.kind == "tmp":
-            names[step.symbol] = f"t{temporaries}"
-            temporaries += 1
+        if step.kind in ("tmp", "lanes"):
+            for sym in step.symbols or (step.symbol,):
+                names[sym] = f"t{temporaries}"
+                temporaries += 1
         else:
             names[step.symbol] = str(step.symbol)
     return names
+
+
+# The runtime's `lanes` functions, by SymEngine's name.
+_LANES = {"exp": "exp", "tanh": "tanh", "log": "ln"}
+
+
+def _lanes_statement(p: RustPrinter, names: dict[se.Symbol, str], step, runtime_crate: str) -> str:
+    """One batched call: an array in, an array out; a lone call takes the one-argument form."""
+    f = f"{runtime_crate}::lanes::{_LANES[step.function]}"
+    if len(step.symbols) == 1:
+        return f"    let {names[step.symbol]} = {f}1({p(step.rhs[0])});"
+    targets = ", ".join(names[s] for s in step.symbols)
+    return f"    let [{targets}] = {f}([{', '.join(p(a) for a in step.rhs)}]);"
 
 
 def _statement(p: RustPrinter, name: str, kind: str, rhs: Sequence[se.Expr]) -> str:
@@ -286,9 +303,11 @@ def _results(kernel: Kernel, parts_of: Sequence[str], lines: list[str]) -> str:
     return results[0] if len(results) == 1 else "(" + ", ".join(results) + ")"
 
 
-def emit_kernel(kernel: Kernel, attributes: Sequence[str] = ()) -> str:
-    """The Rust text of one kernel: constants, then the function. ``attributes`` (outer
-    attributes such as ``#[allow(...)]``) go on the function, before its ``#[inline]``."""
+def emit_kernel(kernel: Kernel, runtime_crate: str, attributes: Sequence[str] = ()) -> str:
+    """The Rust text of one kernel: constants, then the function. ``runtime_crate`` is the
+    path of cbfgen's core where the kernel is compiled (``crate`` inside it, ``cbfgen``
+    elsewhere); ``attributes`` (outer attributes such as ``#[allow(...)]``) go on the
+    function, before its ``#[inline]``."""
     code = straight_line(kernel)
     if len(code.steps) > MAX_KERNEL_LOCALS:
         raise SpecError(
@@ -304,7 +323,8 @@ def emit_kernel(kernel: Kernel, attributes: Sequence[str] = ()) -> str:
         for k, sym in enumerate(inp.symbols):
             if sym in code.used_inputs:
                 lines.append(f"    let {names[sym]} = {inp.name}[{k}];")
-    lines += [_statement(p, names[step.symbol], step.kind, step.rhs) for step in code.steps]
+    lines += [_lanes_statement(p, names, step, runtime_crate) if step.kind == "lanes"
+              else _statement(p, names[step.symbol], step.kind, step.rhs) for step in code.steps]
     body = _results(kernel, [p(e) for e in code.outputs], lines)
     lines += [f"    {body}", "}"]
     consts: list[str] = []

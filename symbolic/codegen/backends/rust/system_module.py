@@ -264,6 +264,18 @@ def _evaluate_family(w, f: FamilyDefinition) -> None:
         cols = f"{k.name.upper()}_INPUT_COLUMNS"
         store = (f"for ((row, lie), lg) in self.rows[i..i + n].iter_mut().zip(&lie).zip(&lg) {{ "
                  f"row.store(lie, lg, &{cols}); }}")
+        if f.bounds:
+            # A NaN bound fails the comparison: the rows are evaluated and show the NaN. Debug
+            # builds evaluate a culled instance too and check the spec's promise, so a wrong
+            # bound fails the user's tests, never a release build's control path.
+            bound = f"self::{f.bounds[m].name}({', '.join(args)})"
+            check = (f"#[cfg(debug_assertions)] {{ let (lie, _) = {call}; for row in &lie {{ "
+                     f"debug_assert!(!(bound > row[0]), \"{f.bounds[m].name} is {{bound}}, above a row's h "
+                     f"{{}}: not a lower bound\", row[0]); }} }} ")
+            store = (f"let bound = {bound}; if bound > self.cull_above[family::{u}] {{ {check}"
+                     f"for row in &mut self.rows[i..i + n] {{ row.cull(bound); }} }} else {{ "
+                     f"let (lie, lg) = {call}; {store} }}")
+            call = None
         if f.capacity or f.optional:
             # An instance that may be absent: an unfilled slot, or an optional one set to None.
             if f.capacity:
@@ -275,7 +287,8 @@ def _evaluate_family(w, f: FamilyDefinition) -> None:
                 w(f"        for p in &{src} {{")
                 w("            let p = p.as_ref();")
             w("            if let Some(p) = p {")
-            w(f"                let (lie, lg) = {call};")
+            if call:
+                w(f"                let (lie, lg) = {call};")
             w(f"                {store}")
             w("            } else {")
             w("                for row in &mut self.rows[i..i + n] { row.active = false; }")
@@ -284,7 +297,8 @@ def _evaluate_family(w, f: FamilyDefinition) -> None:
             w("        }")
         elif f.params:
             w(f"        for p in &{src} {{")
-            w(f"            let (lie, lg) = {call};")
+            if call:
+                w(f"            let (lie, lg) = {call};")
             w(f"            {store}")
             w("            i += n;")
             w("        }")
@@ -441,7 +455,7 @@ def _emit_kernels(out: list[str], d: SystemDefinition, rt: str) -> None:
     """Every kernel, each family's row columns and an indexed family's member tables."""
     w = out.append
     for k in d.kernels():
-        w(emit_kernel(k, attributes=[KERNEL_ALLOWS]))
+        w(emit_kernel(k, rt, attributes=[KERNEL_ALLOWS]))
     for f in d.families:
         for k, per_row in zip(f.kernels, f.row_columns, strict=True):
             w(f"/// Input columns each row of [`{k.name}`] can touch (its own sparsity in the QP; "
@@ -666,6 +680,10 @@ def _emit_barriers(out: list[str], d: SystemDefinition, rt: str) -> None:
     w("    capacity: Capacity,")
     w(f"    layout: Vec<{rt}::system::RowLayout>,")
     w(f"    rows: Vec<{rt}::system::Row<NU>>,")
+    culls = any(f.bounds for f in d.families)
+    if culls:
+        w("    /// Per family: instances whose lower bound exceeds this are culled (`+inf`: none).")
+        w(f"    cull_above: [f64; {len(d.families)}],")
     w("}")
     w("")
     w("impl Barriers {")
@@ -696,7 +714,8 @@ def _emit_barriers(out: list[str], d: SystemDefinition, rt: str) -> None:
         w("            }")
         w("        }")
     w(f"        let rows = vec![{rt}::system::Row::ZERO; layout.len()];")
-    w("        Ok(Self { capacity, layout, rows })")
+    cull = f", cull_above: [f64::INFINITY; {len(d.families)}]" if culls else ""
+    w(f"        Ok(Self {{ capacity, layout, rows{cull} }})")
     w("    }")
     w("")
     w("    /// The capacity the rows were laid out for.")
@@ -722,6 +741,13 @@ def _emit_barriers(out: list[str], d: SystemDefinition, rt: str) -> None:
     w("        &self.rows")
     w("    }")
     w("")
+    if culls:
+        w("    fn cull_above(&mut self, thresholds: &[f64]) {")
+        w("        for (cull, &threshold) in self.cull_above.iter_mut().zip(thresholds) {")
+        w("            *cull = threshold;")
+        w("        }")
+        w("    }")
+        w("")
     w(f"    fn evaluate(&mut self, t: f64, x: &[f64; NX], params: &Params) -> Result<(), {rt}::error::CbfError> {{")
     w("        if params.capacity() != self.capacity {")
     w(f"            return Err({rt}::error::CbfError::CapacityMismatch);")

@@ -135,6 +135,7 @@ impl SimConfig {
     /// activation threshold is set to −∞, so its rows never take part.
     pub fn new(scenario: Scenario, body_cbf: bool) -> Self {
         let mut filter = catalog::default_settings();
+        filter.measure_cpu_time = true;
         if !body_cbf {
             filter.family_mut(Family::BodyEdge.index()).activation = f64::NEG_INFINITY;
         }
@@ -156,7 +157,9 @@ pub struct Sample {
     /// State at the start of the cycle, before this cycle's input is applied.
     pub x: State,
     /// Minimum `h` over each family's applicable rows, [`Family::index`] order
-    /// (`f64::INFINITY` where none applies).
+    /// (`f64::INFINITY` where none applies). A culled row counts with its lower bound,
+    /// which is above the family's activation threshold
+    /// ([`Row::culled`](cbfgen::system::Row::culled)).
     pub min_h: [f64; 6],
     /// Rows that took part in the QP (applicable and below their family's activation threshold).
     pub active_rows: usize,
@@ -174,8 +177,8 @@ pub struct Sample {
     /// The whole filter update, timed around the call \[µs\].
     pub update_us: f64,
     /// The thread's CPU time over the whole filter update
-    /// ([`FilterOutput::cpu_time`](cbfgen::filter::FilterOutput::cpu_time)) \[µs\]; 0 where
-    /// the platform has no thread clock. Well below `update_us` means the thread waited
+    /// ([`FilterOutput::cpu_time`](cbfgen::filter::FilterOutput::cpu_time), on in the
+    /// standard configuration) \[µs\]; 0 where it is off or the platform has no thread clock. Well below `update_us` means the thread waited
     /// (a VM stall, preemption) rather than worked.
     pub cpu_us: f64,
     /// Exact clearances of the body and the wheels to the true terrain's solids, with
@@ -386,7 +389,7 @@ pub fn run_observed(
             eval_us: out.eval_time.as_secs_f64() * 1e6,
             solve_us: out.solve_time.as_secs_f64() * 1e6,
             update_us,
-            cpu_us: out.cpu_time.as_secs_f64() * 1e6,
+            cpu_us: out.cpu_time.unwrap_or_default().as_secs_f64() * 1e6,
             clearance,
             body_raise: body_center[2] - plan.body_height,
             swinging: course.swinging().map_or(-1, |s| s as i8),
