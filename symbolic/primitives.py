@@ -29,6 +29,7 @@ from typing import NamedTuple
 import symengine as se
 
 from .families import sphere_box as _sphere_box
+from .families import ssat as ssat_family
 from .families.ssat import AXIS_COUNT, certified_margin, relative_pose, separating_axes
 from .linalg import matmul, matvec, rot_y, rot_z
 from .smoothing import (
@@ -174,3 +175,17 @@ def ssat(p: FamilyContext, a: Box, b: Box, alpha: se.Expr = 100.0, alpha_rot: se
     shift = p.runtime_max("y_max", ys)
     h = smax(ys, alpha, shift, p.let)
     return h - certified_margin(p, smax, axes, alpha) if certified else h
+
+
+def ssat_lower_bound(p: FamilyContext, a: Box, b: Box, alpha: se.Expr = 100.0, alpha_rot: se.Expr = 100.0,
+                     sabs: SmoothAbs = XTANH, certified: bool = True) -> se.Expr:
+    """A cheap bound never above :func:`ssat` with the same arguments (log-sum-exp only):
+    the exact SAT's six face axes less what smoothing can take from each, and the
+    certified margin when ``certified``; no transcendental call. For a family's
+    ``lower_bound=`` (see :meth:`symbolic.spec.System.family`)."""
+    alpha, alpha_rot = se.sympify(alpha), se.sympify(alpha_rot)
+    t, rot = relative_pose(p.let, a.center, a.rotation, b.center, b.rotation)
+    axes = separating_axes(t, rot, a.half_extents, b.half_extents, sabs, alpha, alpha_rot, p.let)
+    margin = certified_margin(p, LSE, axes, alpha) if certified else se.Integer(0)
+    return ssat_family.lower_bound(p.let, p.runtime_max, t, rot, a.half_extents, b.half_extents, sabs, LSE,
+                                   alpha, alpha_rot, margin)

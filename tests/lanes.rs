@@ -164,3 +164,35 @@ fn special_values_follow_ieee_754() {
     assert_eq!(lanes::ln([0.0, -0.0, f64::INFINITY, 1.0]), [f64::NEG_INFINITY, f64::NEG_INFINITY, f64::INFINITY, 0.0]);
     assert!(lanes::ln1(-1.0).is_nan() && lanes::ln1(f64::NEG_INFINITY).is_nan());
 }
+
+/// The bits of `batched` on every element equal `one`'s, whatever width picks the path.
+fn same_bits<const N: usize>(x: &[f64], batched: fn([f64; N]) -> [f64; N], one: fn(f64) -> f64) {
+    for chunk in x.chunks(N) {
+        let mut lanes = [0.5; N];
+        lanes[..chunk.len()].copy_from_slice(chunk);
+        for (xi, yi) in lanes.iter().zip(batched(lanes)) {
+            assert_eq!(yi.to_bits(), one(*xi).to_bits(), "width {N} at {xi:e}");
+        }
+    }
+}
+
+#[test]
+fn every_width_gives_the_bits_of_the_one_argument_form() {
+    // Widths 1-2 run the baseline (SSE2) code, 3-7 the AVX2 code and 8 up the AVX-512 code
+    // where the processor has them: one result whatever the machine picks.
+    let mut rng = ChaCha8Rng::seed_from_u64(4);
+    let mut x = uniform(&mut rng, 20_000, -30.0, 30.0);
+    x.extend(any_bits(&mut rng, 20_000));
+    x.extend(specials());
+    let positive: Vec<f64> = x.iter().map(|v| v.abs()).collect();
+    same_bits::<1>(&x, lanes::exp, lanes::exp1);
+    same_bits::<2>(&x, lanes::exp, lanes::exp1);
+    same_bits::<5>(&x, lanes::exp, lanes::exp1);
+    same_bits::<8>(&x, lanes::exp, lanes::exp1);
+    same_bits::<1>(&x, lanes::tanh, lanes::tanh1);
+    same_bits::<3>(&x, lanes::tanh, lanes::tanh1);
+    same_bits::<24>(&x, lanes::tanh, lanes::tanh1);
+    same_bits::<2>(&positive, lanes::ln, lanes::ln1);
+    same_bits::<7>(&positive, lanes::ln, lanes::ln1);
+    same_bits::<16>(&positive, lanes::ln, lanes::ln1);
+}

@@ -185,12 +185,19 @@ def build() -> System:
         box = prim.Box(p.center, p.rotation, p.half)
         return [("obstacle", prim.ssat(p, box, link_box(p.label, frames(q, p.let)), alpha, alpha_rot))]
 
+    def obstacle_far(p):
+        # The exact SAT's face axes less the smoothing: an obstacle beyond the activation
+        # distance from a link is not evaluated.
+        box = prim.Box(p.center, p.rotation, p.half)
+        return prim.ssat_lower_bound(p, box, link_box(p.label, frames(q, p.let)), alpha, alpha_rot)
+
     # One member per link box, each with its own obstacle list: a kernel per link stays a
     # few thousand temporaries (all eight links in one kernel made 17 000, past what rustc's
     # debug-info pass recurses through), and a user may check a link against only the
     # obstacles it can reach.
     s.family("obstacle", obstacle, params=OBSTACLE_PARAMS, over=list(LINK_BOXES), capacity=MAX_OBSTACLES,
              poles=COLLISION_POLES, priority=PRIORITIES["obstacle"], activation=OBSTACLE_ACTIVATION,
+             lower_bound=obstacle_far,
              doc="A link box against an obstacle box by smooth SAT minus its certified margin [m]: h >= 0 proves "
                  f"no overlap. One member per link box, each with its obstacles. alpha = {SSAT_ALPHA}, alpha_rot = "
                  f"{SSAT_ALPHA_ROT}; active while "

@@ -412,3 +412,62 @@ fn a_small_dense_budget_keeps_making_progress_and_every_qp_answer_is_the_full_bu
     assert!(longest <= 3, "{longest} unconverged cycles in a row");
     assert!(unconverged * 100 <= cycles, "{unconverged} of {cycles} cycles unconverged");
 }
+
+/// One obstacle row by the member's one-instance kernel: `[h, L_f h, L_f² h]`.
+fn one_instance(member: usize, x: &[f64; NX], o: &ObstacleParams) -> [f64; 3] {
+    let (c, h) = ([o.center.x, o.center.y, o.center.z], [o.half.x, o.half.y, o.half.z]);
+    let r = o.rotation;
+    let rot = [r[(0, 0)], r[(0, 1)], r[(0, 2)], r[(1, 0)], r[(1, 1)], r[(1, 2)], r[(2, 0)], r[(2, 1)], r[(2, 2)]];
+    // Each member's kernel has its own input columns, so its own type: one arm each.
+    match member {
+        0 => gen::obstacle_link1(x, &c, &rot, &h).0[0],
+        1 => gen::obstacle_link2(x, &c, &rot, &h).0[0],
+        2 => gen::obstacle_link3(x, &c, &rot, &h).0[0],
+        3 => gen::obstacle_link4(x, &c, &rot, &h).0[0],
+        4 => gen::obstacle_link5(x, &c, &rot, &h).0[0],
+        5 => gen::obstacle_link6(x, &c, &rot, &h).0[0],
+        6 => gen::obstacle_link7(x, &c, &rot, &h).0[0],
+        _ => gen::obstacle_hand(x, &c, &rot, &h).0[0],
+    }
+}
+
+#[test]
+fn far_obstacles_are_culled_and_the_rest_are_the_kernels_rows() {
+    // Obstacles beyond the activation distance of a link are culled by the SSAT lower
+    // bound: every culled row holds a bound below its h, every evaluated row the member
+    // kernel's bits for that obstacle (so the rows sit where they belong).
+    let mut r = rng(343);
+    let thresholds: Vec<f64> = gen::default_settings().families.iter().map(|f| f.activation).collect();
+    let (mut culled, mut evaluated) = (0, 0);
+    for case in 0..200 {
+        let obstacles: Vec<ObstacleParams> = (0..1 + case % 9)
+            .map(|_| ObstacleParams {
+                center: Vector3::new(r.random_range(-1.2..1.2), r.random_range(-1.2..1.2), r.random_range(-0.3..1.5)),
+                rotation: *random_rotation(&mut r).matrix(),
+                half: Vector3::new(r.random_range(0.02..0.3), r.random_range(0.02..0.3), r.random_range(0.02..0.3)),
+            })
+            .collect();
+        let (mut barriers, params) = barriers_with(&obstacles);
+        barriers.cull_above(&thresholds);
+        let x = random_state(&mut r);
+        let rows = rows_at(&mut barriers, &params, &x);
+        for (row, at) in rows.iter().zip(barriers.layout()) {
+            if at.family != gen::family::OBSTACLE {
+                continue;
+            }
+            let want = one_instance(at.member, &x, &obstacles[at.instance]);
+            if row.culled {
+                culled += 1;
+                assert!(row.h() <= want[0], "member {}: bound {} above h {}", at.member, row.h(), want[0]);
+            } else {
+                evaluated += 1;
+                assert_eq!(
+                    row.lie[..3].iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                    want.map(f64::to_bits),
+                    "{at:?}"
+                );
+            }
+        }
+    }
+    assert!(culled > 500 && evaluated > 500, "culled {culled}, evaluated {evaluated}");
+}

@@ -1,32 +1,22 @@
 //! Far rows are culled, never rows that could act: the spec's lower bounds
 //! (`body_edge_lower_bound`, `toe_edge_lower_bound`) are never above any row's `h` over
-//! random states and edge cuboids — near, touching, overlapping and far — and a filter
-//! that culls and one that evaluates every row give the same input, bit for bit, on the
-//! stairs run.
+//! random states and edge cuboids — near, touching, overlapping and far —, the catalog
+//! puts every evaluated instance's rows where the one-instance kernel's belong, and a
+//! filter that culls and one that evaluates every row give the same input, bit for bit,
+//! on the stairs run.
 
 use cbfgen_testkit::boxes::{random_rotation, rng};
 #[path = "common/tachyon3_state.rs"]
 mod tachyon3_state;
 
-use cbfgen_tachyon3::catalog::Family;
+use cbfgen::system::BarrierSet;
+use cbfgen::OrientedBox;
+use cbfgen_tachyon3::catalog::{self, Capacity, Catalog, EdgeCuboid, Environment, Family};
 use cbfgen_tachyon3::generated as gen;
 use cbfgen_tachyon3::sim::{self, Scenario, SimConfig};
 use nalgebra::Vector3;
 use rand::Rng;
 use tachyon3_state::random_state;
-
-/// An edge cuboid's kernel arguments: centre within `spread` m of the body centre, a
-/// uniformly random orientation, half extents from 5 mm to 1 m.
-fn random_cuboid(r: &mut impl Rng, body: &[f64; 3], spread: f64) -> ([f64; 3], [f64; 9], [f64; 3]) {
-    let c = Vector3::from(*body) + Vector3::from_fn(|_, _| r.random_range(-spread..spread));
-    let m = random_rotation(r).into_inner();
-    let half = [0.0; 3].map(|_: f64| 10f64.powf(r.random_range(-2.3..0.0)));
-    (
-        c.into(),
-        [m[(0, 0)], m[(0, 1)], m[(0, 2)], m[(1, 0)], m[(1, 1)], m[(1, 2)], m[(2, 0)], m[(2, 1)], m[(2, 2)]],
-        half,
-    )
-}
 
 #[test]
 fn lower_bounds_are_never_above_the_rows_they_stand_for() {
@@ -41,7 +31,7 @@ fn lower_bounds_are_never_above_the_rows_they_stand_for() {
         let (body, _, _) = gen::world_kinematics(&x);
         // Most cuboids near the robot (touching and overlapping among them), a quarter far.
         let spread = if k % 4 == 0 { 4.0 } else { 0.8 };
-        let (c, rot, half) = random_cuboid(&mut r, &body, spread);
+        let (c, rot, half) = random_edge(&mut r, &body, spread).kernel_args();
 
         let bound = gen::body_edge_lower_bound(&x, &c, &rot, &half);
         let (lie, _) = gen::body_edge(&x, &c, &rot, &half);
@@ -61,6 +51,55 @@ fn lower_bounds_are_never_above_the_rows_they_stand_for() {
     // within a centimetre of h somewhere.
     assert!(body_culled > cases / 10 && toe_culled > cases / 10, "culled {body_culled}, {toe_culled} of {cases}");
     assert!(tightest < 1e-2, "the body bound never came near h: {tightest}");
+}
+
+/// An edge cuboid with its centre within `spread` m of the body centre, a uniformly random
+/// orientation and half extents from 5 mm to 1 m.
+fn random_edge(r: &mut impl Rng, body: &[f64; 3], spread: f64) -> EdgeCuboid {
+    let c = Vector3::from(*body) + Vector3::from_fn(|_, _| r.random_range(-spread..spread));
+    let half = Vector3::from_fn(|_, _| 10f64.powf(r.random_range(-2.3..0.0)));
+    EdgeCuboid::from_box(&OrientedBox::new(c, random_rotation(r), half).expect("valid box"))
+}
+
+fn bits<const R: usize, const C: usize>(m: &[[f64; C]; R]) -> Vec<u64> {
+    m.iter().flatten().map(|v| v.to_bits()).collect()
+}
+
+#[test]
+fn the_catalog_culls_far_instances_and_evaluates_the_rest_in_place() {
+    let mut r = rng(342);
+    let capacity = Capacity::PAPER_WORST_CASE;
+    let mut catalog = Catalog::new(capacity).expect("rows");
+    let thresholds: Vec<f64> = catalog::default_settings().families.iter().map(|f| f.activation).collect();
+    catalog.cull_above(&thresholds);
+    let (mut culled, mut evaluated) = (0, 0);
+    for case in 0..300 {
+        let x = random_state(&mut r);
+        let (body, _, _) = gen::world_kinematics(&x);
+        let mut env = Environment::new(capacity).expect("environment");
+        // From none to all 20 edges, culled ones among them.
+        for _ in 0..case % (capacity.body_edge + 1) {
+            env.push_edge(random_edge(&mut r, &body, 1.5)).expect("capacity");
+        }
+        catalog.evaluate(&x, &env).expect("finite");
+        for (row, slot) in catalog.rows().iter().zip(catalog.slots()) {
+            let Some(edge) = env.edges().get(slot.instance) else { continue };
+            let (c, rot, h) = edge.kernel_args();
+            let want = match slot.family {
+                Family::BodyEdge => gen::body_edge(&x, &c, &rot, &h).0[0],
+                Family::ToeEdge => gen::toe_edge(&x, &c, &rot, &h).0[slot.leg.expect("a toe row has a leg")],
+                _ => continue,
+            };
+            if row.culled {
+                culled += 1;
+                assert!(row.h() <= want[0]);
+            } else {
+                evaluated += 1;
+                assert_eq!(row.lie[..3].iter().map(|v| v.to_bits()).collect::<Vec<_>>(), bits(&[want]));
+            }
+        }
+    }
+    assert!(culled > 1000 && evaluated > 1000, "culled {culled}, evaluated {evaluated}");
 }
 
 #[test]
