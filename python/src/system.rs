@@ -538,8 +538,13 @@ fn lg<'py>(py: Python<'py>, rows: &dyn DynRows, nu: usize) -> Option<Array2Out<'
     finite.then(|| matrix_from_fn(py, n, nu, |i, j| rows.row(i).map_or(0.0, |r| r.lg[j])))
 }
 
+/// One flag per row, read off each row's view (false for a row that is not there).
+fn row_flags(rows: &dyn DynRows, flag: impl Fn(&dynamic::RowView<'_>) -> bool) -> Vec<bool> {
+    (0..rows.layout().len()).map(|i| rows.row(i).is_some_and(|r| flag(&r))).collect()
+}
+
 fn applicable(rows: &dyn DynRows) -> Vec<bool> {
-    (0..rows.layout().len()).map(|i| rows.row(i).is_some_and(|r| r.active)).collect()
+    row_flags(rows, |r| r.active)
 }
 
 impl PyRows {
@@ -1003,9 +1008,7 @@ impl PyEcbfFilter {
     /// and could not take part. All False with ``cull_far_rows=False``.
     #[getter]
     fn culled(&self) -> PyResult<Vec<bool>> {
-        let f = self.lock()?;
-        let rows = f.as_ref();
-        Ok((0..rows.layout().len()).map(|i| rows.row(i).is_some_and(|r| r.culled)).collect())
+        Ok(row_flags(self.lock()?.as_ref(), |r| r.culled))
     }
 
     /// Whether each row took part in the last QP (applicable and below its activation).

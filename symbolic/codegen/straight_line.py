@@ -110,7 +110,7 @@ def _lane_call(e: se.Expr) -> tuple[str, se.Expr] | None:
     if isinstance(e, se.Pow) and e.args[0] == se.E:
         return "exp", e.args[1]
     name = type(e).__name__
-    if name in ("tanh", "log") and len(e.args) == 1:
+    if name in LANE_FUNCTIONS and len(e.args) == 1:
         return name, e.args[0]
     return None
 
@@ -132,7 +132,8 @@ def _gather_lanes(defs: dict, order: dict, outputs: list[se.Expr]
         hit = rebuilt.get(e)
         if hit is not None:
             return hit
-        args = [rebuild(a) for a in e.args]
+        original = e.args
+        args = [rebuild(a) for a in original]
         call = _lane_call(e)
         if call is not None:
             function = call[0]
@@ -143,7 +144,7 @@ def _gather_lanes(defs: dict, order: dict, outputs: list[se.Expr]
                 out = se.Symbol(f"_lane{len(calls)}")
                 calls[key] = out
                 call_args[out] = key
-        elif any(a is not b for a, b in zip(args, e.args, strict=True)):
+        elif any(a is not b for a, b in zip(args, original, strict=True)):
             out = e.func(*args)
         else:
             out = e
