@@ -266,10 +266,13 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
     /// set-up failure.
     pub fn new(mut barriers: B, settings: FilterSettings<NU>) -> Result<Self, CbfError> {
         settings.validate(barriers.families())?;
-        if settings.cull_far_rows {
-            let thresholds: Vec<f64> = settings.families.iter().map(|p| p.activation).collect();
-            barriers.cull_above(&thresholds);
-        }
+        // Off means off, even for barriers a caller set thresholds on before.
+        let thresholds: Vec<f64> = settings
+            .families
+            .iter()
+            .map(|p| if settings.cull_far_rows { p.activation } else { f64::INFINITY })
+            .collect();
+        barriers.cull_above(&thresholds);
         let gains: Vec<_> = settings.families.iter().map(|p| p.gains()).collect();
         let specs: Vec<RowSpec<'_>> = barriers
             .layout()

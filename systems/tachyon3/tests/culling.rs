@@ -117,3 +117,24 @@ fn culling_changes_no_input_on_the_stairs_run() {
     }
     assert!(a.summary.completed);
 }
+
+#[test]
+fn a_filter_without_culling_evaluates_every_row_whatever_its_barriers_were_told() {
+    // Thresholds set on the catalog before the filter takes it are overridden: with
+    // cull_far_rows off, nothing is culled, and on the same state the culling filter is.
+    let config = SimConfig::new(Scenario::Stairs, true);
+    let mut course = sim::Course::new(config.scenario, config.gait).expect("course");
+    let x = course.initial_state(config.start_gap);
+    let u_ref = course.plan(0.0, &x).expect("plan").u_ref;
+    let mut counts = Vec::new();
+    for cull_far_rows in [false, true] {
+        let mut catalog = Catalog::new(sim::Course::CAPACITY).expect("rows");
+        catalog.cull_above(&[0.0; 6]); // would cull nearly everything
+        let settings = cbfgen::filter::FilterSettings { cull_far_rows, ..config.filter.clone() };
+        let mut filter = cbfgen::filter::EcbfFilter::new(catalog, settings).expect("filter");
+        filter.update(&x, &u_ref, course.environment()).expect("finite");
+        counts.push(filter.rows().iter().filter(|r| r.culled).count());
+    }
+    assert_eq!(counts[0], 0);
+    assert!(counts[1] > 0, "the stairs' far edges are culled by the default filter");
+}
