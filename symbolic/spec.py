@@ -858,9 +858,10 @@ class System:
         capacity per member) and rows, members in ``over`` order. All members share the
         parameters, row names, relative degree and defaults.
 
-        ``lower_bound=lambda p: ...`` (with an ``activation`` threshold and parameters)
-        gives one cheap expression of the same ``p`` that is **never above any row's h**
-        of the instance, at any state and parameter value (bounding spheres, face axes:
+        ``lower_bound=lambda p: ...`` (with a finite ``activation`` threshold) gives one
+        cheap expression of the same ``p`` that is **never above any row's h** of the
+        instance (of the member, for a family without parameters), at any state and
+        parameter value (bounding spheres, face axes:
         ``symbolic.families.ssat.lower_bound``, ``sphere_box.lower_bound``). Where it
         exceeds the activation threshold the instance's rows are not evaluated that cycle:
         they could not take part. It changes the cost of an update, never its input, as
@@ -928,9 +929,9 @@ class System:
         if lower_bound is not None:
             if not callable(lower_bound):
                 raise SpecError(f"{where}: lower_bound must be a function of the parameters (lambda p: ...)")
-            if not parsed or math.isinf(activation):
+            if math.isinf(activation):
                 raise SpecError(f"{where}: lower_bound skips instances above the activation threshold; it needs "
-                                "params (instances) and a finite activation")
+                                "a finite activation")
         self.families.append(Family(name, h, parsed, None if capacity else count, capacity, max_capacity,
                                     optional, labels,
                                     time, pole_list, priority, activation, doc, lower_bound))

@@ -16,15 +16,40 @@ zeros out of the generated expressions and moves no pose by more than ``SNAP`` (
 ``package://name/...`` paths resolve against the packages given to ``load`` and against
 example-robot-data's installed tree (the ``example-robot-data`` wheel on PyPI), so its
 robots load offline: ``load(description("panda_description/urdf/panda.urdf"))``.
+
+**Collision geometry.** Each link's ``<collision>`` elements (boxes, spheres, cylinders,
+capsules, meshes) are read with the URDF; a missing mesh file is a SpecError naming the
+link. ``link_box(robot, link)`` is one oriented box, fixed in the link's frame, that
+contains all of the link's collision geometry: a URDF box is reproduced as it is; for
+anything else the box is fitted (the link-frame bounding box, or trimesh's minimal-volume
+oriented box where that is clearly smaller, see ``FIT_ORIENTED_GAIN``) and *checked*: every mesh vertex, and every corner of the
+cube or box around a sphere, cylinder or capsule, is shown inside it in exact rational
+arithmetic, with at least ``FIT_MARGIN`` to spare. Fitted boxes are conservative (a
+capsule's box holds its corners' empty space); that is the price of one SSAT row per
+link pair. ``collision_shapes(robot, link)`` gives each element on its own: boxes and
+spheres exactly, anything else as its checked box.
+
+**Self-collision.** ``load_srdf`` reads a robot's SRDF (its disabled pairs and named
+states); ``self_collision_pairs`` is every pair of links with collision geometry that the
+SRDF does not disable and that is not *adjacent*: joined by at most one moving joint
+(rigidly attached links, or links meeting at one joint, touch by construction).
+
+A robot from example-robot-data is an input of generation through its pinned version
+(``symbolic/requirements-urdf.txt``, part of the generator's inputs hash), so
+``description`` refuses another installed version; a robot of the user's own is named
+with ``System.depends_on(*robot.files)``.
 """
 
 from __future__ import annotations
 
+import importlib.metadata
+import itertools
 import math
 import sys
 import xml.etree.ElementTree as ET
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from fractions import Fraction
 from pathlib import Path
 
 import symengine as se
@@ -40,6 +65,26 @@ AXIS_TOLERANCE = 1e-9
 
 SNAP = 1e-15
 """Constant rotation entries this close to 0 or ±1 are taken as exact."""
+
+GEOMETRY_TYPES = ("box", "sphere", "cylinder", "capsule", "mesh")
+"""The collision geometry the front end reads (``capsule`` is a common extension: a
+cylinder of ``length`` along z with hemispherical ends of ``radius``)."""
+
+FIT_QUANTUM = 1e-7
+"""Fitted boxes' centres are rounded to, and half extents rounded up to, multiples of
+this [m], so a fit is the same on every machine whatever the last bits of the linear
+algebra underneath; the fitted rotation is rounded to 1e-9 rad of roll, pitch, yaw."""
+
+FIT_ORIENTED_GAIN = 0.9
+"""A fitted box turns away from the link's axes only when that makes it at least this much
+smaller (volume ratio): a box aligned with its link keeps the rows' kernels about a fifth
+shorter (the Panda's hand row: 3 600 lines against 4 400), and a turn that saves a few
+percent of volume is not worth that."""
+
+FIT_MARGIN = FIT_QUANTUM
+"""Every point a fitted box must hold is inside it by at least this much [m] along each
+of its axes, checked exactly; the rounding of the box's own numbers moves its faces by
+less than 1e-14 m."""
 
 Matrix3 = list[list[se.Expr]]
 Vector3 = list[se.Expr]
@@ -67,14 +112,80 @@ class Joint:
 
 
 @dataclass(frozen=True)
+class Collision:
+    """One ``<collision>`` element of a link: its geometry in its own frame, placed in
+    the link's frame by ``xyz``/``rpy``. ``size`` is the box's full size, ``(radius,)``,
+    ``(radius, length)`` for a cylinder or capsule (along z), or a mesh's scale."""
+
+    link: str
+    kind: str
+    xyz: tuple[float, float, float]
+    rpy: tuple[float, float, float]
+    size: tuple[float, ...]
+    mesh: Path | None = None
+
+
+@dataclass(frozen=True)
 class Urdf:
-    """A robot description: its links and its joints, parents before children."""
+    """A robot description: its links and its joints, parents before children, and each
+    link's collision geometry."""
 
     name: str
     source: Path
     root: str
     links: tuple[str, ...]
     joints: tuple[Joint, ...]
+    collisions: tuple[Collision, ...] = ()
+
+    @property
+    def files(self) -> list[Path]:
+        """The files the description was read from (the URDF and its meshes), for
+        ``System.depends_on``."""
+        return [self.source, *sorted({c.mesh for c in self.collisions if c.mesh is not None})]
+
+    def collision(self, link: str) -> tuple[Collision, ...]:
+        """``link``'s collision elements, in the URDF's order."""
+        if link not in self.links:
+            raise SpecError(f"URDF {self.source.name}: no link {link!r} (links: {list(self.links)})")
+        return tuple(c for c in self.collisions if c.link == link)
+
+    def limits(self, joints: Sequence[str], kind: str) -> list[tuple[float, float]]:
+        """``(lower, upper)`` of each named joint: ``kind`` "position" from the URDF's
+        lower/upper, "velocity" or "effort" as ``(-v, v)``. A limit the URDF does not give
+        is a SpecError naming the joint."""
+        out = []
+        for name in joints:
+            j = self.joint(name)
+            if kind == "position":
+                pair = (j.lower, j.upper)
+                if j.type == "continuous":
+                    pair = (None, None)
+            elif kind in ("velocity", "effort"):
+                v = j.velocity if kind == "velocity" else j.effort
+                pair = (None, None) if v is None else (-v, v)
+            else:
+                raise SpecError(f"URDF {self.source.name}: limits kind {kind!r} is not position, velocity or effort")
+            if pair[0] is None or pair[1] is None:
+                raise SpecError(f"URDF {self.source.name}, joint {name!r}: no {kind} limit given")
+            if not pair[0] < pair[1]:
+                raise SpecError(f"URDF {self.source.name}, joint {name!r}: {kind} limits {pair} are empty")
+            out.append((pair[0], pair[1]))
+        return out
+
+    def path_joints(self, a: str, b: str) -> list[Joint]:
+        """The joints on the tree path between links ``a`` and ``b``."""
+        parent = {j.child: j for j in self.joints}
+
+        def up(link: str) -> list[Joint]:
+            chain = []
+            while link in parent:
+                chain.append(parent[link])
+                link = parent[link].parent
+            return chain
+
+        ua, ub = up(a), up(b)
+        common = {j.name for j in ua} & {j.name for j in ub}
+        return [j for j in ua + ub if j.name not in common]
 
     @property
     def moving_joints(self) -> tuple[Joint, ...]:
@@ -97,11 +208,27 @@ def description_root() -> Path | None:
     return None
 
 
+def pinned_version(package: str) -> str:
+    """The version of ``package`` that symbolic/requirements-urdf.txt pins."""
+    for line in (Path(__file__).parent / "requirements-urdf.txt").read_text().splitlines():
+        name, sep, version = line.split("#")[0].strip().partition("==")
+        if sep and name.strip() == package:
+            return version.strip()
+    raise SpecError(f"symbolic/requirements-urdf.txt does not pin {package}")
+
+
 def description(relative: str) -> Path:
-    """A file of example-robot-data's robots (``"panda_description/urdf/panda.urdf"``)."""
+    """A file of example-robot-data's robots (``"panda_description/urdf/panda.urdf"``),
+    from the pinned version only: its files are generation inputs through the pin."""
+    pin = pinned_version("example-robot-data")
     root = description_root()
     if root is None:
-        raise SpecError("example-robot-data is not installed: pip install example-robot-data==6.0.0")
+        raise SpecError(f"example-robot-data is not installed: pip install example-robot-data=={pin} "
+                        "(scripts/cbf setup does)")
+    installed = importlib.metadata.version("example-robot-data")
+    if installed != pin:
+        raise SpecError(f"example-robot-data {installed} is installed; the generator is pinned to {pin} "
+                        f"(pip install example-robot-data=={pin})")
     path = root / relative
     if not path.is_file():
         raise SpecError(f"example-robot-data has no {relative!r} (looked in {root})")
@@ -116,7 +243,7 @@ def resolve(uri: str, source: Path, packages: Mapping[str, Path] | None = None) 
         roots = [Path(packages[name])] if packages and name in packages else []
         erd = description_root()
         if erd is not None:
-            roots += [erd / name, erd.parent / name, erd]
+            roots += [erd / name, erd.parent / name, erd, erd.parent.parent / name]
         for r in roots:
             if (r / rest).exists():
                 return r / rest
@@ -150,10 +277,12 @@ def _limit(where: str, element: ET.Element | None, key: str) -> float | None:
     return value
 
 
-def load(path: Path | str) -> Urdf:
+def load(path: Path | str, packages: Mapping[str, Path] | None = None) -> Urdf:
     """Read and check a URDF: every joint of a known type with a unit axis and a parent
-    and child that are links, every link with at most one parent, one root, no loop.
-    Each mistake is a SpecError naming the file and the element."""
+    and child that are links, every link with at most one parent, one root, no loop;
+    every collision geometry of a known type with finite, positive sizes, and every mesh
+    file present (``package://`` paths resolve against ``packages`` and
+    example-robot-data). Each mistake is a SpecError naming the file and the element."""
     path = Path(path)
     try:
         robot = ET.parse(path).getroot()
@@ -212,7 +341,56 @@ def load(path: Path | str) -> Urdf:
         for k in range(len(chain) - 2, -1, -1):
             depth[chain[k]] = depth[chain[k + 1]] + 1
     ordered = tuple(sorted(joints, key=lambda j: (depth[j.child], names.index(j.name))))
-    return Urdf(robot.get("name", path.stem), path, roots[0], tuple(links), ordered)
+    collisions = tuple(_collision(path, link, element, packages) for link_element in robot.findall("link")
+                       for link in [link_element.get("name", "")] for element in link_element.findall("collision"))
+    return Urdf(robot.get("name", path.stem), path, roots[0], tuple(links), ordered, collisions)
+
+
+def _collision(path: Path, link: str, element: ET.Element, packages: Mapping[str, Path] | None) -> Collision:
+    where = f"URDF {path.name}, link {link!r}, collision"
+    origin = element.find("origin")
+    xyz = _floats(f"{where} origin xyz", None if origin is None else origin.get("xyz"), (0.0, 0.0, 0.0))
+    rpy = _floats(f"{where} origin rpy", None if origin is None else origin.get("rpy"), (0.0, 0.0, 0.0))
+    geometry = element.find("geometry")
+    shapes = [] if geometry is None else list(geometry)
+    if len(shapes) != 1 or shapes[0].tag not in GEOMETRY_TYPES:
+        found = [e.tag for e in shapes]
+        raise SpecError(f"{where}: the geometry must be one of {list(GEOMETRY_TYPES)}, found {found}")
+    shape = shapes[0]
+    kind = shape.tag
+
+    def number(key: str) -> float:
+        if shape.get(key) is None:
+            raise SpecError(f"{where}: {kind} has no {key}")
+        value = _floats(f"{where} {kind} {key}", shape.get(key), (math.nan,))[0]
+        if value <= 0:
+            raise SpecError(f"{where}: {kind} {key}={value} must be > 0")
+        return value
+
+    if kind == "box":
+        if shape.get("size") is None:
+            raise SpecError(f"{where}: box has no size")
+        size = _floats(f"{where} box size", shape.get("size"), (math.nan,) * 3)
+        if min(size) <= 0:
+            raise SpecError(f"{where}: box size {size} must be > 0 along every axis")
+        return Collision(link, kind, xyz, rpy, size)
+    if kind == "sphere":
+        return Collision(link, kind, xyz, rpy, (number("radius"),))
+    if kind in ("cylinder", "capsule"):
+        return Collision(link, kind, xyz, rpy, (number("radius"), number("length")))
+    filename = shape.get("filename")
+    if not filename:
+        raise SpecError(f"{where}: a mesh without a filename")
+    scale = _floats(f"{where} mesh scale", shape.get("scale"), (1.0, 1.0, 1.0))
+    if min(abs(v) for v in scale) == 0:
+        raise SpecError(f"{where}: mesh scale {scale} flattens it")
+    try:
+        mesh = resolve(filename, path, packages)
+    except SpecError as exc:
+        raise SpecError(f"{where}: {exc}") from None
+    if not mesh.is_file():
+        raise SpecError(f"{where}: mesh {filename!r} is missing (looked for {mesh})")
+    return Collision(link, kind, xyz, rpy, scale, mesh)
 
 
 def _snap(v: float) -> se.Expr:
@@ -254,31 +432,38 @@ def _matvec(a: Matrix3, v: Vector3) -> Vector3:
 
 
 class Kinematics:
-    """Every link's pose in the root link's frame, from one variable per moving joint.
+    """Link poses from one variable per moving joint, in the frame of ``base`` (the root
+    link by default).
 
-    ``q`` maps each moving joint's name to its variable (a state, usually); with
-    ``let_`` (a family context's ``p.let``, or ``Kernel.let_``) each pose is built from
-    named intermediates ``<link>_r00 .. <link>_p2``, so families sharing a link share its
-    pose. ``pose(link)`` is ``(R, p)``: R's columns are the link's axes in the root frame.
+    ``q`` maps each moving joint's name to its variable (a state) or a number (a joint
+    the spec holds still). With ``let_`` (a family context's ``p.let``, or
+    ``Kernel.let_``) each pose is built from named intermediates ``<link>_r00 ..
+    <link>_p2`` (``<link>_in_<base>_...`` for another base), so families sharing a link
+    share its pose. Poses are built when first asked for, so a kernel holds only the
+    links it uses. ``pose(link)`` is ``(R, p)``: R's columns are the link's axes in the
+    base frame. With a ``base`` other than the root, only links below it have poses: the
+    joints above it move both ends of any pair alike and drop out, exactly.
     """
 
-    def __init__(self, urdf: Urdf, q: Mapping[str, se.Expr],
-                 let_: Callable[[str, se.Expr], se.Symbol] | None = None):
+    def __init__(self, urdf: Urdf, q: Mapping[str, se.Expr | float],
+                 let_: Callable[[str, se.Expr], se.Symbol] | None = None, base: str | None = None):
         missing = [j.name for j in urdf.moving_joints if j.name not in q]
         extra = sorted(set(q) - {j.name for j in urdf.moving_joints})
         if missing or extra:
             raise SpecError(f"URDF {urdf.source.name}: give one variable per moving joint; missing {missing}, "
                             f"not a moving joint {extra}")
         self.urdf = urdf
-        self._q = dict(q)
+        self.base = urdf.root if base is None else base
+        if self.base not in urdf.links:
+            raise SpecError(f"URDF {urdf.source.name}: base {self.base!r} is not a link")
+        self._q = {name: se.sympify(v) for name, v in q.items()}
         self._let = let_
+        self._parent = {j.child: j for j in urdf.joints}
         identity = [[se.Integer(int(i == j)) for j in range(3)] for i in range(3)]
-        self._poses: dict[str, tuple[Matrix3, Vector3]] = {urdf.root: (identity, [se.Integer(0)] * 3)}
-        for joint in urdf.joints:
-            self._poses[joint.child] = self._child_pose(joint)
+        self._poses: dict[str, tuple[Matrix3, Vector3]] = {self.base: (identity, [se.Integer(0)] * 3)}
 
     def _child_pose(self, joint: Joint) -> tuple[Matrix3, Vector3]:
-        r_parent, p_parent = self._poses[joint.parent]
+        r_parent, p_parent = self.pose(joint.parent)
         r = _matmul(r_parent, rpy_matrix(joint.rpy))
         p = [p_parent[i] + e for i, e in enumerate(_matvec(r_parent, [_number(v) for v in joint.xyz]))]
         if joint.type in ("revolute", "continuous"):
@@ -289,18 +474,377 @@ class Kinematics:
         if self._let is None:
             return r, p
         name = _identifier(joint.child)
+        if self.base != self.urdf.root:
+            name = f"{name}_in_{_identifier(self.base)}"
         r = [[self._let(f"{name}_r{i}{j}", r[i][j]) for j in range(3)] for i in range(3)]
         p = [self._let(f"{name}_p{i}", p[i]) for i in range(3)]
         return r, p
 
     def pose(self, link: str) -> tuple[Matrix3, Vector3]:
-        """``(R, p)`` of ``link`` in the root link's frame."""
-        if link not in self._poses:
+        """``(R, p)`` of ``link`` in the base frame."""
+        if link in self._poses:
+            return self._poses[link]
+        if link not in self.urdf.links:
             raise SpecError(f"URDF {self.urdf.source.name}: no link {link!r} (links: {list(self.urdf.links)})")
-        return self._poses[link]
+        if link not in self._parent:
+            raise SpecError(f"URDF {self.urdf.source.name}: link {link!r} is not below the base {self.base!r}")
+        pose = self._child_pose(self._parent[link])
+        self._poses[link] = pose
+        return pose
+
+
+def common_ancestor(robot: Urdf, a: str, b: str) -> str:
+    """The lowest link both ``a`` and ``b`` hang from (either of them, if one does)."""
+    parent = {j.child: j.parent for j in robot.joints}
+
+    def chain(link: str) -> list[str]:
+        out = [link]
+        while out[-1] in parent:
+            out.append(parent[out[-1]])
+        return out
+
+    above_b = set(chain(b))
+    return next(link for link in chain(a) if link in above_b)
 
 
 def _identifier(name: str) -> str:
     """A link name as the start of a Rust/Python identifier (``panda_link1`` stays)."""
     out = "".join(ch if ch.isalnum() or ch == "_" else "_" for ch in name).lower()
     return out if out and not out[0].isdigit() else f"l_{out}"
+
+
+# ------------------------------------------------------------------ collision geometry
+
+
+@dataclass(frozen=True)
+class FittedBox:
+    """An oriented box fixed in ``link``'s frame: ``center`` [m], ``rotation`` (rows of
+    a 3x3 matrix whose columns are the box's axes in the link frame) and ``half`` extents
+    [m]. ``exact`` when it is a URDF box as given, else fitted and checked."""
+
+    link: str
+    center: tuple[float, float, float]
+    rotation: tuple[tuple[float, float, float], ...]
+    half: tuple[float, float, float]
+    exact: bool
+
+    def placed(self, pose: tuple[Matrix3, Vector3]):
+        """The box in the frame ``pose`` (the link's R, p) is given in, as a ``prim.Box``."""
+        from .primitives import Box
+
+        r, p = pose
+        rb = [[_snap(v) for v in row] for row in self.rotation]
+        offset = _matvec(r, [_number(v) for v in self.center])
+        return Box([p[i] + offset[i] for i in range(3)], _matmul(r, rb), [_number(v) for v in self.half])
+
+
+@dataclass(frozen=True)
+class Sphere:
+    """A URDF sphere in its link's frame: ``center`` [m], ``radius`` [m]."""
+
+    link: str
+    center: tuple[float, float, float]
+    radius: float
+
+    def placed(self, pose: tuple[Matrix3, Vector3]) -> tuple[Vector3, se.Expr]:
+        """``(centre, radius)`` in the frame ``pose`` is given in."""
+        r, p = pose
+        offset = _matvec(r, [_number(v) for v in self.center])
+        return [p[i] + offset[i] for i in range(3)], _number(self.radius)
+
+
+FLOAT_FILTER = 1e-9
+"""Exact checks look only at points within this much [m] of a box's face in floating point:
+for coordinates below ``FLOAT_FILTER_REACH`` the floating-point error of a projection is
+under 1e-12 m, so a point farther in is inside, exactly, without rational arithmetic."""
+
+FLOAT_FILTER_REACH = 1e3
+
+
+@dataclass(frozen=True)
+class _Points:
+    """One collision element's points in its link's frame: ``local`` (element frame, the
+    floats as read) placed by ``rpy``/``xyz``, scaled by ``scale``. Floats for the fit,
+    each point's exact value (rationals of the same floats) on demand."""
+
+    local: tuple[tuple[float, float, float], ...]
+    scale: tuple[float, float, float]
+    rpy: tuple[float, float, float]
+    xyz: tuple[float, float, float]
+
+    def floats(self):
+        import numpy as np
+
+        r = np.array([[float(v) for v in row] for row in rpy_matrix(self.rpy)])
+        return (np.asarray(self.local) * np.asarray(self.scale)) @ r.T + np.asarray(self.xyz)
+
+    def exact(self, i: int) -> tuple[Fraction, Fraction, Fraction]:
+        r = [[Fraction(float(v)) for v in row] for row in rpy_matrix(self.rpy)]
+        v = [Fraction(x) * Fraction(s) for x, s in zip(self.local[i], self.scale, strict=True)]
+        return tuple(sum(r[a][k] * v[k] for k in range(3)) + Fraction(self.xyz[a]) for a in range(3))
+
+
+def _element_points(c: Collision) -> _Points:
+    """Points whose convex hull holds ``c``'s geometry: a mesh's vertices; the corners of a
+    box, or of the box around a sphere, cylinder or capsule."""
+    if c.kind == "mesh":
+        try:
+            import trimesh  # build-time only: symbolic/requirements-urdf.txt
+        except ImportError:
+            raise SpecError(f"link {c.link!r}: fitting a box to a mesh needs trimesh (pip install -r "
+                            "symbolic/requirements-urdf.txt; scripts/cbf setup does)") from None
+        try:
+            mesh = trimesh.load(c.mesh, force="mesh")
+            local = tuple(tuple(float(x) for x in v) for v in mesh.vertices)
+        except Exception as exc:  # trimesh raises many kinds for unreadable files
+            raise SpecError(f"link {c.link!r}: cannot read mesh {c.mesh} ({exc})") from None
+        if not local or not all(math.isfinite(x) for v in local for x in v):
+            raise SpecError(f"link {c.link!r}: mesh {c.mesh} has no vertices or a non-finite one")
+        return _Points(local, c.size, c.rpy, c.xyz)
+    if c.kind == "box":
+        half = [v / 2 for v in c.size]
+    elif c.kind == "sphere":
+        half = [c.size[0]] * 3
+    else:
+        radius, length = c.size
+        # Halving is exact; a capsule's cap added in floats is rounded up, never down.
+        cap = math.nextafter(length / 2 + radius, math.inf) if c.kind == "capsule" else length / 2
+        half = [radius, radius, cap]
+    # The scale carries the half extents: the corners are (±1, ±1, ±1) · half exactly.
+    corners = tuple(itertools.product((-1.0, 1.0), repeat=3))
+    return _Points(corners, tuple(half), c.rpy, c.xyz)
+
+
+def _near_faces(coordinates, lo, hi) -> list[int]:
+    """Indices of points whose float coordinate lies within ``FLOAT_FILTER`` of ``lo`` or
+    ``hi`` along some axis (or all points when coordinates are too large for the filter)."""
+    import numpy as np
+
+    if not np.all(np.abs(coordinates) < FLOAT_FILTER_REACH):
+        return list(range(len(coordinates)))
+    near = np.any((coordinates <= lo + FLOAT_FILTER) | (coordinates >= hi - FLOAT_FILTER), axis=1)
+    return [int(i) for i in np.flatnonzero(near)]
+
+
+_QUANTUM = Fraction(1, 10**7)  # FIT_QUANTUM, exactly
+
+
+def _quantum_round(v: float) -> float:
+    return float(round(Fraction(v) / _QUANTUM) * _QUANTUM)
+
+
+def _box_around(points: Sequence[_Points], rpy: Sequence[float]) -> tuple[tuple, tuple, tuple]:
+    """The box with axes ``rpy_matrix(rpy)`` around ``points``: (centre, rotation rows,
+    half extents), its numbers rounded to ``FIT_QUANTUM``, each point inside by more than
+    ``FIT_MARGIN`` along each axis (proved by ``contains``)."""
+    import numpy as np
+
+    rotation = tuple(tuple(float(v) for v in row) for row in rpy_matrix(rpy))
+    r = np.array(rotation)
+    axes = [[Fraction(rotation[k][i]) for k in range(3)] for i in range(3)]
+    lo: list[Fraction | None] = [None] * 3
+    hi: list[Fraction | None] = [None] * 3
+    for element in points:
+        coordinates = element.floats() @ r  # along the box's axes
+        for i in _near_faces(coordinates, coordinates.min(axis=0), coordinates.max(axis=0)):
+            p = element.exact(i)
+            for a in range(3):
+                value = sum(axes[a][k] * p[k] for k in range(3))
+                lo[a] = value if lo[a] is None else min(lo[a], value)
+                hi[a] = value if hi[a] is None else max(hi[a], value)
+    middle = [_quantum_round(float((lo[i] + hi[i]) / 2)) for i in range(3)]
+    center = tuple(float(sum(Fraction(rotation[i][k]) * Fraction(middle[k]) for k in range(3))) for i in range(3))
+    half = []
+    for i in range(3):
+        reach = max(hi[i] - Fraction(middle[i]), Fraction(middle[i]) - lo[i]) + _QUANTUM
+        # Round up by whole quanta, then one more: the centre's own rounding (R·middle
+        # in floats) moves it by < 1e-16 m, far inside that quantum.
+        half.append(float((math.ceil(reach / _QUANTUM) + 1) * _QUANTUM))
+    return center, rotation, tuple(half)
+
+
+def contains(box: FittedBox, points: Sequence[_Points], margin: float = 0.0) -> bool:
+    """Whether every point lies inside ``box`` by at least ``margin`` along each of its
+    axes, exactly: |Rᵀ(p − c)|_i ≤ h_i − margin in rational arithmetic on the box's own
+    floats, for every point within ``FLOAT_FILTER`` of that in floating point."""
+    import numpy as np
+
+    c = [Fraction(v) for v in box.center]
+    r = [[Fraction(v) for v in row] for row in box.rotation]
+    bound = [Fraction(h) - Fraction(margin) for h in box.half]
+    float_bound = np.array([float(b) for b in bound])
+    for element in points:
+        coordinates = (element.floats() - np.asarray(box.center)) @ np.asarray(box.rotation)
+        for i in _near_faces(coordinates, -float_bound, float_bound):
+            p = element.exact(i)
+            d = [p[k] - c[k] for k in range(3)]
+            for a in range(3):
+                if abs(sum(r[k][a] * d[k] for k in range(3))) > bound[a]:
+                    return False
+    return True
+
+
+def fit_box(link: str, points: Sequence[_Points]) -> FittedBox:
+    """A box around ``points`` (link frame): aligned with the link frame, or along
+    trimesh's minimal-volume oriented box where that is smaller by ``FIT_ORIENTED_GAIN``;
+    checked to contain every point with ``FIT_MARGIN`` to spare."""
+    import numpy as np
+
+    candidates = [(0.0, 0.0, 0.0)]
+    try:
+        import trimesh
+
+        transform, _ = trimesh.bounds.oriented_bounds(np.concatenate([e.floats() for e in points]))
+        rotation = np.asarray(transform)[:3, :3].T  # columns: the box's axes in the link frame
+        roll, pitch, yaw = trimesh.transformations.euler_from_matrix(rotation, "sxyz")
+        candidates.append(tuple(round(a, 9) for a in (roll, pitch, yaw)))
+    except Exception:  # flat or tiny point sets have no oriented fit; the aligned box is kept
+        pass
+    boxes = [FittedBox(link, *_box_around(points, rpy), exact=False) for rpy in candidates]
+    best = boxes[0]
+    for other in boxes[1:]:
+        if math.prod(other.half) < FIT_ORIENTED_GAIN * math.prod(best.half):
+            best = other
+    if not contains(best, points, FIT_MARGIN):  # the construction guarantees it; this proves it
+        raise SpecError(f"link {link!r}: the fitted box does not contain the link's geometry (a bug: report it)")
+    return best
+
+
+def collision_shapes(robot: Urdf, link: str) -> list[FittedBox | Sphere]:
+    """Each of ``link``'s collision elements: a URDF box or sphere exactly as given,
+    anything else as the checked box around it."""
+    out: list[FittedBox | Sphere] = []
+    for c in robot.collision(link):
+        if c.kind == "box":
+            out.append(FittedBox(link, c.xyz, tuple(tuple(float(v) for v in row) for row in rpy_matrix(c.rpy)),
+                                 tuple(v / 2 for v in c.size), exact=True))
+        elif c.kind == "sphere":
+            out.append(Sphere(link, c.xyz, c.size[0]))
+        else:
+            out.append(fit_box(link, [_element_points(c)]))
+    return out
+
+
+def link_box(robot: Urdf, link: str) -> FittedBox:
+    """One box in ``link``'s frame holding all its collision geometry: a single URDF box
+    as it is, else fitted around every element and checked (see ``fit_box``)."""
+    elements = robot.collision(link)
+    if not elements:
+        raise SpecError(f"URDF {robot.source.name}: link {link!r} has no collision geometry")
+    if len(elements) == 1 and elements[0].kind == "box":
+        shape = collision_shapes(robot, link)[0]
+        assert isinstance(shape, FittedBox)
+        return shape
+    return fit_box(link, [_element_points(c) for c in robot.collision(link)])
+
+
+# ------------------------------------------------------------------------- SRDF
+
+
+@dataclass(frozen=True)
+class Srdf:
+    """What a robot's SRDF says about collisions: the link pairs it disables (each with
+    its reason) and its named joint states."""
+
+    source: Path
+    disabled: Mapping[frozenset[str], str]
+    states: Mapping[str, Mapping[str, float]]
+
+
+def load_srdf(path: Path | str, robot: Urdf) -> Srdf:
+    """Read an SRDF for ``robot``; a disabled pair or a state naming a link or joint the
+    URDF does not have is a SpecError naming it."""
+    path = Path(path)
+    try:
+        root = ET.parse(path).getroot()
+    except (OSError, ET.ParseError) as exc:
+        raise SpecError(f"SRDF {path}: cannot read it ({exc})") from None
+    disabled: dict[frozenset[str], str] = {}
+    for element in root.findall("disable_collisions"):
+        a, b = element.get("link1", ""), element.get("link2", "")
+        for link in (a, b):
+            if link not in robot.links:
+                raise SpecError(f"SRDF {path.name}: disable_collisions names link {link!r}, not a link of "
+                                f"{robot.source.name}")
+        disabled[frozenset((a, b))] = element.get("reason", "")
+    states: dict[str, dict[str, float]] = {}
+    for element in root.findall("group_state"):
+        values = {}
+        for joint in element.findall("joint"):
+            name = joint.get("name", "")
+            robot.joint(name)
+            values[name] = _floats(f"SRDF {path.name}, group_state {element.get('name')!r}, joint {name!r}",
+                                   joint.get("value"), (math.nan,))[0]
+        states[element.get("name", "")] = values
+    return Srdf(path, disabled, states)
+
+
+def adjacent(robot: Urdf, a: str, b: str) -> bool:
+    """Joined by at most one moving joint: rigidly attached, or meeting at one joint."""
+    return sum(j.moves for j in robot.path_joints(a, b)) <= 1
+
+
+def self_collision_pairs(robot: Urdf, srdf: Srdf | None, links: Sequence[str] | None = None) -> list[tuple[str, str]]:
+    """Pairs of ``links`` (default: every link with collision geometry), in URDF order,
+    that are not adjacent and that the SRDF does not disable."""
+    chosen = [link for link in robot.links if robot.collision(link)] if links is None else list(links)
+    disabled = {} if srdf is None else srdf.disabled
+    return [(a, b) for a, b in itertools.combinations(chosen, 2)
+            if not adjacent(robot, a, b) and frozenset((a, b)) not in disabled]
+
+
+def box_separation(a: tuple, b: tuple) -> float:
+    """The exact SAT separation [m] of two boxes given as (centre, rotation rows, half
+    extents) in one frame: the largest gap over the 15 axes, < 0 when they overlap."""
+    import numpy as np
+
+    (ca, ra, ha), (cb, rb, hb) = ((np.asarray(c, float), np.asarray(r, float), np.asarray(h, float))
+                                  for c, r, h in (a, b))
+    t = cb - ca
+    axes = [*ra.T, *rb.T, *(np.cross(u, v) for u in ra.T for v in rb.T)]
+    best = -math.inf
+    for axis in axes:
+        n = float(np.linalg.norm(axis))
+        if n < 1e-9:  # parallel edges: their cross product is no axis
+            continue
+        axis = axis / n
+        gap = abs(t @ axis) - float(np.abs(ra.T @ axis) @ ha) - float(np.abs(rb.T @ axis) @ hb)
+        best = max(best, gap)
+    return best
+
+
+def numeric_pose(fk: Kinematics, link: str) -> tuple[list[list[float]], list[float]]:
+    """``fk.pose(link)`` as floats (every joint variable given as a number)."""
+    r, p = fk.pose(link)
+    try:
+        return [[float(v) for v in row] for row in r], [float(v) for v in p]
+    except (RuntimeError, TypeError):
+        raise SpecError(f"URDF {fk.urdf.source.name}: numeric_pose needs a number for every joint") from None
+
+
+def overlapping_pairs(robot: Urdf, pairs: Sequence[tuple[str, str]], boxes: Mapping[str, FittedBox],
+                      q: Mapping[str, float]) -> list[tuple[str, str, float]]:
+    """The ``pairs`` whose boxes overlap at the joint values ``q``, with their exact SAT
+    separation [m]: a pair that overlaps at a reference configuration cannot be kept
+    apart by a barrier that starts there."""
+    fk = Kinematics(robot, q)
+    placed = {}
+    for link in {link for pair in pairs for link in pair}:
+        r, p = numeric_pose(fk, link)
+        b = boxes[link]
+        center = [p[i] + sum(r[i][k] * b.center[k] for k in range(3)) for i in range(3)]
+        rotation = [[sum(r[i][k] * b.rotation[k][j] for k in range(3)) for j in range(3)] for i in range(3)]
+        placed[link] = (center, rotation, b.half)
+    gaps = [(a, b, box_separation(placed[a], placed[b])) for a, b in pairs]
+    return [(a, b, gap) for a, b, gap in gaps if gap < 0]
+
+
+def require_clear(robot: Urdf, pairs: Sequence[tuple[str, str]], boxes: Mapping[str, FittedBox],
+                  q: Mapping[str, float], where: str) -> None:
+    """A SpecError listing every pair whose boxes overlap at ``q`` (``where`` names the
+    configuration): such a pair is the spec's to leave out, with its reason, or its boxes
+    to refine; it is never dropped silently."""
+    overlaps = overlapping_pairs(robot, pairs, boxes, q)
+    if overlaps:
+        listed = ", ".join(f"{a}/{b} ({gap * 1000:.1f} mm)" for a, b, gap in overlaps)
+        raise SpecError(f"URDF {robot.source.name}: at {where}, these self-collision pairs' boxes overlap: {listed}")

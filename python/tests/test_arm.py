@@ -33,7 +33,8 @@ def test_the_arm_is_a_built_in_system_with_four_families_of_two_degrees():
     degrees = {f["name"]: f["relative_degree"] for f in arm.families}
     assert degrees == {"joint_limits": 2, "velocity_limits": 1, "obstacle": 2, "self_collision": 2}
     members = {f["name"]: f["members"] for f in arm.families}
-    assert len(members["obstacle"]) == 8 and len(members["self_collision"]) == 9
+    # One obstacle member per moving link box, one self-collision member per SRDF pair.
+    assert len(members["obstacle"]) == 10 and len(members["self_collision"]) == 20
 
 
 def test_the_filter_keeps_the_obstacle_certificates_and_the_pd_alone_does_not():

@@ -97,9 +97,9 @@ def test_several_rows_per_instance_and_let_names_made_unique():
      "family 'limit': its rows have different relative degrees"),
     (lambda: _demo(h=lambda p: [("a", se.Symbol("x_p")), ("a", se.Symbol("x_p"))]), "row names ['a', 'a'] repeat"),
     (lambda: _demo(lower_bound=lambda p: 0), "lower_bound skips instances above the activation threshold; it "
-     "needs params (instances) and a finite activation"),
+     "needs a finite activation"),
     (lambda: _demo(h=lambda p: p.q - se.Symbol("x_p"), params={"q": ()}, capacity=True, lower_bound=lambda p: 0),
-     "needs params (instances) and a finite activation"),
+     "needs a finite activation"),
     (lambda: _demo(h=lambda p: p.q - se.Symbol("x_p"), params={"q": ()}, capacity=True, activation=1.0,
                    lower_bound=lambda p: [p.q]), "lower_bound: returns one expression"),
     (lambda: _demo(h=lambda p: p.q - se.Symbol("x_p"), params={"q": ()}, capacity=True, activation=1.0,

@@ -1,14 +1,21 @@
-"""The URDF front end against Pinocchio reading the same files: every link's pose at 10^4
-random configurations within the joint limits, to 1e-12; and a broken URDF is a
-SpecError naming the element."""
+"""The URDF front end against independent truths: every link's pose and frame Jacobian
+against Pinocchio reading the same files at 10^4 random configurations within the joint
+limits, to 1e-12; the joint limits as Pinocchio reads them; every fitted collision box
+against the mesh file's own vertices (read here, not by trimesh), in exact arithmetic;
+the SRDF's pairs against Pinocchio's tree; and a broken URDF is a SpecError naming the
+element."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import struct
+from collections.abc import Callable
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
-import pinocchio as pin  # `pin` on PyPI, with example-robot-data: symbolic/requirements-test.txt
+import pinocchio as pin  # `pin` on PyPI: symbolic/requirements-test.txt (robots: requirements-urdf.txt)
 import pytest
 import symengine as se
 
@@ -102,3 +109,227 @@ def test_every_moving_joint_needs_a_variable():
     robot = urdf.load(urdf.description(ROBOTS[0]))
     with pytest.raises(SpecError, match="missing \\['panda_finger_joint2'\\]"):
         urdf.Kinematics(robot, {j.name: se.Symbol(f"q{k}") for k, j in enumerate(robot.moving_joints[:-1])})
+
+
+# ------------------------------------------------------------------ frame Jacobians
+
+
+def _vee(m) -> list:
+    return [m[2][1], m[0][2], m[1][0]]
+
+
+@pytest.mark.parametrize("relative", ["panda_description/urdf/panda.urdf",
+                                      "anymal_c_simple_description/urdf/anymal.urdf"])
+def test_every_link_jacobian_matches_pinocchio(relative):
+    # The frame Jacobian of each link, by differentiating the symbolic pose: the origin's
+    # velocity dp/dq and the angular velocity vee(dR/dq_j R^T), both in the root frame;
+    # Pinocchio's getFrameJacobian in LOCAL_WORLD_ALIGNED is the same pair.
+    path = urdf.description(relative)
+    robot = urdf.load(path)
+    q = {j.name: se.Symbol(f"q_{k}") for k, j in enumerate(robot.moving_joints)}
+    fk = urdf.Kinematics(robot, q)
+    flat = []
+    for link in robot.links:
+        r, p = fk.pose(link)
+        for v in q.values():
+            dr = [[se.diff(r[i][j], v) for j in range(3)] for i in range(3)]
+            omega = _vee([[se.Add(*[dr[i][k] * r[j][k] for k in range(3)]) for j in range(3)] for i in range(3)])
+            flat += [se.diff(e, v) for e in p] + omega
+    ours = se.Lambdify(list(q.values()), flat, cse=True)
+    model = pin.buildModelFromUrdf(str(path))
+    data = model.createData()
+    frames = [model.getFrameId(link, pin.FrameType.BODY) for link in robot.links]
+    columns = [model.joints[model.getJointId(name)].idx_v for name in q]
+    rng = np.random.default_rng(351)
+    worst = 0.0
+    for values in _random_configurations(robot, rng):
+        q_pin = np.zeros(model.nq)
+        for name, v in zip(q, values, strict=True):
+            joint = model.joints[model.getJointId(name)]
+            q_pin[joint.idx_q:joint.idx_q + joint.nq] = (math.cos(v), math.sin(v)) if joint.nq == 2 else v
+        pin.computeJointJacobians(model, data, q_pin)
+        pin.updateFramePlacements(model, data)
+        got = np.asarray(ours(values)).reshape(len(robot.links), len(q), 6)
+        for k, f in enumerate(frames):
+            want = pin.getFrameJacobian(model, data, f, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)[:, columns].T
+            worst = max(worst, float(np.max(np.abs(got[k] - want))))
+    assert worst <= 1e-12, f"{relative}: largest Jacobian difference {worst:.3g}"
+
+
+def test_limits_are_the_urdfs_as_pinocchio_reads_them():
+    path = urdf.description("panda_description/urdf/panda.urdf")
+    robot = urdf.load(path)
+    model = pin.buildModelFromUrdf(str(path))
+    names = [f"panda_joint{i}" for i in range(1, 8)]
+    idx = [model.joints[model.getJointId(n)].idx_q for n in names]
+    assert robot.limits(names, "position") == list(zip(model.lowerPositionLimit[idx],
+                                                       model.upperPositionLimit[idx], strict=True))
+    assert [v for _, v in robot.limits(names, "velocity")] == list(model.velocityLimit[idx])
+    assert [v for _, v in robot.limits(names, "effort")] == list(model.effortLimit[idx])
+    with pytest.raises(SpecError, match="joint 'panda_joint1': no torque limit|limits kind 'torque'"):
+        robot.limits(names, "torque")
+
+
+# ------------------------------------------------------------------ collision geometry
+
+
+def _read_stl(path: Path) -> list[tuple[float, float, float]]:
+    """The vertices of an STL file (binary or ASCII), read here without trimesh: the
+    fitted boxes are checked against the file itself."""
+    data = path.read_bytes()
+    if data[:5] == b"solid" and b"facet" in data[:1000]:
+        return [tuple(float(v) for v in line.split()[1:4]) for line in data.decode().splitlines()
+                if line.strip().startswith("vertex")]
+    count = struct.unpack_from("<I", data, 80)[0]
+    assert len(data) == 84 + 50 * count, f"{path}: not a binary STL"
+    return [struct.unpack_from("<3f", data, 84 + 50 * t + 12 + 12 * k) for t in range(count) for k in range(3)]
+
+
+def _rpy(rpy) -> list[list[Fraction]]:
+    return [[Fraction(float(v)) for v in row] for row in urdf.rpy_matrix(rpy)]
+
+
+def _element_points(c: urdf.Collision) -> tuple[np.ndarray, Callable[[int], tuple[Fraction, ...]]]:
+    """Points whose hull holds the element, in the link frame: the mesh file's vertices,
+    or the corners of the box around the primitive; as floats, and each exactly."""
+    if c.kind == "mesh":
+        assert c.mesh.suffix.lower() == ".stl", c.mesh
+        local = np.array(_read_stl(c.mesh), dtype=float)
+        scale = [Fraction(v) for v in c.size]
+    else:
+        local = np.array([(sx, sy, sz) for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
+        if c.kind == "box":
+            scale = [Fraction(v) / 2 for v in c.size]
+        elif c.kind == "sphere":
+            scale = [Fraction(c.size[0])] * 3
+        else:
+            r, length = (Fraction(v) for v in c.size)
+            scale = [r, r, length / 2 + (r if c.kind == "capsule" else 0)]
+    rot, shift = _rpy(c.rpy), [Fraction(v) for v in c.xyz]
+
+    def exact(i: int) -> tuple[Fraction, ...]:
+        v = [Fraction(float(local[i][k])) * scale[k] for k in range(3)]
+        return tuple(sum(rot[a][k] * v[k] for k in range(3)) + shift[a] for a in range(3))
+
+    floats = (local * np.array([float(v) for v in scale])) @ np.array([[float(v) for v in row] for row in rot]).T
+    return floats + np.array([float(v) for v in shift]), exact
+
+
+def _axis_slacks(box: urdf.FittedBox, elements) -> list[Fraction]:
+    """Per box axis, the smallest distance from any point to that pair of faces (< 0: a
+    point is outside), exactly. Floating point picks the points within 1e-9 m of the
+    smallest (its error is below 1e-12 m at these sizes); rationals decide among them."""
+    c = [Fraction(v) for v in box.center]
+    r = [[Fraction(v) for v in row] for row in box.rotation]
+    out = []
+    for a in range(3):
+        best = None
+        for floats, exact in elements:
+            assert np.all(np.abs(floats) < 1e3)
+            slack = box.half[a] - np.abs((floats - np.array(box.center)) @ np.array(box.rotation)[:, a])
+            for i in np.flatnonzero(slack <= slack.min() + 1e-9):
+                p = exact(int(i))
+                value = Fraction(box.half[a]) - abs(sum(r[k][a] * (p[k] - c[k]) for k in range(3)))
+                best = value if best is None else min(best, value)
+        out.append(best)
+    return out
+
+
+DESCRIPTIONS = ["panda_description/urdf/panda.urdf", "anymal_c_simple_description/urdf/anymal.urdf",
+                "solo_description/robots/solo12.urdf", "ur_description/urdf/ur5_robot.urdf"]
+
+
+@pytest.mark.parametrize("relative", DESCRIPTIONS)
+def test_every_fitted_box_contains_its_links_geometry_exactly(relative):
+    robot = urdf.load(urdf.description(relative))
+    meshes = [c for c in robot.collisions if c.kind == "mesh" and c.mesh.suffix.lower() != ".stl"]
+    if meshes:
+        pytest.skip(f"{relative}: meshes other than STL ({meshes[0].mesh.suffix}) are not read by this test")
+    links = [link for link in robot.links if robot.collision(link)]
+    assert links, relative
+    for link in links:
+        box = urdf.link_box(robot, link)
+        slacks = _axis_slacks(box, [_element_points(c) for c in robot.collision(link)])
+        need = 0 if box.exact else Fraction(urdf.FIT_MARGIN)
+        assert min(slacks) >= need, f"{link}: a point {float(-min(slacks))} m outside"
+        # Tight: each pair of faces touches the geometry to within the rounding (the
+        # margin and two quanta).
+        assert max(slacks) <= (0 if box.exact else 4 * Fraction(urdf.FIT_QUANTUM)), f"{link}: loose {slacks}"
+        assert all(h > 0 for h in box.half)
+        # The check can fail: the same box a fraction of a micrometre smaller leaves a point out.
+        smaller = dataclasses.replace(box, half=tuple(h - 3 * urdf.FIT_QUANTUM for h in box.half))
+        assert min(_axis_slacks(smaller, [_element_points(c) for c in robot.collision(link)])) < 0
+        r = np.array(box.rotation)
+        assert np.allclose(r @ r.T, np.eye(3), atol=1e-15) and np.linalg.det(r) > 0, f"{link}: not a rotation"
+        for shape, c in zip(urdf.collision_shapes(robot, link), robot.collision(link), strict=True):
+            if isinstance(shape, urdf.FittedBox) and not shape.exact:
+                assert min(_axis_slacks(shape, [_element_points(c)])) >= Fraction(urdf.FIT_MARGIN)
+
+
+def test_urdf_boxes_and_spheres_are_reproduced_exactly():
+    robot = urdf.load(urdf.description("anymal_c_simple_description/urdf/anymal.urdf"))
+    kinds = {"box": 0, "sphere": 0}
+    for link in robot.links:
+        for shape, c in zip(urdf.collision_shapes(robot, link), robot.collision(link), strict=True):
+            if c.kind == "box":
+                assert shape.exact and shape.center == c.xyz and shape.half == tuple(v / 2 for v in c.size)
+                assert shape.rotation == tuple(tuple(float(v) for v in row) for row in urdf.rpy_matrix(c.rpy))
+            elif c.kind == "sphere":
+                assert isinstance(shape, urdf.Sphere) and shape.center == c.xyz and shape.radius == c.size[0]
+            else:
+                continue
+            kinds[c.kind] += 1
+    assert kinds["box"] >= 10 and kinds["sphere"] == 4, kinds
+
+
+def test_the_srdf_pairs_are_the_non_adjacent_pairs_it_does_not_disable():
+    robot = urdf.load(urdf.description("panda_description/urdf/panda.urdf"))
+    srdf = urdf.load_srdf(urdf.description("panda_description/srdf/panda.srdf"), robot)
+    assert len(srdf.disabled) == 35
+    pairs = urdf.self_collision_pairs(robot, srdf)
+    # 11 links with geometry make 55 pairs; the SRDF disables 35, and every pair it leaves
+    # is at least two moving joints apart (Pinocchio's tree, counted here).
+    assert len(pairs) == 20
+    model = pin.buildModelFromUrdf(str(urdf.description("panda_description/urdf/panda.urdf")))
+
+    def joint_chain(link):
+        j = model.frames[model.getFrameId(link)].parentJoint
+        chain = []
+        while j > 0:
+            chain.append(j)
+            j = model.parents[j]
+        return set(chain)
+
+    for a, b in pairs:
+        assert frozenset((a, b)) not in srdf.disabled
+        assert len(joint_chain(a) ^ joint_chain(b)) >= 2, (a, b)
+
+
+def test_a_pair_overlapping_at_the_reference_is_named():
+    robot = urdf.load(urdf.description("panda_description/urdf/panda.urdf"))
+    srdf = urdf.load_srdf(urdf.description("panda_description/srdf/panda.srdf"), robot)
+    links = [link for link in robot.links if robot.collision(link)]
+    boxes = {link: urdf.link_box(robot, link) for link in links}
+    pairs = urdf.self_collision_pairs(robot, srdf, links)
+    folded = dict(zip([f"panda_joint{i}" for i in range(1, 8)], [-0.7, 0.64, -0.74, -3.0, 0.49, 1.12, 1.55],
+                      strict=True))
+    q = {**folded, "panda_finger_joint1": 0.04, "panda_finger_joint2": 0.04}
+    with pytest.raises(SpecError, match=r"at the fold, these self-collision pairs' boxes overlap: .*"
+                                        r"panda_link1/panda_link7 \("):
+        urdf.require_clear(robot, pairs, boxes, q, "the fold")
+    # ... and the same pairs at the SRDF's default state are clear.
+    urdf.require_clear(robot, pairs, boxes, {**srdf.states["default"], "panda_finger_joint2": 0.001}, "default")
+
+
+@pytest.mark.parametrize("collision, message", [
+    ("<geometry><mesh filename='nowhere.stl'/></geometry>", "link 'b', collision: mesh 'nowhere.stl' is missing"),
+    ("<geometry><cone radius='1'/></geometry>", "link 'b', collision: the geometry must be one of"),
+    ("<geometry><box size='1 -1 1'/></geometry>", "link 'b', collision: box size (1.0, -1.0, 1.0) must be > 0"),
+    ("<geometry><sphere/></geometry>", "link 'b', collision: sphere has no radius"),
+    ("<geometry><cylinder radius='0.1' length='nan'/></geometry>", "cylinder length: 'nan' must be 1 finite"),
+])
+def test_broken_collision_geometry_names_the_link(tmp_path, collision, message):
+    links = f"<link name='a'/><link name='b'><collision>{collision}</collision></link><link name='c'/>"
+    with pytest.raises(SpecError) as err:
+        urdf.load(_write(tmp_path, _joint("j1", "a", "b") + _joint("j2", "b", "c"), links))
+    assert message in str(err.value) and "broken.urdf" in str(err.value)

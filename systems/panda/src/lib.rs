@@ -1,8 +1,9 @@
-//! A Franka-Panda-like 7-DoF arm kept inside its joint limits, off its obstacles and off
-//! itself by smooth SAT: the second robot on the generic toolchain.
+//! Franka Emika's Panda (7 DoF) kept inside its joint limits, off its obstacles and off
+//! itself by smooth SAT: the second robot on the generic toolchain, built from its URDF.
 //!
-//! Everything robot-specific is in its spec, `spec/panda.py` (published DH
-//! table and joint limits, assumed link boxes, four barrier families); the generator turns
+//! Everything robot-specific is in its spec, `spec/panda.py` (example-robot-data's URDF
+//! and SRDF: kinematics, limits, boxes fitted to the collision meshes, the SRDF's
+//! self-collision pairs; four barrier families); the generator turns
 //! it into [`generated`] and the generic [`EcbfFilter`](cbfgen::filter::EcbfFilter)
 //! runs it. The rest of this crate is the closed-loop scenario and its figures:
 //!

@@ -60,7 +60,7 @@ fn min_over(s: &Sample, range: std::ops::Range<usize>) -> f64 {
 /// Each obstacle's smallest separation over the link boxes, and the smallest over the
 /// self-collision pairs: with the filter solid, without dashed.
 pub fn clearance_chart(with: &Run, without: Option<&Run>) -> Chart {
-    let links = gen::LINK_NAMES.len();
+    let links = gen::OBSTACLE_LINKS.len();
     let mut chart = Chart::new(
         "Arm: exact SAT separation of the checked box pairs (dashed: without the filter)",
         "t [s]",
@@ -90,7 +90,7 @@ pub fn clearance_chart(with: &Run, without: Option<&Run>) -> Chart {
 
 /// Every self-collision pair's separation with the filter.
 pub fn self_pairs_chart(run: &Run) -> Chart {
-    let first = run.scenario.obstacles.len() * gen::LINK_NAMES.len();
+    let first = run.scenario.obstacles.len() * gen::OBSTACLE_LINKS.len();
     let names = run.scenario.pair_names();
     let mut chart = Chart::new("Arm: self-collision pairs, exact SAT separation", "t [s]", "separation [m]");
     for (k, name) in names[first..].iter().enumerate() {

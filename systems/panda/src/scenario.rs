@@ -37,6 +37,8 @@ pub const MAX_GAIN: f64 = 1e4;
 /// Largest |waypoint angle| accepted \[rad\]: targets may lie past the limits (the filter
 /// holds the joint), but not by several turns.
 pub const MAX_TARGET: f64 = 10.0;
+/// Link boxes of the arm (every link with collision geometry in its URDF).
+pub const LINKS: usize = gen::LINK_NAMES.len();
 /// The families, in the spec's (and the rows') order.
 pub const FAMILY_NAMES: [&str; 4] = ["joint_limits", "velocity_limits", "obstacle", "self_collision"];
 
@@ -173,12 +175,12 @@ impl Scenario {
     }
 
     /// Names of the checked box pairs, in [`Sample::separation`] order: every obstacle
-    /// against every link box (`"box/link5"`), then the self-collision pairs
+    /// against every moving link's box (`"box/link5"`), then the self-collision pairs
     /// (`"link1/hand"`).
     pub fn pair_names(&self) -> Vec<String> {
         let mut names = Vec::new();
         for o in &self.obstacles {
-            names.extend(gen::LINK_NAMES.iter().map(|l| format!("{}/{l}", o.name)));
+            names.extend(gen::OBSTACLE_LINKS.iter().map(|&l| format!("{}/{}", o.name, gen::LINK_NAMES[l])));
         }
         names.extend(gen::SELF_PAIRS.iter().map(|&[a, b]| self_pair_name(a, b)));
         names
@@ -196,19 +198,20 @@ fn self_pair_name(a: usize, b: usize) -> String {
     format!("{}/{}", gen::LINK_NAMES[a], gen::LINK_NAMES[b])
 }
 
-/// The world boxes of the eight links at state `x` (generated forward kinematics).
+/// The world boxes of the links at state `x` (generated forward kinematics), in
+/// [`gen::LINK_NAMES`] order.
 ///
 /// # Errors
 /// A state whose kinematics are not finite.
-pub fn link_boxes(x: &State) -> Result<[OrientedBox; 8], CbfError> {
+pub fn link_boxes(x: &State) -> Result<[OrientedBox; LINKS], CbfError> {
     let (centers, rotations) = gen::link_boxes(x);
-    let boxes = (0..8)
+    let boxes = (0..LINKS)
         .map(|k| {
             let rotation = Rotation3::from_matrix_unchecked(Matrix3::from_row_slice(&rotations[k]));
             OrientedBox::new(Vector3::from(centers[k]), rotation, Vector3::from(gen::LINK_HALF_EXTENTS[k]))
         })
         .collect::<Result<Vec<_>, _>>()?;
-    Ok(boxes.try_into().expect("eight boxes from eight rows"))
+    Ok(boxes.try_into().expect("one box per row of the generated output"))
 }
 
 /// One control cycle.
@@ -257,8 +260,8 @@ impl Simulation {
     /// An invalid scenario ([`Scenario::validate`]) or filter settings.
     pub fn new(scenario: &Scenario) -> Result<Self, CbfError> {
         scenario.validate()?;
-        // Every link is checked against every obstacle.
-        let capacity = Capacity { obstacle: [scenario.obstacles.len(); 8] };
+        // Every moving link is checked against every obstacle.
+        let capacity = Capacity { obstacle: [scenario.obstacles.len(); gen::OBSTACLE_LINKS.len()] };
         let mut params = Params::new(capacity)?;
         for o in &scenario.obstacles {
             let b = &o.shape;
@@ -338,9 +341,10 @@ impl Simulation {
 
     fn separations(&self, x: &State) -> Result<Vec<f64>, CbfError> {
         let links = link_boxes(x)?;
-        let mut out = Vec::with_capacity(self.scenario.obstacles.len() * links.len() + gen::SELF_PAIRS.len());
+        let mut out =
+            Vec::with_capacity(self.scenario.obstacles.len() * gen::OBSTACLE_LINKS.len() + gen::SELF_PAIRS.len());
         for o in &self.scenario.obstacles {
-            out.extend(links.iter().map(|l| sat::separation(&o.shape, l)));
+            out.extend(gen::OBSTACLE_LINKS.iter().map(|&l| sat::separation(&o.shape, &links[l])));
         }
         out.extend(gen::SELF_PAIRS.iter().map(|&[a, b]| sat::separation(&links[a], &links[b])));
         Ok(out)

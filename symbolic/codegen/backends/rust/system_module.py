@@ -303,7 +303,8 @@ def _evaluate_family(w, f: FamilyDefinition) -> None:
             w("            i += n;")
             w("        }")
         else:
-            w(f"        let (lie, lg) = {call};")
+            if call:
+                w(f"        let (lie, lg) = {call};")
             w(f"        {store}")
             w("        i += n;")
 
