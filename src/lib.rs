@@ -44,6 +44,7 @@ pub mod sat;
 pub mod sphere_box;
 pub mod ssat;
 pub mod system;
+pub mod torque;
 
 /// The primitives' kernels (SSAT variants, sphere-box clearance) emitted by
 /// `python -m symbolic.generate`. Never edited by hand: change `symbolic/` and rebuild

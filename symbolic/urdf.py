@@ -22,9 +22,10 @@ capsules, meshes) are read with the URDF; a missing mesh file is a SpecError nam
 link. ``link_box(robot, link)`` is one oriented box, fixed in the link's frame, that
 contains all of the link's collision geometry: a URDF box is reproduced as it is; for
 anything else the box is fitted (the link-frame bounding box, or trimesh's minimal-volume
-oriented box where that is clearly smaller, see ``FIT_ORIENTED_GAIN``) and *checked*: every mesh vertex, and every corner of the
-cube or box around a sphere, cylinder or capsule, is shown inside it in exact rational
-arithmetic, with at least ``FIT_MARGIN`` to spare. Fitted boxes are conservative (a
+oriented box where that is clearly smaller, see ``FIT_ORIENTED_GAIN``) and *checked*:
+every mesh vertex, and every corner of the cube or box around a sphere, cylinder or
+capsule, is shown inside it in exact rational arithmetic, with at least ``FIT_MARGIN``
+to spare. Fitted boxes are conservative (a
 capsule's box holds its corners' empty space); that is the price of one SSAT row per
 link pair. ``collision_shapes(robot, link)`` gives each element on its own: boxes and
 spheres exactly, anything else as its checked box.
@@ -42,6 +43,7 @@ with ``System.depends_on(*robot.files)``.
 
 from __future__ import annotations
 
+import dataclasses
 import importlib.metadata
 import itertools
 import math
@@ -126,6 +128,16 @@ class Collision:
 
 
 @dataclass(frozen=True)
+class Inertial:
+    """A link's mass [kg], centre of mass [m] and rotational inertia about it [kg m²],
+    both in the link's frame (the URDF's inertial ``rpy`` applied)."""
+
+    mass: float
+    com: tuple[float, float, float]
+    inertia: tuple[tuple[float, float, float], ...]
+
+
+@dataclass(frozen=True)
 class Urdf:
     """A robot description: its links and its joints, parents before children, and each
     link's collision geometry."""
@@ -136,6 +148,8 @@ class Urdf:
     links: tuple[str, ...]
     joints: tuple[Joint, ...]
     collisions: tuple[Collision, ...] = ()
+    inertials: Mapping[str, Inertial] = dataclasses.field(default_factory=dict)
+    """Per link with an ``<inertial>``; a link without one is massless."""
 
     @property
     def files(self) -> list[Path]:
@@ -343,7 +357,33 @@ def load(path: Path | str, packages: Mapping[str, Path] | None = None) -> Urdf:
     ordered = tuple(sorted(joints, key=lambda j: (depth[j.child], names.index(j.name))))
     collisions = tuple(_collision(path, link, element, packages) for link_element in robot.findall("link")
                        for link in [link_element.get("name", "")] for element in link_element.findall("collision"))
-    return Urdf(robot.get("name", path.stem), path, roots[0], tuple(links), ordered, collisions)
+    inertials = {link: _inertial(path, link, element) for link_element in robot.findall("link")
+                 for link in [link_element.get("name", "")] if (element := link_element.find("inertial")) is not None}
+    return Urdf(robot.get("name", path.stem), path, roots[0], tuple(links), ordered, collisions, inertials)
+
+
+def _inertial(path: Path, link: str, element: ET.Element) -> Inertial:
+    where = f"URDF {path.name}, link {link!r}, inertial"
+    origin = element.find("origin")
+    xyz = _floats(f"{where} origin xyz", None if origin is None else origin.get("xyz"), (0.0, 0.0, 0.0))
+    rpy = _floats(f"{where} origin rpy", None if origin is None else origin.get("rpy"), (0.0, 0.0, 0.0))
+    mass_element, inertia = element.find("mass"), element.find("inertia")
+    if mass_element is None or inertia is None:
+        raise SpecError(f"{where}: needs <mass> and <inertia>")
+    mass = _floats(f"{where} mass", mass_element.get("value"), (math.nan,))[0]
+    if not mass >= 0:
+        raise SpecError(f"{where}: mass {mass} must be >= 0")
+    keys = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+    missing = [k for k in keys if inertia.get(k) is None]
+    if missing:
+        raise SpecError(f"{where}: inertia lacks {missing}")
+    ixx, ixy, ixz, iyy, iyz, izz = (_floats(f"{where} inertia {k}", inertia.get(k), (math.nan,))[0] for k in keys)
+    local = [[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]]
+    r = [[float(v) for v in row] for row in rpy_matrix(rpy)]
+    # R I Rᵀ: the inertia in the link's axes.
+    rotated = tuple(tuple(sum(r[i][a] * local[a][b] * r[j][b] for a in range(3) for b in range(3)) for j in range(3))
+                    for i in range(3))
+    return Inertial(mass, xyz, rotated)
 
 
 def _collision(path: Path, link: str, element: ET.Element, packages: Mapping[str, Path] | None) -> Collision:

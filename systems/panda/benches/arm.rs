@@ -1,14 +1,18 @@
 //! The 7-DoF arm's filter (`systems/panda/spec/panda.py`), beside Tachyon 3's in the README:
 //!
-//! * `arm/update_53_rows/{dense_then_osqp,osqp}` — one full update (every row evaluated,
+//! * `arm/update_<rows>_rows/{dense_then_osqp,osqp}` — one full update (every row evaluated,
 //!   the QP solved, warm-started) at two moments of the standard scenario: `sweep` (1.2 s,
-//!   the forearm held off the box) and `fold` (12 s, the hand held off the shoulder);
-//! * `arm_rows/all_53` — every row evaluated, no solve;
+//!   the forearm held off the box) and `fold` (12 s, the hand held off the shoulder), and
+//!   `…/torques_dense_then_osqp` the same rows mapped to joint torques through the
+//!   generated dynamics;
+//! * `arm_rows/all_<rows>` — every row evaluated, no solve;
 //! * `arm_row/<family>` — one member's kernel: all 14 joint-limit rows, all 14 velocity
-//!   rows, one link (the hand) against one obstacle, one self-collision pair (link2/hand).
+//!   rows, one link (the hand) against one obstacle, one self-collision pair (link2/hand);
+//! * `arm_dynamics/mass_matrix_and_bias` — the generated M(q) and C(q, q̇) q̇ + g(q).
 
 use cbfgen::filter::{EcbfFilter, Solver};
 use cbfgen::system::BarrierSet;
+use cbfgen::torque::JointTorque;
 use cbfgen_panda::generated::{self as gen, Barriers};
 use cbfgen_panda::{Scenario, Simulation};
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -41,6 +45,22 @@ fn update(c: &mut Criterion) {
                 b.iter(|| filter.update(black_box(&x), black_box(&u_ref), &params).map(|o| o.u))
             });
         }
+        // The same rows on joint torques: M and b generated from the URDF, M factored, every
+        // row mapped (cbfgen::torque::JointTorque), then the dense solve.
+        let mut settings = Scenario::standard().settings;
+        settings.input_min = gen::TAU_MAX.map(|t| -t);
+        settings.input_max = gen::TAU_MAX;
+        let mut torque =
+            EcbfFilter::new(JointTorque::new(Barriers::new(params.capacity()).expect("rows"), gen::dynamics), settings)
+                .expect("filter");
+        let (m, bias) = gen::dynamics(&x);
+        let tau: [f64; gen::NU] =
+            std::array::from_fn(|i| (0..gen::NU).map(|j| m[i][j] * u_ref[j]).sum::<f64>() + bias[i]);
+        torque.update(&x, &tau, &params).expect("in the domain");
+        let rows = torque.rows().len();
+        g.bench_function(format!("update_{rows}_rows/{moment}/torques_dense_then_osqp"), |b| {
+            b.iter(|| torque.update(black_box(&x), black_box(&tau), &params).map(|o| o.u))
+        });
     }
     g.finish();
 }
@@ -62,6 +82,8 @@ fn rows(c: &mut Criterion) {
     });
     g.bench_function("self_collision (link2 vs hand)", |b| b.iter(|| gen::self_collision_link2_hand(black_box(&x))));
     g.finish();
+    // The generated rigid-body dynamics from the URDF's inertials: M(q) and C(q, q̇) q̇ + g(q).
+    c.bench_function("arm_dynamics/mass_matrix_and_bias", |b| b.iter(|| gen::dynamics(black_box(&x))));
 }
 
 criterion_group!(benches, update, rows);

@@ -38,6 +38,7 @@ import symengine as se
 
 from symbolic import primitives as prim
 from symbolic import urdf
+from symbolic.dynamics import RigidBodyDynamics
 from symbolic.spec import System
 
 ROBOT = urdf.load(urdf.description("panda_description/urdf/panda.urdf"))
@@ -49,6 +50,7 @@ FINGER_OPENING = 0.04
 FINGERS = {"panda_finger_joint1": FINGER_OPENING, "panda_finger_joint2": FINGER_OPENING}
 Q_MIN, Q_MAX = (list(v) for v in zip(*ROBOT.limits(JOINT_NAMES, "position"), strict=True))
 QD_MAX = [upper for _, upper in ROBOT.limits(JOINT_NAMES, "velocity")]
+TAU_MAX = [upper for _, upper in ROBOT.limits(JOINT_NAMES, "effort")]
 # Franka's datasheet [rad/s^2]; the URDF carries no acceleration limits.
 QDD_MAX = [15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0]
 
@@ -201,6 +203,12 @@ def build() -> System:
                                 "origins of frames 1-11 [m]")],
              doc="Origins of frames 1-7 (after each joint), the flange (8), the hand (9) and the fingers (10, 11), "
                  "base frame.")
+    dynamics = RigidBodyDynamics(ROBOT, {**dict(zip(JOINT_NAMES, q, strict=True)), **FINGERS})
+    s.output("dynamics", [
+        ("mass_matrix", dynamics.mass_matrix(), "joint-space mass matrix M(q) [kg m^2], fingers held still"),
+        ("bias", dynamics.bias(qd), "C(q, q') q' + g(q) [N m]: the torques that hold the arm at q'' = 0"),
+    ], doc="The arm's rigid-body dynamics from the URDF's inertials (gravity 9.81 m/s^2 along -z): "
+           "tau = M(q) q'' + bias(q, q').")
     for name, value, doc in [
         ("link_names", [short(link) for link in LINKS], "Link boxes, in row order of every per-link output."),
         ("obstacle_links", [LINKS.index(link) for link in OBSTACLE_LINKS],
@@ -217,6 +225,8 @@ def build() -> System:
         ("q_max", Q_MAX, "Joint angle upper limits [rad] (URDF)."),
         ("qd_max", QD_MAX, "Joint rate limits [rad/s] (URDF)."),
         ("qdd_max", QDD_MAX, "Joint acceleration limits [rad/s^2] (Franka's datasheet)."),
+        ("tau_max", TAU_MAX, "Joint torque limits [N m] (URDF), for the rows mapped to torques "
+                             "(cbfgen::torque::JointTorque with `dynamics`)."),
         ("ssat_alpha", [SSAT_ALPHA, SSAT_ALPHA_ROT], "SSAT sharpness of the collision rows (alpha [1/m], alpha_rot)."),
     ]:
         s.constant(name, value, doc)

@@ -526,3 +526,39 @@ fn far_self_collision_pairs_are_culled_by_a_true_bound() {
     }
     assert!(culled > 10_000 && evaluated > 1_000, "culled {culled}, evaluated {evaluated}");
 }
+
+#[test]
+fn the_generated_dynamics_are_symmetric_positive_definite_and_passive() {
+    // Independent of how M and the bias were built: M(q) = M(q)ᵀ ≻ 0, and the rigid-body
+    // passivity identity q̇ᵀ (C(q, q̇) q̇) = ½ q̇ᵀ Ṁ q̇, with C q̇ = bias(q, q̇) − bias(q, 0)
+    // and Ṁ = dM/dt along q̇ by Richardson-extrapolated central differences.
+    let mut r = rng(352);
+    let mut worst: f64 = 0.0;
+    for _ in 0..1000 {
+        let x = random_state(&mut r);
+        let (m, bias) = gen::dynamics(&x);
+        let mass = nalgebra::SMatrix::<f64, 7, 7>::from_fn(|i, j| m[i][j]);
+        assert!((mass - mass.transpose()).abs().max() <= 1e-15 * mass.abs().max(), "M is not symmetric");
+        assert!(mass.cholesky().is_some(), "M is not positive definite at {x:?}");
+        let mut still = x;
+        still[7..].fill(0.0);
+        let gravity = gen::dynamics(&still).1;
+        let qd = nalgebra::SVector::<f64, 7>::from_fn(|i, _| x[7 + i]);
+        let coriolis_power: f64 = (0..7).map(|i| qd[i] * (bias[i] - gravity[i])).sum();
+        let mass_at = |eps: f64| {
+            let mut y = x;
+            for i in 0..7 {
+                y[i] += eps * x[7 + i];
+            }
+            let m = gen::dynamics(&y).0;
+            nalgebra::SMatrix::<f64, 7, 7>::from_fn(|i, j| m[i][j])
+        };
+        let eps = 1e-4;
+        let central = |e: f64| (mass_at(e) - mass_at(-e)) / (2.0 * e);
+        let m_dot = (4.0 * central(eps / 2.0) - central(eps)) / 3.0;
+        let half_power = 0.5 * (qd.transpose() * m_dot * qd)[(0, 0)];
+        let scale = 1.0 + coriolis_power.abs() + (qd.transpose() * mass * qd)[(0, 0)];
+        worst = worst.max((coriolis_power - half_power).abs() / scale);
+    }
+    assert!(worst <= 1e-8, "q̇ᵀ C q̇ differs from ½ q̇ᵀ Ṁ q̇ by {worst:e} of its scale");
+}

@@ -1,7 +1,8 @@
 //! The arm's control path allocates nothing: the generated `panda` barriers and the
 //! generic filter over the standard scenario's 24 s (rows of all four families, of
 //! relative degrees 1 and 2, evaluated and solved each cycle), beside a second filter on
-//! OSQP alone, with a NaN state and a nominal input of 1e300 rejected now and then. Counted
+//! OSQP alone and a third mapping the rows to joint torques (`cbfgen::torque::JointTorque`),
+//! with a NaN state and a nominal input of 1e300 rejected now and then. Counted
 //! for Rust's global allocator and for the C `malloc` family OSQP calls.
 //!
 //! The counters are process-wide, so this binary has no test harness (`harness = false`
@@ -11,8 +12,9 @@
 mod alloc_count;
 
 use cbfgen::filter::{EcbfFilter, InputSource, Solver};
+use cbfgen::torque::JointTorque;
 use cbfgen::CbfError;
-use cbfgen_panda::generated::{Barriers, Params, NU, NX};
+use cbfgen_panda::generated::{self, Barriers, Params, NU, NX};
 use cbfgen_panda::{Scenario, Simulation, DT};
 
 fn main() {
@@ -30,6 +32,13 @@ fn the_arm_filter_allocates_nothing() {
     osqp_settings.solver.backend = Solver::Osqp;
     let mut osqp = EcbfFilter::new(Barriers::new(capacity).unwrap(), osqp_settings).unwrap();
     assert!(params.obstacle.iter().all(|o| o.as_slice().len() == 2));
+    let mut torque_settings = scenario.settings.clone();
+    torque_settings.input_min = generated::TAU_MAX.map(|t| -t);
+    torque_settings.input_max = generated::TAU_MAX;
+    let mut torque =
+        EcbfFilter::new(JointTorque::new(Barriers::new(capacity).unwrap(), generated::dynamics), torque_settings)
+            .unwrap();
+    let mut torque_solved = 0usize;
 
     alloc_count::assert_counters_work(|| {
         EcbfFilter::new(Barriers::new(capacity).unwrap(), scenario.settings.clone()).unwrap()
@@ -57,6 +66,14 @@ fn the_arm_filter_allocates_nothing() {
                     osqp_solved += usize::from(matches!(out.source, InputSource::Qp | InputSource::Unconverged));
                 }
             }
+            if k % 10 == 5 {
+                // The same rows on torques (the wrapper factors M each cycle, on the stack).
+                let (m, b) = generated::dynamics(&x);
+                let tau: [f64; NU] = std::array::from_fn(|i| (0..NU).map(|j| m[i][j] * u_ref[j]).sum::<f64>() + b[i]);
+                if let Ok(out) = torque.update(&x, &tau, &params) {
+                    torque_solved += usize::from(out.source == InputSource::Qp);
+                }
+            }
             if k % 100 == 0 {
                 rejected +=
                     usize::from(matches!(filter.update(&nan, &u_ref, &params), Err(CbfError::NonFinite { .. })));
@@ -73,4 +90,5 @@ fn the_arm_filter_allocates_nothing() {
     assert_eq!(solved, cycles, "every drive update solved its QP");
     assert_eq!(osqp_solved, cycles / 10, "every OSQP update returned its iterate");
     assert_eq!(rejected, 2 * cycles / 100, "every bad input was rejected");
+    assert_eq!(torque_solved, cycles / 10, "every torque update solved its QP");
 }

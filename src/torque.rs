@@ -1,0 +1,221 @@
+//! Joint torques as the filter's inputs, for rows written in joint accelerations.
+//!
+//! A spec whose inputs are a robot's joint accelerations (`ẋ = [q̇, 0] + [0; I] q̈`, the
+//! arm's form) gives rows `L_f^r h + Σ k_i L_f^i h + a · q̈ ≥ 0` with `a = L_g L_f^{r−1} h`.
+//! A torque-controlled robot's accelerations are `q̈ = M(q)⁻¹ (τ − b(q, q̇))`, with `M`
+//! the joint-space mass matrix and `b` the Coriolis, centrifugal and gravity forces, so the
+//! same row in torques is
+//!
+//! ```text
+//! (L_f^r h − ã · b) + Σ k_i L_f^i h + ã · τ ≥ 0,      ã = M⁻¹ a   (M is symmetric)
+//! ```
+//!
+//! which is again an ECBF row: `L_f^r h` along the torque-free drift and `L_g L_f^{r−1} h`
+//! in torques. [`JointTorque`] wraps the acceleration rows' [`BarrierSet`] and a function
+//! giving `M` and `b` at a state (a spec's generated `dynamics` output, built from the
+//! URDF's inertials by `symbolic/dynamics.py`), factors `M` once per cycle (Cholesky, on
+//! the stack, no allocation) and maps every evaluated row. Rows of a relative degree below
+//! the inputs' do not see them and are copied as they are; culled rows stay culled.
+//!
+//! The filter's inputs are then torques: give it torque limits, torque weights and a
+//! nominal torque. A row's input columns become every joint (`M⁻¹` couples them).
+//!
+//! The cart of the [filter's example](crate::filter) again, now of mass 2 kg pushed by a
+//! force `F` against a drag of 3 N (`b = 3`): its acceleration is `(F − 3) / 2`, so the
+//! wall row `−20 v + 100 h − a ≥ 0` becomes `F ≤ 2 (100 h − 20 v) + 3`, which at
+//! `p = 0.9`, `v = 0.5` allows at most `F = 3` N.
+//!
+//! ```
+//! use cbfgen::filter::{EcbfFilter, FilterSettings, InputSource};
+//! use cbfgen::system::{BarrierSet, FamilyInfo, FamilyParams, InstanceKind, Poles, Row, RowLayout};
+//! use cbfgen::torque::JointTorque;
+//!
+//! struct Wall([Row<1>; 1]);
+//! const FAMILIES: [FamilyInfo; 1] = [FamilyInfo {
+//!     name: "wall",
+//!     relative_degree: 2,
+//!     row_names: &["wall"],
+//!     members: &[],
+//!     instances: InstanceKind::Fixed,
+//!     count: 1,
+//!     params: &[("wall", &[])],
+//!     defaults: FamilyParams { poles: Poles::from_array([10.0, 10.0]), priority: 0, activation: f64::INFINITY },
+//! }];
+//! const LAYOUT: [RowLayout; 1] = [RowLayout { family: 0, member: 0, instance: 0, row: 0, columns: &[0] }];
+//! impl BarrierSet<1> for Wall {
+//!     type State = [f64; 2];
+//!     type Params = f64;
+//!     fn families(&self) -> &[FamilyInfo] { &FAMILIES }
+//!     fn layout(&self) -> &[RowLayout] { &LAYOUT }
+//!     fn rows(&self) -> &[Row<1>] { &self.0 }
+//!     fn evaluate(&mut self, _t: f64, x: &[f64; 2], wall: &f64) -> Result<(), cbfgen::CbfError> {
+//!         self.0[0].store(&[wall - x[0], -x[1], 0.0], &[-1.0], &[0]); // in accelerations
+//!         Ok(())
+//!     }
+//! }
+//! // M = 2 kg, b = 3 N, whatever the state.
+//! fn cart(_x: &[f64; 2]) -> ([[f64; 1]; 1], [f64; 1]) {
+//!     ([[2.0]], [3.0])
+//! }
+//!
+//! let settings = FilterSettings::defaults(&FAMILIES, [-50.0], [50.0]); // force limits [N]
+//! let mut filter = EcbfFilter::new(JointTorque::new(Wall([Row::ZERO]), cart), settings)?;
+//! let out = filter.update(&[0.9, 0.5], &[10.0], &1.0)?;
+//! assert_eq!(out.source, InputSource::Qp);
+//! assert!((out.u[0] - 3.0).abs() < 1e-6); // F ≤ 2 (100 · 0.1 − 20 · 0.5) + 3
+//! let row = filter.rows()[0];
+//! assert!((row.lg[0] + 0.5).abs() < 1e-15 && (row.lie[2] - 1.5).abs() < 1e-15); // −1/M; 0 − (−1/M) b
+//! # Ok::<(), cbfgen::CbfError>(())
+//! ```
+
+use crate::error::CbfError;
+use crate::system::{BarrierSet, FamilyInfo, Row, RowLayout};
+
+/// The most joints a [`JointTorque`] maps.
+pub const MAX_JOINTS: usize = 64;
+
+/// `0, 1, …, MAX_JOINTS − 1`: every row's input columns once mapped to torques.
+static ALL_COLUMNS: [usize; MAX_JOINTS] = {
+    let mut columns = [0; MAX_JOINTS];
+    let mut i = 0;
+    while i < MAX_JOINTS {
+        columns[i] = i;
+        i += 1;
+    }
+    columns
+};
+
+/// `M(q)` (row by row) and `b(q, q̇)` at a state.
+pub type Dynamics<const NX: usize, const NU: usize> = fn(&[f64; NX]) -> ([[f64; NU]; NU], [f64; NU]);
+
+/// The rows of `B` (written in joint accelerations) mapped to joint torques each cycle:
+/// see the [module docs](self).
+#[derive(Debug, Clone)]
+pub struct JointTorque<B, const NX: usize, const NU: usize> {
+    inner: B,
+    dynamics: Dynamics<NX, NU>,
+    layout: Vec<RowLayout>,
+    rows: Vec<Row<NU>>,
+    mass: [[f64; NU]; NU],
+    bias: [f64; NU],
+}
+
+impl<B: BarrierSet<NU, State = [f64; NX]>, const NX: usize, const NU: usize> JointTorque<B, NX, NU> {
+    /// Wrap `inner` (its inputs joint accelerations, one per joint) with `dynamics`, giving
+    /// `M` and `b` at a state.
+    pub fn new(inner: B, dynamics: Dynamics<NX, NU>) -> Self {
+        const { assert!(NU <= MAX_JOINTS, "JointTorque maps at most MAX_JOINTS joints") };
+        let layout = inner.layout().iter().map(|l| RowLayout { columns: &ALL_COLUMNS[..NU], ..*l }).collect();
+        let rows = inner.rows().to_vec();
+        Self { inner, dynamics, layout, rows, mass: [[0.0; NU]; NU], bias: [0.0; NU] }
+    }
+
+    /// The acceleration rows, as last evaluated.
+    pub fn inner(&self) -> &B {
+        &self.inner
+    }
+
+    /// `M` and `b` at the last evaluated state.
+    pub fn dynamics(&self) -> (&[[f64; NU]; NU], &[f64; NU]) {
+        (&self.mass, &self.bias)
+    }
+}
+
+/// `M = L Lᵀ` in place (lower triangle), or the first pivot that is not positive.
+fn cholesky<const N: usize>(m: &mut [[f64; N]; N]) -> Result<(), f64> {
+    for j in 0..N {
+        let pivot = m[j][j] - (0..j).map(|k| m[j][k] * m[j][k]).sum::<f64>();
+        // NaN fails `is_finite`.
+        if !pivot.is_finite() || pivot <= 0.0 {
+            return Err(pivot);
+        }
+        let d = pivot.sqrt();
+        m[j][j] = d;
+        for i in j + 1..N {
+            m[i][j] = (m[i][j] - (0..j).map(|k| m[i][k] * m[j][k]).sum::<f64>()) / d;
+        }
+    }
+    Ok(())
+}
+
+/// `x = (L Lᵀ)⁻¹ v` with `L` from [`cholesky`].
+fn solve<const N: usize>(l: &[[f64; N]; N], v: &[f64; N]) -> [f64; N] {
+    let mut y = *v;
+    for i in 0..N {
+        y[i] = (y[i] - (0..i).map(|k| l[i][k] * y[k]).sum::<f64>()) / l[i][i];
+    }
+    for i in (0..N).rev() {
+        y[i] = (y[i] - (i + 1..N).map(|k| l[k][i] * y[k]).sum::<f64>()) / l[i][i];
+    }
+    y
+}
+
+impl<B: BarrierSet<NU, State = [f64; NX]>, const NX: usize, const NU: usize> BarrierSet<NU> for JointTorque<B, NX, NU> {
+    type State = [f64; NX];
+    type Params = B::Params;
+
+    fn families(&self) -> &[FamilyInfo] {
+        self.inner.families()
+    }
+
+    fn layout(&self) -> &[RowLayout] {
+        &self.layout
+    }
+
+    fn rows(&self) -> &[Row<NU>] {
+        &self.rows
+    }
+
+    /// # Errors
+    /// As the inner rows' evaluation; a non-finite `b`; an `M` that is not positive
+    /// definite (or not finite): [`CbfError::NotPositive`] with the failing Cholesky pivot.
+    /// The rows are then left as they were.
+    fn evaluate(&mut self, t: f64, x: &[f64; NX], params: &B::Params) -> Result<(), CbfError> {
+        let (mass, bias) = (self.dynamics)(x);
+        if let Some(&b) = bias.iter().find(|b| !b.is_finite()) {
+            return Err(CbfError::NonFinite { what: "bias force b(q, q̇)", value: b });
+        }
+        let mut factor = mass;
+        cholesky(&mut factor).map_err(|pivot| CbfError::NotPositive { what: "mass matrix pivot", value: pivot })?;
+        self.inner.evaluate(t, x, params)?;
+        let families = self.inner.families();
+        for ((out, row), at) in self.rows.iter_mut().zip(self.inner.rows()).zip(self.inner.layout()) {
+            *out = *row;
+            if !row.active || row.culled {
+                continue;
+            }
+            let degree = families[at.family].relative_degree;
+            let mapped = solve(&factor, &row.lg);
+            out.lie[degree] -= mapped.iter().zip(&bias).map(|(a, b)| a * b).sum::<f64>();
+            out.lg = mapped;
+        }
+        self.mass = mass;
+        self.bias = bias;
+        Ok(())
+    }
+
+    fn cull_above(&mut self, thresholds: &[f64]) {
+        self.inner.cull_above(thresholds);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_factor_solves_and_refuses_what_is_not_positive_definite() {
+        // A hand-checked 3×3: M = [[4, 2, 0], [2, 5, 1], [0, 1, 3]], v = M · [1, −1, 2].
+        let m = [[4.0, 2.0, 0.0], [2.0, 5.0, 1.0], [0.0, 1.0, 3.0]];
+        let v = [2.0, -1.0, 5.0];
+        let mut l = m;
+        cholesky(&mut l).unwrap();
+        let x = solve(&l, &v);
+        for (got, want) in x.iter().zip([1.0, -1.0, 2.0]) {
+            assert!((got - want).abs() < 1e-15, "{x:?}");
+        }
+        assert_eq!(cholesky(&mut [[1.0, 2.0], [2.0, 1.0]]), Err(-3.0));
+        assert!(cholesky(&mut [[f64::NAN]]).is_err());
+        assert!(cholesky(&mut [[f64::INFINITY]]).is_err());
+    }
+}

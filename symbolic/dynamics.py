@@ -1,0 +1,173 @@
+"""A robot's rigid-body dynamics from its URDF's inertials, symbolically.
+
+``RigidBodyDynamics(robot, q)`` takes one value per moving joint, as ``urdf.Kinematics``
+does: an expression (usually a state) for a joint that moves, a number for one the spec
+holds still (it is then rigid). Its degrees of freedom are the joints given expressions,
+in tree order. It gives
+
+* ``inverse(qd, qdd)``: the joint forces τ = M(q) q̈ + C(q, q̇) q̇ + g(q), by the
+  recursive Newton–Euler algorithm (Featherstone, *Rigid Body Dynamics Algorithms*, ch. 5);
+* ``bias(qd)``: C(q, q̇) q̇ + g(q), the same with q̈ = 0;
+* ``gravity()``: g(q), with q̇ = q̈ = 0;
+* ``mass_matrix()``: M(q), column j the forces for q̈ = e_j with no velocity or gravity.
+
+Everything is in each link's own frame, in spatial (6-D) vectors written as pairs of
+3-vectors: a motion (ω, v) is the link's angular velocity and the velocity of the point
+at its origin; a force (n, f) is the moment about its origin and the force. Gravity
+enters as an upward acceleration of the root (``gravity`` is the world's, default
+(0, 0, −9.81) m/s² as Pinocchio's). With ``let_`` every link's velocity, acceleration and
+force are named intermediates, so a kernel holds each once.
+
+Joint forces are torques [N m] for revolute and continuous joints, forces [N] for
+prismatic ones. A link without ``<inertial>`` is massless.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+
+import symengine as se
+
+from .spec import SpecError
+from .urdf import Joint, Urdf, _identifier, _matmul, _number, _snap, axis_rotation, rpy_matrix
+
+Vector3 = list[se.Expr]
+Spatial = tuple[Vector3, Vector3]
+
+
+def _cross(a: Sequence[se.Expr], b: Sequence[se.Expr]) -> Vector3:
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+
+def _add(a: Sequence[se.Expr], b: Sequence[se.Expr]) -> Vector3:
+    return [x + y for x, y in zip(a, b, strict=True)]
+
+
+def _scale(k: se.Expr, a: Sequence[se.Expr]) -> Vector3:
+    return [k * x for x in a]
+
+
+def _apply(m: Sequence[Sequence[se.Expr]], v: Sequence[se.Expr]) -> Vector3:
+    return [se.Add(*[m[i][k] * v[k] for k in range(3)]) for i in range(3)]
+
+
+def _apply_transposed(m: Sequence[Sequence[se.Expr]], v: Sequence[se.Expr]) -> Vector3:
+    return [se.Add(*[m[k][i] * v[k] for k in range(3)]) for i in range(3)]
+
+
+ZERO: Vector3 = [se.Integer(0)] * 3
+
+
+class RigidBodyDynamics:
+    """M(q), C(q, q̇) q̇ + g(q) and inverse dynamics of a URDF's tree with a fixed root."""
+
+    def __init__(self, robot: Urdf, q: Mapping[str, se.Expr | float],
+                 let_: Callable[[str, se.Expr], se.Symbol] | None = None,
+                 gravity: Sequence[float] = (0.0, 0.0, -9.81)):
+        missing = [j.name for j in robot.moving_joints if j.name not in q]
+        extra = sorted(set(q) - {j.name for j in robot.moving_joints})
+        if missing or extra:
+            raise SpecError(f"URDF {robot.source.name}: give one value per moving joint; missing {missing}, "
+                            f"not a moving joint {extra}")
+        self.robot = robot
+        self._q = {name: se.sympify(v) for name, v in q.items()}
+        self.dofs = [j.name for j in robot.moving_joints if self._q[j.name].free_symbols]
+        self._let = let_
+        self._gravity = [se.sympify(g) for g in gravity]
+        # Each joint's child pose in its parent's frame: (R, p).
+        self._placement = {j.name: self._joint_placement(j) for j in robot.joints}
+        self._calls = 0
+
+    def _joint_placement(self, joint: Joint) -> tuple[list[list[se.Expr]], Vector3]:
+        r = rpy_matrix(joint.rpy)
+        p = [_number(v) for v in joint.xyz]
+        if joint.type in ("revolute", "continuous"):
+            r = _matmul(r, axis_rotation(joint.axis, self._q[joint.name]))
+        elif joint.type == "prismatic":
+            p = _add(p, _apply(r, [_snap(a) * self._q[joint.name] for a in joint.axis]))
+        return r, p
+
+    def _name(self, tag: str, link: str, values: Vector3) -> Vector3:
+        if self._let is None:
+            return values
+        return [self._let(f"rnea{self._calls}_{_identifier(link)}_{tag}{i}", v) for i, v in enumerate(values)]
+
+    def _subspace(self, joint: Joint) -> Spatial:
+        """The joint's motion per unit rate, in the child's frame."""
+        axis = [_snap(a) for a in joint.axis]
+        return (axis, ZERO) if joint.type in ("revolute", "continuous") else (ZERO, axis)
+
+    def _inertia_times(self, link: str, motion: Spatial) -> Spatial:
+        """I·(ω, v) at the link's origin: f = m (v + ω × c), n = I_c ω + c × f."""
+        inertial = self.robot.inertials.get(link)
+        if inertial is None or inertial.mass == 0 and not any(any(row) for row in inertial.inertia):
+            return ZERO, ZERO
+        w, v = motion
+        c = [_number(x) for x in inertial.com]
+        f = _scale(_number(inertial.mass), _add(v, _cross(w, c)))
+        n = _add(_apply([[_number(x) for x in row] for row in inertial.inertia], w), _cross(c, f))
+        return n, f
+
+    def inverse(self, qd: Sequence[se.Expr], qdd: Sequence[se.Expr], gravity: bool = True) -> list[se.Expr]:
+        """τ for rates ``qd`` and accelerations ``qdd`` (one each per ``dofs`` entry)."""
+        if len(qd) != len(self.dofs) or len(qdd) != len(self.dofs):
+            raise SpecError(f"URDF {self.robot.source.name}: give one rate and one acceleration per degree of "
+                            f"freedom ({self.dofs})")
+        self._calls += 1
+        rate = dict(zip(self.dofs, (se.sympify(v) for v in qd), strict=True))
+        accel = dict(zip(self.dofs, (se.sympify(v) for v in qdd), strict=True))
+        root = self.robot.root
+        lift = [-g for g in self._gravity] if gravity else ZERO
+        velocity: dict[str, Spatial] = {root: (ZERO, ZERO)}
+        acceleration: dict[str, Spatial] = {root: (ZERO, lift)}
+        force: dict[str, Spatial] = {}
+        for joint in self.robot.joints:  # parents first
+            r, p = self._placement[joint.name]
+            (w, v), (dw, dv) = velocity[joint.parent], acceleration[joint.parent]
+            # Parent motion in the child's frame: ω' = Rᵀ ω, v' = Rᵀ (v + ω × p).
+            w_c, v_c = _apply_transposed(r, w), _apply_transposed(r, _add(v, _cross(w, p)))
+            dw_c, dv_c = _apply_transposed(r, dw), _apply_transposed(r, _add(dv, _cross(dw, p)))
+            if joint.name in rate:
+                s_w, s_v = self._subspace(joint)
+                jw, jv = _scale(rate[joint.name], s_w), _scale(rate[joint.name], s_v)
+                w_c, v_c = _add(w_c, jw), _add(v_c, jv)
+                # a = X a_parent + S q̈ + v × (S q̇)
+                dw_c = _add(_add(dw_c, _scale(accel[joint.name], s_w)), _cross(w_c, jw))
+                dv_c = _add(_add(dv_c, _scale(accel[joint.name], s_v)), _add(_cross(w_c, jv), _cross(v_c, jw)))
+            link = joint.child
+            velocity[link] = (self._name("w", link, w_c), self._name("v", link, v_c))
+            acceleration[link] = (self._name("dw", link, dw_c), self._name("dv", link, dv_c))
+            # f = I a + v ×* (I v)
+            (w_c, v_c), (dw_c, dv_c) = velocity[link], acceleration[link]
+            ia_n, ia_f = self._inertia_times(link, (dw_c, dv_c))
+            iv_n, iv_f = self._inertia_times(link, (w_c, v_c))
+            force[link] = (_add(ia_n, _add(_cross(w_c, iv_n), _cross(v_c, iv_f))), _add(ia_f, _cross(w_c, iv_f)))
+        tau: dict[str, se.Expr] = {}
+        for joint in reversed(self.robot.joints):  # children first
+            link = joint.child
+            n, f = (self._name("n", link, force[link][0]), self._name("f", link, force[link][1]))
+            if joint.name in rate:
+                s_w, s_v = self._subspace(joint)
+                tau[joint.name] = se.Add(*[a * b for a, b in zip(s_w, n, strict=True)],
+                                         *[a * b for a, b in zip(s_v, f, strict=True)])
+            if joint.parent in force:
+                r, p = self._placement[joint.name]
+                f_p = _apply(r, f)
+                n_p = _add(_apply(r, n), _cross(p, f_p))
+                pn, pf = force[joint.parent]
+                force[joint.parent] = (_add(pn, n_p), _add(pf, f_p))
+        return [tau[name] for name in self.dofs]
+
+    def bias(self, qd: Sequence[se.Expr]) -> list[se.Expr]:
+        """C(q, q̇) q̇ + g(q)."""
+        return self.inverse(qd, [0] * len(self.dofs))
+
+    def gravity(self) -> list[se.Expr]:
+        """g(q): the joint forces that hold the robot still."""
+        return self.inverse([0] * len(self.dofs), [0] * len(self.dofs))
+
+    def mass_matrix(self) -> list[list[se.Expr]]:
+        """M(q), rows and columns in ``dofs`` order (symmetric; built column by column)."""
+        n = len(self.dofs)
+        columns = [self.inverse([0] * n, [int(i == j) for i in range(n)], gravity=False) for j in range(n)]
+        return [[columns[j][i] for j in range(n)] for i in range(n)]
