@@ -14,7 +14,8 @@
 //! in torques. [`JointTorque`] wraps the acceleration rows' [`BarrierSet`] and a function
 //! giving `M` and `b` at a state (a spec's generated `dynamics` output, built from the
 //! URDF's inertials by `symbolic/dynamics.py`), factors `M` once per cycle (Cholesky, on
-//! the stack, no allocation) and maps every evaluated row. Rows of a relative degree below
+//! the stack, no allocation), forms `M⁻¹` from the factor and maps every evaluated row
+//! with one `N × N` product. Rows of a relative degree below
 //! the inputs' do not see them and are copied as they are; culled rows stay culled.
 //!
 //! The filter's inputs are then torques: give it torque limits, torque weights and a
@@ -177,6 +178,17 @@ impl<B: BarrierSet<NU, State = [f64; NX]>, const NX: usize, const NU: usize> Bar
         }
         let mut factor = mass;
         cholesky(&mut factor).map_err(|pivot| CbfError::NotPositive { what: "mass matrix pivot", value: pivot })?;
+        // M⁻¹ once (N solves), then one dense N × N product per row: no division and no
+        // dependent chain per row, where two triangular solves per row had both.
+        let mut inverse = [[0.0; NU]; NU];
+        for j in 0..NU {
+            let mut unit = [0.0; NU];
+            unit[j] = 1.0;
+            let column = solve(&factor, &unit);
+            for (row, value) in inverse.iter_mut().zip(column) {
+                row[j] = value;
+            }
+        }
         self.inner.evaluate(t, x, params)?;
         let families = self.inner.families();
         for ((out, row), at) in self.rows.iter_mut().zip(self.inner.rows()).zip(self.inner.layout()) {
@@ -185,7 +197,8 @@ impl<B: BarrierSet<NU, State = [f64; NX]>, const NX: usize, const NU: usize> Bar
                 continue;
             }
             let degree = families[at.family].relative_degree;
-            let mapped = solve(&factor, &row.lg);
+            let mapped: [f64; NU] =
+                std::array::from_fn(|i| inverse[i].iter().zip(&row.lg).map(|(m, g)| m * g).sum::<f64>());
             out.lie[degree] -= mapped.iter().zip(&bias).map(|(a, b)| a * b).sum::<f64>();
             out.lg = mapped;
         }

@@ -9,6 +9,7 @@ use cbfgen::system::KernelEntry;
 pub static SYSTEMS: Registry = Registry::new(&[
     cbfgen_double_integrator::SYSTEM,
     cbfgen_panda::generated::SYSTEM,
+    cbfgen_panda_spheres::generated::SYSTEM,
     cbfgen_tachyon3::generated::SYSTEM,
 ]);
 
@@ -17,6 +18,7 @@ pub static SYSTEMS: Registry = Registry::new(&[
 const SYSTEM_KERNELS: &[(&str, &[KernelEntry])] = &[
     ("double_integrator", cbfgen_double_integrator::KERNELS),
     ("panda", cbfgen_panda::generated::KERNELS),
+    ("panda_spheres", cbfgen_panda_spheres::generated::KERNELS),
     ("tachyon3", cbfgen_tachyon3::generated::KERNELS),
 ];
 
