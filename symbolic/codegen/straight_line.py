@@ -188,3 +188,64 @@ def _gather_lanes(defs: dict, order: dict, outputs: list[se.Expr]
         for s in symbols:
             batches[s] = group
     return batches
+
+
+@dataclass(frozen=True)
+class SplitLine:
+    """A kernel's straight line cut in two for a family evaluated at many instances per
+    state: ``state_steps`` read only the per-cycle inputs (the state, the time) and run once
+    per cycle; ``instance_steps`` read an instance's parameters and run once per instance,
+    from the ``interface`` values of the first part (state-part symbols and per-cycle input
+    components, in the order the first part returns them)."""
+
+    state_steps: list[Step]
+    interface: list[se.Symbol]
+    instance_steps: list[Step]
+    outputs: list[se.Expr]
+    state_inputs_used: set[se.Symbol]
+    instance_inputs_used: set[se.Symbol]
+
+
+def split(code: StraightLine, per_cycle: Sequence[se.Symbol]) -> SplitLine:
+    """``code`` cut where its values start to depend on anything but ``per_cycle`` inputs.
+    A batch of lane calls whose arguments fall on both sides becomes two batches (every
+    lane width gives the same bits, so the results do not change)."""
+    on_state = set(per_cycle)
+    state_steps: list[Step] = []
+    instance_steps: list[Step] = []
+
+    def is_state(e: se.Expr) -> bool:
+        return all(s in on_state for s in e.free_symbols)
+
+    for step in code.steps:
+        if step.kind == "lanes":
+            sides = [is_state(a) for a in step.rhs]
+            for side, target in ((True, state_steps), (False, instance_steps)):
+                chosen = [i for i, s in enumerate(sides) if s == side]
+                if not chosen:
+                    continue
+                symbols = tuple(step.symbols[i] for i in chosen)
+                target.append(Step(symbols[0], "lanes", [step.rhs[i] for i in chosen], step.function, symbols))
+                if side:
+                    on_state.update(symbols)
+        elif all(is_state(r) for r in step.rhs):
+            state_steps.append(step)
+            on_state.add(step.symbol)
+        else:
+            instance_steps.append(step)
+    read_later: set[se.Symbol] = set()
+    for step in instance_steps:
+        for r in step.rhs:
+            read_later |= r.free_symbols
+    for e in code.outputs:
+        read_later |= e.free_symbols
+    inputs = [s for s in per_cycle if s in read_later]
+    defined = [s for step in state_steps for s in (step.symbols or (step.symbol,)) if s in read_later]
+    state_reads: set[se.Symbol] = set()
+    for step in state_steps:
+        for r in step.rhs:
+            state_reads |= r.free_symbols
+    per_cycle_set = set(per_cycle)
+    return SplitLine(state_steps, inputs + defined, instance_steps, code.outputs,
+                     (state_reads & per_cycle_set) | (set(inputs)),
+                     {s for s in read_later if s not in on_state and s in code.used_inputs})

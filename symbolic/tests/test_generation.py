@@ -145,3 +145,55 @@ def test_a_family_acting_through_one_one_sided_input_is_warned_about(tmp_path):
     done = subprocess.run([sys.executable, "-m", "symbolic", "generate", str(specs / "planar_robot.py"),
                            "--out", str(tmp_path)], cwd=REPO_ROOT, capture_output=True, text=True, check=True)
     assert not [line for line in done.stdout.splitlines() if line.startswith("warning ")], done.stdout
+
+
+def test_a_kernel_cut_in_two_keeps_every_step_and_every_bit(tmp_path):
+    # A family evaluated at many instances per state is emitted as <k>_state (state only),
+    # <k>_instance and <k> (the two in a row). The cut puts every state-only step first,
+    # splits a lane batch whose arguments fall on both sides, and the split kernel returns
+    # the one-function kernel's bits: both are compiled and run here on 1 000 inputs.
+    from symbolic.codegen.backends.rust.emitter import emit_split_kernel
+    from symbolic.codegen.straight_line import split, straight_line
+
+    def build(name: str) -> Kernel:
+        k = Kernel(name, "A state part and an instance part.")
+        x = k.array_input("x", ["a", "b"], "state")
+        c = k.array_input("c", ["u", "v"], "an instance's parameters")
+        pose = [k.let_("pose0", se.sin(x[0]) * x[1]), k.let_("pose1", se.cos(x[0]) + x[1] ** 2)]
+        t = [se.tanh(pose[0]), se.tanh(pose[1] * 2), se.tanh(c[0] * pose[0] - c[1])]  # one batch, both sides
+        k.output_vector("out", [t[0] * t[2] + se.exp(c[1] * t[1]), pose[0] * c[0] + t[1]], "outputs")
+        return k
+
+    code = straight_line(build("probe"))
+    x_symbols = set(build("probe").inputs[0].symbols)
+    cut = split(code, [s for s in code.used_inputs if str(s).startswith("x_")])
+    state_defined = set()
+    for step in cut.state_steps:
+        for r in step.rhs:
+            assert r.free_symbols <= x_symbols | state_defined, step
+        state_defined |= set(step.symbols or (step.symbol,))
+    tanh_batches = [len(s.symbols) for s in cut.state_steps + cut.instance_steps if s.function == "tanh"]
+    assert sorted(tanh_batches) == [1, 2], "the mixed tanh batch is split: two on the state side, one not"
+    assert len(cut.state_steps) + len(cut.instance_steps) == len(code.steps) + 1
+
+    lanes = ("pub mod lanes { pub fn tanh<const N: usize>(v: [f64; N]) -> [f64; N] { v.map(f64::tanh) } "
+             "pub fn exp<const N: usize>(v: [f64; N]) -> [f64; N] { v.map(f64::exp) } "
+             "pub fn tanh1(v: f64) -> f64 { v.tanh() } pub fn exp1(v: f64) -> f64 { v.exp() } "
+             "pub fn ln1(v: f64) -> f64 { v.ln() } }")
+    program = "\n".join([
+        lanes, emit_split_kernel(build("probe"), "crate", ["x"]), emit_kernel(build("whole"), "crate"),
+        "fn main() { let mut s = 1u64; let mut r = || { s = s.wrapping_mul(6364136223846793005).wrapping_add(1); "
+        "((s >> 11) as f64 / (1u64 << 53) as f64) * 4.0 - 2.0 };",
+        "  for _ in 0..1000 { let x = [r(), r()]; let c = [r(), r()];",
+        "    let (a, b) = (probe(&x, &c), whole(&x, &c));",
+        "    let state = probe_state(&x); for _ in 0..2 { assert_eq!(probe_instance(&state, &c).map(f64::to_bits), "
+        "a.map(f64::to_bits)); }",
+        "    assert_eq!(a.map(f64::to_bits), b.map(f64::to_bits)); } println!(\"same bits\"); }",
+    ])
+    source = tmp_path / "split.rs"
+    source.write_text(program)
+    built = subprocess.run(["rustc", "--edition", "2021", "-O", "-o", str(tmp_path / "split"), str(source)],
+                           capture_output=True, text=True)
+    assert built.returncode == 0, built.stderr
+    ran = subprocess.run([str(tmp_path / "split")], capture_output=True, text=True)
+    assert ran.returncode == 0 and "same bits" in ran.stdout, ran.stderr

@@ -315,7 +315,9 @@ fn the_arm_refuses_obstacle_boxes_that_are_not_boxes_naming_the_link() -> Result
     }
 
     // The typed barrier set re-checks what was written past the door, naming the link.
-    let mut typed = panda::Params::new(panda::Capacity { obstacle: [0, 0, 1, 0, 0, 0, 0, 0] })?;
+    let mut counts = [0; panda::OBSTACLE_MEMBERS.len()];
+    counts[link3] = 1;
+    let mut typed = panda::Params::new(panda::Capacity { obstacle: counts })?;
     typed.obstacle[link3].push(panda::ObstacleParams { center, rotation: reflection, half })?;
     let mut barriers = panda::Barriers::new(typed.capacity())?;
     let got = barriers.evaluate(0.0, &[0.0; panda::NX], &typed);

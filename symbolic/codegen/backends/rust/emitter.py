@@ -17,7 +17,7 @@ import symengine as se
 
 from ....kernel import Kernel
 from ....spec import SpecError
-from ...straight_line import StraightLine, straight_line
+from ...straight_line import StraightLine, split, straight_line
 
 _ADD, _MUL, _UNARY, _ATOM = 1, 2, 3, 4
 
@@ -303,17 +303,78 @@ def _results(kernel: Kernel, parts_of: Sequence[str], lines: list[str]) -> str:
     return results[0] if len(results) == 1 else "(" + ", ".join(results) + ")"
 
 
+def _check_size(kernel: Kernel, code: StraightLine) -> None:
+    if len(code.steps) > MAX_KERNEL_LOCALS:
+        raise SpecError(
+            f"kernel {kernel.name!r} needs {len(code.steps)} locals, more than {MAX_KERNEL_LOCALS}: every `let` "
+            "nests a scope, and rustc's debug-info pass overflows its stack on one function with about "
+            "15 000 of them. Split the family: rows that share little into members (over=[...]).")
+
+
+def _body(p: RustPrinter, names: dict[se.Symbol, str], steps: Sequence, runtime_crate: str) -> list[str]:
+    return [_lanes_statement(p, names, step, runtime_crate) if step.kind == "lanes"
+            else _statement(p, names[step.symbol], step.kind, step.rhs) for step in steps]
+
+
+def emit_split_kernel(kernel: Kernel, runtime_crate: str, per_cycle: Sequence[str],
+                      attributes: Sequence[str] = ()) -> str:
+    """A kernel of a family evaluated at many instances per state, as three functions:
+    ``<name>_state`` (the inputs named in ``per_cycle``: the state, the time) computes once
+    per cycle everything that does not depend on an instance and returns the values the
+    rest reads; ``<name>_instance`` takes those and one instance's parameters; ``<name>``
+    is the two in a row, with the kernel's own signature. The steps, and so the bits of
+    every result, are the one-function kernel's."""
+    code = straight_line(kernel)
+    _check_size(kernel, code)
+    names = _local_names(kernel, code)
+    p = RustPrinter(names)
+    cycle_inputs = [i for i in kernel.inputs if i.name in per_cycle]
+    instance_inputs = [i for i in kernel.inputs if i.name not in per_cycle]
+    cut = split(code, [s for i in cycle_inputs for s in i.symbols])
+    k = len(cut.interface)
+
+    def unpack(inputs, used) -> list[str]:
+        return [f"    let {names[sym]} = {inp.name}[{n}];" for inp in inputs if inp.is_array
+                for n, sym in enumerate(inp.symbols) if sym in used]
+
+    def params(inputs) -> str:
+        return ", ".join(f"{i.name}: &[f64; {len(i.symbols)}]" if i.is_array else f"{i.name}: f64" for i in inputs)
+
+    _, ret = kernel_signature(kernel)
+    state_fn = [f"/// The part of [`{kernel.name}`] that reads only {', '.join(f'`{i.name}`' for i in cycle_inputs)}: "
+                f"computed once per cycle for every instance, and handed to [`{kernel.name}_instance`].",
+                *attributes, "#[inline]", f"pub fn {kernel.name}_state({params(cycle_inputs)}) -> [f64; {k}] {{"]
+    state_fn += unpack(cycle_inputs, cut.state_inputs_used)
+    state_fn += _body(p, names, cut.state_steps, runtime_crate)
+    state_fn += [f"    [{', '.join(names[s] for s in cut.interface)}]", "}"]
+    instance_fn = [f"/// One instance of [`{kernel.name}`], from [`{kernel.name}_state`]'s values at the state.",
+                   *attributes, "#[inline]",
+                   f"pub fn {kernel.name}_instance(state_part: &[f64; {k}]"
+                   + "".join(f", {a}" for a in [params(instance_inputs)] if a) + f") -> {ret} {{"]
+    instance_fn += [f"    let {names[s]} = state_part[{n}];" for n, s in enumerate(cut.interface)]
+    instance_fn += unpack(instance_inputs, cut.instance_inputs_used)
+    instance_fn += _body(p, names, cut.instance_steps, runtime_crate)
+    instance_fn += [f"    {_results(kernel, [p(e) for e in cut.outputs], instance_fn)}", "}"]
+    args, _ = kernel_signature(kernel)
+    call_state = ", ".join(i.name for i in cycle_inputs)
+    call_rest = "".join(f", {i.name}" for i in instance_inputs)
+    wrapper = _doc_lines(kernel) + list(attributes) + [
+        "#[inline]", f"pub fn {kernel.name}({args}) -> {ret} {{",
+        f"    {kernel.name}_instance(&{kernel.name}_state({call_state}){call_rest})", "}"]
+    consts: list[str] = []
+    for c in kernel.constants:
+        consts.append(f"/// {rustdoc_text(c.doc)}")
+        consts.append(f"pub const {c.name}: {c.rust_type} = {c.value};")
+    return "\n".join(consts + state_fn + instance_fn + wrapper) + "\n"
+
+
 def emit_kernel(kernel: Kernel, runtime_crate: str, attributes: Sequence[str] = ()) -> str:
     """The Rust text of one kernel: constants, then the function. ``runtime_crate`` is the
     path of cbfgen's core where the kernel is compiled (``crate`` inside it, ``cbfgen``
     elsewhere); ``attributes`` (outer attributes such as ``#[allow(...)]``) go on the
     function, before its ``#[inline]``."""
     code = straight_line(kernel)
-    if len(code.steps) > MAX_KERNEL_LOCALS:
-        raise SpecError(
-            f"kernel {kernel.name!r} needs {len(code.steps)} locals, more than {MAX_KERNEL_LOCALS}: every `let` "
-            "nests a scope, and rustc's debug-info pass overflows its stack on one function with about "
-            "15 000 of them. Split the family: rows that share little into members (over=[...]).")
+    _check_size(kernel, code)
     names = _local_names(kernel, code)
     p = RustPrinter(names)
     args, ret = kernel_signature(kernel)
@@ -323,8 +384,7 @@ def emit_kernel(kernel: Kernel, runtime_crate: str, attributes: Sequence[str] = 
         for k, sym in enumerate(inp.symbols):
             if sym in code.used_inputs:
                 lines.append(f"    let {names[sym]} = {inp.name}[{k}];")
-    lines += [_lanes_statement(p, names, step, runtime_crate) if step.kind == "lanes"
-              else _statement(p, names[step.symbol], step.kind, step.rhs) for step in code.steps]
+    lines += _body(p, names, code.steps, runtime_crate)
     body = _results(kernel, [p(e) for e in code.outputs], lines)
     lines += [f"    {body}", "}"]
     consts: list[str] = []

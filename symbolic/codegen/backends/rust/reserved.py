@@ -12,7 +12,7 @@ KEYWORDS = frozenset("""
 """.split())
 # Locals of the generated kernels: SymEngine's CSE temporaries x0.., the printer's t0.. and
 # pw.., the time argument t and the state argument x.
-LOCALS = re.compile(r"^(x\d+|t\d+|pw\d*|x|t)$")
+LOCALS = re.compile(r"^(x\d+|t\d+|pw\d*|x|t|state_part)$")
 # Items every generated module defines, and the crates it names.
 MODULE_ITEMS = frozenset({"state", "input", "drift", "input_matrix", "default_settings", "core", "std",
                           "nalgebra", "alloc"})

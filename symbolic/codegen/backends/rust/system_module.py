@@ -26,7 +26,7 @@ import json
 
 from ....spec import Domain, Interval, NonNegative, Positive, Real, Rotation, UnitVector
 from ...definition import FamilyDefinition, SystemDefinition
-from .emitter import emit_kernel, float_literal, kernel_fn_type, rustdoc_text
+from .emitter import emit_kernel, emit_split_kernel, float_literal, kernel_fn_type, rustdoc_text
 from .kernel_table import emit_kernel_table
 
 KERNEL_ALLOWS = ("#[allow(clippy::all, clippy::pedantic, clippy::nursery, unused_parens, unused_variables, "
@@ -259,8 +259,16 @@ def _evaluate_family(w, f: FamilyDefinition) -> None:
     for m, k in enumerate(f.kernels):
         src = f"params.{f.name}[{m}]" if f.indexed else f"params.{f.name}"
         cap = f"self.capacity.{f.name}[{m}]" if f.indexed else f"self.capacity.{f.name}"
-        args = ["x"] + (["t"] if f.time else []) + [_param_arg("p", p.name, p.shape) for p in f.params]
+        per_cycle = ["x"] + (["t"] if f.time else [])
+        param_args = [_param_arg("p", p.name, p.shape) for p in f.params]
+        args = per_cycle + param_args
         call = f"self::{k.name}({', '.join(args)})"
+        if f.params:
+            # The state's part of the kernel once per member and cycle, when an instance
+            # first needs it (a member whose instances are all culled or absent never does).
+            w("        let mut state_part = None;")
+            state = f"state_part.get_or_insert_with(|| self::{k.name}_state({', '.join(per_cycle)}))"
+            call = f"self::{k.name}_instance({', '.join([state] + param_args)})"
         cols = f"{k.name.upper()}_INPUT_COLUMNS"
         store = (f"for ((row, lie), lg) in self.rows[i..i + n].iter_mut().zip(&lie).zip(&lg) {{ "
                  f"row.store(lie, lg, &{cols}); }}")
@@ -268,8 +276,15 @@ def _evaluate_family(w, f: FamilyDefinition) -> None:
             # A NaN bound fails the comparison: the rows are evaluated and show the NaN. Debug
             # builds evaluate a culled instance too and check the spec's promise, so a wrong
             # bound fails the user's tests, never a release build's control path.
-            bound = f"self::{f.bounds[m].name}({', '.join(args)})"
-            check = (f"#[cfg(debug_assertions)] {{ let (lie, _) = {call}; for row in &lie {{ "
+            if f.params:
+                w("        let mut bound_part = None;")
+                bound_state = (f"bound_part.get_or_insert_with(|| "
+                               f"self::{f.bounds[m].name}_state({', '.join(per_cycle)}))")
+                bound = f"self::{f.bounds[m].name}_instance({', '.join([bound_state] + param_args)})"
+            else:
+                bound = f"self::{f.bounds[m].name}({', '.join(args)})"
+            full = f"self::{k.name}({', '.join(args)})"
+            check = (f"#[cfg(debug_assertions)] {{ let (lie, _) = {full}; for row in &lie {{ "
                      f"debug_assert!(!(bound > row[0]), \"{f.bounds[m].name} is {{bound}}, above a row's h "
                      f"{{}}: not a lower bound\", row[0]); }} }} ")
             store = (f"let bound = {bound}; if bound > self.cull_above[family::{u}] {{ {check}"
@@ -455,8 +470,15 @@ def _emit_system_type(out: list[str], d: SystemDefinition, rt: str) -> None:
 def _emit_kernels(out: list[str], d: SystemDefinition, rt: str) -> None:
     """Every kernel, each family's row columns and an indexed family's member tables."""
     w = out.append
+    # A family with parameters evaluates each member's kernel at many instances per state:
+    # its kernels (rows and bound) are emitted cut in two, the state's part shared.
+    split_kernels = {k.name: ["x"] + (["t"] if f.time else []) for f in d.families if f.params
+                     for k in (*f.kernels, *f.bounds)}
     for k in d.kernels():
-        w(emit_kernel(k, rt, attributes=[KERNEL_ALLOWS]))
+        if k.name in split_kernels:
+            w(emit_split_kernel(k, rt, split_kernels[k.name], attributes=[KERNEL_ALLOWS]))
+        else:
+            w(emit_kernel(k, rt, attributes=[KERNEL_ALLOWS]))
     for f in d.families:
         for k, per_row in zip(f.kernels, f.row_columns, strict=True):
             w(f"/// Input columns each row of [`{k.name}`] can touch (its own sparsity in the QP; "
