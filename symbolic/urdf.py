@@ -482,11 +482,15 @@ class Kinematics:
     share its pose. Poses are built when first asked for, so a kernel holds only the
     links it uses. ``pose(link)`` is ``(R, p)``: R's columns are the link's axes in the
     base frame. With a ``base`` other than the root, only links below it have poses: the
-    joints above it move both ends of any pair alike and drop out, exactly.
+    joints above it move both ends of any pair alike and drop out, exactly. A floating base
+    (a legged robot's trunk) is ``root_pose=(R, p)``: the root link's pose in the world,
+    from the spec's states (``euler_zyx(roll, pitch, yaw)`` for R); every pose is then in
+    the world.
     """
 
     def __init__(self, urdf: Urdf, q: Mapping[str, se.Expr | float],
-                 let_: Callable[[str, se.Expr], se.Symbol] | None = None, base: str | None = None):
+                 let_: Callable[[str, se.Expr], se.Symbol] | None = None, base: str | None = None,
+                 root_pose: tuple[Sequence[Sequence[se.Expr]], Sequence[se.Expr]] | None = None):
         missing = [j.name for j in urdf.moving_joints if j.name not in q]
         extra = sorted(set(q) - {j.name for j in urdf.moving_joints})
         if missing or extra:
@@ -500,7 +504,17 @@ class Kinematics:
         self._let = let_
         self._parent = {j.child: j for j in urdf.joints}
         identity = [[se.Integer(int(i == j)) for j in range(3)] for i in range(3)]
-        self._poses: dict[str, tuple[Matrix3, Vector3]] = {self.base: (identity, [se.Integer(0)] * 3)}
+        start: tuple[Matrix3, Vector3] = (identity, [se.Integer(0)] * 3)
+        if root_pose is not None:
+            # A floating base: the root link's pose in the world, from the spec's states.
+            if self.base != urdf.root:
+                raise SpecError(f"URDF {urdf.source.name}: root_pose places the root link; it cannot be combined "
+                                f"with base={base!r}")
+            rotation, position = root_pose
+            if len(rotation) != 3 or any(len(row) != 3 for row in rotation) or len(position) != 3:
+                raise SpecError(f"URDF {urdf.source.name}: root_pose is (3x3 rotation, 3-vector position)")
+            start = ([[se.sympify(v) for v in row] for row in rotation], [se.sympify(v) for v in position])
+        self._poses: dict[str, tuple[Matrix3, Vector3]] = {self.base: start}
 
     def _child_pose(self, joint: Joint) -> tuple[Matrix3, Vector3]:
         r_parent, p_parent = self.pose(joint.parent)
@@ -521,7 +535,7 @@ class Kinematics:
         return r, p
 
     def pose(self, link: str) -> tuple[Matrix3, Vector3]:
-        """``(R, p)`` of ``link`` in the base frame."""
+        """``(R, p)`` of ``link`` in the base frame (in the world with ``root_pose``)."""
         if link in self._poses:
             return self._poses[link]
         if link not in self.urdf.links:
@@ -531,6 +545,15 @@ class Kinematics:
         pose = self._child_pose(self._parent[link])
         self._poses[link] = pose
         return pose
+
+
+def euler_zyx(roll: se.Expr, pitch: se.Expr, yaw: se.Expr) -> Matrix3:
+    """``Rz(yaw) Ry(pitch) Rx(roll)`` symbolically: a floating base's orientation from
+    roll, pitch, yaw states (URDF's ``rpy`` convention), for ``Kinematics(root_pose=...)``."""
+    cr, sr, cp, sp, cy, sy = se.cos(roll), se.sin(roll), se.cos(pitch), se.sin(pitch), se.cos(yaw), se.sin(yaw)
+    return [[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr]]
 
 
 def common_ancestor(robot: Urdf, a: str, b: str) -> str:

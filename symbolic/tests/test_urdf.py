@@ -333,3 +333,45 @@ def test_broken_collision_geometry_names_the_link(tmp_path, collision, message):
     with pytest.raises(SpecError) as err:
         urdf.load(_write(tmp_path, _joint("j1", "a", "b") + _joint("j2", "b", "c"), links))
     assert message in str(err.value) and "broken.urdf" in str(err.value)
+
+
+def test_a_floating_base_places_every_link_in_the_world_as_pinocchio_does():
+    # ANYmal C on a free flyer: the trunk's pose from roll, pitch, yaw and a position, the
+    # legs' joints on top; every link's world pose against Pinocchio's JointModelFreeFlyer
+    # model (its base orientation as the quaternion of the same rotation).
+    path = urdf.description("anymal_c_simple_description/urdf/anymal.urdf")
+    robot = urdf.load(path)
+    q = {j.name: se.Symbol(f"q_{k}") for k, j in enumerate(robot.moving_joints)}
+    base = se.symbols("px py pz roll pitch yaw")
+    fk = urdf.Kinematics(robot, q, root_pose=(urdf.euler_zyx(*base[3:]), list(base[:3])))
+    flat = [e for link in robot.links for r, p in [fk.pose(link)] for e in [*sum(r, []), *p]]
+    ours = se.Lambdify(list(base) + list(q.values()), flat, cse=True)
+    model = pin.buildModelFromUrdf(str(path), pin.JointModelFreeFlyer())
+    data = model.createData()
+    frames = [model.getFrameId(link, pin.FrameType.BODY) for link in robot.links]
+    rng = np.random.default_rng(355)
+    worst = 0.0
+    for joints in _random_configurations(robot, rng)[:2000]:
+        pose = np.concatenate([rng.uniform(-2, 2, 3), rng.uniform(-np.pi, np.pi, 3) * [1, 0.45, 1]])
+        rotation = np.asarray(se.Lambdify(base[3:], sum(urdf.euler_zyx(*base[3:]), []))(pose[3:])).reshape(3, 3)
+        q_pin = np.zeros(model.nq)
+        q_pin[:3] = pose[:3]
+        q_pin[3:7] = pin.Quaternion(rotation).coeffs()  # x, y, z, w
+        for name, v in zip(q, joints, strict=True):
+            q_pin[model.joints[model.getJointId(name)].idx_q] = v
+        pin.framesForwardKinematics(model, data, q_pin)
+        got = np.asarray(ours(np.concatenate([pose, joints]))).reshape(len(robot.links), 12)
+        for k, f in enumerate(frames):
+            placement = data.oMf[f]
+            want = np.concatenate([placement.rotation.ravel(), placement.translation])
+            worst = max(worst, float(np.max(np.abs(got[k] - want))))
+    assert worst <= 1e-12, f"largest pose difference {worst:.3g}"
+
+
+def test_root_pose_and_another_base_do_not_mix():
+    robot = urdf.load(urdf.description("anymal_c_simple_description/urdf/anymal.urdf"))
+    q = {j.name: 0.0 for j in robot.moving_joints}
+    with pytest.raises(SpecError, match="root_pose places the root link"):
+        urdf.Kinematics(robot, q, base="LF_HIP", root_pose=(urdf.euler_zyx(0, 0, 0), [0, 0, 0]))
+    with pytest.raises(SpecError, match="root_pose is"):
+        urdf.Kinematics(robot, q, root_pose=([[1, 0, 0]], [0, 0, 0]))
