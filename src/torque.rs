@@ -212,6 +212,72 @@ impl<B: BarrierSet<NU, State = [f64; NX]>, const NX: usize, const NU: usize> Bar
     }
 }
 
+/// `q̈ = M(q)⁻¹ (τ − b(q, q̇))` at `x = [q, q̇]` (`NX = 2 NU`), by LU with partial
+/// pivoting: a plant's accelerations, independent of [`JointTorque`]'s Cholesky.
+///
+/// # Errors
+/// A singular or non-finite mass matrix.
+pub fn rigid_body_acceleration<const NX: usize, const NU: usize>(
+    dynamics: Dynamics<NX, NU>,
+    x: &[f64; NX],
+    tau: &[f64; NU],
+) -> Result<[f64; NU], CbfError> {
+    const { assert!(NX == 2 * NU, "the state is [q, q̇]") };
+    let (mut m, b) = dynamics(x);
+    let mut v: [f64; NU] = std::array::from_fn(|i| tau[i] - b[i]);
+    // Gaussian elimination with partial pivoting (LU), then back substitution.
+    for col in 0..NU {
+        let pivot = (col..NU).max_by(|&i, &j| m[i][col].abs().total_cmp(&m[j][col].abs())).unwrap_or(col);
+        let size = m[pivot][col].abs();
+        // NaN fails `is_finite`.
+        if !size.is_finite() || size == 0.0 {
+            return Err(CbfError::NotPositive { what: "mass matrix pivot", value: size });
+        }
+        m.swap(col, pivot);
+        v.swap(col, pivot);
+        let (above, below) = m.split_at_mut(col + 1);
+        let top = &above[col];
+        for (offset, row) in below.iter_mut().enumerate() {
+            let factor = row[col] / top[col];
+            for (entry, &t) in row[col..].iter_mut().zip(&top[col..]) {
+                *entry -= factor * t;
+            }
+            v[col + 1 + offset] -= factor * v[col];
+        }
+    }
+    for row in (0..NU).rev() {
+        v[row] = (v[row] - (row + 1..NU).map(|k| m[row][k] * v[k]).sum::<f64>()) / m[row][row];
+    }
+    match v.iter().find(|a| !a.is_finite()) {
+        Some(&a) => Err(CbfError::NonFinite { what: "joint acceleration", value: a }),
+        None => Ok(v),
+    }
+}
+
+/// A rigid-body plant over `dt` under a held torque: classic RK4 on `x = [q, q̇]` with
+/// [`rigid_body_acceleration`]. For simulations and tests of a torque-controlled loop,
+/// not for the control path.
+///
+/// # Errors
+/// As [`rigid_body_acceleration`] at any of the four stages.
+pub fn step_rigid_body<const NX: usize, const NU: usize>(
+    dynamics: Dynamics<NX, NU>,
+    x: &[f64; NX],
+    tau: &[f64; NU],
+    dt: f64,
+) -> Result<[f64; NX], CbfError> {
+    let f = |x: &[f64; NX]| -> Result<[f64; NX], CbfError> {
+        let qdd = rigid_body_acceleration(dynamics, x, tau)?;
+        Ok(std::array::from_fn(|i| if i < NU { x[NU + i] } else { qdd[i - NU] }))
+    };
+    let add = |x: &[f64; NX], k: &[f64; NX], h: f64| -> [f64; NX] { std::array::from_fn(|i| x[i] + h * k[i]) };
+    let k1 = f(x)?;
+    let k2 = f(&add(x, &k1, dt / 2.0))?;
+    let k3 = f(&add(x, &k2, dt / 2.0))?;
+    let k4 = f(&add(x, &k3, dt))?;
+    Ok(std::array::from_fn(|i| x[i] + dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -230,5 +296,21 @@ mod tests {
         assert_eq!(cholesky(&mut [[1.0, 2.0], [2.0, 1.0]]), Err(-3.0));
         assert!(cholesky(&mut [[f64::NAN]]).is_err());
         assert!(cholesky(&mut [[f64::INFINITY]]).is_err());
+    }
+
+    #[test]
+    fn the_plant_step_follows_a_hand_solved_pendulum() {
+        // m l² q̈ + m g l sin q = τ, small angle: q(t) = q0 cos(ω t), ω² = g / l.
+        fn pendulum(x: &[f64; 2]) -> ([[f64; 1]; 1], [f64; 1]) {
+            ([[2.0 * 0.5 * 0.5]], [2.0 * 9.81 * 0.5 * x[0].sin()])
+        }
+        let (q0, dt) = (1e-4, 1e-3);
+        let mut x = [q0, 0.0];
+        for _ in 0..1000 {
+            x = step_rigid_body(pendulum, &x, &[0.0], dt).unwrap();
+        }
+        let want = q0 * (9.81f64 / 0.5).sqrt().cos();
+        assert!((x[0] - want).abs() < 1e-7 * q0, "{} vs {want}", x[0]);
+        assert!(rigid_body_acceleration(|_: &[f64; 2]| ([[0.0]], [0.0]), &[0.0, 0.0], &[1.0]).is_err());
     }
 }

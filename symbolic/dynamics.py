@@ -29,7 +29,7 @@ from collections.abc import Callable, Mapping, Sequence
 import symengine as se
 
 from .spec import SpecError
-from .urdf import Joint, Urdf, _identifier, _matmul, _number, _snap, axis_rotation, rpy_matrix
+from .urdf import Joint, Urdf, _identifier, _matmul, _number, _snap, axis_rotation, require_joint_values, rpy_matrix
 
 Vector3 = list[se.Expr]
 Spatial = tuple[Vector3, Vector3]
@@ -64,11 +64,7 @@ class RigidBodyDynamics:
     def __init__(self, robot: Urdf, q: Mapping[str, se.Expr | float],
                  let_: Callable[[str, se.Expr], se.Symbol] | None = None,
                  gravity: Sequence[float] = (0.0, 0.0, -9.81)):
-        missing = [j.name for j in robot.moving_joints if j.name not in q]
-        extra = sorted(set(q) - {j.name for j in robot.moving_joints})
-        if missing or extra:
-            raise SpecError(f"URDF {robot.source.name}: give one value per moving joint; missing {missing}, "
-                            f"not a moving joint {extra}")
+        require_joint_values(robot, q)
         self.robot = robot
         self._q = {name: se.sympify(v) for name, v in q.items()}
         self.dofs = [j.name for j in robot.moving_joints if self._q[j.name].free_symbols]

@@ -491,11 +491,7 @@ class Kinematics:
     def __init__(self, urdf: Urdf, q: Mapping[str, se.Expr | float],
                  let_: Callable[[str, se.Expr], se.Symbol] | None = None, base: str | None = None,
                  root_pose: tuple[Sequence[Sequence[se.Expr]], Sequence[se.Expr]] | None = None):
-        missing = [j.name for j in urdf.moving_joints if j.name not in q]
-        extra = sorted(set(q) - {j.name for j in urdf.moving_joints})
-        if missing or extra:
-            raise SpecError(f"URDF {urdf.source.name}: give one variable per moving joint; missing {missing}, "
-                            f"not a moving joint {extra}")
+        require_joint_values(urdf, q)
         self.urdf = urdf
         self.base = urdf.root if base is None else base
         if self.base not in urdf.links:
@@ -545,6 +541,15 @@ class Kinematics:
         pose = self._child_pose(self._parent[link])
         self._poses[link] = pose
         return pose
+
+
+def require_joint_values(robot: Urdf, q: Mapping[str, object]) -> None:
+    """A SpecError unless ``q`` gives exactly one value per moving joint."""
+    missing = [j.name for j in robot.moving_joints if j.name not in q]
+    extra = sorted(set(q) - {j.name for j in robot.moving_joints})
+    if missing or extra:
+        raise SpecError(f"URDF {robot.source.name}: give one variable per moving joint; missing {missing}, "
+                        f"not a moving joint {extra}")
 
 
 def euler_zyx(roll: se.Expr, pitch: se.Expr, yaw: se.Expr) -> Matrix3:

@@ -3,12 +3,13 @@
 //! generated `dynamics`), in a closed loop whose plant integrates `M(q) q̈ + b(q, q̇) = τ`.
 //! Checked against the exact SAT of every pair, the joint limits, and the ECBF condition
 //! of every active row recomputed in accelerations from the acceleration the applied
-//! torque actually produced (`M⁻¹` by nalgebra's LU, not the wrapper's Cholesky).
+//! torque actually produced (`cbfgen::torque::rigid_body_acceleration`'s LU, not the wrapper's
+//! Cholesky).
 
 use cbfgen::filter::{EcbfFilter, FilterSettings, InputSource};
 use cbfgen::sat;
 use cbfgen::system::BarrierSet;
-use cbfgen::torque::JointTorque;
+use cbfgen::torque::{rigid_body_acceleration, step_rigid_body, JointTorque};
 use cbfgen_panda::generated::{self as gen, Barriers, Params, NU, NX};
 use cbfgen_panda::scenario::link_boxes;
 use cbfgen_panda::{Scenario, Simulation, DT};
@@ -21,29 +22,6 @@ fn torque_settings() -> FilterSettings<NU> {
     settings.input_min = gen::TAU_MAX.map(|t| -t);
     settings.input_max = gen::TAU_MAX;
     settings
-}
-
-/// `q̈ = M⁻¹ (τ − b)` at `x`, by LU.
-fn acceleration(x: &[f64; NX], tau: &[f64; NU]) -> [f64; NU] {
-    let (m, b) = gen::dynamics(x);
-    let mass = SMatrix::<f64, NU, NU>::from_fn(|i, j| m[i][j]);
-    let rhs = SVector::<f64, NU>::from_fn(|i, _| tau[i] - b[i]);
-    let qdd = mass.lu().solve(&rhs).expect("M is invertible");
-    std::array::from_fn(|i| qdd[i])
-}
-
-/// One control period of the plant under a held torque: classic RK4 on `[q, q̇]`.
-fn rk4(x: &[f64; NX], tau: &[f64; NU]) -> [f64; NX] {
-    let f = |x: &[f64; NX]| -> [f64; NX] {
-        let qdd = acceleration(x, tau);
-        std::array::from_fn(|i| if i < NU { x[NU + i] } else { qdd[i - NU] })
-    };
-    let add = |x: &[f64; NX], k: &[f64; NX], h: f64| -> [f64; NX] { std::array::from_fn(|i| x[i] + h * k[i]) };
-    let k1 = f(x);
-    let k2 = f(&add(x, &k1, DT / 2.0));
-    let k3 = f(&add(x, &k2, DT / 2.0));
-    let k4 = f(&add(x, &k3, DT));
-    std::array::from_fn(|i| x[i] + DT / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]))
 }
 
 /// What a torque-controlled run showed: the closest exact SAT separation over every pair
@@ -79,7 +57,7 @@ fn torque_loop(scenario: &Scenario) -> Outcome {
         assert!(out.u.iter().all(|u| u.is_finite()));
         not_qp += usize::from(out.source != InputSource::Qp);
         // The condition in accelerations, at the acceleration the torque produces.
-        let qdd = acceleration(&x, &out.u);
+        let qdd = rigid_body_acceleration(gen::dynamics, &x, &out.u).expect("M is invertible");
         fresh.evaluate(0.0, &x, &params).unwrap();
         for (k, (row, at)) in fresh.rows().iter().zip(fresh.layout()).enumerate() {
             if !filter.active()[k] || filter.relaxed()[k].is_some() {
@@ -95,7 +73,7 @@ fn torque_loop(scenario: &Scenario) -> Outcome {
             assert!(lhs >= -1e-7 * size, "t = {t:.3}, row {k}: ECBF condition {lhs:e} (size {size:e}) reported met");
             checked += 1;
         }
-        x = rk4(&x, &out.u);
+        x = step_rigid_body(gen::dynamics, &x, &out.u, DT).expect("a regular mass matrix");
         let links = link_boxes(&x).unwrap();
         for o in &scenario.obstacles {
             for &l in &gen::OBSTACLE_LINKS {

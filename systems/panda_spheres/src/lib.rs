@@ -40,7 +40,6 @@ use cbfgen::error::{within, CbfError};
 use cbfgen::filter::{EcbfFilter, FilterSettings, InputSource};
 use cbfgen::torque::JointTorque;
 use generated::{self as gen, Barriers, Capacity, Params, SphereObstacleParams, TableParams, NU, NX};
-use nalgebra::{SMatrix, SVector};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -193,33 +192,13 @@ impl Scenario {
     }
 }
 
-/// `q̈ = M(q)⁻¹ (τ − b(q, q̇))` at `x` (LU: the plant, independent of the filter's Cholesky).
+/// The plant over one period under a held torque ([`cbfgen::torque::step_rigid_body`]
+/// with this system's dynamics).
 ///
 /// # Errors
-/// A state whose mass matrix is singular.
-pub fn acceleration(x: &[f64; NX], tau: &[f64; NU]) -> Result<[f64; NU], CbfError> {
-    let (m, b) = gen::dynamics(x);
-    let mass = SMatrix::<f64, NU, NU>::from_fn(|i, j| m[i][j]);
-    let rhs = SVector::<f64, NU>::from_fn(|i, _| tau[i] - b[i]);
-    let qdd = mass.lu().solve(&rhs).ok_or(CbfError::NotPositive { what: "mass matrix determinant", value: 0.0 })?;
-    Ok(std::array::from_fn(|i| qdd[i]))
-}
-
-/// The plant over one period under a held torque: classic RK4 on `[q, q̇]`.
-///
-/// # Errors
-/// As [`acceleration`].
+/// A singular mass matrix.
 pub fn step_plant(x: &[f64; NX], tau: &[f64; NU]) -> Result<[f64; NX], CbfError> {
-    let f = |x: &[f64; NX]| -> Result<[f64; NX], CbfError> {
-        let qdd = acceleration(x, tau)?;
-        Ok(std::array::from_fn(|i| if i < NU { x[NU + i] } else { qdd[i - NU] }))
-    };
-    let add = |x: &[f64; NX], k: &[f64; NX], h: f64| -> [f64; NX] { std::array::from_fn(|i| x[i] + h * k[i]) };
-    let k1 = f(x)?;
-    let k2 = f(&add(x, &k1, DT / 2.0))?;
-    let k3 = f(&add(x, &k2, DT / 2.0))?;
-    let k4 = f(&add(x, &k3, DT))?;
-    Ok(std::array::from_fn(|i| x[i] + DT / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])))
+    cbfgen::torque::step_rigid_body(gen::dynamics, x, tau, DT)
 }
 
 /// One control cycle.
