@@ -28,10 +28,17 @@ class SymEngineReference:
     def __init__(self, kernel: Kernel):
         self.kernel = kernel
         known: list[se.Symbol] = [s for inp in kernel.inputs for s in inp.symbols]
+        column = {s: i for i, s in enumerate(known)}
+        # Each definition as a function of the columns it reads (its free symbols), so a
+        # batch gathers a few columns per step rather than copying all that came before.
         self._steps = []
         for d in kernel.definitions:
             exprs = [d.expr] if isinstance(d, Let) else list(d.exprs)
-            self._steps.append((isinstance(d, Let), se.Lambdify(list(known), exprs)))
+            reads = sorted({column[s] for e in exprs for s in e.free_symbols if s in column})
+            # (Lambdify takes no zero-argument function: a constant reads column 0 unused.)
+            reads = reads or [0]
+            self._steps.append((isinstance(d, Let), reads, se.Lambdify([known[i] for i in reads], exprs)))
+            column[d.symbol] = len(known)
             known.append(d.symbol)
         self._outputs = se.Lambdify(known, [e for out in kernel.outputs for e in out.exprs], cse=True)
         self._splits = np.cumsum([len(out.exprs) for out in kernel.outputs])[:-1]
@@ -48,12 +55,21 @@ class SymEngineReference:
 
     def __call__(self, values: Values) -> dict[str, np.ndarray]:
         """Output name -> its values (flat, in the kernel's output layout)."""
-        v = self.flat_inputs(values)
-        for is_let, f in self._steps:
-            r = np.asarray(f(v), dtype=float).ravel()
-            v.append(float(r[0]) if is_let else float(r.max()))
-        flat = np.asarray(self._outputs(v), dtype=float).ravel()
-        return {out.name: part for out, part in zip(self.kernel.outputs, np.split(flat, self._splits), strict=False)}
+        return {name: part[0] for name, part in self.batch([values]).items()}
+
+    def batch(self, samples: Sequence[Values]) -> dict[str, np.ndarray]:
+        """Output name -> its values for every sample (samples x flat values). Each
+        definition is evaluated once over all samples (Lambdify broadcasts over leading
+        axes): a kernel of a thousand lets costs a thousand calls, not a thousand per sample."""
+        n, given = len(samples), sum(len(inp.symbols) for inp in self.kernel.inputs)
+        v = np.empty((n, given + len(self._steps)))
+        v[:, :given] = np.array([self.flat_inputs(values) for values in samples], dtype=float).reshape(n, given)
+        for k, (is_let, reads, f) in enumerate(self._steps):
+            r = np.asarray(f(v[:, reads]), dtype=float).reshape(n, -1)
+            v[:, given + k] = r[:, 0] if is_let else r.max(axis=1)
+        flat = np.asarray(self._outputs(v), dtype=float).reshape(n, -1)
+        return {out.name: part for out, part in
+                zip(self.kernel.outputs, np.split(flat, self._splits, axis=1), strict=False)}
 
     def high_precision(self, values: Values, bits: int = 256) -> dict[str, np.ndarray]:
         """The same outputs computed in ``bits``-bit MPFR arithmetic from the exact double
