@@ -214,6 +214,9 @@ pub struct Sample {
     pub obstacle_clearance: f64,
     /// Smallest exact clearance of an arm sphere above the table after the cycle \[m\].
     pub table_clearance: f64,
+    /// The filter update's CPU time \[µs\], where the settings ask for it
+    /// ([`FilterSettings::measure_cpu_time`]) and the platform has a thread clock.
+    pub cpu_us: Option<f64>,
 }
 
 /// A closed loop in progress.
@@ -284,12 +287,12 @@ impl Simulation {
     pub fn step(&mut self) -> Result<Sample, CbfError> {
         let t = self.time();
         let tau_ref = self.scenario.nominal(t, &self.x);
-        let (tau, source) = if self.scenario.filter {
+        let (tau, source, cpu_us) = if self.scenario.filter {
             let out = self.filter.update(&self.x, &tau_ref, &self.params)?;
-            (out.u, Some(out.source))
+            (out.u, Some(out.source), out.cpu_time.map(|d| d.as_secs_f64() * 1e6))
         } else {
             let s = &self.scenario.settings;
-            (std::array::from_fn(|j| tau_ref[j].clamp(s.input_min[j], s.input_max[j])), None)
+            (std::array::from_fn(|j| tau_ref[j].clamp(s.input_min[j], s.input_max[j])), None, None)
         };
         self.x = step_plant(&self.x, &tau)?;
         self.cycle += 1;
@@ -306,7 +309,7 @@ impl Simulation {
             }
             None => f64::INFINITY,
         };
-        Ok(Sample { t, tau, source, obstacle_clearance, table_clearance })
+        Ok(Sample { t, tau, source, obstacle_clearance, table_clearance, cpu_us })
     }
 }
 
