@@ -812,11 +812,15 @@ def link_box(robot: Urdf, link: str) -> FittedBox:
 @dataclass(frozen=True)
 class Srdf:
     """What a robot's SRDF says about collisions: the link pairs it disables (each with
-    its reason) and its named joint states."""
+    its reason), its named joint states, and its virtual joints (a floating base: the
+    joint the URDF does not have, e.g. Pinocchio's ``root_joint``) with their values in
+    each state (a floating joint's are x y z qx qy qz qw)."""
 
     source: Path
     disabled: Mapping[frozenset[str], str]
     states: Mapping[str, Mapping[str, float]]
+    virtual_joints: Mapping[str, str] = dataclasses.field(default_factory=dict)
+    virtual_states: Mapping[str, Mapping[str, tuple[float, ...]]] = dataclasses.field(default_factory=dict)
 
 
 def load_srdf(path: Path | str, robot: Urdf) -> Srdf:
@@ -835,16 +839,31 @@ def load_srdf(path: Path | str, robot: Urdf) -> Srdf:
                 raise SpecError(f"SRDF {path.name}: disable_collisions names link {link!r}, not a link of "
                                 f"{robot.source.name}")
         disabled[frozenset((a, b))] = element.get("reason", "")
+    # A virtual joint's value count, by its type (SRDF's: floating is a position and a
+    # unit quaternion, planar x y theta, fixed none).
+    arity = {"floating": 7, "planar": 3, "fixed": 0}
+    virtual: dict[str, str] = {}
+    for element in root.findall("virtual_joint"):
+        name, kind = element.get("name", ""), element.get("type", "")
+        if kind not in arity:
+            raise SpecError(f"SRDF {path.name}: virtual_joint {name!r} has type {kind!r}, not one of "
+                            f"{sorted(arity)}")
+        virtual[name] = kind
     states: dict[str, dict[str, float]] = {}
+    virtual_states: dict[str, dict[str, tuple[float, ...]]] = {}
     for element in root.findall("group_state"):
-        values = {}
+        state = element.get("name", "")
+        values, poses = {}, {}
         for joint in element.findall("joint"):
             name = joint.get("name", "")
+            where = f"SRDF {path.name}, group_state {state!r}, joint {name!r}"
+            if name in virtual:
+                poses[name] = _floats(where, joint.get("value"), (math.nan,) * arity[virtual[name]])
+                continue
             robot.joint(name)
-            values[name] = _floats(f"SRDF {path.name}, group_state {element.get('name')!r}, joint {name!r}",
-                                   joint.get("value"), (math.nan,))[0]
-        states[element.get("name", "")] = values
-    return Srdf(path, disabled, states)
+            values[name] = _floats(where, joint.get("value"), (math.nan,))[0]
+        states[state], virtual_states[state] = values, poses
+    return Srdf(path, disabled, states, virtual, virtual_states)
 
 
 def adjacent(robot: Urdf, a: str, b: str) -> bool:

@@ -7,6 +7,7 @@ use cbfgen::system::KernelEntry;
 
 /// Every built-in system, in name order.
 pub static SYSTEMS: Registry = Registry::new(&[
+    cbfgen_anymal::generated::SYSTEM,
     cbfgen_double_integrator::SYSTEM,
     cbfgen_panda::generated::SYSTEM,
     cbfgen_panda_spheres::generated::SYSTEM,
@@ -16,6 +17,7 @@ pub static SYSTEMS: Registry = Registry::new(&[
 /// Each built-in system's uniform kernel table, by module name; the core's primitives
 /// (`cbfgen::generated::KERNELS`) come first in [`kernels`].
 const SYSTEM_KERNELS: &[(&str, &[KernelEntry])] = &[
+    ("anymal", cbfgen_anymal::generated::KERNELS),
     ("double_integrator", cbfgen_double_integrator::KERNELS),
     ("panda", cbfgen_panda::generated::KERNELS),
     ("panda_spheres", cbfgen_panda_spheres::generated::KERNELS),

@@ -321,6 +321,34 @@ def test_a_pair_overlapping_at_the_reference_is_named():
     urdf.require_clear(robot, pairs, boxes, {**srdf.states["default"], "panda_finger_joint2": 0.001}, "default")
 
 
+def test_a_floating_base_srdf_keeps_its_virtual_joint_apart_from_the_urdf_joints():
+    # ANYmal's SRDF names its free flyer (Pinocchio's root_joint) in its groups and gives
+    # it x y z qx qy qz qw in its standing state; the URDF has no such joint.
+    robot = urdf.load(urdf.description("anymal_c_simple_description/urdf/anymal.urdf"))
+    srdf = urdf.load_srdf(urdf.description("anymal_c_simple_description/srdf/anymal.srdf"), robot)
+    assert srdf.virtual_joints == {"root_joint": "floating"}
+    assert srdf.virtual_states["standing"] == {"root_joint": (0.0, 0.0, 0.528, 0.0, 0.0, 0.0, 1.0)}
+    assert sorted(srdf.states["standing"]) == sorted(j.name for j in robot.moving_joints)
+    assert len(srdf.disabled) == 270
+
+
+@pytest.mark.parametrize("body, message", [
+    ("<virtual_joint name='world' type='spherical' parent_frame='w' child_link='a'/>",
+     "virtual_joint 'world' has type 'spherical'"),
+    ("<virtual_joint name='world' type='floating' parent_frame='w' child_link='a'/>"
+     "<group_state name='s' group='g'><joint name='world' value='0 0 1'/></group_state>",
+     "group_state 's', joint 'world': '0 0 1' must be 7 finite numbers"),
+    ("<group_state name='s' group='g'><joint name='nowhere' value='0'/></group_state>", "no joint 'nowhere'"),
+])
+def test_a_broken_srdf_names_the_element(tmp_path, body, message):
+    robot = urdf.load(_write(tmp_path, _joint("j1", "a", "b") + _joint("j2", "b", "c")))
+    path = tmp_path / "broken.srdf"
+    path.write_text(f"<robot name='r'>{body}</robot>")
+    with pytest.raises(SpecError) as err:
+        urdf.load_srdf(path, robot)
+    assert message in str(err.value), str(err.value)
+
+
 @pytest.mark.parametrize("collision, message", [
     ("<geometry><mesh filename='nowhere.stl'/></geometry>", "link 'b', collision: mesh 'nowhere.stl' is missing"),
     ("<geometry><cone radius='1'/></geometry>", "link 'b', collision: the geometry must be one of"),

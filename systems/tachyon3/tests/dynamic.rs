@@ -23,8 +23,13 @@ const FLOORS: [f64; 6] = [0.0, -0.01, -0.02, 0.0, -0.005, -0.03];
 const SWING: [bool; 6] = [true, false, true, false, false, false];
 
 /// Every built-in system, as a binary that links their crates lists them.
-static SYSTEMS: Registry =
-    Registry::new(&[di::SYSTEM, cbfgen_panda::generated::SYSTEM, cbfgen_panda_spheres::generated::SYSTEM, gen::SYSTEM]);
+static SYSTEMS: Registry = Registry::new(&[
+    cbfgen_anymal::generated::SYSTEM,
+    di::SYSTEM,
+    cbfgen_panda::generated::SYSTEM,
+    cbfgen_panda_spheres::generated::SYSTEM,
+    gen::SYSTEM,
+]);
 
 fn tachyon3() -> &'static dyn DynSystem {
     SYSTEMS.get("tachyon3").expect("tachyon3 is built in")

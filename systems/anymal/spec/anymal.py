@@ -1,0 +1,203 @@
+"""ANYbotics' ANYmal C on a floating base, built from its own robot description: joint
+limits, feet kept inside convex foothold regions, and its legs kept off each other by
+smooth SAT. The robot of seed 004's stepping-stone experiment.
+
+**Description.** example-robot-data's ``anymal_c_simple_description`` (``anymal.urdf``
+and ``anymal.srdf``, the wheel pinned in symbolic/requirements-urdf.txt, read offline):
+the kinematic tree, the joint position and velocity limits, one box per link fitted to
+its collision primitives (boxes as given; cylinders and the foot spheres bounded, the
+containment checked at generation), the foot spheres; the self-collision pairs are the
+SRDF's, every pair of links with geometry that it does not disable and that is not
+adjacent, and must be clear at its ``standing`` state.
+
+**Model.** A floating base: states are the trunk's position p (world [m]) and orientation
+as roll, pitch, yaw (R = Rz(yaw) Ry(pitch) Rx(roll), singular at pitch = +-pi/2, which a
+walking trunk never nears), the 12 joint angles leg by leg (LF, RF, LH, RH; each HAA, HFE,
+KFE) [rad], then the rates of all 18. Inputs are the 18 generalized accelerations, so
+x' = [v, 0] + [0; I] u: the acceleration interface a whole-body controller works in (its
+torques come through the floating-base dynamics, issue 37).
+
+**Families** (rows in this order):
+
+* ``joint_limits``: q_i - q_min,i >= 0 and q_max,i - q_i >= 0 (relative degree 2);
+* ``velocity_limits``: qd_max,i - |q'_i| as two rows each (relative degree 1);
+* ``foot_region``: a foot's sphere centre c inside half-spaces n . c <= d given at run
+  time (world frame; with |n| = 1, h = d - n . c is in metres): a convex foothold region
+  (seed 004's foot-placement constraint), or the ground (n = (0, 0, -1), d = -(g + r)
+  keeps the sphere above z = g). One member per foot, up to ``MAX_HALF_SPACES`` each;
+* ``self_collision``: SSAT between the boxes of each checked pair minus its certified
+  margin (degree 2), in the trunk's frame, where the floating base drops out.
+
+From the URDF: kinematics, position and velocity limits, collision geometry; from the
+SRDF: the checked pairs and the standing state. **Assumed**: the acceleration limits of
+the input box (ANYmal's description has none), the SSAT sharpness, the poles and
+priorities.
+"""
+
+from __future__ import annotations
+
+import symengine as se
+
+from symbolic import primitives as prim
+from symbolic import urdf
+from symbolic.spec import System
+
+ROBOT = urdf.load(urdf.description("anymal_c_simple_description/urdf/anymal.urdf"))
+SRDF = urdf.load_srdf(urdf.description("anymal_c_simple_description/srdf/anymal.srdf"), ROBOT)
+LEGS = ["LF", "RF", "LH", "RH"]
+JOINT_NAMES = [f"{leg}_{joint}" for leg in LEGS for joint in ("HAA", "HFE", "KFE")]
+JOINTS = len(JOINT_NAMES)
+BASE = ["x", "y", "z", "roll", "pitch", "yaw"]
+COORDINATES = len(BASE) + JOINTS
+Q_MIN, Q_MAX = (list(v) for v in zip(*ROBOT.limits(JOINT_NAMES, "position"), strict=True))
+QD_MAX = [upper for _, upper in ROBOT.limits(JOINT_NAMES, "velocity")]
+TAU_MAX = [upper for _, upper in ROBOT.limits(JOINT_NAMES, "effort")]
+# The input box [m/s^2, rad/s^2]: assumed, generous for a 50 kg trunk and its drives, so
+# that the barrier rows and not the box decide what is feasible.
+BASE_LINEAR_ACCELERATION = 30.0
+BASE_ANGULAR_ACCELERATION = 60.0
+JOINT_ACCELERATION = 200.0
+
+# The SRDF's standing state: joint angles, and the trunk's pose (its floating virtual
+# joint: x y z qx qy qz qw; the identity quaternion there, so roll = pitch = yaw = 0).
+STANDING_STATE = "standing"
+STANDING_JOINTS = [SRDF.states[STANDING_STATE][j] for j in JOINT_NAMES]
+(_ROOT_JOINT, _STANDING_POSE), = SRDF.virtual_states[STANDING_STATE].items()
+if tuple(_STANDING_POSE[3:]) != (0.0, 0.0, 0.0, 1.0):
+    raise ValueError(f"anymal.srdf's {STANDING_STATE!r} trunk is not level: {_STANDING_POSE}")
+STANDING = [*_STANDING_POSE[:3], 0.0, 0.0, 0.0, *STANDING_JOINTS]
+
+# The feet: each FOOT link's collision sphere (its centre is the point the foothold rows
+# keep in their region).
+FEET = [next(s for s in urdf.collision_shapes(ROBOT, f"{leg}_FOOT") if isinstance(s, urdf.Sphere)) for leg in LEGS]
+FOOT_RADIUS = FEET[0].radius
+if any(f.radius != FOOT_RADIUS for f in FEET):
+    raise ValueError("anymal.urdf's four foot spheres differ in radius")
+
+LINKS = [link for link in ROBOT.links if ROBOT.collision(link)]
+BOXES = {link: urdf.link_box(ROBOT, link) for link in LINKS}
+SELF_PAIRS = urdf.self_collision_pairs(ROBOT, SRDF, LINKS)
+urdf.require_clear(ROBOT, SELF_PAIRS, BOXES, SRDF.states[STANDING_STATE], f"anymal.srdf's {STANDING_STATE!r} state")
+
+# SSAT sharpness, as the Panda's (systems/panda/spec/panda.py says why so soft).
+SSAT_ALPHA = 100.0
+SSAT_ALPHA_ROT = 20.0
+POSITION_POLES = [5.0, 5.0]
+VELOCITY_POLES = [20.0]
+FOOT_POLES = [10.0, 10.0]
+COLLISION_POLES = [4.0, 4.0]
+SELF_ACTIVATION = 0.2
+MAX_HALF_SPACES = 8
+# Joint limits, footholds and collisions hold; the actuators' rate limits yield to them.
+PRIORITIES = {"joint_limits": 0, "foot_region": 0, "self_collision": 0, "velocity_limits": 1}
+
+
+def kinematics(base, joints, let=None, frame: str | None = None) -> urdf.Kinematics:
+    """Link poses for the trunk pose ``base`` (x y z roll pitch yaw) and ``joints``, in the
+    world; in link ``frame``'s frame instead if given (then ``base`` is not used)."""
+    q = dict(zip(JOINT_NAMES, joints, strict=True))
+    if frame is not None:
+        return urdf.Kinematics(ROBOT, q, let, frame)
+    return urdf.Kinematics(ROBOT, q, let, root_pose=(urdf.euler_zyx(*base[3:]), list(base[:3])))
+
+
+def foot_center(leg: int, fk: urdf.Kinematics) -> list[se.Expr]:
+    """Leg ``leg``'s foot sphere centre in ``fk``'s frame."""
+    return FEET[leg].placed(fk.pose(f"{LEGS[leg]}_FOOT"))[0]
+
+
+def build() -> System:
+    s = System("anymal", doc="ANYmal C on a floating base from its URDF (systems/anymal/spec/anymal.py): joint "
+                             "limits, feet inside convex foothold regions, legs off each other by smooth SAT.")
+    names = BASE + [j.lower() for j in JOINT_NAMES]
+    docs = (["trunk x, world [m]", "trunk y, world [m]", "trunk z, world [m]", "trunk roll [rad]",
+             "trunk pitch [rad]", "trunk yaw [rad]"] + [f"joint {j} angle [rad]" for j in JOINT_NAMES])
+    x = s.states(names + [f"{n}_rate" for n in names],
+                 docs=docs + [f"rate of: {d}".replace(" [m]", " [m/s]").replace(" [rad]", " [rad/s]") for d in docs])
+    position, rate = x[:COORDINATES], x[COORDINATES:]
+    base, q, qd = position[:len(BASE)], position[len(BASE):], rate[len(BASE):]
+    s.inputs([f"{n}_acc" for n in names],
+             limits=[(-v, v) for v in [BASE_LINEAR_ACCELERATION] * 3 + [BASE_ANGULAR_ACCELERATION] * 3
+                     + [JOINT_ACCELERATION] * JOINTS],
+             docs=[f"second derivative of: {d}".replace(" [m]", " [m/s^2]").replace(" [rad]", " [rad/s^2]")
+                   for d in docs])
+    s.dynamics(f=list(rate) + [0] * COORDINATES,
+               g=[[0] * COORDINATES for _ in range(COORDINATES)]
+               + [[int(r == c) for c in range(COORDINATES)] for r in range(COORDINATES)])
+
+    def joint_limits(p):
+        rows = []
+        for i, name in enumerate(JOINT_NAMES):
+            rows += [(f"{name.lower()}_min", q[i] - Q_MIN[i]), (f"{name.lower()}_max", Q_MAX[i] - q[i])]
+        return rows
+
+    s.family("joint_limits", joint_limits, poles=POSITION_POLES, priority=PRIORITIES["joint_limits"],
+             doc="Joint angles inside the URDF's limits [rad].")
+
+    def velocity_limits(p):
+        rows = []
+        for i, name in enumerate(JOINT_NAMES):
+            rows += [(f"{name.lower()}_rate_min", qd[i] + QD_MAX[i]), (f"{name.lower()}_rate_max", QD_MAX[i] - qd[i])]
+        return rows
+
+    s.family("velocity_limits", velocity_limits, poles=VELOCITY_POLES, priority=PRIORITIES["velocity_limits"],
+             doc="Joint rates inside the URDF's limits [rad/s].")
+
+    def foot_region(p):
+        c = foot_center(p.index, kinematics(base, q, p.let))
+        return [("inside", p.offset - sum((n * v for n, v in zip(p.normal, c, strict=True)), se.Integer(0)))]
+
+    s.family("foot_region", foot_region,
+             params={"normal": ((3,), "half-space normal n, world frame (outward; unit for h in metres)"),
+                     "offset": ((), "half-space offset d [m]: the region is n . c <= d")},
+             over=[leg.lower() for leg in LEGS], capacity=MAX_HALF_SPACES, poles=FOOT_POLES,
+             priority=PRIORITIES["foot_region"],
+             doc="A foot sphere's centre c inside the half-space n . c <= d: h = d - n . c (metres when |n| = 1). "
+                 "One member per foot; a foothold region is its half-spaces.")
+
+    alpha, alpha_rot = se.RealDouble(SSAT_ALPHA), se.RealDouble(SSAT_ALPHA_ROT)
+
+    def pair_boxes(p):
+        a, b = SELF_PAIRS[p.index]
+        # In the frame of the link both hang from (the trunk, for two legs): the floating
+        # base moves both boxes alike and drops out, exactly.
+        fk = kinematics(base, q, p.let, frame=urdf.common_ancestor(ROBOT, a, b))
+        return BOXES[a].placed(fk.pose(a)), BOXES[b].placed(fk.pose(b))
+
+    s.family("self_collision", lambda p: [("self_collision", prim.ssat(p, *pair_boxes(p), alpha, alpha_rot))],
+             over=[f"{a}_{b}".lower() for a, b in SELF_PAIRS], poles=COLLISION_POLES,
+             priority=PRIORITIES["self_collision"], activation=SELF_ACTIVATION,
+             lower_bound=lambda p: prim.ssat_lower_bound(p, *pair_boxes(p), alpha, alpha_rot),
+             doc="Two link boxes the SRDF lets meet, by smooth SAT minus its certified margin [m]: h >= 0 proves they "
+                 f"do not overlap. Active while h < {SELF_ACTIVATION} m.")
+
+    fk = kinematics(base, q)
+    feet = [foot_center(leg, fk) for leg in range(len(LEGS))]
+    s.output("feet", [
+        ("positions", feet, "foot sphere centres, world [m], LF RF LH RH"),
+        ("velocities", [[sum((se.diff(e, v) * d for v, d in zip(position, rate, strict=True)), se.Integer(0))
+                         for e in foot] for foot in feet], "their velocities, world [m/s]"),
+    ], doc="The feet: each foot sphere's centre and its velocity, in the world.")
+    boxes = [BOXES[link].placed(fk.pose(link)) for link in LINKS]
+    s.output("link_boxes", [
+        ("centers", [list(b.center) for b in boxes], "link box centres, world [m], one row per link box"),
+        ("rotations", [[b.rotation[r][c] for r in range(3) for c in range(3)] for b in boxes],
+         "link box rotations, row-major (columns = the box's axes), one row per link box"),
+    ], doc="Every link box's world pose, in LINK_NAMES order.")
+    for name, value, doc in [
+        ("legs", LEGS, "The legs, in member order of foot_region and row order of feet."),
+        ("joint_names", JOINT_NAMES, "The URDF's joints, in state order (after the trunk's six coordinates)."),
+        ("standing", STANDING, "The SRDF's standing state: trunk x y z roll pitch yaw, then the joints."),
+        ("foot_radius", FOOT_RADIUS, "Foot sphere radius [m] (URDF)."),
+        ("link_names", LINKS, "Link boxes, in row order of link_boxes."),
+        ("link_half_extents", [list(BOXES[link].half) for link in LINKS], "Link box half extents [m]."),
+        ("self_pairs", [[LINKS.index(a), LINKS.index(b)] for a, b in SELF_PAIRS],
+         "Checked self-collision pairs, as link box indices (the self_collision members' order)."),
+        ("q_min", Q_MIN, "Joint angle lower limits [rad] (URDF)."),
+        ("q_max", Q_MAX, "Joint angle upper limits [rad] (URDF)."),
+        ("qd_max", QD_MAX, "Joint rate limits [rad/s] (URDF)."),
+        ("tau_max", TAU_MAX, "Joint torque limits [N m] (URDF)."),
+        ("ssat_alpha", [SSAT_ALPHA, SSAT_ALPHA_ROT], "SSAT sharpness of the collision rows (alpha [1/m], alpha_rot)."),
+    ]:
+        s.constant(name, value, doc)
+    return s
