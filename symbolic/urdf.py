@@ -542,6 +542,46 @@ class Kinematics:
         self._poses[link] = pose
         return pose
 
+    def jacobian(self, link: str, variables: Sequence[se.Expr],
+                 point: Sequence[se.Expr | float] | None = None) -> tuple[list[list[se.Expr]], list[list[se.Expr]]]:
+        """The geometric Jacobian of ``link`` in the base frame, one column per entry of
+        ``variables`` (joint variables given in ``q``): ``(linear, angular)``, each 3 x n,
+        so that the velocity of the point and the link's angular velocity are
+        ``linear @ q'`` and ``angular @ q'`` (Pinocchio's LOCAL_WORLD_ALIGNED frame
+        Jacobian). The point is ``point`` in the link's frame (its origin by default).
+
+        Built from each joint's axis and origin on the way down (``a x (p - o)`` and ``a``
+        for a revolute joint, ``a`` and 0 for a prismatic one), so with ``let_`` it reads
+        the same named intermediates as the poses; a variable that moves no joint between
+        the base and the link has a zero column, as does one of a joint above the base."""
+        r, p = self.pose(link)
+        if point is not None:
+            p = [p[i] + e for i, e in enumerate(_matvec(r, [se.sympify(v) for v in point]))]
+        zero = se.Integer(0)
+        linear = [[zero] * len(variables) for _ in range(3)]
+        angular = [[zero] * len(variables) for _ in range(3)]
+        for joint in self.urdf.path_joints(self.base, link):
+            if not joint.moves:
+                continue
+            variable = self._q[joint.name]
+            columns = [k for k, v in enumerate(variables) if se.sympify(v) == variable]
+            if not columns:
+                continue
+            rc, o = self.pose(joint.child)
+            # The child's rotation carries the joint's own turn, which leaves its axis fixed.
+            a = _matvec(rc, [_snap(v) for v in joint.axis])
+            if joint.type == "prismatic":
+                lin, ang = a, [zero] * 3
+            else:
+                d = [p[i] - o[i] for i in range(3)]
+                lin = [a[1] * d[2] - a[2] * d[1], a[2] * d[0] - a[0] * d[2], a[0] * d[1] - a[1] * d[0]]
+                ang = a
+            for k in columns:
+                for i in range(3):
+                    linear[i][k] += lin[i]
+                    angular[i][k] += ang[i]
+        return linear, angular
+
 
 def require_joint_values(robot: Urdf, q: Mapping[str, object]) -> None:
     """A SpecError unless ``q`` gives exactly one value per moving joint."""

@@ -43,3 +43,29 @@ def test_the_filter_keeps_the_obstacle_certificates_and_the_pd_alone_does_not():
     without = example.run(2.0, filtered=False)
     assert with_filter["min_obstacle_h"].min() >= -1e-6
     assert without["min_obstacle_h"].min() < -0.05
+
+
+def test_the_compiled_hand_pose_and_jacobian_are_pinocchios():
+    # The generated `hand` output, called in Rust, against Pinocchio reading the same URDF
+    # at 10^4 random configurations within the joint limits (fingers open: they are below
+    # the hand and move neither its pose nor its Jacobian).
+    pin = pytest.importorskip("pinocchio", reason="installed from symbolic/requirements-test.txt")
+    import numpy as np
+
+    from symbolic import urdf
+
+    model = pin.buildModelFromUrdf(str(urdf.description("panda_description/urdf/panda.urdf")))
+    data = model.createData()
+    hand = model.getFrameId("panda_hand", pin.FrameType.BODY)
+    lower, upper = model.lowerPositionLimit[:7], model.upperPositionLimit[:7]
+    rng = np.random.default_rng(3535)
+    worst = 0.0
+    for _ in range(10_000):
+        q = rng.uniform(lower, upper)
+        got = cbfgen.call_kernel("panda", "hand", np.concatenate([q, rng.uniform(-1, 1, 7)]))
+        q_pin = np.concatenate([q, [0.04, 0.04]])
+        jacobian = pin.computeFrameJacobian(model, data, q_pin, hand, pin.LOCAL_WORLD_ALIGNED)[:, :7]
+        placement = data.oMf[hand]
+        want = np.concatenate([placement.translation, placement.rotation.ravel(), jacobian.ravel()])
+        worst = max(worst, float(np.max(np.abs(got - want))))
+    assert worst <= 1e-12, worst

@@ -156,6 +156,46 @@ def test_every_link_jacobian_matches_pinocchio(relative):
     assert worst <= 1e-12, f"{relative}: largest Jacobian difference {worst:.3g}"
 
 
+
+@pytest.mark.parametrize("relative", ["panda_description/urdf/panda.urdf",
+                                      "anymal_c_simple_description/urdf/anymal.urdf"])
+def test_the_front_ends_jacobians_are_pinocchios(relative):
+    # Kinematics.jacobian, from the joints' axes and origins (not by differentiating),
+    # for every link's origin and for a point 10 cm off it in each axis, against
+    # Pinocchio's LOCAL_WORLD_ALIGNED frame Jacobian (shifted to the point: v + w x r).
+    path = urdf.description(relative)
+    robot = urdf.load(path)
+    q = {j.name: se.Symbol(f"q_{k}") for k, j in enumerate(robot.moving_joints)}
+    fk = urdf.Kinematics(robot, q)
+    offset = (0.1, -0.1, 0.1)
+    flat = []
+    for link in robot.links:
+        for point in (None, offset):
+            linear, angular = fk.jacobian(link, list(q.values()), point)
+            flat += [e for row in linear + angular for e in row]
+    ours = se.Lambdify(list(q.values()), flat, cse=True)
+    model = pin.buildModelFromUrdf(str(path))
+    data = model.createData()
+    frames = [model.getFrameId(link, pin.FrameType.BODY) for link in robot.links]
+    columns = [model.joints[model.getJointId(name)].idx_v for name in q]
+    rng = np.random.default_rng(352)
+    worst = 0.0
+    for values in _random_configurations(robot, rng):
+        q_pin = np.zeros(model.nq)
+        for name, v in zip(q, values, strict=True):
+            joint = model.joints[model.getJointId(name)]
+            q_pin[joint.idx_q:joint.idx_q + joint.nq] = (math.cos(v), math.sin(v)) if joint.nq == 2 else v
+        pin.computeJointJacobians(model, data, q_pin)
+        pin.updateFramePlacements(model, data)
+        got = np.asarray(ours(values)).reshape(len(robot.links), 2, 6, len(q))
+        for k, f in enumerate(frames):
+            origin = pin.getFrameJacobian(model, data, f, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)[:, columns]
+            arm = data.oMf[f].rotation @ np.array(offset)
+            shifted = origin.copy()
+            shifted[:3] += np.cross(origin[3:].T, arm).T
+            worst = max(worst, float(np.max(np.abs(got[k, 0] - origin))), float(np.max(np.abs(got[k, 1] - shifted))))
+    assert worst <= 1e-12, f"{relative}: largest Jacobian difference {worst:.3g}"
+
 def test_limits_are_the_urdfs_as_pinocchio_reads_them():
     path = urdf.description("panda_description/urdf/panda.urdf")
     robot = urdf.load(path)

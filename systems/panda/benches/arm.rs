@@ -8,7 +8,12 @@
 //! * `arm_rows/all_<rows>` — every row evaluated, no solve;
 //! * `arm_row/<family>` — one member's kernel: all 14 joint-limit rows, all 14 velocity
 //!   rows, one link (the hand) against one obstacle, one self-collision pair (link2/hand);
-//! * `arm_dynamics/mass_matrix_and_bias` — the generated M(q) and C(q, q̇) q̇ + g(q).
+//! * `arm_dynamics/mass_matrix_and_bias` — the generated M(q) and C(q, q̇) q̇ + g(q);
+//! * `arm_kinematics/…` — the generated hand pose and its 6×7 Jacobian, and every link
+//!   box's pose (forward kinematics of the 11 boxes).
+//!
+//! Pinocchio's own figures for the same quantities, called from Python on the same
+//! machine, are `scripts/pinocchio_peer.py`'s.
 
 use cbfgen::filter::{EcbfFilter, Solver};
 use cbfgen::system::BarrierSet;
@@ -84,6 +89,8 @@ fn rows(c: &mut Criterion) {
     g.finish();
     // The generated rigid-body dynamics from the URDF's inertials: M(q) and C(q, q̇) q̇ + g(q).
     c.bench_function("arm_dynamics/mass_matrix_and_bias", |b| b.iter(|| gen::dynamics(black_box(&x))));
+    c.bench_function("arm_kinematics/hand_pose_and_jacobian", |b| b.iter(|| gen::hand(black_box(&x))));
+    c.bench_function("arm_kinematics/link_box_poses", |b| b.iter(|| gen::link_boxes(black_box(&x))));
 }
 
 criterion_group!(benches, update, rows);

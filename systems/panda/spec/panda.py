@@ -203,6 +203,15 @@ def build() -> System:
                                 "origins of frames 1-11 [m]")],
              doc="Origins of frames 1-7 (after each joint), the flange (8), the hand (9) and the fingers (10, 11), "
                  "base frame.")
+    hand_rotation, hand_position = fk.pose("panda_hand")
+    linear, angular = fk.jacobian("panda_hand", q)
+    s.output("hand", [
+        ("position", list(hand_position), "hand frame origin, base frame [m]"),
+        ("rotation", [e for row in hand_rotation for e in row], "hand frame rotation, row-major (columns = its axes)"),
+        ("jacobian", linear + angular, "geometric Jacobian [linear; angular] of the hand frame origin, base frame: "
+                                       "its velocity and angular velocity are jacobian @ q'"),
+    ], doc="The hand frame (panda_hand, the flange side of the gripper): its pose and its 6 x 7 Jacobian, as "
+           "Pinocchio's LOCAL_WORLD_ALIGNED frame Jacobian; what an operational-space controller starts from.")
     dynamics = RigidBodyDynamics(ROBOT, {**dict(zip(JOINT_NAMES, q, strict=True)), **FINGERS})
     s.output("dynamics", [
         ("mass_matrix", dynamics.mass_matrix(), "joint-space mass matrix M(q) [kg m^2], fingers held still"),
