@@ -112,7 +112,9 @@ pub trait FamilyStore {
     /// slot is empty.
     ///
     /// # Errors
-    /// No such slot, or `out` of another length.
+    /// No such slot, or `out` of another length; a fixed instance with a parameter never
+    /// set ([`Found::NotSet`](crate::param_domain::Found::NotSet), naming it): there is no
+    /// value to read.
     fn get(&self, instance: usize, out: &mut [f64]) -> Result<bool, CbfError>;
     /// Set instance `instance` (fixed, optional, or an already pushed capacity instance).
     ///
@@ -196,7 +198,13 @@ impl<P: FlatInstance, const N: usize> FamilyStore for [P; N] {
         N
     }
     fn get(&self, instance: usize, out: &mut [f64]) -> Result<bool, CbfError> {
-        write(slot_ref(self, instance)?, out).map(|()| true)
+        let p = slot_ref(self, instance)?;
+        write(p, out)?;
+        if out.iter().any(|&v| crate::param_domain::is_unset(v)) {
+            // Its own check names the parameter never set.
+            p.check().map_err(|e| e.in_instance(instance))?;
+        }
+        Ok(true)
     }
     fn set(&mut self, instance: usize, values: &[f64]) -> Result<(), CbfError> {
         // The slot first: a missing instance is refused as such, whatever the values.

@@ -183,6 +183,12 @@ impl fmt::Display for CbfError {
             CbfError::NotARotation { deviation, determinant } => {
                 write!(f, "rotation is not a proper rotation (|R^T R - I| = {deviation:.3e}, det R = {determinant:.6})")
             }
+            CbfError::ParamOutOfDomain { family, member, instance, param, found: Found::NotSet, .. } => write!(
+                f,
+                "{}: parameter {param} was never set (a fixed instance's parameters are refused until they are \
+                 set, unless the spec gives the family defaults=)",
+                Site(family, member, instance),
+            ),
             CbfError::ParamOutOfDomain { family, member, instance, param, domain, found } => write!(
                 f,
                 "{}: parameter {param} is outside its domain ({domain}): {}",

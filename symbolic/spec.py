@@ -46,8 +46,9 @@ rotation tolerance) and lie in ``TOLERANCE_RANGE``. ``UnitVector`` fits vectors 
 and parameter. The generated ``validate()`` of each parameter struct checks the domain
 (in Rust, and so in Python): ``Params.set``/``push`` refuse a value outside it with an
 error naming family, member, instance and parameter, and change nothing, and a barrier
-set re-checks every evaluation, so a fixed instance never set (all zeros) is refused
-there rather than filtered against when its domain excludes zero.
+set re-checks every evaluation. A fixed instance's parameters start unset (the runtime's
+``UNSET`` marker) unless the family gives ``defaults=``, and are refused, by name, until
+they are set: never filtered against as zeros.
 
 Primitives say what they need (:meth:`FamilyContext.require`): ``prim.Box`` a proper
 rotation and half extents > 0, ``prim.sphere_box`` a radius > 0, ``prim.superellipsoid``
@@ -67,7 +68,7 @@ import keyword
 import math
 import re
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import symengine as se
@@ -347,6 +348,9 @@ class Param:
     shape: Shape
     doc: str
     domain: Domain | None = None
+    # What a fixed instance holds before it is set (row-major for a matrix); None: it is
+    # unset and the filter refuses to run until it is set.
+    default: tuple[float, ...] | None = None
 
     @property
     def size(self) -> int:
@@ -361,6 +365,44 @@ class Param:
         rows, cols = self.shape
         sep = "" if rows <= 10 and cols <= 10 else "_"
         return [f"{i}{sep}{j}" for i in range(rows) for j in range(cols)]
+
+
+def _with_defaults(where: str, params: list[Param], defaults: object, capacity: bool) -> list[Param]:
+    """``params`` with the spec's ``defaults`` (name -> value shaped as the parameter)."""
+    if not isinstance(defaults, dict):
+        raise SpecError(f"{where}: defaults must be a dict of parameter name -> value")
+    if capacity:
+        raise SpecError(f"{where}: defaults are for fixed instances; a capacity family's instances are pushed whole")
+    by_name = {p.name: p for p in params}
+    unknown = [n for n in defaults if n not in by_name]
+    if unknown:
+        raise SpecError(f"{where}: defaults name {unknown}, not parameters of the family ({list(by_name)})")
+    out = []
+    for p in params:
+        if p.name not in defaults:
+            out.append(p)
+            continue
+        value = defaults[p.name]
+        numbers = _shaped_numbers(value, p.shape)
+        if numbers is None:
+            raise SpecError(f"{where}: default of {p.name!r} must be {'a number' if p.shape == () else 'numbers'} "
+                            f"of shape {p.shape}, got {value!r}")
+        if not all(math.isfinite(v) and abs(v) <= PARAM_LIMIT for v in numbers):
+            raise SpecError(f"{where}: default of {p.name!r} must be finite and within +-{_num(PARAM_LIMIT)}, "
+                            f"got {value!r}")
+        out.append(replace(p, default=numbers))
+    return out
+
+
+def _shaped_numbers(value: object, shape: Shape) -> tuple[float, ...] | None:
+    """``value``'s numbers, row-major, if it is a number (shape ``()``) or nested lists of
+    exactly ``shape``; None otherwise."""
+    if shape == ():
+        return (float(value),) if _is_number(value) else None
+    if isinstance(value, (str, bytes)) or not isinstance(value, Sequence) or len(value) != shape[0]:
+        return None
+    parts = [_shaped_numbers(v, shape[1:]) for v in value]
+    return None if any(part is None for part in parts) else tuple(v for part in parts for v in part)
 
 
 def _param(where: str, name: object, spec: object) -> Param:
@@ -834,8 +876,15 @@ class System:
                time: bool = False, poles: Sequence[float] | None = None,
                priority: int = 0, activation: float = math.inf,
                lower_bound: Callable[[FamilyContext], se.Expr] | None = None,
+               defaults: dict[str, object] | None = None,
                doc: str = "") -> None:
         """Declare a barrier family h(x, params[, t]) >= 0.
+
+        A fixed instance's parameters start *unset*: the filter refuses to run (an error
+        naming family, instance and parameter) until each is set, so a forgotten room
+        size is never a zero-size room. ``defaults={"vmax": 1.0}`` gives parameters a
+        value to start from instead (a number, or a list shaped as the parameter, matrices
+        row by row); it is for fixed instances, not capacity families.
 
         ``params`` maps names to shapes (``()``, ``(n,)``, ``(rows, cols)``), or to
         ``(shape, doc)``, ``(shape, domain)`` or ``(shape, doc, domain)`` (see the
@@ -878,6 +927,8 @@ class System:
         if not isinstance(params, dict):
             raise SpecError(f"{where}: params must be a dict of name -> shape")
         parsed = [_param(where, n, shape) for n, shape in params.items()]
+        if defaults is not None:
+            parsed = _with_defaults(where, parsed, defaults, capacity is not False)
         if not all(isinstance(v, bool) for v in (optional, time)):
             raise SpecError(f"{where}: optional and time are True or False")
         max_capacity = None

@@ -226,6 +226,24 @@ BOX = ([0, 0, 0], np.eye(3), [0.5, 0.5, 0.5])
 DI = cbfgen.System("double_integrator")
 
 
+def test_a_fixed_instance_nobody_set_is_refused_by_name_until_it_is_set():
+    # The double integrator's boundary has no default in its spec: the filter, the rows
+    # and get() refuse it, naming family, instance and parameter; set, it runs.
+    params, safety = DI.params(), DI.filter()
+    x, u_ref = np.array([0.5, 0.0]), np.array([-3.0])
+    never = "sine_barrier instance 0: parameter amplitude was never set"
+    for call in (lambda: safety.update(x, u_ref, params), lambda: DI.rows(x, params),
+                 lambda: params.get("sine_barrier")):
+        with pytest.raises(cbfgen.CbfError, match=never):
+            call()
+    params.set("sine_barrier", {"amplitude": 0.0, "omega": 1.0, "offset": 0.0})
+    # At rest 0.5 m above a flat boundary, poles (10, 10): u >= -k0 h = -50 lets -3 through.
+    out = safety.update(x, u_ref, params)
+    assert out.verdict == "met" and out.u[0] == pytest.approx(-3.0)
+    # Tachyon 3's floors start where its spec puts them, the ground plane z = 0.
+    assert [t3.Environment().get("foot_height", member=leg)["floor_z"] for leg in range(6)] == [0.0] * 6
+
+
 @pytest.mark.parametrize("call, error, message", [
     (lambda: t3.SYSTEM.drift(np.full(t3.NX, np.nan)), cbfgen.CbfError, "finite"),
     (lambda: t3.SYSTEM.drift(np.zeros(5)), ValueError, r"expected 36 values|shape \(36,\)"),

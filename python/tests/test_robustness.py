@@ -13,6 +13,7 @@ test instead of killing or stalling pytest.
 
 from __future__ import annotations
 
+import inspect
 import os
 import subprocess
 import sys
@@ -53,6 +54,7 @@ def run_isolated(expression: str, headroom: int = CHILD_HEADROOM) -> str:
         import numpy as np
         import cbfgen
         from cbfgen import tachyon3 as t3
+        {{READY}}
         size = int(open("/proc/self/status").read().split("VmSize:")[1].split()[0]) * 1024
         resource.setrlimit(resource.RLIMIT_AS, (size + {headroom}, size + {headroom}))
         try:
@@ -61,7 +63,7 @@ def run_isolated(expression: str, headroom: int = CHILD_HEADROOM) -> str:
             print("CbfError:", e)
         else:
             print("returned:", repr(result)[:200])
-    """)
+    """).replace("{READY}\n", READY_SOURCE)
     try:
         child = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True,
                                timeout=CHILD_TIMEOUT_S)
@@ -90,8 +92,8 @@ def family(system: cbfgen.System, name: str) -> dict:
 
 def sample_values(f: dict, scale: float = 0.25) -> dict:
     """Valid values for one instance of family ``f``, inside each parameter's domain:
-    ``scale`` everywhere (``lo + scale`` for an interval), square matrices (rotations) the
-    identity, unit vectors turned by ``scale`` radians from the first axis."""
+    ``scale`` everywhere (``lo + scale`` for an interval), square matrices (rotations)
+    the identity, unit vectors turned by ``scale`` radians from the first axis."""
     out = {}
     for name, shape in f["params"]:
         kind, *bounds = f["domains"][name]
@@ -104,6 +106,28 @@ def sample_values(f: dict, scale: float = 0.25) -> dict:
             value = bounds[0] + scale if kind == "interval" else scale
             out[name] = np.full(shape, value) if shape else value
     return out
+
+
+def ready_params(system: cbfgen.System, counts: dict | None = None) -> cbfgen.Params:
+    """``system.params(counts)`` with every fixed instance nobody set (its spec gives
+    no default: the filter refuses it) set to sample values."""
+    params = system.params(counts) if counts else system.params()
+    for f in system.families:
+        if f["instances"] != "fixed" or not f["params"]:
+            continue
+        for member in f["members"] or [None]:
+            at = {} if member is None else {"member": member}
+            for instance in range(f["count"]):
+                try:
+                    params.get(f["name"], instance=instance, **at)
+                except cbfgen.CbfError as e:
+                    assert "was never set" in str(e), e
+                    params.set(f["name"], sample_values(f), instance=instance, **at)
+    return params
+
+
+# The two above, as source for the child processes of run_isolated (one definition).
+READY_SOURCE = "\n".join(textwrap.dedent(inspect.getsource(f)) for f in (sample_values, ready_params))
 
 
 def at_limit(f: dict) -> dict:
@@ -586,7 +610,7 @@ def test_a_rotation_parameter_is_9_values_or_3_by_3_read_row_by_row():
 def test_params_of_another_system_raise_and_leave_the_filter_usable(own, other):
     system = cbfgen.System(own)
     safety = system.filter()
-    x, u_ref, params = nominal_state(system), np.zeros(system.nu), system.params()
+    x, u_ref, params = nominal_state(system), np.zeros(system.nu), ready_params(system)
     first = safety.update(x, u_ref, params)
     foreign = cbfgen.System(other).params()
     with pytest.raises(cbfgen.CbfError, match=f"parameters of system {other} given to system {own}"):
@@ -615,7 +639,7 @@ def test_params_of_another_capacity_raise_and_leave_the_filter_usable():
 @pytest.mark.parametrize("name", SYSTEMS)
 def test_rows_check_their_arguments(name):
     system = cbfgen.System(name)
-    x, params = nominal_state(system), system.params()
+    x, params = nominal_state(system), ready_params(system)
     rows = system.rows(x, params)
     assert len(rows) == len(rows.layout) == system.filter().row_count
     assert_finite(rows.lie, rows.lg_lf)
@@ -644,7 +668,7 @@ def test_time_limits_up_to_the_documented_maximum_are_accepted(system):
     sys_ = cbfgen.System(system)
     for us in (F64_TINY * 1e6, 1e-3, 500.0, cbfgen.MAX_TIME_LIMIT_US):
         safety = cbfgen.EcbfFilter(system, time_limit_us=us)
-        assert_finite(safety.update(nominal_state(sys_), np.zeros(sys_.nu), sys_.params()).u)
+        assert_finite(safety.update(nominal_state(sys_), np.zeros(sys_.nu), ready_params(sys_)).u)
 
 
 @pytest.mark.parametrize("settings, name", [
@@ -668,7 +692,7 @@ def test_the_slowest_accepted_solver_settings_end_an_update(system):
     state = ("t3.Course('step').initial_state()" if system == "tachyon3"
              else f"np.resize(np.array([0.1, -0.2]), cbfgen.System('{system}').nx)")
     expression = (f"cbfgen.EcbfFilter('{system}', max_iter=cbfgen.MAX_ITERATIONS, eps_abs=1e-12, eps_rel=1e-12)"
-                  f".update({state}, np.ones(cbfgen.System('{system}').nu), cbfgen.System('{system}').params())"
+                  f".update({state}, np.ones(cbfgen.System('{system}').nu), ready_params(cbfgen.System('{system}')))"
                   ".source")
     assert run_isolated(expression).startswith("returned: ")
 

@@ -94,6 +94,9 @@ pub enum Found {
     /// The determinant of an orthonormal matrix that should be a rotation (≤ 0: a
     /// reflection).
     Determinant(f64),
+    /// The parameter was never set: it still holds [`UNSET`](super::UNSET), as a fixed
+    /// instance's parameters do until they are set where the spec gives no default.
+    NotSet,
 }
 
 /// `found` as a message states it, of parameter `param`.
@@ -109,6 +112,7 @@ impl fmt::Display for FoundIn<'_> {
             Found::Norm(v) => write!(f, "|{p}| = {}", Number(v)),
             Found::Orthonormality(v) => write!(f, "max |RᵀR − I| of {p} = {}", Number(v)),
             Found::Determinant(v) => write!(f, "det {p} = {}", Number(v)),
+            Found::NotSet => write!(f, "{p} was never set"),
         }
     }
 }

@@ -33,6 +33,28 @@ pub use kinds::{Domain, Found};
 use crate::error::CbfError;
 use crate::limits::PARAM_LIMIT;
 
+/// What a fixed instance's parameter holds until it is set (where the spec gives it no
+/// default): a NaN with its own payload, so [`check`] refuses it as
+/// [`Found::NotSet`] rather than filtering against a zero-size box or a zero limit. Any
+/// other NaN is reported as the non-finite value it is.
+///
+/// ```
+/// use cbfgen::param_domain::{check, is_unset, Domain, Found, UNSET};
+/// use cbfgen::CbfError;
+///
+/// assert!(is_unset(UNSET) && !is_unset(f64::NAN));
+/// let err = check("speed_limit", "vmax", Domain::Positive, &[], &[UNSET]).unwrap_err();
+/// assert!(matches!(err, CbfError::ParamOutOfDomain { found: Found::NotSet, .. }));
+/// assert!(err.to_string().starts_with("speed_limit: parameter vmax was never set"));
+/// ```
+pub const UNSET: f64 = f64::from_bits(0x7ff8_0000_0000_0cbf);
+
+/// Whether `value` is [`UNSET`] (bit for bit: not any NaN).
+#[inline]
+pub fn is_unset(value: f64) -> bool {
+    value.to_bits() == UNSET.to_bits()
+}
+
 /// `Ok(())` when parameter `param` of family `family`, of shape `shape` (`[]`, `[n]` or
 /// `[rows, cols]`) with `values` in nalgebra's storage order (matrices column by column),
 /// lies in `domain`. What every generated `validate()` calls, once per parameter.
@@ -109,6 +131,9 @@ fn in_domain(domain: Domain, shape: &[usize], values: &[f64]) -> bool {
 fn violation(family: &'static str, param: &'static str, domain: Domain, shape: &[usize], values: &[f64]) -> CbfError {
     let error =
         |domain, found| CbfError::ParamOutOfDomain { family, member: None, instance: None, param, domain, found };
+    if values.iter().any(|&v| is_unset(v)) {
+        return error(domain, Found::NotSet);
+    }
     let rows = shape.first().copied().unwrap_or(1).max(1);
     let at = |i: usize, value: f64| match shape.len() {
         0 => Found::Value(value),

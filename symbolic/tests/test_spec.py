@@ -51,6 +51,33 @@ def test_default_poles_repeat_to_the_degree_found():
     assert fam.degree == 2 and fam.poles == (10.0, 10.0)
 
 
+def test_defaults_are_shaped_as_their_parameters_and_the_rest_start_unset():
+    s = System("demo")
+    p, v = s.states(["p", "v"])
+    s.inputs(["u"], limits=[(-1.0, 1.0)])
+    s.dynamics(f=[v, 0], g=[[0], [1]])
+    s.family("limit", lambda prm: prm.p_max - prm.n[0] * p + prm.m[0][1],
+             params={"p_max": (), "n": (2,), "m": (2, 2)}, defaults={"n": [1.0, 0.5], "m": [[1, 2], [3, 4]]})
+    fam = define(s).families[0]
+    # Matrices row by row, as the kernels read them.
+    assert {q.name: q.default for q in fam.params} == {"p_max": None, "n": (1.0, 0.5), "m": (1.0, 2.0, 3.0, 4.0)}
+
+
+@pytest.mark.parametrize("defaults, extra, message", [
+    ({"nope": 1.0}, {}, "defaults name ['nope'], not parameters of the family (['p_max'])"),
+    ({"p_max": [1.0]}, {}, "default of 'p_max' must be a number of shape (), got [1.0]"),
+    ({"p_max": float("nan")}, {}, "default of 'p_max' must be finite"),
+    ({"p_max": 1e7}, {}, "default of 'p_max' must be finite and within +-1e6, got 10000000.0"),
+    ({"p_max": "1"}, {}, "default of 'p_max' must be a number"),
+    ({"p_max": 1.0}, {"capacity": True}, "defaults are for fixed instances"),
+    ([1.0], {}, "defaults must be a dict"),
+])
+def test_bad_defaults_name_the_family_and_parameter(defaults, extra, message):
+    with pytest.raises(SpecError) as err:
+        _demo(h=lambda prm: prm.p_max, params={"p_max": ()}, defaults=defaults, **extra)
+    assert message in str(err.value) and "family 'limit'" in str(err.value), str(err.value)
+
+
 def test_several_rows_per_instance_and_let_names_made_unique():
     s = System("boxes")
     px, py, vx, vy = s.states(["px", "py", "vx", "vy"])

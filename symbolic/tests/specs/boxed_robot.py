@@ -24,11 +24,13 @@ def build() -> System:
     zero = se.Integer(0)
     robot = prim.Box([px, py, zero], prim.identity(), [se.RealDouble(0.2), se.RealDouble(0.1), se.RealDouble(0.1)])
 
-    # A fixed instance: never set, it is the zero box, which its domains refuse.
+    # A fixed instance: its centre and extents start unset (refused until set), its
+    # rotation at the spec's default.
     s.family("pillar", lambda p: prim.ssat(p, prim.Box(p.center, p.rotation, p.half_extents), robot, alpha=50.0,
                                            alpha_rot=50.0),
              params={"center": ((3,), "pillar centre [m]"), "rotation": ((3, 3), "pillar rotation"),
                      "half_extents": ((3,), "pillar half extents [m]")},
+             defaults={"rotation": [[1, 0, 0], [0, 1, 0], [0, 0, 1]]},
              count=1, poles=[5.0, 5.0], doc="The robot's box out of the pillar's, by the smooth SAT [m].")
     # Half extents as three scalar parameters, the rotation built from an angle.
     s.family("post", lambda p: prim.sphere_box(p, [px, py, zero], p.radius,
@@ -43,6 +45,7 @@ def build() -> System:
              params={"normal": ((2,), "inward normal"), "offset": ((), "[m]")},
              count=2, optional=True, poles=[5.0, 5.0], doc="The robot's centre on the inner side of a fence [m].")
     s.family("speed_limit", lambda p: p.vmax**2 - vx**2 - vy**2,
-             params={"vmax": ((), "speed limit [m/s]", Interval(0.1, 5.0))}, count=1, poles=[5.0],
+             params={"vmax": ((), "speed limit [m/s]", Interval(0.1, 5.0))}, defaults={"vmax": 2.0}, count=1,
+             poles=[5.0],
              doc="Speed below vmax [m^2/s^2].")
     return s

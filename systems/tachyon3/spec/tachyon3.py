@@ -110,6 +110,8 @@ def build(model: Path | None = None) -> System:
 
     s.family("foot_height", foot_height, priority=PRIORITIES["foot_height"], over=members, poles=poles,
              params={"floor_z": ((), "height of the floor plane under the toe, world frame [m]")},
+             # The world's ground plane until the terrain says otherwise (Environment::set_floors).
+             defaults={"floor_z": 0.0},
              doc="Toe above the floor plane: wheel bottom height minus floor height.")
 
     def stability(p):

@@ -217,8 +217,21 @@ def _params_field_init(f: FamilyDefinition, rt: str) -> str:
         if f.indexed:
             return "[" + ", ".join(make(f"capacity.{f.name}[{m}]") for m in range(len(f.members))) + "]"
         return make(f"capacity.{f.name}")
-    elem = f"[None; {f.count}]" if f.optional else f"[{p}::default(); {f.count}]"
+    elem = f"[None; {f.count}]" if f.optional else f"[{p}::initial(); {f.count}]"
     return f"[{elem}; {len(f.members)}]" if f.indexed else elem
+
+
+def _initial_value(p, rt: str) -> str:
+    """A parameter's value before it is set: the spec's default, else UNSET throughout."""
+    unset = f"{rt}::param_domain::UNSET"
+    if p.shape == ():
+        return unset if p.default is None else float_literal(p.default[0])
+    if p.default is None:
+        return f"<{_param_type(p.shape, rt)}>::repeat({unset})"
+    values = ", ".join(float_literal(v) for v in p.default)
+    # Row-major in the spec, as from_row_slice reads it (a vector is one column either way).
+    make = "from_column_slice" if len(p.shape) == 1 else "from_row_slice"
+    return f"<{_param_type(p.shape, rt)}>::{make}(&[{values}])"
 
 
 def _validate_family(w, f: FamilyDefinition) -> None:
@@ -530,6 +543,17 @@ def _emit_parameter_structs(out: list[str], d: SystemDefinition, rt: str) -> Non
               f"{values})?;")
         w("        Ok(())")
         w("    }")
+        if not f.capacity:
+            w("")
+            defaults = [p.name for p in f.params if p.default is not None]
+            said = (f"the spec's defaults ({', '.join(defaults)}), " if defaults else "")
+            w(f"    /// What a fixed instance holds before it is set: {said}[`{rt}::param_domain::UNSET`]")
+            w("    /// for every parameter without a default, which [`Self::validate`] refuses: a barrier set")
+            w("    /// does not run on parameters nobody set.")
+            w("    pub fn initial() -> Self {")
+            fields = ", ".join(f"{p.name}: {_initial_value(p, rt)}" for p in f.params)
+            w(f"        Self {{ {fields} }}")
+            w("    }")
         w("}")
         w("")
         _flat_instance(w, f, ty, rt)
@@ -646,7 +670,8 @@ def _emit_params(out: list[str], d: SystemDefinition, rt: str) -> None:
     w("}")
     w("")
     w("impl Params {")
-    w("    /// Default (zero) fixed instances, optional ones off, and empty capacity families sized")
+    w("    /// Fixed instances at their spec defaults or unset (refused until set, see each")
+    w("    /// parameter struct's `initial`), optional ones off, and empty capacity families sized")
     w("    /// for `capacity`.")
     w("    ///")
     w("    /// # Errors")

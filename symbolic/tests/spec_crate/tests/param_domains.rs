@@ -45,20 +45,19 @@ fn an_unset_fixed_box_is_refused_by_name_not_filtered_against() -> Result<(), Cb
     let mut barriers = br::Barriers::new(capacity)?;
     let mut filter = br::Filter::new(br::Barriers::new(capacity)?, br::default_settings())?;
     let (x, u_ref) = ([0.0, 0.0, 0.5, 0.0], [1.0, 0.0]);
-    // The pillar was never set: its zero matrix is no rotation (the first parameter its
-    // domain refuses; the zero centre is a centre).
-    let unset = refused("pillar", 0, "rotation", ROTATION, Found::Orthonormality(1.0));
+    // The pillar's centre was never set (the spec gives no default): refused, by name.
+    let unset = refused("pillar", 0, "center", Domain::Real, Found::NotSet);
     assert_eq!(barriers.evaluate(0.0, &x, &params), Err(unset.clone()));
-    assert_eq!(filter.update(&x, &u_ref, &params).map(|o| o.u), Err(unset));
-    params.pillar[0] = br::PillarParams {
-        center: Vector3::new(2.0, 0.0, 0.0),
-        rotation: Matrix3::identity(),
-        half_extents: Vector3::new(0.3, 0.3, 0.5),
-    };
-    // Then the speed limit, whose declared interval excludes its zero default.
-    let vmax = refused("speed_limit", 0, "vmax", Domain::Interval { lo: 0.1, hi: 5.0 }, Found::Value(0.0));
-    assert_eq!(filter.update(&x, &u_ref, &params).map(|o| o.u), Err(vmax));
-    params.speed_limit[0].vmax = 2.0;
+    assert_eq!(filter.update(&x, &u_ref, &params).map(|o| o.u), Err(unset.clone()));
+    assert!(unset.to_string().starts_with("pillar instance 0: parameter center was never set"), "{unset}");
+    params.pillar[0].center = Vector3::new(2.0, 0.0, 0.0);
+    // Then its extents; its rotation starts at the spec's default, the identity.
+    let extents = refused("pillar", 0, "half_extents", Domain::Positive, Found::NotSet);
+    assert_eq!(filter.update(&x, &u_ref, &params).map(|o| o.u), Err(extents));
+    assert_eq!(params.pillar[0].rotation, Matrix3::identity());
+    params.pillar[0].half_extents = Vector3::new(0.3, 0.3, 0.5);
+    // The speed limit starts at its default, 2 m/s (a zero would be outside its interval).
+    assert_eq!(params.speed_limit[0].vmax, 2.0);
     let out = *filter.update(&x, &u_ref, &params)?;
     assert!(out.u.iter().all(|u| u.is_finite()));
     // Typed values written past the door are refused when evaluated, naming the instance.
