@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import traceback
 from pathlib import Path
 
 
@@ -33,9 +34,27 @@ def main(argv: list[str] | None = None) -> int:
 
     try:
         return generate(args.spec, args.out, args.runtime_crate, args.check)
-    except SpecError as exc:
-        print(f"error: {exc}", file=sys.stderr)
+    except Exception as exc:  # every failure, the spec's own bugs too, is reported with its line
+        origin = spec_origin(exc, args.spec)
+        if not isinstance(exc, SpecError):
+            traceback.print_exception(exc)  # the whole story, above the one-line summary
+        at = f"{origin[0]}:{origin[1]}: " if origin else ""
+        kind = "" if isinstance(exc, SpecError) else f"{type(exc).__name__}: "
+        # The last line is what a build script reports: where, then what.
+        print(f"error: {at}{kind}{exc}", file=sys.stderr)
         return 2
+
+
+def spec_origin(exc: BaseException, spec: Path) -> tuple[str, int] | None:
+    """``(file, line)`` in the spec's folder where ``exc`` was raised (the innermost frame
+    of the spec or a module beside it), else the origin a SpecError carries (the family's
+    declaration); None when neither is known."""
+    folder = spec.resolve().parent
+    inside = [f for f in traceback.extract_tb(exc.__traceback__)
+              if Path(f.filename).resolve().is_relative_to(folder)]
+    if inside:
+        return inside[-1].filename, inside[-1].lineno
+    return getattr(exc, "origin", None)
 
 
 if __name__ == "__main__":

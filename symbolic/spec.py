@@ -66,7 +66,9 @@ import contextlib
 import importlib.util
 import keyword
 import math
+import os
 import re
+import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -102,7 +104,24 @@ TOLERANCE_RANGE = (1e-12, 1e-2)
 
 _IDENT = re.compile(r"^[a-z][a-z0-9_]*$")
 class SpecError(ValueError):
-    """A system spec that cannot be generated; the message names system, family and key."""
+    """A system spec that cannot be generated; the message names system, family and key.
+    ``origin`` is the spec's ``(file, line)`` it concerns where known (the family's
+    declaration, for a problem found while differentiating it)."""
+
+    origin: tuple[str, int] | None = None
+
+
+def caller_origin() -> tuple[str, int] | None:
+    """``(file, line)`` of the innermost caller outside this package: the spec's line that
+    declared something."""
+    package = str(Path(__file__).resolve().parent)
+    frame = sys._getframe(1)
+    while frame is not None:
+        name = frame.f_code.co_filename
+        if not str(Path(name).resolve()).startswith(package + os.sep):
+            return name, frame.f_lineno
+        frame = frame.f_back
+    return None
 
 
 def _camel(name: str) -> str:
@@ -660,6 +679,7 @@ class Family:
     activation: float
     doc: str
     lower_bound: Callable[[FamilyContext], se.Expr] | None = None
+    origin: tuple[str, int] | None = None  # the spec's (file, line) that declared it
 
     @property
     def instances_doc(self) -> str:
@@ -985,7 +1005,7 @@ class System:
                                 "a finite activation")
         self.families.append(Family(name, h, parsed, None if capacity else count, capacity, max_capacity,
                                     optional, labels,
-                                    time, pole_list, priority, activation, doc, lower_bound))
+                                    time, pole_list, priority, activation, doc, lower_bound, caller_origin()))
 
     # -------------------------------------------------- constants and outputs
     def constant(self, name: str, value: object, doc: str) -> None:
@@ -1079,8 +1099,6 @@ def load(path: str | Path) -> System:
     modules afresh and takes them out of ``sys.modules`` again afterwards, so an edited
     module, or a second spec in the same folder, is seen as it is; no bytecode is written
     beside the spec."""
-    import os
-    import sys
     import sysconfig
 
     from .inputs_hash import HASHED_SUFFIXES, SKIPPED_DIRS

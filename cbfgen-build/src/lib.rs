@@ -293,6 +293,10 @@ impl Generator {
                 .output()
                 .map_err(|_| Error::NoPython { python: env.python.clone() })?;
             if !done.status.success() {
+                // The whole of it (a spec's own bug comes with its traceback) on the build
+                // script's stderr, which cargo shows; the last line, `error: <file>:<line>: …`,
+                // is the error's message.
+                eprint!("{}", String::from_utf8_lossy(&done.stderr));
                 return Err(Error::Generator { spec: spec.clone(), message: last_line(&done.stderr) });
             }
             // `warning <text>` per warning about the spec, `depends <file>` per dependency,

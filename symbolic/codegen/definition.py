@@ -17,7 +17,7 @@ from pathlib import Path
 import symengine as se
 
 from ..families.rows import build_row_kernel
-from ..kernel import Kernel, RuntimeMax
+from ..kernel import Kernel, Let, RuntimeMax
 from ..lie import MAX_RELATIVE_DEGREE, LieEngine
 from ..spec import (
     DEFAULT_POLE,
@@ -285,8 +285,8 @@ def _member(system: System, family: Family, where: str, kernel_name: str, index:
     if label is not None:
         doc = f"{doc}\n\nMember `{label}` of the family."
     try:
-        return build_row_kernel(kernel_name, doc, system.state_names, system.x, system.f, system.g, build,
-                                time_input=time_input)
+        kernel = build_row_kernel(kernel_name, doc, system.state_names, system.x, system.f, system.g, build,
+                                  time_input=time_input)
     except SpecError:
         raise
     except ValueError as exc:  # the Lie engine's: degree > MAX_RELATIVE_DEGREE, mixed degrees
@@ -297,6 +297,53 @@ def _member(system: System, family: Family, where: str, kernel_name: str, index:
         elif "share a relative degree" in text:
             text = f"its rows have different relative degrees; split them into families ({text})"
         raise SpecError(f"{where}: {text}") from exc
+    _require_differentiable(where, kernel.kernel)
+    return kernel
+
+
+# What to write instead of a function SymEngine cannot differentiate (eps: a small length
+# of the spec's choosing, the error it accepts).
+_SMOOTH_FORMS = {
+    "Abs": "sqrt(e**2 + eps**2), within eps of |e| and smooth",
+    "sign": "e / sqrt(e**2 + eps**2)",
+    "Max": "a smooth maximum: log-sum-exp, or symbolic.smoothing's",
+    "Min": "a smooth minimum: minus log-sum-exp of the negatives, or symbolic.smoothing's",
+    "floor": "a smooth function: h must have continuous derivatives up to its relative degree",
+    "ceiling": "a smooth function: h must have continuous derivatives up to its relative degree",
+}
+
+
+def _located(system: System, family: Family):
+    """``_family``, with a SpecError about the family pointing at its declaration."""
+    try:
+        return _family(system, family)
+    except SpecError as exc:
+        if exc.origin is None:
+            exc.origin = family.origin
+        raise
+
+
+def _require_differentiable(where: str, kernel: Kernel) -> None:
+    """A SpecError when differentiating h left a derivative SymEngine could not take
+    (|e|, sign, max, ...): the Lie derivatives do not exist where the function has its
+    kink, and the generated code could not be emitted. Names the function and a smooth
+    form to use instead."""
+    for d in kernel.definitions:
+        for e in ([d.expr] if isinstance(d, Let) else list(d.exprs)):
+            _check_derivatives(where, e)
+    for out in kernel.outputs:
+        for e in out.exprs:
+            _check_derivatives(where, e)
+
+
+def _check_derivatives(where: str, e: se.Expr) -> None:
+    stuck = e.atoms(se.Derivative)
+    if not stuck:
+        return
+    inner = sorted(stuck, key=str)[0].args[0]
+    instead = _SMOOTH_FORMS.get(type(inner).__name__, "a smooth function of the state")
+    raise SpecError(f"{where}: h uses {inner}, which is not differentiable everywhere, and its Lie derivatives "
+                    f"cannot be taken; write it as {instead}")
 
 
 def _lower_bound(system: System, family: Family, where: str, row_kernel: str, index: int | None,
@@ -361,7 +408,7 @@ def define(system: System) -> SystemDefinition:
                       "`xdot` multiplies, without the zeros.")
     nonzeros.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
     nonzeros.output_vector("g", [system.g[r][c] for r, c in pattern], "g(x) at `INPUT_MATRIX_PATTERN`")
-    families = _one_sided_authority(system, tuple(_family(system, f) for f in system.families))
+    families = _one_sided_authority(system, tuple(_located(system, f) for f in system.families))
     outputs = tuple(_output(system, o) for o in system.outputs)
     return SystemDefinition(system.name, system.doc, tuple(system.state_names), tuple(system.state_docs),
                             tuple(system.input_names), tuple(system.input_docs), tuple(system.input_limits),

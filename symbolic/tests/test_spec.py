@@ -243,3 +243,40 @@ def test_command_line_writes_and_checks(tmp_path):
     assert done.returncode == 2 and "error: spec" in done.stderr
 
 
+
+
+SPEC_WITH = '''import symengine as se
+
+from symbolic.spec import System
+
+
+def build() -> System:
+    s = System("oops")
+    p, v = s.states(["p", "v"])
+    s.inputs(["u"], limits=[(-1.0, 1.0)])
+    s.dynamics(f=[v, 0], g=[[0], [1]])
+    s.family("limit", lambda prm: {h}, poles=[5.0, 5.0])
+    return s
+'''
+FAMILY_LINE = 11  # the s.family(...) line above
+
+
+@pytest.mark.parametrize("h, says", [
+    # A bug in the spec's own code: its type and message, at the line that raised it.
+    ("1 - p + undefined_thing", "NameError: name 'undefined_thing' is not defined"),
+    ("[1 - p][3]", "IndexError: list index out of range"),
+    # A function the Lie derivatives cannot go through: named, with a smooth form to use.
+    ("1 - se.Abs(p)", "family 'limit': h uses abs(x_p), which is not differentiable everywhere, and its Lie "
+                      "derivatives cannot be taken; write it as sqrt(e**2 + eps**2)"),
+    ("1 - se.Max(p, v)", "h uses max(x_p, x_v), which is not differentiable everywhere"),
+    # A SpecError found while differentiating: at the family's declaration.
+    ("1 + 0 * p", "family 'limit': row 'limit' depends on no state"),
+])
+def test_a_spec_error_names_the_spec_file_and_line(tmp_path, h, says):
+    spec = tmp_path / "oops.py"
+    spec.write_text(SPEC_WITH.format(h=h))
+    done = subprocess.run([sys.executable, "-m", "symbolic", "generate", str(spec), "--out", str(tmp_path)],
+                          cwd=REPO_ROOT, capture_output=True, text=True)
+    last = done.stderr.strip().splitlines()[-1]
+    assert done.returncode == 2
+    assert last.startswith(f"error: {spec}:{FAMILY_LINE}: ") and says in last, last
