@@ -34,6 +34,9 @@ none). **Assumed**: the finger opening, the SSAT sharpness, the poles and priori
 
 from __future__ import annotations
 
+import tomllib
+from pathlib import Path
+
 import symengine as se
 
 from symbolic import primitives as prim
@@ -41,18 +44,19 @@ from symbolic import urdf
 from symbolic.dynamics import RigidBodyDynamics
 from symbolic.spec import System
 
-ROBOT = urdf.load(urdf.description("panda_description/urdf/panda.urdf"))
-SRDF = urdf.load_srdf(urdf.description("panda_description/srdf/panda.srdf"), ROBOT)
-JOINT_NAMES = [f"panda_joint{i}" for i in range(1, 8)]
+# Franka's facts the URDF does not hold, shared with the panda_spheres spec.
+FRANKA_FILE = Path(__file__).with_name("franka.toml")
+FRANKA = tomllib.loads(FRANKA_FILE.read_text())
+ROBOT = urdf.load(urdf.description(FRANKA["urdf"]))
+SRDF = urdf.load_srdf(urdf.description(FRANKA["srdf"]), ROBOT)
+JOINT_NAMES = FRANKA["joints"]
 JOINTS = len(JOINT_NAMES)
-# Both fingers slide open by this much [m] (the second mimics the first); held still.
-FINGER_OPENING = 0.04
-FINGERS = {"panda_finger_joint1": FINGER_OPENING, "panda_finger_joint2": FINGER_OPENING}
+FINGER_OPENING = FRANKA["finger_opening"]
+FINGERS = dict.fromkeys(FRANKA["finger_joints"], FINGER_OPENING)
 Q_MIN, Q_MAX = (list(v) for v in zip(*ROBOT.limits(JOINT_NAMES, "position"), strict=True))
 QD_MAX = [upper for _, upper in ROBOT.limits(JOINT_NAMES, "velocity")]
 TAU_MAX = [upper for _, upper in ROBOT.limits(JOINT_NAMES, "effort")]
-# Franka's datasheet [rad/s^2]; the URDF carries no acceleration limits.
-QDD_MAX = [15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0]
+QDD_MAX = FRANKA["joint_acceleration_max"]
 
 # Every link with collision geometry, its box, and the frame it is fixed in: frames are
 # 0 the base (link0), 1-7 after each joint, 8 the flange (link8), 9 the hand, 10-11 the
@@ -118,6 +122,7 @@ def build() -> System:
     s = System("panda", doc="Franka Emika's Panda from its URDF (systems/panda/spec/panda.py): joint position "
                             "and velocity limits, link boxes fitted to its meshes against obstacle boxes and "
                             "against each other by smooth SAT.")
+    s.depends_on(FRANKA_FILE)  # Franka's facts: editing them regenerates the module
     joints = range(1, JOINTS + 1)
     x = s.states([f"q{i}" for i in joints] + [f"qd{i}" for i in joints],
                  docs=[f"joint {i} angle [rad]" for i in joints] + [f"joint {i} rate [rad/s]" for i in joints])

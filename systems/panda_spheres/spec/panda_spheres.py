@@ -29,22 +29,28 @@ activation distance (culling) and the finger opening. No joint-limit rows: OSCBF
 
 from __future__ import annotations
 
+import tomllib
+from pathlib import Path
+
 import symengine as se
 
 from symbolic import urdf
 from symbolic.dynamics import RigidBodyDynamics
 from symbolic.spec import Positive, System
 
-ROBOT = urdf.load(urdf.description("panda_description/urdf/panda.urdf"))
-JOINT_NAMES = [f"panda_joint{i}" for i in range(1, 8)]
+# Franka's facts the URDF does not hold: the arm system's file, shared.
+FRANKA_FILE = Path(__file__).resolve().parents[2] / "panda" / "spec" / "franka.toml"
+FRANKA = tomllib.loads(FRANKA_FILE.read_text())
+ROBOT = urdf.load(urdf.description(FRANKA["urdf"]))
+JOINT_NAMES = FRANKA["joints"]
 JOINTS = len(JOINT_NAMES)
-FINGER_OPENING = 0.04
-FINGERS = {"panda_finger_joint1": FINGER_OPENING, "panda_finger_joint2": FINGER_OPENING}
+FINGER_OPENING = FRANKA["finger_opening"]
+FINGERS = dict.fromkeys(FRANKA["finger_joints"], FINGER_OPENING)
 Q_MIN, Q_MAX = (list(v) for v in zip(*ROBOT.limits(JOINT_NAMES, "position"), strict=True))
 QD_MAX = [upper for _, upper in ROBOT.limits(JOINT_NAMES, "velocity")]
 TAU_MAX = [upper for _, upper in ROBOT.limits(JOINT_NAMES, "effort")]
-# Franka's datasheet [rad/s^2]: the acceleration form's input box (the torque filter's is TAU_MAX).
-QDD_MAX = [15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0]
+# The acceleration form's input box (the torque filter's is TAU_MAX).
+QDD_MAX = FRANKA["joint_acceleration_max"]
 
 # OSCBF's collision spheres: (link, centre in the link frame [m], radius [m]).
 SPHERES = [
@@ -100,6 +106,7 @@ def build() -> System:
     s = System("panda_spheres", doc="Franka Emika's Panda as OSCBF models it (systems/panda_spheres/spec/"
                                     "panda_spheres.py): 21 spheres on its links against sphere obstacles and a "
                                     "table, for joint-torque control through the URDF's dynamics.")
+    s.depends_on(FRANKA_FILE)  # Franka's facts: editing them regenerates the module
     x = s.states([f"q{i}" for i in range(1, JOINTS + 1)] + [f"qd{i}" for i in range(1, JOINTS + 1)],
                  docs=[f"joint {i} angle [rad]" for i in range(1, JOINTS + 1)]
                  + [f"joint {i} rate [rad/s]" for i in range(1, JOINTS + 1)])
