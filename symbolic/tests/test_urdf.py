@@ -40,6 +40,16 @@ def _random_configurations(robot: urdf.Urdf, rng: np.random.Generator) -> np.nda
     return np.stack(columns, axis=1)
 
 
+def _pinocchio_q(model, names, values) -> np.ndarray:
+    """Pinocchio's configuration vector for joint ``names`` at ``values`` (a continuous
+    joint is stored as (cos, sin))."""
+    q_pin = np.zeros(model.nq)
+    for name, v in zip(names, values, strict=True):
+        joint = model.joints[model.getJointId(name)]
+        q_pin[joint.idx_q:joint.idx_q + joint.nq] = (math.cos(v), math.sin(v)) if joint.nq == 2 else v
+    return q_pin
+
+
 @pytest.mark.parametrize("relative", ROBOTS)
 def test_every_link_pose_matches_pinocchio(relative):
     path = urdf.description(relative)
@@ -57,14 +67,7 @@ def test_every_link_pose_matches_pinocchio(relative):
     configurations = _random_configurations(robot, rng)
     worst = 0.0
     for values in configurations:
-        q_pin = np.zeros(model.nq)
-        for name, v in zip(q, values, strict=True):
-            joint = model.joints[model.getJointId(name)]
-            if joint.nq == 2:  # a continuous joint: Pinocchio stores (cos, sin)
-                q_pin[joint.idx_q:joint.idx_q + 2] = (math.cos(v), math.sin(v))
-            else:
-                q_pin[joint.idx_q] = v
-        pin.framesForwardKinematics(model, data, q_pin)
+        pin.framesForwardKinematics(model, data, _pinocchio_q(model, q, values))
         got = np.asarray(ours(values)).reshape(len(links), 12)
         for k, f in enumerate(frames):
             placement = data.oMf[f]
@@ -143,18 +146,13 @@ def test_every_link_jacobian_matches_pinocchio(relative):
     rng = np.random.default_rng(351)
     worst = 0.0
     for values in _random_configurations(robot, rng):
-        q_pin = np.zeros(model.nq)
-        for name, v in zip(q, values, strict=True):
-            joint = model.joints[model.getJointId(name)]
-            q_pin[joint.idx_q:joint.idx_q + joint.nq] = (math.cos(v), math.sin(v)) if joint.nq == 2 else v
-        pin.computeJointJacobians(model, data, q_pin)
+        pin.computeJointJacobians(model, data, _pinocchio_q(model, q, values))
         pin.updateFramePlacements(model, data)
         got = np.asarray(ours(values)).reshape(len(robot.links), len(q), 6)
         for k, f in enumerate(frames):
             want = pin.getFrameJacobian(model, data, f, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)[:, columns].T
             worst = max(worst, float(np.max(np.abs(got[k] - want))))
     assert worst <= 1e-12, f"{relative}: largest Jacobian difference {worst:.3g}"
-
 
 
 @pytest.mark.parametrize("relative", ["panda_description/urdf/panda.urdf",
@@ -181,11 +179,7 @@ def test_the_front_ends_jacobians_are_pinocchios(relative):
     rng = np.random.default_rng(352)
     worst = 0.0
     for values in _random_configurations(robot, rng):
-        q_pin = np.zeros(model.nq)
-        for name, v in zip(q, values, strict=True):
-            joint = model.joints[model.getJointId(name)]
-            q_pin[joint.idx_q:joint.idx_q + joint.nq] = (math.cos(v), math.sin(v)) if joint.nq == 2 else v
-        pin.computeJointJacobians(model, data, q_pin)
+        pin.computeJointJacobians(model, data, _pinocchio_q(model, q, values))
         pin.updateFramePlacements(model, data)
         got = np.asarray(ours(values)).reshape(len(robot.links), 2, 6, len(q))
         for k, f in enumerate(frames):
