@@ -109,6 +109,20 @@ def transpose(m: Sequence[Sequence[se.Expr]]) -> list[list[se.Expr]]:
 
 
 # ------------------------------------------------------------------ primitives
+def interval_rows(names: Sequence[str], values: Sequence[se.Expr], lower: Sequence[float],
+                  upper: Sequence[float]) -> list[tuple[str, se.Expr]]:
+    """Rows keeping each ``values[i]`` in ``[lower[i], upper[i]]``: ``<name>_min`` =
+    value - lower and ``<name>_max`` = upper - value, in that order for each name (joint
+    limits, rate limits)."""
+    if not len(names) == len(values) == len(lower) == len(upper):
+        raise ValueError(f"interval_rows: {len(names)} names, {len(values)} values, {len(lower)} lower and "
+                         f"{len(upper)} upper bounds")
+    rows = []
+    for name, v, lo, hi in zip(names, values, lower, upper, strict=True):
+        rows += [(f"{name}_min", v - lo), (f"{name}_max", hi - v)]
+    return rows
+
+
 def half_space(point: Sequence[se.Expr], normal: Sequence[se.Expr], offset: se.Expr) -> se.Expr:
     """``normal . point + offset``: >= 0 on the side the normal points to (the convex
     foothold constraint of the Tachyon 3 paper, eq. 12, in any dimension). The normal must

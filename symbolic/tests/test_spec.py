@@ -280,3 +280,12 @@ def test_a_spec_error_names_the_spec_file_and_line(tmp_path, h, says):
     last = done.stderr.strip().splitlines()[-1]
     assert done.returncode == 2
     assert last.startswith(f"error: {spec}:{FAMILY_LINE}: ") and says in last, last
+
+
+def test_interval_rows_keep_each_value_between_its_bounds():
+    a, b = se.symbols("a b")
+    rows = prim.interval_rows(["a", "b"], [a, b], [-1.0, 0.5], [2.0, 3.0])
+    assert [name for name, _ in rows] == ["a_min", "a_max", "b_min", "b_max"]
+    assert [e.subs({a: 0.0, b: 1.0}) for _, e in rows] == [1.0, 2.0, 0.5, 2.0]
+    with pytest.raises(ValueError, match="2 names, 1 values"):
+        prim.interval_rows(["a", "b"], [a], [0.0, 0.0], [1.0, 1.0])

@@ -109,7 +109,8 @@ def foot_center(leg: int, fk: urdf.Kinematics) -> list[se.Expr]:
 def build() -> System:
     s = System("anymal", doc="ANYmal C on a floating base from its URDF (systems/anymal/spec/anymal.py): joint "
                              "limits, feet inside convex foothold regions, legs off each other by smooth SAT.")
-    names = BASE + [j.lower() for j in JOINT_NAMES]
+    joint_names = [j.lower() for j in JOINT_NAMES]
+    names = BASE + joint_names
     docs = (["trunk x, world [m]", "trunk y, world [m]", "trunk z, world [m]", "trunk roll [rad]",
              "trunk pitch [rad]", "trunk yaw [rad]"] + [f"joint {j} angle [rad]" for j in JOINT_NAMES])
     x = s.states(names + [f"{n}_rate" for n in names],
@@ -125,22 +126,13 @@ def build() -> System:
                g=[[0] * COORDINATES for _ in range(COORDINATES)]
                + [[int(r == c) for c in range(COORDINATES)] for r in range(COORDINATES)])
 
-    def joint_limits(p):
-        rows = []
-        for i, name in enumerate(JOINT_NAMES):
-            rows += [(f"{name.lower()}_min", q[i] - Q_MIN[i]), (f"{name.lower()}_max", Q_MAX[i] - q[i])]
-        return rows
-
-    s.family("joint_limits", joint_limits, poles=POSITION_POLES, priority=PRIORITIES["joint_limits"],
+    s.family("joint_limits", lambda p: prim.interval_rows(joint_names, q, Q_MIN, Q_MAX),
+             poles=POSITION_POLES, priority=PRIORITIES["joint_limits"],
              doc="Joint angles inside the URDF's limits [rad].")
 
-    def velocity_limits(p):
-        rows = []
-        for i, name in enumerate(JOINT_NAMES):
-            rows += [(f"{name.lower()}_rate_min", qd[i] + QD_MAX[i]), (f"{name.lower()}_rate_max", QD_MAX[i] - qd[i])]
-        return rows
-
-    s.family("velocity_limits", velocity_limits, poles=VELOCITY_POLES, priority=PRIORITIES["velocity_limits"],
+    s.family("velocity_limits",
+             lambda p: prim.interval_rows([f"{j}_rate" for j in joint_names], qd, [-v for v in QD_MAX], QD_MAX),
+             poles=VELOCITY_POLES, priority=PRIORITIES["velocity_limits"],
              doc="Joint rates inside the URDF's limits [rad/s].")
 
     def foot_region(p):

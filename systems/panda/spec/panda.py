@@ -133,22 +133,13 @@ def build() -> System:
                g=[[0] * JOINTS for _ in range(JOINTS)]
                + [[int(r == c) for c in range(JOINTS)] for r in range(JOINTS)])
 
-    def joint_limits(p):
-        rows = []
-        for i in range(JOINTS):
-            rows += [(f"q{i + 1}_min", q[i] - Q_MIN[i]), (f"q{i + 1}_max", Q_MAX[i] - q[i])]
-        return rows
-
-    s.family("joint_limits", joint_limits, poles=POSITION_POLES, priority=PRIORITIES["joint_limits"],
+    s.family("joint_limits", lambda p: prim.interval_rows([f"q{i}" for i in joints], q, Q_MIN, Q_MAX),
+             poles=POSITION_POLES, priority=PRIORITIES["joint_limits"],
              doc="Joint angles inside the URDF's limits [rad].")
 
-    def velocity_limits(p):
-        rows = []
-        for i in range(JOINTS):
-            rows += [(f"qd{i + 1}_min", qd[i] + QD_MAX[i]), (f"qd{i + 1}_max", QD_MAX[i] - qd[i])]
-        return rows
-
-    s.family("velocity_limits", velocity_limits, poles=VELOCITY_POLES, priority=PRIORITIES["velocity_limits"],
+    s.family("velocity_limits",
+             lambda p: prim.interval_rows([f"qd{i}" for i in joints], qd, [-v for v in QD_MAX], QD_MAX),
+             poles=VELOCITY_POLES, priority=PRIORITIES["velocity_limits"],
              doc="Joint rates inside the URDF's limits [rad/s].")
 
     alpha, alpha_rot = se.RealDouble(SSAT_ALPHA), se.RealDouble(SSAT_ALPHA_ROT)
