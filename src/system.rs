@@ -150,11 +150,92 @@ impl<const N: usize> From<[f64; N]> for Poles {
     }
 }
 
-/// ECBF gains `k_0 … k_{r−1}` of `L_f^r h + Σ k_i L_f^i h ≥ 0` (with the input term).
+/// The class-K function `α` of a family's last ECBF term.
+///
+/// With poles `p_1 … p_r` the row reads `ψ̇ + p_r α(ψ) ≥ 0` (inputs included in `ψ̇`),
+/// where `ψ = (d/dt + p_1) ⋯ (d/dt + p_{r−1}) h` (`ψ = h` for relative degree 1). The
+/// linear `α(s) = s` is the plain ECBF: `h` decays no faster than `e^{−p t}` (every
+/// pole). An *extended* class-K function — odd, increasing, through 0, given by the spec
+/// (`class_k=` on a family) and generated as a Rust `fn` — changes how fast the last
+/// term may approach the boundary:
+/// * `α(s) = s³` asks less far from the boundary (`|ψ| > 1` in `ψ`'s units) and more near
+///   it: the approach is allowed late and then damped harder, never crossing.
+/// * `α(s) = tanh(s)` caps the allowed approach rate at `p_r` however far away (in
+///   `ψ`'s units per second), linear near the boundary.
+///
+/// Equality is by name: a generated function is named by the spec's expression.
+#[derive(Clone, Copy)]
+pub struct ClassK {
+    name: &'static str,
+    alpha: Option<fn(f64) -> f64>,
+}
+
+impl ClassK {
+    /// `α(s) = s`: the plain ECBF with the family's poles.
+    pub const LINEAR: ClassK = ClassK { name: "s", alpha: None };
+
+    /// The extended class-K function `alpha`, named by its formula (e.g. `"s**3"`). It
+    /// must be odd, strictly increasing and through 0 (the generator checks a spec's;
+    /// nothing here can).
+    pub const fn extended(name: &'static str, alpha: fn(f64) -> f64) -> Self {
+        Self { name, alpha: Some(alpha) }
+    }
+
+    /// Its formula in `s`, as the spec wrote it (`"s"` for the linear one).
+    pub const fn name(&self) -> &'static str {
+        self.name
+    }
+
+    /// Whether this is the linear `α(s) = s`.
+    pub const fn is_linear(&self) -> bool {
+        self.alpha.is_none()
+    }
+
+    /// `α(s)`.
+    pub fn eval(&self, s: f64) -> f64 {
+        match self.alpha {
+            Some(alpha) => alpha(s),
+            None => s,
+        }
+    }
+}
+
+impl PartialEq for ClassK {
+    fn eq(&self, other: &Self) -> bool {
+        self.name == other.name && self.alpha.is_none() == other.alpha.is_none()
+    }
+}
+
+impl std::fmt::Debug for ClassK {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "ClassK(α(s) = {})", self.name)
+    }
+}
+
+/// ECBF gains `k_0 … k_{r−1}` of `L_f^r h + Σ k_i L_f^i h ≥ 0` (with the input term), or,
+/// with an extended class-K function, the pieces of `ψ̇ + p_r α(ψ) ≥ 0` ([`ClassK`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Gains {
     k: [f64; MAX_RELATIVE_DEGREE],
     degree: usize,
+    /// Extended class-K only: the coefficients `c_0 … c_{r−1}` (`c_{r−1} = 1`) of
+    /// `ψ = Σ c_i L_f^i h`, the last pole `p_r`, and `α`.
+    extended: Option<([f64; MAX_RELATIVE_DEGREE], f64, ClassK)>,
+}
+
+/// The coefficients of `∏ (s + p_i)`, lowest first (`poles.len() + 1` of them, monic).
+fn pole_polynomial(poles: &[f64]) -> [f64; MAX_RELATIVE_DEGREE + 1] {
+    let mut c = [0.0; MAX_RELATIVE_DEGREE + 1];
+    c[0] = 1.0;
+    for (n, &p) in poles.iter().enumerate() {
+        // (s + p) · Σ c_i s^i: new c_i = c_{i−1} + p c_i, from the top down.
+        c[n + 1] = c[n];
+        for i in (1..=n).rev() {
+            c[i] = c[i - 1] + p * c[i];
+        }
+        c[0] *= p;
+    }
+    c
 }
 
 impl Gains {
@@ -162,20 +243,30 @@ impl Gains {
     /// `∏ (s + p_i) = s^r + k_{r−1} s^{r−1} + … + k_0`. For two poles, `k_0 = p_1 p_2` and
     /// `k_1 = p_1 + p_2`. Every ECBF row in the crate takes its gains from here.
     pub fn from_poles(poles: &Poles) -> Self {
-        // c holds the monic polynomial's coefficients, lowest first; multiply in each root.
-        let mut c = [0.0; MAX_RELATIVE_DEGREE + 1];
-        c[0] = 1.0;
-        for (n, &p) in poles.as_slice().iter().enumerate() {
-            // (s + p) · Σ c_i s^i: new c_i = c_{i−1} + p c_i, from the top down.
-            c[n + 1] = c[n];
-            for i in (1..=n).rev() {
-                c[i] = c[i - 1] + p * c[i];
-            }
-            c[0] *= p;
-        }
+        let c = pole_polynomial(poles.as_slice());
         let mut k = [0.0; MAX_RELATIVE_DEGREE];
         k[..poles.len()].copy_from_slice(&c[..poles.len()]);
-        Self { k, degree: poles.len() }
+        Self { k, degree: poles.len(), extended: None }
+    }
+
+    /// The gains of `poles` with `class_k` in the last term: [`Gains::from_poles`] for
+    /// [`ClassK::LINEAR`], else the row `ψ̇ + p_r α(ψ) ≥ 0` ([`ClassK`]). `k` stays the
+    /// linear gains (what [`Gains::as_slice`] reports and the domain checks read).
+    pub fn with_class_k(poles: &Poles, class_k: ClassK) -> Self {
+        let mut gains = Self::from_poles(poles);
+        if !class_k.is_linear() {
+            let (first, last) = poles.as_slice().split_at(poles.len() - 1);
+            let c = pole_polynomial(first);
+            let mut psi = [0.0; MAX_RELATIVE_DEGREE];
+            psi[..poles.len()].copy_from_slice(&c[..poles.len()]);
+            gains.extended = Some((psi, last[0], class_k));
+        }
+        gains
+    }
+
+    /// The class-K function of the last term.
+    pub fn class_k(&self) -> ClassK {
+        self.extended.map_or(ClassK::LINEAR, |(_, _, alpha)| alpha)
     }
 
     /// Gains given directly, `k_0 … k_{r−1}` (their count is the relative degree). Their
@@ -185,7 +276,7 @@ impl Gains {
     /// No gains, or more than [`MAX_RELATIVE_DEGREE`].
     pub fn new(gains: &[f64]) -> Result<Self, CbfError> {
         let poles = Poles::new(gains)?; // the same count rule
-        Ok(Self { k: poles.values, degree: poles.len })
+        Ok(Self { k: poles.values, degree: poles.len, extended: None })
     }
 
     /// The gains, `k_0 … k_{r−1}`.
@@ -200,7 +291,17 @@ impl Gains {
 
     /// `b = L_f^r h + k_{r−1} L_f^{r−1} h + … + k_0 h` of a row (≥ 0 when the ECBF condition
     /// holds at `u = 0`), summed from the highest derivative down.
+    ///
+    /// With an extended class-K function: `b = ψ̇|_{u=0} + p_r α(ψ)`, `ψ = Σ c_i L_f^i h`.
     pub fn bound(&self, lie: &[f64; MAX_RELATIVE_DEGREE + 1]) -> f64 {
+        if let Some((c, last, alpha)) = &self.extended {
+            let (mut psi, mut psi_dot) = (0.0, 0.0);
+            for i in (0..self.degree).rev() {
+                psi += c[i] * lie[i];
+                psi_dot += c[i] * lie[i + 1];
+            }
+            return psi_dot + last * alpha.eval(psi);
+        }
         // One arm per degree: straight-line code in the QP's per-row loop (a loop over the
         // degree costs about 1 % of a Tachyon 3 update), summed in the same order.
         let k = &self.k;
@@ -229,12 +330,40 @@ pub struct FamilyParams {
     /// `f64::INFINITY` = always). Rows above it are relaxed through their bounds, not
     /// removed.
     pub activation: f64,
+    /// The class-K function of the last ECBF term ([`ClassK`]): the spec's `class_k=`,
+    /// [`ClassK::LINEAR`] unless it gives one.
+    pub class_k: ClassK,
 }
 
 impl FamilyParams {
-    /// The ECBF gains of [`FamilyParams::poles`].
+    /// The ECBF gains of [`FamilyParams::poles`] and [`FamilyParams::class_k`].
     pub fn gains(&self) -> Gains {
-        Gains::from_poles(&self.poles)
+        Gains::with_class_k(&self.poles, self.class_k)
+    }
+}
+
+/// What a family's rows promise.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FamilyKind {
+    /// A control barrier function: `h ≥ 0` is kept (safety, in
+    /// [`Output::safety`](crate::filter::Output::safety)).
+    Barrier,
+    /// A control Lyapunov function `V`, declared with `s.lyapunov` in the spec: the rows
+    /// ask for the decrease `V̇ + λ V ≤ 0` (stored as the barrier `h = −V` with the pole
+    /// `λ`), at a priority below the safety rows (never 0), relaxed by as little as the
+    /// tiers above leave room for — a relaxation is convergence given up, reported in
+    /// [`Output::convergence`](crate::filter::Output::convergence), never as a safety
+    /// verdict.
+    Lyapunov,
+}
+
+impl FamilyKind {
+    /// Lower-case name, for messages and bindings.
+    pub const fn name(self) -> &'static str {
+        match self {
+            FamilyKind::Barrier => "barrier",
+            FamilyKind::Lyapunov => "lyapunov",
+        }
     }
 }
 
@@ -243,6 +372,8 @@ impl FamilyParams {
 pub struct FamilyInfo {
     /// The family's name (snake case), as in the spec.
     pub name: &'static str,
+    /// A barrier (safety) or a Lyapunov (convergence) family.
+    pub kind: FamilyKind,
     /// The relative degree `r`, found symbolically.
     pub relative_degree: usize,
     /// What each row of one instance constrains.
@@ -515,6 +646,28 @@ mod tests {
         assert_eq!(bound(&[3.0, 4.0, 5.0]), 4.0 + 12.0 * 3.0 + 47.0 * 2.0 + 60.0);
         assert_eq!(bound(&[1.0, 2.0, 3.0, 4.0]), 5.0 + 10.0 * 4.0 + 35.0 * 3.0 + 50.0 * 2.0 + 24.0);
         assert!(Poles::new(&[]).is_err() && Poles::new(&[1.0; 5]).is_err() && Gains::new(&[1.0; 5]).is_err());
+    }
+
+    #[test]
+    fn an_extended_class_k_term_is_psi_dot_plus_the_last_pole_times_alpha_of_psi() {
+        let lie = [0.5, -2.0, 3.0, -4.0, 5.0];
+        let cube = ClassK::extended("s**3", |s| s * s * s);
+        let gains = |poles: &[f64], alpha| Gains::with_class_k(&Poles::new(poles).unwrap(), alpha);
+        // Degree 1: ḣ + p α(h) = −2 + 7 · 0.125.
+        assert_eq!(gains(&[7.0], cube).bound(&lie), -2.0 + 7.0 * 0.125);
+        // Degree 2, poles (2, 3): ψ = ḣ + 2h = −1, ψ̇ = ḧ + 2ḣ = −1, so b = −1 + 3 · (−1)³.
+        assert_eq!(gains(&[2.0, 3.0], cube).bound(&lie), -1.0 - 3.0);
+        // Degree 3, poles (1, 2, 4): ψ = ḧ + 3ḣ + 2h = −2, ψ̇ = h⁽³⁾ + 3ḧ + 2ḣ = 1: b = 1 + 4 · (−8).
+        assert_eq!(gains(&[1.0, 2.0, 4.0], cube).bound(&lie), 1.0 - 32.0);
+        // α(s) = s written as a function is the plain ECBF, for every degree.
+        let identity = ClassK::extended("s", |s| s);
+        for poles in [&[7.0][..], &[2.0, 3.0], &[3.0, 4.0, 5.0], &[1.0, 2.0, 3.0, 4.0]] {
+            let linear = gains(poles, ClassK::LINEAR).bound(&lie);
+            assert!((gains(poles, identity).bound(&lie) - linear).abs() <= 1e-12 * linear.abs().max(1.0));
+        }
+        assert_eq!(gains(&[2.0, 3.0], cube).class_k(), cube);
+        assert_eq!(gains(&[2.0, 3.0], cube).as_slice(), &[6.0, 5.0]); // the linear gains, for the domain checks
+        assert!(gains(&[2.0], ClassK::LINEAR).class_k().is_linear() && !cube.is_linear());
     }
 
     #[test]

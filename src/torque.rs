@@ -28,19 +28,25 @@
 //!
 //! ```
 //! use cbfgen::filter::{EcbfFilter, FilterSettings, InputSource};
-//! use cbfgen::system::{BarrierSet, FamilyInfo, FamilyParams, InstanceKind, Poles, Row, RowLayout};
+//! use cbfgen::system::{BarrierSet, ClassK, FamilyInfo, FamilyKind, FamilyParams, InstanceKind, Poles, Row, RowLayout};
 //! use cbfgen::torque::JointTorque;
 //!
 //! struct Wall([Row<1>; 1]);
 //! const FAMILIES: [FamilyInfo; 1] = [FamilyInfo {
 //!     name: "wall",
+//!     kind: FamilyKind::Barrier,
 //!     relative_degree: 2,
 //!     row_names: &["wall"],
 //!     members: &[],
 //!     instances: InstanceKind::Fixed,
 //!     count: 1,
 //!     params: &[("wall", &[])],
-//!     defaults: FamilyParams { poles: Poles::from_array([10.0, 10.0]), priority: 0, activation: f64::INFINITY },
+//!     defaults: FamilyParams {
+//!         poles: Poles::from_array([10.0, 10.0]),
+//!         priority: 0,
+//!         activation: f64::INFINITY,
+//!         class_k: ClassK::LINEAR,
+//!     },
 //! }];
 //! const LAYOUT: [RowLayout; 1] = [RowLayout { family: 0, member: 0, instance: 0, row: 0, columns: &[0] }];
 //! impl BarrierSet<1> for Wall {

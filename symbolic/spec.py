@@ -114,11 +114,13 @@ class SpecError(ValueError):
 def caller_origin() -> tuple[str, int] | None:
     """``(file, line)`` of the innermost caller outside this package: the spec's line that
     declared something."""
-    package = str(Path(__file__).resolve().parent)
+    package = Path(__file__).resolve().parent
+    internal, specs = str(package) + os.sep, str(package / "tests") + os.sep  # test specs are specs
     frame = sys._getframe(1)
     while frame is not None:
         name = frame.f_code.co_filename
-        if not str(Path(name).resolve()).startswith(package + os.sep):
+        path = str(Path(name).resolve())
+        if not path.startswith(internal) or path.startswith(specs):
             return name, frame.f_lineno
         frame = frame.f_back
     return None
@@ -680,6 +682,10 @@ class Family:
     doc: str
     lower_bound: Callable[[FamilyContext], se.Expr] | None = None
     origin: tuple[str, int] | None = None  # the spec's (file, line) that declared it
+    # alpha(s) of the last ECBF term (None: linear); see System.family.
+    class_k: Callable[[se.Symbol], object] | None = None
+    # "barrier" (h >= 0 kept) or "lyapunov" (h = -V: the decrease V' + rate V <= 0).
+    kind: str = "barrier"
 
     @property
     def instances_doc(self) -> str:
@@ -897,6 +903,7 @@ class System:
                priority: int = 0, activation: float = math.inf,
                lower_bound: Callable[[FamilyContext], se.Expr] | None = None,
                defaults: dict[str, object] | None = None,
+               class_k: Callable[[se.Symbol], object] | None = None,
                doc: str = "") -> None:
         """Declare a barrier family h(x, params[, t]) >= 0.
 
@@ -936,6 +943,15 @@ class System:
         they could not take part. It changes the cost of an update, never its input, as
         long as it is a true bound: the generated ``<family>_lower_bound`` kernel is in the
         module's kernel table, so test it against the rows (a property test over states).
+
+        ``class_k=lambda s: s**3`` gives the last ECBF term an *extended* class-K function
+        alpha: with poles p_1 ... p_r the row becomes psi' + p_r alpha(psi) >= 0, where
+        psi = (d/dt + p_1)...(d/dt + p_(r-1)) h (psi = h for relative degree 1); linear
+        alpha(s) = s (the default) is the plain ECBF. alpha must be odd, strictly
+        increasing and through 0 (checked at generation over |s| in [1e-6, 1e3]), of s
+        alone; it is generated as ``<family>_class_k(s)`` and evaluated each cycle.
+        s**3 lets the boundary be approached later and damps it harder near it; tanh(s)
+        caps the approach rate at p_r far from it (cbfgen::system::ClassK).
         """
         where = f"{self.where}, family {name!r}"
         check_identifier(self.where, "family name", name, module_item=True)
@@ -1003,9 +1019,40 @@ class System:
             if math.isinf(activation):
                 raise SpecError(f"{where}: lower_bound skips instances above the activation threshold; it needs "
                                 "a finite activation")
+        if class_k is not None and not callable(class_k):
+            raise SpecError(f"{where}: class_k must be a function of one symbol (lambda s: ...), got {class_k!r}")
         self.families.append(Family(name, h, parsed, None if capacity else count, capacity, max_capacity,
                                     optional, labels,
-                                    time, pole_list, priority, activation, doc, lower_bound, caller_origin()))
+                                    time, pole_list, priority, activation, doc, lower_bound, caller_origin(),
+                                    class_k))
+
+    def lyapunov(self, name: str, V: Callable[[FamilyContext], object], *, rate: float,
+                 params: dict[str, object] | None = None, count: int | None = None,
+                 capacity: bool | int = False, optional: bool = False, over: Sequence[str] | None = None,
+                 time: bool = False, priority: int = MAX_PRIORITY,
+                 defaults: dict[str, object] | None = None,
+                 class_k: Callable[[se.Symbol], object] | None = None, doc: str = "") -> None:
+        """Declare a control Lyapunov function V(x, params[, t]) >= 0: its rows ask for
+        the decrease V' + rate * V <= 0 (exponential convergence at ``rate`` 1/s), relaxed
+        by as little as the rows above it leave room for.
+
+        A Lyapunov family is a barrier family on h = -V with the one pole ``rate`` (V' must
+        depend on the input: relative degree 1), marked so that the filter reports its
+        relaxation as convergence given up (``Output::convergence``), never as a safety
+        verdict. ``priority`` (1 to MAX_PRIORITY, default MAX_PRIORITY: below every
+        barrier) is never 0, so safety rows never yield to it. The other arguments are as
+        :meth:`family`'s; ``class_k`` replaces rate * V by rate * alpha(V) (alpha odd,
+        increasing, through 0).
+        """
+        where = f"{self.where}, lyapunov {name!r}"
+        if not callable(V):
+            raise SpecError(f"{where}: V must be a function of the parameters (lambda p: ...)")
+        if isinstance(priority, bool) or not isinstance(priority, int) or not 1 <= priority <= MAX_PRIORITY:
+            raise SpecError(f"{where}: priority must be an integer in [1, {MAX_PRIORITY}] (a Lyapunov family "
+                            f"never shares tier 0 with the safety rows), got {priority!r}")
+        self.family(name, V, params=params, count=count, capacity=capacity, optional=optional, over=over,
+                    time=time, poles=[rate], priority=priority, defaults=defaults, class_k=class_k, doc=doc)
+        self.families[-1].kind = "lyapunov"
 
     # -------------------------------------------------- constants and outputs
     def constant(self, name: str, value: object, doc: str) -> None:

@@ -47,6 +47,8 @@ and det R > 0."""
 
 class FamilyInfo(TypedDict):
     name: str
+    kind: Literal["barrier", "lyapunov"]
+    """A CBF (h >= 0 kept), or a CLF whose rows are h = -V (the decrease V' + rate V <= 0)."""
     relative_degree: int
     row_names: list[str]
     members: list[str]
@@ -61,6 +63,8 @@ class FamilyInfo(TypedDict):
     priority: int
     """Who yields when rows conflict: 0 is met first (0 ..= 15)."""
     activation: float
+    class_k: str
+    """The last ECBF term's alpha(s) as the spec wrote it ("s": the plain ECBF)."""
 
 class SolverSettings(TypedDict):
     backend: Backend
@@ -242,6 +246,10 @@ class FilterOutput:
         (see relaxed), or a row was not finite."""
     @property
     def relaxed_rows(self) -> int: ...
+    @property
+    def convergence(self) -> Literal["met", "relaxed", "unassessed"]:
+        """The Lyapunov families' verdict (never part of verdict): every decrease
+        V' + rate V <= 0 holds at u (or there is none), or some gave way (in relaxed)."""
     @property
     def relaxed(self) -> list[RelaxedRow]:
         """Every active row missed at u beyond the solver's tolerance, with why."""

@@ -148,6 +148,7 @@ fn domains_dict<'py>(py: Python<'py>, store: Option<&dyn FamilyStore>) -> PyResu
 fn family_dict<'py>(py: Python<'py>, f: &FamilyInfo, store: Option<&dyn FamilyStore>) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     d.set_item("name", f.name)?;
+    d.set_item("kind", f.kind.name())?;
     d.set_item("relative_degree", f.relative_degree)?;
     d.set_item("row_names", f.row_names.to_vec())?;
     d.set_item("members", f.members.to_vec())?;
@@ -162,6 +163,7 @@ fn family_dict<'py>(py: Python<'py>, f: &FamilyInfo, store: Option<&dyn FamilySt
     d.set_item("poles", f.defaults.poles.as_slice().to_vec())?;
     d.set_item("priority", f.defaults.priority)?;
     d.set_item("activation", f.defaults.activation)?;
+    d.set_item("class_k", f.defaults.class_k.name())?;
     Ok(d)
 }
 
@@ -229,13 +231,15 @@ impl PySystem {
         vector(py, self.inner.input_max())
     }
 
-    /// Every barrier family: a dict of ``name``, ``relative_degree``, ``row_names``,
+    /// Every family: a dict of ``name``, ``kind`` ("barrier", or "lyapunov" for a CLF
+    /// whose rows are ``h = -V``), ``relative_degree``, ``row_names``,
     /// ``members`` (empty unless indexed), ``instances`` ("fixed", "optional" or
     /// "capacity"), ``count`` (instances per member, or the largest capacity), ``params``
     /// (``(name, shape)`` per parameter), ``domains`` (``{name: domain}``: ``("real",)``,
     /// ``("positive",)``, ``("non_negative",)``, ``("interval", lo, hi)``,
     /// ``("unit_vector", tolerance)`` or ``("rotation", tolerance)``) and the defaults
-    /// ``poles``, ``priority``, ``activation``.
+    /// ``poles``, ``priority``, ``activation``, ``class_k`` (the last term's alpha(s) as
+    /// the spec wrote it; "s" for the plain ECBF).
     #[getter]
     fn families<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
         // The domains live with the parameter types: read them off empty parameters.
@@ -735,17 +739,27 @@ impl PyFilterOutput {
         self.out.consecutive_fallbacks
     }
 
-    /// The safety verdict, measured at ``u`` whatever its source: "met" (every active row
-    /// holds), "relaxed" (see ``relaxed``) or "unassessed" (an active row was not finite).
+    /// The safety verdict, measured at ``u`` whatever its source: "met" (every active
+    /// barrier row holds), "relaxed" (see ``relaxed``) or "unassessed" (an active row was
+    /// not finite). Lyapunov rows never count here: see ``convergence``.
     #[getter]
     fn verdict(&self) -> &'static str {
         self.out.safety.verdict.name()
     }
 
-    /// Active rows relaxed beyond the tolerance.
+    /// Active barrier rows relaxed beyond the tolerance.
     #[getter]
     fn relaxed_rows(&self) -> usize {
         self.out.safety.relaxed_rows
+    }
+
+    /// The Lyapunov families' verdict, as ``verdict`` is the barriers': "met" (every
+    /// decrease ``V' + rate V <= 0`` holds at ``u``, or there is none), "relaxed"
+    /// (convergence gave way to safety or to the input limits; the rows are in
+    /// ``relaxed``) or "unassessed".
+    #[getter]
+    fn convergence(&self) -> &'static str {
+        self.out.convergence.verdict.name()
     }
 
     /// Every relaxed row: ``row`` (its index), ``place`` (family, member, instance, row
@@ -759,7 +773,7 @@ impl PyFilterOutput {
         self.relaxed.iter().map(|r| relaxed_dict(py, r)).collect()
     }
 
-    /// The relaxed row with the largest relative slack (as in ``relaxed``), or None.
+    /// The relaxed barrier row with the largest relative slack (as in ``relaxed``), or None.
     #[getter]
     fn worst<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
         let worst = self.out.safety.worst.and_then(|w| self.relaxed.iter().find(|r| r.row == w.row));

@@ -55,6 +55,8 @@ def test_every_built_in_system_is_reachable_by_name():
         for f in s.families:
             assert len(f["poles"]) == f["relative_degree"] >= 1
             assert f["instances"] in {"fixed", "optional", "capacity"}
+            # The built-in systems declare barriers with the plain ECBF (no CLF, no alpha).
+            assert (f["kind"], f["class_k"]) == ("barrier", "s"), f
 
 
 def test_a_python_loop_reproduces_the_rust_simulation():
@@ -125,6 +127,7 @@ def test_filtered_input_satisfies_every_active_ecbf_row():
     out = safety.output
     assert out.source == "qp" and out.backend == "dense"  # the exact, KKT-verified solve
     assert out.verdict == "met" and out.relaxed_rows == 0 and out.relaxed == [] and out.worst is None
+    assert out.convergence == "met"  # no Lyapunov family: nothing to give way
     assert all(f["relaxed_rows"] == 0 for f in out.relaxation.values())
     assert set(out.relaxation) == set(t3.FAMILIES)
     u, lg = out.u, safety.lg_lf

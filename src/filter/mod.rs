@@ -75,19 +75,25 @@
 //!
 //! ```
 //! use cbfgen::filter::{EcbfFilter, FilterSettings, InputSource};
-//! use cbfgen::system::{BarrierSet, FamilyInfo, FamilyParams, InstanceKind, Poles, Row, RowLayout};
+//! use cbfgen::system::{BarrierSet, ClassK, FamilyInfo, FamilyKind, FamilyParams, InstanceKind, Poles, Row, RowLayout};
 //!
 //! struct Wall([Row<1>; 1]);
 //!
 //! const FAMILIES: [FamilyInfo; 1] = [FamilyInfo {
 //!     name: "wall",
+//!     kind: FamilyKind::Barrier,
 //!     relative_degree: 2,
 //!     row_names: &["wall"],
 //!     members: &[],
 //!     instances: InstanceKind::Fixed,
 //!     count: 1,
 //!     params: &[("wall", &[])],
-//!     defaults: FamilyParams { poles: Poles::from_array([10.0, 10.0]), priority: 0, activation: f64::INFINITY },
+//!     defaults: FamilyParams {
+//!         poles: Poles::from_array([10.0, 10.0]),
+//!         priority: 0,
+//!         activation: f64::INFINITY,
+//!         class_k: ClassK::LINEAR,
+//!     },
 //! }];
 //! const LAYOUT: [RowLayout; 1] = [RowLayout { family: 0, member: 0, instance: 0, row: 0, columns: &[0] }];
 //!
@@ -133,7 +139,7 @@ pub use verdict::{Cause, FamilyRelaxation, Limit, RelaxedRow, Safety, Verdict};
 
 use crate::cpu_time::thread_cpu_time;
 use crate::error::CbfError;
-use crate::system::{BarrierSet, Row};
+use crate::system::{BarrierSet, FamilyKind, Row};
 
 /// Where this cycle's input came from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -198,9 +204,15 @@ pub struct Output<U> {
     pub polished: bool,
     /// Rows that took part in the QP.
     pub active_rows: usize,
-    /// Every active row met at `u`, or which were relaxed and why (measured at `u`,
-    /// whatever its source; see [`verdict`]).
+    /// Every active barrier row met at `u`, or which were relaxed and why (measured at
+    /// `u`, whatever its source; see [`verdict`]).
     pub safety: Safety,
+    /// The same for the rows of Lyapunov families
+    /// ([`FamilyKind::Lyapunov`]): `Met` when every
+    /// decrease `V̇ + λV ≤ 0` holds at `u` (and when the system has none), `Relaxed` with
+    /// the worst when convergence gave way to safety or to the input limits. Never part
+    /// of [`Output::safety`].
+    pub convergence: Safety,
     /// Fallback cycles in a row, this one included (0 when `source` is `Qp`).
     pub consecutive_fallbacks: u32,
     /// Time in row evaluation and activation.
@@ -231,6 +243,7 @@ impl<U> Output<U> {
             polished: self.polished,
             active_rows: self.active_rows,
             safety: self.safety,
+            convergence: self.convergence,
             consecutive_fallbacks: self.consecutive_fallbacks,
             eval_time: self.eval_time,
             solve_time: self.solve_time,
@@ -309,6 +322,7 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
                 polished: false,
                 active_rows: 0,
                 safety: Safety::UNASSESSED,
+                convergence: Safety::UNASSESSED,
                 consecutive_fallbacks: 0,
                 eval_time: Duration::ZERO,
                 solve_time: Duration::ZERO,
@@ -397,10 +411,12 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
         self.relaxation.fill(FamilyRelaxation::default());
         if out.nonfinite_row.is_some() {
             self.qp.clear_assessment();
-            out.safety = Safety::UNASSESSED;
+            (out.safety, out.convergence) = (Safety::UNASSESSED, Safety::UNASSESSED);
         } else {
-            let relaxed_rows = self.qp.assess(&out.u);
-            let mut worst: Option<RelaxedRow> = None;
+            self.qp.assess(&out.u);
+            // [barriers, Lyapunov families]: (relaxed rows, worst).
+            let mut verdicts: [(usize, Option<RelaxedRow>); 2] = [(0, None), (0, None)];
+            let families = self.barriers.families();
             for (i, cause) in self.qp.relaxed().iter().enumerate() {
                 let Some(cause) = *cause else { continue };
                 let family = self.barriers.layout()[i].family;
@@ -409,12 +425,18 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
                 f.relaxed_rows += 1;
                 f.max_slack = f.max_slack.max(slack);
                 f.max_relative = f.max_relative.max(relative);
+                let (count, worst) = &mut verdicts[usize::from(families[family].kind == FamilyKind::Lyapunov)];
+                *count += 1;
                 if worst.is_none_or(|w| relative > w.relative) {
-                    worst = Some(RelaxedRow { row: i, family, slack, relative, cause });
+                    *worst = Some(RelaxedRow { row: i, family, slack, relative, cause });
                 }
             }
-            let verdict = if relaxed_rows == 0 { Verdict::Met } else { Verdict::Relaxed };
-            out.safety = Safety { verdict, relaxed_rows, worst };
+            let [safety, convergence] = verdicts.map(|(relaxed_rows, worst)| Safety {
+                verdict: if relaxed_rows == 0 { Verdict::Met } else { Verdict::Relaxed },
+                relaxed_rows,
+                worst,
+            });
+            (out.safety, out.convergence) = (safety, convergence);
         }
         out.solve_time = evaluated.elapsed();
         out.cpu_time = cpu_start.and_then(|a| Some(thread_cpu_time()?.saturating_sub(a)));

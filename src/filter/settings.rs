@@ -3,7 +3,7 @@
 
 use crate::error::CbfError;
 use crate::qp::SolverSettings;
-use crate::system::{FamilyInfo, FamilyParams};
+use crate::system::{FamilyInfo, FamilyKind, FamilyParams};
 
 /// Everything the [`EcbfFilter`](super::EcbfFilter) is built with.
 ///
@@ -101,6 +101,14 @@ impl<const NU: usize> FilterSettings<NU> {
                 domain::pole(pole)?;
             }
             domain::priority(p.priority)?;
+            if info.kind == FamilyKind::Lyapunov && p.priority == 0 {
+                // Convergence never shares the tier that must hold.
+                return Err(CbfError::OutOfRange {
+                    what: "priority of a Lyapunov family (below the safety rows)",
+                    value: 0.0,
+                    range: "[1, 15]",
+                });
+            }
             if p.activation.is_nan() {
                 return Err(CbfError::NonFinite { what: "activation threshold", value: p.activation });
             }

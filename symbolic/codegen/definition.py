@@ -11,6 +11,7 @@ nothing here knows a target language.
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -60,6 +61,11 @@ class FamilyDefinition:
     # What the generator noticed about the family that a user should know (printed when
     # it generates, and in the module's docs).
     warnings: tuple[str, ...] = ()
+    kind: str = "barrier"  # or "lyapunov": the rows are h = -V
+    # The extended class-K function of the last term, ``<family>_class_k(s) -> alpha``,
+    # and its formula in s; None for the linear one.
+    class_k: Kernel | None = None
+    class_k_text: str = ""
 
     @property
     def indexed(self) -> bool:
@@ -91,7 +97,8 @@ class SystemDefinition:
     def kernels(self) -> list[Kernel]:
         """Every kernel, in the order a backend emits them."""
         return ([self.drift, self.input_matrix, self.input_nonzeros]
-                + [k for f in self.families for k in (*f.kernels, *f.bounds)] + list(self.outputs))
+                + [k for f in self.families for k in (*f.kernels, *f.bounds, *([f.class_k] if f.class_k else []))]
+                + list(self.outputs))
 
 
 def _base_symbols(kernel: Kernel):
@@ -179,6 +186,10 @@ def _family(system: System, family: Family) -> FamilyDefinition:
         raise SpecError(f"{where}: members return different row names {sorted(row_names)}; every member "
                         "must return the same rows")
     degree = built[0].degree
+    if family.kind == "lyapunov" and degree != 1:
+        raise SpecError(f"{where}: V' does not depend on the input (relative degree {degree}), so no input can "
+                        "make V decrease; a CLF needs V' to depend on u: a V of the states the inputs drive "
+                        "(e.g. of velocities, not positions), or V backstepped through the chain")
     if family.poles is None:
         poles = (DEFAULT_POLE,) * degree
     elif len(family.poles) != degree:
@@ -197,7 +208,59 @@ def _family(system: System, family: Family) -> FamilyDefinition:
                             tuple(b.row_columns for b in built), _checked_params(family, required),
                             family.count, family.capacity, family.max_capacity, family.optional,
                             tuple(family.over or ()),
-                            family.time, poles, family.priority, family.activation, bounds)
+                            family.time, poles, family.priority, family.activation, bounds,
+                            kind=family.kind, **_class_k(where, family))
+
+
+# |s| at which a spec's class-K function is checked odd, increasing and through 0.
+_CLASS_K_SAMPLES = [10.0 ** (e / 4.0) for e in range(-24, 13)]
+
+
+def _class_k(where: str, family: Family) -> dict[str, object]:
+    """The family's extended class-K function as a kernel ``<family>_class_k(s) -> alpha``,
+    checked: a function of s alone, finite, through 0, odd and strictly increasing at
+    |s| in [1e-6, 1e3] (sampled: a check of the function the spec meant, not a proof)."""
+    if family.class_k is None:
+        return {}
+    where = f"{where}, class_k"
+    s = se.Symbol("s")
+    try:
+        alpha = se.sympify(family.class_k(s))
+    except Exception as exc:
+        raise SpecError(f"{where}: alpha(s) is not a symbolic expression of s ({exc})") from exc
+    stray = sorted(map(str, alpha.free_symbols - {s}))
+    if stray:
+        raise SpecError(f"{where}: alpha(s) = {alpha} uses {stray}; it is a function of s alone (its gain is "
+                        "the family's last pole)")
+    if s not in alpha.free_symbols:
+        raise SpecError(f"{where}: alpha(s) = {alpha} does not depend on s")
+    slope = se.diff(alpha, s)
+
+    def at(e: se.Expr, v: float) -> float:
+        try:
+            return float(e.subs({s: se.RealDouble(v)}))
+        except (RuntimeError, TypeError, ValueError):
+            return math.nan
+
+    zero = at(alpha, 0.0)
+    if zero != 0.0:
+        raise SpecError(f"{where}: alpha(0) = {zero:g}, not 0: alpha(s) = {alpha} must pass through 0")
+    for v in _CLASS_K_SAMPLES:
+        a, b, da, db = at(alpha, v), at(alpha, -v), at(slope, v), at(slope, -v)
+        if not all(math.isfinite(x) for x in (a, b, da, db)):
+            raise SpecError(f"{where}: alpha(s) = {alpha} is not finite at s = ±{v:g}")
+        if abs(a + b) > 1e-12 * max(abs(a), abs(b)):
+            raise SpecError(f"{where}: alpha(s) = {alpha} is not odd: alpha({v:g}) = {a:g} but alpha(-{v:g}) = "
+                            f"{b:g}; use an odd function (s**3, tanh(s), s*sqrt(1 + s**2))")
+        # alpha' >= 0, not > 0: a saturating alpha (tanh) is flat to rounding far out.
+        if not (a > 0.0 and da >= 0.0 and db >= 0.0) or (v <= 1.0 and da <= 0.0):
+            raise SpecError(f"{where}: alpha(s) = {alpha} is not increasing with alpha > 0 for s > 0: at "
+                            f"s = {v:g} alpha = {a:g}, alpha' = {da:g}")
+    kernel = Kernel(f"{family.name}_class_k",
+                    f"The extended class-K function of `{family.name}`'s last ECBF term: alpha(s) = {alpha}.")
+    kernel.output_scalar("alpha", alpha.xreplace({s: kernel.scalar_input("s", "the last term's psi")}),
+                         "alpha(s)")
+    return {"class_k": kernel, "class_k_text": str(alpha)}
 
 
 def _one_sided_authority(system: System, families: tuple[FamilyDefinition, ...]) -> tuple[FamilyDefinition, ...]:
@@ -253,6 +316,8 @@ def _member(system: System, family: Family, where: str, kernel_name: str, index:
         ctx = FamilyContext(where, k, eng, values, eng.time, index, label, family.params, required)
         with ctx.active():
             rows = _rows(where, family, family.h(ctx))
+        if family.kind == "lyapunov":
+            rows = [(row, -e) for row, e in rows]  # V' + rate V <= 0 is the barrier row of h = -V
         base = _base_symbols(k)
         allowed = state_set | frozenset().union(*param_symbols.values())
         if family.time:

@@ -289,3 +289,61 @@ def test_interval_rows_keep_each_value_between_its_bounds():
     assert [e.subs({a: 0.0, b: 1.0}) for _, e in rows] == [1.0, 2.0, 0.5, 2.0]
     with pytest.raises(ValueError, match="2 names, 1 values"):
         prim.interval_rows(["a", "b"], [a], [0.0, 0.0], [1.0, 1.0])
+
+
+SPEC_WITH_FAMILY = '''import symengine as se
+
+from symbolic.spec import System
+
+
+def build() -> System:
+    s = System("oops")
+    p, v = s.states(["p", "v"])
+    s.inputs(["u"], limits=[(-1.0, 1.0)])
+    s.dynamics(f=[v, 0], g=[[0], [1]])
+    {family}
+    return s
+'''
+
+
+@pytest.mark.parametrize("family, says", [
+    # Extended class-K functions: odd, increasing, through 0, of s alone.
+    ("s.family('limit', lambda q: 1 - p, class_k=lambda a: a + a**2)",
+     "family 'limit', class_k: alpha(s) = s + s**2 is not odd"),
+    ("s.family('limit', lambda q: 1 - p, class_k=lambda a: a**3 + 1)",
+     "family 'limit', class_k: alpha(0) = 1, not 0"),
+    ("s.family('limit', lambda q: 1 - p, class_k=lambda a: -a)",
+     "family 'limit', class_k: alpha(s) = -s is not increasing"),
+    ("s.family('limit', lambda q: 1 - p, class_k=lambda a: a * p)",
+     "family 'limit', class_k: alpha(s) = s*x_p uses ['x_p']; it is a function of s alone"),
+    ("s.family('limit', lambda q: 1 - p, class_k=3.0)", "family 'limit': class_k must be a function of one symbol"),
+    # A CLF: V' must depend on the input, and it never shares tier 0.
+    ("s.lyapunov('goal', lambda q: p**2, rate=1.0)",
+     "family 'goal': V' does not depend on the input (relative degree 2)"),
+    ("s.lyapunov('goal', lambda q: v**2, rate=1.0, priority=0)",
+     "lyapunov 'goal': priority must be an integer in [1, 15]"),
+])
+def test_class_k_and_lyapunov_mistakes_name_the_family_and_the_line(tmp_path, family, says):
+    spec = tmp_path / "oops.py"
+    spec.write_text(SPEC_WITH_FAMILY.format(family=family))
+    done = subprocess.run([sys.executable, "-m", "symbolic", "generate", str(spec), "--out", str(tmp_path)],
+                          cwd=REPO_ROOT, capture_output=True, text=True)
+    last = done.stderr.strip().splitlines()[-1]
+    assert done.returncode == 2
+    assert last.startswith(f"error: {spec}:11: ") and says in last, last
+
+
+def test_a_lyapunov_family_is_the_barrier_of_minus_v_below_the_safety_rows():
+    s = System("goal")
+    p, v = s.states(["p", "v"])
+    s.inputs(["u"], limits=[(-1.0, 1.0)])
+    s.dynamics(f=[v, 0], g=[[0], [1]])
+    s.family("wall", lambda q: 1 - p, poles=[2.0, 2.0])
+    s.lyapunov("speed", lambda q: (v - q.v_goal) ** 2, rate=3.0, params={"v_goal": ()})
+    wall, speed = define(s).families
+    assert (wall.kind, speed.kind) == ("barrier", "lyapunov")
+    assert (speed.degree, speed.poles, speed.priority) == (1, (3.0,), 15)
+    # Its row is h = -V: [h, L_f h] and L_g h at a point, against V's derivatives by hand.
+    values = speed.kernels[0].evaluate({"x": [0.3, 1.5], "v_goal": 0.5})
+    assert values["lie"] == pytest.approx([-(1.5 - 0.5) ** 2, 0.0])
+    assert values["lg_lf"] == pytest.approx([-2.0 * (1.5 - 0.5)])

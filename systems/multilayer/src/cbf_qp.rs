@@ -19,7 +19,7 @@ use super::barrier::{BarrierRow, SineBarrier, State};
 use cbfgen::error::CbfError;
 use cbfgen::filter::{domain, InputSource};
 use cbfgen::qp::{QpStatus, SolverSettings};
-use cbfgen::system::{FamilyParams, Poles};
+use cbfgen::system::{ClassK, FamilyParams, Poles};
 use cbfgen_double_integrator as spec;
 
 /// Gains, input bound and solver settings of the CBF-QP.
@@ -89,8 +89,12 @@ impl IdCbfQp {
         params.sine_barrier[0].validate()?;
         let u_max = settings.u_max.min(domain::MAX_INPUT);
         let mut filter_settings = spec::default_settings();
-        filter_settings.families[spec::family::SINE_BARRIER] =
-            FamilyParams { poles: Poles::from(settings.poles), priority: 0, activation: f64::INFINITY };
+        filter_settings.families[spec::family::SINE_BARRIER] = FamilyParams {
+            poles: Poles::from(settings.poles),
+            priority: 0,
+            activation: f64::INFINITY,
+            class_k: ClassK::LINEAR,
+        };
         filter_settings.input_min = [-u_max];
         filter_settings.input_max = [u_max];
         filter_settings.solver = settings.solver;

@@ -422,13 +422,19 @@ struct OneRow {
 
 const ONE_ROW_FAMILY: [cbfgen::system::FamilyInfo; 1] = [cbfgen::system::FamilyInfo {
     name: "one",
+    kind: cbfgen::system::FamilyKind::Barrier,
     relative_degree: 1,
     row_names: &["one"],
     members: &[],
     instances: cbfgen::system::InstanceKind::Fixed,
     count: 1,
     params: &[],
-    defaults: cbfgen::system::FamilyParams { poles: Poles::repeated(10.0, 1), priority: 0, activation: 1.0 },
+    defaults: cbfgen::system::FamilyParams {
+        poles: Poles::repeated(10.0, 1),
+        priority: 0,
+        activation: 1.0,
+        class_k: cbfgen::system::ClassK::LINEAR,
+    },
 }];
 
 const ONE_ROW_LAYOUT: [cbfgen::system::RowLayout; 1] =

@@ -19,7 +19,7 @@ mod singular;
 use std::time::Duration;
 
 use cbfgen::filter::{domain, EcbfFilter, FilterSettings, InputSource, Solver, SolverSettings};
-use cbfgen::system::{FamilyParams, Poles};
+use cbfgen::system::{ClassK, FamilyParams, Poles};
 use cbfgen::{CbfError, OrientedBox};
 use cbfgen_tachyon3::catalog::{
     Capacity, Catalog, EdgeCuboid, Environment, Family, HalfPlane, StabilityBound, Tachyon3Filter,
@@ -59,7 +59,7 @@ fn family_params() -> impl Strategy<Value = FamilyParams> {
     let near_defaults = (log_range(1.0, 100.0), log_range(1.0, 100.0));
     let priority = prop_oneof![2 => Just(0u8), 1 => 0..=domain::MAX_PRIORITY];
     (prop_oneof![anywhere, near_defaults], priority, activation).prop_map(|((p1, p2), priority, activation)| {
-        FamilyParams { poles: Poles::from([p1, p2]), priority, activation }
+        FamilyParams { poles: Poles::from([p1, p2]), priority, activation, class_k: ClassK::LINEAR }
     })
 }
 

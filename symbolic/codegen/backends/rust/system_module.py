@@ -151,6 +151,12 @@ def _poles(f: FamilyDefinition, rt: str) -> str:
     return f"{rt}::system::Poles::from_array([{', '.join(float_literal(p) for p in f.poles)}])"
 
 
+def _class_k(f: FamilyDefinition, rt: str) -> str:
+    if f.class_k is None:
+        return f"{rt}::system::ClassK::LINEAR"
+    return f"{rt}::system::ClassK::extended({_str(f.class_k_text)}, {f.class_k.name})"
+
+
 def _activation(value: float) -> str:
     return "f64::INFINITY" if value == float("inf") else float_literal(value)
 
@@ -415,7 +421,8 @@ def _emit_description(out: list[str], d: SystemDefinition, rt: str) -> None:
     w("/// Indices of the families in [`FAMILIES`] (and `RowLayout::family`).")
     w("pub mod family {")
     for i, f in enumerate(d.families):
-        w(f"    /// `{f.name}` (priority {f.priority}).")
+        kind = "a Lyapunov function, " if f.kind == "lyapunov" else ""
+        w(f"    /// `{f.name}` ({kind}priority {f.priority}).")
         for warning in f.warnings:
             w("    ///")
             out.extend(_doc(f"Warning from the generator: {warning}", "    "))
@@ -568,6 +575,7 @@ def _emit_family_table(out: list[str], d: SystemDefinition, rt: str) -> None:
         u = f.name.upper()
         w(f"    {rt}::system::FamilyInfo {{")
         w(f"        name: {_str(f.name)},")
+        w(f"        kind: {rt}::system::FamilyKind::{'Lyapunov' if f.kind == 'lyapunov' else 'Barrier'},")
         w(f"        relative_degree: {u}_RELATIVE_DEGREE,")
         w(f"        row_names: &{u}_ROW_NAMES,")
         w(f"        members: &{u}_MEMBERS," if f.indexed else "        members: &[],")
@@ -580,6 +588,7 @@ def _emit_family_table(out: list[str], d: SystemDefinition, rt: str) -> None:
         w(f"            poles: {_poles(f, rt)},")
         w(f"            priority: {f.priority},")
         w(f"            activation: {_activation(f.activation)},")
+        w(f"            class_k: {_class_k(f, rt)},")
         w("        },")
         w("    },")
     w("];")

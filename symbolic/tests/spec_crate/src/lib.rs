@@ -1,4 +1,4 @@
-//! Four systems generated at build time by cbfgen-build.
+//! Five systems generated at build time by cbfgen-build.
 
 /// A planar robot with a speed limit (degree 1) and box walls (degree 2).
 pub mod planar_robot {
@@ -18,4 +18,9 @@ pub mod boxed_robot {
 /// A planar quadrotor whose speed limit, through thrust alone, can starve its floor.
 pub mod planar_quadrotor {
     cbfgen::include_system!("planar_quadrotor");
+}
+
+/// Adaptive cruise control: a CLF below two CBFs, one with an extended class-K term.
+pub mod adaptive_cruise {
+    cbfgen::include_system!("adaptive_cruise");
 }
