@@ -34,6 +34,7 @@ from ..spec import (
     System,
     check_identifier,
 )
+from .partial import partial_warnings
 
 
 @dataclass(frozen=True)
@@ -203,13 +204,17 @@ def _family(system: System, family: Family) -> FamilyDefinition:
         bounds = tuple(_lower_bound(system, family, f"{where}, lower_bound" + (f", member {lb!r}" if lb else ""),
                                     b.kernel.name, i if lb else None, lb, required)
                        for i, (lb, b) in enumerate(zip(labels, built, strict=True)))
+    params = _checked_params(family, required)
+    labels = family.over or [None]
+    partial = tuple(w for lb, b in zip(labels, built, strict=True)
+                    for w in partial_warnings(where + (f", member {lb!r}" if lb else ""), b.kernel, params))
     return FamilyDefinition(family.name, family.doc, tuple(b.kernel for b in built), degree,
                             built[0].row_names, tuple(b.columns for b in built),
-                            tuple(b.row_columns for b in built), _checked_params(family, required),
+                            tuple(b.row_columns for b in built), params,
                             family.count, family.capacity, family.max_capacity, family.optional,
                             tuple(family.over or ()),
                             family.time, poles, family.priority, family.activation, bounds,
-                            kind=family.kind, **_class_k(where, family))
+                            warnings=partial, kind=family.kind, **_class_k(where, family))
 
 
 # |s| at which a spec's class-K function is checked odd, increasing and through 0.
@@ -291,7 +296,7 @@ def _one_sided_authority(system: System, families: tuple[FamilyDefinition, ...])
                      "them; the lower priority number holds, the higher yields")
             text += (f" ({same} share its priority {f.priority}, so neither yields to the other: give the one "
                      "that must hold the lower number)." if same else ".")
-        out.append(dataclasses.replace(f, warnings=(text,)))
+        out.append(dataclasses.replace(f, warnings=(*f.warnings, text)))
     return tuple(out)
 
 
