@@ -329,7 +329,9 @@ impl<P: FlatInstance> FamilyStore for Instances<P> {
     }
 }
 
-/// The size of one capacity family (one member's, for an indexed family).
+/// The size of one capacity family (one member's, for an indexed family). (`repr(C)`: it
+/// crosses the plugin ABI as is.)
+#[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct CapacityCount {
     /// Index into the system's families.

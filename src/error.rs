@@ -48,6 +48,12 @@ pub enum CbfError {
     },
     /// Parameters (an environment) sized for other capacities than the filter's rows.
     CapacityMismatch,
+    /// A system loaded from a plugin ([`crate::plugin`]) reported an error (its message,
+    /// as the plugin's core wrote it), or the plugin could not be loaded.
+    Plugin {
+        /// What went wrong.
+        message: String,
+    },
     /// A setting outside its allowed range.
     OutOfRange {
         /// Which value, as named in the message.
@@ -164,6 +170,7 @@ impl fmt::Display for CbfError {
             CbfError::TooLarge { what, value, max } => write!(f, "{what} = {value} is above the maximum of {max}"),
             CbfError::Thread { what, reason } => write!(f, "{what} threads: {reason}"),
             CbfError::CapacityMismatch => f.write_str("the parameters were built for other capacities than the filter"),
+            CbfError::Plugin { message } => f.write_str(message),
             CbfError::OutOfRange { what, value, range } => write!(f, "{what} = {value} is outside {range}"),
             CbfError::LengthMismatch { what, expected, got } => {
                 write!(f, "{what}: expected length {expected}, got {got}")

@@ -14,6 +14,8 @@
 //!   first, OSQP as fallback and reference.
 //! * [`dynamic`] — any generated system behind object-safe traits, picked by name from a
 //!   [`dynamic::Registry`] the caller fills (what the Python bindings use).
+//! * [`plugin`] — a system built later, from a spec, loaded at run time as a shared
+//!   library behind a versioned C ABI (`cbfgen.load` in Python).
 //! * [`param_domain`] — the domains run-time parameters declare (lengths `> 0`, proper
 //!   rotations), checked before a kernel reads them.
 //! * [`lanes`] — `exp`, `tanh` and `ln` of many arguments at once in SIMD lanes, with
@@ -39,6 +41,7 @@ pub mod geometry;
 pub mod lanes;
 pub mod limits;
 pub mod param_domain;
+pub mod plugin;
 pub mod qp;
 pub mod sat;
 pub mod sphere_box;

@@ -1,7 +1,8 @@
 """cbfgen: code-generated Exponential-CBF safety filters, from Python.
 
-Every built-in system (``systems()``) is reached through the same classes, all the Rust
-crate's through pyo3:
+Every built-in system (``systems()``), and a spec of your own loaded with
+:func:`load` (generated, built as a plugin and cached on first use), is reached through
+the same classes, all the Rust crate's through pyo3:
 
 * :class:`System`: a system by name — sizes, state and input names, input limits, its
   barrier families, the dynamics (:meth:`System.drift`, :meth:`System.input_matrix`,
@@ -49,8 +50,11 @@ from ._native import (
     ssat_margin,
     systems,
 )
+from .plugins import LoadError, load
 
 __all__ = [
+    "LoadError",
+    "load",
     "HALF_EXTENT_RANGE",
     "INPUT_SOURCES",
     "MAX_COORDINATE",

@@ -9,6 +9,7 @@
 # Counts outside their integer type (negative, >= 2**64) raise OverflowError.
 # python/tests/test_api.py checks that this file and the module list the same names.
 
+import os
 from collections.abc import Mapping, Sequence
 from typing import Literal, TypedDict
 
@@ -107,7 +108,11 @@ SOLVERS: list[str]
 
 # ---------------------------------------------------------------- any system
 def systems() -> list[str]:
-    """The names of every built-in system."""
+    """The names of every built-in system, then of every system loaded with cbfgen.load."""
+
+def load_plugin(path: str | os.PathLike[str]) -> System:
+    """The system of a plugin library (what cbfgen.load builds), checked for its ABI and
+    core version; a path loads once per process."""
 
 class System:
     """A generated system by name: sizes, names, dynamics, families; factories for its

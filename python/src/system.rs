@@ -9,7 +9,7 @@ use std::time::Duration;
 use pyo3::prelude::*;
 
 use crate::registry::SYSTEMS;
-use crate::PyResult;
+use crate::{value_error, PyResult};
 use pyo3::types::{PyDict, PyList, PyTuple};
 
 use super::convert::{choice, matrix_from_fn, shaped, vector, Array1Out, Array2Out, ArrayIn};
@@ -21,6 +21,7 @@ use cbfgen::system::{FamilyInfo, Poles};
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(systems, m)?)?;
+    m.add_function(wrap_pyfunction!(load_plugin, m)?)?;
     m.add_class::<PySystem>()?;
     m.add_class::<PyParams>()?;
     m.add_class::<PyRows>()?;
@@ -29,10 +30,40 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     Ok(())
 }
 
-/// The names of every built-in system.
+/// The names of every built-in system, then of every system loaded from a plugin
+/// (``cbfgen.load``).
 #[pyfunction]
 fn systems() -> Vec<&'static str> {
-    SYSTEMS.names().collect()
+    let loaded = LOADED.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    SYSTEMS.names().chain(loaded.iter().map(|(_, s)| s.name())).collect()
+}
+
+/// The systems loaded from plugins in this process, by library path (a path loads once).
+static LOADED: std::sync::Mutex<Vec<(std::path::PathBuf, &'static dyn DynSystem)>> = std::sync::Mutex::new(Vec::new());
+
+/// A system by name: a built-in one, else the last one loaded from a plugin with that name.
+fn system_named(name: &str) -> Result<&'static dyn DynSystem, CbfError> {
+    let loaded = LOADED.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    match loaded.iter().rev().find(|(_, s)| s.name() == name) {
+        Some((_, s)) if SYSTEMS.get(name).is_err() => Ok(*s),
+        _ => SYSTEMS.get(name),
+    }
+}
+
+/// The system of the plugin library at ``path`` (a shared library built by
+/// ``cbfgen.load``, or any crate exporting one with ``cbfgen::export_plugin!``): checked
+/// for its ABI and core version, then usable wherever a ``System`` is. Loading a path
+/// twice returns the same system.
+#[pyfunction]
+fn load_plugin(path: std::path::PathBuf) -> PyResult<PySystem> {
+    let path = path.canonicalize().map_err(|e| value_error(format!("cannot load plugin {}: {e}", path.display())))?;
+    let mut loaded = LOADED.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    if let Some((_, s)) = loaded.iter().find(|(p, _)| *p == path) {
+        return Ok(PySystem { inner: *s });
+    }
+    let system = cbfgen::plugin::load(&path)?;
+    loaded.push((path, system));
+    Ok(PySystem { inner: system })
 }
 
 /// A system given by name or as a `System`.
@@ -45,7 +76,7 @@ pub enum SystemArg<'py> {
 impl SystemArg<'_> {
     fn get(&self) -> Result<&'static dyn DynSystem, CbfError> {
         match self {
-            SystemArg::Name(n) => SYSTEMS.get(n),
+            SystemArg::Name(n) => system_named(n),
             SystemArg::System(s) => Ok(s.inner),
         }
     }
@@ -183,7 +214,7 @@ pub struct PySystem {
 impl PySystem {
     #[new]
     fn new(name: &str) -> PyResult<Self> {
-        Ok(Self { inner: SYSTEMS.get(name)? })
+        Ok(Self { inner: system_named(name)? })
     }
 
     #[getter]

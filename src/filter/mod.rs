@@ -228,6 +228,30 @@ pub struct Output<U> {
 }
 
 impl<U> Output<U> {
+    /// What a filter reports before its first update: input `u`, nothing solved or
+    /// assessed.
+    pub(crate) fn before_any_update(u: U) -> Self {
+        Output {
+            u,
+            source: InputSource::NominalClipped,
+            status: None,
+            backend: None,
+            dense_steps: 0,
+            dense_fallback: false,
+            elastic_stages: 0,
+            nonfinite_row: None,
+            iterations: 0,
+            polished: false,
+            active_rows: 0,
+            safety: Safety::UNASSESSED,
+            convergence: Safety::UNASSESSED,
+            consecutive_fallbacks: 0,
+            eval_time: Duration::ZERO,
+            solve_time: Duration::ZERO,
+            cpu_time: None,
+        }
+    }
+
     /// The same result with the input held by `f(&u)` (a slice of it, a copy).
     pub fn map_input<'a, V>(&'a self, f: impl FnOnce(&'a U) -> V) -> Output<V> {
         Output {
@@ -309,25 +333,7 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
             active: vec![false; rows],
             relaxation: vec![FamilyRelaxation::default(); families],
             last_safe: None,
-            output: FilterOutput {
-                u: [0.0; NU],
-                source: InputSource::NominalClipped,
-                status: None,
-                backend: None,
-                dense_steps: 0,
-                dense_fallback: false,
-                elastic_stages: 0,
-                nonfinite_row: None,
-                iterations: 0,
-                polished: false,
-                active_rows: 0,
-                safety: Safety::UNASSESSED,
-                convergence: Safety::UNASSESSED,
-                consecutive_fallbacks: 0,
-                eval_time: Duration::ZERO,
-                solve_time: Duration::ZERO,
-                cpu_time: None,
-            },
+            output: FilterOutput::before_any_update([0.0; NU]),
         })
     }
 

@@ -73,7 +73,8 @@ impl Safety {
     }
 }
 
-/// One family's relaxations in an update.
+/// One family's relaxations in an update. (`repr(C)`: it crosses the plugin ABI as is.)
+#[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct FamilyRelaxation {
     /// Its rows relaxed beyond [`MET_TOLERANCE`].

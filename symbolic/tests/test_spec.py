@@ -243,9 +243,7 @@ def test_command_line_writes_and_checks(tmp_path):
     assert done.returncode == 2 and "error: spec" in done.stderr
 
 
-
-
-SPEC_WITH = '''import symengine as se
+SPEC_WITH_FAMILY = '''import symengine as se
 
 from symbolic.spec import System
 
@@ -255,10 +253,10 @@ def build() -> System:
     p, v = s.states(["p", "v"])
     s.inputs(["u"], limits=[(-1.0, 1.0)])
     s.dynamics(f=[v, 0], g=[[0], [1]])
-    s.family("limit", lambda prm: {h}, poles=[5.0, 5.0])
+    {family}
     return s
 '''
-FAMILY_LINE = 11  # the s.family(...) line above
+FAMILY_LINE = 11  # the {family} line above
 
 
 @pytest.mark.parametrize("h, says", [
@@ -274,7 +272,7 @@ FAMILY_LINE = 11  # the s.family(...) line above
 ])
 def test_a_spec_error_names_the_spec_file_and_line(tmp_path, h, says):
     spec = tmp_path / "oops.py"
-    spec.write_text(SPEC_WITH.format(h=h))
+    spec.write_text(SPEC_WITH_FAMILY.format(family=f's.family("limit", lambda prm: {h}, poles=[5.0, 5.0])'))
     done = subprocess.run([sys.executable, "-m", "symbolic", "generate", str(spec), "--out", str(tmp_path)],
                           cwd=REPO_ROOT, capture_output=True, text=True)
     last = done.stderr.strip().splitlines()[-1]
@@ -291,19 +289,6 @@ def test_interval_rows_keep_each_value_between_its_bounds():
         prim.interval_rows(["a", "b"], [a], [0.0, 0.0], [1.0, 1.0])
 
 
-SPEC_WITH_FAMILY = '''import symengine as se
-
-from symbolic.spec import System
-
-
-def build() -> System:
-    s = System("oops")
-    p, v = s.states(["p", "v"])
-    s.inputs(["u"], limits=[(-1.0, 1.0)])
-    s.dynamics(f=[v, 0], g=[[0], [1]])
-    {family}
-    return s
-'''
 
 
 @pytest.mark.parametrize("family, says", [
@@ -330,7 +315,7 @@ def test_class_k_and_lyapunov_mistakes_name_the_family_and_the_line(tmp_path, fa
                           cwd=REPO_ROOT, capture_output=True, text=True)
     last = done.stderr.strip().splitlines()[-1]
     assert done.returncode == 2
-    assert last.startswith(f"error: {spec}:11: ") and says in last, last
+    assert last.startswith(f"error: {spec}:{FAMILY_LINE}: ") and says in last, last
 
 
 def test_a_lyapunov_family_is_the_barrier_of_minus_v_below_the_safety_rows():

@@ -1,0 +1,190 @@
+"""A user's spec as a system, from Python: generated, built as a plugin, cached, loaded.
+
+:func:`load` takes a spec file (the same file a Rust crate's ``build.rs`` would name),
+builds it against cbfgen's core as a small shared library exporting the core's versioned
+C ABI (``cbfgen::plugin``: the only thing that crosses is plain data and ``extern "C"``
+calls, so the plugin and this module need not come from one compiler run), and loads it.
+The build is cached by its inputs — the spec, every file it imports or names with
+``depends_on``, and the core's and generator's sources — in a per-user directory; the
+same inputs a second time load in a fraction of a second. The returned :class:`System`
+is like any built-in one: ``Params``, ``Rows``, ``EcbfFilter`` and the dynamics take it,
+and ``System(name)`` finds it afterwards.
+
+Building needs what building a Rust crate on cbfgen needs: Rust (``cargo``), Python with
+SymEngine (this interpreter), CMake for OSQP's C sources, and cbfgen's sources (a clone:
+found beside the spec or the working directory, or named by ``CBFGEN_SOURCE``).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from . import _native
+
+ABI_VERSION = 1  # cbfgen::plugin::ABI_VERSION: a cached build of another ABI is never reused
+SOURCE_ENV = "CBFGEN_SOURCE"
+CACHE_ENV = "CBFGEN_CACHE"
+
+
+class LoadError(RuntimeError):
+    """A spec could not be built as a plugin: the message's one line names the fix."""
+
+
+def cache_dir() -> Path:
+    """Where builds are kept: ``CBFGEN_CACHE``, else ``$XDG_CACHE_HOME/cbfgen``, else
+    ``~/.cache/cbfgen``."""
+    if os.environ.get(CACHE_ENV):
+        return Path(os.environ[CACHE_ENV])
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "cbfgen"
+
+
+def _is_source(folder: Path) -> bool:
+    manifest = folder / "Cargo.toml"
+    return (manifest.is_file() and (folder / "cbfgen-build").is_dir() and (folder / "symbolic").is_dir()
+            and 'name = "cbfgen"' in manifest.read_text())
+
+
+def source_dir(near: Path | None = None) -> Path:
+    """cbfgen's sources: ``CBFGEN_SOURCE``, else the first folder at or above ``near`` or
+    the working directory that is a clone of cbfgen."""
+    named = os.environ.get(SOURCE_ENV)
+    if named:
+        if not _is_source(Path(named)):
+            raise LoadError(f"{SOURCE_ENV}={named} is not a clone of cbfgen (no Cargo.toml of the cbfgen crate "
+                            "beside cbfgen-build/ and symbolic/)")
+        return Path(named).resolve()
+    for start in [p for p in (near, Path.cwd()) if p is not None]:
+        for folder in [start.resolve(), *start.resolve().parents]:
+            if _is_source(folder):
+                return folder
+    raise LoadError(f"cbfgen.load builds the spec against cbfgen's sources: set {SOURCE_ENV} to a clone of "
+                    "cbfgen (or work inside one)")
+
+
+def _source_files(source: Path) -> list[Path]:
+    """The core's, the build helper's and the generator's sources: what a plugin is built from."""
+    found = [source / "Cargo.toml", source / "build.rs"]
+    for folder, suffixes in (("src", (".rs",)), ("generated", (".rs",)), ("cbfgen-build", (".rs", ".toml")),
+                             ("symbolic", (".py", ".toml", ".txt"))):
+        found += [p for p in (source / folder).rglob("*") if p.is_file() and p.suffix in suffixes
+                  and "tests" not in p.relative_to(source).parts and "__pycache__" not in p.parts]
+    return sorted(found)
+
+
+def _key(source: Path, spec: Path, dependencies: list[Path]) -> str:
+    h = hashlib.sha256(f"cbfgen plugin ABI {ABI_VERSION}\0".encode())
+    for path in [*_source_files(source), spec, *dependencies]:
+        h.update(str(path).encode() + b"\0" + path.read_bytes() + b"\0")
+    return h.hexdigest()[:20]
+
+
+def _spec(source: Path, spec: Path):
+    """The spec's System (its name and dependencies), read with the generator."""
+    try:
+        import symengine  # noqa: F401
+    except ImportError:
+        raise LoadError(f"cbfgen.load generates the spec with SymEngine: {sys.executable} -m pip install "
+                        "symengine==0.15.0") from None
+    sys.path.insert(0, str(source))
+    try:
+        from symbolic.spec import load as load_spec
+
+        return load_spec(spec)
+    finally:
+        sys.path.remove(str(source))
+
+
+MANIFEST = """[package]
+name = "cbfgen_plugin_{name}"
+version = "0.0.0"
+edition = "2021"
+publish = false
+
+[lib]
+crate-type = ["cdylib"]
+path = "lib.rs"
+
+[dependencies]
+cbfgen = {{ path = "{source}" }}
+
+[build-dependencies]
+cbfgen-build = {{ path = "{source}/cbfgen-build" }}
+
+[workspace]
+"""
+BUILD_RS = """fn main() {{
+    cbfgen_build::Generator::new().spec({spec}).build();
+}}
+"""
+LIB_RS = """//! cbfgen.load's plugin of `{name}`, generated from {spec}.
+
+#[allow(dead_code, clippy::all)]
+mod system {{
+    cbfgen::include_system!("{name}");
+}}
+
+cbfgen::export_plugin!(system::SYSTEM);
+"""
+
+
+def _build(source: Path, spec: Path, name: str, crate: Path, library: Path, progress: bool) -> None:
+    cargo = shutil.which("cargo")
+    if cargo is None:
+        raise LoadError("cbfgen.load builds the spec with Rust, and cargo is not on PATH: install Rust "
+                        "(https://rustup.rs)")
+    crate.mkdir(parents=True, exist_ok=True)
+    quoted = '"' + str(spec).replace("\\", "\\\\").replace('"', '\\"') + '"'
+    (crate / "Cargo.toml").write_text(MANIFEST.format(name=name, source=source.as_posix()))
+    (crate / "build.rs").write_text(BUILD_RS.format(spec=quoted))
+    (crate / "lib.rs").write_text(LIB_RS.format(name=name, spec=spec.name))
+    # Shared: the core compiles once for every spec (CARGO_TARGET_DIR, if set, is used as is).
+    target = Path(os.environ.get("CARGO_TARGET_DIR") or cache_dir() / "target")
+    env = {**os.environ, "CARGO_TARGET_DIR": str(target), "CBFGEN_PYTHON": sys.executable}
+    env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env.get('PATH', '')}"  # the venv's cmake
+    start = time.monotonic()
+    done = subprocess.Popen([cargo, "build", "--release", "--manifest-path", str(crate / "Cargo.toml")],
+                            cwd=crate, env=env, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
+    lines = []
+    assert done.stderr is not None
+    for line in done.stderr:
+        lines.append(line)
+        text = line.strip()
+        if progress and text.startswith(("Compiling", "Finished")):
+            print(f"\rcbfgen.load {name}: {text[:60]:<60} {time.monotonic() - start:5.0f} s", end="",
+                  file=sys.stderr, flush=True)
+    if progress:
+        print(file=sys.stderr)
+    if done.wait() != 0:
+        errors = [line.rstrip() for line in lines if line.startswith("error")]
+        detail = "".join(lines[-40:])
+        raise LoadError(f"cbfgen.load {spec}: the build failed: {errors[0] if errors else 'see below'}\n{detail}")
+    built = target / "release" / f"libcbfgen_plugin_{name}.so"
+    shutil.copy2(built, library.with_suffix(".tmp"))
+    os.replace(library.with_suffix(".tmp"), library)  # a loaded library is never overwritten in place
+
+
+def load(spec: str | os.PathLike, *, progress: bool = True) -> _native.System:
+    """The system of the spec file ``spec``, built as a plugin (or taken from the cache
+    when its inputs have not changed) and loaded. ``progress`` prints the build's stages.
+
+    Raises :class:`LoadError` with one line naming the fix when a tool is missing, or the
+    generator's or compiler's message when the spec does not build (a spec mistake names
+    its file and line)."""
+    spec = Path(spec).resolve()
+    if not spec.is_file():
+        raise LoadError(f"cbfgen.load: no spec file {spec}")
+    source = source_dir(spec.parent)
+    system = _spec(source, spec)
+    key = _key(source, spec, list(system.dependencies))
+    folder = cache_dir() / "plugins" / f"{system.name}-{key}"
+    library = folder / f"libcbfgen_plugin_{system.name}.so"
+    if not library.is_file():
+        _build(source, spec, system.name, folder, library, progress)
+    return _native.load_plugin(library)

@@ -1,0 +1,116 @@
+"""cbfgen.load: a spec outside the library, built as a plugin, cached, and used through
+the same classes as a built-in system.
+
+The builds share the spec-crate tests' Cargo target directory (the core compiles once);
+the plugin cache is per test session."""
+
+from __future__ import annotations
+
+import os
+import shutil
+from pathlib import Path
+
+import cbfgen
+import numpy as np
+import pytest
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
+DOUBLE = REPO_ROOT / "systems" / "double_integrator" / "spec" / "double_integrator.py"
+CRUISE = REPO_ROOT / "symbolic" / "tests" / "specs" / "adaptive_cruise.py"
+
+pytestmark = pytest.mark.skipif(shutil.which("cargo") is None, reason="cbfgen.load builds with cargo")
+
+
+@pytest.fixture(scope="module")
+def environment(tmp_path_factory):
+    """The variables cbfgen.load reads: the sources, a fresh cache, a warm target dir."""
+    saved = {k: os.environ.get(k) for k in ("CBFGEN_SOURCE", "CBFGEN_CACHE", "CARGO_TARGET_DIR")}
+    os.environ["CBFGEN_SOURCE"] = str(REPO_ROOT)
+    os.environ["CBFGEN_CACHE"] = str(tmp_path_factory.mktemp("cache"))
+    os.environ["CARGO_TARGET_DIR"] = str(REPO_ROOT / "target" / "spec-crates")
+    yield Path(os.environ["CBFGEN_CACHE"])
+    for k, v in saved.items():
+        if v is None:
+            os.environ.pop(k, None)
+        else:
+            os.environ[k] = v
+
+
+def _spec_copy(tmp_path: Path, spec: Path) -> Path:
+    """The spec in a folder of its own, as a user keeps it."""
+    folder = tmp_path / "my_robot"
+    folder.mkdir(exist_ok=True)
+    return Path(shutil.copy(spec, folder / spec.name))
+
+
+def _closed_loop(system: cbfgen.System) -> np.ndarray:
+    """Test_api's moving-boundary loop: every returned input."""
+    params = system.params()
+    params.set("sine_barrier", {"amplitude": 0.2, "omega": 2.0, "offset": -0.5})
+    safety = system.filter()
+    x, inputs = np.array([0.0, 0.0]), []
+    for k in range(2000):
+        out = safety.update(x, [-5.0], params, k * 1e-3)
+        assert out.source == "qp" and out.verdict == "met"
+        inputs.append(out.u[0])
+        x = x + 1e-3 * system.xdot(x, out.u)
+    return np.array(inputs)
+
+
+def test_a_loaded_spec_filters_bit_for_bit_as_the_same_spec_linked_in(environment, tmp_path):
+    # The built-in double integrator is its spec built into a crate (systems/double_integrator),
+    # linked into this module; the same file loaded as a plugin must give the same inputs to
+    # the last bit, through the same generic classes.
+    loaded = cbfgen.load(_spec_copy(tmp_path, DOUBLE), progress=False)
+    linked = cbfgen.System("double_integrator")
+    assert (loaded.nx, loaded.nu, loaded.state_names, loaded.families) == (
+        linked.nx, linked.nu, linked.state_names, linked.families)
+    np.testing.assert_array_equal(_closed_loop(loaded), _closed_loop(linked))
+    # Its objects are its own: parameters of the linked system are refused, by name.
+    with pytest.raises(cbfgen.CbfError, match="parameters of system double_integrator"):
+        loaded.filter().update([0.0, 0.0], [0.0], linked.params())
+
+
+def test_a_second_load_hits_the_cache_and_a_changed_spec_rebuilds(environment, tmp_path):
+    spec = _spec_copy(tmp_path, CRUISE)
+    first = cbfgen.load(spec, progress=False)
+    libraries = sorted((environment / "plugins").glob("adaptive_cruise-*/*.so"))
+    assert len(libraries) == 1
+    built = libraries[0].stat().st_mtime_ns
+    again = cbfgen.load(spec, progress=False)
+    assert again.families == first.families and libraries[0].stat().st_mtime_ns == built  # not rebuilt
+    # A CLF and an extended class-K term come through the plugin as declared.
+    kinds = {f["name"]: (f["kind"], f["class_k"]) for f in first.families}
+    assert kinds["speed_goal"][0] == "lyapunov" and "tanh" in kinds["standstill_gap"][1]
+    # The spec changes (the CLF's rate): a new build, with the new default.
+    spec.write_text(spec.read_text().replace("rate=2.0", "rate=3.0"))
+    changed = cbfgen.load(spec, progress=False)
+    assert len(list((environment / "plugins").glob("adaptive_cruise-*/*.so"))) == 2
+    assert {f["name"]: f["poles"] for f in changed.families}["speed_goal"] == [3.0]
+
+
+def test_a_loaded_clf_is_reported_as_convergence_never_as_safety(environment, tmp_path):
+    system = cbfgen.load(_spec_copy(tmp_path, CRUISE), progress=False)
+    params = system.params()
+    params.set("standstill_gap", {"z_min": 5.0})
+    params.set("speed_goal", {"v_desired": 24.0})
+    safety = system.filter()
+    # 45 m behind a car 6 m/s slower, the headway asks for braking while the speed goal
+    # (24 m/s) asks for more speed: the headway holds, the CLF gives way to it, reported.
+    out = safety.update([20.0, 45.0, 14.0], [0.0], params)
+    assert out.verdict == "met" and out.convergence == "relaxed" and out.u[0] < 0.0
+    assert [(r["place"][0], r["cause"]) for r in out.relaxed] == [("speed_goal", "higher_priority")]
+
+
+def test_missing_tools_and_sources_are_one_line_naming_the_fix(environment, tmp_path, monkeypatch):
+    spec = _spec_copy(tmp_path, DOUBLE)
+    monkeypatch.setenv("CBFGEN_SOURCE", str(tmp_path))
+    with pytest.raises(cbfgen.LoadError, match="is not a clone of cbfgen"):
+        cbfgen.load(spec, progress=False)
+    monkeypatch.setenv("CBFGEN_SOURCE", str(REPO_ROOT))
+    monkeypatch.setenv("CBFGEN_CACHE", str(tmp_path / "empty-cache"))
+    monkeypatch.setenv("PATH", str(tmp_path))  # no cargo
+    with pytest.raises(cbfgen.LoadError, match=r"cargo is not on PATH: install Rust \(https://rustup.rs\)"):
+        cbfgen.load(spec, progress=False)
+    with pytest.raises(cbfgen.LoadError, match="no spec file"):
+        cbfgen.load(tmp_path / "nothing.py")

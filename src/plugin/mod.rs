@@ -1,0 +1,427 @@
+//! Systems loaded at run time from a plugin: a shared library built from a spec, reached
+//! through a stable, versioned C ABI behind the type-erased layer ([`crate::dynamic`]).
+//!
+//! **Why a C ABI.** A plugin is compiled by another cargo invocation than the program that
+//! loads it (the Python module, a tool), so nothing Rust leaves unspecified may cross:
+//! trait-object vtables, `repr(Rust)` layouts, `TypeId`s and the allocator are all free to
+//! differ between the two builds. What crosses here is `extern "C"` functions and
+//! `#[repr(C)]` plain data ([`PluginV1`]); each side keeps its own objects behind opaque
+//! handles, frees what it allocated, and never unwinds into the other (every entry point
+//! catches panics and reports them as errors). The loader checks [`ABI_VERSION`] and the
+//! core version the plugin was built against before it calls anything else.
+//!
+//! **Both sides are here.** A plugin crate is the generated module and one line:
+//! ```ignore
+//! cbfgen::include_system!("pvtol");
+//! cbfgen::export_plugin!(SYSTEM);
+//! ```
+//! built as a `cdylib`. [`load`] opens it and returns a `&'static dyn DynSystem` that every
+//! generic piece accepts: its parameters, rows and filter run in the plugin (monomorphised
+//! there for its sizes, exactly as a linked system's are), the loader's side only moves
+//! numbers. A loaded library is never unloaded (its statics back the system for the rest
+//! of the process).
+
+mod convert;
+mod export;
+mod load;
+
+pub use export::export;
+pub use load::load;
+
+use std::ffi::c_void;
+
+use crate::qp::{Backend, QpStatus, Solver};
+use crate::system::MAX_RELATIVE_DEGREE;
+
+/// The version of [`PluginV1`]'s layout and meaning; a loader refuses any other.
+pub const ABI_VERSION: u32 = 1;
+
+/// The symbol a plugin exports: `extern "C" fn() -> *const PluginV1`.
+pub const ENTRY_POINT: &str = "cbfgen_plugin_v1";
+
+/// Room for an error message crossing the boundary (longer ones are cut at a character).
+pub const ERROR_CAPACITY: usize = 1024;
+
+/// An opaque object of the plugin's (parameters, rows or a filter).
+pub type Handle = *mut c_void;
+
+/// A UTF-8 string owned by the plugin (static for as long as it is loaded).
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+pub struct StrC {
+    /// First byte.
+    pub ptr: *const u8,
+    /// Length in bytes.
+    pub len: usize,
+}
+
+impl StrC {
+    /// `s`, borrowed.
+    pub fn new(s: &'static str) -> Self {
+        Self { ptr: s.as_ptr(), len: s.len() }
+    }
+}
+
+/// An error message written by the plugin into the caller's buffer.
+#[repr(C)]
+pub struct ErrorC {
+    /// Bytes used.
+    pub len: usize,
+    /// The message, UTF-8.
+    pub text: [u8; ERROR_CAPACITY],
+}
+
+impl ErrorC {
+    /// An empty message.
+    pub fn new() -> Self {
+        Self { len: 0, text: [0; ERROR_CAPACITY] }
+    }
+}
+
+impl Default for ErrorC {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// A parameter domain ([`crate::param_domain::Domain`]): `kind` 0 real, 1 positive, 2
+/// non-negative, 3 interval `[a, b]`, 4 unit vector (tolerance `a`), 5 rotation (tolerance
+/// `a`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+pub struct DomainC {
+    /// Which domain.
+    pub kind: u8,
+    /// Its first number, if it has one.
+    pub a: f64,
+    /// Its second number, if it has one.
+    pub b: f64,
+}
+
+/// One run-time parameter of a family: name, shape and domain.
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+pub struct ParamC {
+    /// Its name.
+    pub name: StrC,
+    /// Its shape (`[]`, `[n]`, `[r, c]`).
+    pub shape: *const usize,
+    /// Entries of `shape`.
+    pub rank: usize,
+    /// Its domain.
+    pub domain: DomainC,
+}
+
+/// [`crate::system::FamilyParams`]; the class-K function travels by name.
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+pub struct FamilyParamsC {
+    /// The poles, `n_poles` of them.
+    pub poles: [f64; MAX_RELATIVE_DEGREE],
+    /// How many poles.
+    pub n_poles: usize,
+    /// The priority tier.
+    pub priority: u8,
+    /// The activation threshold.
+    pub activation: f64,
+    /// [`crate::system::ClassK::name`].
+    pub class_k: StrC,
+}
+
+/// [`crate::system::FamilyInfo`].
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+pub struct FamilyC {
+    /// Its name.
+    pub name: StrC,
+    /// 0 barrier, 1 Lyapunov.
+    pub kind: u8,
+    /// Its relative degree.
+    pub relative_degree: usize,
+    /// Its rows' names.
+    pub row_names: *const StrC,
+    /// How many rows an instance has.
+    pub n_row_names: usize,
+    /// Its members (indexed families).
+    pub members: *const StrC,
+    /// How many members.
+    pub n_members: usize,
+    /// 0 fixed, 1 optional, 2 capacity.
+    pub instances: u8,
+    /// Instances per member, or the largest capacity.
+    pub count: usize,
+    /// Its run-time parameters.
+    pub params: *const ParamC,
+    /// How many.
+    pub n_params: usize,
+    /// The spec's defaults.
+    pub defaults: FamilyParamsC,
+}
+
+/// Everything static about the plugin's system.
+#[repr(C)]
+#[derive(Debug)]
+pub struct DescriptionC {
+    /// The spec's name.
+    pub name: StrC,
+    /// The spec's description.
+    pub doc: StrC,
+    /// Number of states.
+    pub nx: usize,
+    /// Number of inputs.
+    pub nu: usize,
+    /// `nx` state names.
+    pub state_names: *const StrC,
+    /// `nu` input names.
+    pub input_names: *const StrC,
+    /// `nu` lower input limits.
+    pub input_min: *const f64,
+    /// `nu` upper input limits.
+    pub input_max: *const f64,
+    /// The families.
+    pub families: *const FamilyC,
+    /// How many.
+    pub n_families: usize,
+}
+
+/// [`SolverSettings`](crate::qp::SolverSettings) field by field (`time_limit_ns` < 0: none).
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+#[allow(missing_docs)] // the fields are SolverSettings', documented there
+pub struct SolverC {
+    pub backend: u8,
+    pub dense_max_steps: u32,
+    pub eps_abs: f64,
+    pub eps_rel: f64,
+    pub max_iter: u32,
+    pub rho: f64,
+    pub sigma: f64,
+    pub alpha: f64,
+    pub adaptive_rho: bool,
+    pub adaptive_rho_interval: u32,
+    pub check_termination: u32,
+    pub time_limit_ns: i64,
+    pub polish: bool,
+    pub scaling: u32,
+}
+
+/// [`DynSettings`](crate::dynamic::DynSettings), in buffers the caller owns (one entry per
+/// family, one per input).
+#[repr(C)]
+#[derive(Debug)]
+pub struct SettingsC {
+    /// Per family.
+    pub families: *mut FamilyParamsC,
+    /// Per input: weights.
+    pub input_weights: *mut f64,
+    /// Per input: lower limits.
+    pub input_min: *mut f64,
+    /// Per input: upper limits.
+    pub input_max: *mut f64,
+    /// The solver's settings.
+    pub solver: SolverC,
+    /// Read the thread's CPU clock.
+    pub measure_cpu_time: bool,
+    /// Skip far rows.
+    pub cull_far_rows: bool,
+}
+
+/// [`RowLayout`](crate::system::RowLayout); `columns` static in the plugin.
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+#[allow(missing_docs)] // RowLayout's fields
+pub struct RowLayoutC {
+    pub family: usize,
+    pub member: usize,
+    pub instance: usize,
+    pub row: usize,
+    pub columns: *const usize,
+    pub n_columns: usize,
+}
+
+/// One row as last evaluated ([`RowView`](crate::dynamic::RowView)), pointing into the
+/// plugin's object (valid until it is next evaluated or freed).
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+#[allow(missing_docs)] // RowView's fields
+pub struct RowC {
+    pub lie: *const [f64; MAX_RELATIVE_DEGREE + 1],
+    pub lg: *const f64,
+    pub active: bool,
+    pub culled: bool,
+}
+
+/// An `Option<Cause>`: `kind` 0 none, 1 no authority, 2 input limit (`index` the input,
+/// `limit` 0 min / 1 max), 3 higher priority, 4 same priority (`index` the row), 5
+/// unsolved.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default)]
+#[allow(missing_docs)]
+pub struct CauseC {
+    pub kind: u8,
+    pub index: usize,
+    pub limit: u8,
+}
+
+/// A [`Safety`](crate::filter::Safety): `verdict` 0 met, 1 relaxed, 2 unassessed; the worst
+/// row when `worst_cause.kind` ≠ 0.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default)]
+#[allow(missing_docs)]
+pub struct SafetyC {
+    pub verdict: u8,
+    pub relaxed_rows: usize,
+    pub worst_row: usize,
+    pub worst_family: usize,
+    pub worst_slack: f64,
+    pub worst_relative: f64,
+    pub worst_cause: CauseC,
+}
+
+/// A filter's last update, written into the caller's buffers (`u`: `nu` entries; `active`,
+/// `delta`, `relative`, `causes`: one per row; `relaxation`: one per family). Enums as
+/// codes: `source` and `status`/`backend` index [`INPUT_SOURCES`], [`QP_STATUSES`],
+/// [`BACKENDS`] (−1: none); `nonfinite_row` and `cpu_time_ns` −1: none.
+#[repr(C)]
+#[derive(Debug)]
+#[allow(missing_docs)] // Output's fields
+pub struct ReportC {
+    pub u: *mut f64,
+    pub active: *mut bool,
+    pub delta: *mut f64,
+    pub relative: *mut f64,
+    pub causes: *mut CauseC,
+    pub relaxation: *mut crate::filter::FamilyRelaxation,
+    pub source: u8,
+    pub status: i8,
+    pub backend: i8,
+    pub dense_steps: u32,
+    pub dense_fallback: bool,
+    pub elastic_stages: u32,
+    pub nonfinite_row: i64,
+    pub iterations: u32,
+    pub polished: bool,
+    pub active_rows: usize,
+    pub safety: SafetyC,
+    pub convergence: SafetyC,
+    pub consecutive_fallbacks: u32,
+    pub eval_time_ns: u64,
+    pub solve_time_ns: u64,
+    pub cpu_time_ns: i64,
+}
+
+/// The operations on one family's instances ([`PluginV1::store`]).
+#[allow(missing_docs)]
+pub mod store_op {
+    pub const EXISTS: u32 = 0;
+    pub const LEN: u32 = 1;
+    pub const SLOTS: u32 = 2;
+    pub const IS_ENABLED: u32 = 3;
+    pub const GET: u32 = 4;
+    pub const SET: u32 = 5;
+    pub const PUSH: u32 = 6;
+    pub const REMOVE: u32 = 7;
+    pub const CLEAR: u32 = 8;
+    pub const SET_ENABLED: u32 = 9;
+}
+
+/// Which dynamics [`PluginV1::dynamics`] evaluates.
+#[allow(missing_docs)]
+pub mod dynamics_op {
+    pub const DRIFT: u32 = 0;
+    pub const INPUT_MATRIX: u32 = 1;
+    pub const XDOT: u32 = 2;
+}
+
+/// The plugin's table of entry points, version 1. Every fallible call returns a status
+/// (0, or a count ≥ 0) and −1 on error, with the message in `err`; a `Handle` call returns
+/// null on error. `rows` arguments say which kind of handle: `false` a barrier set's,
+/// `true` a filter's.
+#[repr(C)]
+#[allow(missing_docs)] // each mirrors the DynSystem method of the same name
+pub struct PluginV1 {
+    pub abi_version: u32,
+    /// The `cbfgen` version the plugin was built against.
+    pub core_version: StrC,
+    pub describe: unsafe extern "C" fn() -> *const DescriptionC,
+    pub dynamics: unsafe extern "C" fn(op: u32, x: *const f64, u: *const f64, out: *mut f64, err: *mut ErrorC) -> i32,
+    pub params_new:
+        unsafe extern "C" fn(counts: *const crate::dynamic::CapacityCount, n: usize, err: *mut ErrorC) -> Handle,
+    pub params_clone: unsafe extern "C" fn(params: Handle) -> Handle,
+    pub params_free: unsafe extern "C" fn(params: Handle),
+    /// A [`store_op`] on family `family`, member `member`: `values`/`len` in or out,
+    /// `flag` for `SET_ENABLED`; returns the count asked, 1/0 for yes/no, 0 otherwise.
+    pub store: unsafe extern "C" fn(
+        params: Handle,
+        op: u32,
+        family: usize,
+        member: usize,
+        instance: usize,
+        values: *mut f64,
+        len: usize,
+        flag: bool,
+        err: *mut ErrorC,
+    ) -> i64,
+    pub barriers_new: unsafe extern "C" fn(params: Handle, err: *mut ErrorC) -> Handle,
+    pub barriers_free: unsafe extern "C" fn(barriers: Handle),
+    pub barriers_evaluate:
+        unsafe extern "C" fn(barriers: Handle, t: f64, x: *const f64, params: Handle, err: *mut ErrorC) -> i32,
+    /// Row count of a barrier set or filter.
+    pub rows_len: unsafe extern "C" fn(rows: Handle, filter: bool) -> usize,
+    pub layout: unsafe extern "C" fn(rows: Handle, filter: bool, i: usize, out: *mut RowLayoutC) -> bool,
+    pub row: unsafe extern "C" fn(rows: Handle, filter: bool, i: usize, out: *mut RowC) -> bool,
+    pub default_settings: unsafe extern "C" fn(out: *mut SettingsC),
+    pub filter_new: unsafe extern "C" fn(
+        counts: *const crate::dynamic::CapacityCount,
+        n: usize,
+        settings: *const SettingsC,
+        err: *mut ErrorC,
+    ) -> Handle,
+    pub filter_free: unsafe extern "C" fn(filter: Handle),
+    pub filter_update: unsafe extern "C" fn(
+        filter: Handle,
+        t: f64,
+        x: *const f64,
+        u_ref: *const f64,
+        params: Handle,
+        err: *mut ErrorC,
+    ) -> i32,
+    pub filter_report: unsafe extern "C" fn(filter: Handle, out: *mut ReportC),
+    pub filter_fallback:
+        unsafe extern "C" fn(filter: Handle, u_ref: *const f64, out: *mut f64, err: *mut ErrorC) -> i32,
+    pub filter_settings: unsafe extern "C" fn(filter: Handle, out: *mut SettingsC),
+}
+
+// The table is plain data and function pointers into code that is itself thread-safe
+// (every object behind a handle is `Send`, the parameters `Sync`).
+unsafe impl Sync for PluginV1 {}
+unsafe impl Send for PluginV1 {}
+
+/// The codes of [`ReportC::source`].
+pub const INPUT_SOURCES: [crate::filter::InputSource; 4] = crate::filter::InputSource::ALL;
+/// The codes of [`ReportC::status`].
+pub const QP_STATUSES: [QpStatus; 9] = [
+    QpStatus::Solved,
+    QpStatus::SolvedInaccurate,
+    QpStatus::MaxIterations,
+    QpStatus::TimeLimit,
+    QpStatus::PrimalInfeasible,
+    QpStatus::DualInfeasible,
+    QpStatus::NonConvex,
+    QpStatus::SolverFault,
+    QpStatus::NonFinite,
+];
+/// The codes of [`ReportC::backend`].
+pub const BACKENDS: [Backend; 2] = [Backend::Dense, Backend::Osqp];
+/// The codes of [`SolverC::backend`].
+pub const SOLVERS: [Solver; 3] = Solver::ALL;
+
+/// `value`'s position in `table` (every enum value is in its table).
+fn code<T: PartialEq>(table: &[T], value: &T) -> u8 {
+    table.iter().position(|v| v == value).unwrap_or(0) as u8
+}
+
+/// The value of `code` in `table`, if it is one.
+fn decode<T: Copy>(table: &[T], code: i64) -> Option<T> {
+    usize::try_from(code).ok().and_then(|i| table.get(i)).copied()
+}
