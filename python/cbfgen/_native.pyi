@@ -110,6 +110,10 @@ SOLVERS: list[str]
 def systems() -> list[str]:
     """The names of every built-in system, then of every system loaded with cbfgen.load."""
 
+BUILT_FROM: str
+"""The cbfgen clone this module was built from (cbfgen.load's last place to look for sources)."""
+PLUGIN_ABI_VERSION: int
+
 def load_plugin(path: str | os.PathLike[str]) -> System:
     """The system of a plugin library (what cbfgen.load builds), checked for its ABI and
     core version; a path loads once per process."""

@@ -12,7 +12,8 @@ and ``System(name)`` finds it afterwards.
 
 Building needs what building a Rust crate on cbfgen needs: Rust (``cargo``), Python with
 SymEngine (this interpreter), CMake for OSQP's C sources, and cbfgen's sources (a clone:
-found beside the spec or the working directory, or named by ``CBFGEN_SOURCE``).
+named by ``CBFGEN_SOURCE``, found around the spec or the working directory, or the one
+this module was installed from with ``pip install .``).
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from pathlib import Path
 
 from . import _native
 
-ABI_VERSION = 1  # cbfgen::plugin::ABI_VERSION: a cached build of another ABI is never reused
+ABI_VERSION = _native.PLUGIN_ABI_VERSION  # a cached build of another ABI is never reused
 SOURCE_ENV = "CBFGEN_SOURCE"
 CACHE_ENV = "CBFGEN_CACHE"
 
@@ -53,7 +54,8 @@ def _is_source(folder: Path) -> bool:
 
 def source_dir(near: Path | None = None) -> Path:
     """cbfgen's sources: ``CBFGEN_SOURCE``, else the first folder at or above ``near`` or
-    the working directory that is a clone of cbfgen."""
+    the working directory that is a clone of cbfgen, else the clone this module was built
+    from (``pip install .``), if it is still there."""
     named = os.environ.get(SOURCE_ENV)
     if named:
         if not _is_source(Path(named)):
@@ -64,6 +66,9 @@ def source_dir(near: Path | None = None) -> Path:
         for folder in [start.resolve(), *start.resolve().parents]:
             if _is_source(folder):
                 return folder
+    built_from = Path(_native.BUILT_FROM)
+    if _is_source(built_from):
+        return built_from.resolve()
     raise LoadError(f"cbfgen.load builds the spec against cbfgen's sources: set {SOURCE_ENV} to a clone of "
                     "cbfgen (or work inside one)")
 

@@ -109,6 +109,10 @@ fn _native(m: &Bound<'_, PyModule>) -> pyo3::PyResult<()> {
     m.add("SSAT_ALPHA_RANGE", (cbfgen::ssat::ALPHA_MIN, cbfgen::ssat::ALPHA_MAX))?;
     m.add("MAX_COORDINATE", cbfgen::geometry::MAX_COORDINATE)?;
     m.add("HALF_EXTENT_RANGE", (cbfgen::geometry::MIN_HALF_EXTENT, cbfgen::geometry::MAX_HALF_EXTENT))?;
+    // The clone this module was built from (`pip install .` builds in place): where
+    // cbfgen.load finds the core's sources when nothing else names them.
+    m.add("BUILT_FROM", concat!(env!("CARGO_MANIFEST_DIR"), "/.."))?;
+    m.add("PLUGIN_ABI_VERSION", cbfgen::plugin::ABI_VERSION)?;
     system::register(m)?;
     ssat::register(m)?;
     kernel_table::register(m)?;

@@ -114,3 +114,12 @@ def test_missing_tools_and_sources_are_one_line_naming_the_fix(environment, tmp_
         cbfgen.load(spec, progress=False)
     with pytest.raises(cbfgen.LoadError, match="no spec file"):
         cbfgen.load(tmp_path / "nothing.py")
+
+
+def test_the_sources_are_found_from_the_spec_the_working_directory_or_the_install(tmp_path, monkeypatch):
+    monkeypatch.delenv("CBFGEN_SOURCE", raising=False)
+    inside = REPO_ROOT / "systems" / "double_integrator" / "spec"
+    assert cbfgen.plugins.source_dir(inside) == REPO_ROOT
+    # Outside any clone: the one the module was built from (here, this repository).
+    monkeypatch.chdir(tmp_path)
+    assert cbfgen.plugins.source_dir(tmp_path) == Path(cbfgen._native.BUILT_FROM).resolve() == REPO_ROOT
