@@ -157,15 +157,20 @@ def _build(source: Path, spec: Path, name: str, crate: Path, library: Path, prog
     done = subprocess.Popen([cargo, "build", "--release", "--manifest-path", str(crate / "Cargo.toml")],
                             cwd=crate, env=env, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
     lines = []
+    live = progress and sys.stderr.isatty()  # one line redrawn; a log gets the start and the end
+    if progress and not live:
+        print(f"cbfgen.load {name}: building {spec} (the first build compiles the core too)", file=sys.stderr)
     assert done.stderr is not None
     for line in done.stderr:
         lines.append(line)
         text = line.strip()
-        if progress and text.startswith(("Compiling", "Finished")):
+        if live and text.startswith(("Compiling", "Finished")):
             print(f"\rcbfgen.load {name}: {text[:60]:<60} {time.monotonic() - start:5.0f} s", end="",
                   file=sys.stderr, flush=True)
-    if progress:
+    if live:
         print(file=sys.stderr)
+    elif progress:
+        print(f"cbfgen.load {name}: built in {time.monotonic() - start:.0f} s", file=sys.stderr)
     if done.wait() != 0:
         errors = [line.rstrip() for line in lines if line.startswith("error")]
         detail = "".join(lines[-40:])
