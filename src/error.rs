@@ -138,6 +138,19 @@ pub enum CbfError {
         /// `det R` (negative for a reflection).
         determinant: f64,
     },
+    /// A cost matrix (a spec's objective `P(x)`) that is not symmetric positive definite
+    /// with every Cholesky pivot at least [`crate::qp::metric::MIN_PIVOT`] of its largest
+    /// diagonal entry.
+    NotPositiveDefinite {
+        /// Which matrix, as named in the message.
+        what: &'static str,
+        /// The first index where the Cholesky factorisation failed (or the asymmetric
+        /// entry's row).
+        index: usize,
+        /// That pivot relative to the largest diagonal entry (`NaN` for a matrix that is
+        /// not finite or not symmetric).
+        value: f64,
+    },
     /// A run-time parameter outside the domain its spec declares (or a primitive it is used
     /// in requires): a negative half extent, a reflection given as a rotation, a NaN. See
     /// [`param_domain`](crate::param_domain). Holds no heap data, so the control path can
@@ -190,6 +203,15 @@ impl fmt::Display for CbfError {
             CbfError::NotARotation { deviation, determinant } => {
                 write!(f, "rotation is not a proper rotation (|R^T R - I| = {deviation:.3e}, det R = {determinant:.6})")
             }
+            CbfError::NotPositiveDefinite { what, index, value } if value.is_nan() => {
+                write!(f, "{what} is not a finite symmetric matrix (row {index})")
+            }
+            CbfError::NotPositiveDefinite { what, index, value } => write!(
+                f,
+                "{what} is not positive definite (Cholesky pivot {index} is {value:.3e} of the largest diagonal entry; at least {:e} is \
+                 required)",
+                crate::qp::metric::MIN_PIVOT
+            ),
             CbfError::ParamOutOfDomain { family, member, instance, param, found: Found::NotSet, .. } => write!(
                 f,
                 "{}: parameter {param} was never set (a fixed instance's parameters are refused until they are \

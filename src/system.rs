@@ -498,6 +498,38 @@ pub trait BarrierSet<const NU: usize> {
     fn cull_above(&mut self, thresholds: &[f64]) {
         let _ = thresholds;
     }
+
+    /// Whether the system has an objective (a spec's `s.objective(P=…, q=…)`): the filter
+    /// then minimises `½ (u − u_ref)ᵀ P (u − u_ref) + qᵀ u` with [`BarrierSet::objective`]'s
+    /// `P` and `q` instead of the input weights'. `false` unless implemented.
+    fn has_objective(&self) -> bool {
+        false
+    }
+
+    /// Write the objective's `P(x)` and `q(x)` at time `t` (read by time-varying systems
+    /// only), state `x` and `params` into `cost`; called each update when
+    /// [`BarrierSet::has_objective`], after [`BarrierSet::evaluate`] accepted the same
+    /// arguments. The filter checks `P` (symmetric positive definite,
+    /// [`crate::qp::metric`]). Must not allocate.
+    fn objective(&self, t: f64, x: &Self::State, params: &Self::Params, cost: &mut Objective<NU>) {
+        let _ = (t, x, params, cost);
+    }
+}
+
+/// A quadratic objective `½ uᵀ P u + qᵀ u` at one state ([`BarrierSet::objective`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Objective<const NU: usize> {
+    /// `P`, symmetric positive definite, row by row.
+    pub p: [[f64; NU]; NU],
+    /// `q`.
+    pub q: [f64; NU],
+}
+
+impl<const NU: usize> Default for Objective<NU> {
+    /// The weights' default: `P = I`, `q = 0`.
+    fn default() -> Self {
+        Self { p: std::array::from_fn(|i| std::array::from_fn(|j| f64::from(u8::from(i == j)))), q: [0.0; NU] }
+    }
 }
 
 /// Instances of one capacity-sized family, filled at run time up to a capacity fixed at

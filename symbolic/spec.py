@@ -705,6 +705,15 @@ class Constant:
 
 
 @dataclass(frozen=True)
+class Objective:
+    """The filter's cost ``1/2 u^T P(x) u + q(x)^T u`` (see :meth:`System.objective`)."""
+
+    P: list[list[se.Expr]]
+    q: list[se.Expr]
+    doc: str
+
+
+@dataclass(frozen=True)
 class Output:
     """A state function the module exposes: ``values`` are ``(name, value, doc)``, each
     value an expression, a vector (list) or a matrix (list of rows)."""
@@ -770,7 +779,7 @@ def _state_expr(where: str, e: object, states: set) -> se.Expr:
     expr = _expr(where, "value", e)
     stray = expr.free_symbols - states
     if stray:
-        raise SpecError(f"{where}: uses {sorted(map(str, stray))}; outputs depend on the states only")
+        raise SpecError(f"{where}: uses {sorted(map(str, stray))}; it depends on the states only")
     return expr
 
 
@@ -798,6 +807,7 @@ class System:
     families: list[Family] = field(default_factory=list)
     constants: list[Constant] = field(default_factory=list)
     outputs: list[Output] = field(default_factory=list)
+    cost: Objective | None = None
     source: Path | None = None
 
     def __post_init__(self):
@@ -1090,6 +1100,48 @@ class System:
         if len(set(names)) != len(names):
             raise SpecError(f"{where}: value names {names} repeat a name")
         self.outputs.append(Output(name, parsed, doc))
+
+    def objective(self, P: object, q: object = None, *, doc: str = "") -> None:
+        """The filter's cost, a quadratic in the input with coefficients of the state:
+        the filter minimises ``1/2 (u - u_ref)^T P(x) (u - u_ref) + q(x)^T u`` (pass
+        ``u_ref = 0`` for ``1/2 u^T P u + q^T u`` alone) instead of the input weights'
+        ``sum_j w_j (u_j - u_ref_j)^2``; priorities still come first. ``P`` is an
+        ``NU x NU`` list of rows, symmetric (checked here, symbolically) and positive
+        definite wherever the filter runs (checked every cycle: an update at a state where
+        it is not is a typed error, ``NotPositiveDefinite``); ``q`` a list of ``NU``
+        (default zeros). Both depend on the states only. The filter's input weights must
+        then stay at 1."""
+        where = f"{self.where}, objective"
+        if self.cost is not None:
+            raise SpecError(f"{where}: declared twice")
+        if not self.input_names:
+            raise SpecError(f"{where}: declare the inputs first (P is NU x NU)")
+        nu = len(self.input_names)
+        states = set(self.x)
+        if (isinstance(P, str) or not isinstance(P, Sequence) or len(P) != nu
+                or not all(isinstance(r, Sequence) and not isinstance(r, str) and len(r) == nu for r in P)):
+            raise SpecError(f"{where}: P must be {nu} x {nu}: a list of {nu} rows of {nu} entries (one per "
+                            f"input), got {P!r}")
+        matrix = [[_state_expr(f"{where}, P[{i}][{j}]", e, states) for j, e in enumerate(row)]
+                  for i, row in enumerate(P)]
+        for i in range(nu):
+            for j in range(i + 1, nu):
+                if se.expand(matrix[i][j] - matrix[j][i]) != 0:
+                    raise SpecError(f"{where}: P is not symmetric: P[{i}][{j}] = {matrix[i][j]} but P[{j}][{i}] = "
+                                    f"{matrix[j][i]}")
+        if q is None:
+            q = [0] * nu
+        if isinstance(q, str) or not isinstance(q, Sequence) or len(q) != nu:
+            raise SpecError(f"{where}: q must be a list of {nu} entr{'y' if nu == 1 else 'ies'} (one per input), "
+                            f"got {q!r}")
+        linear = [_state_expr(f"{where}, q[{j}]", e, states) for j, e in enumerate(q)]
+        for i in range(nu):
+            if matrix[i][i].is_number and not float(matrix[i][i]) > 0:
+                raise SpecError(f"{where}: P[{i}][{i}] = {matrix[i][i]}: a positive definite P has a positive "
+                                "diagonal")
+        if not isinstance(doc, str):
+            raise SpecError(f"{where}: doc must be a string")
+        self.cost = Objective(matrix, linear, doc)
 
     def check_complete(self) -> None:
         if not self.state_names:

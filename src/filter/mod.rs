@@ -16,7 +16,10 @@
 //!
 //! # The safety promise
 //! Every row is **met exactly when the rows and the input box are compatible**: the
-//! answer is then the closest input to the nominal one, `min Σ_j w_j (u_j − u_ref,j)²`.
+//! answer is then the closest input to the nominal one, `min Σ_j w_j (u_j − u_ref,j)²` —
+//! or, for a system whose spec gives an objective ([`BarrierSet::has_objective`]),
+//! `min ½ (u − u_ref)ᵀ P(x) (u − u_ref) + q(x)ᵀ u`, with `P(x)` checked positive definite
+//! every cycle ([`crate::qp::metric`]).
 //! When they are not, the families' priorities decide
 //! ([`FamilyParams::priority`](crate::system::FamilyParams::priority)): tier 0 is met
 //! if the box allows it, else relaxed as little as possible (its largest violation, in
@@ -139,7 +142,8 @@ pub use verdict::{Cause, FamilyRelaxation, Limit, RelaxedRow, Safety, Verdict};
 
 use crate::cpu_time::thread_cpu_time;
 use crate::error::CbfError;
-use crate::system::{BarrierSet, FamilyKind, Row};
+use crate::qp::metric::InputMetric;
+use crate::system::{BarrierSet, FamilyKind, Objective, Row};
 
 /// Where this cycle's input came from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -291,6 +295,9 @@ pub struct EcbfFilter<B: BarrierSet<NU>, const NU: usize> {
     relaxation: Vec<FamilyRelaxation>,
     last_safe: Option<[f64; NU]>,
     output: FilterOutput<NU>,
+    /// The system's objective, when it has one ([`BarrierSet::has_objective`]): this
+    /// cycle's `P(x)`, `q(x)`.
+    cost: Option<Objective<NU>>,
 }
 
 impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
@@ -320,8 +327,20 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
                 priority: settings.families[s.family].priority,
             })
             .collect();
-        let qp =
-            EcbfQp::new(&specs, &settings.input_weights, &settings.input_min, &settings.input_max, settings.solver)?;
+        let cost = barriers.has_objective().then(Objective::default);
+        let qp = if cost.is_some() {
+            // The objective is the cost: weights beside it would be a second, silent one.
+            if let Some(&w) = settings.input_weights.iter().find(|&&w| w != 1.0) {
+                return Err(CbfError::OutOfRange {
+                    what: "input weight of a system with an objective (its P(x) is the cost; leave the weights at 1)",
+                    value: w,
+                    range: "[1, 1]",
+                });
+            }
+            EcbfQp::with_cost_matrix(&specs, &settings.input_min, &settings.input_max, settings.solver)?
+        } else {
+            EcbfQp::new(&specs, &settings.input_weights, &settings.input_min, &settings.input_max, settings.solver)?
+        };
         let activation = barriers.layout().iter().map(|s| settings.families[s.family].activation).collect();
         let rows = barriers.layout().len();
         let families = barriers.families().len();
@@ -334,6 +353,7 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
             relaxation: vec![FamilyRelaxation::default(); families],
             last_safe: None,
             output: FilterOutput::before_any_update([0.0; NU]),
+            cost,
         })
     }
 
@@ -358,7 +378,9 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
     /// # Errors
     /// `x`, `t`, `u_ref` or `params` outside their domain (NaN/inf, `|x_i| >`
     /// [`STATE_LIMIT`](crate::system::STATE_LIMIT), `|u_ref_j| >`
-    /// [`domain::MAX_INPUT`], parameters of another capacity); the filter is then
+    /// [`domain::MAX_INPUT`], parameters of another capacity), or an objective whose `P(x)`
+    /// is not positive definite at `x` ([`CbfError::NotPositiveDefinite`]) or whose
+    /// unconstrained minimiser is beyond ±[`domain::MAX_INPUT`]; the filter's output is then
     /// unchanged. Solver trouble is not an error: see the [module docs](self).
     pub fn update_at(
         &mut self,
@@ -371,6 +393,16 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
         let cpu_start = if self.settings.measure_cpu_time { thread_cpu_time() } else { None };
         let start = Instant::now();
         self.barriers.evaluate(t, x, params)?;
+        // The cost: the weights' about u_ref, or the objective's metric about its centre.
+        let centre = match &mut self.cost {
+            None => *u_ref,
+            Some(cost) => {
+                self.barriers.objective(t, x, params, cost);
+                let (metric, centre) = InputMetric::objective(&cost.p, &cost.q, u_ref)?;
+                self.qp.set_metric(&metric)?;
+                centre
+            }
+        };
         let mut active_rows = 0;
         for ((on, row), &threshold) in self.active.iter_mut().zip(self.barriers.rows()).zip(&self.activation) {
             // A NaN row takes part, so the QP reports it (`nonfinite_row`) and the input
@@ -379,7 +411,7 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
             active_rows += usize::from(*on);
         }
         let evaluated = Instant::now();
-        let solved = self.qp.solve(u_ref, self.barriers.rows(), &self.active);
+        let solved = self.qp.solve(&centre, self.barriers.rows(), &self.active);
         let out = &mut self.output;
         out.eval_time = evaluated - start;
         out.active_rows = active_rows;

@@ -13,7 +13,10 @@
 //!
 //! OSQP sees only the first stage — every row hard — in scaled variables `ũ = √w ∘ u`, so
 //! that `P = I`, with each row divided by its norm every cycle (exact, and it tracks the
-//! rows as they change, which OSQP's set-up-time scaling cannot). Its answer is never
+//! rows as they change, which OSQP's set-up-time scaling cannot). A spec's objective
+//! replaces the weights by a cost matrix `P = L Lᵀ` ([`crate::qp::metric`]): the scaled
+//! variables are then `ũ = Lᵀ u`, every row and the box rows dense in them
+//! ([`EcbfQp::with_cost_matrix`] lays them out so). Its answer is never
 //! handed on as an optimum: the dense solve, started from the face OSQP's iterate suggests,
 //! verifies it (and runs the cascade when the rows do not fit), or the cycle is flagged
 //! [`QpStatus::MaxIterations`]. Inactive rows keep their place with bounds `(−∞, ∞)` and
@@ -28,6 +31,7 @@ use crate::error::CbfError;
 use crate::qp::csc::Csc;
 use crate::qp::dual_active_set::{ActiveRow, Side};
 use crate::qp::lexicographic::{Cause, LexicographicSolver, Outcome, TieredRow};
+use crate::qp::metric::InputMetric;
 use crate::qp::osqp_workspace::{self, OsqpQp};
 use crate::qp::recorded::{RecordedQp, RecordedRow};
 use crate::qp::{Backend, Iterate, QpStatus, Solver, SolverSettings, INFINITY as INF};
@@ -52,13 +56,16 @@ pub const MET_TOLERANCE: f64 = 1e-8;
 /// The QP, its solvers, and the last answer and its assessment.
 pub struct EcbfQp<const NU: usize> {
     rows: usize,
-    sqrt_w: [f64; NU],
+    /// The cost's metric: the weights', or the last one [`EcbfQp::set_metric`] gave.
+    metric: InputMetric<NU>,
+    /// Laid out for any metric (every row and the box dense in OSQP's matrix).
+    general: bool,
     gains: Vec<Gains>,
     priority: Vec<u8>,
     /// OSQP's constraint matrix (ECBF rows, then the box).
     a: Csc,
     /// Row `i`'s entries are `row_entries[row_start[i]..row_start[i + 1]]`: (index into
-    /// `a.data`, input column).
+    /// `a.data`, input column); the box rows follow as rows `rows..rows + NU`.
     row_start: Vec<usize>,
     row_entries: Vec<(usize, usize)>,
     /// This cycle's rows as the dense solve takes them (`b = L_f^r h + Σ k_i L_f^i h`),
@@ -123,6 +130,32 @@ impl<const NU: usize> EcbfQp<NU> {
         input_max: &[f64; NU],
         settings: SolverSettings,
     ) -> Result<Self, CbfError> {
+        Self::build(rows, input_weights, input_min, input_max, settings, false)
+    }
+
+    /// As [`EcbfQp::new`], for a cost matrix that changes every cycle
+    /// ([`EcbfQp::set_metric`]; unit weights until then): OSQP's matrix holds every row
+    /// and the box dense, since `L⁻¹` fills a row's pattern in.
+    ///
+    /// # Errors
+    /// As [`EcbfQp::new`].
+    pub fn with_cost_matrix(
+        rows: &[RowSpec<'_>],
+        input_min: &[f64; NU],
+        input_max: &[f64; NU],
+        settings: SolverSettings,
+    ) -> Result<Self, CbfError> {
+        Self::build(rows, &[1.0; NU], input_min, input_max, settings, true)
+    }
+
+    fn build(
+        rows: &[RowSpec<'_>],
+        input_weights: &[f64; NU],
+        input_min: &[f64; NU],
+        input_max: &[f64; NU],
+        settings: SolverSettings,
+        general: bool,
+    ) -> Result<Self, CbfError> {
         settings.validate()?;
         validate_inputs(input_weights, input_min, input_max)?;
         let m = rows.len();
@@ -140,16 +173,21 @@ impl<const NU: usize> EcbfQp<NU> {
             domain::priority(r.priority)?;
         }
 
-        // A is (m ECBF rows + NU box rows) × NU inputs; row i's entries, then the box.
+        // A is (m ECBF rows + NU box rows) × NU inputs; row i's entries, then the box (the
+        // rows of L⁻ᵀ, upper triangular, for a general metric).
         let mut entries = Vec::new();
-        let mut row_cols: Vec<Vec<usize>> = vec![Vec::new(); m];
+        let mut row_cols: Vec<Vec<usize>> = vec![Vec::new(); m + NU];
         for (i, r) in rows.iter().enumerate() {
-            row_cols[i] = (0..NU).filter(|j| r.columns.contains(j)).collect();
-            entries.extend(row_cols[i].iter().map(|&j| (i, j)));
+            row_cols[i] = (0..NU).filter(|j| general || r.columns.contains(j)).collect();
         }
-        entries.extend((0..NU).map(|j| (m + j, j)));
-        let (mut a, slots) = Csc::from_entries(m + NU, NU, &entries);
-        let mut row_start = Vec::with_capacity(m + 1);
+        for j in 0..NU {
+            row_cols[m + j] = if general { (j..NU).collect() } else { vec![j] };
+        }
+        for (i, cols) in row_cols.iter().enumerate() {
+            entries.extend(cols.iter().map(|&j| (i, j)));
+        }
+        let (a, slots) = Csc::from_entries(m + NU, NU, &entries);
+        let mut row_start = Vec::with_capacity(m + NU + 1);
         let mut row_entries = Vec::with_capacity(entries.len());
         row_start.push(0);
         for cols in &row_cols {
@@ -157,20 +195,11 @@ impl<const NU: usize> EcbfQp<NU> {
             row_entries.extend(cols.iter().enumerate().map(|(k, &j)| (slots[first + k], j)));
             row_start.push(row_entries.len());
         }
-        for j in 0..NU {
-            a.data[slots[row_entries.len() + j]] = 1.0; // box row
-        }
-        let sqrt_w = input_weights.map(f64::sqrt);
-        let mut lower = vec![-INF; m + NU];
-        let mut upper = vec![INF; m + NU];
-        for j in 0..NU {
-            lower[m + j] = sqrt_w[j] * input_min[j];
-            upper[m + j] = sqrt_w[j] * input_max[j];
-        }
         let empty = TieredRow { a: [0.0; NU], b: 0.0, tier: 0 };
         let mut qp = Self {
             rows: m,
-            sqrt_w,
+            metric: InputMetric::from_weights(input_weights),
+            general,
             gains: rows.iter().map(|r| r.gains).collect(),
             priority: rows.iter().map(|r| r.priority).collect(),
             a,
@@ -189,8 +218,8 @@ impl<const NU: usize> EcbfQp<NU> {
             input_min: *input_min,
             input_max: *input_max,
             q: vec![0.0; NU],
-            lower,
-            upper,
+            lower: vec![-INF; m + NU],
+            upper: vec![INF; m + NU],
             settings,
             problem: None,
             u: [0.0; NU],
@@ -202,11 +231,55 @@ impl<const NU: usize> EcbfQp<NU> {
             iterations: 0,
             polished: false,
         };
+        qp.write_osqp_box();
         // OSQP is set up whenever it may run, so that its first run allocates nothing.
         if settings.backend != Solver::Dense {
             osqp_workspace::set_up(&mut qp)?;
         }
         Ok(qp)
+    }
+
+    /// Measure the distance to the nominal input in `metric` from the next solve on
+    /// (input weights' diagonal metric until then): what a spec's objective sets each
+    /// cycle, with its centre as the nominal input ([`InputMetric::objective`]).
+    /// Allocation-free, `O(NU²)`.
+    ///
+    /// # Errors
+    /// A metric that is not diagonal on a QP laid out by [`EcbfQp::new`] (OSQP's matrix
+    /// has no room for it: lay it out with [`EcbfQp::with_cost_matrix`]).
+    pub fn set_metric(&mut self, metric: &InputMetric<NU>) -> Result<(), CbfError> {
+        if !self.general && !metric.is_diagonal() {
+            return Err(CbfError::OutOfRange {
+                what: "cost matrix of a QP laid out for input weights (EcbfQp::with_cost_matrix lays one out)",
+                value: f64::NAN,
+                range: "diagonal",
+            });
+        }
+        self.metric = *metric;
+        self.dense.set_metric(metric);
+        self.write_osqp_box();
+        Ok(())
+    }
+
+    /// The box rows of OSQP's scaled problem: `√w_j min_j ≤ ũ_j ≤ √w_j max_j` for a
+    /// diagonal metric, `min_j ≤ (L⁻ᵀ ũ)_j ≤ max_j` for any other.
+    fn write_osqp_box(&mut self) {
+        for j in 0..NU {
+            let row = self.rows + j;
+            for &(k, c) in &self.row_entries[self.row_start[row]..self.row_start[row + 1]] {
+                self.a.data[k] = if self.metric.is_diagonal() {
+                    if c == j {
+                        1.0
+                    } else {
+                        0.0
+                    }
+                } else {
+                    self.metric.box_row(j)[c]
+                };
+            }
+            let scale = if self.metric.is_diagonal() { self.metric.root_weight(j) } else { 1.0 };
+            (self.lower[row], self.upper[row]) = (scale * self.input_min[j], scale * self.input_max[j]);
+        }
     }
 
     /// Number of ECBF rows.
@@ -371,8 +444,8 @@ impl<const NU: usize> EcbfQp<NU> {
     /// Write this cycle's scaled first stage into OSQP's data: each active row divided by
     /// its norm (scaled variables), inactive rows unbounded with zero coefficients.
     fn load_osqp(&mut self, u_ref: &[f64; NU]) {
-        for ((q, w), r) in self.q.iter_mut().zip(&self.sqrt_w).zip(u_ref) {
-            *q = -w * r;
+        for (q, centre) in self.q.iter_mut().zip(self.metric.scaled(u_ref)) {
+            *q = -centre;
         }
         for i in 0..self.rows {
             let entries = &self.row_entries[self.row_start[i]..self.row_start[i + 1]];
@@ -386,7 +459,8 @@ impl<const NU: usize> EcbfQp<NU> {
             }
             // The row's 2-norm in scaled variables, computed relative to its largest entry
             // so that squaring cannot overflow for any finite row.
-            let largest = entries.iter().map(|&(_, c)| (row.a[c] / self.sqrt_w[c]).abs()).fold(0.0, f64::max);
+            let scaled = self.metric.scaled_row(&row.a);
+            let largest = entries.iter().map(|&(_, c)| scaled[c].abs()).fold(0.0, f64::max);
             if largest == 0.0 {
                 for &(k, _) in entries {
                     self.a.data[k] = 0.0;
@@ -394,10 +468,10 @@ impl<const NU: usize> EcbfQp<NU> {
                 self.lower[i] = -INF; // no input acts: nothing for OSQP to do with it
                 continue;
             }
-            let norm2 = entries.iter().map(|&(_, c)| (row.a[c] / self.sqrt_w[c] / largest).powi(2)).sum::<f64>();
+            let norm2 = entries.iter().map(|&(_, c)| (scaled[c] / largest).powi(2)).sum::<f64>();
             let scale = 1.0 / (largest * norm2.sqrt());
             for &(k, c) in entries {
-                self.a.data[k] = row.a[c] / self.sqrt_w[c] * scale;
+                self.a.data[k] = scaled[c] * scale;
             }
             // A bound this large is a row that cannot bind; clamp so OSQP reads it as one.
             self.lower[i] = (-row.b * scale).clamp(-INF, INF);
@@ -422,7 +496,9 @@ impl<const NU: usize> EcbfQp<NU> {
             if self.osqp_face.len() == NU {
                 break;
             }
-            let (value, dual) = (z[j], y[self.rows + j]);
+            let row = self.rows + j;
+            let entries = &self.row_entries[self.row_start[row]..self.row_start[row + 1]];
+            let (value, dual) = (entries.iter().map(|&(e, c)| self.a.data[e] * z[c]).sum::<f64>(), y[row]);
             if value - self.lower[self.rows + j] < -dual {
                 self.osqp_face.push(ActiveRow { row: self.rows + j, side: Side::Lower });
             } else if self.upper[self.rows + j] - value < dual {
@@ -439,6 +515,7 @@ impl<const NU: usize> EcbfQp<NU> {
             layout_rows: self.rows,
             weights: self.input_weights.to_vec(),
             u_ref: self.u_ref.to_vec(),
+            cost_matrix: (!self.metric.is_diagonal()).then(|| self.metric.matrix().concat()),
             input_min: self.input_min.to_vec(),
             input_max: self.input_max.to_vec(),
             rows: (0..self.rows)
@@ -545,9 +622,7 @@ impl<const NU: usize> OsqpQp for EcbfQp<NU> {
         self.iterations = iterations;
         self.osqp_face.clear();
         if let Some((z, y)) = iterate {
-            for ((u, z), w) in self.u.iter_mut().zip(z).zip(&self.sqrt_w) {
-                *u = z / w;
-            }
+            self.u = self.metric.unscaled(z);
             self.guess_face(z, y);
         }
     }

@@ -7,7 +7,8 @@
 //!    relaxes them as little as possible;
 //! 2. then does the same for tier 1 in the room tier 0 leaves, and so on;
 //! 3. and among the inputs that achieve all that, is the closest to the nominal input
-//!    `r` in the weighted norm `Σ_j w_j (u_j − r_j)²`.
+//!    `r` in the weighted norm `Σ_j w_j (u_j − r_j)²` — or, with a cost matrix `P` set by
+//!    [`LexicographicSolver::set_metric`], in `(u − c)ᵀ P (u − c)`.
 //!
 //! No weight ratio stands in for a priority: a lower tier never buys anything with a
 //! higher tier's violation, whatever the units its rows are written in.
@@ -17,7 +18,9 @@
 //! dual active-set method ([`DualActiveSet`], KKT-verified before it answers). Stages work
 //! in the scaled inputs `z_j = √w_j u_j`, where the weights appear only in the rows
 //! (`a_ij / √w_j`) and the box, and every cost matrix is the identity: weights however far
-//! apart leave the solver's conditioning, and its checks, as they are.
+//! apart leave the solver's conditioning, and its checks, as they are. A general cost
+//! matrix `P = L Lᵀ` works the same way in `z = Lᵀ u` ([`crate::qp::metric`]): the rows
+//! read `L⁻¹ a`, and the box becomes the rows of `L⁻ᵀ`.
 //! * **H (hard)**: `min ½ Σ w_j (u_j − r_j)²` over the box with every row hard at its
 //!   current relaxation, `a_i·u + b_i + ρ_i ≥ 0` (`ρ_i = 0` until a stage fixes it). When
 //!   the rows and the box are compatible — the usual case — this one solve is the answer:
@@ -69,6 +72,7 @@
 // Index loops mirror the formulas (rows × inputs).
 #![allow(clippy::needless_range_loop)]
 use super::dual_active_set::{ActiveRow, DenseStatus, DualActiveSet, WarmStart, KKT_TOLERANCE};
+use super::metric::InputMetric;
 use crate::error::CbfError;
 
 /// The elastic stage's linear cost on the violation `t`, relative to the inputs' scale
@@ -313,8 +317,9 @@ impl PackedStage {
 /// The solver: the box, the weights and the buffers of both stages, laid out once.
 #[derive(Debug, Clone)]
 pub struct LexicographicSolver<const NU: usize> {
-    /// `√w_j`: every stage works in the scaled inputs `z_j = √w_j u_j` (module docs).
-    root_weights: [f64; NU],
+    /// `P = L Lᵀ`: every stage works in the scaled inputs `z = Lᵀ u` (`z_j = √w_j u_j`
+    /// for input weights; module docs).
+    metric: InputMetric<NU>,
     input_min: [f64; NU],
     input_max: [f64; NU],
     rows: usize,
@@ -368,9 +373,8 @@ impl<const NU: usize> LexicographicSolver<NU> {
         }
         let hard = PackedStage::new(&identity(NU), NU, NU, rows, HARD_SLOTS)?;
         let elastic = PackedStage::new(&identity(NU + 1), NU + 1, NU + 1, rows, TIERS)?;
-        let root_weights = weights.map(f64::sqrt);
         let mut solver = Self {
-            root_weights,
+            metric: InputMetric::from_weights(weights),
             input_min: *input_min,
             input_max: *input_max,
             rows,
@@ -388,20 +392,40 @@ impl<const NU: usize> LexicographicSolver<NU> {
             elastic_stages: 0,
             outcome: Outcome::Verified,
         };
-        // The box rows (and t ≥ 0) never change.
-        for stage in [&mut solver.hard, &mut solver.elastic] {
-            let n = stage.n;
-            let data = stage.qp.data_mut();
-            for j in 0..NU {
-                data.a[j * n + j] = 1.0;
-                data.lower[j] = root_weights[j] * input_min[j];
-                data.upper[j] = root_weights[j] * input_max[j];
-            }
-        }
+        solver.write_box();
         let data = solver.elastic.qp.data_mut();
         data.a[NU * (NU + 1) + NU] = 1.0;
         data.lower[NU] = 0.0;
         Ok(solver)
+    }
+
+    /// Measure the distance to the nominal input in `metric` from now on (the weights'
+    /// diagonal one until then): the box rows change with it, nothing else does, and the
+    /// warm starts stay (they name rows, not points). Allocation-free; `O(NU²)`.
+    pub fn set_metric(&mut self, metric: &InputMetric<NU>) {
+        self.metric = *metric;
+        self.write_box();
+    }
+
+    /// The box rows of both stages in the scaled inputs: `√w_j min_j ≤ z_j ≤ √w_j max_j`
+    /// for a diagonal metric, `min_j ≤ (L⁻ᵀ z)_j ≤ max_j` for any other.
+    fn write_box(&mut self) {
+        for stage in [&mut self.hard, &mut self.elastic] {
+            let n = stage.n;
+            let data = stage.qp.data_mut();
+            for j in 0..NU {
+                let row = &mut data.a[j * n..j * n + NU];
+                if self.metric.is_diagonal() {
+                    row.fill(0.0);
+                    row[j] = 1.0;
+                    let root = self.metric.root_weight(j);
+                    (data.lower[j], data.upper[j]) = (root * self.input_min[j], root * self.input_max[j]);
+                } else {
+                    row.copy_from_slice(self.metric.box_row(j));
+                    (data.lower[j], data.upper[j]) = (self.input_min[j], self.input_max[j]);
+                }
+            }
+        }
     }
 
     /// Rows this solver holds.
@@ -456,9 +480,10 @@ impl<const NU: usize> LexicographicSolver<NU> {
     fn cascade(&mut self, u_ref: &[f64; NU], rows: &[TieredRow<NU>], active: &[bool], max_steps: u32) -> Outcome {
         self.classify(rows, active);
         {
+            let centre = self.metric.scaled(u_ref);
             let data = self.hard.qp.data_mut();
             for j in 0..NU {
-                data.q[j] = -self.root_weights[j] * u_ref[j];
+                data.q[j] = -centre[j];
             }
         }
         match self.solve_hard(rows, u8::MAX, WarmSlot::First.index(), max_steps) {
@@ -509,15 +534,16 @@ impl<const NU: usize> LexicographicSolver<NU> {
         Outcome::StepLimit
     }
 
-    /// The inputs `u = z / √w` of a stage's scaled point, inside the box (the dense
-    /// solver meets the box only to its tolerance).
+    /// The inputs `u = L⁻ᵀ z` of a stage's scaled point, inside the box (the dense solver
+    /// meets the box only to its tolerance).
     fn inputs(&self, z: &[f64]) -> [f64; NU] {
-        std::array::from_fn(|j| (z[j] / self.root_weights[j]).clamp(self.input_min[j], self.input_max[j]))
+        let u = self.metric.unscaled(z);
+        std::array::from_fn(|j| u[j].clamp(self.input_min[j], self.input_max[j]))
     }
 
-    /// Row `a` in the scaled inputs: `a_j / √w_j`.
+    /// Row `a` in the scaled inputs: `L⁻¹ a` (`a_j / √w_j`).
     fn scaled_row(&self, a: &[f64; NU]) -> [f64; NU] {
-        std::array::from_fn(|j| a[j] / self.root_weights[j])
+        self.metric.scaled_row(a)
     }
 
     /// Which rows take part, their `σ`, and the tiers present; every relaxation back to 0.
@@ -585,7 +611,7 @@ impl<const NU: usize> LexicographicSolver<NU> {
             // tier's other rows elastic (by σ, needed only here), lower tiers out.
             for i in 0..m {
                 if self.unfixed(i, rows, tier) {
-                    self.sigma[i] = scaled_norm(&rows[i].a, &self.root_weights);
+                    self.sigma[i] = self.metric.row_norm(&rows[i].a);
                 }
             }
             self.elastic.clear();
@@ -625,13 +651,14 @@ impl<const NU: usize> LexicographicSolver<NU> {
                 let t = z[NU];
                 let u = self.inputs(z);
                 let tolerance = self.t_tolerance(&u, u_ref);
-                let moved = (0..NU).map(|j| (z[j] - self.root_weights[j] * centre[j]).abs()).fold(0.0, f64::max);
+                let scaled_centre = self.metric.scaled(&centre);
+                let moved = (0..NU).map(|j| (z[j] - scaled_centre[j]).abs()).fold(0.0, f64::max);
                 if moved <= tolerance {
                     break;
                 }
                 previous = Some((centre, t, penalty));
                 penalty = (penalty * PENALTY_GROWTH).min(MAX_PENALTY);
-                centre = std::array::from_fn(|j| z[j] / self.root_weights[j]);
+                centre = self.metric.unscaled(z);
             }
             self.elastic_stages += 1;
             let (t, u) = (self.elastic.qp.solution()[NU], self.inputs(self.elastic.qp.solution()));
@@ -684,12 +711,12 @@ impl<const NU: usize> LexicographicSolver<NU> {
 
     /// One proximal round of stage E centred on `centre`, warm-started from the last.
     fn solve_elastic(&mut self, tier: u8, centre: &[f64; NU], penalty: f64, max_steps: u32) -> DenseStatus {
-        let scale = (0..NU)
-            .map(|j| self.root_weights[j] * self.input_min[j].abs().max(self.input_max[j].abs()).max(centre[j].abs()))
-            .fold(1.0, f64::max);
+        let reach = std::array::from_fn(|j| self.input_min[j].abs().max(self.input_max[j].abs()).max(centre[j].abs()));
+        let scale = self.metric.scaled_size(&reach).into_iter().fold(1.0, f64::max);
+        let scaled_centre = self.metric.scaled(centre);
         let data = self.elastic.qp.data_mut();
         for j in 0..NU {
-            data.q[j] = -self.root_weights[j] * centre[j];
+            data.q[j] = -scaled_centre[j];
         }
         data.q[NU] = penalty * scale;
         let status = self.elastic.solve(usize::from(tier), max_steps);
@@ -700,7 +727,11 @@ impl<const NU: usize> LexicographicSolver<NU> {
     /// `t` within rounding of 0: the dense solver's tolerance in the units of `t`
     /// (weighted input).
     fn t_tolerance(&self, u: &[f64], u_ref: &[f64; NU]) -> f64 {
-        let size = (0..NU).map(|j| self.root_weights[j] * (u[j].abs() + u_ref[j].abs())).fold(0.0, f64::max);
+        let (u, u_ref) = (
+            self.metric.scaled_size(&std::array::from_fn(|j| u[j].abs())),
+            self.metric.scaled_size(&u_ref.map(f64::abs)),
+        );
+        let size = (0..NU).map(|j| u[j] + u_ref[j]).fold(0.0, f64::max);
         KKT_TOLERANCE * (1.0 + size)
     }
 
@@ -829,13 +860,4 @@ fn identity(n: usize) -> Vec<f64> {
         m[k * n + k] = 1.0;
     }
     m
-}
-
-/// `‖a‖_{W⁻¹} = (Σ_j a_j² / w_j)^{1/2}` from `√w`, without overflow for any finite row.
-fn scaled_norm<const NU: usize>(a: &[f64; NU], root_weights: &[f64; NU]) -> f64 {
-    let largest = (0..NU).map(|j| (a[j] / root_weights[j]).abs()).fold(0.0, f64::max);
-    if largest == 0.0 || !largest.is_finite() {
-        return largest;
-    }
-    largest * (0..NU).map(|j| (a[j] / root_weights[j] / largest).powi(2)).sum::<f64>().sqrt()
 }

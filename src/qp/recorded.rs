@@ -31,8 +31,13 @@ pub struct RecordedQp {
     pub layout_rows: usize,
     /// Input weights `w_j`.
     pub weights: Vec<f64>,
-    /// The nominal input.
+    /// The nominal input — with a cost matrix, the cost's centre (see
+    /// [`crate::qp::metric`]).
     pub u_ref: Vec<f64>,
+    /// A spec objective's cost matrix `P` (row-major, scaled to a largest diagonal entry of
+    /// 1), which then replaces `weights` (all 1); `None` for input weights. Not in the
+    /// binary format: [`write()`] refuses it.
+    pub cost_matrix: Option<Vec<f64>>,
     /// Lower input limits.
     pub input_min: Vec<f64>,
     /// Upper input limits.
@@ -86,6 +91,9 @@ pub fn write(w: &mut impl Write, problems: &[RecordedQp]) -> io::Result<()> {
     let nu = problems.first().map_or(0, RecordedQp::nu);
     if nu > 255 || problems.iter().any(|p| p.nu() != nu) {
         return Err(invalid("every problem must have the same number of inputs, at most 255"));
+    }
+    if problems.iter().any(|p| p.cost_matrix.is_some()) {
+        return Err(invalid("a problem with a cost matrix (a spec's objective) cannot be written in this format"));
     }
     w.write_all(MAGIC)?;
     w.write_all(&(nu as u32).to_le_bytes())?;
@@ -160,7 +168,16 @@ pub fn read(r: &mut impl Read) -> io::Result<Vec<RecordedQp>> {
             }
             recorded_rows.push(RecordedRow { index, a, b, tier });
         }
-        problems.push(RecordedQp { t, layout_rows, weights, u_ref, input_min, input_max, rows: recorded_rows });
+        problems.push(RecordedQp {
+            t,
+            layout_rows,
+            weights,
+            u_ref,
+            cost_matrix: None,
+            input_min,
+            input_max,
+            rows: recorded_rows,
+        });
     }
     Ok(problems)
 }
@@ -194,6 +211,7 @@ mod tests {
             layout_rows: 269,
             weights: vec![1.0, 2.0, 0.5],
             u_ref: vec![0.1, -3.0, f64::MIN_POSITIVE],
+            cost_matrix: None,
             input_min: vec![-1.0, -2.0, -3.0],
             input_max: vec![1.0, 2.0, 3.0],
             rows: vec![

@@ -90,6 +90,8 @@ class SystemDefinition:
     outputs: tuple[Kernel, ...]
     constants: tuple[Constant, ...]
     source: Path | None
+    # ``objective(x) -> (p, q)``: the spec's cost (``s.objective``); None for input weights.
+    objective: Kernel | None = None
 
     @property
     def time_varying(self) -> bool:
@@ -99,7 +101,7 @@ class SystemDefinition:
         """Every kernel, in the order a backend emits them."""
         return ([self.drift, self.input_matrix, self.input_nonzeros]
                 + [k for f in self.families for k in (*f.kernels, *f.bounds, *([f.class_k] if f.class_k else []))]
-                + list(self.outputs))
+                + list(self.outputs) + ([self.objective] if self.objective else []))
 
 
 def _base_symbols(kernel: Kernel):
@@ -463,6 +465,18 @@ def _output(system: System, output: Output) -> Kernel:
     return k
 
 
+def _objective(system: System) -> Kernel | None:
+    cost = system.cost
+    if cost is None:
+        return None
+    doc = cost.doc.strip() or f"The cost of {system.name}'s filter."
+    k = Kernel("objective", f"{doc} The filter minimises 1/2 (u - u_ref)^T P(x) (u - u_ref) + q(x)^T u.")
+    k.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
+    k.output_matrix("p", cost.P, "P(x), symmetric, one row per input")
+    k.output_vector("q", cost.q, "q(x), one entry per input")
+    return k
+
+
 def define(system: System) -> SystemDefinition:
     """Differentiate every family of ``system`` and build its dynamics kernels."""
     system.check_complete()
@@ -483,4 +497,4 @@ def define(system: System) -> SystemDefinition:
     return SystemDefinition(system.name, system.doc, tuple(system.state_names), tuple(system.state_docs),
                             tuple(system.input_names), tuple(system.input_docs), tuple(system.input_limits),
                             drift, g, pattern, nonzeros, families, outputs, tuple(system.constants),
-                            system.source)
+                            system.source, _objective(system))

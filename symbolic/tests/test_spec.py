@@ -318,6 +318,39 @@ def test_class_k_and_lyapunov_mistakes_name_the_family_and_the_line(tmp_path, fa
     assert last.startswith(f"error: {spec}:{FAMILY_LINE}: ") and says in last, last
 
 
+@pytest.mark.parametrize("objective, says", [
+    ("s.objective(P=[[1 + p**2, 0]])", "objective: P must be 1 x 1: a list of 1 rows of 1 entries"),
+    ("s.objective(P=[[1 + se.Symbol('k')**2]])", "objective, P[0][0]: uses ['k']; it depends on the states only"),
+    ("s.objective(P=[[0]])", "objective: P[0][0] = 0: a positive definite P has a positive diagonal"),
+    ("s.objective(P=[[1]], q=[p, v])", "objective: q must be a list of 1 entry (one per input)"),
+])
+def test_objective_mistakes_name_the_line(tmp_path, objective, says):
+    spec = tmp_path / "oops.py"
+    spec.write_text(SPEC_WITH_FAMILY.format(family=objective))
+    done = subprocess.run([sys.executable, "-m", "symbolic", "generate", str(spec), "--out", str(tmp_path)],
+                          cwd=REPO_ROOT, capture_output=True, text=True)
+    last = done.stderr.strip().splitlines()[-1]
+    assert done.returncode == 2
+    assert last.startswith(f"error: {spec}:{FAMILY_LINE}: ") and says in last, last
+
+
+def test_an_objective_must_be_symmetric_and_becomes_a_kernel_of_the_state():
+    s = System("cost")
+    px, vx = s.states(["px", "vx"])
+    s.inputs(["a", "b"], limits=[(-1.0, 1.0), (-1.0, 1.0)])
+    s.dynamics(f=[vx, 0], g=[[0, 0], [1, 1]])
+    with pytest.raises(SpecError, match=r"P is not symmetric: P\[0\]\[1\] = x_vx but P\[1\]\[0\] = 2\*x_vx"):
+        s.objective(P=[[2, vx], [2 * vx, 2]])
+    s.objective(P=[[2, vx * px], [px * vx, 1 + vx**2]], q=[px, 0])
+    s.family("wall", lambda q: 1 - px, poles=[2.0, 2.0])
+    with pytest.raises(SpecError, match="objective: declared twice"):
+        s.objective(P=[[1, 0], [0, 1]])
+    kernel = define(s).objective
+    # Evaluated by SymEngine at a point, against the formulas by hand.
+    values = kernel.evaluate({"x": [0.5, 2.0]})
+    assert values["p"] == pytest.approx([2.0, 1.0, 1.0, 5.0]) and values["q"] == pytest.approx([0.5, 0.0])
+
+
 def test_a_lyapunov_family_is_the_barrier_of_minus_v_below_the_safety_rows():
     s = System("goal")
     p, v = s.states(["p", "v"])

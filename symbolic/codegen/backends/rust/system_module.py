@@ -805,6 +805,16 @@ def _emit_barriers(out: list[str], d: SystemDefinition, rt: str) -> None:
         w("        }")
         w("    }")
         w("")
+    if d.objective is not None:
+        w("    fn has_objective(&self) -> bool {")
+        w("        true")
+        w("    }")
+        w("")
+        w(f"    fn objective(&self, _t: f64, x: &[f64; NX], _params: &Params, "
+          f"cost: &mut {rt}::system::Objective<NU>) {{")
+        w("        (cost.p, cost.q) = objective(x);")
+        w("    }")
+        w("")
     w(f"    fn evaluate(&mut self, t: f64, x: &[f64; NX], params: &Params) -> Result<(), {rt}::error::CbfError> {{")
     w("        if params.capacity() != self.capacity {")
     w(f"            return Err({rt}::error::CbfError::CapacityMismatch);")

@@ -1,4 +1,4 @@
-//! Five systems generated at build time by cbfgen-build.
+//! Six systems generated at build time by cbfgen-build.
 
 /// A planar robot with a speed limit (degree 1) and box walls (degree 2).
 pub mod planar_robot {
@@ -23,4 +23,9 @@ pub mod planar_quadrotor {
 /// Adaptive cruise control: a CLF below two CBFs, one with an extended class-K term.
 pub mod adaptive_cruise {
     cbfgen::include_system!("adaptive_cruise");
+}
+
+/// A planar robot whose filter cost is a state-dependent quadratic (a spec objective).
+pub mod drag_weighted_robot {
+    cbfgen::include_system!("drag_weighted_robot");
 }
