@@ -5,7 +5,7 @@
 //! caller that learns the system from a string cannot name. Here the same objects take
 //! slices, checked against the system's sizes, and parameters are addressed by family,
 //! member and instance, each instance's numbers flattened in declaration order (vectors in
-//! order, matrices row by row: the kernels' own layout, see
+//! order, matrices row by row, as Python and the kernel table pass them, see
 //! [`FamilyInfo::params`]). Nothing here is generated: a system's module implements the
 //! four small traits [`FlatInstance`], [`FlatCapacity`], [`FlatParams`] and
 //! [`GeneratedSystem`], and [`Erased`] does the rest for every system alike.

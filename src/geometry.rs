@@ -127,14 +127,10 @@ impl OrientedBox {
         Self::new(center, self.rotation, self.half_extents)
     }
 
-    /// Arguments in the layout the generated kernels take.
-    pub fn kernel_args(&self) -> ([f64; 3], [f64; 9], [f64; 3]) {
-        let m = self.rotation.matrix();
-        (
-            [self.center.x, self.center.y, self.center.z],
-            [m[(0, 0)], m[(0, 1)], m[(0, 2)], m[(1, 0)], m[(1, 1)], m[(1, 2)], m[(2, 0)], m[(2, 1)], m[(2, 2)]],
-            [self.half_extents.x, self.half_extents.y, self.half_extents.z],
-        )
+    /// (centre, rotation matrix, half extents): the arguments every generated kernel takes
+    /// for a box, in the types generated `Params` hold them in.
+    pub fn kernel_args(&self) -> (Vector3<f64>, Matrix3<f64>, Vector3<f64>) {
+        (self.center, *self.rotation.matrix(), self.half_extents)
     }
 }
 

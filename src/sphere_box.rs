@@ -192,14 +192,14 @@ pub fn exact_distance(center: &Vector3<f64>, radius: f64, b: &OrientedBox) -> f6
 #[inline]
 pub fn clearance(sphere: &Sphere, b: &OrientedBox, p: &Smoothing) -> f64 {
     let (c, r, a) = b.kernel_args();
-    gen::certified_clearance(&sphere.center.into(), &c, &r, &a, sphere.radius, p.alpha)
+    gen::certified_clearance(&sphere.center, &c, &r, &a, sphere.radius, p.alpha)
 }
 
 /// [`clearance`] with its gradient and Hessian with respect to the sphere's centre.
 #[inline]
 pub fn clearance_with_derivatives(sphere: &Sphere, b: &OrientedBox, p: &Smoothing) -> ClearanceDerivatives {
     let (c, r, a) = b.kernel_args();
-    let (value, g, h) = gen::certified_clearance_derivatives(&sphere.center.into(), &c, &r, &a, sphere.radius, p.alpha);
+    let (value, g, h) = gen::certified_clearance_derivatives(&sphere.center, &c, &r, &a, sphere.radius, p.alpha);
     ClearanceDerivatives { value, gradient: Vector3::from(g), hessian: Matrix3::from_fn(|i, j| h[i][j]) }
 }
 

@@ -17,6 +17,7 @@ Three kinds of named intermediate exist besides inputs and outputs:
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -34,6 +35,10 @@ class Input:
     symbols: tuple[se.Symbol, ...]
     is_array: bool
     doc: str
+    # A parameter's shape, ``(n,)`` or ``(rows, cols)``: the argument is then the nalgebra
+    # vector or matrix the generated ``Params`` hold (its symbols row by row); ``None`` for
+    # a plain array (the state).
+    shape: tuple[int, ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -103,11 +108,15 @@ class Kernel:
         self.inputs.append(Input(name, (sym,), False, doc))
         return sym
 
-    def array_input(self, name: str, components: Sequence[str], doc: str) -> list[se.Symbol]:
-        """An ``&[f64; n]`` argument; component ``c`` becomes the local ``{name}_{c}``."""
+    def array_input(self, name: str, components: Sequence[str], doc: str,
+                    shape: tuple[int, ...] | None = None) -> list[se.Symbol]:
+        """An ``&[f64; n]`` argument, or with ``shape`` a parameter's nalgebra vector or
+        matrix (components row by row); component ``c`` becomes the local ``{name}_{c}``."""
         self._claim(name)
         syms = tuple(se.Symbol(self._claim(f"{name}_{c}")) for c in components)
-        self.inputs.append(Input(name, syms, True, doc))
+        if shape is not None and math.prod(shape) != len(syms):
+            raise ValueError(f"kernel {self.name}: '{name}' has {len(syms)} components, not shape {shape}")
+        self.inputs.append(Input(name, syms, True, doc, shape))
         return list(syms)
 
     # ---------------------------------------------------------- intermediates

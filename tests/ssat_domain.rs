@@ -309,11 +309,7 @@ fn raw_outputs(
     alpha: f64,
     alpha_rot: f64,
 ) -> Vec<f64> {
-    let args = |x: &OrientedBox| -> ([f64; 3], [f64; 9], [f64; 3]) {
-        let m = x.rotation().matrix();
-        ((*x.center()).into(), std::array::from_fn(|k| m[(k / 3, k % 3)]), (*x.half_extents()).into())
-    };
-    let ((pa, ra, ha), (pb, rb, hb)) = (args(a), args(b));
+    let ((pa, ra, ha), (pb, rb, hb)) = (a.kernel_args(), b.kernel_args());
     let (value, (dv, g, h), margin) = match variant {
         (SmoothMax::Lse, SmoothAbs::XTanh) => (
             kernels::ssat_lse_xtanh(&pa, &ra, &ha, &pb, &rb, &hb, alpha, alpha_rot),

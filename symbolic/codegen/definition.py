@@ -160,7 +160,7 @@ def _declare_params(k: Kernel, family: Family) -> tuple[dict[str, object], dict[
             values[p.name] = sym
             symbols[p.name] = frozenset([sym])
             continue
-        flat = k.array_input(p.name, p.components(), doc + (" (row-major)" if len(p.shape) == 2 else ""))
+        flat = k.array_input(p.name, p.components(), doc, shape=p.shape)
         symbols[p.name] = frozenset(flat)
         if len(p.shape) == 1:
             values[p.name] = flat

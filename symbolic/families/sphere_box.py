@@ -113,11 +113,12 @@ def lower_bound(let_, runtime_max, point: Sequence[se.Expr], center: Sequence[se
 class _Inputs:
     def __init__(self, k: Kernel, with_pose: bool = True):
         if with_pose:
-            self.point = k.array_input("point", AXES, "sphere centre, world frame [m]")
-            self.center = k.array_input("center", AXES, "box centre, world frame [m]")
+            self.point = k.array_input("point", AXES, "sphere centre, world frame [m]", shape=(3,))
+            self.center = k.array_input("center", AXES, "box centre, world frame [m]", shape=(3,))
             self.rotation = k.array_input("rotation", [f"{i}{j}" for i in range(3) for j in range(3)],
-                                          "box rotation, row-major; its columns are the box's axes in the world frame")
-            self.half = k.array_input("half", AXES, "box half extents along its own axes [m]")
+                                          "box rotation; its columns are the box's axes in the world frame",
+                                          shape=(3, 3))
+            self.half = k.array_input("half", AXES, "box half extents along its own axes [m]", shape=(3,))
             self.radius = k.scalar_input("radius", "sphere radius [m]")
         self.alpha = k.scalar_input("alpha", "sharpness: the smoothing length is eps = 1/alpha [1/m]")
 

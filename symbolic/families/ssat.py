@@ -152,14 +152,14 @@ class _BoxPair:
 
     def __init__(self, kernel: Kernel, with_poses: bool = True):
         if with_poses:
-            self.p_a = kernel.array_input("p_a", AXES, "centre of box A, world frame [m]")
+            self.p_a = kernel.array_input("p_a", AXES, "centre of box A, world frame [m]", shape=(3,))
             self.r_a = kernel.array_input(
-                "r_a", ROT, "rotation of box A, row-major; its columns are A's axes in the world frame")
-        self.half_a = kernel.array_input("half_a", AXES, "half extents of box A along its own axes [m]")
+                "r_a", ROT, "rotation of box A; its columns are A's axes in the world frame", shape=(3, 3))
+        self.half_a = kernel.array_input("half_a", AXES, "half extents of box A along its own axes [m]", shape=(3,))
         if with_poses:
-            self.p_b = kernel.array_input("p_b", AXES, "centre of box B, world frame [m]")
-            self.r_b = kernel.array_input("r_b", ROT, "rotation of box B, row-major")
-        self.half_b = kernel.array_input("half_b", AXES, "half extents of box B [m]")
+            self.p_b = kernel.array_input("p_b", AXES, "centre of box B, world frame [m]", shape=(3,))
+            self.r_b = kernel.array_input("r_b", ROT, "rotation of box B", shape=(3, 3))
+        self.half_b = kernel.array_input("half_b", AXES, "half extents of box B [m]", shape=(3,))
         self.alpha = kernel.scalar_input(
             "alpha", "sharpness of the smooth max and of the smooth |.| on distances [1/m]")
         self.alpha_rot = kernel.scalar_input(

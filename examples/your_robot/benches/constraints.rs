@@ -2,8 +2,8 @@
 //! outside crate (`cargo bench -p your_robot`; in your own crate, `cargo bench`).
 //!
 //! Each family's generated kernel is a plain function of the state and one instance's
-//! parameters (vectors and matrices as flat arrays, matrices row by row), returning the
-//! row's Lie derivatives; `black_box` keeps the compiler from computing it once.
+//! parameters (vectors and matrices as the nalgebra types `Params` holds them in), returning
+//! the row's Lie derivatives; `black_box` keeps the compiler from computing it once.
 
 use cbfgen::nalgebra::Vector2;
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -20,8 +20,12 @@ fn constraints(c: &mut Criterion) {
     let x = [2.0, 0.0, 0.1, 1.0];
     let mut rows = c.benchmark_group("your_robot/row");
     rows.bench_function("speed_limit", |b| b.iter(|| robot::speed_limit(black_box(&x), black_box(1.2))));
-    rows.bench_function("obstacle", |b| b.iter(|| robot::obstacle(black_box(&x), &[3.0, 0.15], black_box(0.8))));
-    rows.bench_function("corridor", |b| b.iter(|| robot::corridor(black_box(&x), &[0.0, 1.0], black_box(1.5))));
+    rows.bench_function("obstacle", |b| {
+        b.iter(|| robot::obstacle(black_box(&x), &Vector2::new(3.0, 0.15), black_box(0.8)))
+    });
+    rows.bench_function("corridor", |b| {
+        b.iter(|| robot::corridor(black_box(&x), &Vector2::new(0.0, 1.0), black_box(1.5)))
+    });
     rows.finish();
 
     // One whole update: every row evaluated, the QP solved, the verdict measured.

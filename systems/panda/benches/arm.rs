@@ -77,8 +77,7 @@ fn rows(c: &mut Criterion) {
     let n = barriers.rows().len();
     c.bench_function(&format!("arm_rows/all_{n}"), |b| b.iter(|| barriers.evaluate(0.0, black_box(&x), &params)));
     let box_ = params.obstacle[7].as_slice()[1];
-    let (center, rotation, half) =
-        (box_.center.into(), std::array::from_fn(|k| box_.rotation[(k / 3, k % 3)]), box_.half.into());
+    let (center, rotation, half) = (box_.center, box_.rotation, box_.half);
     let mut g = c.benchmark_group("arm_row");
     g.bench_function("joint_limits (14 rows)", |b| b.iter(|| gen::joint_limits(black_box(&x))));
     g.bench_function("velocity_limits (14 rows)", |b| b.iter(|| gen::velocity_limits(black_box(&x))));

@@ -438,21 +438,19 @@ fn a_small_dense_budget_keeps_making_progress_and_every_qp_answer_is_the_full_bu
 
 /// One obstacle row by the member's one-instance kernel: `[h, L_f h, L_f² h]`.
 fn one_instance(member: usize, x: &[f64; NX], o: &ObstacleParams) -> [f64; 3] {
-    let (c, h) = ([o.center.x, o.center.y, o.center.z], [o.half.x, o.half.y, o.half.z]);
-    let r = o.rotation;
-    let rot = [r[(0, 0)], r[(0, 1)], r[(0, 2)], r[(1, 0)], r[(1, 1)], r[(1, 2)], r[(2, 0)], r[(2, 1)], r[(2, 2)]];
+    let (c, rot, h) = (&o.center, &o.rotation, &o.half);
     // Each member's kernel has its own input columns, so its own type: one arm each.
     match member {
-        0 => gen::obstacle_link1(x, &c, &rot, &h).0[0],
-        1 => gen::obstacle_link2(x, &c, &rot, &h).0[0],
-        2 => gen::obstacle_link3(x, &c, &rot, &h).0[0],
-        3 => gen::obstacle_link4(x, &c, &rot, &h).0[0],
-        4 => gen::obstacle_link5(x, &c, &rot, &h).0[0],
-        5 => gen::obstacle_link6(x, &c, &rot, &h).0[0],
-        6 => gen::obstacle_link7(x, &c, &rot, &h).0[0],
-        7 => gen::obstacle_hand(x, &c, &rot, &h).0[0],
-        8 => gen::obstacle_leftfinger(x, &c, &rot, &h).0[0],
-        _ => gen::obstacle_rightfinger(x, &c, &rot, &h).0[0],
+        0 => gen::obstacle_link1(x, c, rot, h).0[0],
+        1 => gen::obstacle_link2(x, c, rot, h).0[0],
+        2 => gen::obstacle_link3(x, c, rot, h).0[0],
+        3 => gen::obstacle_link4(x, c, rot, h).0[0],
+        4 => gen::obstacle_link5(x, c, rot, h).0[0],
+        5 => gen::obstacle_link6(x, c, rot, h).0[0],
+        6 => gen::obstacle_link7(x, c, rot, h).0[0],
+        7 => gen::obstacle_hand(x, c, rot, h).0[0],
+        8 => gen::obstacle_leftfinger(x, c, rot, h).0[0],
+        _ => gen::obstacle_rightfinger(x, c, rot, h).0[0],
     }
 }
 

@@ -8,7 +8,7 @@ use cbfgen_tachyon3::catalog::{self, Capacity, Catalog, EdgeCuboid, Environment,
 use cbfgen_tachyon3::generated as gen;
 use cbfgen_tachyon3::model::{self, State};
 use criterion::{criterion_group, criterion_main, Criterion};
-use nalgebra::{Rotation3, Vector3};
+use nalgebra::{Rotation3, Vector2, Vector3};
 use std::hint::black_box;
 
 /// 20 stair-edge cuboids (5 cm square, 2 m long, along y) every 35 cm ahead, rising 16.5 cm.
@@ -45,7 +45,7 @@ fn per_row(c: &mut Criterion) {
     g.bench_function("toe_edge_lower_bound", |b| b.iter(|| gen::toe_edge_lower_bound(black_box(&x), ec, er, eh)));
     g.bench_function("toe_edge (6 rows, one per toe)", |b| b.iter(|| gen::toe_edge(black_box(&x), ec, er, eh)));
     g.bench_function("joint_limits (4 rows)", |b| b.iter(|| gen::JOINT_LIMITS[0](black_box(&x))));
-    g.bench_function("foothold", |b| b.iter(|| gen::FOOTHOLD[0](black_box(&x), &[0.6, 0.8], 0.4)));
+    g.bench_function("foothold", |b| b.iter(|| gen::FOOTHOLD[0](black_box(&x), &Vector2::new(0.6, 0.8), 0.4)));
     g.bench_function("foot_height", |b| b.iter(|| gen::FOOT_HEIGHT[0](black_box(&x), 0.0)));
     g.bench_function("stability", |b| b.iter(|| gen::STABILITY[0](black_box(&x), 1.0, 0.3)));
     g.finish();

@@ -11,6 +11,7 @@
 use std::hint::black_box;
 use std::time::Duration;
 
+use cbfgen::nalgebra::{Matrix3, Vector3};
 use cbfgen_tachyon3::generated as gen;
 use cbfgen_tachyon3::model::{standard_posture, State, BODY_Z};
 use criterion::Criterion;
@@ -46,7 +47,7 @@ fn main() {
         lie[0], lie[1]
     );
 
-    let nosing = ([0.625, 0.0, 0.175], [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0], [0.025, 1.0, 0.025]);
+    let nosing = (Vector3::new(0.625, 0.0, 0.175), Matrix3::identity(), Vector3::new(0.025, 1.0, 0.025));
     c.bench_function("custom/body_ceiling (hand-written, 1 row)", |b| b.iter(|| body_ceiling(black_box(&x))));
     c.bench_function("generated/joint_limits_lf (4 rows)", |b| b.iter(|| gen::joint_limits_lf(black_box(&x))));
     c.bench_function("generated/body_edge (SSAT, 1 row)", |b| {

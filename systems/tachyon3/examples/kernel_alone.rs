@@ -19,8 +19,8 @@ fn main() -> Result<(), cbfgen::CbfError> {
     x[4] = 0.3;
     x[8] = -0.05;
     let nosing = OrientedBox::axis_aligned(Vector3::new(0.625, 0.0, 0.175), Vector3::new(0.025, 1.0, 0.025))?;
-    let rotation: [f64; 9] = std::array::from_fn(|k| nosing.rotation().matrix()[(k / 3, k % 3)]);
-    let (lie, lg_lf) = gen::body_edge(&x, &(*nosing.center()).into(), &rotation, &(*nosing.half_extents()).into());
+    let rotation = *nosing.rotation().matrix();
+    let (lie, lg_lf) = gen::body_edge(&x, nosing.center(), &rotation, nosing.half_extents());
     let [h, lf_h, lf2_h] = lie[0];
     println!("h = {h:.5}   L_f h = {lf_h:.5} /s   L_f² h = {lf2_h:.5} /s²");
     for (column, value) in BODY_EDGE_INPUT_COLUMNS.iter().zip(lg_lf[0]) {
@@ -37,8 +37,7 @@ fn main() -> Result<(), cbfgen::CbfError> {
     let along = |s: f64| {
         let f = drift(&x);
         let moved: [f64; gen::NX] = std::array::from_fn(|i| x[i] + s * f[i]);
-        let center: [f64; 3] = (*nosing.center()).into();
-        gen::body_edge(&moved, &center, &rotation, &(*nosing.half_extents()).into()).0[0][0]
+        gen::body_edge(&moved, nosing.center(), &rotation, nosing.half_extents()).0[0][0]
     };
     let numeric = (along(step) - along(-step)) / (2.0 * step);
     println!("L_f h {lf_h:.7}, central difference {numeric:.7}");

@@ -30,6 +30,7 @@ use crate::generated as gen;
 use crate::model::{State, NU};
 use cbfgen::error::{finite, CbfError};
 use cbfgen::geometry::OrientedBox;
+use cbfgen::nalgebra::{Matrix3, Vector3};
 use cbfgen::system::{self, BarrierSet, RowLayout};
 
 pub use gen::{default_settings, Capacity, FAMILIES};
@@ -241,14 +242,10 @@ impl EdgeCuboid {
         Self { center: *b.center(), rotation: *b.rotation().matrix(), half: *b.half_extents() }
     }
 
-    /// (centre, rotation row-major, half extents): the kernels' argument layout.
-    pub fn kernel_args(&self) -> ([f64; 3], [f64; 9], [f64; 3]) {
-        let r = &self.rotation;
-        (
-            self.center.into(),
-            [r[(0, 0)], r[(0, 1)], r[(0, 2)], r[(1, 0)], r[(1, 1)], r[(1, 2)], r[(2, 0)], r[(2, 1)], r[(2, 2)]],
-            self.half.into(),
-        )
+    /// (centre, rotation, half extents): the kernels' arguments, in the types `Params` and
+    /// every generated kernel take them.
+    pub fn kernel_args(&self) -> (Vector3<f64>, Matrix3<f64>, Vector3<f64>) {
+        (self.center, self.rotation, self.half)
     }
 }
 

@@ -8,7 +8,7 @@ use cbfgen_tachyon3::catalog::{Capacity, Catalog, EdgeCuboid, Environment, Famil
 use cbfgen_tachyon3::generated as gen;
 use cbfgen_tachyon3::model::{self, State, BODY_PITCH, BODY_X, BODY_Z, NU, NX, TOE_BLOCK};
 use common::{random_rotation, random_vector, rng};
-use nalgebra::Rotation3;
+use nalgebra::{Matrix3, Rotation3, Vector2, Vector3};
 use rand::Rng;
 use tachyon3_state::random_state;
 
@@ -30,14 +30,14 @@ fn rows_of<const R: usize, const C: usize>(out: ([[f64; 3]; R], [[f64; C]; R]), 
 
 /// An edge cuboid near the robot in the kernels' argument layout: centre, row-major
 /// rotation (yaw-only half of the time, like stair edges), half extents.
-fn random_edge(r: &mut impl Rng) -> ([f64; 3], [f64; 9], [f64; 3]) {
+fn random_edge(r: &mut impl Rng) -> (Vector3<f64>, Matrix3<f64>, Vector3<f64>) {
     let rot = if r.random_bool(0.5) {
         Rotation3::from_euler_angles(0.0, 0.0, r.random_range(-3.0..3.0))
     } else {
         random_rotation(r)
     };
     let (c, h, m) = (random_vector(r, -1.5, 1.5), random_vector(r, 0.02, 0.5), rot.matrix());
-    ([c.x, c.y, c.z], std::array::from_fn(|k| m[(k / 3, k % 3)]), [h.x, h.y, h.z])
+    (c, *m, h)
 }
 
 /// Every row kernel of the model with freshly drawn runtime parameters.
@@ -50,7 +50,7 @@ fn kernels_with_random_params(r: &mut impl Rng) -> Vec<(String, RowFn)> {
     ));
     let normal = {
         let a: f64 = r.random_range(-3.2..3.2);
-        [a.cos(), a.sin()]
+        Vector2::new(a.cos(), a.sin())
     };
     let offset = r.random_range(-1.0..1.0);
     let floor = r.random_range(-0.2..0.2);
@@ -219,7 +219,7 @@ fn toe_on_a_foothold_edge_and_on_the_floor_gives_zero() {
         let (s, c) = x[3].sin_cos();
         // Foothold edge: world x <= 1.2, i.e. (-1, 0) . p + 1.2 >= 0; put the toe on it.
         x[TOE_BLOCK + 4 * leg] = (1.2 - x[0] + y_hip * s) / c;
-        let (lie, _) = gen::FOOTHOLD[leg](&x, &[-1.0, 0.0], 1.2);
+        let (lie, _) = gen::FOOTHOLD[leg](&x, &Vector2::new(-1.0, 0.0), 1.2);
         assert!(lie[0][0].abs() < 1e-12, "foothold leg {leg}: h = {}", lie[0][0]);
         // Floor at z = 0.13: wheel centre one radius above it.
         x[TOE_BLOCK + 4 * leg + 1] = 0.13 + model::TOE_RADIUS - x[2];
@@ -233,8 +233,7 @@ fn full_environment(r: &mut impl Rng) -> Environment {
     let mut env = Environment::new(cap).unwrap();
     for _ in 0..cap.body_edge {
         let (c, rot, h) = random_edge(r);
-        let m = nalgebra::Matrix3::from_row_slice(&rot);
-        let b = cbfgen::OrientedBox::new(c.into(), Rotation3::from_matrix_unchecked(m), h.into()).unwrap();
+        let b = cbfgen::OrientedBox::new(c, Rotation3::from_matrix_unchecked(rot), h).unwrap();
         env.push_edge(EdgeCuboid::from_box(&b)).unwrap();
     }
     for leg in 0..6 {
@@ -335,12 +334,7 @@ fn world_kinematics_matches_an_independent_pose_and_the_body_row() {
             assert!((0..3).all(|i| (toe[i] - want[i]).abs() < 1e-12), "toe {leg}");
         }
         let (ec, er, eh) = random_edge(&mut r);
-        let edge = cbfgen::OrientedBox::new(
-            nalgebra::Vector3::from(ec),
-            Rotation3::from_matrix_unchecked(nalgebra::Matrix3::from_row_slice(&er)),
-            nalgebra::Vector3::from(eh),
-        )
-        .expect("valid edge");
+        let edge = cbfgen::OrientedBox::new(ec, Rotation3::from_matrix_unchecked(er), eh).expect("valid edge");
         let rot = nalgebra::Matrix3::from_fn(|i, j| rotation[i][j]);
         let half = nalgebra::Vector3::from(model::BODY_HALF_EXTENTS);
         let body =

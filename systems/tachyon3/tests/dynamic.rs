@@ -144,12 +144,13 @@ fn hand_flattened_parameters_equal_the_typed_environment() -> Result<(), CbfErro
     // MF has no foothold room: its slot 0 does not exist.
     assert_err(get(p.as_ref(), hold, 1, 0), CbfError::NoSuchIndex { what: "instance", index: 0, len: 0 });
 
-    // The kernels' own argument layout is the flat one: rotation at 3..12, row-major.
+    // The flat layout (Python, the type-erased layer): rotation at 3..12, row by row.
     let shapes: [(&str, &[usize]); 3] = [("center", &[3]), ("rotation", &[3, 3]), ("half", &[3])];
     assert_eq!(tachyon3().families()[body].params, shapes);
     let (center, rotation, half) = env.edges()[0].kernel_args();
     let flat = get(p.as_ref(), body, 0, 0)?.expect("pushed");
-    assert_eq!((&flat[0..3], &flat[3..12], &flat[12..15]), (&center[..], &rotation[..], &half[..]));
+    let rows = rotation.transpose(); // nalgebra stores columns: the transpose's storage is R row by row
+    assert_eq!((&flat[0..3], &flat[3..12], &flat[12..15]), (center.as_slice(), rows.as_slice(), half.as_slice()));
     Ok(())
 }
 

@@ -146,8 +146,7 @@ fn a_box_through_the_body_with_negative_half_extents_would_read_certified_clear_
     let (body_center, body_rotation, _) = t3::world_kinematics(&x);
     let center = Vector3::from(body_center);
     let half = Vector3::new(-0.3, -1.0, -0.3);
-    let identity = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
-    let (lie, _) = t3::body_edge(&x, &body_center, &identity, &half.into());
+    let (lie, _) = t3::body_edge(&x, &center, &Matrix3::identity(), &half);
     assert!(lie[0][0] > 0.5, "the kernel reads the box as clear: h = {}", lie[0][0]);
     // The box it stands for (|half|) overlaps the body by the exact SAT.
     let rows = |r: [[f64; 3]; 3]| Matrix3::from_fn(|i, j| r[i][j]);

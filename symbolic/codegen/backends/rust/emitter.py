@@ -15,7 +15,7 @@ from fractions import Fraction
 
 import symengine as se
 
-from ....kernel import Kernel
+from ....kernel import Input, Kernel
 from ....spec import SpecError
 from ...straight_line import StraightLine, split, straight_line
 
@@ -208,19 +208,38 @@ def _rust_type(kind: str, dim: int, cols: int) -> str:
             "symmetric": f"[[f64; {dim}]; {dim}]", "matrix": f"[[f64; {cols}]; {dim}]"}[kind]
 
 
-def kernel_signature(kernel: Kernel) -> tuple[str, str]:
+def input_type(inp: Input, runtime_crate: str) -> str:
+    """An argument's Rust type: ``f64``, ``&[f64; n]`` (the state), or a parameter's
+    nalgebra vector or matrix, the type the generated ``Params`` hold it in — one
+    representation of a rotation (row `i`, column `j` is `R[(i, j)]`) wherever a user
+    meets it."""
+    if not inp.is_array:
+        return "f64"
+    if inp.shape is None:
+        return f"&[f64; {len(inp.symbols)}]"
+    if len(inp.shape) == 1:
+        return f"&{runtime_crate}::nalgebra::SVector<f64, {inp.shape[0]}>"
+    return f"&{runtime_crate}::nalgebra::SMatrix<f64, {inp.shape[0]}, {inp.shape[1]}>"
+
+
+def input_element(inp: Input, k: int) -> str:
+    """Component ``k`` of an array argument (row by row for a matrix)."""
+    if inp.shape is not None and len(inp.shape) == 2:
+        return f"{inp.name}[({k // inp.shape[1]}, {k % inp.shape[1]})]"
+    return f"{inp.name}[{k}]"
+
+
+def kernel_signature(kernel: Kernel, runtime_crate: str) -> tuple[str, str]:
     """(argument list, return type) of the kernel's Rust function."""
-    args = ", ".join(
-        f"{inp.name}: &[f64; {len(inp.symbols)}]" if inp.is_array else f"{inp.name}: f64"
-        for inp in kernel.inputs)
+    args = ", ".join(f"{inp.name}: {input_type(inp, runtime_crate)}" for inp in kernel.inputs)
     types = [_rust_type(o.kind, o.dim, o.cols) for o in kernel.outputs]
     return args, types[0] if len(types) == 1 else "(" + ", ".join(types) + ")"
 
 
-def kernel_fn_type(kernel: Kernel) -> str:
+def kernel_fn_type(kernel: Kernel, runtime_crate: str) -> str:
     """The kernel's Rust function-pointer type, e.g. ``fn(&[f64; 4]) -> [f64; 4]``."""
-    args = ", ".join(f"&[f64; {len(i.symbols)}]" if i.is_array else "f64" for i in kernel.inputs)
-    return f"fn({args}) -> {kernel_signature(kernel)[1]}"
+    args = ", ".join(input_type(i, runtime_crate) for i in kernel.inputs)
+    return f"fn({args}) -> {kernel_signature(kernel, runtime_crate)[1]}"
 
 
 def _doc_lines(kernel: Kernel) -> list[str]:
@@ -334,13 +353,13 @@ def emit_split_kernel(kernel: Kernel, runtime_crate: str, per_cycle: Sequence[st
     k = len(cut.interface)
 
     def unpack(inputs, used) -> list[str]:
-        return [f"    let {names[sym]} = {inp.name}[{n}];" for inp in inputs if inp.is_array
+        return [f"    let {names[sym]} = {input_element(inp, n)};" for inp in inputs if inp.is_array
                 for n, sym in enumerate(inp.symbols) if sym in used]
 
     def params(inputs) -> str:
-        return ", ".join(f"{i.name}: &[f64; {len(i.symbols)}]" if i.is_array else f"{i.name}: f64" for i in inputs)
+        return ", ".join(f"{i.name}: {input_type(i, runtime_crate)}" for i in inputs)
 
-    _, ret = kernel_signature(kernel)
+    _, ret = kernel_signature(kernel, runtime_crate)
     state_fn = [f"/// The part of [`{kernel.name}`] that reads only {', '.join(f'`{i.name}`' for i in cycle_inputs)}: "
                 f"computed once per cycle for every instance, and handed to [`{kernel.name}_instance`].",
                 *attributes, "#[inline]", f"pub fn {kernel.name}_state({params(cycle_inputs)}) -> [f64; {k}] {{"]
@@ -355,7 +374,7 @@ def emit_split_kernel(kernel: Kernel, runtime_crate: str, per_cycle: Sequence[st
     instance_fn += unpack(instance_inputs, cut.instance_inputs_used)
     instance_fn += _body(p, names, cut.instance_steps, runtime_crate)
     instance_fn += [f"    {_results(kernel, [p(e) for e in cut.outputs], instance_fn)}", "}"]
-    args, _ = kernel_signature(kernel)
+    args, _ = kernel_signature(kernel, runtime_crate)
     call_state = ", ".join(i.name for i in cycle_inputs)
     call_rest = "".join(f", {i.name}" for i in instance_inputs)
     wrapper = _doc_lines(kernel) + list(attributes) + [
@@ -377,13 +396,13 @@ def emit_kernel(kernel: Kernel, runtime_crate: str, attributes: Sequence[str] = 
     _check_size(kernel, code)
     names = _local_names(kernel, code)
     p = RustPrinter(names)
-    args, ret = kernel_signature(kernel)
+    args, ret = kernel_signature(kernel, runtime_crate)
     lines = _doc_lines(kernel) + list(attributes) + ["#[inline]", f"pub fn {kernel.name}({args}) -> {ret} {{"]
     # Scalar inputs are already locals under their own name; arrays are unpacked.
     for inp in filter(lambda i: i.is_array, kernel.inputs):
         for k, sym in enumerate(inp.symbols):
             if sym in code.used_inputs:
-                lines.append(f"    let {names[sym]} = {inp.name}[{k}];")
+                lines.append(f"    let {names[sym]} = {input_element(inp, k)};")
     lines += _body(p, names, code.steps, runtime_crate)
     body = _results(kernel, [p(e) for e in code.outputs], lines)
     lines += [f"    {body}", "}"]

@@ -23,13 +23,20 @@ def _flat_size(kind: str, dim: int, cols: int) -> int:
     return {"scalar": 1, "vector": dim, "matrix": dim * cols, "symmetric": dim * (dim + 1) // 2}[kind]
 
 
-def _wrapper(k: Kernel) -> str:
+def _wrapper(k: Kernel, runtime_crate: str) -> str:
     n_in = sum(len(i.symbols) for i in k.inputs)
     n_out = sum(_flat_size(o.kind, o.dim, o.cols) for o in k.outputs)
     args, pos = [], 0
     for inp in k.inputs:
         n = len(inp.symbols)
-        args.append(f"input[{pos}..{pos + n}].try_into().unwrap()" if inp.is_array else f"input[{pos}]")
+        if not inp.is_array:
+            args.append(f"input[{pos}]")
+        elif inp.shape is None:
+            args.append(f"input[{pos}..{pos + n}].try_into().unwrap()")
+        else:
+            # A parameter's vector or matrix, from its components row by row.
+            args.append(f"&{runtime_crate}::nalgebra::{'SVector' if len(inp.shape) == 1 else 'SMatrix'}"
+                        f"::from_row_slice(&input[{pos}..{pos + n}])")
         pos += n
     lines = [
         f"/// `super::{k.name}` on flat slices.",
@@ -83,6 +90,6 @@ def emit_kernel_table(kernels: Sequence[Kernel], runtime_crate: str, what: str,
         "/// Flat wrappers of this module's kernels, for [`KERNELS`].",
         *attributes,
         "mod kernel_table {",
-        "\n\n".join(_wrapper(k) for k in kernels),
+        "\n\n".join(_wrapper(k, runtime_crate) for k in kernels),
         "}",
     ]) + "\n"

@@ -73,14 +73,9 @@ def _domain(d: Domain, rt: str) -> str:
 
 
 def _param_arg(var: str, name: str, shape: tuple[int, ...]) -> str:
-    """The kernel argument for field ``name`` of ``var``: a scalar, or the flattened
-    (row-major) array built element by element: no allocation, no copies beyond it."""
-    if shape == ():
-        return f"{var}.{name}"
-    if len(shape) == 1:
-        return "&[" + ", ".join(f"{var}.{name}[{i}]" for i in range(shape[0])) + "]"
-    rows, cols = shape
-    return "&[" + ", ".join(f"{var}.{name}[({i}, {j})]" for i in range(rows) for j in range(cols)) + "]"
+    """The kernel argument for field ``name`` of ``var``: a scalar, or a reference to the
+    vector or matrix itself (kernels take parameters in the type ``Params`` holds them)."""
+    return f"{var}.{name}" if shape == () else f"&{var}.{name}"
 
 
 def _flat_len(shape: tuple[int, ...]) -> int:
@@ -92,7 +87,7 @@ def _flat_len(shape: tuple[int, ...]) -> int:
 
 def _flat_instance(w, f: FamilyDefinition, ty: str, rt: str) -> None:
     """``FlatInstance`` for a parameter struct: its numbers in declaration order, vectors
-    in order and matrices row by row (the kernels' argument layout)."""
+    in order and matrices row by row (the layout Python and ``KERNELS`` use)."""
     total = sum(_flat_len(p.shape) for p in f.params)
     w(f"impl {rt}::dynamic::FlatInstance for {ty} {{")
     w(f"    const LEN: usize = {total};")
@@ -163,10 +158,10 @@ def _activation(value: float) -> str:
 
 def _uniform(f: FamilyDefinition) -> bool:
     """Every member kernel has one Rust type, so they fit in one table of fn pointers."""
-    return len({kernel_fn_type(k) for k in f.kernels}) == 1
+    return len({kernel_fn_type(k, "rt") for k in f.kernels}) == 1
 
 
-def _member_tables(w, f: FamilyDefinition) -> None:
+def _member_tables(w, f: FamilyDefinition, rt: str) -> None:
     """The family-level names of an indexed family: its degree, row names, members, each
     member's input columns and (when their signatures agree) its kernels."""
     u, first = f.name.upper(), f.kernels[0].name.upper()
@@ -186,7 +181,7 @@ def _member_tables(w, f: FamilyDefinition) -> None:
     if _uniform(f):
         w(f"/// The kernels of `{f.name}`, in [`{u}_MEMBERS`] order.")
         w("#[allow(clippy::type_complexity)] // the kernels' own signature")
-        w(f"pub const {u}: [{kernel_fn_type(f.kernels[0])}; {n}] = [{', '.join(k.name for k in f.kernels)}];")
+        w(f"pub const {u}: [{kernel_fn_type(f.kernels[0], rt)}; {n}] = [{', '.join(k.name for k in f.kernels)}];")
     w("")
 
 
@@ -506,7 +501,7 @@ def _emit_kernels(out: list[str], d: SystemDefinition, rt: str) -> None:
             rows = ", ".join("&[" + ", ".join(map(str, cols)) + "]" for cols in per_row)
             w(f"pub const {k.name.upper()}_ROW_COLUMNS: [&[usize]; {len(per_row)}] = [{rows}];")
         if f.indexed:
-            _member_tables(w, f)
+            _member_tables(w, f, rt)
 
 
 def _emit_parameter_structs(out: list[str], d: SystemDefinition, rt: str) -> None:
