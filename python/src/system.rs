@@ -547,14 +547,14 @@ pub struct PyRows {
 
 /// Per row ``(family, member or None, instance, row name)``.
 fn layout(rows: &dyn DynRows) -> Vec<RowPlace> {
-    let families = rows.families();
-    rows.layout()
-        .iter()
-        .map(|r| {
-            let f = &families[r.family];
-            (f.name, f.members.get(r.member).copied(), r.instance, f.row_names[r.row])
-        })
-        .collect()
+    (0..rows.layout().len()).map(|i| place(rows, i)).collect()
+}
+
+/// Where row `i` comes from, by name.
+fn place(rows: &dyn DynRows, i: usize) -> RowPlace {
+    let r = &rows.layout()[i];
+    let f = &rows.families()[r.family];
+    (f.name, f.members.get(r.member).copied(), r.instance, f.row_names[r.row])
 }
 
 /// ``[h, L_f h, …]`` up to the highest relative degree of any family, per row; `None`
@@ -651,7 +651,8 @@ impl PyFilterOutput {
     /// The filter's last output with its safety report: every relaxed row placed and its
     /// cause spelled out, and every family's relaxations.
     fn of(filter: &dyn DynFilter, input_names: &'static [&'static str]) -> Self {
-        let places = layout(filter);
+        // Only the relaxed rows are named: naming every row each update cost more than
+        // the filter itself on small systems.
         let delta = filter.delta();
         let relative = filter.relative_slack();
         let relaxed = filter
@@ -662,12 +663,14 @@ impl PyFilterOutput {
                 let cause = (*cause)?;
                 let (input, other) = match cause {
                     Cause::InputLimit { input, .. } => (input_names.get(input).copied(), None),
-                    Cause::HigherPriority { row } | Cause::SamePriority { row } => (None, Some((row, places[row]))),
+                    Cause::HigherPriority { row } | Cause::SamePriority { row } => {
+                        (None, Some((row, place(filter, row))))
+                    }
                     Cause::NoAuthority | Cause::Unsolved => (None, None),
                 };
                 Some(RelaxedInfo {
                     row,
-                    place: places[row],
+                    place: place(filter, row),
                     slack: delta[row],
                     relative: relative[row],
                     cause,
