@@ -110,8 +110,10 @@ SOLVERS: list[str]
 def systems() -> list[str]:
     """The names of every built-in system, then of every system loaded with cbfgen.load."""
 
-BUILT_FROM: str
-"""The cbfgen clone this module was built from (cbfgen.load's last place to look for sources)."""
+def core_sources() -> list[tuple[str, bytes]]:
+    """The core's sources this module was built from, ``(path relative to the repository,
+    contents)``: what cbfgen.load builds a spec against when no clone is at hand."""
+
 PLUGIN_ABI_VERSION: int
 
 def load_plugin(path: str | os.PathLike[str]) -> System:

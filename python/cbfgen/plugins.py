@@ -11,19 +11,22 @@ is like any built-in one: ``Params``, ``Rows``, ``EcbfFilter`` and the dynamics 
 and ``System(name)`` finds it afterwards.
 
 Building needs what building a Rust crate on cbfgen needs: Rust (``cargo``), Python with
-SymEngine (this interpreter), CMake for OSQP's C sources, and cbfgen's sources (a clone:
-named by ``CBFGEN_SOURCE``, found around the spec or the working directory, or the one
-this module was installed from with ``pip install .``).
+SymEngine (this interpreter), CMake for OSQP's C sources, and cbfgen's sources: a clone
+named by ``CBFGEN_SOURCE`` or found around the spec or the working directory, else the
+sources embedded in this module (written once into the cache as a crate of their own), so
+an installed wheel needs no clone at all.
 """
 
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import shutil
 import subprocess
 import sys
 import time
+import tomllib
 from pathlib import Path
 
 from . import _native
@@ -54,8 +57,8 @@ def _is_source(folder: Path) -> bool:
 
 def source_dir(near: Path | None = None) -> Path:
     """cbfgen's sources: ``CBFGEN_SOURCE``, else the first folder at or above ``near`` or
-    the working directory that is a clone of cbfgen, else the clone this module was built
-    from (``pip install .``), if it is still there."""
+    the working directory that is a clone of cbfgen, else the sources this module was built
+    from, embedded in it (see :func:`embedded_source`)."""
     named = os.environ.get(SOURCE_ENV)
     if named:
         if not _is_source(Path(named)):
@@ -66,16 +69,93 @@ def source_dir(near: Path | None = None) -> Path:
         for folder in [start.resolve(), *start.resolve().parents]:
             if _is_source(folder):
                 return folder
-    built_from = Path(_native.BUILT_FROM)
-    if _is_source(built_from):
-        return built_from.resolve()
-    raise LoadError(f"cbfgen.load builds the spec against cbfgen's sources: set {SOURCE_ENV} to a clone of "
-                    "cbfgen (or work inside one)")
+    return embedded_source()
+
+
+def embedded_source() -> Path:
+    """The core's sources embedded in this module, written once per content into the
+    cache (``source/<hash>``) as a crate of its own: exactly the core this module was
+    built from, with no clone needed."""
+    files = _native.core_sources()
+    digest = hashlib.sha256()
+    for path, data in files:
+        digest.update(path.encode() + b"\0" + data + b"\0")
+    folder = cache_dir() / "source" / digest.hexdigest()[:20]
+    if _is_source(folder):
+        return folder
+    staging = folder.with_name(f"{folder.name}.{os.getpid()}.tmp")
+    shutil.rmtree(staging, ignore_errors=True)
+    for path, data in files:
+        target = staging / path
+        target.parent.mkdir(parents=True, exist_ok=True)
+        target.write_bytes(standalone_manifest(data.decode()).encode() if path == "Cargo.toml" else data)
+    try:
+        os.replace(staging, folder)
+    except OSError:  # another process wrote the same sources first
+        shutil.rmtree(staging, ignore_errors=True)
+    return folder
+
+
+def standalone_manifest(workspace_manifest: str) -> str:
+    """The core's manifest (the repository's root, also the workspace's) as a crate of its
+    own: what it inherits from the workspace resolved, its tests, benches and
+    dev-dependencies (not embedded) left out."""
+    root = tomllib.loads(workspace_manifest)
+    shared, package = root["workspace"], root["package"]
+    lines = ["[package]"]
+    for key in ("name", "version", "edition", "rust-version", "license", "build"):
+        if key in package:
+            value = package[key]
+            if isinstance(value, dict) and value.get("workspace"):
+                value = shared["package"][key]
+            lines.append(f"{key} = {_toml(value)}")
+    lines += ["autobins = false", "autoexamples = false", "autotests = false", "autobenches = false"]
+    for section in ("features", "dependencies", "build-dependencies"):
+        lines += ["", f"[{section}]"]
+        for name, value in root.get(section, {}).items():
+            if section != "features":
+                value = _inherited_dependency(value, shared.get("dependencies", {}).get(name))
+            lines.append(f"{_toml_key(name)} = {_toml(value)}")
+    lines += ["", "# Its own workspace: never a member of whatever folder the cache sits in.", "[workspace]", ""]
+    return "\n".join(lines)
+
+
+def _inherited_dependency(local, shared):
+    """A dependency as cargo resolves ``name.workspace = true``: the workspace's entry, the
+    member's keys on top and its features added."""
+    if not (isinstance(local, dict) and local.get("workspace")):
+        return local
+    resolved = {"version": shared} if isinstance(shared, str) else dict(shared)
+    for key, value in local.items():
+        if key == "features":
+            resolved["features"] = [*resolved.get("features", []), *value]
+        elif key != "workspace":
+            resolved[key] = value
+    return resolved
+
+
+def _toml_key(key: str) -> str:
+    return key if key.replace("-", "").replace("_", "").isalnum() else json.dumps(key)
+
+
+def _toml(value) -> str:
+    """A TOML value (strings, booleans, numbers, arrays, inline tables: what a manifest holds)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return json.dumps(value)  # a JSON string is a TOML basic string
+    if isinstance(value, int | float):
+        return repr(value)
+    if isinstance(value, list):
+        return "[" + ", ".join(_toml(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{ " + ", ".join(f"{_toml_key(k)} = {_toml(v)}" for k, v in value.items()) + " }"
+    raise TypeError(f"no TOML form for {value!r}")
 
 
 def _source_files(source: Path) -> list[Path]:
     """The core's, the build helper's and the generator's sources: what a plugin is built from."""
-    found = [source / "Cargo.toml", source / "build.rs"]
+    found = [source / name for name in ("Cargo.toml", "Cargo.lock", "build.rs", "rustfmt.toml")]
     for folder, suffixes in (("src", (".rs",)), ("generated", (".rs",)), ("cbfgen-build", (".rs", ".toml")),
                              ("symbolic", (".py", ".toml", ".txt"))):
         found += [p for p in (source / folder).rglob("*") if p.is_file() and p.suffix in suffixes
@@ -149,6 +229,8 @@ def _build(source: Path, spec: Path, name: str, crate: Path, library: Path, prog
     (crate / "Cargo.toml").write_text(MANIFEST.format(name=name, source=source.as_posix()))
     (crate / "build.rs").write_text(BUILD_RS.format(spec=quoted))
     (crate / "lib.rs").write_text(LIB_RS.format(name=name, spec=spec.name))
+    if not (crate / "Cargo.lock").is_file():  # the core's versions, not whatever is newest
+        shutil.copy2(source / "Cargo.lock", crate / "Cargo.lock")
     # Shared: the core compiles once for every spec (CARGO_TARGET_DIR, if set, is used as is).
     target = Path(os.environ.get("CARGO_TARGET_DIR") or cache_dir() / "target")
     env = {**os.environ, "CARGO_TARGET_DIR": str(target), "CBFGEN_PYTHON": sys.executable}

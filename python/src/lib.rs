@@ -27,6 +27,9 @@
 #![warn(missing_docs)]
 
 mod convert;
+mod embedded {
+    include!(concat!(env!("OUT_DIR"), "/core_sources.rs"));
+}
 mod kernel_table;
 mod registry;
 mod ssat;
@@ -92,6 +95,13 @@ pub fn runtime_error(message: impl Into<String>) -> Error {
 /// What every binding returns.
 pub type PyResult<T> = Result<T, Error>;
 
+/// The core's sources this module was built from, ``[(path, bytes)]`` with paths relative
+/// to the repository: what cbfgen.load builds a spec against when no clone is at hand.
+#[pyfunction]
+fn core_sources(py: Python<'_>) -> Vec<(&'static str, Bound<'_, pyo3::types::PyBytes>)> {
+    embedded::CORE_SOURCES.iter().map(|(path, bytes)| (*path, pyo3::types::PyBytes::new(py, bytes))).collect()
+}
+
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> pyo3::PyResult<()> {
     let py = m.py();
@@ -109,9 +119,7 @@ fn _native(m: &Bound<'_, PyModule>) -> pyo3::PyResult<()> {
     m.add("SSAT_ALPHA_RANGE", (cbfgen::ssat::ALPHA_MIN, cbfgen::ssat::ALPHA_MAX))?;
     m.add("MAX_COORDINATE", cbfgen::geometry::MAX_COORDINATE)?;
     m.add("HALF_EXTENT_RANGE", (cbfgen::geometry::MIN_HALF_EXTENT, cbfgen::geometry::MAX_HALF_EXTENT))?;
-    // The clone this module was built from (`pip install .` builds in place): where
-    // cbfgen.load finds the core's sources when nothing else names them.
-    m.add("BUILT_FROM", concat!(env!("CARGO_MANIFEST_DIR"), "/.."))?;
+    m.add_function(wrap_pyfunction!(core_sources, m)?)?;
     m.add("PLUGIN_ABI_VERSION", cbfgen::plugin::ABI_VERSION)?;
     system::register(m)?;
     ssat::register(m)?;

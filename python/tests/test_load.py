@@ -116,10 +116,32 @@ def test_missing_tools_and_sources_are_one_line_naming_the_fix(environment, tmp_
         cbfgen.load(tmp_path / "nothing.py")
 
 
-def test_the_sources_are_found_from_the_spec_the_working_directory_or_the_install(tmp_path, monkeypatch):
+def test_the_sources_are_found_from_the_spec_or_the_working_directory(tmp_path, monkeypatch):
     monkeypatch.delenv("CBFGEN_SOURCE", raising=False)
     inside = REPO_ROOT / "systems" / "double_integrator" / "spec"
     assert cbfgen.plugins.source_dir(inside) == REPO_ROOT
-    # Outside any clone: the one the module was built from (here, this repository).
+    monkeypatch.chdir(inside)
+    assert cbfgen.plugins.source_dir(tmp_path) == REPO_ROOT
+
+
+def test_with_no_clone_anywhere_the_embedded_core_builds_the_same_plugin(environment, tmp_path, monkeypatch):
+    # An installed wheel, its clone gone: the sources embedded in the module are written
+    # into the cache as a crate of their own and the spec builds against them.
+    monkeypatch.delenv("CBFGEN_SOURCE", raising=False)
     monkeypatch.chdir(tmp_path)
-    assert cbfgen.plugins.source_dir(tmp_path) == Path(cbfgen._native.BUILT_FROM).resolve() == REPO_ROOT
+    spec = _spec_copy(tmp_path, DOUBLE)
+    source = cbfgen.plugins.source_dir(spec.parent)
+    assert source.is_relative_to(environment / "source")
+    # The embedded files are the repository's, byte for byte (the manifest made standalone).
+    embedded = dict(cbfgen._native.core_sources())
+    wanted = {"Cargo.toml", "Cargo.lock", "rustfmt.toml", "src/lib.rs", "cbfgen-build/Cargo.toml", "symbolic/spec.py"}
+    assert wanted <= embedded.keys()
+    for path, data in embedded.items():
+        assert data == (REPO_ROOT / path).read_bytes(), path
+        if path != "Cargo.toml":
+            assert (source / path).read_bytes() == data, path
+    manifest = (source / "Cargo.toml").read_text()
+    assert "[workspace]\n" in manifest and "members" not in manifest
+    loaded = cbfgen.load(spec, progress=False)
+    np.testing.assert_array_equal(_closed_loop(loaded), _closed_loop(cbfgen.System("double_integrator")))
+    assert cbfgen.plugins.source_dir(spec.parent) == source  # written once
