@@ -21,7 +21,8 @@ use crate::error::CbfError;
 use crate::filter::{Cause, EcbfFilter, FamilyRelaxation, FilterSettings, Output, SolverSettings};
 use crate::param_domain::Domain;
 use crate::system::{
-    BarrierSet, ControlAffine, FamilyInfo, FamilyParams, InstanceKind, Instances, RowLayout, MAX_RELATIVE_DEGREE,
+    find_kernel, BarrierSet, ControlAffine, FamilyInfo, FamilyParams, InstanceKind, Instances, KernelEntry,
+    KernelSignature, RowLayout, MAX_RELATIVE_DEGREE,
 };
 
 /// One instance's parameters as a flat slice of numbers (generated for every family's
@@ -70,6 +71,8 @@ pub trait GeneratedSystem<const NX: usize, const NU: usize>: ControlAffine<NX, N
     const DOC: &'static str;
     /// Its families, in order.
     const FAMILIES: &'static [FamilyInfo];
+    /// Its kernels behind the uniform signature (the module's `KERNELS`).
+    const KERNELS: &'static [KernelEntry];
     /// How many instances each capacity family has room for.
     type Capacity: FlatCapacity;
     /// Every family's run-time instances.
@@ -645,6 +648,18 @@ pub trait DynSystem: Sync {
     /// As [`DynSystem::params`], settings of other sizes, and everything
     /// [`EcbfFilter::new`] refuses.
     fn filter(&self, capacity: &[CapacityCount], settings: &DynSettings) -> Result<Box<dyn DynFilter>, CbfError>;
+    /// Its generated kernels, in the module's order: for tools and cross-checks (a
+    /// SymEngine comparison, Python's `call_kernel`), not for the control path.
+    fn kernels(&self) -> Vec<KernelSignature>;
+    /// Call kernel `name` with every input flattened, in order, into `inputs`; every
+    /// output lands flattened likewise in `outputs` (matrices row by row, symmetric ones by
+    /// their upper triangle). Nothing is validated beyond the lengths: a kernel is pure
+    /// arithmetic and returns what the numbers give.
+    ///
+    /// # Errors
+    /// [`CbfError::UnknownName`] for a kernel the system does not have;
+    /// [`CbfError::LengthMismatch`] for lengths other than its slots'.
+    fn call_kernel(&self, name: &str, inputs: &[f64], outputs: &mut [f64]) -> Result<(), CbfError>;
 
     /// Index of family `name`.
     ///
@@ -757,6 +772,15 @@ impl<S: GeneratedSystem<NX, NU>, const NX: usize, const NU: usize> DynSystem for
     }
     fn default_settings(&self) -> DynSettings {
         FilterSettings::<NU>::defaults(S::FAMILIES, S::INPUT_MIN, S::INPUT_MAX).into()
+    }
+    fn kernels(&self) -> Vec<KernelSignature> {
+        S::KERNELS.iter().map(KernelEntry::signature).collect()
+    }
+    fn call_kernel(&self, name: &str, inputs: &[f64], outputs: &mut [f64]) -> Result<(), CbfError> {
+        let (index, signature) = find_kernel(S::NAME, &self.kernels(), name)?;
+        signature.check_lengths(inputs, outputs)?;
+        (S::KERNELS[index].call)(inputs, outputs);
+        Ok(())
     }
     fn filter(&self, counts: &[CapacityCount], settings: &DynSettings) -> Result<Box<dyn DynFilter>, CbfError> {
         let barriers = S::barriers(capacity::<S, NX, NU>(counts)?)?;

@@ -652,6 +652,70 @@ pub struct KernelEntry {
     pub call: fn(&[f64], &mut [f64]),
 }
 
+impl KernelEntry {
+    /// Its name and slots, without the function.
+    pub fn signature(&self) -> KernelSignature {
+        KernelSignature { name: self.name, inputs: self.inputs, outputs: self.outputs }
+    }
+}
+
+/// A kernel's name and its flat inputs and outputs (as [`KernelEntry`] lists them), with
+/// no function: what [`DynSystem::kernels`](crate::dynamic::DynSystem::kernels) lists for
+/// a linked or a loaded system alike.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct KernelSignature {
+    /// The kernel's function name.
+    pub name: &'static str,
+    /// Inputs in argument order: name and number of scalars.
+    pub inputs: &'static [(&'static str, usize)],
+    /// Outputs in return order: name and number of scalars.
+    pub outputs: &'static [(&'static str, usize)],
+}
+
+impl KernelSignature {
+    /// Numbers in all inputs together.
+    pub fn input_len(&self) -> usize {
+        self.inputs.iter().map(|(_, n)| n).sum()
+    }
+
+    /// Numbers in all outputs together.
+    pub fn output_len(&self) -> usize {
+        self.outputs.iter().map(|(_, n)| n).sum()
+    }
+
+    /// `Ok(())` when `inputs` and `outputs` are exactly as long as the kernel's slots.
+    ///
+    /// # Errors
+    /// [`CbfError::LengthMismatch`] naming which.
+    pub fn check_lengths(&self, inputs: &[f64], outputs: &[f64]) -> Result<(), CbfError> {
+        let (expected, got) = (self.input_len(), inputs.len());
+        if got != expected {
+            return Err(CbfError::LengthMismatch { what: "kernel inputs", expected, got });
+        }
+        let (expected, got) = (self.output_len(), outputs.len());
+        if got != expected {
+            return Err(CbfError::LengthMismatch { what: "kernel outputs", expected, got });
+        }
+        Ok(())
+    }
+}
+
+/// The position and signature of kernel `name` among `kernels`.
+///
+/// # Errors
+/// [`CbfError::UnknownName`] listing the kernels.
+pub fn find_kernel(
+    system: &'static str,
+    kernels: &[KernelSignature],
+    name: &str,
+) -> Result<(usize, KernelSignature), CbfError> {
+    kernels.iter().position(|k| k.name == name).map(|i| (i, kernels[i])).ok_or_else(|| CbfError::UnknownName {
+        what: "kernel",
+        name: format!("{system}::{name}"),
+        known: kernels.iter().map(|k| k.name).collect::<Vec<_>>().join(", "),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

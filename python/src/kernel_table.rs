@@ -1,15 +1,17 @@
-//! Every generated kernel of every built-in system behind one uniform call: the table
-//! [`kernels`] lists each generated module's table, so a new system needs no binding code
-//! here to be called (and cross-checked against SymEngine) from Python.
+//! Every generated kernel behind one uniform call: the core's primitives (SSAT,
+//! sphere–box) and the kernels of every system, built in or loaded with `cbfgen.load`
+//! (through [`DynSystem::kernels`](cbfgen::dynamic::DynSystem::kernels)), so a new system
+//! needs no binding code here to be called (and cross-checked against SymEngine) from
+//! Python.
 
 use pyo3::prelude::*;
 
 use crate::PyResult;
 
 use super::convert::{values, vector, Array1Out, ArrayIn};
-use crate::registry::kernels;
-use cbfgen::error::{finite, CbfError};
-use cbfgen::system::KernelEntry;
+use crate::system::{every_system, system_named};
+use cbfgen::error::finite;
+use cbfgen::system::KernelSignature;
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(kernel_table, m)?)?;
@@ -21,14 +23,15 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 type Slot = (&'static str, usize);
 
 /// Every generated kernel: ``(module, name, inputs, outputs)`` with inputs and outputs as
-/// ``(name, length)`` in the kernel's order.
+/// ``(name, length)`` in the kernel's order. Modules are the core's primitives
+/// (``ssat``, ``sphere_box``), then each system by name, loaded ones included.
 #[pyfunction]
 fn kernel_table() -> Vec<(&'static str, &'static str, Vec<Slot>, Vec<Slot>)> {
-    kernels()
-        .flat_map(|(module, kernels)| {
-            kernels.iter().map(move |k| (*module, k.name, k.inputs.to_vec(), k.outputs.to_vec()))
-        })
-        .collect()
+    let primitives = cbfgen::generated::KERNELS
+        .iter()
+        .flat_map(|(module, kernels)| kernels.iter().map(move |k| (*module, k.signature())));
+    let systems = every_system().into_iter().flat_map(|s| s.kernels().into_iter().map(move |k| (s.name(), k)));
+    primitives.chain(systems).map(|(module, k)| (module, k.name, k.inputs.to_vec(), k.outputs.to_vec())).collect()
 }
 
 /// Call kernel ``name`` of ``module`` with every input flattened, in order, into one
@@ -37,27 +40,34 @@ fn kernel_table() -> Vec<(&'static str, &'static str, Vec<Slot>, Vec<Slot>)> {
 /// as the kernel takes; an output that is not finite (a singular state) raises ``CbfError``.
 #[pyfunction]
 fn call_kernel<'py>(py: Python<'py>, module: &str, name: &str, inputs: ArrayIn<'py>) -> PyResult<Array1Out<'py>> {
-    let entry = find(module, name)?;
-    let expected: usize = entry.inputs.iter().map(|(_, n)| n).sum();
-    let inputs = values("kernel inputs", &inputs, expected)?;
-    if inputs.len() != expected {
-        return Err(CbfError::LengthMismatch { what: "kernel inputs", expected, got: inputs.len() }.into());
-    }
+    let primitive = cbfgen::generated::KERNELS
+        .iter()
+        .filter(|(m, _)| *m == module)
+        .flat_map(|(_, ks)| ks.iter())
+        .find(|k| k.name == name);
+    let signature: KernelSignature = match primitive {
+        Some(entry) => entry.signature(),
+        None => {
+            let system =
+                system_named(module).map_err(|_| crate::key_error(format!("no generated kernel {module}::{name}")))?;
+            let kernels = system.kernels();
+            let (_, signature) = cbfgen::system::find_kernel(system.name(), &kernels, name)
+                .map_err(|e| crate::key_error(e.to_string().replacen("no kernel named", "no generated kernel", 1)))?;
+            signature
+        }
+    };
+    let inputs = values("kernel inputs", &inputs, signature.input_len())?;
+    let mut outputs = vec![0.0; signature.output_len()];
+    signature.check_lengths(&inputs, &outputs)?;
     // One domain for every kernel input (states, times and parameters alike): the widest,
     // the parameters'. Outputs reach Python only when finite.
     cbfgen::system::validate_params("kernel input", &inputs)?;
-    let mut outputs = vec![0.0; entry.outputs.iter().map(|(_, n)| n).sum()];
-    (entry.call)(&inputs, &mut outputs);
+    match primitive {
+        Some(entry) => (entry.call)(&inputs, &mut outputs),
+        None => system_named(module)?.call_kernel(name, &inputs, &mut outputs)?,
+    }
     for &v in &outputs {
         finite("kernel output", v)?;
     }
     Ok(vector(py, &outputs))
-}
-
-fn find(module: &str, name: &str) -> PyResult<&'static KernelEntry> {
-    kernels()
-        .filter(|(m, _)| *m == module)
-        .flat_map(|(_, kernels)| kernels.iter())
-        .find(|k| k.name == name)
-        .ok_or_else(|| crate::key_error(format!("no generated kernel {module}::{name}")))
 }

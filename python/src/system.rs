@@ -41,8 +41,21 @@ fn systems() -> Vec<&'static str> {
 /// The systems loaded from plugins in this process, by library path (a path loads once).
 static LOADED: std::sync::Mutex<Vec<(std::path::PathBuf, &'static dyn DynSystem)>> = std::sync::Mutex::new(Vec::new());
 
+/// Every system by the name [`system_named`] finds it: the built-in ones in name order,
+/// then the loaded ones whose names nothing shadows (the latest load of a name wins).
+pub fn every_system() -> Vec<&'static dyn DynSystem> {
+    let loaded = LOADED.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let mut systems: Vec<&'static dyn DynSystem> = SYSTEMS.names().filter_map(|name| SYSTEMS.get(name).ok()).collect();
+    for (_, s) in loaded.iter().rev() {
+        if systems.iter().all(|known| known.name() != s.name()) {
+            systems.push(*s);
+        }
+    }
+    systems
+}
+
 /// A system by name: a built-in one, else the last one loaded from a plugin with that name.
-fn system_named(name: &str) -> Result<&'static dyn DynSystem, CbfError> {
+pub fn system_named(name: &str) -> Result<&'static dyn DynSystem, CbfError> {
     let loaded = LOADED.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     match loaded.iter().rev().find(|(_, s)| s.name() == name) {
         Some((_, s)) if SYSTEMS.get(name).is_err() => Ok(*s),

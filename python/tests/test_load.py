@@ -102,6 +102,37 @@ def test_a_loaded_clf_is_reported_as_convergence_never_as_safety(environment, tm
     assert [(r["place"][0], r["cause"]) for r in out.relaxed] == [("speed_goal", "higher_priority")]
 
 
+def test_a_loaded_specs_kernels_are_in_the_table_and_agree_with_symengine(environment, tmp_path):
+    # Through the plugin's C ABI, each kernel of the loaded spec against SymEngine's numeric
+    # evaluation of the same spec's expressions.
+    from symbolic.codegen.definition import define
+    from symbolic.spec import load as load_spec
+    from symbolic.tests.symengine_reference import SymEngineReference
+
+    spec = _spec_copy(tmp_path, CRUISE)
+    system = cbfgen.load(spec, progress=False)
+    kernels = define(load_spec(spec)).kernels()
+    table = {name: (inputs, outputs) for module, name, inputs, outputs in cbfgen.kernel_table()
+             if module == system.name}
+    assert sorted(table) == sorted(k.name for k in kernels)
+    rng = np.random.default_rng(7)
+    for kernel in kernels:
+        reference = SymEngineReference(kernel)
+        inputs, outputs = table[kernel.name]
+        assert inputs == [(i.name, len(i.symbols)) for i in kernel.inputs]
+        for _ in range(50):
+            values = {i.name: rng.uniform(1.0, 30.0, len(i.symbols)) for i in kernel.inputs}
+            got = cbfgen.call_kernel(system.name, kernel.name, reference.flat_inputs(values))
+            want = np.concatenate([reference(values)[name] for name, _ in outputs])
+            np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12, err_msg=kernel.name)
+    with pytest.raises(KeyError, match="no generated kernel"):
+        cbfgen.call_kernel(system.name, "no_such_kernel", [])
+    with pytest.raises(cbfgen.CbfError, match="too many kernel inputs"):
+        cbfgen.call_kernel(system.name, kernels[0].name, [1.0] * 99)
+    with pytest.raises(cbfgen.CbfError, match="kernel inputs: expected length"):
+        cbfgen.call_kernel(system.name, kernels[0].name, [])
+
+
 def test_missing_tools_and_sources_are_one_line_naming_the_fix(environment, tmp_path, monkeypatch):
     spec = _spec_copy(tmp_path, DOUBLE)
     monkeypatch.setenv("CBFGEN_SOURCE", str(tmp_path))

@@ -9,8 +9,8 @@ use std::sync::OnceLock;
 
 use super::convert::{cause_c, domain_c, family_params, family_params_c, safety_c, solver, solver_c, write_error};
 use super::{
-    code, dynamics_op, store_op, DescriptionC, ErrorC, FamilyC, Handle, ParamC, PluginV1, ReportC, RowC, RowLayoutC,
-    SettingsC, StrC, ABI_VERSION, BACKENDS, INPUT_SOURCES, QP_STATUSES,
+    code, dynamics_op, store_op, DescriptionC, ErrorC, FamilyC, Handle, KernelC, ParamC, PluginV1, ReportC, RowC,
+    RowLayoutC, SettingsC, SlotC, StrC, ABI_VERSION, BACKENDS, INPUT_SOURCES, QP_STATUSES,
 };
 use crate::dynamic::{CapacityCount, DynBarriers, DynFilter, DynParams, DynRows, DynSettings, DynSystem};
 use crate::error::CbfError;
@@ -65,6 +65,7 @@ static TABLE: PluginV1 = PluginV1 {
     filter_report,
     filter_fallback,
     filter_settings,
+    kernel_call,
 };
 
 /// Run `f`, its error (or a panic) into `err`; `fail` is what the call returns then.
@@ -169,6 +170,20 @@ unsafe extern "C" fn describe() -> *const DescriptionC {
                 }
             })
             .collect();
+        let slots = |slots: &'static [(&'static str, usize)]| {
+            leak(slots.iter().map(|(name, len)| SlotC { name: StrC::new(name), len: *len }).collect())
+        };
+        let kernels: Vec<KernelC> = s
+            .kernels()
+            .iter()
+            .map(|k| KernelC {
+                name: StrC::new(k.name),
+                inputs: slots(k.inputs),
+                n_inputs: k.inputs.len(),
+                outputs: slots(k.outputs),
+                n_outputs: k.outputs.len(),
+            })
+            .collect();
         Description(DescriptionC {
             name: StrC::new(s.name()),
             doc: StrC::new(s.doc()),
@@ -180,6 +195,8 @@ unsafe extern "C" fn describe() -> *const DescriptionC {
             input_max: s.input_max().as_ptr(),
             n_families: families.len(),
             families: leak(families),
+            n_kernels: kernels.len(),
+            kernels: leak(kernels),
         })
     });
     &d.0
@@ -432,4 +449,24 @@ unsafe extern "C" fn filter_fallback(filter: Handle, u_ref: *const f64, out: *mu
 unsafe extern "C" fn filter_settings(filter: Handle, out: *mut SettingsC) {
     // SAFETY: a live filter handle; buffers sized from the description.
     unsafe { write_settings(&object::<dyn DynFilter>(filter).settings(), out) }
+}
+
+unsafe extern "C" fn kernel_call(
+    index: usize,
+    inputs: *const f64,
+    n_inputs: usize,
+    outputs: *mut f64,
+    n_outputs: usize,
+    err: *mut ErrorC,
+) -> i32 {
+    guarded(err, -1, || {
+        let s = system();
+        let kernels = s.kernels();
+        let kernel = kernels.get(index).ok_or_else(|| CbfError::Plugin {
+            message: format!("{}: no kernel {index} (it has {})", s.name(), kernels.len()),
+        })?;
+        // SAFETY: the loader passes its slices' pointers and lengths (checked again here).
+        s.call_kernel(kernel.name, unsafe { slice(inputs, n_inputs) }, unsafe { slice_mut(outputs, n_outputs) })?;
+        Ok(0)
+    })
 }

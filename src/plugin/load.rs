@@ -7,7 +7,7 @@ use std::time::Duration;
 use super::convert::{cause, domain, family_params, family_params_c, read_error, safety, solver, solver_c, static_str};
 use super::{
     decode, dynamics_op, store_op, CauseC, ErrorC, FamilyParamsC, Handle, PluginV1, ReportC, RowC, RowLayoutC,
-    SettingsC, ABI_VERSION, BACKENDS, ENTRY_POINT, INPUT_SOURCES, QP_STATUSES,
+    SettingsC, SlotC, ABI_VERSION, BACKENDS, ENTRY_POINT, INPUT_SOURCES, QP_STATUSES,
 };
 use crate::dynamic::{
     CapacityCount, DynBarriers, DynFilter, DynParams, DynRows, DynSettings, DynSystem, FamilyStore, RowView,
@@ -15,7 +15,9 @@ use crate::dynamic::{
 use crate::error::CbfError;
 use crate::filter::{Cause, FamilyRelaxation, InputSource, Output};
 use crate::param_domain::Domain;
-use crate::system::{ClassK, FamilyInfo, FamilyKind, FamilyParams, InstanceKind, RowLayout};
+use crate::system::{
+    find_kernel, ClassK, FamilyInfo, FamilyKind, FamilyParams, InstanceKind, KernelSignature, RowLayout,
+};
 
 fn plugin_error(message: String) -> CbfError {
     CbfError::Plugin { message }
@@ -118,11 +120,13 @@ struct PluginSystem {
     families: &'static [FamilyInfo],
     /// Per family: each parameter's name and domain.
     domains: Vec<&'static [(&'static str, Domain)]>,
+    /// The plugin's kernels, in its order (the index [`PluginV1::kernel_call`] takes).
+    kernels: Vec<KernelSignature>,
 }
 
 impl PluginSystem {
     /// # Safety
-    /// `table` is a checked version-1 table of a loaded plugin.
+    /// `table` is a checked table of a loaded plugin, of this [`ABI_VERSION`].
     unsafe fn new(table: &'static PluginV1) -> Self {
         // SAFETY: everything the description points at is static in the plugin.
         unsafe {
@@ -164,6 +168,17 @@ impl PluginSystem {
                     defaults,
                 });
             }
+            let slots = |p: *const SlotC, n| -> &'static [(&'static str, usize)] {
+                Vec::leak(statics(p, n).iter().map(|s| (static_str(s.name), s.len)).collect())
+            };
+            let kernels = statics(d.kernels, d.n_kernels)
+                .iter()
+                .map(|k| KernelSignature {
+                    name: static_str(k.name),
+                    inputs: slots(k.inputs, k.n_inputs),
+                    outputs: slots(k.outputs, k.n_outputs),
+                })
+                .collect();
             Self {
                 table,
                 name: static_str(d.name),
@@ -176,6 +191,7 @@ impl PluginSystem {
                 input_max: statics(d.input_max, d.nu),
                 families: Vec::leak(families),
                 domains,
+                kernels,
             }
         }
     }
@@ -367,6 +383,26 @@ impl DynSystem for PluginSystem {
         // SAFETY: a live parameters handle of this plugin.
         let h = self.handle(unsafe { (self.table.barriers_new)(p.handle, &mut err) }, &err)?;
         Ok(Box::new(PluginBarriers { system: self.leaked(), handle: h, layout: self.layout(h, false) }))
+    }
+    fn kernels(&self) -> Vec<KernelSignature> {
+        self.kernels.clone()
+    }
+    fn call_kernel(&self, name: &str, inputs: &[f64], outputs: &mut [f64]) -> Result<(), CbfError> {
+        let (index, signature) = find_kernel(self.name, &self.kernels, name)?;
+        signature.check_lengths(inputs, outputs)?;
+        let mut err = ErrorC::new();
+        // SAFETY: the slices' own pointers and lengths.
+        let status = unsafe {
+            (self.table.kernel_call)(
+                index,
+                inputs.as_ptr(),
+                inputs.len(),
+                outputs.as_mut_ptr(),
+                outputs.len(),
+                &mut err,
+            )
+        };
+        self.call(status.into(), &err).map(drop)
     }
     fn default_settings(&self) -> DynSettings {
         // SAFETY: buffers sized from the description.

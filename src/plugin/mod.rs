@@ -34,7 +34,9 @@ use crate::qp::{Backend, QpStatus, Solver};
 use crate::system::MAX_RELATIVE_DEGREE;
 
 /// The version of [`PluginV1`]'s layout and meaning; a loader refuses any other.
-pub const ABI_VERSION: u32 = 1;
+/// Version 2 added the kernel table ([`DescriptionC::kernels`], [`PluginV1::kernel_call`]);
+/// the table keeps the name it was born with.
+pub const ABI_VERSION: u32 = 2;
 
 /// The symbol a plugin exports: `extern "C" fn() -> *const PluginV1`.
 pub const ENTRY_POINT: &str = "cbfgen_plugin_v1";
@@ -158,6 +160,32 @@ pub struct FamilyC {
     pub defaults: FamilyParamsC,
 }
 
+/// A kernel's input or output: its name and how many numbers it holds.
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+pub struct SlotC {
+    /// Its name.
+    pub name: StrC,
+    /// Numbers it holds.
+    pub len: usize,
+}
+
+/// [`crate::system::KernelSignature`].
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+pub struct KernelC {
+    /// The kernel's name.
+    pub name: StrC,
+    /// Its inputs, in argument order.
+    pub inputs: *const SlotC,
+    /// How many.
+    pub n_inputs: usize,
+    /// Its outputs, in return order.
+    pub outputs: *const SlotC,
+    /// How many.
+    pub n_outputs: usize,
+}
+
 /// Everything static about the plugin's system.
 #[repr(C)]
 #[derive(Debug)]
@@ -182,6 +210,10 @@ pub struct DescriptionC {
     pub families: *const FamilyC,
     /// How many.
     pub n_families: usize,
+    /// The generated kernels, in the module's order.
+    pub kernels: *const KernelC,
+    /// How many.
+    pub n_kernels: usize,
 }
 
 /// [`SolverSettings`](crate::qp::SolverSettings) field by field (`time_limit_ns` < 0: none).
@@ -390,6 +422,15 @@ pub struct PluginV1 {
     pub filter_fallback:
         unsafe extern "C" fn(filter: Handle, u_ref: *const f64, out: *mut f64, err: *mut ErrorC) -> i32,
     pub filter_settings: unsafe extern "C" fn(filter: Handle, out: *mut SettingsC),
+    /// Kernel `index` of the description's, inputs and outputs flattened (lengths checked).
+    pub kernel_call: unsafe extern "C" fn(
+        index: usize,
+        inputs: *const f64,
+        n_inputs: usize,
+        outputs: *mut f64,
+        n_outputs: usize,
+        err: *mut ErrorC,
+    ) -> i32,
 }
 
 // The table is plain data and function pointers into code that is itself thread-safe

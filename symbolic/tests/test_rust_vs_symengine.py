@@ -216,7 +216,9 @@ def rust_call(module: str, kernel: Kernel) -> RustCall:
 
 
 def test_the_generated_table_is_the_generators_list():
-    assert sorted((m, n) for m, n, _, _ in cbfgen.kernel_table()) == sorted(KERNELS)
+    # Systems loaded with cbfgen.load in the same process list their kernels too.
+    modules = {m for m, _ in KERNELS}
+    assert sorted((m, n) for m, n, _, _ in cbfgen.kernel_table() if m in modules) == sorted(KERNELS)
 
 
 def compare(name: str, ref: np.ndarray, got: np.ndarray, truth_of: Callable[[int], np.ndarray]) -> None:

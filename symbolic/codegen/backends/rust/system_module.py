@@ -850,6 +850,7 @@ def _emit_filter_and_system(out: list[str], d: SystemDefinition, rt: str) -> Non
     w(f"impl {rt}::dynamic::GeneratedSystem<NX, NU> for {sys_type} {{")
     w("    const DOC: &'static str = DOC;")
     w(f"    const FAMILIES: &'static [{rt}::system::FamilyInfo] = &FAMILIES;")
+    w(f"    const KERNELS: &'static [{rt}::system::KernelEntry] = KERNELS;")
     w("    type Capacity = Capacity;")
     w("    type Params = Params;")
     w("    type Barriers = Barriers;")
