@@ -35,7 +35,7 @@ pub fn export(system: &'static dyn DynSystem) -> &'static PluginV1 {
 #[macro_export]
 macro_rules! export_plugin {
     ($system:expr) => {
-        /// The plugin's entry table (cbfgen's plugin ABI, version 1).
+        /// The plugin's entry table (cbfgen's plugin ABI, of `cbfgen::plugin::ABI_VERSION`).
         #[unsafe(no_mangle)]
         pub extern "C" fn cbfgen_plugin_v1() -> *const $crate::plugin::PluginV1 {
             $crate::plugin::export($system)

@@ -48,7 +48,7 @@ pub fn load(path: &Path) -> Result<&'static dyn DynSystem, CbfError> {
             env!("CARGO_PKG_VERSION")
         )));
     }
-    // SAFETY: a checked version-1 table; its description is static in the plugin.
+    // SAFETY: a table of this ABI_VERSION, checked; its description is static in the plugin.
     Ok(Box::leak(Box::new(unsafe { PluginSystem::new(table) })))
 }
 

@@ -365,7 +365,7 @@ pub mod dynamics_op {
     pub const XDOT: u32 = 2;
 }
 
-/// The plugin's table of entry points, version 1. Every fallible call returns a status
+/// The plugin's table of entry points, of [`ABI_VERSION`]. Every fallible call returns a status
 /// (0, or a count ≥ 0) and −1 on error, with the message in `err`; a `Handle` call returns
 /// null on error. `rows` arguments say which kind of handle: `false` a barrier set's,
 /// `true` a filter's.
