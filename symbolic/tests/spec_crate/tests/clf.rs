@@ -10,6 +10,9 @@ use cbfgen::filter::{Cause, InputSource, Verdict};
 use cbfgen::system::{ClassK, ControlAffine, FamilyKind};
 use spec_crate::adaptive_cruise as acc;
 
+mod common;
+use common::Samples;
+
 const MASS: f64 = 1650.0;
 const G: f64 = 9.81;
 const TIME_HEADWAY: f64 = 1.8;
@@ -74,19 +77,6 @@ fn params() -> acc::Params {
     p.standstill_gap[0].z_min = Z_MIN;
     p.speed_goal[0].v_desired = V_DESIRED;
     p
-}
-
-/// A small deterministic generator (SplitMix64) for the sample states.
-struct Samples(u64);
-
-impl Samples {
-    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        lo + (hi - lo) * ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
 }
 
 #[test]

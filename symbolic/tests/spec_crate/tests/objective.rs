@@ -12,6 +12,9 @@ use cbfgen::error::CbfError;
 use cbfgen::filter::{InputSource, Solver, Verdict};
 use spec_crate::drag_weighted_robot as robot;
 
+mod common;
+use common::Samples;
+
 const LIMIT: f64 = 2.0;
 const RANGE: f64 = 2.0 * LIMIT;
 
@@ -83,19 +86,6 @@ fn exact(p: [[f64; 2]; 2], q: [f64; 2], r: [f64; 2], rows: &[Constraint]) -> Opt
         }
     }
     best.map(|(u, _)| u)
-}
-
-/// A small deterministic generator (SplitMix64) for the sample states.
-struct Samples(u64);
-
-impl Samples {
-    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        lo + (hi - lo) * ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
 }
 
 fn filter(backend: Solver, polish: bool) -> robot::Filter {
