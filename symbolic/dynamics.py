@@ -20,6 +20,14 @@ force are named intermediates, so a kernel holds each once.
 
 Joint forces are torques [N m] for revolute and continuous joints, forces [N] for
 prismatic ones. A link without ``<inertial>`` is massless.
+
+**A floating base.** Given ``base_rotation`` (the root link's orientation in the world, a
+3×3 matrix of expressions whose columns are the base's axes), the root moves freely: six
+more degrees of freedom come first, the base's twist in its own frame ordered as
+Pinocchio's free flyer orders its velocity — linear ``(vx, vy, vz)`` of the base origin,
+then angular ``(wx, wy, wz)``, both in the base frame. Their generalized forces are the
+force and then the moment on the base, in the base frame. In these coordinates M depends on
+the joints only; the orientation enters through gravity, seen from the base.
 """
 
 from __future__ import annotations
@@ -58,16 +66,27 @@ def _apply_transposed(m: Sequence[Sequence[se.Expr]], v: Sequence[se.Expr]) -> V
 ZERO: Vector3 = [se.Integer(0)] * 3
 
 
+# The floating base's degrees of freedom, in Pinocchio's free-flyer order (base frame).
+BASE_DOFS = ("base_vx", "base_vy", "base_vz", "base_wx", "base_wy", "base_wz")
+
+
 class RigidBodyDynamics:
-    """M(q), C(q, q̇) q̇ + g(q) and inverse dynamics of a URDF's tree with a fixed root."""
+    """M(q), C(q, q̇) q̇ + g(q) and inverse dynamics of a URDF's tree, its root fixed or
+    floating (``base_rotation``)."""
 
     def __init__(self, robot: Urdf, q: Mapping[str, se.Expr | float],
                  let_: Callable[[str, se.Expr], se.Symbol] | None = None,
-                 gravity: Sequence[float] = (0.0, 0.0, -9.81)):
+                 gravity: Sequence[float] = (0.0, 0.0, -9.81),
+                 base_rotation: Sequence[Sequence[se.Expr]] | None = None):
         require_joint_values(robot, q)
         self.robot = robot
         self._q = {name: se.sympify(v) for name, v in q.items()}
-        self.dofs = [j.name for j in robot.moving_joints if self._q[j.name].free_symbols]
+        if base_rotation is not None and (len(base_rotation) != 3 or any(len(row) != 3 for row in base_rotation)):
+            raise SpecError(f"URDF {robot.source.name}: base_rotation must be 3x3, got {base_rotation!r}")
+        self._base_rotation = None if base_rotation is None else [[se.sympify(v) for v in row]
+                                                                    for row in base_rotation]
+        self.joint_dofs = [j.name for j in robot.moving_joints if self._q[j.name].free_symbols]
+        self.dofs = (list(BASE_DOFS) if base_rotation is not None else []) + self.joint_dofs
         self._let = let_
         self._gravity = [se.sympify(g) for g in gravity]
         # Each joint's child pose in its parent's frame: (R, p).
@@ -110,13 +129,22 @@ class RigidBodyDynamics:
             raise SpecError(f"URDF {self.robot.source.name}: give one rate and one acceleration per degree of "
                             f"freedom ({self.dofs})")
         self._calls += 1
-        rate = dict(zip(self.dofs, (se.sympify(v) for v in qd), strict=True))
-        accel = dict(zip(self.dofs, (se.sympify(v) for v in qdd), strict=True))
+        qd, qdd = [se.sympify(v) for v in qd], [se.sympify(v) for v in qdd]
+        rate = dict(zip(self.dofs, qd, strict=True))
+        accel = dict(zip(self.dofs, qdd, strict=True))
         root = self.robot.root
         lift = [-g for g in self._gravity] if gravity else ZERO
-        velocity: dict[str, Spatial] = {root: (ZERO, ZERO)}
-        acceleration: dict[str, Spatial] = {root: (ZERO, lift)}
         force: dict[str, Spatial] = {}
+        if self._base_rotation is None:
+            velocity: dict[str, Spatial] = {root: (ZERO, ZERO)}
+            acceleration: dict[str, Spatial] = {root: (ZERO, lift)}
+        else:
+            # The base's own twist and its rate (a free joint's motion subspace is the
+            # identity and its velocity-product term v × v vanishes); gravity as an upward
+            # acceleration of the base, seen from the base: Rᵀ (−g).
+            velocity = {root: (qd[3:6], qd[0:3])}
+            acceleration = {root: (qdd[3:6], _add(qdd[0:3], _apply_transposed(self._base_rotation, lift)))}
+            force[root] = self._link_force(root, velocity[root], acceleration[root])
         for joint in self.robot.joints:  # parents first
             r, p = self._placement[joint.name]
             (w, v), (dw, dv) = velocity[joint.parent], acceleration[joint.parent]
@@ -133,11 +161,7 @@ class RigidBodyDynamics:
             link = joint.child
             velocity[link] = (self._name("w", link, w_c), self._name("v", link, v_c))
             acceleration[link] = (self._name("dw", link, dw_c), self._name("dv", link, dv_c))
-            # f = I a + v ×* (I v)
-            (w_c, v_c), (dw_c, dv_c) = velocity[link], acceleration[link]
-            ia_n, ia_f = self._inertia_times(link, (dw_c, dv_c))
-            iv_n, iv_f = self._inertia_times(link, (w_c, v_c))
-            force[link] = (_add(ia_n, _add(_cross(w_c, iv_n), _cross(v_c, iv_f))), _add(ia_f, _cross(w_c, iv_f)))
+            force[link] = self._link_force(link, velocity[link], acceleration[link])
         tau: dict[str, se.Expr] = {}
         for joint in reversed(self.robot.joints):  # children first
             link = joint.child
@@ -152,7 +176,17 @@ class RigidBodyDynamics:
                 n_p = _add(_apply(r, n), _cross(p, f_p))
                 pn, pf = force[joint.parent]
                 force[joint.parent] = (_add(pn, n_p), _add(pf, f_p))
+        if self._base_rotation is not None:
+            n, f = force[root]
+            tau.update(zip(BASE_DOFS, [*f, *n], strict=True))
         return [tau[name] for name in self.dofs]
+
+    def _link_force(self, link: str, motion: Spatial, rate: Spatial) -> Spatial:
+        """The force a link's own inertia takes: f = I a + v ×* (I v)."""
+        (w, v), (dw, dv) = motion, rate
+        ia_n, ia_f = self._inertia_times(link, (dw, dv))
+        iv_n, iv_f = self._inertia_times(link, (w, v))
+        return _add(ia_n, _add(_cross(w, iv_n), _cross(v, iv_f))), _add(ia_f, _cross(w, iv_f))
 
     def bias(self, qd: Sequence[se.Expr]) -> list[se.Expr]:
         """C(q, q̇) q̇ + g(q)."""

@@ -14,10 +14,11 @@ import pytest
 import symengine as se
 
 from symbolic import urdf
-from symbolic.dynamics import RigidBodyDynamics
+from symbolic.dynamics import BASE_DOFS, RigidBodyDynamics
 from symbolic.spec import SpecError
 
 STATES = 10_000
+FLOATING_STATES = STATES
 CASES = [
     ("panda_description/urdf/panda.urdf", {"panda_finger_joint1": 0.04, "panda_finger_joint2": 0.04}),
     ("anymal_c_simple_description/urdf/anymal.urdf", {}),
@@ -132,3 +133,52 @@ def test_a_broken_inertial_names_the_link(tmp_path, inertial, message):
     with pytest.raises(SpecError) as err:
         urdf.load(path)
     assert message in str(err.value) and "broken.urdf" in str(err.value)
+
+
+def test_a_floating_base_matches_pinocchios_free_flyer():
+    # ANYmal C on Pinocchio's free flyer: the base's twist in its own frame (linear, then
+    # angular) before the joints, its orientation a random rotation. M, C q̇ + g, g and
+    # inverse dynamics at random states, to 1e-12 relative.
+    relative = CASES[1][0]
+    path = urdf.description(relative)
+    robot = urdf.load(path)
+    joints = [j.name for j in robot.moving_joints]
+    n = 6 + len(joints)
+    rotation = [[se.Symbol(f"r{i}{j}") for j in range(3)] for i in range(3)]
+    q = [se.Symbol(f"q{i}") for i in range(len(joints))]
+    qd, qdd = ([se.Symbol(f"{tag}{i}") for i in range(n)] for tag in ("qd", "qdd"))
+    dynamics = RigidBodyDynamics(robot, dict(zip(joints, q, strict=True)), base_rotation=rotation)
+    assert dynamics.dofs == [*BASE_DOFS, *joints]
+    mass = dynamics.mass_matrix()
+    values = [e for row in mass for e in row] + dynamics.bias(qd) + dynamics.gravity() + dynamics.inverse(qd, qdd)
+    flat_rotation = [r for row in rotation for r in row]
+    ours = se.Lambdify(flat_rotation + q + qd + qdd, values, cse=True)
+
+    model = pin.buildModelFromUrdf(str(path), pin.JointModelFreeFlyer())
+    data = model.createData()
+    iq = [model.joints[model.getJointId(name)].idx_q for name in joints]
+    iv = list(range(6)) + [model.joints[model.getJointId(name)].idx_v for name in joints]
+    limits = robot.limits(joints, "position")
+    rng = np.random.default_rng(355)
+    worst = {"M": 0.0, "b": 0.0, "g": 0.0, "tau": 0.0}
+    for _ in range(FLOATING_STATES):
+        quaternion = pin.Quaternion(*(rng.normal(size=4))).normalized()
+        x = np.array([rng.uniform(lo, hi) for lo, hi in limits])
+        v, a = rng.uniform(-2.0, 2.0, n), rng.uniform(-10.0, 10.0, n)
+        r = quaternion.toRotationMatrix()
+        out = np.asarray(ours(np.concatenate([r.ravel(), x, v, a]))).ravel()
+        got = {"M": out[:n * n].reshape(n, n), "b": out[n * n:n * n + n], "g": out[n * n + n:n * n + 2 * n],
+               "tau": out[n * n + 2 * n:]}
+        qp, vp, ap = pin.neutral(model), np.zeros(n), np.zeros(n)
+        qp[:3] = rng.uniform(-1.0, 1.0, 3)  # the base's position changes nothing
+        qp[3:7] = quaternion.coeffs()
+        qp[iq] = x
+        vp[iv], ap[iv] = v, a
+        upper = pin.crba(model, data, qp)
+        full = np.triu(upper) + np.triu(upper, 1).T
+        want = {"M": full[np.ix_(iv, iv)], "b": pin.nonLinearEffects(model, data, qp, vp)[iv],
+                "g": pin.computeGeneralizedGravity(model, data, qp)[iv], "tau": pin.rnea(model, data, qp, vp, ap)[iv]}
+        for key in worst:
+            scale = max(1.0, float(np.max(np.abs(want[key]))))
+            worst[key] = max(worst[key], float(np.max(np.abs(got[key] - want[key]))) / scale)
+    assert max(worst.values()) <= 1e-12, f"{relative} floating: largest relative differences {worst}"
