@@ -201,3 +201,43 @@ class RigidBodyDynamics:
         n = len(self.dofs)
         columns = [self.inverse([0] * n, [int(i == j) for i in range(n)], gravity=False) for j in range(n)]
         return [[columns[j][i] for j in range(n)] for i in range(n)]
+
+
+def contact_point(robot: Urdf, q: Mapping[str, se.Expr | float], joint_rates: Mapping[str, se.Expr],
+                  base_rotation: Sequence[Sequence[se.Expr]], base_twist: Sequence[se.Expr], link: str,
+                  offset: Sequence[float] = (0.0, 0.0, 0.0)) -> tuple[Vector3, list[Vector3], Vector3]:
+    """A point fixed on ``link`` of a floating-base robot, in :class:`RigidBodyDynamics`'
+    floating coordinates: ``(r, J, J̇v)`` with ``r`` the point in the base frame (its world
+    position is the base position plus R r), ``J`` the 3 × (6 + joints) Jacobian of its
+    world velocity (rows x, y, z; columns the base twist, then ``joint_rates``' joints in
+    order) and ``J̇v`` its world acceleration when every generalized acceleration is zero.
+
+    ``q`` maps each moving joint to a symbol or a number (a held joint); ``joint_rates``
+    maps each joint that moves to its rate. With ṙ = J_r q̇ (J_r = ∂r/∂q):
+    ṗ = R (v_b + ω_b × r + J_r q̇), so J = R [I, −[r]×, J_r], and with every acceleration
+    zero, p̈ = R (ω_b × (v_b + ω_b × r + J_r q̇) + ω_b × J_r q̇ + (∂(J_r q̇)/∂q) q̇)."""
+    from .urdf import Kinematics, _matvec
+
+    joints = list(joint_rates)
+    for name in joints:
+        if not isinstance(se.sympify(q.get(name, 0)), se.Symbol):
+            raise SpecError(f"URDF {robot.source.name}: joint {name!r} needs a symbol to differentiate by, "
+                            f"got {q.get(name)!r}")
+    if len(base_twist) != 6:
+        raise SpecError(f"URDF {robot.source.name}: the base twist has 6 entries (v, w), got {len(base_twist)}")
+    rotation, position = Kinematics(robot, q).pose(link)
+    r = [position[i] + e for i, e in enumerate(_matvec(rotation, [_number(v) for v in offset]))]
+    symbols = [se.sympify(q[name]) for name in joints]
+    rates = [se.sympify(joint_rates[name]) for name in joints]
+    j_r = [[se.diff(r[i], s) for s in symbols] for i in range(3)]
+    r_dot = [se.Add(*[j_r[i][k] * rates[k] for k in range(len(joints))]) for i in range(3)]
+    v_b, w_b = [se.sympify(v) for v in base_twist[:3]], [se.sympify(v) for v in base_twist[3:]]
+    skew = [[0, r[2], -r[1]], [-r[2], 0, r[0]], [r[1], -r[0], 0]]  # −[r]×
+    local = [[*([int(i == j) for j in range(3)]), *skew[i], *j_r[i]] for i in range(3)]
+    jacobian = [[se.Add(*[se.sympify(base_rotation[i][k]) * local[k][c] for k in range(3)])
+                 for c in range(len(local[0]))] for i in range(3)]
+    r_ddot = [se.Add(*[se.diff(r_dot[i], s) * rate for s, rate in zip(symbols, rates, strict=True)])
+              for i in range(3)]
+    velocity = _add(_add(v_b, _cross(w_b, r)), r_dot)
+    jdot_v = _matvec(base_rotation, _add(_add(_cross(w_b, velocity), _cross(w_b, r_dot)), r_ddot))
+    return r, jacobian, jdot_v
