@@ -35,6 +35,27 @@ def _pinocchio(path: Path, locked: dict[str, float]):
     return model, model.createData()
 
 
+def _worst_of_dynamics(worst: dict[str, float], out: np.ndarray, model, data, state, iv: list[int]) -> None:
+    """Fold into ``worst`` the relative differences of our flat (M, b, g, τ) ``out`` from
+    Pinocchio's at ``state`` = (q, v, a) in its coordinates, read at velocity indices ``iv``."""
+    n = len(iv)
+    qp, vp, ap = state
+    got = {"M": out[:n * n].reshape(n, n), "b": out[n * n:n * n + n], "g": out[n * n + n:n * n + 2 * n],
+           "tau": out[n * n + 2 * n:]}
+    upper = pin.crba(model, data, qp)
+    full = np.triu(upper) + np.triu(upper, 1).T
+    want = {"M": full[np.ix_(iv, iv)], "b": pin.nonLinearEffects(model, data, qp, vp)[iv],
+            "g": pin.computeGeneralizedGravity(model, data, qp)[iv], "tau": pin.rnea(model, data, qp, vp, ap)[iv]}
+    _fold(worst, got, want)
+
+
+def _fold(worst: dict[str, float], got: dict[str, np.ndarray], want: dict[str, np.ndarray]) -> None:
+    """Each key's largest difference so far, relative to the larger of 1 and the truth's size."""
+    for key in worst:
+        scale = max(1.0, float(np.max(np.abs(want[key]))))
+        worst[key] = max(worst[key], float(np.max(np.abs(got[key] - want[key]))) / scale)
+
+
 @pytest.mark.parametrize("relative, locked", CASES)
 def test_mass_matrix_bias_gravity_and_inverse_dynamics_match_pinocchio(relative, locked):
     path = urdf.description(relative)
@@ -59,17 +80,9 @@ def test_mass_matrix_bias_gravity_and_inverse_dynamics_match_pinocchio(relative,
         x = np.array([rng.uniform(lo, hi) for lo, hi in limits])
         v, a = rng.uniform(-2.0, 2.0, n), rng.uniform(-10.0, 10.0, n)
         out = np.asarray(ours(np.concatenate([x, v, a]))).ravel()
-        got = {"M": out[:n * n].reshape(n, n), "b": out[n * n:n * n + n], "g": out[n * n + n:n * n + 2 * n],
-               "tau": out[n * n + 2 * n:]}
         qp, vp, ap = np.zeros(n), np.zeros(n), np.zeros(n)
         qp[iq], vp[iv], ap[iv] = x, v, a
-        upper = pin.crba(model, data, qp)
-        full = np.triu(upper) + np.triu(upper, 1).T
-        want = {"M": full[np.ix_(iv, iv)], "b": pin.nonLinearEffects(model, data, qp, vp)[iv],
-                "g": pin.computeGeneralizedGravity(model, data, qp)[iv], "tau": pin.rnea(model, data, qp, vp, ap)[iv]}
-        for key in worst:
-            scale = max(1.0, float(np.max(np.abs(want[key]))))
-            worst[key] = max(worst[key], float(np.max(np.abs(got[key] - want[key]))) / scale)
+        _worst_of_dynamics(worst, out, model, data, (qp, vp, ap), iv)
     assert max(worst.values()) <= 1e-12, f"{relative}: largest relative differences {worst}"
 
 
@@ -167,20 +180,12 @@ def test_a_floating_base_matches_pinocchios_free_flyer():
         v, a = rng.uniform(-2.0, 2.0, n), rng.uniform(-10.0, 10.0, n)
         r = quaternion.toRotationMatrix()
         out = np.asarray(ours(np.concatenate([r.ravel(), x, v, a]))).ravel()
-        got = {"M": out[:n * n].reshape(n, n), "b": out[n * n:n * n + n], "g": out[n * n + n:n * n + 2 * n],
-               "tau": out[n * n + 2 * n:]}
         qp, vp, ap = pin.neutral(model), np.zeros(n), np.zeros(n)
         qp[:3] = rng.uniform(-1.0, 1.0, 3)  # the base's position changes nothing
         qp[3:7] = quaternion.coeffs()
         qp[iq] = x
         vp[iv], ap[iv] = v, a
-        upper = pin.crba(model, data, qp)
-        full = np.triu(upper) + np.triu(upper, 1).T
-        want = {"M": full[np.ix_(iv, iv)], "b": pin.nonLinearEffects(model, data, qp, vp)[iv],
-                "g": pin.computeGeneralizedGravity(model, data, qp)[iv], "tau": pin.rnea(model, data, qp, vp, ap)[iv]}
-        for key in worst:
-            scale = max(1.0, float(np.max(np.abs(want[key]))))
-            worst[key] = max(worst[key], float(np.max(np.abs(got[key] - want[key]))) / scale)
+        _worst_of_dynamics(worst, out, model, data, (qp, vp, ap), iv)
     assert max(worst.values()) <= 1e-12, f"{relative} floating: largest relative differences {worst}"
 
 
@@ -229,7 +234,5 @@ def test_contact_points_of_a_floating_base_match_pinocchios_frames():
             want = {"p": data.oMf[frame].translation,
                     "J": pin.getFrameJacobian(model, data, frame, world)[:3][:, iv],
                     "Jdot_v": pin.getFrameClassicalAcceleration(model, data, frame, world).linear}
-            for key in worst:
-                scale = max(1.0, float(np.max(np.abs(want[key]))))
-                worst[key] = max(worst[key], float(np.max(np.abs(got[key] - want[key]))) / scale)
+            _fold(worst, got, want)
     assert max(worst.values()) <= 1e-12, f"feet: largest relative differences {worst}"
