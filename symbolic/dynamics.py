@@ -37,7 +37,19 @@ from collections.abc import Callable, Mapping, Sequence
 import symengine as se
 
 from .spec import SpecError
-from .urdf import Joint, Urdf, _identifier, _matmul, _number, _snap, axis_rotation, require_joint_values, rpy_matrix
+from .urdf import (
+    Joint,
+    Kinematics,
+    Urdf,
+    _identifier,
+    _matmul,
+    _matvec,
+    _number,
+    _snap,
+    axis_rotation,
+    require_joint_values,
+    rpy_matrix,
+)
 
 Vector3 = list[se.Expr]
 Spatial = tuple[Vector3, Vector3]
@@ -216,8 +228,6 @@ def contact_point(robot: Urdf, q: Mapping[str, se.Expr | float], joint_rates: Ma
     maps each joint that moves to its rate. With ṙ = J_r q̇ (J_r = ∂r/∂q):
     ṗ = R (v_b + ω_b × r + J_r q̇), so J = R [I, −[r]×, J_r], and with every acceleration
     zero, p̈ = R (ω_b × (v_b + ω_b × r + J_r q̇) + ω_b × J_r q̇ + (∂(J_r q̇)/∂q) q̇)."""
-    from .urdf import Kinematics, _matvec
-
     joints = list(joint_rates)
     for name in joints:
         if not isinstance(se.sympify(q.get(name, 0)), se.Symbol):

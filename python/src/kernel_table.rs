@@ -10,6 +10,7 @@ use crate::PyResult;
 
 use super::convert::{values, vector, Array1Out, ArrayIn};
 use crate::system::{every_system, system_named};
+use cbfgen::dynamic::DynSystem;
 use cbfgen::error::finite;
 use cbfgen::system::KernelSignature;
 
@@ -40,34 +41,38 @@ fn kernel_table() -> Vec<(&'static str, &'static str, Vec<Slot>, Vec<Slot>)> {
 /// as the kernel takes; an output that is not finite (a singular state) raises ``CbfError``.
 #[pyfunction]
 fn call_kernel<'py>(py: Python<'py>, module: &str, name: &str, inputs: ArrayIn<'py>) -> PyResult<Array1Out<'py>> {
-    let primitive = cbfgen::generated::KERNELS
-        .iter()
-        .filter(|(m, _)| *m == module)
-        .flat_map(|(_, ks)| ks.iter())
-        .find(|k| k.name == name);
-    let signature: KernelSignature = match primitive {
-        Some(entry) => entry.signature(),
-        None => {
-            let system =
-                system_named(module).map_err(|_| crate::key_error(format!("no generated kernel {module}::{name}")))?;
-            let kernels = system.kernels();
-            let (_, signature) = cbfgen::system::find_kernel(system.name(), &kernels, name)
-                .map_err(|e| crate::key_error(e.to_string().replacen("no kernel named", "no generated kernel", 1)))?;
-            signature
-        }
-    };
+    let (signature, owner) = find(module, name)?;
     let inputs = values("kernel inputs", &inputs, signature.input_len())?;
     let mut outputs = vec![0.0; signature.output_len()];
     signature.check_lengths(&inputs, &outputs)?;
     // One domain for every kernel input (states, times and parameters alike): the widest,
     // the parameters'. Outputs reach Python only when finite.
     cbfgen::system::validate_params("kernel input", &inputs)?;
-    match primitive {
-        Some(entry) => (entry.call)(&inputs, &mut outputs),
-        None => system_named(module)?.call_kernel(name, &inputs, &mut outputs)?,
+    match owner {
+        Owner::Core(call) => call(&inputs, &mut outputs),
+        Owner::System(system) => system.call_kernel(name, &inputs, &mut outputs)?,
     }
     for &v in &outputs {
         finite("kernel output", v)?;
     }
     Ok(vector(py, &outputs))
+}
+
+/// Who runs a kernel: the core's generated primitives directly, a system through its
+/// `DynSystem` (linked or loaded alike).
+enum Owner {
+    Core(fn(&[f64], &mut [f64])),
+    System(&'static dyn DynSystem),
+}
+
+/// Kernel `name` of `module`: a core primitive's, else a system's.
+fn find(module: &str, name: &str) -> PyResult<(KernelSignature, Owner)> {
+    let missing = || crate::key_error(format!("no generated kernel {module}::{name}"));
+    if let Some((_, kernels)) = cbfgen::generated::KERNELS.iter().find(|(m, _)| *m == module) {
+        let entry = kernels.iter().find(|k| k.name == name).ok_or_else(missing)?;
+        return Ok((entry.signature(), Owner::Core(entry.call)));
+    }
+    let system = system_named(module).map_err(|_| missing())?;
+    let signature = system.kernels().into_iter().find(|k| k.name == name).ok_or_else(missing)?;
+    Ok((signature, Owner::System(system)))
 }

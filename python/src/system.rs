@@ -31,11 +31,11 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 }
 
 /// The names of every built-in system, then of every system loaded from a plugin
-/// (``cbfgen.load``).
+/// (``cbfgen.load``) whose name no built-in one takes: each name once, as ``System(name)``
+/// finds it.
 #[pyfunction]
 fn systems() -> Vec<&'static str> {
-    let loaded = LOADED.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-    SYSTEMS.names().chain(loaded.iter().map(|(_, s)| s.name())).collect()
+    every_system().iter().map(|s| s.name()).collect()
 }
 
 /// The systems loaded from plugins in this process, by library path (a path loads once).

@@ -217,9 +217,12 @@ def input_type(inp: Input, runtime_crate: str) -> str:
         return "f64"
     if inp.shape is None:
         return f"&[f64; {len(inp.symbols)}]"
-    if len(inp.shape) == 1:
-        return f"&{runtime_crate}::nalgebra::SVector<f64, {inp.shape[0]}>"
-    return f"&{runtime_crate}::nalgebra::SMatrix<f64, {inp.shape[0]}, {inp.shape[1]}>"
+    return f"&{runtime_crate}::nalgebra::{nalgebra_type(inp)}<f64, {', '.join(map(str, inp.shape))}>"
+
+
+def nalgebra_type(inp: Input) -> str:
+    """The nalgebra type a shaped parameter is passed as: ``SVector`` or ``SMatrix``."""
+    return "SVector" if len(inp.shape) == 1 else "SMatrix"
 
 
 def input_element(inp: Input, k: int) -> str:

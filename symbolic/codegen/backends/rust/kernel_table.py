@@ -17,6 +17,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from ....kernel import Kernel
+from .emitter import nalgebra_type
 
 
 def _flat_size(kind: str, dim: int, cols: int) -> int:
@@ -35,8 +36,7 @@ def _wrapper(k: Kernel, runtime_crate: str) -> str:
             args.append(f"input[{pos}..{pos + n}].try_into().unwrap()")
         else:
             # A parameter's vector or matrix, from its components row by row.
-            args.append(f"&{runtime_crate}::nalgebra::{'SVector' if len(inp.shape) == 1 else 'SMatrix'}"
-                        f"::from_row_slice(&input[{pos}..{pos + n}])")
+            args.append(f"&{runtime_crate}::nalgebra::{nalgebra_type(inp)}::from_row_slice(&input[{pos}..{pos + n}])")
         pos += n
     lines = [
         f"/// `super::{k.name}` on flat slices.",

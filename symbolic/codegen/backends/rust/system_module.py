@@ -157,8 +157,10 @@ def _activation(value: float) -> str:
 
 
 def _uniform(f: FamilyDefinition) -> bool:
-    """Every member kernel has one Rust type, so they fit in one table of fn pointers."""
-    return len({kernel_fn_type(k, "rt") for k in f.kernels}) == 1
+    """Every member kernel has one Rust type, so they fit in one table of fn pointers.
+    (The types differ, if at all, by their argument shapes: any runtime crate path
+    compares them alike.)"""
+    return len({kernel_fn_type(k, "runtime") for k in f.kernels}) == 1
 
 
 def _member_tables(w, f: FamilyDefinition, rt: str) -> None:
