@@ -6,6 +6,9 @@
 //!   KKT-verified before it answers. The filter's first choice.
 //! * [`dual_active_set`] — a dense Goldfarb–Idnani dual active-set solver for small,
 //!   strictly convex QPs with hard rows: exact, warm-started, KKT-verified (the MPCs).
+//! * [`hierarchy`] — strict priorities of least-squares tasks and inequalities, each level
+//!   solved by [`dual_active_set`] in the null space of the tasks above (a whole-body
+//!   controller's hierarchy).
 //! * [`metric`] — the cost's metric `P = L Lᵀ` (input weights, or a spec's objective
 //!   `P(x)`) and the scaled inputs `z = Lᵀ u` every stage and OSQP work in.
 //! * [`recorded`] — a cycle's QP kept to replay against any solver (test fixtures,
@@ -18,6 +21,7 @@
 
 pub mod csc;
 pub mod dual_active_set;
+pub mod hierarchy;
 pub mod lexicographic;
 pub mod metric;
 pub mod osqp_workspace;
