@@ -1,9 +1,9 @@
 """The repository's one generation entry point: ``python -m symbolic.generate``.
 
 Writes the core's ``generated/`` (the primitives: SSAT variants, the sphere-box
-clearance) and each built-in system crate's ``systems/<name>/generated/<name>.rs`` from
-its ``systems/<name>/spec/<name>.py``, exactly as ``cbfgen-build`` in that crate's
-build.rs writes it (checked-in mode, runtime crate ``cbfgen``). Deterministic: the same
+clearance) and each built-in system crate's ``systems/<name>/generated/<system>.rs`` from
+the specs its build.rs names (``systems/<name>/spec/<system>.py``), exactly as
+``cbfgen-build`` in that crate's build.rs writes it (checked-in mode, runtime crate ``cbfgen``). Deterministic: the same
 inputs give byte-identical files. Every file starts with the hash of its inputs (see
 :mod:`symbolic.inputs_hash`), which build.rs and cbfgen-build compare to decide whether
 generation must run again.
@@ -12,6 +12,7 @@ generation must run again.
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -34,14 +35,22 @@ MODULES: dict[str, tuple[str, Callable[[], list[Kernel]]]] = {
     "ssat": (ssat.MODULE_DOC, ssat.kernels),
     "sphere_box": (sphere_box.MODULE_DOC, sphere_box.kernels),
 }
-# Built-in systems: each crate under systems/ whose spec/<crate folder>.py exists.
+# Built-in systems: the specs each crate under systems/ generates, as its build.rs names
+# them (`.spec("spec/<name>.py")`, one module per spec: anymal's crate has two).
 SYSTEMS_ROOT = REPO_ROOT / "systems"
 SYSTEM_RUNTIME_CRATE = "cbfgen"
+_BUILD_RS_SPEC = re.compile(r'\.spec\("([^"]+)"\)')
+
+
+def crate_specs(crate: Path) -> list[Path]:
+    """The spec files a system crate's build.rs generates, in the order it names them."""
+    build = crate / "build.rs"
+    return [crate / m for m in _BUILD_RS_SPEC.findall(build.read_text())] if build.is_file() else []
 
 
 def builtin_specs() -> list[Path]:
     """The built-in systems' spec files, in crate-folder order."""
-    return [p for d in sorted(SYSTEMS_ROOT.iterdir()) if (p := d / "spec" / f"{d.name}.py").is_file()]
+    return [p for d in sorted(SYSTEMS_ROOT.iterdir()) for p in crate_specs(d)]
 
 
 def builtin_systems() -> list[SystemDefinition]:

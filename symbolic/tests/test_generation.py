@@ -109,14 +109,14 @@ def test_a_literal_temporary_compiles(tmp_path):
 
 
 def test_a_kernel_too_deep_for_rustc_is_refused():
-    from symbolic.codegen.backends.rust.emitter import MAX_KERNEL_LOCALS
+    from symbolic.codegen.backends.rust.emitter import MAX_KERNEL_LEVELS
     from symbolic.spec import SpecError
 
     k = Kernel("deep", "A chain of distinct temporaries longer than rustc can nest.")
     v = k.array_input("v", "xy", "a vector")
     e = v[0]
     outs = []
-    for i in range(MAX_KERNEL_LOCALS + 10):
+    for i in range(MAX_KERNEL_LEVELS + 10):
         e = se.sin(e + i * v[1])
         outs.append(e)
     k.output_vector("out", outs, "every link of the chain")

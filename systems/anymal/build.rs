@@ -1,7 +1,8 @@
-//! Generate this system's module from its spec, as any user's crate does (cbfgen-build in
+//! Generate this crate's two modules from their specs (the kinematic filter's and the
+//! whole-body controller's), as any user's crate does (cbfgen-build in
 //! checked-in mode: generated/ is committed, so a build without Python uses it after
 //! checking its inputs hash).
 
 fn main() {
-    cbfgen_build::Generator::new().spec("spec/anymal.py").checked_in("generated").build();
+    cbfgen_build::Generator::new().spec("spec/anymal.py").spec("spec/anymal_wbc.py").checked_in("generated").build();
 }

@@ -1,10 +1,12 @@
 //! What one filter update of ANYmal C costs: the standing robot under a swinging nominal,
 //! every foot on a square foothold above the ground (20 foothold rows), its joint limits (48
 //! rows) and 30 self-collision pairs (culled beyond 0.2 m, and all evaluated), and what the
-//! generated foot kinematics costs alone.
+//! generated foot kinematics costs alone; the whole-body controller's kernels (free-flyer
+//! mass matrix and bias, the four contact points with Jacobians and J' v).
 
 use cbfgen::filter::EcbfFilter;
 use cbfgen_anymal::generated::{self as gen, Barriers, NU, NX};
+use cbfgen_anymal::wbc_generated as wbc;
 use cbfgen_anymal::{square_footholds, swinging_nominal};
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
@@ -41,5 +43,39 @@ fn update(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, update);
+/// A trotting-like state in free-flyer coordinates: the standing joints, the trunk tilted
+/// and moving, every rate non-zero (no term of the kernels drops out).
+fn wbc_state() -> [f64; wbc::NX] {
+    let (roll, pitch, yaw) = (0.05_f64, -0.08_f64, 0.3_f64);
+    let (cr, sr, cp, sp, cy, sy) = (roll.cos(), roll.sin(), pitch.cos(), pitch.sin(), yaw.cos(), yaw.sin());
+    let rotation = [
+        cy * cp,
+        cy * sp * sr - sy * cr,
+        cy * sp * cr + sy * sr,
+        sy * cp,
+        sy * sp * sr + cy * cr,
+        sy * sp * cr - cy * sr,
+        -sp,
+        cp * sr,
+        cp * cr,
+    ];
+    let mut x = [0.0; wbc::NX];
+    x[2] = wbc::STANDING_HEIGHT;
+    x[3..12].copy_from_slice(&rotation);
+    x[12..24].copy_from_slice(&wbc::STANDING_JOINTS);
+    for (i, v) in x[24..].iter_mut().enumerate() {
+        *v = 0.3 * ((i as f64) * 0.7).sin();
+    }
+    x
+}
+
+fn whole_body_kernels(c: &mut Criterion) {
+    let x = wbc_state();
+    let mut group = c.benchmark_group("anymal_wbc");
+    group.bench_function("dynamics", |b| b.iter(|| wbc::dynamics(black_box(&x))));
+    group.bench_function("contacts", |b| b.iter(|| wbc::contacts(black_box(&x))));
+    group.finish();
+}
+
+criterion_group!(benches, update, whole_body_kernels);
 criterion_main!(benches);

@@ -52,6 +52,15 @@ pub mod generated {
     include!(concat!(env!("CARGO_MANIFEST_DIR"), "/generated/anymal.rs"));
 }
 
+/// The module generated from `spec/anymal_wbc.py`: the same robot in free-flyer
+/// coordinates for a whole-body controller — its floating-base dynamics (`dynamics`), the
+/// feet as contact points (`contacts`) and the foothold rows in generalized accelerations.
+/// Never edited by hand.
+#[allow(missing_docs)]
+pub mod wbc_generated {
+    include!(concat!(env!("CARGO_MANIFEST_DIR"), "/generated/anymal_wbc.rs"));
+}
+
 use cbfgen::error::{finite, positive, CbfError};
 use generated::{self as gen, Capacity, FootRegionParams, Params, NU, NX};
 

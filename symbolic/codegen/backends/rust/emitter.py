@@ -38,11 +38,12 @@ def rustdoc_text(text: str) -> str:
     parts = text.split("`")
     return "`".join(part if i % 2 else part.translate(_BRACKETS) for i, part in enumerate(parts))
 
-# Most locals one kernel function may have. Each `let` opens a scope nested in the last;
-# rustc (1.95, LLVM 22) recurses once per level when it writes debug info and overflows a
-# codegen thread's stack between 10 000 and 20 000 (any debug level, even line tables).
-# The largest built-in kernel has about 4 000.
-MAX_KERNEL_LOCALS = 8000
+# Most dependency levels one kernel function may have (its temporaries are bound one
+# `let` per level, see `_body`). Each `let` opens a scope nested in the last, and rustc
+# (1.95, LLVM 22) recurses once per scope when it writes debug info (any level, even line
+# tables): a function of 4 076 single `let`s overflowed its stack here, one of 2 101 did
+# not. The deepest built-in kernel has a few hundred levels.
+MAX_KERNEL_LEVELS = 2000
 
 
 def float_literal(value: float) -> str:
@@ -286,17 +287,23 @@ def _lanes_statement(p: RustPrinter, names: dict[se.Symbol, str], step, runtime_
     return f"    let [{targets}] = {f}([{', '.join(p(a) for a in step.rhs)}]);"
 
 
-def _statement(p: RustPrinter, name: str, kind: str, rhs: Sequence[se.Expr]) -> str:
+def _value(p: RustPrinter, kind: str, rhs: Sequence[se.Expr]) -> str:
     if kind == "max":
         # f64::max for the first pair fixes the type even when it starts with a literal.
-        text = p(rhs[0]) if len(rhs) == 1 else (
+        return p(rhs[0]) if len(rhs) == 1 else (
             f"f64::max({p(rhs[0])}, {p(rhs[1])})" + "".join(f".max({p(r)})" for r in rhs[2:]))
-    else:
-        text = p(rhs[0])
+    return p(rhs[0])
+
+
+def _is_constant(step) -> bool:
+    return step.kind != "max" and not step.rhs[0].free_symbols
+
+
+def _statement(p: RustPrinter, name: str, step) -> str:
     # A constant temporary (pi/4, printed as a literal) needs its type spelled out, or
     # `t.sin()` on an unsuffixed float literal does not compile.
-    typed = ": f64" if kind != "max" and not rhs[0].free_symbols else ""
-    return f"    let {name}{typed} = {text};"
+    typed = ": f64" if _is_constant(step) else ""
+    return f"    let {name}{typed} = {_value(p, step.kind, step.rhs)};"
 
 
 def _results(kernel: Kernel, parts_of: Sequence[str], lines: list[str]) -> str:
@@ -326,16 +333,48 @@ def _results(kernel: Kernel, parts_of: Sequence[str], lines: list[str]) -> str:
 
 
 def _check_size(kernel: Kernel, code: StraightLine) -> None:
-    if len(code.steps) > MAX_KERNEL_LOCALS:
+    depth = len(_levels(code.steps))
+    if depth > MAX_KERNEL_LEVELS:
         raise SpecError(
-            f"kernel {kernel.name!r} needs {len(code.steps)} locals, more than {MAX_KERNEL_LOCALS}: every `let` "
-            "nests a scope, and rustc's debug-info pass overflows its stack on one function with about "
-            "15 000 of them. Split the family: rows that share little into members (over=[...]).")
+            f"kernel {kernel.name!r} nests {depth} levels of temporaries, more than {MAX_KERNEL_LEVELS}: every level "
+            "is a `let` that opens a scope in the last, and rustc's debug-info pass overflows its stack on one "
+            "function with a few thousand of them. Split the family: rows that share little into members "
+            "(over=[...]).")
+
+
+def _levels(steps: Sequence) -> list[list]:
+    """The steps by dependency level: level k's read only inputs and levels below k. Kept in
+    their order within a level, so the text is deterministic."""
+    level: dict[se.Symbol, int] = {}
+    out: list[list] = []
+    for step in steps:
+        k = max((level[s] + 1 for r in step.rhs for s in r.free_symbols if s in level), default=0)
+        for sym in step.symbols or (step.symbol,):
+            level[sym] = k
+        out.extend([] for _ in range(k + 1 - len(out)))
+        out[k].append(step)
+    return out
 
 
 def _body(p: RustPrinter, names: dict[se.Symbol, str], steps: Sequence, runtime_crate: str) -> list[str]:
-    return [_lanes_statement(p, names, step, runtime_crate) if step.kind == "lanes"
-            else _statement(p, names[step.symbol], step.kind, step.rhs) for step in steps]
+    """The steps as `let` statements, one per dependency level: `let (a, b, ..) = (.., ..);`
+    binds a level's temporaries together. Every `let` opens a scope nested in the last, and
+    rustc recurses once per scope when it writes debug info, so a kernel's depth is its
+    levels (tens to hundreds), not its temporaries (thousands). Batched calls and
+    constants (which need their type spelled) keep a statement of their own."""
+    lines: list[str] = []
+    for level in _levels(steps):
+        together = [s for s in level if s.kind != "lanes" and not _is_constant(s)]
+        for step in level:
+            if step.kind == "lanes":
+                lines.append(_lanes_statement(p, names, step, runtime_crate))
+            elif _is_constant(step) or len(together) == 1:
+                lines.append(_statement(p, names[step.symbol], step))
+        if len(together) > 1:
+            targets = ", ".join(names[s.symbol] for s in together)
+            values = ", ".join(_value(p, s.kind, s.rhs) for s in together)
+            lines.append(f"    let ({targets}) = ({values});")
+    return lines
 
 
 def emit_split_kernel(kernel: Kernel, runtime_crate: str, per_cycle: Sequence[str],
