@@ -24,8 +24,8 @@
 //! with [`DualActiveSet`] (exact, KKT-verified). Then `z* ← z* + Z ξ` and `Z` shrinks to
 //! the null space of `A_k Z` (Householder QR with column pivoting; rank decided at
 //! [`RANK_TOLERANCE`] of the largest pivot), so every later level keeps `A_k z` exactly
-//! and every row above inside its bounds: a lower priority cannot change a higher one's
-//! residual. `ε = `[`REGULARISATION`]` · max(1, max diag ZᵀA_kᵀA_kZ)` makes each level's
+//! and every row above inside its bounds (to [`PIN_ROOM`] of its terms, the rounding of
+//! evaluating it): a lower priority cannot change a higher one's residual. `ε = `[`REGULARISATION`]` · max(1, max diag ZᵀA_kᵀA_kZ)` makes each level's
 //! minimiser unique (the smallest step among a level's optima); it moves a level's answer
 //! by about `ε` relative, and keeps its cost matrix's condition below `1/ε`, where the
 //! dual active-set solver's KKT check is reliable (at `1e-9` some random hierarchies ended
@@ -75,6 +75,10 @@ pub const REGULARISATION: f64 = 1e-7;
 /// A pivot of the task's QR below this fraction of the largest counts as zero: that
 /// direction is not pinned (module docs).
 pub const RANK_TOLERANCE: f64 = 1e-10;
+
+/// The rows of the levels above are kept to within this much of their bounds, relative to
+/// the size of their terms at `z*` (the rounding of evaluating them there).
+pub const PIN_ROOM: f64 = 1e-12;
 
 /// Most steps one level's QP may take (rows added to its active set).
 pub const MAX_STEPS: u32 = 500;
@@ -143,7 +147,10 @@ struct Level {
     lower: Vec<f64>,
     upper: Vec<f64>,
     slack: Vec<f64>,
-    solver: DualActiveSet,
+    /// One solver per count of free directions it may meet (`free + soft` variables, so a
+    /// level works on its own size, not the whole `n`); `None` where that is 0, or a count
+    /// the level cannot meet (the top level always has all `n`).
+    solvers: Vec<Option<DualActiveSet>>,
     hessian: Vec<f64>,
 }
 
@@ -161,6 +168,8 @@ pub struct Hierarchy {
     projected: Vec<f64>,
     qr: Vec<f64>,
     q: Vec<f64>,
+    betas: Vec<f64>,
+    null: Vec<f64>,
     next_basis: Vec<f64>,
     column: Vec<f64>,
 }
@@ -186,8 +195,19 @@ impl Hierarchy {
             let inequalities = shape.hard + shape.soft;
             above += inequalities;
             widest_task = widest_task.max(shape.tasks);
-            let size = n + shape.soft;
-            let identity: Vec<f64> = (0..size * size).map(|k| f64::from(u8::from(k % (size + 1) == 0))).collect();
+            let top = levels.is_empty();
+            let mut solvers = Vec::with_capacity(n + 1);
+            for free in 0..=n {
+                let size = free + shape.soft;
+                solvers.push(if size == 0 || (top && free != n) {
+                    None
+                } else {
+                    let identity: Vec<f64> =
+                        (0..size * size).map(|k| f64::from(u8::from(k % (size + 1) == 0))).collect();
+                    Some(DualActiveSet::new(&identity, size, above)?)
+                });
+            }
+            let widest = n + shape.soft;
             levels.push(Level {
                 shape: *shape,
                 task: vec![0.0; shape.tasks * n],
@@ -196,8 +216,8 @@ impl Hierarchy {
                 lower: vec![f64::NEG_INFINITY; inequalities],
                 upper: vec![f64::INFINITY; inequalities],
                 slack: vec![0.0; shape.soft],
-                solver: DualActiveSet::new(&identity, size, above)?,
-                hessian: identity,
+                solvers,
+                hessian: vec![0.0; widest * widest],
             });
         }
         let report = LevelReport {
@@ -217,6 +237,8 @@ impl Hierarchy {
             projected: vec![0.0; widest_task.max(1) * n],
             qr: vec![0.0; n * widest_task.max(1)],
             q: vec![0.0; n * n],
+            betas: vec![0.0; n],
+            null: vec![0.0; n * n],
             next_basis: vec![0.0; n * n],
             column: vec![0.0; n],
         })
@@ -305,23 +327,38 @@ impl Hierarchy {
             .sqrt()
     }
 
-    /// `out = M Z` for row-major `M` (`rows × n`), `out` row-major `rows × free`.
+    /// `out = M Z` for row-major `M` (`rows × n`), `out` row-major `rows × free`; a copy
+    /// while `Z` is still the identity (`free == n`: nothing pinned yet).
     fn project(basis: &[f64], n: usize, free: usize, m: &[f64], rows: usize, out: &mut [f64]) {
+        if free == n {
+            out[..rows * n].copy_from_slice(&m[..rows * n]);
+            return;
+        }
         for i in 0..rows {
-            let row = &m[i * n..(i + 1) * n];
-            for c in 0..free {
-                let col = &basis[c * n..(c + 1) * n];
-                out[i * free + c] = row.iter().zip(col).map(|(a, b)| a * b).sum();
-            }
+            Self::project_row(basis, n, free, &m[i * n..(i + 1) * n], &mut out[i * free..(i + 1) * free]);
+        }
+    }
+
+    /// One row: `out = dᵀ Z`.
+    fn project_row(basis: &[f64], n: usize, free: usize, d: &[f64], out: &mut [f64]) {
+        if free == n {
+            out[..n].copy_from_slice(d);
+            return;
+        }
+        for (c, o) in out[..free].iter_mut().enumerate() {
+            *o = d.iter().zip(&basis[c * n..(c + 1) * n]).map(|(a, b)| a * b).sum();
         }
     }
 
     fn solve_level(&mut self, k: usize) -> LevelStatus {
         let (n, free) = (self.n, self.free);
         let shape = self.levels[k].shape;
-        let size = n + shape.soft;
-        // Cost: ξ block ZᵀAᵀAZ + εI over the free directions (identity on the unused ones,
-        // which no row reads, so they stay 0), slack block I.
+        let size = free + shape.soft;
+        if size == 0 {
+            // Nothing left to move, no slack to take: the rows above hold at z*.
+            return LevelStatus::Solved;
+        }
+        // Cost: ξ block ZᵀAᵀAZ + εI over the free directions, slack block I.
         let tasks = shape.tasks;
         Self::project(&self.basis, n, free, &self.levels[k].task, tasks, &mut self.projected);
         let level = &mut self.levels[k];
@@ -336,25 +373,31 @@ impl Hierarchy {
         }
         let eps = REGULARISATION * largest;
         self.reports[k].regularisation = eps;
-        for a in 0..free {
-            for b in a..free {
-                let mut s = 0.0;
-                for i in 0..tasks {
-                    s += self.projected[i * free + a] * self.projected[i * free + b];
+        // Σᵢ pᵢ pᵢᵀ over the rows pᵢ of AZ, upper triangle (all the solver reads), row by row.
+        for p in self.projected[..tasks * free].chunks_exact(free) {
+            for (a, &pa) in p.iter().enumerate() {
+                if pa != 0.0 {
+                    let row = &mut level.hessian[a * size + a..a * size + free];
+                    for (h, pb) in row.iter_mut().zip(&p[a..]) {
+                        *h += pa * pb;
+                    }
                 }
-                level.hessian[a * size + b] = s;
-                level.hessian[b * size + a] = s;
             }
+        }
+        for a in 0..free {
             level.hessian[a * size + a] += eps;
         }
         for a in free..size {
             level.hessian[a * size + a] = 1.0;
         }
-        if level.solver.set_hessian(&level.hessian).is_err() {
+        let Some(solver) = level.solvers[free].as_mut() else {
+            return LevelStatus::Failed(DenseStatus::Unverified); // unreachable: sized for every count
+        };
+        if solver.set_hessian(&level.hessian[..size * size]).is_err() {
             return LevelStatus::Failed(DenseStatus::NonFiniteData);
         }
         // Linear cost: −(AZ)ᵀ (b − A z*).
-        let data = level.solver.data_mut();
+        let data = solver.data_mut();
         data.q.fill(0.0);
         for i in 0..tasks {
             let row = &level.task[i * n..(i + 1) * n];
@@ -366,7 +409,11 @@ impl Hierarchy {
         // Rows: every level's inequalities down to this one, in D Z ξ (− s for this level's
         // soft rows), shifted by D z*; a level above keeps its soft rows within their slack.
         let (above, current) = self.levels.split_at_mut(k);
-        let Level { shape: own, rows: own_rows, lower: own_lower, upper: own_upper, solver, .. } = &mut current[0];
+        let Level { shape: own, rows: own_rows, lower: own_lower, upper: own_upper, solvers, slack: own_slack, .. } =
+            &mut current[0];
+        let Some(solver) = solvers[free].as_mut() else {
+            return LevelStatus::Failed(DenseStatus::Unverified);
+        };
         let data = solver.data_mut();
         let sources = above
             .iter()
@@ -379,37 +426,38 @@ impl Hierarchy {
                 let shift: f64 = d.iter().zip(&self.z).map(|(a, z)| a * z).sum();
                 let out = &mut data.a[r * size..(r + 1) * size];
                 out.fill(0.0);
-                for c in 0..free {
-                    let col = &self.basis[c * n..(c + 1) * n];
-                    out[c] = d.iter().zip(col).map(|(a, b)| a * b).sum();
+                Self::project_row(&self.basis, n, free, d, out);
+                let (mut slack, mut room) = (0.0, 0.0);
+                if kept.is_some() {
+                    // A row above holds at z* (ξ = 0) up to the rounding of D z*: that much
+                    // room keeps a row pinned at its bound from reading as infeasible.
+                    room = PIN_ROOM * (1.0 + d.iter().zip(&self.z).map(|(a, z)| (a * z).abs()).sum::<f64>());
                 }
-                let mut slack = 0.0;
                 if i >= shape.hard {
                     match kept {
                         Some(kept) => slack = kept[i - shape.hard],
-                        None => out[n + i - shape.hard] = -1.0,
+                        None => out[free + i - shape.hard] = -1.0,
                     }
                 }
-                data.lower[r] = lower[i] + slack - shift;
-                data.upper[r] = upper[i] + slack - shift;
+                data.lower[r] = lower[i] + slack - shift - room;
+                data.upper[r] = upper[i] + slack - shift + room;
                 r += 1;
             }
         }
-        let level = &mut self.levels[k];
-        level.solver.set_rows_in_use(r);
-        let status = level.solver.solve(WarmStart::Previous, MAX_STEPS);
+        solver.set_rows_in_use(r);
+        let status = solver.solve(WarmStart::Previous, MAX_STEPS);
         if status != DenseStatus::Solved {
             return LevelStatus::Failed(status);
         }
-        let x = level.solver.solution();
+        let x = solver.solution();
         for c in 0..free {
             let col = &self.basis[c * n..(c + 1) * n];
             for (z, b) in self.z.iter_mut().zip(col) {
                 *z += b * x[c];
             }
         }
-        level.slack.copy_from_slice(&x[n..n + shape.soft]);
-        self.reports[k].largest_slack = level.slack.iter().fold(0.0_f64, |m, s| m.max(s.abs()));
+        own_slack.copy_from_slice(&x[free..free + shape.soft]);
+        self.reports[k].largest_slack = own_slack.iter().fold(0.0_f64, |m, s| m.max(s.abs()));
         LevelStatus::Solved
     }
 
@@ -425,11 +473,9 @@ impl Hierarchy {
         // C = (A Z)ᵀ, column-major free × tasks: column i is task row i.
         let c = &mut self.qr;
         c[..free * tasks].copy_from_slice(&self.projected[..tasks * free]);
-        let q = &mut self.q;
-        q[..free * free].fill(0.0);
-        for i in 0..free {
-            q[i * free + i] = 1.0; // column-major free × free
-        }
+        // The reflectors, kept to form only the null-space columns of Q afterwards: step k's
+        // v in column k of `reflectors` (rows k..free), its β in `betas`.
+        let reflectors = &mut self.q;
         let v = &mut self.column;
         let mut first = 0.0_f64;
         let mut rank = 0;
@@ -457,41 +503,49 @@ impl Hierarchy {
             // Reflector H = I − β v vᵀ sending the column's tail to (α, 0, …).
             let x0 = c[step * free + step];
             let alpha = if x0 >= 0.0 { -norm } else { norm };
-            v[..free].fill(0.0);
             v[step] = x0 - alpha;
-            for i in step + 1..free {
-                v[i] = c[step * free + i];
-            }
+            v[step + 1..free].copy_from_slice(&c[step * free + step + 1..(step + 1) * free]);
             let vv: f64 = v[step..free].iter().map(|x| x * x).sum();
-            if vv > 0.0 {
-                let beta = 2.0 / vv;
-                for j in step..tasks {
-                    let col = &mut c[j * free..(j + 1) * free];
-                    let s: f64 = (step..free).map(|i| v[i] * col[i]).sum::<f64>() * beta;
-                    for i in step..free {
-                        col[i] -= s * v[i];
-                    }
-                }
-                // Q ← Q H (rows of Q times v).
-                for i in 0..free {
-                    let s: f64 = (step..free).map(|l| q[l * free + i] * v[l]).sum::<f64>() * beta;
-                    for l in step..free {
-                        q[l * free + i] -= s * v[l];
-                    }
+            let beta = if vv > 0.0 { 2.0 / vv } else { 0.0 };
+            for j in step..tasks {
+                let col = &mut c[j * free..(j + 1) * free];
+                let s: f64 = (step..free).map(|i| v[i] * col[i]).sum::<f64>() * beta;
+                for i in step..free {
+                    col[i] -= s * v[i];
                 }
             }
+            reflectors[step * free + step..(step + 1) * free].copy_from_slice(&v[step..free]);
+            self.betas[step] = beta;
             rank = step + 1;
         }
-        // Z ← Z Q[:, rank..].
+        // N = Q[:, rank..] = H₀ H₁ … E (E the last columns of the identity), the reflectors
+        // applied last to first; then Z ← Z N (N itself while Z is the identity).
         let remaining = free - rank;
+        let null = &mut self.null;
         for c_out in 0..remaining {
-            let qcol = &q[(rank + c_out) * free..(rank + c_out + 1) * free];
-            let out = &mut self.next_basis[c_out * n..(c_out + 1) * n];
-            out.fill(0.0);
-            for (l, &w) in qcol.iter().enumerate() {
-                let zcol = &self.basis[l * n..(l + 1) * n];
-                for (o, b) in out.iter_mut().zip(zcol) {
-                    *o += b * w;
+            let col = &mut null[c_out * free..(c_out + 1) * free];
+            col.fill(0.0);
+            col[rank + c_out] = 1.0;
+            for step in (0..rank).rev() {
+                let r = &reflectors[step * free + step..(step + 1) * free];
+                let s: f64 = r.iter().zip(&col[step..]).map(|(a, b)| a * b).sum::<f64>() * self.betas[step];
+                for (x, a) in col[step..].iter_mut().zip(r) {
+                    *x -= s * a;
+                }
+            }
+        }
+        if free == n {
+            self.next_basis[..remaining * n].copy_from_slice(&null[..remaining * n]);
+        } else {
+            for c_out in 0..remaining {
+                let weights = &null[c_out * free..(c_out + 1) * free];
+                let out = &mut self.next_basis[c_out * n..(c_out + 1) * n];
+                out.fill(0.0);
+                for (l, &w) in weights.iter().enumerate() {
+                    let zcol = &self.basis[l * n..(l + 1) * n];
+                    for (o, b) in out.iter_mut().zip(zcol) {
+                        *o += b * w;
+                    }
                 }
             }
         }

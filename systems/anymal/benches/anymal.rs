@@ -5,7 +5,9 @@
 //! mass matrix and bias, the four contact points with Jacobians and J' v).
 
 use cbfgen::filter::EcbfFilter;
+use cbfgen_anymal::gait::{footholds_around, standing_on_the_ground, TrotInPlace};
 use cbfgen_anymal::generated::{self as gen, Barriers, NU, NX};
+use cbfgen_anymal::wbc::{WbcSettings, WholeBodyController};
 use cbfgen_anymal::wbc_generated as wbc;
 use cbfgen_anymal::{square_footholds, swinging_nominal};
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -74,6 +76,20 @@ fn whole_body_kernels(c: &mut Criterion) {
     let mut group = c.benchmark_group("anymal_wbc");
     group.bench_function("dynamics", |b| b.iter(|| wbc::dynamics(black_box(&x))));
     group.bench_function("contacts", |b| b.iter(|| wbc::contacts(black_box(&x))));
+    // One controller cycle mid-trot: two feet swinging (LF asked 10 cm past its 3 cm
+    // square, so its CBF rows bind), two in stance, all three levels.
+    let standing = standing_on_the_ground();
+    let home = wbc::contacts(&standing).0;
+    let params = footholds_around(&home, 0.03).expect("footholds");
+    let gait = TrotInPlace { swing: 0.3, lift: 0.08, reach: 0.1, home, trunk: [standing[0], standing[1], standing[2]] };
+    let mut controller = WholeBodyController::new(params.capacity(), WbcSettings::default()).expect("controller");
+    let t = 0.3 + 0.4 * 0.3; // 40 % into LF and RH's swing
+    let reference = gait.reference(t);
+    let mut state = standing;
+    state[24..].copy_from_slice(&x[24..]); // moving
+    group.bench_function("update_trot", |b| {
+        b.iter(|| controller.update(black_box(&state), black_box(&reference), &params, 2.5e-3).unwrap())
+    });
     group.finish();
 }
 

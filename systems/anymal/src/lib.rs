@@ -10,6 +10,11 @@
 //! `foot_region` (each foot sphere's centre inside half-spaces given at run time: a
 //! foothold, or the ground) and `self_collision` (30 SRDF pairs by smooth SAT).
 //!
+//! For torques: [`wbc_generated`] is the same robot in free-flyer coordinates (its
+//! dynamics, contacts and foothold rows in generalized accelerations, from
+//! `spec/anymal_wbc.py`), [`wbc`] seed 004's hierarchical whole-body controller on it,
+//! [`plant`] a rigid-contact plant to try it on and [`gait`] a trot in place.
+//!
 //! Trotting in place on footholds 6 cm square ([`square_footholds`]): the nominal input
 //! ([`swinging_nominal`]) swings each hip 0.4 rad, far past them; one second at 1 kHz
 //! (the model is exact here: x'' = u):
@@ -60,6 +65,10 @@ pub mod generated {
 pub mod wbc_generated {
     include!(concat!(env!("CARGO_MANIFEST_DIR"), "/generated/anymal_wbc.rs"));
 }
+
+pub mod gait;
+pub mod plant;
+pub mod wbc;
 
 use cbfgen::error::{finite, positive, CbfError};
 use generated::{self as gen, Capacity, FootRegionParams, Params, NU, NX};

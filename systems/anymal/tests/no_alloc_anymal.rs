@@ -1,6 +1,8 @@
-//! ANYmal C's control path allocates nothing: 5 s of the swinging legs on square
+//! ANYmal C's control paths allocate nothing: 5 s of the swinging legs on square
 //! footholds (joint limits, velocity limits, 20 foothold rows, 30 self-collision pairs),
-//! with a NaN state rejected now and then. Counted for Rust's global allocator and for the
+//! with a NaN state rejected now and then; and 5 s of the whole-body controller trotting in
+//! place on square footholds (its three levels, the foothold CBF), a NaN state rejected
+//! now and then. Counted for Rust's global allocator and for the
 //! C `malloc` family OSQP calls; no test harness (`harness = false`), so `main` runs the
 //! one check on the only thread.
 
@@ -8,10 +10,53 @@
 mod alloc_count;
 
 use cbfgen::filter::{EcbfFilter, InputSource};
+use cbfgen_anymal::gait::{footholds_around, standing_on_the_ground, TrotInPlace};
 use cbfgen_anymal::generated::{self as gen, Barriers, NU, NX};
+use cbfgen_anymal::wbc::{WbcSettings, WholeBodyController};
+use cbfgen_anymal::wbc_generated as wbc;
 use cbfgen_anymal::{square_footholds, swinging_nominal};
 
 fn main() {
+    the_filter_allocates_nothing();
+    the_whole_body_controller_allocates_nothing();
+}
+
+fn the_whole_body_controller_allocates_nothing() {
+    let mut x = standing_on_the_ground();
+    let home = wbc::contacts(&x).0;
+    let params = footholds_around(&home, 0.03).expect("footholds");
+    let gait = TrotInPlace { swing: 0.3, lift: 0.08, reach: 0.1, home, trunk: [x[0], x[1], x[2]] };
+    // (The counters were shown to count by the filter's check, in this process.)
+    let mut controller = WholeBodyController::new(params.capacity(), WbcSettings::default()).expect("controller");
+    let dt = 2.5e-3;
+    let (mut solved, mut rejected) = (0usize, 0usize);
+    let cycles = 2000;
+    let (_, rust, c) = alloc_count::counting(|| {
+        for k in 0..cycles {
+            let reference = gait.reference(k as f64 * dt);
+            let out = controller.update(&x, &reference, &params, dt).expect("in the domain");
+            solved += usize::from(out.solved);
+            if k % 100 == 0 {
+                let mut nan = x;
+                nan[14] = f64::NAN;
+                rejected += usize::from(controller.update(&nan, &reference, &params, dt).is_err());
+            }
+            // The model's own motion (the accelerations it planned), enough to move the rows.
+            for i in 0..wbc::NU {
+                x[24 + i] += dt * out.accelerations[i];
+            }
+            for j in 0..12 {
+                x[12 + j] += dt * x[30 + j];
+            }
+        }
+    });
+    assert_eq!((rust, c), (0, 0), "allocations during {cycles} cycles: Rust {rust}, C {c}");
+    assert_eq!(solved, cycles);
+    assert_eq!(rejected, cycles / 100);
+    println!("the_whole_body_controller_allocates_nothing ... ok");
+}
+
+fn the_filter_allocates_nothing() {
     let mut x = [0.0; NX];
     x[..NU].copy_from_slice(&gen::STANDING);
     let params = square_footholds(&x, 0.05, 0.0).expect("footholds");
