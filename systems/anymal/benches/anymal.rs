@@ -5,7 +5,7 @@
 //! mass matrix and bias, the four contact points with Jacobians and J' v).
 
 use cbfgen::filter::EcbfFilter;
-use cbfgen_anymal::gait::{footholds_around, standing_on_the_ground, TrotInPlace};
+use cbfgen_anymal::gait::{footholds_around, standing_on_the_ground, Trot};
 use cbfgen_anymal::generated::{self as gen, Barriers, NU, NX};
 use cbfgen_anymal::wbc::{WbcSettings, WholeBodyController};
 use cbfgen_anymal::wbc_generated as wbc;
@@ -81,7 +81,7 @@ fn whole_body_kernels(c: &mut Criterion) {
     let standing = standing_on_the_ground();
     let home = wbc::contacts(&standing).0;
     let params = footholds_around(&home, 0.03).expect("footholds");
-    let gait = TrotInPlace { swing: 0.3, lift: 0.08, reach: 0.1, home, trunk: [standing[0], standing[1], standing[2]] };
+    let gait = Trot::in_place(0.3, 0.08, 0.1, home, [standing[0], standing[1], standing[2]]);
     let mut controller = WholeBodyController::new(params.capacity(), WbcSettings::default()).expect("controller");
     let t = 0.3 + 0.4 * 0.3; // 40 % into LF and RH's swing
     let reference = gait.reference(t);

@@ -9,7 +9,7 @@
 //! ```
 
 use cbfgen::cpu_time::{median_p99_max, Stopwatch};
-use cbfgen_anymal::gait::{footholds_around, standing_on_the_ground, TrotInPlace};
+use cbfgen_anymal::gait::{footholds_around, standing_on_the_ground, Trot};
 use cbfgen_anymal::plant;
 use cbfgen_anymal::wbc::{WbcSettings, WholeBodyController};
 use cbfgen_anymal::wbc_generated as gen;
@@ -21,7 +21,7 @@ fn main() -> Result<(), cbfgen::CbfError> {
     let mut x = standing_on_the_ground();
     let home = gen::contacts(&x).0;
     let params = footholds_around(&home, 0.03)?;
-    let gait = TrotInPlace { swing: 0.3, lift: 0.08, reach: 0.1, home, trunk: [x[0], x[1], x[2]] };
+    let gait = Trot::in_place(0.3, 0.08, 0.1, home, [x[0], x[1], x[2]]);
     let mut controller = WholeBodyController::new(params.capacity(), WbcSettings::default())?;
     let cycles = (10.0 / CYCLE).round() as usize;
     let (mut cpu, mut wall) = (Vec::with_capacity(cycles), Vec::with_capacity(cycles));

@@ -1,8 +1,12 @@
-//! A trot in place: the simple reference the whole-body controller is tried on before a
-//! planner drives it (seed 004's MPC, issue 38). After one still swing period, the diagonal
-//! pairs (LF + RH, then RF + LH) alternate; a swing foot rises `lift` and moves `reach`
-//! forward (world x) on `(1 − cos 2πs)/2`, `s` the swing's phase, so it leaves and lands
-//! with zero velocity; the trunk holds its pose and the weight is shared by the stance feet.
+//! A trot: the simple reference the whole-body controller is tried on before a planner
+//! drives it (seed 004's MPC, issue 38). After one still swing period the diagonal pairs
+//! (RF + LH first, then LF + RH) alternate, each swing as long as a stance. The trunk moves
+//! level at `velocity` (world x, y) from then on, and a swing foot goes from where it stood
+//! to where it will be under its hip at mid-stance (`home` plus the trunk's travel: a
+//! Raibert-style placement), rising `lift` and reaching `reach` further forward (world x)
+//! at mid-swing, all on `(1 − cos 2πs)/2` (`s` the swing's phase) so it leaves and lands
+//! with zero velocity. The weight is shared by the stance feet. With zero velocity it is a
+//! trot in place.
 
 use cbfgen::error::{finite, positive, CbfError};
 use cbfgen::nalgebra::Matrix3;
@@ -12,20 +16,33 @@ use crate::wbc_generated::{self as gen, Capacity, FootRegionParams, Params, NX};
 
 /// The trot's shape.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct TrotInPlace {
-    /// Each pair's swing time \[s\].
+pub struct Trot {
+    /// Each pair's swing time \[s\] (a stance lasts as long).
     pub swing: f64,
     /// How high a swing foot rises \[m\].
     pub lift: f64,
-    /// How far forward (world x) a swing foot is asked to go at mid-swing \[m\].
+    /// How far further forward (world x) a swing foot is asked to go at mid-swing \[m\]
+    /// (0 for walking; the foothold CBF's demonstration asks for more than its region).
     pub reach: f64,
-    /// Where each foot stands (world) \[m\].
+    /// Where each foot stands at the start (world) \[m\].
     pub home: [[f64; 3]; FEET],
-    /// Where the trunk stays (world) \[m\], level.
+    /// Where the trunk starts (world) \[m\], level.
     pub trunk: [f64; 3],
+    /// The trunk's commanded velocity (world x, y) \[m/s\].
+    pub velocity: [f64; 2],
 }
 
-impl TrotInPlace {
+impl Trot {
+    /// A trot in place: no velocity.
+    pub fn in_place(swing: f64, lift: f64, reach: f64, home: [[f64; 3]; FEET], trunk: [f64; 3]) -> Self {
+        Self { swing, lift, reach, home, trunk, velocity: [0.0; 2] }
+    }
+
+    /// Time walked at `t` (the first swing period stands still).
+    fn walked(&self, t: f64) -> f64 {
+        (t - self.swing).max(0.0)
+    }
+
     /// Whether foot `foot` (in `LEGS` order: LF RF LH RH) swings at time `t`.
     pub fn swings(&self, t: f64, foot: usize) -> bool {
         if t < self.swing {
@@ -35,26 +52,53 @@ impl TrotInPlace {
         pair == usize::from(foot == 1 || foot == 2)
     }
 
+    /// Where foot `foot` stands after landing at walked time `landing`: under its hip at
+    /// mid-stance.
+    fn foothold(&self, foot: usize, landing: f64) -> [f64; 3] {
+        let travel = if landing <= 0.0 { 0.0 } else { landing + 0.5 * self.swing };
+        let mut p = self.home[foot];
+        p[0] += self.velocity[0] * travel;
+        p[1] += self.velocity[1] * travel;
+        p
+    }
+
     /// The reference at time `t` \[s\].
     pub fn reference(&self, t: f64) -> WbcReference {
-        let mut reference = WbcReference::standing(self.trunk, Matrix3::identity());
-        let s = t / self.swing - (t / self.swing).floor();
-        let w = std::f64::consts::TAU / self.swing;
-        let (shape, rate, accel) = (
-            0.5 * (1.0 - (w * s * self.swing).cos()),
-            0.5 * w * (w * s * self.swing).sin(),
-            0.5 * w * w * (w * s * self.swing).cos(),
-        );
+        let walked = self.walked(t);
+        let mut trunk = self.trunk;
+        trunk[0] += self.velocity[0] * walked;
+        trunk[1] += self.velocity[1] * walked;
+        let mut reference = WbcReference::standing(trunk, Matrix3::identity());
+        if t >= self.swing {
+            reference.trunk_velocity = [self.velocity[0], self.velocity[1], 0.0];
+        }
+        // The swing's phase s ∈ [0, 1): out and back (lift, reach) on b(s) = (1 − cos 2πs)/2,
+        // the move to the next foothold on g(s) = s − sin(2πs)/2π; both leave and land with
+        // zero velocity. Their time derivatives follow from ds/dt = 1/T.
+        let period = self.swing;
+        let s = t / period - (t / period).floor();
+        let angle = std::f64::consts::TAU * s;
+        let w = std::f64::consts::TAU / period;
+        let bump = [0.5 * (1.0 - angle.cos()), 0.5 * w * angle.sin(), 0.5 * w * w * angle.cos()];
+        let go = [s - angle.sin() / std::f64::consts::TAU, (1.0 - angle.cos()) / period, w * angle.sin() / period];
+        // This swing's lift-off and touchdown, in walked time.
+        let lift_off = walked - s * period;
+        let touchdown = lift_off + period;
         for foot in 0..FEET {
             reference.stance[foot] = !self.swings(t, foot);
             if reference.stance[foot] {
                 continue;
             }
-            let mut target = FootReference { position: self.home[foot], ..FootReference::default() };
-            for (axis, amplitude) in [(0, self.reach), (2, self.lift)] {
-                target.position[axis] += amplitude * shape;
-                target.velocity[axis] = amplitude * rate;
-                target.acceleration[axis] = amplitude * accel;
+            // It landed one stance before this lift-off (at the start, in its first swing).
+            let from = self.foothold(foot, lift_off - period);
+            let to = self.foothold(foot, touchdown);
+            let out_and_back = [self.reach, 0.0, self.lift];
+            let mut target = FootReference::default();
+            for axis in 0..3 {
+                let travel = to[axis] - from[axis];
+                target.position[axis] = from[axis] + travel * go[0] + out_and_back[axis] * bump[0];
+                target.velocity[axis] = travel * go[1] + out_and_back[axis] * bump[1];
+                target.acceleration[axis] = travel * go[2] + out_and_back[axis] * bump[2];
             }
             reference.feet[foot] = target;
         }
@@ -87,12 +131,7 @@ pub fn footholds_around(feet: &[[f64; 3]; FEET], half_width: f64) -> Result<Para
     positive("foothold half_width", half_width)?;
     let mut params = Params::new(Capacity { foot_region: [4; FEET] })?;
     for (member, foot) in params.foot_region.iter_mut().zip(feet) {
-        for (normal, offset) in [
-            ([1.0, 0.0, 0.0], foot[0] + half_width),
-            ([-1.0, 0.0, 0.0], half_width - foot[0]),
-            ([0.0, 1.0, 0.0], foot[1] + half_width),
-            ([0.0, -1.0, 0.0], half_width - foot[1]),
-        ] {
+        for (normal, offset) in crate::square_sides(*foot, half_width) {
             finite("foot position", offset)?;
             member.push(FootRegionParams { normal: normal.into(), offset })?;
         }

@@ -13,7 +13,7 @@
 //! For torques: [`wbc_generated`] is the same robot in free-flyer coordinates (its
 //! dynamics, contacts and foothold rows in generalized accelerations, from
 //! `spec/anymal_wbc.py`), [`wbc`] seed 004's hierarchical whole-body controller on it,
-//! [`plant`] a rigid-contact plant to try it on and [`gait`] a trot in place.
+//! [`plant`] a rigid-contact plant to try it on and [`gait`] a trot (in place or at a velocity).
 //!
 //! Trotting in place on footholds 6 cm square ([`square_footholds`]): the nominal input
 //! ([`swinging_nominal`]) swings each hip 0.4 rad, far past them; one second at 1 kHz
@@ -92,17 +92,23 @@ pub fn square_footholds(x: &[f64; NX], half_width: f64, ground: f64) -> Result<P
     let mut params = Params::new(Capacity { foot_region: [FOOTHOLD_HALF_SPACES; gen::LEGS.len()] })?;
     let (feet, _) = gen::feet(x);
     for (member, foot) in params.foot_region.iter_mut().zip(feet) {
-        for (normal, offset) in [
-            ([1.0, 0.0, 0.0], foot[0] + half_width),
-            ([-1.0, 0.0, 0.0], half_width - foot[0]),
-            ([0.0, 1.0, 0.0], foot[1] + half_width),
-            ([0.0, -1.0, 0.0], half_width - foot[1]),
-            ([0.0, 0.0, -1.0], -(ground + gen::FOOT_RADIUS)),
-        ] {
+        let floor = ([0.0, 0.0, -1.0], -(ground + gen::FOOT_RADIUS));
+        for (normal, offset) in square_sides(foot, half_width).into_iter().chain([floor]) {
             member.push(FootRegionParams { normal: normal.into(), offset })?;
         }
     }
     Ok(params)
+}
+
+/// The four sides of a square of half-width `half_width` \[m\] centred (in x, y; world) on
+/// `centre`, as half-spaces `(n, d)` with `n · c ≤ d` inside.
+pub fn square_sides(centre: [f64; 3], half_width: f64) -> [([f64; 3], f64); 4] {
+    [
+        ([1.0, 0.0, 0.0], centre[0] + half_width),
+        ([-1.0, 0.0, 0.0], half_width - centre[0]),
+        ([0.0, 1.0, 0.0], centre[1] + half_width),
+        ([0.0, -1.0, 0.0], half_width - centre[1]),
+    ]
 }
 
 /// A nominal input that asks for more than the footholds allow: a PD (stiffness 400,

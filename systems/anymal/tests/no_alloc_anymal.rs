@@ -10,7 +10,7 @@
 mod alloc_count;
 
 use cbfgen::filter::{EcbfFilter, InputSource};
-use cbfgen_anymal::gait::{footholds_around, standing_on_the_ground, TrotInPlace};
+use cbfgen_anymal::gait::{footholds_around, standing_on_the_ground, Trot};
 use cbfgen_anymal::generated::{self as gen, Barriers, NU, NX};
 use cbfgen_anymal::wbc::{WbcSettings, WholeBodyController};
 use cbfgen_anymal::wbc_generated as wbc;
@@ -25,7 +25,7 @@ fn the_whole_body_controller_allocates_nothing() {
     let mut x = standing_on_the_ground();
     let home = wbc::contacts(&x).0;
     let params = footholds_around(&home, 0.03).expect("footholds");
-    let gait = TrotInPlace { swing: 0.3, lift: 0.08, reach: 0.1, home, trunk: [x[0], x[1], x[2]] };
+    let gait = Trot::in_place(0.3, 0.08, 0.1, home, [x[0], x[1], x[2]]);
     // (The counters were shown to count by the filter's check, in this process.)
     let mut controller = WholeBodyController::new(params.capacity(), WbcSettings::default()).expect("controller");
     let dt = 2.5e-3;
