@@ -16,12 +16,13 @@ the same classes, all the Rust crate's through pyo3:
   :func:`call_kernel`.
 
 Tachyon 3's own helpers and scenarios (``Environment``, ``Course``, ``simulate``, world
-kinematics) are in :mod:`cbfgen.tachyon3`.
+kinematics) are in :mod:`cbfgen.tachyon3`; ANYmal C's whole-body controller is in
+:mod:`cbfgen.anymal`.
 
 Errors from the Rust core raise :class:`CbfError` (a ``ValueError``) with its message.
 """
 
-from . import tachyon3
+from . import anymal, tachyon3
 from ._native import (
     HALF_EXTENT_RANGE,
     INPUT_SOURCES,
@@ -53,6 +54,7 @@ from ._native import (
 from .plugins import LoadError, load
 
 __all__ = [
+    "anymal",
     "LoadError",
     "load",
     "HALF_EXTENT_RANGE",

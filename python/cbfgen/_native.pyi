@@ -11,7 +11,7 @@
 
 import os
 from collections.abc import Mapping, Sequence
-from typing import Literal, TypedDict
+from typing import Any, Literal, TypedDict
 
 import numpy as np
 import numpy.typing as npt
@@ -533,3 +533,56 @@ def campaign(
     ``outcome``, a list of "finished", "not_finished", "error"), ``errors`` as (id, message) pairs and ``report``, the
     printed table. Summary columns read 0 for an episode whose outcome is "error".
     Raises CbfError for invalid ranges or settings. Releases the GIL while it runs."""
+
+# ----------------------------------------------------------- ANYmal C (cbfgen.anymal)
+ANYMAL_LEGS: list[str]
+ANYMAL_JOINT_NAMES: list[str]
+ANYMAL_TOTAL_MASS: float
+ANYMAL_FOOT_RADIUS: float
+
+def anymal_standing() -> Vector:
+    """The SRDF's standing joints, the trunk level at the height where the feet touch
+    z = 0, at rest: the ``anymal_wbc`` state, shape (42,)."""
+
+def anymal_trot(
+    t: float,
+    swing: float,
+    lift: float,
+    reach: float,
+    home: ArrayLike,
+    trunk: ArrayLike,
+    velocity: ArrayLike | None = None,
+) -> tuple[list[bool], Vector, Vector, Matrix, Matrix, Matrix]:
+    """The trot at time ``t``: stance flags, the trunk's position and velocity, and the
+    feet's positions, velocities and accelerations, each (4, 3), world."""
+
+class WholeBodyController:
+    """Seed 004's hierarchical whole-body controller on ANYmal C (docs/anymal.md)."""
+
+    def __init__(
+        self,
+        half_spaces: int = 4,
+        friction: float = 0.7,
+        min_normal_force: float = 5.0,
+        trunk_position_gains: tuple[float, float] = (400.0, 40.0),
+        trunk_orientation_gains: tuple[float, float] = (400.0, 40.0),
+        swing_gains: tuple[float, float] = (900.0, 60.0),
+        integral_gain: float = 0.0,
+    ) -> None: ...
+    def set_footholds(self, foot: int, normals: ArrayLike, offsets: ArrayLike) -> None:
+        """Replace a foot's region by the half-spaces ``n . c <= d``."""
+    def update(
+        self,
+        x: ArrayLike,
+        stance: Sequence[bool],
+        trunk_position: ArrayLike,
+        trunk_rotation: ArrayLike,
+        trunk_velocity: ArrayLike,
+        trunk_angular_velocity: ArrayLike,
+        foot_positions: ArrayLike,
+        foot_velocities: ArrayLike,
+        foot_accelerations: ArrayLike,
+        forces: ArrayLike | None = None,
+        dt: float = 2.5e-3,
+    ) -> dict[str, Any]:
+        """One cycle: torques, accelerations, forces, relaxed, solved, residuals, status."""

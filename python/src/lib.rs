@@ -26,6 +26,7 @@
 
 #![warn(missing_docs)]
 
+mod anymal;
 mod convert;
 mod embedded {
     include!(concat!(env!("OUT_DIR"), "/core_sources.rs"));
@@ -125,5 +126,6 @@ fn _native(m: &Bound<'_, PyModule>) -> pyo3::PyResult<()> {
     ssat::register(m)?;
     kernel_table::register(m)?;
     tachyon3::register(m)?;
+    anymal::register(m)?;
     Ok(())
 }

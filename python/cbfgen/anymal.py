@@ -1,0 +1,53 @@
+"""ANYmal C and seed 004's whole-body controller, from Python.
+
+The robot's two systems are generic (``System("anymal")``: the kinematic filter in
+generalized accelerations; ``System("anymal_wbc")``: free-flyer coordinates, its dynamics
+and contacts); this module adds the hierarchical whole-body controller that turns a trunk
+motion, swing-foot motions and contact forces into torques, with the foothold CBF among
+its highest-priority rows (docs/anymal.md), the standing state and the trot the Rust tests
+use. A plant of your own (MuJoCo: :mod:`cbfgen.physics.anymal`) calls it:
+
+    import numpy as np
+    from cbfgen import anymal
+
+    x = anymal.standing()                      # the anymal_wbc state, (42,)
+    wbc = anymal.WholeBodyController()
+    out = wbc.update(x, [True] * 4, x[:3], np.eye(3), np.zeros(3), np.zeros(3),
+                     np.zeros((4, 3)), np.zeros((4, 3)), np.zeros((4, 3)))
+    out["torques"]                             # (12,), in JOINT_NAMES order
+"""
+
+from __future__ import annotations
+
+from ._native import (
+    ANYMAL_FOOT_RADIUS,
+    ANYMAL_JOINT_NAMES,
+    ANYMAL_LEGS,
+    ANYMAL_TOTAL_MASS,
+    System,
+    WholeBodyController,
+    anymal_standing,
+    anymal_trot,
+)
+
+SYSTEM = System("anymal_wbc")
+"""The free-flyer system: state and input names, kernels (``dynamics``, ``contacts``)."""
+NX: int = SYSTEM.nx
+LEGS: list[str] = ANYMAL_LEGS
+JOINT_NAMES: list[str] = ANYMAL_JOINT_NAMES
+TOTAL_MASS: float = ANYMAL_TOTAL_MASS
+FOOT_RADIUS: float = ANYMAL_FOOT_RADIUS
+standing = anymal_standing
+trot = anymal_trot
+
+__all__ = [
+    "FOOT_RADIUS",
+    "JOINT_NAMES",
+    "LEGS",
+    "NX",
+    "SYSTEM",
+    "TOTAL_MASS",
+    "WholeBodyController",
+    "standing",
+    "trot",
+]
