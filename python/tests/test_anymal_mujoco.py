@@ -119,7 +119,7 @@ def physics():
 
 def test_standing_10_s_holds_every_priority_and_the_trunk(physics):
     summary = physics.run("stand", seconds=10.0).summary()
-    assert summary["every_cycle_solved"], summary
+    assert summary["every_cycle_solved"] and summary["largest_priority_0_residual"] <= 1e-5, summary
     assert summary["body_contacts"] == 0, summary
     low, high = summary["trunk_height_range_m"]
     start = physics.anymal.standing()[2]
@@ -128,7 +128,9 @@ def test_standing_10_s_holds_every_priority_and_the_trunk(physics):
 
 def test_trotting_10_s_at_0_3_m_per_s_does_not_fall(physics):
     summary = physics.run("trot", seconds=10.0, velocity=0.3).summary()
-    assert summary["every_cycle_solved"], summary
+    # A knee reaches its 80 N m at some touchdowns: the equations of motion then give way
+    # by at most 1.2e-4 m/s² (measured; reported as priority 0's residual), not the limit.
+    assert summary["every_cycle_solved"] and summary["largest_priority_0_residual"] <= 1e-3, summary
     assert summary["body_contacts"] == 0, summary
     low, high = summary["trunk_height_range_m"]
     start = physics.anymal.standing()[2]
@@ -141,5 +143,6 @@ def test_the_foothold_cbf_keeps_the_swing_foot_in_its_square_in_mujoco(physics):
     on = physics.run("footholds", cbf=True, seconds=3.0).summary()
     off = physics.run("footholds", cbf=False, seconds=3.0).summary()
     assert on["every_cycle_solved"] and on["body_contacts"] == 0, on
+    assert on["largest_priority_0_residual"] <= 1e-5, on
     assert on["farthest_outside_square_m"] <= 0.002, on
     assert off["farthest_outside_square_m"] >= 0.03, off

@@ -136,6 +136,9 @@ class AnymalRun:
     stance: list[list[bool]] = field(default_factory=list)
     relaxed: list[np.ndarray] = field(default_factory=list)
     solved: list[bool] = field(default_factory=list)
+    priority_0_residual: list[float] = field(default_factory=list)
+    """Priority 0's task residual each cycle (equations of motion per kg, stance feet's
+    accelerations, swing feet's forces in the QP's units: m/s², its rows are hard)."""
     body_contact: list[bool] = field(default_factory=list)
     outside: list[np.ndarray] = field(default_factory=list)
     """Per foot, how far its centre is beyond its square (positive: outside) while it swings."""
@@ -150,6 +153,7 @@ class AnymalRun:
             "cbf": self.cbf,
             "seconds": round(self.t[-1], 4) if self.t else 0.0,
             "every_cycle_solved": bool(all(self.solved)),
+            "largest_priority_0_residual": float(max(self.priority_0_residual, default=0.0)),
             "body_contacts": int(np.sum(self.body_contact)),
             "trunk_height_range_m": [float(trunk[:, 2].min()), float(trunk[:, 2].max())],
             "largest_trunk_error_m": float(np.max(np.abs(trunk - reference))),
@@ -204,6 +208,7 @@ def run(scenario: str = "trot", *, cbf: bool = True, seconds: float = 10.0, velo
         record.stance.append(list(stance))
         record.relaxed.append(np.asarray(out["relaxed"]))
         record.solved.append(bool(out["solved"]))
+        record.priority_0_residual.append(float(out["residuals"][0]))
         record.body_contact.append(robot.body_contact())
         if record.squares is not None:
             s = record.squares
