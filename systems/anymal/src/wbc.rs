@@ -16,7 +16,7 @@
 //! The foothold rows are the generated `foot_region` family's ([`crate::wbc_generated`]),
 //! `a · ν̇ ≥ −(L_f²h + k₁ L_f h + k₀ h)`, with `ν̇` tied to torques and forces by the
 //! equations of motion at the same priority: the CBF is affine in the torques (eq. 26).
-//! A row that had to give way (its slack is beyond [`SLACK_TOLERANCE`]) is reported in
+//! A row that had to give way (its slack beyond [`SLACK_TOLERANCE`]) is reported in
 //! [`WbcOutput::relaxed`], never hidden.
 //!
 //! The friction cone `‖f_t‖ ≤ μ f_n` (world z the normal: flat ground) is the inscribed
@@ -64,8 +64,9 @@ const TORQUE: usize = NU;
 const FORCE: usize = NU + JOINTS;
 /// Friction pyramid rows per foot: `f_n ≥ f_min`, `±f_x ≤ μ' f_n`, `±f_y ≤ μ' f_n`.
 const PYRAMID: usize = 5;
-/// A soft row whose slack is beyond this counts as relaxed (in the row's units, m/s²).
-pub const SLACK_TOLERANCE: f64 = 1e-6;
+/// A soft row whose slack is beyond this counts as relaxed (in the row's units, m/s²); below
+/// it the slack is the regularisation's rounding (measured up to 1.5e-6 in MuJoCo).
+pub const SLACK_TOLERANCE: f64 = 1e-5;
 /// The QP's units for torques \[N m\] and forces \[N\]: every variable is then of order
 /// one, so the hierarchy's regularisation (relative to each level's largest term) moves
 /// the equations of motion by parts in 10¹⁰ of the weight, not parts in 10⁵.
@@ -180,7 +181,8 @@ pub struct WbcOutput {
     pub forces: [[f64; 3]; FEET],
     /// Each priority's outcome.
     pub levels: [LevelReport; 3],
-    /// Per foot, the largest slack its foothold rows needed (0: the CBF held).
+    /// Per foot, the largest slack its foothold rows needed \[m/s²\]: 0 when every one
+    /// held to [`SLACK_TOLERANCE`].
     pub relaxed: [f64; FEET],
     /// Every level solved (else the torques are the last solved level's, or zero).
     pub solved: bool,
@@ -306,7 +308,9 @@ impl WholeBodyController {
             let mut row = 0;
             for (foot, relaxed) in out.relaxed.iter_mut().enumerate() {
                 for _ in 0..self.capacity.foot_region[foot] {
-                    *relaxed = relaxed.max(slacks[row].abs());
+                    if slacks[row].abs() > SLACK_TOLERANCE {
+                        *relaxed = relaxed.max(slacks[row].abs());
+                    }
                     row += 1;
                 }
             }
