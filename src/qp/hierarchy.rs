@@ -164,10 +164,11 @@ pub struct Hierarchy {
     /// `Z`, column-major `n × free` (the first `free` columns of an `n × n` buffer).
     basis: Vec<f64>,
     free: usize,
-    /// Scratch: `A Z` (tasks × free, row-major), `D Z` per row, the QR's matrix and `Q`.
+    /// Scratch: `A Z` (tasks × free, row-major), the QR's matrix, its reflectors and their
+    /// β, the null-space columns of `Q`, the next `Z` and one reflector.
     projected: Vec<f64>,
     qr: Vec<f64>,
-    q: Vec<f64>,
+    reflectors: Vec<f64>,
     betas: Vec<f64>,
     null: Vec<f64>,
     next_basis: Vec<f64>,
@@ -236,7 +237,7 @@ impl Hierarchy {
             free: n,
             projected: vec![0.0; widest_task.max(1) * n],
             qr: vec![0.0; n * widest_task.max(1)],
-            q: vec![0.0; n * n],
+            reflectors: vec![0.0; n * n],
             betas: vec![0.0; n],
             null: vec![0.0; n * n],
             next_basis: vec![0.0; n * n],
@@ -475,7 +476,7 @@ impl Hierarchy {
         c[..free * tasks].copy_from_slice(&self.projected[..tasks * free]);
         // The reflectors, kept to form only the null-space columns of Q afterwards: step k's
         // v in column k of `reflectors` (rows k..free), its β in `betas`.
-        let reflectors = &mut self.q;
+        let reflectors = &mut self.reflectors;
         let v = &mut self.column;
         let mut first = 0.0_f64;
         let mut rank = 0;

@@ -50,7 +50,9 @@ SCENARIOS = ("stand", "trot", "footholds")
 
 
 def description_path(relative: str = DESCRIPTION) -> Path:
-    """A file of example-robot-data's robots (installed from PyPI, read offline)."""
+    """A file of example-robot-data's robots (installed from PyPI, read offline). The
+    generator's ``symbolic.urdf.description`` finds it the same way; the installed wheel
+    does not carry ``symbolic``, so the runtime looks for itself."""
     for entry in sys.path:
         candidate = Path(entry) / "cmeel.prefix" / "share" / "example-robot-data" / "robots" / relative
         if candidate.is_file():

@@ -70,13 +70,14 @@ def main(argv: list[str] | None = None) -> int:
     plt.close(fig)
 
     if not args.no_video:
+        from .anymal import Robot
+
+        model = Robot().model
         columns = []
         for label, title in [("footholds_cbf", "with the foothold CBF"), ("footholds_no_cbf", "without"),
                              ("trot", "trot at 0.3 m/s")]:
             r = runs[label]
-            from .anymal import Robot
-
-            columns.append((title, SimpleNamespace(model=Robot().model, qpos=r.qpos,
+            columns.append((title, SimpleNamespace(model=model, qpos=r.qpos,
                                                    body_contact=r.body_contact[::keep])))
         write_side_by_side_gif(args.out / "anymal.gif", columns)
     print(f"wrote {args.out}", file=sys.stderr)

@@ -12,6 +12,7 @@ mod alloc_count;
 use cbfgen::filter::{EcbfFilter, InputSource};
 use cbfgen_anymal::gait::{footholds_around, standing_on_the_ground, Trot};
 use cbfgen_anymal::generated::{self as gen, Barriers, NU, NX};
+use cbfgen_anymal::plant;
 use cbfgen_anymal::wbc::{WbcSettings, WholeBodyController};
 use cbfgen_anymal::wbc_generated as wbc;
 use cbfgen_anymal::{square_footholds, swinging_nominal};
@@ -42,12 +43,7 @@ fn the_whole_body_controller_allocates_nothing() {
                 rejected += usize::from(controller.update(&nan, &reference, &params, dt).is_err());
             }
             // The model's own motion (the accelerations it planned), enough to move the rows.
-            for i in 0..wbc::NU {
-                x[24 + i] += dt * out.accelerations[i];
-            }
-            for j in 0..12 {
-                x[12 + j] += dt * x[30 + j];
-            }
+            plant::integrate(&mut x, &out.accelerations, dt);
         }
     });
     assert_eq!((rust, c), (0, 0), "allocations during {cycles} cycles: Rust {rust}, C {c}");
