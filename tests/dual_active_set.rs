@@ -7,10 +7,8 @@
 #![allow(clippy::needless_range_loop)]
 
 use cbfgen::qp::dual_active_set::{ActiveRow, DenseStatus, DualActiveSet, Side, WarmStart, KKT_TOLERANCE};
-use clarabel::algebra::CscMatrix;
-use clarabel::solver::{
-    DefaultSettings, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus, SupportedConeT, ZeroConeT,
-};
+use cbfgen_testkit::clarabel_qp::{self, Answer};
+use clarabel::solver::DefaultSettings;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -108,59 +106,14 @@ fn clarabel(qp: &Qp) -> Reference {
             inequalities.push((row.iter().map(|v| -v).collect(), -l));
         }
     }
-    let rows: Vec<&(Vec<f64>, f64)> = equalities.iter().chain(&inequalities).collect();
-    let (mut colptr, mut rowval, mut nzval) = (vec![0], Vec::new(), Vec::new());
-    for c in 0..n {
-        for (r, (row, _)) in rows.iter().enumerate() {
-            if row[c] != 0.0 {
-                rowval.push(r);
-                nzval.push(row[c]);
-            }
-        }
-        colptr.push(rowval.len());
-    }
-    let a = CscMatrix::new(rows.len(), n, colptr, rowval, nzval);
-    let b: Vec<f64> = rows.iter().map(|(_, b)| *b).collect();
-    let (mut pcol, mut prow, mut pval) = (vec![0], Vec::new(), Vec::new());
-    for c in 0..n {
-        for r in 0..=c {
-            if qp.p[r * n + c] != 0.0 {
-                prow.push(r);
-                pval.push(qp.p[r * n + c]);
-            }
-        }
-        pcol.push(prow.len());
-    }
-    let p = CscMatrix::new(n, n, pcol, prow, pval);
-    let mut cones: Vec<SupportedConeT<f64>> = Vec::new();
-    if !equalities.is_empty() {
-        cones.push(ZeroConeT(equalities.len()));
-    }
-    if !inequalities.is_empty() {
-        cones.push(NonnegativeConeT(inequalities.len()));
-    }
     // Tight tolerances first (z is compared to 1e-6); where Clarabel cannot make progress
     // on them (it stops short on a few degenerate draws), its defaults.
-    let tight = DefaultSettings {
-        verbose: false,
-        tol_gap_abs: 1e-11,
-        tol_gap_rel: 1e-11,
-        tol_feas: 1e-11,
-        tol_ktratio: 1e-9,
-        max_iter: 400,
-        ..DefaultSettings::default()
-    };
-    for (settings, is_tight) in
-        [(tight, true), (DefaultSettings { verbose: false, ..DefaultSettings::default() }, false)]
-    {
-        let mut solver = DefaultSolver::new(&p, &qp.q, &a, &b, &cones, settings).expect("clarabel setup");
-        solver.solve();
-        match solver.solution.status {
-            SolverStatus::Solved | SolverStatus::AlmostSolved => {
-                return Reference::Solved(solver.solution.x.clone(), is_tight)
-            }
-            SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => return Reference::Infeasible,
-            _ => {}
+    let default = DefaultSettings { verbose: false, ..DefaultSettings::default() };
+    for (settings, is_tight) in [(clarabel_qp::tight_settings(), true), (default, false)] {
+        match clarabel_qp::solve(n, &qp.p, &qp.q, &equalities, &inequalities, settings) {
+            Answer::Solved(x) => return Reference::Solved(x, is_tight),
+            Answer::Infeasible => return Reference::Infeasible,
+            Answer::Other => {}
         }
     }
     Reference::Other

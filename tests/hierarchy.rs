@@ -9,10 +9,7 @@
 
 use cbfgen::qp::dual_active_set::DenseStatus;
 use cbfgen::qp::hierarchy::{Hierarchy, LevelShape, LevelStatus};
-use clarabel::algebra::CscMatrix;
-use clarabel::solver::{
-    DefaultSettings, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus, SupportedConeT, ZeroConeT,
-};
+use cbfgen_testkit::clarabel_qp::{self, Answer};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -155,53 +152,8 @@ fn clarabel_level(
             }
         }
     }
-    let rows: Vec<&(Vec<f64>, f64)> = equalities.iter().chain(&inequalities).collect();
-    let (mut colptr, mut rowval, mut nzval) = (vec![0], Vec::new(), Vec::new());
-    for c in 0..size {
-        for (r, (row, _)) in rows.iter().enumerate() {
-            if row[c] != 0.0 {
-                rowval.push(r);
-                nzval.push(row[c]);
-            }
-        }
-        colptr.push(rowval.len());
-    }
-    let a = CscMatrix::new(rows.len(), size, colptr, rowval, nzval);
-    let b: Vec<f64> = rows.iter().map(|(_, b)| *b).collect();
-    let (mut pcol, mut prow, mut pval) = (vec![0], Vec::new(), Vec::new());
-    for c in 0..size {
-        for r in 0..=c {
-            if p[r * size + c] != 0.0 {
-                prow.push(r);
-                pval.push(p[r * size + c]);
-            }
-        }
-        pcol.push(prow.len());
-    }
-    let p = CscMatrix::new(size, size, pcol, prow, pval);
-    let mut cones: Vec<SupportedConeT<f64>> = Vec::new();
-    if !equalities.is_empty() {
-        cones.push(ZeroConeT(equalities.len()));
-    }
-    if !inequalities.is_empty() {
-        cones.push(NonnegativeConeT(inequalities.len()));
-    }
-    let settings = DefaultSettings {
-        verbose: false,
-        tol_gap_abs: 1e-11,
-        tol_gap_rel: 1e-11,
-        tol_feas: 1e-11,
-        tol_ktratio: 1e-9,
-        max_iter: 400,
-        ..DefaultSettings::default()
-    };
-    let mut solver = DefaultSolver::new(&p, &q, &a, &b, &cones, settings).expect("clarabel setup");
-    solver.solve();
-    match solver.solution.status {
-        SolverStatus::Solved | SolverStatus::AlmostSolved => {
-            let x = solver.solution.x.clone();
-            Some((x[..n].to_vec(), x[n..].to_vec()))
-        }
+    match clarabel_qp::solve(size, &p, &q, &equalities, &inequalities, clarabel_qp::tight_settings()) {
+        Answer::Solved(x) => Some((x[..n].to_vec(), x[n..].to_vec())),
         _ => None,
     }
 }

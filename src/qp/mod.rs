@@ -9,6 +9,8 @@
 //! * [`hierarchy`] — strict priorities of least-squares tasks and inequalities, each level
 //!   solved by [`dual_active_set`] in the null space of the tasks above (a whole-body
 //!   controller's hierarchy).
+//! * [`ocp`] — one iteration of a nonlinear MPC: an optimal-control QP over a horizon,
+//!   its sparsity laid out once, the linearised stages written in place, solved by OSQP.
 //! * [`metric`] — the cost's metric `P = L Lᵀ` (input weights, or a spec's objective
 //!   `P(x)`) and the scaled inputs `z = Lᵀ u` every stage and OSQP work in.
 //! * [`recorded`] — a cycle's QP kept to replay against any solver (test fixtures,
@@ -24,6 +26,7 @@ pub mod dual_active_set;
 pub mod hierarchy;
 pub mod lexicographic;
 pub mod metric;
+pub mod ocp;
 pub mod osqp_workspace;
 pub mod recorded;
 mod settings;

@@ -1,11 +1,12 @@
 //! Test helpers shared by the cbfgen crates' tests and benches: random and hand-built box
-//! pairs ([`boxes`]), a second solver's answer to the lexicographic QP
-//! ([`lexicographic_reference`]) and per-outcome tallies ([`tally`]).
+//! pairs ([`boxes`]), Clarabel on a dense QP ([`clarabel_qp`]), a second solver's answer
+//! to the lexicographic QP ([`lexicographic_reference`]) and per-outcome tallies ([`tally`]).
 //!
 //! The allocation counter is not a module of this library: it installs a global allocator
 //! and `malloc` hooks, which must be in the allocation-counting test binaries only. Those
 //! include `testkit/alloc_count.rs` by path.
 
 pub mod boxes;
+pub mod clarabel_qp;
 pub mod lexicographic_reference;
 pub mod tally;
