@@ -721,6 +721,7 @@ class Output:
     name: str
     values: list[tuple[str, object, str]]
     doc: str
+    inputs: bool = False
 
 
 def _constant_value(where: str, value: object) -> object:
@@ -761,8 +762,9 @@ def _constant_value(where: str, value: object) -> object:
     return convert(value)
 
 
-def _output_value(where: str, value: object, states: set) -> object:
-    """An expression, a list of them or a rectangular list of lists, of states only."""
+def _output_value(where: str, value: object, allowed: set, inputs: bool) -> object:
+    """An expression, a list of them or a rectangular list of lists, of the ``allowed``
+    symbols (the states, and the inputs when ``inputs``)."""
     if isinstance(value, (list, tuple)):
         if not value:
             raise SpecError(f"{where}: empty")
@@ -770,9 +772,19 @@ def _output_value(where: str, value: object, states: set) -> object:
             cols = {len(v) for v in value}
             if len(cols) != 1 or 0 in cols:
                 raise SpecError(f"{where}: a matrix must be a list of equal-length, non-empty rows")
-            return [[_state_expr(where, e, states) for e in row] for row in value]
-        return [_state_expr(where, e, states) for e in value]
-    return _state_expr(where, value, states)
+            return [[_output_expr(where, e, allowed, inputs) for e in row] for row in value]
+        return [_output_expr(where, e, allowed, inputs) for e in value]
+    return _output_expr(where, value, allowed, inputs)
+
+
+def _output_expr(where: str, e: object, allowed: set, inputs: bool) -> se.Expr:
+    if not inputs:
+        return _state_expr(where, e, allowed)
+    expr = _expr(where, "value", e)
+    stray = expr.free_symbols - allowed
+    if stray:
+        raise SpecError(f"{where}: uses {sorted(map(str, stray))}; it depends on the states and inputs only")
+    return expr
 
 
 def _state_expr(where: str, e: object, states: set) -> se.Expr:
@@ -1078,11 +1090,14 @@ class System:
             raise SpecError(f"{where}: give a doc string (what it is, with its unit)")
         self.constants.append(Constant(name, _constant_value(where, value), doc))
 
-    def output(self, name: str, outputs: Sequence[tuple[str, object, str]], doc: str) -> None:
+    def output(self, name: str, outputs: Sequence[tuple[str, object, str]], doc: str, *,
+               inputs: bool = False) -> None:
         """A function of the state the generated module exposes besides the barriers: forward
         kinematics, a contact point, an energy. ``outputs`` are ``(name, value, doc)`` with
         ``value`` an expression, a list of them (vector) or a list of equal-length lists
-        (matrix, returned row by row). Depends on the states only."""
+        (matrix, returned row by row). Depends on the states only; with ``inputs=True`` on
+        the states and the inputs (the generated function then takes ``u`` after ``x``):
+        what an MPC linearises, such as x' = f(x) + g(x) u and its Jacobians."""
         where = f"{self.where}, output {name!r}"
         check_identifier(self.where, "output name", name, module_item=True)
         if any(o.name == name for o in self.outputs):
@@ -1095,11 +1110,12 @@ class System:
                 raise SpecError(f"{where}: each output is (name, value, doc), got {item!r}")
             oname, value, odoc = item
             check_identifier(where, "output value name", oname)
-            parsed.append((oname, _output_value(f"{where}, value {oname!r}", value, set(self.x)), odoc))
+            allowed = set(self.x) | (set(self.u) if inputs else set())
+            parsed.append((oname, _output_value(f"{where}, value {oname!r}", value, allowed, inputs), odoc))
         names = [n for n, _, _ in parsed]
         if len(set(names)) != len(names):
             raise SpecError(f"{where}: value names {names} repeat a name")
-        self.outputs.append(Output(name, parsed, doc))
+        self.outputs.append(Output(name, parsed, doc, inputs))
 
     def objective(self, P: object, q: object = None, *, doc: str = "") -> None:
         """The filter's cost, a quadratic in the input with coefficients of the state:

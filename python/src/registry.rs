@@ -7,6 +7,7 @@ use cbfgen::dynamic::Registry;
 /// Every built-in system, in name order.
 pub static SYSTEMS: Registry = Registry::new(&[
     cbfgen_anymal::generated::SYSTEM,
+    cbfgen_anymal::mpc_generated::SYSTEM,
     cbfgen_anymal::wbc_generated::SYSTEM,
     cbfgen_double_integrator::SYSTEM,
     cbfgen_panda::generated::SYSTEM,

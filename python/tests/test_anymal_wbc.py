@@ -10,17 +10,15 @@ import os
 import numpy as np
 import pytest
 
-from symbolic import urdf
-
 if os.environ.get("CBFGEN_REQUIRE_BINDINGS"):
     import cbfgen
 else:
     cbfgen = pytest.importorskip("cbfgen", reason="build it with `scripts/cbf setup`")
 pin = pytest.importorskip("pinocchio", reason="installed from symbolic/requirements-test.txt")
+import anymal_pinocchio  # noqa: E402  (needs pinocchio)
 
 SYSTEM = "anymal_wbc"
-LEGS = ["LF", "RF", "LH", "RH"]
-JOINTS = [f"{leg}_{j}" for leg in LEGS for j in ("HAA", "HFE", "KFE")]
+LEGS, JOINTS = anymal_pinocchio.LEGS, anymal_pinocchio.JOINTS
 NV = 18
 STATES = 10_000
 TOLERANCE = 1e-10
@@ -31,21 +29,9 @@ class Truth:
     quaternion of R, the joints by name; the twist and joint rates as its velocity."""
 
     def __init__(self):
-        path = urdf.description("anymal_c_simple_description/urdf/anymal.urdf")
-        self.robot = urdf.load(path)
-        self.model = pin.buildModelFromUrdf(str(path), pin.JointModelFreeFlyer())
+        self.model, self.feet, self.robot = anymal_pinocchio.model_with_feet()
         self.iq = [self.model.joints[self.model.getJointId(j)].idx_q for j in JOINTS]
         self.iv = list(range(6)) + [self.model.joints[self.model.getJointId(j)].idx_v for j in JOINTS]
-        spheres = [[s for s in urdf.collision_shapes(self.robot, f"{leg}_FOOT") if isinstance(s, urdf.Sphere)][0]
-                   for leg in LEGS]
-        # A frame at each foot sphere's centre, on the foot link.
-        self.feet = []
-        for leg, sphere in zip(LEGS, spheres, strict=True):
-            foot = self.model.getFrameId(f"{leg}_FOOT", pin.FrameType.BODY)
-            link = self.model.frames[foot]
-            placement = link.placement * pin.SE3(np.eye(3), np.array(sphere.center))
-            self.feet.append(self.model.addFrame(pin.Frame(f"{leg}_FOOT_CENTRE", link.parentJoint, foot, placement,
-                                                           pin.FrameType.OP_FRAME)))
         self.data = self.model.createData()
 
     def random_state(self, rng) -> np.ndarray:

@@ -455,6 +455,8 @@ def _lower_bound(system: System, family: Family, where: str, row_kernel: str, in
 def _output(system: System, output: Output) -> Kernel:
     k = Kernel(output.name, output.doc)
     k.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
+    if output.inputs:
+        k.array_input("u", system.input_names, "input, laid out as `INPUT_NAMES`")
     for name, value, doc in output.values:
         if isinstance(value, list) and value and isinstance(value[0], list):
             k.output_matrix(name, value, doc)

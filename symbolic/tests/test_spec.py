@@ -51,6 +51,21 @@ def test_default_poles_repeat_to_the_degree_found():
     assert fam.degree == 2 and fam.poles == (10.0, 10.0)
 
 
+def test_an_output_takes_the_inputs_only_when_it_says_so():
+    s = _demo()
+    p, v = s.x
+    (u,) = s.u
+    with pytest.raises(SpecError, match="depends on the states only"):
+        s.output("power", [("power", v * u, "u v")], doc="the input's power")
+    s.output("flow", [("xdot", [v, u], "x'"), ("b", [[0], [1]], "dx'/du")], doc="x' and its Jacobian", inputs=True)
+    with pytest.raises(SpecError, match="depends on the states and inputs only"):
+        s.output("stray", [("w", se.Symbol("w") * u, "?")], doc="a stray symbol", inputs=True)
+    (kernel,) = define(s).outputs
+    assert [i.name for i in kernel.inputs] == ["x", "u"]
+    # The kernel's values at a point are the expressions' (u is the kernel's input).
+    assert kernel.evaluate({"x": [0.5, 2.0], "u": [3.0]})["xdot"] == [2.0, 3.0]
+
+
 def test_defaults_are_shaped_as_their_parameters_and_the_rest_start_unset():
     s = System("demo")
     p, v = s.states(["p", "v"])

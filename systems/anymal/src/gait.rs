@@ -52,6 +52,12 @@ impl Trot {
         pair == usize::from(foot == 1 || foot == 2)
     }
 
+    /// Time left \[s\] until the swing under way at `t` lands (the whole swing time at
+    /// a lift-off; also for a foot in stance, whose next swing this then is not).
+    pub fn time_to_touchdown(&self, t: f64) -> f64 {
+        self.swing - (t - (t / self.swing).floor() * self.swing)
+    }
+
     /// Where foot `foot` stands after landing at walked time `landing`: under its hip at
     /// mid-stance.
     fn foothold(&self, foot: usize, landing: f64) -> [f64; 3] {

@@ -66,7 +66,17 @@ pub mod wbc_generated {
     include!(concat!(env!("CARGO_MANIFEST_DIR"), "/generated/anymal_wbc.rs"));
 }
 
+/// The module generated from `spec/anymal_mpc.py`: the robot as seed 004's kino-dynamic
+/// MPC sees it — one rigid body frozen at the standing state, contact forces and joint
+/// velocities as inputs — with the flow and the feet and their Jacobians (`flow`, `feet`,
+/// `orientation`) for the MPC's linearisation. Never edited by hand.
+#[allow(missing_docs)]
+pub mod mpc_generated {
+    include!(concat!(env!("CARGO_MANIFEST_DIR"), "/generated/anymal_mpc.rs"));
+}
+
 pub mod gait;
+pub mod mpc;
 pub mod plant;
 pub mod wbc;
 

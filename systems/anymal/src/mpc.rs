@@ -1,0 +1,623 @@
+//! Seed 004's kino-dynamic MPC (section IV-A, B, eqs. 18–25) on the generated model
+//! [`mpc_generated`](crate::mpc_generated): the robot as one rigid body with its legs'
+//! joints as integrators; inputs are the four feet's contact forces (trunk frame) and the
+//! 12 joint velocities.
+//!
+//! Each [`KinodynamicMpc::solve`] is one real-time iteration: the last plan, shifted to
+//! the current time, is the point the dynamics and constraints are linearised at (the
+//! generated Jacobians), and one QP over the horizon ([`cbfgen::qp::ocp`], OSQP on a
+//! sparsity laid out once) gives the new plan. Per stage `k` at time `t + k dt`, for each
+//! foot, by the gait's mode (seed 004, IV-B):
+//!
+//! | mode | rows |
+//! |---|---|
+//! | stance | the foot's world velocity is zero (3); the force inside the friction pyramid, normal force ≥ 0 (5) |
+//! | swing | no force (3); the foot's velocity along the surface normal follows the gait's lift curve, with feedback on its height ([`LIFT_GAIN`]) (1) |
+//! | both | the foothold rows of [`FootholdConstraint`], on the foot's region (up to [`MAX_SIDES`] half-spaces) |
+//!
+//! and every joint inside its limits. The friction cone `‖f_t‖ ≤ μ f_n` is the inscribed
+//! pyramid `|f_t1|, |f_t2| ≤ μ f_n / √2` on the region's normal: conservative by at most
+//! 29 % of the tangential force (OSQP takes no cones).
+//!
+//! The cost is quadratic around a reference from the gait ([`Trot`]): the trunk level at
+//! the commanded velocity and height, the joints at the standing state, the weight shared
+//! equally by the stance feet, joint velocities zero.
+//!
+//! Units inside the QP: forces in [`FORCE_UNIT`] newtons, so that every variable is of
+//! order one (OSQP runs unscaled on data that changes every iteration).
+
+// Index loops mirror the formulas (rows × stage variables).
+#![allow(clippy::needless_range_loop)]
+
+use cbfgen::error::{within, CbfError};
+use cbfgen::qp::ocp::{Ocp, OcpShape};
+use cbfgen::qp::{QpStatus, SolverSettings, INFINITY};
+
+use crate::gait::Trot;
+use crate::mpc_generated::{self as gen, NU, NX};
+
+/// Feet.
+pub const FEET: usize = 4;
+/// Joints.
+pub const JOINTS: usize = 12;
+/// Most half-spaces a foothold region has.
+pub const MAX_SIDES: usize = 6;
+/// Newtons per unit of a force inside the QP.
+pub const FORCE_UNIT: f64 = 100.0;
+/// The swing height's feedback gain \[1/s\]: a swing foot's normal velocity is the lift
+/// curve's plus this times its height error.
+pub const LIFT_GAIN: f64 = 20.0;
+/// Rows per foot and stage: mode rows (8), then the foothold's.
+const FOOT_ROWS: usize = 8 + MAX_SIDES;
+/// Rows per stage: the feet's, then one per joint limit.
+pub const STAGE_ROWS: usize = FEET * FOOT_ROWS + JOINTS;
+
+/// A convex foothold region: half-spaces `n · c ≤ d` on a foot sphere's centre (world),
+/// and the surface normal its friction pyramid is built on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Region {
+    /// The half-spaces `(n, d)`; the first `count` are used.
+    pub sides: [([f64; 3], f64); MAX_SIDES],
+    /// How many of `sides` are used.
+    pub count: usize,
+    /// The surface's unit normal (world).
+    pub normal: [f64; 3],
+}
+
+impl Region {
+    /// The whole flat ground: no sides, normal `+z`.
+    pub const GROUND: Self = Self { sides: [([0.0; 3], 0.0); MAX_SIDES], count: 0, normal: [0.0, 0.0, 1.0] };
+
+    /// Region from half-spaces on flat ground.
+    ///
+    /// # Errors
+    /// More than [`MAX_SIDES`] sides, or a non-finite one.
+    pub fn flat(sides: &[([f64; 3], f64)]) -> Result<Self, CbfError> {
+        if sides.len() > MAX_SIDES {
+            return Err(CbfError::TooLarge { what: "foothold region sides", value: sides.len(), max: MAX_SIDES });
+        }
+        let mut region = Self::GROUND;
+        for (slot, &(n, d)) in region.sides.iter_mut().zip(sides) {
+            for v in n.iter().chain([&d]) {
+                cbfgen::error::finite("foothold side", *v)?;
+            }
+            *slot = (n, d);
+        }
+        region.count = sides.len();
+        Ok(region)
+    }
+
+    /// `min_j (d_j − n_j · c)`: how far inside its region a foot centre `c` is (negative
+    /// outside; `+∞` with no sides).
+    pub fn margin(&self, c: [f64; 3]) -> f64 {
+        self.sides[..self.count].iter().map(|(n, d)| d - dot(n, &c)).fold(f64::INFINITY, f64::min)
+    }
+}
+
+/// How the MPC keeps feet in their foothold regions (seed 004, IV-B3 and IV-B4).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum FootholdConstraint {
+    /// Not at all (the whole-body controller's CBF alone: Table II's "CBF-QP").
+    Off,
+    /// Eq. 23: stance feet inside their region (state-only): Table II's "MPC baseline".
+    StanceOnly,
+    /// Eq. 24: swing feet inside their next region grown by `margin · (time to touchdown
+    /// / swing time)` \[m\], shrinking to it at touchdown; stance feet inside theirs.
+    Shrinking {
+        /// The growth at lift-off \[m\].
+        margin: f64,
+    },
+    /// Eq. 25: `h' + γ h ≥ 0` for `h = d − n · c` of each side, swing feet on their next
+    /// region and stance feet on theirs: a swing foot outside is drawn in at rate γ, one
+    /// inside stays.
+    Barrier {
+        /// γ \[1/s\].
+        gamma: f64,
+    },
+}
+
+/// The MPC's weights (the QP's diagonal `Q`, `R`), in SI units (forces per newton).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MpcWeights {
+    /// Roll, pitch, yaw.
+    pub orientation: [f64; 3],
+    /// Centre of mass x, y, z.
+    pub position: [f64; 3],
+    /// Angular velocity (trunk frame).
+    pub angular_velocity: [f64; 3],
+    /// Linear velocity (trunk frame).
+    pub velocity: [f64; 3],
+    /// Each joint angle's deviation from standing.
+    pub joints: f64,
+    /// Each force component's deviation from the shared weight, per N².
+    pub force: f64,
+    /// Each joint velocity.
+    pub joint_velocity: f64,
+}
+
+impl Default for MpcWeights {
+    fn default() -> Self {
+        Self {
+            orientation: [200.0, 200.0, 100.0],
+            position: [100.0, 100.0, 300.0],
+            angular_velocity: [2.0, 2.0, 2.0],
+            velocity: [10.0, 10.0, 10.0],
+            joints: 2.0,
+            force: 1e-4,
+            joint_velocity: 0.05,
+        }
+    }
+}
+
+/// The MPC's settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MpcSettings {
+    /// Stages in the horizon.
+    pub horizon: usize,
+    /// Time per stage \[s\].
+    pub dt: f64,
+    /// Friction coefficient μ.
+    pub friction: f64,
+    /// How footholds enter.
+    pub footholds: FootholdConstraint,
+    /// The cost's weights.
+    pub weights: MpcWeights,
+    /// OSQP's settings (its scaling stays off: see [`cbfgen::qp::ocp`]).
+    pub solver: SolverSettings,
+}
+
+impl Default for MpcSettings {
+    /// A 1 s horizon of 25 stages; μ = 0.7; footholds as CBFs (γ = 20 /s); OSQP to 1e-4.
+    fn default() -> Self {
+        Self {
+            horizon: 25,
+            dt: 0.04,
+            friction: 0.7,
+            footholds: FootholdConstraint::Barrier { gamma: 20.0 },
+            weights: MpcWeights::default(),
+            solver: SolverSettings {
+                eps_abs: 1e-4,
+                eps_rel: 1e-4,
+                max_iter: 4000,
+                check_termination: 10,
+                ..SolverSettings::default()
+            },
+        }
+    }
+}
+
+/// What one iteration did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MpcReport {
+    /// How the QP ended.
+    pub status: QpStatus,
+    /// OSQP's iterations.
+    pub iterations: u32,
+    /// Whether the plan was replaced (the QP left an iterate).
+    pub updated: bool,
+}
+
+/// The MPC (module docs). Holds the last plan.
+#[derive(Debug)]
+pub struct KinodynamicMpc {
+    settings: MpcSettings,
+    ocp: Ocp,
+    /// The plan: states at `plan_start + k dt` (N + 1) and inputs (N, forces in newtons).
+    states: Vec<[f64; NX]>,
+    inputs: Vec<[f64; NU]>,
+    plan_start: f64,
+    has_plan: bool,
+    /// Shifted guess (scratch).
+    guess_x: Vec<[f64; NX]>,
+    guess_u: Vec<[f64; NU]>,
+    warm: Vec<f64>,
+}
+
+fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// The sparsity: each foot's rows touch the body's 12 states, its leg's joints, force and
+/// joint velocities; a joint-limit row its joint.
+fn shape(horizon: usize) -> OcpShape {
+    let mut s = OcpShape::dense(horizon, NX, NU, STAGE_ROWS);
+    // The discrete A = I + dt ∂f/∂x and B = dt ∂f/∂u: the identity and the union of the
+    // Jacobians' non-zeros at a few generic points.
+    s.a.fill(false);
+    for i in 0..NX {
+        s.a[i * NX + i] = true;
+    }
+    s.b.fill(false);
+    for seed in 1..4 {
+        let v = f64::from(seed);
+        let x: [f64; NX] = std::array::from_fn(|i| 0.1 * v + 0.01 * i as f64);
+        let u: [f64; NU] = std::array::from_fn(|i| 10.0 * v + i as f64);
+        let (_, a, b) = gen::flow(&x, &u);
+        for i in 0..NX {
+            for j in 0..NX {
+                s.a[i * NX + j] |= a[i][j] != 0.0;
+            }
+            for j in 0..NU {
+                s.b[i * NU + j] |= b[i][j] != 0.0;
+            }
+        }
+    }
+    s.c.fill(false);
+    s.d.fill(false);
+    for foot in 0..FEET {
+        for r in foot * FOOT_ROWS..(foot + 1) * FOOT_ROWS {
+            for j in (0..12).chain(12 + 3 * foot..15 + 3 * foot) {
+                s.c[r * NX + j] = true;
+            }
+            for j in (3 * foot..3 * foot + 3).chain(12 + 3 * foot..15 + 3 * foot) {
+                s.d[r * NU + j] = true;
+            }
+        }
+    }
+    for j in 0..JOINTS {
+        s.c[(FEET * FOOT_ROWS + j) * NX + 12 + j] = true;
+    }
+    s
+}
+
+impl KinodynamicMpc {
+    /// Lay the QP out.
+    ///
+    /// # Errors
+    /// A horizon outside `[2, 200]`, a stage time outside `[1e-3, 0.5]` s, μ outside
+    /// `(0, 2]`, a negative or non-finite weight, a foothold parameter out of range, or
+    /// OSQP refusing the set-up.
+    pub fn new(settings: MpcSettings) -> Result<Self, CbfError> {
+        within("MPC horizon", settings.horizon as f64, 2.0, 200.0, "[2, 200]")?;
+        within("MPC stage time [s]", settings.dt, 1e-3, 0.5, "[1e-3, 0.5]")?;
+        within("friction coefficient", settings.friction, 1e-3, 2.0, "(0, 2]")?;
+        let w = settings.weights;
+        for v in w.orientation.iter().chain(&w.position).chain(&w.angular_velocity).chain(&w.velocity) {
+            within("MPC weight", *v, 0.0, 1e8, "[0, 1e8]")?;
+        }
+        for v in [w.joints, w.force, w.joint_velocity] {
+            within("MPC weight", v, 1e-12, 1e8, "(0, 1e8]")?;
+        }
+        match settings.footholds {
+            FootholdConstraint::Shrinking { margin } => {
+                within("shrinking foothold margin [m]", margin, 0.0, 10.0, "[0, 10]")?;
+            }
+            FootholdConstraint::Barrier { gamma } => {
+                within("foothold CBF rate [1/s]", gamma, 1e-3, 1e3, "[1e-3, 1e3]")?;
+            }
+            _ => {}
+        }
+        let n = settings.horizon;
+        let ocp = Ocp::new(shape(n), settings.solver)?;
+        Ok(Self {
+            settings,
+            ocp,
+            states: vec![[0.0; NX]; n + 1],
+            inputs: vec![[0.0; NU]; n],
+            plan_start: 0.0,
+            has_plan: false,
+            guess_x: vec![[0.0; NX]; n + 1],
+            guess_u: vec![[0.0; NU]; n],
+            warm: vec![0.0; n * (NX + NU) + NX],
+        })
+    }
+
+    /// The settings it was built with.
+    pub fn settings(&self) -> &MpcSettings {
+        &self.settings
+    }
+
+    /// The plan: its start time, states (`N + 1`, one per stage) and inputs (`N`, forces
+    /// in newtons, trunk frame). Empty before the first solve that left an iterate.
+    pub fn plan(&self) -> (f64, &[[f64; NX]], &[[f64; NU]]) {
+        if self.has_plan {
+            (self.plan_start, &self.states, &self.inputs)
+        } else {
+            (self.plan_start, &[], &[])
+        }
+    }
+
+    /// The planned state and input at time `t`: linear between stages, held outside.
+    pub fn plan_at(&self, t: f64) -> Option<([f64; NX], [f64; NU])> {
+        if !self.has_plan {
+            return None;
+        }
+        let n = self.settings.horizon;
+        let s = ((t - self.plan_start) / self.settings.dt).clamp(0.0, n as f64);
+        let k = (s.floor() as usize).min(n - 1);
+        let f = s - k as f64;
+        let x = std::array::from_fn(|i| self.states[k][i] + f * (self.states[k + 1][i] - self.states[k][i]));
+        let next = (k + 1).min(n - 1);
+        let u = std::array::from_fn(|i| self.inputs[k][i] + f * (self.inputs[next][i] - self.inputs[k][i]));
+        Some((x, u))
+    }
+
+    /// One real-time iteration from the measured state `x` at time `t`, on the gait
+    /// `trot`, with each foot's region for the stance that contains a time given by
+    /// `region(foot, time)` (the stance it is in, or for a swing foot the one it lands
+    /// in). Allocation-free.
+    ///
+    /// # Errors
+    /// A non-finite `x` or `t`.
+    pub fn solve(
+        &mut self,
+        t: f64,
+        x: &[f64; NX],
+        trot: &Trot,
+        region: &dyn Fn(usize, f64) -> Region,
+    ) -> Result<MpcReport, CbfError> {
+        cbfgen::error::finite("MPC time", t)?;
+        for v in x {
+            cbfgen::error::finite("MPC state", *v)?;
+        }
+        self.shift_guess(t, x, trot);
+        let s = self.settings;
+        let (n, dt) = (s.horizon, s.dt);
+        self.ocp.initial_state_mut().copy_from_slice(x);
+        for k in 0..=n {
+            let time = t + k as f64 * dt;
+            let xk = self.guess_x[k];
+            let reference = trot.reference(time);
+            let mut stage = self.ocp.stage_mut(k);
+            // Cost: around the gait's trunk (the centre of mass at the commanded height),
+            // level, at the commanded velocity; the joints standing; the weight shared.
+            let w = s.weights;
+            let com = [
+                reference.trunk_position[0] + gen::COM_OFFSET[0],
+                reference.trunk_position[1] + gen::COM_OFFSET[1],
+                reference.trunk_position[2] + gen::COM_OFFSET[2],
+            ];
+            let yaw = 0.0;
+            let (c, sn) = (f64::cos(xk[2]), f64::sin(xk[2]));
+            let v_world = reference.trunk_velocity;
+            let v_trunk = [c * v_world[0] + sn * v_world[1], -sn * v_world[0] + c * v_world[1], v_world[2]];
+            let target: [f64; NX] = std::array::from_fn(|i| match i {
+                2 => yaw,
+                3..=5 => com[i - 3],
+                9..=11 => v_trunk[i - 9],
+                12.. => gen::STANDING_JOINTS[i - 12],
+                _ => 0.0,
+            });
+            let weights: [f64; NX] = std::array::from_fn(|i| match i {
+                0..=2 => w.orientation[i],
+                3..=5 => w.position[i - 3],
+                6..=8 => w.angular_velocity[i - 6],
+                9..=11 => w.velocity[i - 9],
+                _ => w.joints,
+            });
+            stage.x_ref.copy_from_slice(&target);
+            stage.q.copy_from_slice(&weights);
+            stage.free_rows();
+            // Joint limits.
+            for j in 0..JOINTS {
+                let r = FEET * FOOT_ROWS + j;
+                stage.c[r * NX + 12 + j] = 1.0;
+                stage.lower[r] = gen::Q_MIN[j];
+                stage.upper[r] = gen::Q_MAX[j];
+            }
+            let uk = if k < n { self.guess_u[k] } else { self.guess_u[n - 1] };
+            let (positions, jp, velocities, jvx, jvu) = gen::feet(&xk, &uk);
+            let (rotation, derivatives) = gen::orientation(&xk);
+            if k < n {
+                let (xdot, a, b) = gen::flow(&xk, &uk);
+                // x_{k+1} ≈ x̄ + dt f + (I + dt A)(x − x̄) + dt B (u − ū), u in QP units.
+                for i in 0..NX {
+                    let mut offset = xk[i] + dt * xdot[i];
+                    for j in 0..NX {
+                        let aij = f64::from(u8::from(i == j)) + dt * a[i][j];
+                        stage.a[i * NX + j] = aij;
+                        offset -= aij * xk[j];
+                    }
+                    for j in 0..NU {
+                        let unit = if j < 12 { FORCE_UNIT } else { 1.0 };
+                        let bij = dt * b[i][j] * unit;
+                        stage.b[i * NU + j] = bij;
+                        offset -= bij * uk[j] / unit;
+                    }
+                    stage.offset[i] = offset;
+                }
+                let stance_count = reference.stance.iter().filter(|s| **s).count();
+                for j in 0..NU {
+                    let (weight, target) = if j < 12 {
+                        let foot = j / 3;
+                        // The shared weight, in the trunk frame (vertical in the world).
+                        let share = if reference.stance[foot] && stance_count > 0 {
+                            gen::MASS * gen::GRAVITY / stance_count as f64
+                        } else {
+                            0.0
+                        };
+                        (w.force * FORCE_UNIT * FORCE_UNIT, share * rotation[2][j % 3] / FORCE_UNIT)
+                    } else {
+                        (w.joint_velocity, 0.0)
+                    };
+                    stage.r[j] = weight;
+                    stage.u_ref[j] = target;
+                }
+            }
+            for foot in 0..FEET {
+                let top = foot * FOOT_ROWS;
+                let stance = reference.stance[foot];
+                let normal = region(foot, time).normal;
+                // A row r(x, u) ≈ r̄ + C (x − x̄) + D (u − ū) in [lo, hi]: write C, D and
+                // shift the bounds by C x̄ + D ū − r̄.
+                let mut linear_row = |row: usize, value: f64, cx: &[f64], du: &[f64], lo: f64, hi: f64| {
+                    let mut shift = -value;
+                    for j in 0..NX {
+                        stage.c[row * NX + j] = cx[j];
+                        shift += cx[j] * xk[j];
+                    }
+                    if k < n {
+                        for j in 0..NU {
+                            let unit = if j < 12 { FORCE_UNIT } else { 1.0 };
+                            stage.d[row * NU + j] = du[j] * unit;
+                            shift += du[j] * uk[j];
+                        }
+                    }
+                    stage.lower[row] = if lo <= -INFINITY { -INFINITY } else { lo + shift };
+                    stage.upper[row] = if hi >= INFINITY { INFINITY } else { hi + shift };
+                };
+                let none = [0.0; NU];
+                if k < n && stance {
+                    for axis in 0..3 {
+                        let r = 3 * foot + axis;
+                        linear_row(top + axis, velocities[foot][axis], &jvx[r], &jvu[r], 0.0, 0.0);
+                    }
+                    // The pyramid on F = R f (world): rows a · F with a over the normal's
+                    // tangents, linearised in roll, pitch, yaw and f.
+                    let f = [uk[3 * foot], uk[3 * foot + 1], uk[3 * foot + 2]];
+                    let (t1, t2) = tangents(normal);
+                    let mu = s.friction / std::f64::consts::SQRT_2;
+                    let rows: [[f64; 3]; 5] = std::array::from_fn(|r| {
+                        let (tangent, sign) = match r {
+                            0 => (t1, 1.0),
+                            1 => (t1, -1.0),
+                            2 => (t2, 1.0),
+                            3 => (t2, -1.0),
+                            _ => ([0.0; 3], 0.0),
+                        };
+                        if r == 4 {
+                            normal
+                        } else {
+                            std::array::from_fn(|i| sign * tangent[i] - mu * normal[i])
+                        }
+                    });
+                    for (r, a) in rows.iter().enumerate() {
+                        let world = |m: &[[f64; 3]; 3]| -> f64 {
+                            (0..3).map(|i| a[i] * (0..3).map(|j| m[i][j] * f[j]).sum::<f64>()).sum()
+                        };
+                        let value = world(&rotation);
+                        let mut cx = [0.0; NX];
+                        for (e, d) in derivatives.iter().enumerate() {
+                            let m: [[f64; 3]; 3] = std::array::from_fn(|i| std::array::from_fn(|j| d[3 * i + j]));
+                            cx[e] = world(&m);
+                        }
+                        let mut du = none;
+                        for j in 0..3 {
+                            du[3 * foot + j] = (0..3).map(|i| a[i] * rotation[i][j]).sum();
+                        }
+                        let (lo, hi) = if r == 4 { (0.0, INFINITY) } else { (-INFINITY, 0.0) };
+                        linear_row(top + 3 + r, value, &cx, &du, lo, hi);
+                    }
+                } else if k < n {
+                    for axis in 0..3 {
+                        let mut du = none;
+                        du[3 * foot + axis] = 1.0;
+                        linear_row(top + axis, uk[3 * foot + axis], &[0.0; NX], &du, 0.0, 0.0);
+                    }
+                    // The lift curve along the normal, with feedback on its height so that
+                    // the feet land where the gait puts the ground, not where the
+                    // linearisation's errors would take them: n·v + K n·p = n·v_ref + K n·p_ref.
+                    let curve = &reference.feet[foot];
+                    let target = dot(&normal, &curve.velocity) + LIFT_GAIN * dot(&normal, &curve.position);
+                    let value = dot(&normal, &velocities[foot]) + LIFT_GAIN * dot(&normal, &positions[foot]);
+                    let cx: [f64; NX] = std::array::from_fn(|j| {
+                        (0..3).map(|i| normal[i] * (jvx[3 * foot + i][j] + LIFT_GAIN * jp[3 * foot + i][j])).sum()
+                    });
+                    let du: [f64; NU] = std::array::from_fn(|j| (0..3).map(|i| normal[i] * jvu[3 * foot + i][j]).sum());
+                    linear_row(top + 3, value, &cx, &du, target, target);
+                }
+                // Footholds.
+                let r = region(foot, time);
+                for (side, (n_side, d)) in r.sides[..r.count].iter().enumerate() {
+                    let row = top + 8 + side;
+                    let h = d - dot(n_side, &positions[foot]);
+                    let dh_dx: [f64; NX] =
+                        std::array::from_fn(|j| -(0..3).map(|i| n_side[i] * jp[3 * foot + i][j]).sum::<f64>());
+                    match s.footholds {
+                        FootholdConstraint::Off => {}
+                        FootholdConstraint::StanceOnly if stance => {
+                            linear_row(row, h, &dh_dx, &none, 0.0, INFINITY);
+                        }
+                        FootholdConstraint::StanceOnly => {}
+                        FootholdConstraint::Shrinking { margin } => {
+                            let grow = if stance { 0.0 } else { margin * trot.time_to_touchdown(time) / trot.swing };
+                            linear_row(row, h, &dh_dx, &none, -grow, INFINITY);
+                        }
+                        FootholdConstraint::Barrier { gamma } if k < n => {
+                            // h' + γ h = −n · v + γ h ≥ 0.
+                            let hdot = -dot(n_side, &velocities[foot]);
+                            let cx: [f64; NX] = std::array::from_fn(|j| {
+                                -(0..3).map(|i| n_side[i] * jvx[3 * foot + i][j]).sum::<f64>() + gamma * dh_dx[j]
+                            });
+                            let du: [f64; NU] =
+                                std::array::from_fn(|j| -(0..3).map(|i| n_side[i] * jvu[3 * foot + i][j]).sum::<f64>());
+                            linear_row(row, hdot + gamma * h, &cx, &du, 0.0, INFINITY);
+                        }
+                        FootholdConstraint::Barrier { .. } => {
+                            if stance {
+                                linear_row(row, h, &dh_dx, &none, 0.0, INFINITY);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        // Warm start from the guess, in QP units.
+        for k in 0..=n {
+            let at = k * (NX + NU);
+            self.warm[at..at + NX].copy_from_slice(&self.guess_x[k]);
+            if k < n {
+                for j in 0..NU {
+                    self.warm[at + NX + j] = self.guess_u[k][j] / if j < 12 { FORCE_UNIT } else { 1.0 };
+                }
+            }
+        }
+        self.ocp.warm_start(&self.warm)?;
+        let status = self.ocp.solve();
+        let updated = self.ocp.has_solution();
+        if updated {
+            for k in 0..=n {
+                self.states[k].copy_from_slice(self.ocp.state(k));
+                if k < n {
+                    for (j, v) in self.ocp.input(k).iter().enumerate() {
+                        self.inputs[k][j] = v * if j < 12 { FORCE_UNIT } else { 1.0 };
+                    }
+                }
+            }
+            self.plan_start = t;
+            self.has_plan = true;
+        }
+        Ok(MpcReport { status, iterations: self.ocp.iterations(), updated })
+    }
+
+    /// The point this iteration linearises at: the last plan shifted to `t` (with the
+    /// measured state first), or, with no plan yet, the measured state held and the weight
+    /// shared by the stance feet.
+    fn shift_guess(&mut self, t: f64, x: &[f64; NX], trot: &Trot) {
+        let n = self.settings.horizon;
+        for k in 0..=n {
+            let time = t + k as f64 * self.settings.dt;
+            let planned = if self.has_plan { self.plan_at(time) } else { None };
+            let (xs, us) = planned.unwrap_or_else(|| {
+                let reference = trot.reference(time);
+                let count = reference.stance.iter().filter(|s| **s).count().max(1) as f64;
+                let mut u = [0.0; NU];
+                for foot in 0..FEET {
+                    if reference.stance[foot] {
+                        u[3 * foot + 2] = gen::MASS * gen::GRAVITY / count;
+                    }
+                }
+                (*x, u)
+            });
+            self.guess_x[k] = if k == 0 { *x } else { xs };
+            if k < n {
+                self.guess_u[k] = us;
+            }
+        }
+    }
+}
+
+/// Two unit tangents completing `normal` to a right-handed frame.
+fn tangents(normal: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+    let helper = if normal[0].abs() < 0.9 { [1.0, 0.0, 0.0] } else { [0.0, 1.0, 0.0] };
+    let along = dot(&helper, &normal);
+    let mut t1 = [helper[0] - along * normal[0], helper[1] - along * normal[1], helper[2] - along * normal[2]];
+    let length = dot(&t1, &t1).sqrt();
+    t1.iter_mut().for_each(|v| *v /= length);
+    let t2 = [
+        normal[1] * t1[2] - normal[2] * t1[1],
+        normal[2] * t1[0] - normal[0] * t1[2],
+        normal[0] * t1[1] - normal[1] * t1[0],
+    ];
+    (t1, t2)
+}
