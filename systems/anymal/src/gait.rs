@@ -38,6 +38,14 @@ impl Trot {
         Self { swing, lift, reach, home, trunk, velocity: [0.0; 2] }
     }
 
+    /// A trot from [`standing_on_the_ground`]: each foot's home where it stands there, the
+    /// trunk where it is, at `velocity` (world x, y) \[m/s\].
+    pub fn from_standing(swing: f64, lift: f64, velocity: [f64; 2]) -> Self {
+        let x = standing_on_the_ground();
+        let home = gen::contacts(&x).0;
+        Self { velocity, ..Self::in_place(swing, lift, 0.0, home, [x[0], x[1], x[2]]) }
+    }
+
     /// Time walked at `t` (the first swing period stands still).
     fn walked(&self, t: f64) -> f64 {
         (t - self.swing).max(0.0)

@@ -47,16 +47,23 @@ pub const FORCE_UNIT: f64 = 100.0;
 /// The swing height's feedback gain \[1/s\]: a swing foot's normal velocity is the lift
 /// curve's plus this times its height error.
 pub const LIFT_GAIN: f64 = 20.0;
-/// Rows per foot and stage: mode rows (8), then the foothold's.
-const FOOT_ROWS: usize = 8 + MAX_SIDES;
-/// Rows per stage: the feet's, then one per joint limit.
-pub const STAGE_ROWS: usize = FEET * FOOT_ROWS + JOINTS;
+/// Each foot's rows in a stage: motion (3: stance velocity, or the swing's lift row),
+/// force (5: the pyramid, or a swing foot's zero force), then its foothold sides
+/// ([`MAX_SIDES`], none with [`FootholdConstraint::Off`]).
+const MOTION_ROWS: usize = 3;
+const FORCE_ROWS: usize = 5;
+
+/// Rows per foot and stage under `footholds`.
+fn foot_rows(footholds: FootholdConstraint) -> usize {
+    MOTION_ROWS + FORCE_ROWS + if footholds == FootholdConstraint::Off { 0 } else { MAX_SIDES }
+}
 
 /// A convex foothold region: half-spaces `n · c ≤ d` on a foot sphere's centre (world),
 /// and the surface normal its friction pyramid is built on.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Region {
-    /// The half-spaces `(n, d)`; the first `count` are used.
+    /// The half-spaces `(n, d)`; the first `count` are used (all of them if `count` is
+    /// larger).
     pub sides: [([f64; 3], f64); MAX_SIDES],
     /// How many of `sides` are used.
     pub count: usize,
@@ -90,7 +97,7 @@ impl Region {
     /// `min_j (d_j − n_j · c)`: how far inside its region a foot centre `c` is (negative
     /// outside; `+∞` with no sides).
     pub fn margin(&self, c: [f64; 3]) -> f64 {
-        self.sides[..self.count].iter().map(|(n, d)| d - dot(n, &c)).fold(f64::INFINITY, f64::min)
+        self.sides.iter().take(self.count).map(|(n, d)| d - dot(n, &c)).fold(f64::INFINITY, f64::min)
     }
 }
 
@@ -167,7 +174,11 @@ pub struct MpcSettings {
 }
 
 impl Default for MpcSettings {
-    /// A 1 s horizon of 25 stages; μ = 0.7; footholds as CBFs (γ = 20 /s); OSQP to 1e-4.
+    /// A 1 s horizon of 25 stages; μ = 0.7; footholds as CBFs (γ = 20 /s); OSQP to 1e-4
+    /// with ρ = 0.01 (`examples/mpc_latency.rs`: ρ = 0.1 took twice the iterations at
+    /// p99). Looser tolerances are faster but their plans, the next iteration's
+    /// linearisation point, let the closed loop drift: at 3e-4 the trot of `tests/mpc.rs`
+    /// swayed 9 cm within 6 s, at 1e-4 it stays within 2 cm.
     fn default() -> Self {
         Self {
             horizon: 25,
@@ -178,6 +189,7 @@ impl Default for MpcSettings {
             solver: SolverSettings {
                 eps_abs: 1e-4,
                 eps_rel: 1e-4,
+                rho: 0.01,
                 max_iter: 4000,
                 check_termination: 10,
                 ..SolverSettings::default()
@@ -193,7 +205,8 @@ pub struct MpcReport {
     pub status: QpStatus,
     /// OSQP's iterations.
     pub iterations: u32,
-    /// Whether the plan was replaced (the QP left an iterate).
+    /// Whether the plan was replaced: only by a solved QP. Otherwise the last plan stays
+    /// (it is what the next iteration linearises at, shifted).
     pub updated: bool,
 }
 
@@ -217,10 +230,18 @@ fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
-/// The sparsity: each foot's rows touch the body's 12 states, its leg's joints, force and
-/// joint velocities; a joint-limit row its joint.
-fn shape(horizon: usize) -> OcpShape {
-    let mut s = OcpShape::dense(horizon, NX, NU, STAGE_ROWS);
+/// State columns: roll, pitch, yaw; centre of mass; angular velocity; velocity.
+const ORIENTATION: std::ops::Range<usize> = 0..3;
+const POSITION: std::ops::Range<usize> = 3..6;
+const TWIST: std::ops::Range<usize> = 6..12;
+
+/// The sparsity, each row kind on only what it depends on: a foot's motion rows on the
+/// trunk's pose and twist and its leg's joints and joint velocities; its force rows on the
+/// orientation and its force; its foothold rows on the pose and its leg's joints (and,
+/// as CBFs, the twist and joint velocities); a joint-limit row on its joint.
+fn shape(horizon: usize, footholds: FootholdConstraint) -> OcpShape {
+    let rows = foot_rows(footholds);
+    let mut s = OcpShape::dense(horizon, NX, NU, FEET * rows + JOINTS);
     // The discrete A = I + dt ∂f/∂x and B = dt ∂f/∂u: the identity and the union of the
     // Jacobians' non-zeros at a few generic points.
     s.a.fill(false);
@@ -244,18 +265,31 @@ fn shape(horizon: usize) -> OcpShape {
     }
     s.c.fill(false);
     s.d.fill(false);
+    let moving = matches!(footholds, FootholdConstraint::Barrier { .. });
     for foot in 0..FEET {
-        for r in foot * FOOT_ROWS..(foot + 1) * FOOT_ROWS {
-            for j in (0..12).chain(12 + 3 * foot..15 + 3 * foot) {
-                s.c[r * NX + j] = true;
+        let (joints, force, rates) =
+            (12 + 3 * foot..15 + 3 * foot, 3 * foot..3 * foot + 3, 12 + 3 * foot..15 + 3 * foot);
+        for r in 0..rows {
+            let row = foot * rows + r;
+            let (states, inputs): (Vec<usize>, Vec<usize>) = if r < MOTION_ROWS {
+                (ORIENTATION.chain(POSITION).chain(TWIST).chain(joints.clone()).collect(), rates.clone().collect())
+            } else if r < MOTION_ROWS + FORCE_ROWS {
+                (ORIENTATION.collect(), force.clone().collect())
+            } else if moving {
+                (ORIENTATION.chain(POSITION).chain(TWIST).chain(joints.clone()).collect(), rates.clone().collect())
+            } else {
+                (ORIENTATION.chain(POSITION).chain(joints.clone()).collect(), Vec::new())
+            };
+            for j in states {
+                s.c[row * NX + j] = true;
             }
-            for j in (3 * foot..3 * foot + 3).chain(12 + 3 * foot..15 + 3 * foot) {
-                s.d[r * NU + j] = true;
+            for j in inputs {
+                s.d[row * NU + j] = true;
             }
         }
     }
     for j in 0..JOINTS {
-        s.c[(FEET * FOOT_ROWS + j) * NX + 12 + j] = true;
+        s.c[(FEET * rows + j) * NX + 12 + j] = true;
     }
     s
 }
@@ -288,7 +322,7 @@ impl KinodynamicMpc {
             _ => {}
         }
         let n = settings.horizon;
-        let ocp = Ocp::new(shape(n), settings.solver)?;
+        let ocp = Ocp::new(shape(n, settings.footholds), settings.solver)?;
         Ok(Self {
             settings,
             ocp,
@@ -353,6 +387,7 @@ impl KinodynamicMpc {
         self.shift_guess(t, x, trot);
         let s = self.settings;
         let (n, dt) = (s.horizon, s.dt);
+        let rows = foot_rows(s.footholds);
         self.ocp.initial_state_mut().copy_from_slice(x);
         for k in 0..=n {
             let time = t + k as f64 * dt;
@@ -390,7 +425,7 @@ impl KinodynamicMpc {
             stage.free_rows();
             // Joint limits.
             for j in 0..JOINTS {
-                let r = FEET * FOOT_ROWS + j;
+                let r = FEET * rows + j;
                 stage.c[r * NX + 12 + j] = 1.0;
                 stage.lower[r] = gen::Q_MIN[j];
                 stage.upper[r] = gen::Q_MAX[j];
@@ -435,7 +470,7 @@ impl KinodynamicMpc {
                 }
             }
             for foot in 0..FEET {
-                let top = foot * FOOT_ROWS;
+                let top = foot * rows;
                 let stance = reference.stance[foot];
                 let normal = region(foot, time).normal;
                 // A row r(x, u) ≈ r̄ + C (x − x̄) + D (u − ū) in [lo, hi]: write C, D and
@@ -496,13 +531,13 @@ impl KinodynamicMpc {
                             du[3 * foot + j] = (0..3).map(|i| a[i] * rotation[i][j]).sum();
                         }
                         let (lo, hi) = if r == 4 { (0.0, INFINITY) } else { (-INFINITY, 0.0) };
-                        linear_row(top + 3 + r, value, &cx, &du, lo, hi);
+                        linear_row(top + MOTION_ROWS + r, value, &cx, &du, lo, hi);
                     }
                 } else if k < n {
                     for axis in 0..3 {
                         let mut du = none;
                         du[3 * foot + axis] = 1.0;
-                        linear_row(top + axis, uk[3 * foot + axis], &[0.0; NX], &du, 0.0, 0.0);
+                        linear_row(top + MOTION_ROWS + axis, uk[3 * foot + axis], &[0.0; NX], &du, 0.0, 0.0);
                     }
                     // The lift curve along the normal, with feedback on its height so that
                     // the feet land where the gait puts the ground, not where the
@@ -514,12 +549,15 @@ impl KinodynamicMpc {
                         (0..3).map(|i| normal[i] * (jvx[3 * foot + i][j] + LIFT_GAIN * jp[3 * foot + i][j])).sum()
                     });
                     let du: [f64; NU] = std::array::from_fn(|j| (0..3).map(|i| normal[i] * jvu[3 * foot + i][j]).sum());
-                    linear_row(top + 3, value, &cx, &du, target, target);
+                    linear_row(top, value, &cx, &du, target, target);
                 }
                 // Footholds.
+                if s.footholds == FootholdConstraint::Off {
+                    continue;
+                }
                 let r = region(foot, time);
-                for (side, (n_side, d)) in r.sides[..r.count].iter().enumerate() {
-                    let row = top + 8 + side;
+                for (side, (n_side, d)) in r.sides.iter().take(r.count).enumerate() {
+                    let row = top + MOTION_ROWS + FORCE_ROWS + side;
                     let h = d - dot(n_side, &positions[foot]);
                     let dh_dx: [f64; NX] =
                         std::array::from_fn(|j| -(0..3).map(|i| n_side[i] * jp[3 * foot + i][j]).sum::<f64>());
@@ -564,7 +602,7 @@ impl KinodynamicMpc {
         }
         self.ocp.warm_start(&self.warm)?;
         let status = self.ocp.solve();
-        let updated = self.ocp.has_solution();
+        let updated = status.is_solved() && self.ocp.has_solution();
         if updated {
             for k in 0..=n {
                 self.states[k].copy_from_slice(self.ocp.state(k));
@@ -605,6 +643,30 @@ impl KinodynamicMpc {
             }
         }
     }
+}
+
+/// The MPC's state for [`standing_on_the_ground`](crate::gait::standing_on_the_ground):
+/// level, at rest, the centre of mass above the trunk origin by [`gen::COM_OFFSET`].
+pub fn standing() -> [f64; NX] {
+    let trunk = crate::gait::standing_on_the_ground();
+    let mut x = [0.0; NX];
+    for i in 0..3 {
+        x[3 + i] = trunk[i] + gen::COM_OFFSET[i];
+    }
+    x[12..].copy_from_slice(&gen::STANDING_JOINTS);
+    x
+}
+
+/// One RK4 step of `h` seconds of the MPC's own model under input `u` (forces in newtons,
+/// trunk frame): the plant its plans are exact for.
+pub fn integrate(x: &[f64; NX], u: &[f64; NU], h: f64) -> [f64; NX] {
+    let f = |x: &[f64; NX]| gen::flow(x, u).0;
+    let step = |a: &[f64; NX], k: &[f64; NX], s: f64| -> [f64; NX] { std::array::from_fn(|i| a[i] + s * k[i]) };
+    let k1 = f(x);
+    let k2 = f(&step(x, &k1, h / 2.0));
+    let k3 = f(&step(x, &k2, h / 2.0));
+    let k4 = f(&step(x, &k3, h));
+    std::array::from_fn(|i| x[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]))
 }
 
 /// Two unit tangents completing `normal` to a right-handed frame.
