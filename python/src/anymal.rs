@@ -170,6 +170,8 @@ impl PyWholeBodyController {
             trunk_rotation: Matrix3::from_row_slice(&rotation),
             trunk_velocity: fixed::<3>("trunk_velocity", &trunk_velocity)?,
             trunk_angular_velocity: fixed::<3>("trunk_angular_velocity", &trunk_angular_velocity)?,
+            trunk_acceleration: [0.0; 3],
+            trunk_angular_acceleration: [0.0; 3],
             feet: std::array::from_fn(|f| FootReference { position: p[f], velocity: v[f], acceleration: a[f] }),
             forces: [[0.0; 3]; FEET],
         };

@@ -134,6 +134,12 @@ pub struct WbcReference {
     pub trunk_velocity: [f64; 3],
     /// See `trunk_velocity`.
     pub trunk_angular_velocity: [f64; 3],
+    /// The trunk's planned acceleration \[m/s²\] and angular acceleration \[rad/s²\],
+    /// world frame: fed forward beside the PD on pose and twist (zero for a fixed
+    /// reference; a plan's own, from the MPC).
+    pub trunk_acceleration: [f64; 3],
+    /// See `trunk_acceleration`.
+    pub trunk_angular_acceleration: [f64; 3],
     /// Each swing foot's reference (stance feet's are not read).
     pub feet: [FootReference; FEET],
     /// Each stance foot's reference force, world \[N\] (swing feet's are not read).
@@ -151,6 +157,8 @@ impl WbcReference {
             trunk_rotation: rotation,
             trunk_velocity: [0.0; 3],
             trunk_angular_velocity: [0.0; 3],
+            trunk_acceleration: [0.0; 3],
+            trunk_angular_acceleration: [0.0; 3],
             feet: [FootReference::default(); FEET],
             forces: [[0.0, 0.0, share]; FEET],
         }
@@ -436,11 +444,14 @@ impl WholeBodyController {
         let omega = rotation * w_body;
         let position = Vector3::new(x[0], x[1], x[2]);
         let (kp, kd) = s.trunk_position_gains;
-        let linear = kp * (Vector3::from(reference.trunk_position) - position)
+        let linear = Vector3::from(reference.trunk_acceleration)
+            + kp * (Vector3::from(reference.trunk_position) - position)
             + kd * (Vector3::from(reference.trunk_velocity) - velocity);
         let (kr, kw) = s.trunk_orientation_gains;
         let error = Rotation3::from_matrix_unchecked(reference.trunk_rotation * rotation.transpose()).scaled_axis();
-        let angular = kr * error + kw * (Vector3::from(reference.trunk_angular_velocity) - omega);
+        let angular = Vector3::from(reference.trunk_angular_acceleration)
+            + kr * error
+            + kw * (Vector3::from(reference.trunk_angular_velocity) - omega);
         // In the twist's own terms: v̇_b = Rᵀ p̈ − ω_b × v_b, ω̇_b = Rᵀ α.
         let v_dot = rotation.transpose() * linear - w_body.cross(&v_body);
         let w_dot = rotation.transpose() * angular;
@@ -532,6 +543,8 @@ fn check_reference(reference: &WbcReference) -> Result<(), CbfError> {
         .chain(reference.trunk_rotation.iter())
         .chain(&reference.trunk_velocity)
         .chain(&reference.trunk_angular_velocity)
+        .chain(&reference.trunk_acceleration)
+        .chain(&reference.trunk_angular_acceleration)
         .chain(reference.feet.iter().flat_map(|f| f.position.iter().chain(&f.velocity).chain(&f.acceleration)))
         .chain(reference.forces.iter().flatten());
     for &v in values {

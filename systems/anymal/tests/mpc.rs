@@ -73,7 +73,7 @@ fn on_flat_ground_it_tracks_a_commanded_trot_and_its_plans_keep_the_modes_and_th
     let speed = (x[3] - travelled_at_2s.unwrap()) / (seconds - 2.0);
     assert!((speed - 0.3).abs() < 0.03, "average speed {speed} m/s for 0.3");
     assert!(x[4].abs() < 0.05, "lateral drift {} m", x[4]);
-    let height = gen::STANDING_COM_HEIGHT;
+    let height = standing()[5];
     assert!(
         lowest > height - 0.03 && highest < height + 0.03,
         "centre of mass height {lowest}..{highest} for {height}"

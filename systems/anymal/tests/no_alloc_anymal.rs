@@ -2,7 +2,8 @@
 //! footholds (joint limits, velocity limits, 20 foothold rows, 30 self-collision pairs),
 //! with a NaN state rejected now and then; and 5 s of the whole-body controller trotting in
 //! place on square footholds (its three levels, the foothold CBF), a NaN state rejected
-//! now and then. Counted for Rust's global allocator and for the
+//! now and then; and 2 s of the kino-dynamic MPC's iterations and the references it hands
+//! the whole-body controller. Counted for Rust's global allocator and for the
 //! C `malloc` family OSQP calls; no test harness (`harness = false`), so `main` runs the
 //! one check on the only thread.
 
@@ -12,6 +13,7 @@ mod alloc_count;
 use cbfgen::filter::{EcbfFilter, InputSource};
 use cbfgen_anymal::gait::{footholds_around, standing_on_the_ground, Trot};
 use cbfgen_anymal::generated::{self as gen, Barriers, NU, NX};
+use cbfgen_anymal::mpc::{self, KinodynamicMpc, MpcSettings, Region};
 use cbfgen_anymal::plant;
 use cbfgen_anymal::wbc::{WbcSettings, WholeBodyController};
 use cbfgen_anymal::wbc_generated as wbc;
@@ -20,6 +22,35 @@ use cbfgen_anymal::{square_footholds, swinging_nominal};
 fn main() {
     the_filter_allocates_nothing();
     the_whole_body_controller_allocates_nothing();
+    the_mpc_allocates_nothing();
+}
+
+fn the_mpc_allocates_nothing() {
+    let trot = Trot::from_standing(0.3, 0.08, [0.3, 0.0]);
+    let mut mpc = KinodynamicMpc::new(MpcSettings::default()).expect("mpc");
+    let mut x = mpc::standing();
+    let region = |_: usize, _: f64| Region::GROUND;
+    let (dt, iterations) = (0.04, 50);
+    let (mut solved, mut rejected) = (0usize, 0usize);
+    let (_, rust, c) = alloc_count::counting(|| {
+        for k in 0..iterations {
+            let t = k as f64 * dt;
+            solved += usize::from(mpc.solve(t, &x, &trot, &region).expect("in the domain").updated);
+            if k % 10 == 0 {
+                let mut nan = x;
+                nan[4] = f64::NAN;
+                rejected += usize::from(mpc.solve(t, &nan, &trot, &region).is_err());
+            }
+            let reference = mpc.whole_body_reference(t, &trot).expect("a plan");
+            assert!(reference.stance.iter().any(|s| *s));
+            let (_, u) = mpc.plan_at(t).expect("a plan");
+            x = mpc::integrate(&x, &u, dt);
+        }
+    });
+    assert_eq!((rust, c), (0, 0), "allocations during {iterations} iterations: Rust {rust}, C {c}");
+    assert_eq!(solved, iterations);
+    assert_eq!(rejected, iterations / 10);
+    println!("the_mpc_allocates_nothing ... ok");
 }
 
 fn the_whole_body_controller_allocates_nothing() {
