@@ -66,6 +66,15 @@ impl Trot {
         self.swing - (t - (t / self.swing).floor() * self.swing)
     }
 
+    /// Where the gait puts foot `foot` (`LEGS` order) for the stance it is in at `t`, or,
+    /// swinging, for the stance it lands in: under its hip at mid-stance (world).
+    pub fn foothold_for(&self, foot: usize, t: f64) -> [f64; 3] {
+        let walked = self.walked(t);
+        let phase = t / self.swing - (t / self.swing).floor();
+        let start = walked - phase * self.swing;
+        self.foothold(foot, if self.swings(t, foot) { start + self.swing } else { start })
+    }
+
     /// Where foot `foot` stands after landing at walked time `landing`: under its hip at
     /// mid-stance.
     fn foothold(&self, foot: usize, landing: f64) -> [f64; 3] {

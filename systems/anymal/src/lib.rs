@@ -78,6 +78,7 @@ pub mod mpc_generated {
 pub mod gait;
 pub mod mpc;
 pub mod plant;
+pub mod terrain;
 pub mod wbc;
 
 use cbfgen::error::{finite, positive, CbfError};
