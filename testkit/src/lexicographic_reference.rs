@@ -18,15 +18,7 @@ pub struct RefRow {
 }
 
 fn settings() -> DefaultSettings<f64> {
-    DefaultSettings {
-        verbose: false,
-        tol_gap_abs: 1e-11,
-        tol_gap_rel: 1e-11,
-        tol_feas: 1e-11,
-        tol_ktratio: 1e-9,
-        max_iter: 500,
-        ..DefaultSettings::default()
-    }
+    DefaultSettings { max_iter: 500, ..crate::clarabel_qp::tight_settings() }
 }
 
 /// Clarabel in the form `min ½ zᵀ P z + qᵀ z` s.t. `G z ≤ h` (dense `G`), `P` diagonal:
