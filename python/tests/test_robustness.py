@@ -703,11 +703,11 @@ def test_the_slowest_accepted_solver_settings_end_an_update(system):
     ({"priority": {"{f}": 255}}, cbfgen.CbfError, "priority tier"),
     ({"priority": {"{f}": -1}}, OverflowError, None),
     ({"priority": {"{f}": 1.5}}, TypeError, None),
-    ({"poles": {"{f}": [10.0]}}, cbfgen.CbfError, "ECBF poles"),
-    ({"poles": {"{f}": [10.0, 10.0, 10.0]}}, cbfgen.CbfError, "ECBF poles"),
-    ({"poles": {"{f}": [0.0, 10.0]}}, cbfgen.CbfError, "ECBF pole"),
-    ({"poles": {"{f}": [np.nan, 10.0]}}, cbfgen.CbfError, "ECBF pole"),
-    ({"poles": {"{f}": [1e300, 10.0]}}, cbfgen.CbfError, "ECBF pole"),
+    ({"poles": {"{f}": "one too few"}}, cbfgen.CbfError, "ECBF poles"),
+    ({"poles": {"{f}": "one too many"}}, cbfgen.CbfError, "ECBF poles"),
+    ({"poles": {"{f}": "first 0"}}, cbfgen.CbfError, "ECBF pole"),
+    ({"poles": {"{f}": "first nan"}}, cbfgen.CbfError, "ECBF pole"),
+    ({"poles": {"{f}": "first 1e300"}}, cbfgen.CbfError, "ECBF pole"),
     ({"activation": {"no_such_family": 1.0}}, cbfgen.CbfError, "no family named"),
     ({"activation": 1.0}, TypeError, None),
     ({"activation": {"{f}": "high"}}, TypeError, None),
@@ -725,10 +725,16 @@ def test_the_slowest_accepted_solver_settings_end_an_update(system):
 def test_filter_settings_outside_their_domain_raise(system, settings, error, message):
     sys_ = cbfgen.System(system)
     first = sys_.families[0]["name"]
+    # Pole lists are stated against the family's own relative degree (one pole each).
+    degree = sys_.families[0]["relative_degree"]
+    poles = {"one too few": [10.0] * (degree - 1), "one too many": [10.0] * (degree + 1),
+             "first 0": [0.0] + [10.0] * (degree - 1), "first nan": [np.nan] + [10.0] * (degree - 1),
+             "first 1e300": [1e300] + [10.0] * (degree - 1)}
 
     def for_system(value):
         if isinstance(value, dict):
-            return {first if k == "{f}" else k: v for k, v in value.items()}
+            return {first if k == "{f}" else k: poles.get(v, v) if isinstance(v, str) else v
+                    for k, v in value.items()}
         if isinstance(value, list) and len(value) == 1:  # one value per input
             return value * sys_.nu
         return value
