@@ -36,6 +36,7 @@ from collections.abc import Callable, Mapping, Sequence
 
 import symengine as se
 
+from .linalg import cross, matvec, matvec_transposed
 from .spec import SpecError
 from .urdf import (
     Joint,
@@ -55,24 +56,12 @@ Vector3 = list[se.Expr]
 Spatial = tuple[Vector3, Vector3]
 
 
-def _cross(a: Sequence[se.Expr], b: Sequence[se.Expr]) -> Vector3:
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-
-
 def _add(a: Sequence[se.Expr], b: Sequence[se.Expr]) -> Vector3:
     return [x + y for x, y in zip(a, b, strict=True)]
 
 
 def _scale(k: se.Expr, a: Sequence[se.Expr]) -> Vector3:
     return [k * x for x in a]
-
-
-def _apply(m: Sequence[Sequence[se.Expr]], v: Sequence[se.Expr]) -> Vector3:
-    return [se.Add(*[m[i][k] * v[k] for k in range(3)]) for i in range(3)]
-
-
-def _apply_transposed(m: Sequence[Sequence[se.Expr]], v: Sequence[se.Expr]) -> Vector3:
-    return [se.Add(*[m[k][i] * v[k] for k in range(3)]) for i in range(3)]
 
 
 ZERO: Vector3 = [se.Integer(0)] * 3
@@ -111,7 +100,7 @@ class RigidBodyDynamics:
         if joint.type in ("revolute", "continuous"):
             r = _matmul(r, axis_rotation(joint.axis, self._q[joint.name]))
         elif joint.type == "prismatic":
-            p = _add(p, _apply(r, [_snap(a) * self._q[joint.name] for a in joint.axis]))
+            p = _add(p, matvec(r, [_snap(a) * self._q[joint.name] for a in joint.axis]))
         return r, p
 
     def _name(self, tag: str, link: str, values: Vector3) -> Vector3:
@@ -131,8 +120,8 @@ class RigidBodyDynamics:
             return ZERO, ZERO
         w, v = motion
         c = [_number(x) for x in inertial.com]
-        f = _scale(_number(inertial.mass), _add(v, _cross(w, c)))
-        n = _add(_apply([[_number(x) for x in row] for row in inertial.inertia], w), _cross(c, f))
+        f = _scale(_number(inertial.mass), _add(v, cross(w, c)))
+        n = _add(matvec([[_number(x) for x in row] for row in inertial.inertia], w), cross(c, f))
         return n, f
 
     def inverse(self, qd: Sequence[se.Expr], qdd: Sequence[se.Expr], gravity: bool = True) -> list[se.Expr]:
@@ -155,21 +144,21 @@ class RigidBodyDynamics:
             # identity and its velocity-product term v × v vanishes); gravity as an upward
             # acceleration of the base, seen from the base: Rᵀ (−g).
             velocity = {root: (qd[3:6], qd[0:3])}
-            acceleration = {root: (qdd[3:6], _add(qdd[0:3], _apply_transposed(self._base_rotation, lift)))}
+            acceleration = {root: (qdd[3:6], _add(qdd[0:3], matvec_transposed(self._base_rotation, lift)))}
             force[root] = self._link_force(root, velocity[root], acceleration[root])
         for joint in self.robot.joints:  # parents first
             r, p = self._placement[joint.name]
             (w, v), (dw, dv) = velocity[joint.parent], acceleration[joint.parent]
             # Parent motion in the child's frame: ω' = Rᵀ ω, v' = Rᵀ (v + ω × p).
-            w_c, v_c = _apply_transposed(r, w), _apply_transposed(r, _add(v, _cross(w, p)))
-            dw_c, dv_c = _apply_transposed(r, dw), _apply_transposed(r, _add(dv, _cross(dw, p)))
+            w_c, v_c = matvec_transposed(r, w), matvec_transposed(r, _add(v, cross(w, p)))
+            dw_c, dv_c = matvec_transposed(r, dw), matvec_transposed(r, _add(dv, cross(dw, p)))
             if joint.name in rate:
                 s_w, s_v = self._subspace(joint)
                 jw, jv = _scale(rate[joint.name], s_w), _scale(rate[joint.name], s_v)
                 w_c, v_c = _add(w_c, jw), _add(v_c, jv)
                 # a = X a_parent + S q̈ + v × (S q̇)
-                dw_c = _add(_add(dw_c, _scale(accel[joint.name], s_w)), _cross(w_c, jw))
-                dv_c = _add(_add(dv_c, _scale(accel[joint.name], s_v)), _add(_cross(w_c, jv), _cross(v_c, jw)))
+                dw_c = _add(_add(dw_c, _scale(accel[joint.name], s_w)), cross(w_c, jw))
+                dv_c = _add(_add(dv_c, _scale(accel[joint.name], s_v)), _add(cross(w_c, jv), cross(v_c, jw)))
             link = joint.child
             velocity[link] = (self._name("w", link, w_c), self._name("v", link, v_c))
             acceleration[link] = (self._name("dw", link, dw_c), self._name("dv", link, dv_c))
@@ -184,8 +173,8 @@ class RigidBodyDynamics:
                                          *[a * b for a, b in zip(s_v, f, strict=True)])
             if joint.parent in force:
                 r, p = self._placement[joint.name]
-                f_p = _apply(r, f)
-                n_p = _add(_apply(r, n), _cross(p, f_p))
+                f_p = matvec(r, f)
+                n_p = _add(matvec(r, n), cross(p, f_p))
                 pn, pf = force[joint.parent]
                 force[joint.parent] = (_add(pn, n_p), _add(pf, f_p))
         if self._base_rotation is not None:
@@ -198,7 +187,7 @@ class RigidBodyDynamics:
         (w, v), (dw, dv) = motion, rate
         ia_n, ia_f = self._inertia_times(link, (dw, dv))
         iv_n, iv_f = self._inertia_times(link, (w, v))
-        return _add(ia_n, _add(_cross(w, iv_n), _cross(v, iv_f))), _add(ia_f, _cross(w, iv_f))
+        return _add(ia_n, _add(cross(w, iv_n), cross(v, iv_f))), _add(ia_f, cross(w, iv_f))
 
     def bias(self, qd: Sequence[se.Expr]) -> list[se.Expr]:
         """C(q, q̇) q̇ + g(q)."""
@@ -248,6 +237,6 @@ def contact_point(robot: Urdf, q: Mapping[str, se.Expr | float], joint_rates: Ma
                  for c in range(len(local[0]))] for i in range(3)]
     r_ddot = [se.Add(*[se.diff(r_dot[i], s) * rate for s, rate in zip(symbols, rates, strict=True)])
               for i in range(3)]
-    velocity = _add(_add(v_b, _cross(w_b, r)), r_dot)
-    jdot_v = _matvec(base_rotation, _add(_add(_cross(w_b, velocity), _cross(w_b, r_dot)), r_ddot))
+    velocity = _add(_add(v_b, cross(w_b, r)), r_dot)
+    jdot_v = _matvec(base_rotation, _add(_add(cross(w_b, velocity), cross(w_b, r_dot)), r_ddot))
     return r, jacobian, jdot_v

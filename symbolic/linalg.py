@@ -21,3 +21,12 @@ def matmul(a, b):
 
 def matvec(a, v):
     return [se.Add(*[a[i][k] * v[k] for k in range(3)]) for i in range(3)]
+
+
+def matvec_transposed(a, v):
+    """``a^T v``: a rotation's inverse applied to ``v``."""
+    return [se.Add(*[a[k][i] * v[k] for k in range(3)]) for i in range(3)]
+
+
+def cross(a, b):
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]

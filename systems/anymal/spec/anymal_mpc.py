@@ -37,6 +37,7 @@ import anymal
 import symengine as se
 
 from symbolic import urdf
+from symbolic.linalg import cross, matvec, matvec_transposed
 from symbolic.spec import System
 
 GRAVITY = 9.81
@@ -71,27 +72,6 @@ def _standing_body() -> tuple[float, list[float], list[list[float]]]:
 
 MASS, COM_OFFSET, INERTIA = _standing_body()
 STANDING_COM_HEIGHT = anymal.STANDING[2] + COM_OFFSET[2]
-
-
-def _inverse3(m: list[list[float]]) -> list[list[float]]:
-    a, b, c = m
-    det = a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) + a[2] * (b[0] * c[1] - b[1] * c[0])
-    cof = [[b[1] * c[2] - b[2] * c[1], a[2] * c[1] - a[1] * c[2], a[1] * b[2] - a[2] * b[1]],
-           [b[2] * c[0] - b[0] * c[2], a[0] * c[2] - a[2] * c[0], a[2] * b[0] - a[0] * b[2]],
-           [b[0] * c[1] - b[1] * c[0], a[1] * c[0] - a[0] * c[1], a[0] * b[1] - a[1] * b[0]]]
-    return [[cof[i][j] / det for j in range(3)] for i in range(3)]
-
-
-def _cross(a, b):
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-
-
-def _apply(m, v):
-    return [sum((m[i][k] * v[k] for k in range(3)), se.Integer(0)) for i in range(3)]
-
-
-def _apply_transposed(m, v):
-    return [sum((m[k][i] * v[k] for k in range(3)), se.Integer(0)) for i in range(3)]
 
 
 def _arm(leg: int, q, let=None) -> list[se.Expr]:
@@ -133,11 +113,11 @@ def build() -> System:
     arms = [_arm(leg, q) for leg in range(4)]
 
     inertia = [[se.RealDouble(v) for v in row] for row in INERTIA]
-    inverse = [[se.RealDouble(v) for v in row] for row in _inverse3(INERTIA)]
-    gyroscopic = _cross(w, _apply(inertia, w))
-    gravity_trunk = _apply_transposed(rotation, [0, 0, -GRAVITY])
-    drift = (euler_rate + _apply(rotation, v) + _apply(inverse, [-g for g in gyroscopic])
-             + [gravity_trunk[i] - _cross(w, v)[i] for i in range(3)] + [0] * 12)
+    inverse = se.DenseMatrix(inertia).inv().tolist()
+    gyroscopic = cross(w, matvec(inertia, w))
+    gravity_trunk = matvec_transposed(rotation, [0, 0, -GRAVITY])
+    drift = (euler_rate + matvec(rotation, v) + matvec(inverse, [-g for g in gyroscopic])
+             + [gravity_trunk[i] - cross(w, v)[i] for i in range(3)] + [0] * 12)
     # g(x): moment arms into the angular rows, 1/m into the linear ones, identity for q.
     g = [[se.Integer(0)] * 24 for _ in range(24)]
     for leg in range(4):
@@ -152,20 +132,26 @@ def build() -> System:
     s.dynamics(f=drift, g=g)
 
     flow = [drift[i] + sum((g[i][j] * u[j] for j in range(24)), se.Integer(0)) for i in range(24)]
+    flow_a, flow_b = _jacobian(flow, x), _jacobian(flow, u)
     s.output("flow", [
         ("xdot", flow, "x' = f(x) + g(x) u"),
-        ("a", _jacobian(flow, x), "d x' / d x, one row per state"),
-        ("b", _jacobian(flow, u), "d x' / d u (= g(x)), one row per state"),
+        ("a", flow_a, "d x' / d x, one row per state"),
+        ("b", flow_b, "d x' / d u (= g(x)), one row per state"),
     ], doc="The kino-dynamic model's flow and its Jacobians, for the MPC's linearisation.", inputs=True)
+    # Their structural non-zeros, for the MPC's sparsity (1 where an entry is not
+    # identically zero).
+    for name, jacobian, doc in [("flow_a_pattern", flow_a, "d x' / d x"), ("flow_b_pattern", flow_b, "d x' / d u")]:
+        s.constant(name, [[int(e != 0) for e in row] for row in jacobian],
+                   f"1 where {doc} (the flow output's) is not identically zero, else 0.")
 
     positions, velocities = [], []
     for leg in range(4):
-        positions.append([p[i] + e for i, e in enumerate(_apply(rotation, arms[leg]))])
+        positions.append([p[i] + e for i, e in enumerate(matvec(rotation, arms[leg]))])
         # The foot's velocity: the body's motion at the foot plus the leg's own.
         leg_rate = [sum((se.diff(arms[leg][i], qj) * rj for qj, rj in zip(q, rates, strict=True)), se.Integer(0))
                     for i in range(3)]
-        local = [v[i] + _cross(w, arms[leg])[i] + leg_rate[i] for i in range(3)]
-        velocities.append(_apply(rotation, local))
+        local = [v[i] + cross(w, arms[leg])[i] + leg_rate[i] for i in range(3)]
+        velocities.append(matvec(rotation, local))
     flat_p = [e for foot in positions for e in foot]
     flat_v = [e for foot in velocities for e in foot]
     s.output("feet", [
@@ -183,7 +169,7 @@ def build() -> System:
     ], doc="The trunk's rotation and its derivatives in roll, pitch, yaw.")
 
     def foot_region(prm):
-        c = [p[i] + e for i, e in enumerate(_apply(rotation, _arm(prm.index, q, prm.let)))]
+        c = [p[i] + e for i, e in enumerate(matvec(rotation, _arm(prm.index, q, prm.let)))]
         return [("inside", prm.offset - sum((n * e for n, e in zip(prm.normal, c, strict=True)), se.Integer(0)))]
 
     s.family("foot_region", foot_region,

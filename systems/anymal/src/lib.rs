@@ -79,6 +79,7 @@ pub mod gait;
 pub mod mpc;
 pub mod plant;
 pub mod terrain;
+mod vec3;
 pub mod wbc;
 
 use cbfgen::error::{finite, positive, CbfError};

@@ -37,6 +37,7 @@ use cbfgen::nalgebra::{Matrix3, Vector3};
 
 use crate::gait::Trot;
 use crate::mpc_generated::{self as gen, NU, NX};
+use crate::vec3::{cross, dot};
 use crate::wbc::{FootReference, WbcReference};
 use crate::wbc_generated as wbc_gen;
 
@@ -233,10 +234,6 @@ pub struct KinodynamicMpc {
     warm: Vec<f64>,
 }
 
-fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
 /// State columns: roll, pitch, yaw; centre of mass; angular velocity; velocity.
 const ORIENTATION: std::ops::Range<usize> = 0..3;
 const POSITION: std::ops::Range<usize> = 3..6;
@@ -249,25 +246,14 @@ const TWIST: std::ops::Range<usize> = 6..12;
 fn shape(horizon: usize, footholds: FootholdConstraint) -> OcpShape {
     let rows = foot_rows(footholds);
     let mut s = OcpShape::dense(horizon, NX, NU, FEET * rows + JOINTS);
-    // The discrete A = I + dt ∂f/∂x and B = dt ∂f/∂u: the identity and the union of the
-    // Jacobians' non-zeros at a few generic points.
-    s.a.fill(false);
+    // The discrete A = I + dt ∂f/∂x and B = dt ∂f/∂u: the identity and the Jacobians'
+    // structural non-zeros, as the spec found them.
     for i in 0..NX {
-        s.a[i * NX + i] = true;
-    }
-    s.b.fill(false);
-    for seed in 1..4 {
-        let v = f64::from(seed);
-        let x: [f64; NX] = std::array::from_fn(|i| 0.1 * v + 0.01 * i as f64);
-        let u: [f64; NU] = std::array::from_fn(|i| 10.0 * v + i as f64);
-        let (_, a, b) = gen::flow(&x, &u);
-        for i in 0..NX {
-            for j in 0..NX {
-                s.a[i * NX + j] |= a[i][j] != 0.0;
-            }
-            for j in 0..NU {
-                s.b[i * NU + j] |= b[i][j] != 0.0;
-            }
+        for j in 0..NX {
+            s.a[i * NX + j] = i == j || gen::FLOW_A_PATTERN[i][j] != 0;
+        }
+        for j in 0..NU {
+            s.b[i * NU + j] = gen::FLOW_B_PATTERN[i][j] != 0;
         }
     }
     s.c.fill(false);
@@ -736,10 +722,6 @@ pub fn integrate(x: &[f64; NX], u: &[f64; NU], h: f64) -> [f64; NX] {
     let k3 = f(&step(x, &k2, h / 2.0));
     let k4 = f(&step(x, &k3, h));
     std::array::from_fn(|i| x[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]))
-}
-
-fn cross(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 }
 
 /// Two unit tangents completing `normal` to a right-handed frame.

@@ -27,6 +27,7 @@ use cbfgen::error::{finite, within, CbfError};
 
 use crate::gait::Trot;
 use crate::mpc::{Region, MAX_SIDES};
+use crate::vec3::{cross, dot, norm, sub};
 
 /// How far a vertex may lie off its patch's plane \[m\].
 pub const PLANARITY: f64 = 1e-6;
@@ -37,22 +38,6 @@ pub const PLANARITY: f64 = 1e-6;
 pub struct Patch {
     vertices: Vec<[f64; 3]>,
     normal: [f64; 3],
-}
-
-fn sub(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-}
-
-fn norm(a: &[f64; 3]) -> f64 {
-    dot(a, a).sqrt()
 }
 
 impl Patch {
