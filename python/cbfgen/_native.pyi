@@ -539,6 +539,7 @@ ANYMAL_LEGS: list[str]
 ANYMAL_JOINT_NAMES: list[str]
 ANYMAL_TOTAL_MASS: float
 ANYMAL_FOOT_RADIUS: float
+ANYMAL_CONTROLLERS: list[str]
 
 def anymal_standing() -> Vector:
     """The SRDF's standing joints, the trunk level at the height where the feet touch
@@ -586,3 +587,46 @@ class WholeBodyController:
         dt: float = 2.5e-3,
     ) -> dict[str, Any]:
         """One cycle: torques, accelerations, forces, relaxed, solved, residuals, status."""
+
+class SteppingStones:
+    """Seed 004's stepping stones: square stones under a forward trot's footholds,
+    displaced from a seeded stream; ``stones`` (n, 4): top centre x, y, z, half side."""
+
+    def __init__(
+        self,
+        strides: int = 8,
+        seed: int = 0,
+        swing: float = 0.3,
+        lift: float = 0.1,
+        size: float = 0.14,
+        displacement: tuple[float, float, float] = (0.010, 0.015, 0.020),
+        swings_between: int = 7,
+    ) -> None: ...
+    @property
+    def stones(self) -> Matrix: ...
+    @property
+    def end(self) -> float: ...
+    @property
+    def speed(self) -> float: ...
+    @property
+    def swing(self) -> float: ...
+    @property
+    def distance(self) -> float: ...
+    def misstep(self, x: float, y: float) -> float:
+        """Horizontal distance from (x, y) to the nearest stone top (0 on one) [m]."""
+    def nearest_top(self, x: float, y: float) -> float:
+        """Top height of the stone nearest (x, y) [m]."""
+
+class StoneWalk:
+    """Seed 004's two layers (MPC and whole-body controller) walking a stone field on a
+    plant Python drives, with Table II's measurements."""
+
+    def __init__(
+        self, stones: SteppingStones, controller: str = "CBF in QP & MPC", margin: float = 0.02, gamma: float = 5.0
+    ) -> None: ...
+    def update(self, t: float, x: ArrayLike, feet: ArrayLike, velocities: ArrayLike) -> dict[str, Any]:
+        """One 2.5 ms cycle: torques, stance, solved, relaxed, planned, mpc."""
+    def fell(self, t: float) -> None:
+        """Mark a fall at t."""
+    def record(self) -> dict[str, Any]:
+        """Table II's measurements so far."""

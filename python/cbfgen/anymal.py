@@ -5,7 +5,10 @@ generalized accelerations; ``System("anymal_wbc")``: free-flyer coordinates, its
 and contacts); this module adds the hierarchical whole-body controller that turns a trunk
 motion, swing-foot motions and contact forces into torques, with the foothold CBF among
 its highest-priority rows (docs/anymal.md), the standing state and the trot the Rust tests
-use. A plant of your own (MuJoCo: :mod:`cbfgen.physics.anymal`) calls it:
+use, and seed 004's stepping stones: :class:`SteppingStones` lays a field and
+:class:`StoneWalk` walks it with both layers (the kino-dynamic MPC and the whole-body
+controller) and Table II's measurements. A plant of your own (MuJoCo:
+:mod:`cbfgen.physics.anymal`) calls them:
 
     import numpy as np
     from cbfgen import anymal
@@ -20,10 +23,13 @@ use. A plant of your own (MuJoCo: :mod:`cbfgen.physics.anymal`) calls it:
 from __future__ import annotations
 
 from ._native import (
+    ANYMAL_CONTROLLERS,
     ANYMAL_FOOT_RADIUS,
     ANYMAL_JOINT_NAMES,
     ANYMAL_LEGS,
     ANYMAL_TOTAL_MASS,
+    SteppingStones,
+    StoneWalk,
     System,
     WholeBodyController,
     anymal_standing,
@@ -37,15 +43,20 @@ LEGS: list[str] = ANYMAL_LEGS
 JOINT_NAMES: list[str] = ANYMAL_JOINT_NAMES
 TOTAL_MASS: float = ANYMAL_TOTAL_MASS
 FOOT_RADIUS: float = ANYMAL_FOOT_RADIUS
+CONTROLLERS: list[str] = ANYMAL_CONTROLLERS
+"""Seed 004's Table II controllers, by where the foothold constraints are."""
 standing = anymal_standing
 trot = anymal_trot
 
 __all__ = [
+    "CONTROLLERS",
     "FOOT_RADIUS",
     "JOINT_NAMES",
     "LEGS",
     "NX",
     "SYSTEM",
+    "SteppingStones",
+    "StoneWalk",
     "TOTAL_MASS",
     "WholeBodyController",
     "standing",

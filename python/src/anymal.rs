@@ -6,10 +6,12 @@ use pyo3::types::PyDict;
 
 use crate::PyResult;
 
-use super::convert::{fixed, matrix, rows, shaped, values, vector, Array1Out, Array2Out, ArrayIn};
+use super::convert::{fixed, matrix, matrix_from_fn, rows, shaped, values, vector, Array1Out, Array2Out, ArrayIn};
 use cbfgen::nalgebra::Matrix3;
 use cbfgen::qp::hierarchy::LevelStatus;
 use cbfgen_anymal::gait::{standing_on_the_ground, Trot};
+use cbfgen_anymal::stones::{SteppingStones, StoneField};
+use cbfgen_anymal::walk::{Controller, LayeredController, WalkMeter, WalkSettings};
 use cbfgen_anymal::wbc::{FootReference, WbcReference, WbcSettings, WholeBodyController, FEET};
 use cbfgen_anymal::wbc_generated::{self as gen, Capacity, FootRegionParams, Params, NX};
 
@@ -21,6 +23,9 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(anymal_standing, m)?)?;
     m.add_function(wrap_pyfunction!(anymal_trot, m)?)?;
     m.add_class::<PyWholeBodyController>()?;
+    m.add_class::<PySteppingStones>()?;
+    m.add_class::<PyStoneWalk>()?;
+    m.add("ANYMAL_CONTROLLERS", Controller::ALL.map(Controller::name).to_vec())?;
     Ok(())
 }
 
@@ -49,7 +54,7 @@ fn anymal_trot<'py>(
 ) -> PyResult<(Vec<bool>, Array1Out<'py>, Array1Out<'py>, Array2Out<'py>, Array2Out<'py>, Array2Out<'py>)> {
     let velocity = velocity.map(|v| fixed::<2>("velocity", &v)).transpose()?.unwrap_or([0.0; 2]);
     let home = feet_array("home", &home)?;
-    let gait = Trot { swing, lift, reach, home, trunk: fixed::<3>("trunk", &trunk)?, velocity };
+    let gait = Trot { velocity, ..Trot::in_place(swing, lift, reach, home, fixed::<3>("trunk", &trunk)?) };
     let reference = gait.reference(t);
     let [p, v, a] = [0, 1, 2].map(|k| {
         reference.feet.map(|f| match k {
@@ -194,6 +199,175 @@ impl PyWholeBodyController {
             LevelStatus::Failed(s) => format!("failed: {s:?}"),
         });
         dict.set_item("status", status.to_vec())?;
+        Ok(dict)
+    }
+}
+
+/// Seed 004's stepping stones (``cbfgen_anymal::stones``): square stones under the
+/// footholds of a forward trot, displaced at random from a seeded stream, the trunk
+/// stopping on the last ones. ``stones`` is shape (n, 4): each top's centre x, y, z and
+/// half side [m], the four the robot starts on first.
+#[pyclass(name = "SteppingStones", module = "cbfgen.anymal", frozen)]
+struct PySteppingStones {
+    inner: SteppingStones,
+}
+
+#[pymethods]
+impl PySteppingStones {
+    #[new]
+    #[pyo3(signature = (strides = 8, seed = 0, swing = 0.3, lift = 0.1, size = 0.14,
+                        displacement = (0.010, 0.015, 0.020), swings_between = 7))]
+    fn new(
+        strides: usize,
+        seed: u64,
+        swing: f64,
+        lift: f64,
+        size: f64,
+        displacement: (f64, f64, f64),
+        swings_between: usize,
+    ) -> PyResult<Self> {
+        let field = StoneField {
+            strides,
+            swing,
+            lift,
+            swings_between,
+            size,
+            displacement: [displacement.0, displacement.1, displacement.2],
+            seed,
+        };
+        Ok(Self { inner: SteppingStones::new(&field)? })
+    }
+
+    #[getter]
+    fn stones<'py>(&self, py: Python<'py>) -> Array2Out<'py> {
+        let stones = self.inner.stones();
+        matrix_from_fn(py, stones.len(), 4, |i, j| if j < 3 { stones[i].top[j] } else { stones[i].half })
+    }
+
+    /// When the walk is over [s].
+    #[getter]
+    fn end(&self) -> f64 {
+        self.inner.end()
+    }
+
+    /// The trot's forward speed [m/s].
+    #[getter]
+    fn speed(&self) -> f64 {
+        self.inner.trot().velocity[0]
+    }
+
+    /// The trot's swing time [s].
+    #[getter]
+    fn swing(&self) -> f64 {
+        self.inner.trot().swing
+    }
+
+    /// How far the trunk walks before it stops [m].
+    #[getter]
+    fn distance(&self) -> f64 {
+        self.inner.trot().velocity[0] * self.inner.trot().duration
+    }
+
+    /// The horizontal distance from ``(x, y)`` to the nearest stone top (0 on one) [m].
+    fn misstep(&self, x: f64, y: f64) -> f64 {
+        self.inner.misstep(x, y)
+    }
+
+    /// The top height of the stone nearest ``(x, y)`` horizontally [m].
+    fn nearest_top(&self, x: f64, y: f64) -> f64 {
+        self.inner.nearest_top(x, y)
+    }
+}
+
+/// Seed 004's two layers walking a :class:`SteppingStones` field on a plant Python drives
+/// (MuJoCo): the kino-dynamic MPC every 16th cycle, the whole-body controller every cycle
+/// (2.5 ms), the foothold constraints where ``controller`` (one of ``ANYMAL_CONTROLLERS``,
+/// Table II's names) puts them, and Table II's measurements of the feet the plant reports.
+#[pyclass(name = "StoneWalk", module = "cbfgen.anymal")]
+struct PyStoneWalk {
+    layers: LayeredController,
+    meter: WalkMeter,
+}
+
+#[pymethods]
+impl PyStoneWalk {
+    /// ``margin``: how far inside a stone's edge its region ends [m]; ``gamma``: eq. 25's rate [1/s].
+    #[new]
+    #[pyo3(signature = (stones, controller = "CBF in QP & MPC", margin = 0.02, gamma = 5.0))]
+    fn new(stones: &PySteppingStones, controller: &str, margin: f64, gamma: f64) -> PyResult<Self> {
+        let names = Controller::ALL.map(Controller::name);
+        let controller = Controller::ALL[super::convert::choice("controller", controller, &names)?];
+        let settings = WalkSettings { margin, gamma, ..WalkSettings::default() };
+        let stones = &stones.inner;
+        Ok(Self {
+            layers: LayeredController::new(*stones.trot(), stones.terrain().clone(), controller, &settings)?,
+            meter: WalkMeter::new(stones, &settings),
+        })
+    }
+
+    /// One cycle at ``t`` [s] on the measured state ``x`` (shape (42,), the ``anymal_wbc``
+    /// layout), with the plant's foot centres and their velocities (world, shape (4, 3)
+    /// each) for the measurements. Returns a dict: ``torques`` (12,), ``stance`` (4
+    /// bools), ``solved`` (every priority), ``relaxed`` (4,), ``planned`` (a plan exists),
+    /// ``mpc`` (``None``, or the iteration's ``(updated, OSQP iterations)``).
+    fn update<'py>(
+        &mut self,
+        py: Python<'py>,
+        t: f64,
+        x: ArrayIn<'py>,
+        feet: ArrayIn<'py>,
+        velocities: ArrayIn<'py>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let x = fixed::<NX>("x", &x)?;
+        let (feet, velocities) = (feet_array("feet", &feet)?, feet_array("velocities", &velocities)?);
+        let cycle = self.layers.update(t, &x)?;
+        self.meter.observe(t, &cycle, &feet, &velocities);
+        let dict = PyDict::new(py);
+        dict.set_item("torques", vector(py, &cycle.out.torques))?;
+        dict.set_item("stance", cycle.reference.stance.to_vec())?;
+        dict.set_item("solved", cycle.out.solved)?;
+        dict.set_item("relaxed", vector(py, &cycle.out.relaxed))?;
+        dict.set_item("planned", cycle.planned)?;
+        dict.set_item("mpc", cycle.mpc.map(|r| (r.updated, r.iterations)))?;
+        Ok(dict)
+    }
+
+    /// Mark a fall at ``t`` [s] (the plant decides what a fall is).
+    fn fell(&mut self, t: f64) {
+        self.meter.fell(t);
+    }
+
+    /// Table II's measurements so far, a dict: ``steps``, ``missteps``,
+    /// ``mean_misstep_m``, ``landings`` (k, 7: time, foot, centre x y z, misstep,
+    /// height above the stone [m]), ``swing_time_s``, ``violated_24_s``,
+    /// ``violated_25_s``, ``barriers`` (cycles, 5: time, each foot's smallest h [m]),
+    /// ``mpc_failures``, ``mpc_iterations``, ``wbc_unsolved``, ``fell`` (time or ``None``).
+    fn record<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let r = self.meter.record();
+        let dict = PyDict::new(py);
+        dict.set_item("steps", r.landings.len())?;
+        dict.set_item("missteps", r.missteps().count())?;
+        dict.set_item("mean_misstep_m", r.mean_misstep())?;
+        let l = &r.landings;
+        dict.set_item(
+            "landings",
+            matrix_from_fn(py, l.len(), 7, |i, j| match j {
+                0 => l[i].time,
+                1 => l[i].foot as f64,
+                2..=4 => l[i].position[j - 2],
+                5 => l[i].misstep,
+                _ => l[i].height,
+            }),
+        )?;
+        dict.set_item("swing_time_s", r.swing_time)?;
+        dict.set_item("violated_24_s", r.violated_24)?;
+        dict.set_item("violated_25_s", r.violated_25)?;
+        let b = &r.barriers;
+        dict.set_item("barriers", matrix_from_fn(py, b.len(), 5, |i, j| if j == 0 { b[i].0 } else { b[i].1[j - 1] }))?;
+        dict.set_item("mpc_failures", r.mpc_failures)?;
+        dict.set_item("mpc_iterations", r.mpc_solver_iterations)?;
+        dict.set_item("wbc_unsolved", r.wbc_unsolved)?;
+        dict.set_item("fell", r.fell)?;
         Ok(dict)
     }
 }

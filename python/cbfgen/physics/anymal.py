@@ -62,11 +62,13 @@ def description_path(relative: str = DESCRIPTION) -> Path:
 
 
 class Robot:
-    """MuJoCo's ANYmal C and the conversion of its state to the controller's."""
+    """MuJoCo's ANYmal C and the conversion of its state to the controller's; ``ground``
+    and ``world`` as :func:`.urdf_model.mjcf_from_urdf` takes them (terrain)."""
 
-    def __init__(self) -> None:
+    def __init__(self, ground: float | None = 0.0, world: list[str] | None = None) -> None:
         path = description_path()
-        self.model = mujoco.MjModel.from_xml_string(mjcf_from_urdf(path, timestep=TIMESTEP, name="anymal_c"))
+        text = mjcf_from_urdf(path, timestep=TIMESTEP, name="anymal_c", ground=ground, world=world)
+        self.model = mujoco.MjModel.from_xml_string(text)
         self.data = mujoco.MjData(self.model)
         joint = mujoco.mjtObj.mjOBJ_JOINT
         ids = [mujoco.mj_name2id(self.model, joint, name) for name in anymal.JOINT_NAMES]
@@ -82,7 +84,8 @@ class Robot:
             kinds = [c.find("geometry")[0].tag for c in link.findall("collision")]
             name = f"{leg}_FOOT_{kinds.index('sphere')}"
             self.feet.append(mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, name))
-        self.ground = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, "ground")
+        # The terrain: every geom of the world body (the ground, stones).
+        self.terrain = {g for g in range(self.model.ngeom) if self.model.geom_bodyid[g] == 0}
 
     def place(self, x: np.ndarray) -> None:
         """Set MuJoCo's state from a controller state ``x``."""
@@ -115,12 +118,20 @@ class Robot:
     def foot_centres(self) -> np.ndarray:
         return self.data.geom_xpos[self.feet].copy()
 
+    def foot_velocities(self) -> np.ndarray:
+        """Each foot sphere's centre's velocity (world), shape (4, 3)."""
+        out, twist = np.empty((4, 3)), np.zeros(6)
+        for k, geom in enumerate(self.feet):
+            mujoco.mj_objectVelocity(self.model, self.data, mujoco.mjtObj.mjOBJ_GEOM, geom, twist, 0)
+            out[k] = twist[3:]
+        return out
+
     def body_contact(self) -> bool:
-        """Whether any geom but the foot spheres touches the ground."""
+        """Whether any geom but the foot spheres touches the terrain."""
         d = self.data
         for c in d.contact[:d.ncon]:
-            other = c.geom2 if c.geom1 == self.ground else c.geom1 if c.geom2 == self.ground else None
-            if other is not None and other not in self.feet:
+            other = c.geom2 if c.geom1 in self.terrain else c.geom1 if c.geom2 in self.terrain else None
+            if other is not None and other not in self.feet and other not in self.terrain:
                 return True
         return False
 
@@ -220,3 +231,58 @@ def run(scenario: str = "trot", *, cbf: bool = True, seconds: float = 10.0, velo
         if keep_every and k % keep_every == 0:
             record.qpos.append(robot.data.qpos.copy())
     return record
+
+
+STONE_DEPTH = 0.5
+"""How far a stone reaches below its top [m]; the ground lies this far below z = 0, where
+a foot that misses falls."""
+
+
+def stone_geoms(stones: np.ndarray) -> list[str]:
+    """MJCF box geoms for a :class:`cbfgen.anymal.SteppingStones` field's ``stones``
+    (each row: top centre x, y, z, half side)."""
+    return [
+        f'    <geom name="stone_{k}" type="box" pos="{x!r} {y!r} {z - STONE_DEPTH / 2!r}" '
+        f'size="{h!r} {h!r} {STONE_DEPTH / 2!r}" rgba="0.55 0.5 0.45 1" contype="2" conaffinity="1"/>'
+        for k, (x, y, z, h) in enumerate(np.asarray(stones, dtype=float).tolist())
+    ]
+
+
+def walk_stones(stones: anymal.SteppingStones, controller: str = "CBF in QP & MPC", *,
+                keep_every: int = 0) -> tuple[dict[str, object], list[np.ndarray]]:
+    """Seed 004's stepping-stone walk (section V) in MuJoCo: ``stones`` as boxes over a
+    ground far below, the robot on its starting stones, ``controller`` (one of
+    ``cbfgen.anymal.CONTROLLERS``) at 400 Hz until the walk's end. A fall is a body
+    contact with the terrain, or the trunk sinking below half its standing height above
+    the stones; the run stops there. Returns Table II's record
+    (:meth:`cbfgen.anymal.StoneWalk.record`, measured on MuJoCo's foot spheres against the
+    stones) with ``body_contact`` and ``travelled_m`` added, and MuJoCo's qpos every
+    ``keep_every`` cycles (for a video) when positive."""
+    robot = Robot(ground=-STONE_DEPTH, world=stone_geoms(stones.stones))
+    x = anymal.standing()
+    robot.place(x)
+    standing_height = x[2]
+    walk = anymal.StoneWalk(stones, controller)
+    cycle = TIMESTEP * STEPS_PER_CYCLE
+    frames: list[np.ndarray] = []
+    body_contact = False
+    for k in range(int(np.ceil(stones.end / cycle))):
+        t = k * cycle
+        x = robot.measure()
+        feet = robot.foot_centres()
+        out = walk.update(t, x, feet, robot.foot_velocities())
+        robot.data.ctrl[robot.actuators] = out["torques"]
+        for _ in range(STEPS_PER_CYCLE):
+            mujoco.mj_step(robot.model, robot.data)
+        if keep_every and k % keep_every == 0:
+            frames.append(robot.data.qpos.copy())
+        tops = np.mean([stones.nearest_top(f[0], f[1]) for f in feet])
+        body_contact = robot.body_contact()
+        if body_contact or robot.data.qpos[2] - tops < 0.5 * standing_height or not np.all(np.isfinite(x)):
+            walk.fell(t)
+            break
+    record = walk.record()
+    record["body_contact"] = body_contact
+    record["travelled_m"] = float(robot.data.qpos[0] - anymal.standing()[0])
+    record["controller"] = controller
+    return record, frames

@@ -72,9 +72,12 @@ class _Body:
 
 
 def mjcf_from_urdf(path: str | Path, *, floating: bool = True, sites: dict[str, tuple[str, list[float]]] | None = None,
-                   friction: float = 0.8, timestep: float = 0.0005, name: str | None = None) -> str:
+                   friction: float = 0.8, timestep: float = 0.0005, name: str | None = None,
+                   ground: float | None = 0.0, world: list[str] | None = None) -> str:
     """MJCF text of the URDF at ``path`` (see the module docs). ``sites`` maps a site
-    name to ``(link, offset in that link's frame)``."""
+    name to ``(link, offset in that link's frame)``; ``ground`` is the ground plane's
+    height (``None``: no plane); ``world`` adds MJCF lines to the world body (terrain geoms:
+    give them ``contype="2" conaffinity="1"`` as the ground's)."""
     root = ET.parse(path).getroot()
     links = {link.get("name"): link for link in root.findall("link")}
     joints = root.findall("joint")
@@ -183,7 +186,9 @@ def mjcf_from_urdf(path: str | Path, *, floating: bool = True, sites: dict[str, 
         "  </asset>",
         "  <worldbody>",
         '    <light pos="0 0 4" dir="0 0 -1" directional="true"/>',
-        '    <geom name="ground" type="plane" size="0 0 1" material="grid" contype="2" conaffinity="1"/>',
+        *([f'    <geom name="ground" type="plane" size="0 0 1" pos="0 0 {ground!r}" material="grid" contype="2" '
+           'conaffinity="1"/>'] if ground is not None else []),
+        *(world or []),
         *bodies,
         "  </worldbody>",
         "  <actuator>",

@@ -6,13 +6,27 @@
 //! Raibert-style placement), rising `lift` and reaching `reach` further forward (world x)
 //! at mid-swing, all on `(1 − cos 2πs)/2` (`s` the swing's phase) so it leaves and lands
 //! with zero velocity. The weight is shared by the stance feet. With zero velocity it is a
-//! trot in place.
+//! trot in place. With a finite `duration` the trunk stops once it has walked that long
+//! and the feet trot in place on the footholds of their stride nearest their hips.
 
 use cbfgen::error::{finite, positive, CbfError};
 use cbfgen::nalgebra::Matrix3;
 
 use crate::wbc::{FootReference, WbcReference, FEET};
 use crate::wbc_generated::{self as gen, Capacity, FootRegionParams, Params, NX};
+
+/// One swing's timing and profiles, each as value and first two time derivatives.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Swing {
+    /// When the foot left \[s\].
+    pub lift_off: f64,
+    /// When it lands \[s\].
+    pub touchdown: f64,
+    /// The share of the way from the last foothold to the next (0 → 1).
+    pub travel: [f64; 3],
+    /// The lift's share of its height (0 → 1 → 0).
+    pub bump: [f64; 3],
+}
 
 /// The trot's shape.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -30,12 +44,15 @@ pub struct Trot {
     pub trunk: [f64; 3],
     /// The trunk's commanded velocity (world x, y) \[m/s\].
     pub velocity: [f64; 2],
+    /// How long the trunk walks \[s\] (after the first still swing) before it stops:
+    /// `f64::INFINITY` walks on.
+    pub duration: f64,
 }
 
 impl Trot {
     /// A trot in place: no velocity.
     pub fn in_place(swing: f64, lift: f64, reach: f64, home: [[f64; 3]; FEET], trunk: [f64; 3]) -> Self {
-        Self { swing, lift, reach, home, trunk, velocity: [0.0; 2] }
+        Self { swing, lift, reach, home, trunk, velocity: [0.0; 2], duration: f64::INFINITY }
     }
 
     /// A trot from [`standing_on_the_ground`]: each foot's home where it stands there, the
@@ -46,9 +63,15 @@ impl Trot {
         Self { velocity, ..Self::in_place(swing, lift, 0.0, home, [x[0], x[1], x[2]]) }
     }
 
-    /// Time walked at `t` (the first swing period stands still).
+    /// Time the trunk has walked at `t` (the first swing period stands still, and it
+    /// stops after `duration`).
     fn walked(&self, t: f64) -> f64 {
-        (t - self.swing).max(0.0)
+        (t - self.swing).clamp(0.0, self.duration)
+    }
+
+    /// Whether the trunk moves at `t`.
+    fn walking(&self, t: f64) -> bool {
+        t >= self.swing && t - self.swing < self.duration
     }
 
     /// Whether foot `foot` (in `LEGS` order: LF RF LH RH) swings at time `t`.
@@ -69,20 +92,52 @@ impl Trot {
     /// Where the gait puts foot `foot` (`LEGS` order) for the stance it is in at `t`, or,
     /// swinging, for the stance it lands in: under its hip at mid-stance (world).
     pub fn foothold_for(&self, foot: usize, t: f64) -> [f64; 3] {
-        let walked = self.walked(t);
-        let phase = t / self.swing - (t / self.swing).floor();
-        let start = walked - phase * self.swing;
-        self.foothold(foot, if self.swings(t, foot) { start + self.swing } else { start })
+        let period = self.period(t);
+        self.foothold(foot, if self.swings(t, foot) { period + 1 } else { period })
     }
 
-    /// Where foot `foot` stands after landing at walked time `landing`: under its hip at
-    /// mid-stance.
-    fn foothold(&self, foot: usize, landing: f64) -> [f64; 3] {
-        let travel = if landing <= 0.0 { 0.0 } else { landing + 0.5 * self.swing };
+    /// The swing period `t` is in: the `k`-th runs over `[k T, (k + 1) T)`.
+    fn period(&self, t: f64) -> i64 {
+        (t / self.swing).floor() as i64
+    }
+
+    /// Where foot `foot` stands in a stance that begins with period `stance` (it landed
+    /// `(stance − 1) T` after the first still swing; at home before): under its hip at
+    /// mid-stance. Once the trunk has stopped, at the one of the foot's own footholds (a
+    /// stride apart) nearest to under its hip, so that a stopping walk uses no footholds
+    /// a walk on would not (the stepping stones'). Periods are counted in integers so
+    /// that a stance is never confused with the next at its boundary.
+    fn foothold(&self, foot: usize, stance: i64) -> [f64; 3] {
+        let stride = 2.0 * self.swing;
+        let mut travel = if stance <= 1 { 0.0 } else { (stance - 1) as f64 * self.swing + 0.5 * self.swing };
+        if travel > self.duration + 0.5 * stride {
+            travel -= stride * ((travel - self.duration + 0.5 * stride) / stride).floor();
+        }
         let mut p = self.home[foot];
         p[0] += self.velocity[0] * travel;
         p[1] += self.velocity[1] * travel;
         p
+    }
+
+    /// Foot `foot`'s swing under way at `t`, if it swings.
+    pub fn swing_at(&self, foot: usize, t: f64) -> Option<Swing> {
+        if !self.swings(t, foot) {
+            return None;
+        }
+        // The phase s ∈ [0, 1): out and back on b(s) = (1 − cos 2πs)/2, the move on
+        // g(s) = s − sin(2πs)/2π; both leave and land with zero velocity. Their time
+        // derivatives follow from ds/dt = 1/T.
+        let period = self.swing;
+        let s = t / period - (t / period).floor();
+        let angle = std::f64::consts::TAU * s;
+        let w = std::f64::consts::TAU / period;
+        let lift_off = t - s * period;
+        Some(Swing {
+            lift_off,
+            touchdown: lift_off + period,
+            bump: [0.5 * (1.0 - angle.cos()), 0.5 * w * angle.sin(), 0.5 * w * w * angle.cos()],
+            travel: [s - angle.sin() / std::f64::consts::TAU, (1.0 - angle.cos()) / period, w * angle.sin() / period],
+        })
     }
 
     /// The reference at time `t` \[s\].
@@ -92,36 +147,22 @@ impl Trot {
         trunk[0] += self.velocity[0] * walked;
         trunk[1] += self.velocity[1] * walked;
         let mut reference = WbcReference::standing(trunk, Matrix3::identity());
-        if t >= self.swing {
+        if self.walking(t) {
             reference.trunk_velocity = [self.velocity[0], self.velocity[1], 0.0];
         }
-        // The swing's phase s ∈ [0, 1): out and back (lift, reach) on b(s) = (1 − cos 2πs)/2,
-        // the move to the next foothold on g(s) = s − sin(2πs)/2π; both leave and land with
-        // zero velocity. Their time derivatives follow from ds/dt = 1/T.
-        let period = self.swing;
-        let s = t / period - (t / period).floor();
-        let angle = std::f64::consts::TAU * s;
-        let w = std::f64::consts::TAU / period;
-        let bump = [0.5 * (1.0 - angle.cos()), 0.5 * w * angle.sin(), 0.5 * w * w * angle.cos()];
-        let go = [s - angle.sin() / std::f64::consts::TAU, (1.0 - angle.cos()) / period, w * angle.sin() / period];
-        // This swing's lift-off and touchdown, in walked time.
-        let lift_off = walked - s * period;
-        let touchdown = lift_off + period;
         for foot in 0..FEET {
-            reference.stance[foot] = !self.swings(t, foot);
-            if reference.stance[foot] {
-                continue;
-            }
-            // It landed one stance before this lift-off (at the start, in its first swing).
-            let from = self.foothold(foot, lift_off - period);
-            let to = self.foothold(foot, touchdown);
+            let Some(swing) = self.swing_at(foot, t) else { continue };
+            reference.stance[foot] = false;
+            // From the stance before this swing's period to the one after it.
+            let period = self.period(t);
+            let (from, to) = (self.foothold(foot, period - 1), self.foothold(foot, period + 1));
             let out_and_back = [self.reach, 0.0, self.lift];
             let mut target = FootReference::default();
             for axis in 0..3 {
                 let travel = to[axis] - from[axis];
-                target.position[axis] = from[axis] + travel * go[0] + out_and_back[axis] * bump[0];
-                target.velocity[axis] = travel * go[1] + out_and_back[axis] * bump[1];
-                target.acceleration[axis] = travel * go[2] + out_and_back[axis] * bump[2];
+                target.position[axis] = from[axis] + travel * swing.travel[0] + out_and_back[axis] * swing.bump[0];
+                target.velocity[axis] = travel * swing.travel[1] + out_and_back[axis] * swing.bump[1];
+                target.acceleration[axis] = travel * swing.travel[2] + out_and_back[axis] * swing.bump[2];
             }
             reference.feet[foot] = target;
         }

@@ -78,8 +78,10 @@ pub mod mpc_generated {
 pub mod gait;
 pub mod mpc;
 pub mod plant;
+pub mod stones;
 pub mod terrain;
 mod vec3;
+pub mod walk;
 pub mod wbc;
 
 use cbfgen::error::{finite, positive, CbfError};

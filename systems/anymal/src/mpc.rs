@@ -64,7 +64,8 @@ fn foot_rows(footholds: FootholdConstraint) -> usize {
 }
 
 /// A convex foothold region: half-spaces `n · c ≤ d` on a foot sphere's centre (world),
-/// and the surface normal its friction pyramid is built on.
+/// and the surface's plane `normal · p = surface` (the friction pyramid is built on its
+/// normal, and a swing lands on it).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Region {
     /// The half-spaces `(n, d)`; the first `count` are used (all of them if `count` is
@@ -74,13 +75,16 @@ pub struct Region {
     pub count: usize,
     /// The surface's unit normal (world).
     pub normal: [f64; 3],
+    /// The surface's offset along `normal` \[m\]: its points `p` have `normal · p = surface`.
+    pub surface: f64,
 }
 
 impl Region {
     /// The whole flat ground: no sides, normal `+z`.
-    pub const GROUND: Self = Self { sides: [([0.0; 3], 0.0); MAX_SIDES], count: 0, normal: [0.0, 0.0, 1.0] };
+    pub const GROUND: Self =
+        Self { sides: [([0.0; 3], 0.0); MAX_SIDES], count: 0, normal: [0.0, 0.0, 1.0], surface: 0.0 };
 
-    /// Region from half-spaces on flat ground.
+    /// Region from half-spaces on the flat ground `z = 0`.
     ///
     /// # Errors
     /// More than [`MAX_SIDES`] sides, or a non-finite one.
@@ -424,14 +428,17 @@ impl KinodynamicMpc {
             let time = t + k as f64 * dt;
             let xk = self.guess_x[k];
             let reference = trot.reference(time);
+            let regions: [Region; FEET] = std::array::from_fn(|foot| region(foot, time));
             let mut stage = self.ocp.stage_mut(k);
-            // Cost: around the gait's trunk (the centre of mass at the commanded height),
-            // level, at the commanded velocity; the joints standing; the weight shared.
+            // Cost: around the gait's trunk (the centre of mass at the commanded height
+            // above the feet's surfaces: the gait's is above z = 0), level, at the
+            // commanded velocity; the joints standing; the weight shared.
             let w = s.weights;
+            let ground = regions.iter().map(|r| r.surface).sum::<f64>() / FEET as f64;
             let com = [
                 reference.trunk_position[0] + gen::COM_OFFSET[0],
                 reference.trunk_position[1] + gen::COM_OFFSET[1],
-                reference.trunk_position[2] + gen::COM_OFFSET[2],
+                reference.trunk_position[2] + gen::COM_OFFSET[2] + ground,
             ];
             let yaw = 0.0;
             let (c, sn) = (f64::cos(xk[2]), f64::sin(xk[2]));
@@ -503,7 +510,7 @@ impl KinodynamicMpc {
             for foot in 0..FEET {
                 let top = foot * rows;
                 let stance = reference.stance[foot];
-                let normal = region(foot, time).normal;
+                let normal = regions[foot].normal;
                 // A row r(x, u) ≈ r̄ + C (x − x̄) + D (u − ū) in [lo, hi]: write C, D and
                 // shift the bounds by C x̄ + D ū − r̄.
                 let mut linear_row = |row: usize, value: f64, cx: &[f64], du: &[f64], lo: f64, hi: f64| {
@@ -571,10 +578,19 @@ impl KinodynamicMpc {
                         linear_row(top + MOTION_ROWS + axis, uk[3 * foot + axis], &[0.0; NX], &du, 0.0, 0.0);
                     }
                     // The lift curve along the normal, with feedback on its height so that
-                    // the feet land where the gait puts the ground, not where the
-                    // linearisation's errors would take them: n·v + K n·p = n·v_ref + K n·p_ref.
+                    // the feet land on the surface, not where the linearisation's errors
+                    // would take them: n·v + K n·p = n·v_ref + K n·p_ref. The gait draws
+                    // the curve over z = 0; it is raised from the surface the foot left
+                    // to the one it lands on as the foot travels.
                     let curve = &reference.feet[foot];
-                    let target = dot(&normal, &curve.velocity) + LIFT_GAIN * dot(&normal, &curve.position);
+                    let (left, travel) = match trot.swing_at(foot, time) {
+                        Some(swing) => (region(foot, swing.lift_off - 0.5 * trot.swing).surface, swing.travel),
+                        None => (regions[foot].surface, [1.0, 0.0, 0.0]),
+                    };
+                    let rise = regions[foot].surface - left;
+                    let target = dot(&normal, &curve.velocity)
+                        + rise * travel[1]
+                        + LIFT_GAIN * (dot(&normal, &curve.position) + left + rise * travel[0]);
                     let value = dot(&normal, &velocities[foot]) + LIFT_GAIN * dot(&normal, &positions[foot]);
                     let cx: [f64; NX] = std::array::from_fn(|j| {
                         (0..3).map(|i| normal[i] * (jvx[3 * foot + i][j] + LIFT_GAIN * jp[3 * foot + i][j])).sum()
@@ -586,7 +602,7 @@ impl KinodynamicMpc {
                 if s.footholds == FootholdConstraint::Off {
                     continue;
                 }
-                let r = region(foot, time);
+                let r = &regions[foot];
                 for (side, (n_side, d)) in r.sides.iter().take(r.count).enumerate() {
                     let row = top + MOTION_ROWS + FORCE_ROWS + side;
                     let h = d - dot(n_side, &positions[foot]);

@@ -186,7 +186,7 @@ impl Patch {
                 range: "below the patch's inradius",
             });
         }
-        Ok(Region { sides, count, normal: self.normal })
+        Ok(Region { sides, count, normal: self.normal, surface: dot(&self.normal, &self.vertices[0]) })
     }
 
     /// The radius of the largest circle inside the patch (a lower bound from its

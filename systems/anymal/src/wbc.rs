@@ -52,7 +52,30 @@ use cbfgen::nalgebra::{Matrix3, Rotation3, Vector3};
 use cbfgen::qp::hierarchy::{Hierarchy, LevelReport, LevelShape, LevelStatus};
 use cbfgen::system::{BarrierSet, Gains};
 
-use crate::wbc_generated::{self as gen, Barriers, Capacity, Params, NU, NX};
+use crate::mpc::Region;
+use crate::wbc_generated::{self as gen, Barriers, Capacity, FootRegionParams, Params, NU, NX};
+
+/// Put `region`'s half-spaces into foot `foot`'s slot of `params` (the generated
+/// `foot_region` family's), replacing what was there. Allocation-free.
+///
+/// # Errors
+/// No foot `foot`, or more sides than the slot's capacity (the slot is then unchanged).
+pub fn set_foothold(params: &mut Params, foot: usize, region: &Region) -> Result<(), CbfError> {
+    let member = params.foot_region.get_mut(foot).ok_or(CbfError::OutOfRange {
+        what: "foot",
+        value: foot as f64,
+        range: "[0, 4)",
+    })?;
+    let count = region.count.min(region.sides.len());
+    if count > member.capacity() {
+        return Err(CbfError::TooLarge { what: "foothold region sides", value: count, max: member.capacity() });
+    }
+    member.clear();
+    for &(normal, offset) in &region.sides[..count] {
+        member.push(FootRegionParams { normal: normal.into(), offset })?;
+    }
+    Ok(())
+}
 
 /// Decision variables: accelerations, torques, forces.
 pub const VARS: usize = NU + JOINTS + 3 * FEET;

@@ -1,0 +1,59 @@
+//! Seed 004's Table II on the rigid-contact plant: each of the four controllers over the
+//! same stone fields, one markdown row per walk. (MuJoCo's: `python -m
+//! cbfgen.physics.stepping_stones`.)
+//!
+//! ```text
+//! cargo run --release -p cbfgen-anymal --example stepping_stones -- [fields] [strides] [controller index]
+//! ```
+//!
+//! Defaults: 5 fields (seeds 0..5), 8 strides each, all four controllers.
+
+use cbfgen_anymal::stones::{SteppingStones, StoneField};
+use cbfgen_anymal::walk::{walk, Controller, WalkSettings};
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let fields: u64 = args.first().map_or(Ok(5), |a| a.parse())?;
+    let strides: usize = args.get(1).map_or(Ok(8), |a| a.parse())?;
+    let controllers: Vec<Controller> = match args.get(2) {
+        Some(k) => vec![Controller::ALL[k.parse::<usize>()?]],
+        None => Controller::ALL.to_vec(),
+    };
+    let mut settings = WalkSettings::default();
+    if let Ok(r) = std::env::var("RHO") {
+        settings.mpc.solver.rho = r.parse()?;
+    }
+    if let Ok(r) = std::env::var("ADAPT") {
+        settings.mpc.solver.adaptive_rho_interval = r.parse()?;
+    }
+    if let Ok(r) = std::env::var("ALPHA") {
+        settings.mpc.solver.alpha = r.parse()?;
+    }
+    println!("| controller | seed | steps | missteps | avg misstep [mm] | worst height [mm] | swing [s] | eq. 24 [s] | eq. 25 [s] | MPC failed | OSQP iterations (mean) | WBC unsolved | fell |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    for controller in controllers {
+        for seed in 0..fields {
+            let stones = SteppingStones::new(&StoneField { strides, seed, ..StoneField::default() })?;
+            let r = walk(&stones, controller, &settings)?;
+            let worst_height = r.landings.iter().map(|l| l.height.abs()).fold(0.0, f64::max);
+            println!(
+                "| {} | {seed} | {} | {} | {:.1} | {:.1} | {:.2} | {:.2} | {:.2} | {}/{} | {} | {}/{} | {} |",
+                controller.name(),
+                r.landings.len(),
+                r.missteps().count(),
+                1e3 * r.mean_misstep(),
+                1e3 * worst_height,
+                r.swing_time,
+                r.violated_24,
+                r.violated_25,
+                r.mpc_failures.0,
+                r.mpc_failures.1,
+                r.mpc_solver_iterations / r.mpc_failures.1.max(1) as u64,
+                r.wbc_unsolved.0,
+                r.wbc_unsolved.1,
+                r.fell.map_or("no".to_string(), |t| format!("at {t:.2} s")),
+            );
+        }
+    }
+    Ok(())
+}

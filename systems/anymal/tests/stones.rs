@@ -1,0 +1,138 @@
+//! The stepping stones: the field against the trot it was laid for (every foothold on a
+//! stone, each hind foot on its front foot's stones, the walk ending on the last ones),
+//! its seeded displacements, its refusals; and seed 004's proposed controller walking a
+//! short field on the rigid-contact plant with no misstep, judged against the stones.
+
+use cbfgen_anymal::stones::{SteppingStones, StoneField};
+use cbfgen_anymal::walk::{walk, Controller, WalkSettings};
+
+const FRONT_OF: [usize; 4] = [0, 1, 0, 1]; // LH behind LF, RH behind RF
+
+fn field(strides: usize, seed: u64) -> SteppingStones {
+    SteppingStones::new(&StoneField { strides, seed, ..StoneField::default() }).unwrap()
+}
+
+#[test]
+fn every_foothold_of_the_walk_is_on_a_stone_and_hind_feet_reuse_the_front_feet_stones() {
+    let field = field(6, 3);
+    let trot = *field.trot();
+    let times: Vec<f64> = (0..((field.end() + 4.0 * trot.swing) / 0.01) as usize).map(|k| k as f64 * 0.01).collect();
+    let footholds: Vec<Vec<[f64; 3]>> =
+        (0..4).map(|foot| times.iter().map(|&t| trot.foothold_for(foot, t)).collect()).collect();
+    let mut used = vec![false; field.stones().len()];
+    for (foot, list) in footholds.iter().enumerate() {
+        for (p, t) in list.iter().zip(&times) {
+            // On a stone, well inside, and on one whose top is within the displacement
+            // of the ground.
+            let k = (0..used.len())
+                .find(|&k| field.stones()[k].distance(p[0], p[1]) == 0.0)
+                .unwrap_or_else(|| panic!("foot {foot} at t = {t}: {p:?} is off every stone"));
+            used[k] = true;
+            let stone = field.stones()[k];
+            let inside = stone.half - (p[0] - stone.top[0]).abs().max((p[1] - stone.top[1]).abs());
+            assert!(inside >= 0.07 - 0.03 - 0.015 - 1e-9, "foot {foot} at t = {t}: {inside} m inside");
+            assert!(stone.top[2].abs() <= 0.02 + 1e-12);
+            // Once a hind foot is past its front foot's start, it steps where the front
+            // foot did (the speed is d / 7T).
+            if foot >= 2 && p[0] > footholds[FRONT_OF[foot]][0][0] + 0.06 {
+                let reused = footholds[FRONT_OF[foot]].iter().any(|q| (q[0] - p[0]).hypot(q[1] - p[1]) < 0.005);
+                assert!(reused, "hind foot {foot} at t = {t}: {p:?} is no front foothold");
+            }
+        }
+    }
+    assert!(used.iter().all(|u| *u), "a stone no foothold uses");
+}
+
+#[test]
+fn the_walk_stops_on_its_last_stones() {
+    let field = field(4, 1);
+    let trot = *field.trot();
+    let end = field.end();
+    let last: Vec<[f64; 3]> = (0..4).map(|foot| trot.foothold_for(foot, end)).collect();
+    for k in 0..40 {
+        let t = end + 0.05 * k as f64;
+        let reference = trot.reference(t);
+        assert_eq!(reference.trunk_velocity, [0.0; 3]);
+        for (foot, p) in last.iter().enumerate() {
+            let q = trot.foothold_for(foot, t);
+            assert!((0..3).all(|i| (q[i] - p[i]).abs() < 1e-12), "foot {foot} moved on after the end: {q:?}, {p:?}");
+        }
+    }
+    // The trunk walked its duration at its speed, and stopped over its feet.
+    let stopped = trot.reference(end).trunk_position;
+    assert!((stopped[0] - trot.trunk[0] - trot.velocity[0] * trot.duration).abs() < 1e-12);
+    let mean_x = last.iter().map(|p| p[0]).sum::<f64>() / 4.0;
+    let home_mean = trot.home.iter().map(|p| p[0]).sum::<f64>() / 4.0;
+    assert!((mean_x - home_mean - (stopped[0] - trot.trunk[0])).abs() <= trot.velocity[0] * trot.swing + 1e-9);
+}
+
+#[test]
+fn a_seed_lays_the_same_field_and_its_displacements_span_their_bounds() {
+    let (a, b, c) = (field(40, 11), field(40, 11), field(40, 12));
+    assert_eq!(a.stones(), b.stones());
+    assert_ne!(a.stones(), c.stones());
+    // Against the undisplaced field (all bounds zero): within ±bound, and reaching most of it.
+    let nominal =
+        SteppingStones::new(&StoneField { strides: 40, seed: 11, displacement: [0.0; 3], ..StoneField::default() })
+            .unwrap();
+    let bounds = StoneField::default().displacement;
+    let mut largest = [0.0_f64; 3];
+    assert_eq!(a.stones().len(), nominal.stones().len());
+    for (k, (s, n)) in a.stones().iter().zip(nominal.stones()).enumerate() {
+        for axis in 0..3 {
+            let d = s.top[axis] - n.top[axis];
+            assert!(d.abs() <= bounds[axis] + 1e-12, "stone {k} axis {axis}: {d}");
+            if k < 4 {
+                assert_eq!(d, 0.0, "a starting stone moved");
+            }
+            largest[axis] = largest[axis].max(d.abs());
+        }
+    }
+    for axis in 0..3 {
+        assert!(largest[axis] > 0.9 * bounds[axis], "axis {axis}: at most {}", largest[axis]);
+    }
+}
+
+#[test]
+fn meaningless_fields_are_refused() {
+    let ok = StoneField::default();
+    for bad in [
+        StoneField { strides: 0, ..ok },
+        StoneField { swings_between: 6, ..ok },
+        StoneField { swing: 0.0, ..ok },
+        StoneField { swing: f64::NAN, ..ok },
+        StoneField { size: -0.14, ..ok },
+        StoneField { displacement: [0.05, 0.0, 0.0], ..ok },
+        StoneField { displacement: [0.0, f64::INFINITY, 0.0], ..ok },
+        StoneField { lift: -0.1, ..ok },
+    ] {
+        assert!(SteppingStones::new(&bad).is_err(), "{bad:?} was accepted");
+    }
+}
+
+/// Seed 004's proposed controller (CBF in the MPC and in the whole-body QP) over three
+/// strides of displaced stones: every landing on a stone and level with its top, the trunk
+/// where the walk ends, no fall.
+#[test]
+fn the_proposed_controller_walks_a_short_field_without_a_misstep() {
+    let field = field(3, 5);
+    let record = walk(&field, Controller::CbfInBoth, &WalkSettings::default()).unwrap();
+    assert_eq!(record.fell, None);
+    // Three strides and the steps onto the last stones: each foot lands every 2T after
+    // its first swing until the end.
+    assert!(record.landings.len() >= 4 * 3, "{} landings", record.landings.len());
+    for landing in &record.landings {
+        assert_eq!(landing.misstep, 0.0, "{landing:?}");
+        assert!(landing.height.abs() <= 0.01, "{landing:?}");
+        let stone =
+            field.stones().iter().find(|s| s.distance(landing.position[0], landing.position[1]) == 0.0).unwrap();
+        // Inside by at least a centimetre less than the regions' margin asked for.
+        let inside =
+            stone.half - (landing.position[0] - stone.top[0]).abs().max((landing.position[1] - stone.top[1]).abs());
+        assert!(inside >= 0.01, "{landing:?} is {inside} m inside its stone");
+    }
+    let trot = field.trot();
+    let walked = trot.velocity[0] * trot.duration;
+    assert!((record.travelled - walked).abs() <= 0.05, "walked {} of {walked} m", record.travelled);
+    assert!(record.mpc_failures.0 * 10 <= record.mpc_failures.1, "{:?}", record.mpc_failures);
+}
