@@ -7,7 +7,9 @@ ground), stepped at 2 kHz. Every 2.5 ms (400 Hz, the seed's rate) the controller
 and orientation, its twist (MuJoCo's free joint gives the world linear velocity, turned
 into the trunk's frame here), the joints — and its torques drive the motors until the next
 cycle. The reference is the trot of :func:`cbfgen.anymal.trot`: standing, a trot in place,
-or a trot at a commanded velocity; the MPC of issue 38 will replace it.
+or a trot at a commanded velocity. :func:`walk_stones` walks seed 004's stepping stones
+with both layers instead (:class:`cbfgen.anymal.StoneWalk`: the kino-dynamic MPC and
+the controller).
 
 Measured against MuJoCo's world, not the controller's model: the trunk's height, every
 contact of a geom other than the four foot spheres with the ground (a body contact), and
@@ -248,23 +250,34 @@ def stone_geoms(stones: np.ndarray) -> list[str]:
     ]
 
 
+@dataclass
+class StoneRun:
+    """One stepping-stone walk in MuJoCo: Table II's record, and MuJoCo's model and poses
+    for a video."""
+
+    record: dict[str, object]
+    model: object
+    qpos: list[np.ndarray] = field(default_factory=list)
+    body_contact: list[bool] = field(default_factory=list)
+
+
 def walk_stones(stones: anymal.SteppingStones, controller: str = "CBF in QP & MPC", *,
-                keep_every: int = 0) -> tuple[dict[str, object], list[np.ndarray]]:
+                keep_every: int = 0) -> StoneRun:
     """Seed 004's stepping-stone walk (section V) in MuJoCo: ``stones`` as boxes over a
     ground far below, the robot on its starting stones, ``controller`` (one of
     ``cbfgen.anymal.CONTROLLERS``) at 400 Hz until the walk's end. A fall is a body
     contact with the terrain, or the trunk sinking below half its standing height above
-    the stones; the run stops there. Returns Table II's record
-    (:meth:`cbfgen.anymal.StoneWalk.record`, measured on MuJoCo's foot spheres against the
-    stones) with ``body_contact`` and ``travelled_m`` added, and MuJoCo's qpos every
-    ``keep_every`` cycles (for a video) when positive."""
+    the stones; the run stops there. The record is
+    :meth:`cbfgen.anymal.StoneWalk.record`'s (measured on MuJoCo's foot spheres against
+    the stones) with ``controller``, ``body_contact`` and ``travelled_m`` added; MuJoCo's
+    qpos is kept every ``keep_every`` cycles when positive (for a video)."""
     robot = Robot(ground=-STONE_DEPTH, world=stone_geoms(stones.stones))
     x = anymal.standing()
     robot.place(x)
     standing_height = x[2]
     walk = anymal.StoneWalk(stones, controller)
+    run = StoneRun({}, robot.model)
     cycle = TIMESTEP * STEPS_PER_CYCLE
-    frames: list[np.ndarray] = []
     body_contact = False
     for k in range(int(np.ceil(stones.end / cycle))):
         t = k * cycle
@@ -274,15 +287,15 @@ def walk_stones(stones: anymal.SteppingStones, controller: str = "CBF in QP & MP
         robot.data.ctrl[robot.actuators] = out["torques"]
         for _ in range(STEPS_PER_CYCLE):
             mujoco.mj_step(robot.model, robot.data)
-        if keep_every and k % keep_every == 0:
-            frames.append(robot.data.qpos.copy())
-        tops = np.mean([stones.nearest_top(f[0], f[1]) for f in feet])
         body_contact = robot.body_contact()
-        if body_contact or robot.data.qpos[2] - tops < 0.5 * standing_height or not np.all(np.isfinite(x)):
+        if keep_every and k % keep_every == 0:
+            run.qpos.append(robot.data.qpos.copy())
+            run.body_contact.append(body_contact)
+        ground = np.mean([stones.nearest_top(f[0], f[1]) for f in feet])
+        if body_contact or robot.data.qpos[2] - ground < 0.5 * standing_height or not np.all(np.isfinite(x)):
             walk.fell(t)
             break
-    record = walk.record()
-    record["body_contact"] = body_contact
-    record["travelled_m"] = float(robot.data.qpos[0] - anymal.standing()[0])
-    record["controller"] = controller
-    return record, frames
+    run.record = walk.record()
+    run.record.update(controller=controller, body_contact=body_contact,
+                      travelled_m=float(robot.data.qpos[0] - anymal.standing()[0]))
+    return run

@@ -3,10 +3,11 @@
 //! cbfgen.physics.stepping_stones`.)
 //!
 //! ```text
-//! cargo run --release -p cbfgen-anymal --example stepping_stones -- [fields] [strides] [controller index]
+//! cargo run --release -p cbfgen-anymal --example stepping_stones -- [fields] [strides] [controller index] [gamma]
 //! ```
 //!
-//! Defaults: 5 fields (seeds 0..5), 8 strides each, all four controllers.
+//! Defaults: 5 fields (seeds 0..5), 8 strides each, all four controllers (index 0..4 in
+//! Table II's order for one), eq. 25's γ as `WalkSettings::default()`.
 
 use cbfgen_anymal::stones::{SteppingStones, StoneField};
 use cbfgen_anymal::walk::{walk, Controller, WalkSettings};
@@ -16,18 +17,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let fields: u64 = args.first().map_or(Ok(5), |a| a.parse())?;
     let strides: usize = args.get(1).map_or(Ok(8), |a| a.parse())?;
     let controllers: Vec<Controller> = match args.get(2) {
-        Some(k) => vec![Controller::ALL[k.parse::<usize>()?]],
+        Some(k) => vec![*Controller::ALL.get(k.parse::<usize>()?).ok_or("controller index 0..4")?],
         None => Controller::ALL.to_vec(),
     };
     let mut settings = WalkSettings::default();
-    if let Ok(r) = std::env::var("RHO") {
-        settings.mpc.solver.rho = r.parse()?;
-    }
-    if let Ok(r) = std::env::var("ADAPT") {
-        settings.mpc.solver.adaptive_rho_interval = r.parse()?;
-    }
-    if let Ok(r) = std::env::var("ALPHA") {
-        settings.mpc.solver.alpha = r.parse()?;
+    if let Some(gamma) = args.get(3) {
+        settings.gamma = gamma.parse()?;
     }
     println!("| controller | seed | steps | missteps | avg misstep [mm] | worst height [mm] | swing [s] | eq. 24 [s] | eq. 25 [s] | MPC failed | OSQP iterations (mean) | WBC unsolved | fell |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");

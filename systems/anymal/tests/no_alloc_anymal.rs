@@ -15,6 +15,8 @@ use cbfgen_anymal::gait::{footholds_around, standing_on_the_ground, Trot};
 use cbfgen_anymal::generated::{self as gen, Barriers, NU, NX};
 use cbfgen_anymal::mpc::{self, KinodynamicMpc, MpcSettings, Region};
 use cbfgen_anymal::plant;
+use cbfgen_anymal::stones::{SteppingStones, StoneField};
+use cbfgen_anymal::walk::{Controller, LayeredController, WalkSettings};
 use cbfgen_anymal::wbc::{WbcSettings, WholeBodyController};
 use cbfgen_anymal::wbc_generated as wbc;
 use cbfgen_anymal::{square_footholds, swinging_nominal};
@@ -23,6 +25,37 @@ fn main() {
     the_filter_allocates_nothing();
     the_whole_body_controller_allocates_nothing();
     the_mpc_allocates_nothing();
+    the_layered_controller_allocates_nothing();
+}
+
+fn the_layered_controller_allocates_nothing() {
+    let stones = SteppingStones::new(&StoneField { strides: 2, ..StoneField::default() }).expect("stones");
+    let settings = WalkSettings::default();
+    let mut layers = LayeredController::new(*stones.trot(), stones.terrain().clone(), Controller::CbfInBoth, &settings)
+        .expect("controller");
+    let mut x = standing_on_the_ground();
+    let dt = settings.plant_step * settings.steps_per_cycle as f64;
+    let (cycles, mut planned, mut rejected) = (200, 0usize, 0usize);
+    let (_, rust, c) = alloc_count::counting(|| {
+        for k in 0..cycles {
+            let t = k as f64 * dt;
+            if k % 50 == 7 {
+                let mut nan = x;
+                nan[0] = f64::NAN;
+                rejected += usize::from(layers.update(t, &nan).is_err());
+            }
+            let cycle = layers.update(t, &x).expect("in the domain");
+            planned += usize::from(cycle.planned);
+            for _ in 0..settings.steps_per_cycle {
+                let step = plant::accelerations(&x, &cycle.out.torques, cycle.reference.stance).expect("regular");
+                plant::integrate(&mut x, &step.accelerations, settings.plant_step);
+            }
+        }
+    });
+    assert_eq!((rust, c), (0, 0), "allocations during {cycles} cycles: Rust {rust}, C {c}");
+    assert_eq!(planned, cycles);
+    assert_eq!(rejected, cycles / 50);
+    println!("the_layered_controller_allocates_nothing ... ok");
 }
 
 fn the_mpc_allocates_nothing() {

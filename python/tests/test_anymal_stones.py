@@ -1,0 +1,74 @@
+"""Seed 004's stepping stones from Python: the field's bindings against its own geometry
+(each stone's top where the table says, a point's misstep the distance to the nearest
+square computed here), bad fields and controllers refused, and a short walk of the
+proposed controller in MuJoCo that reaches the last stones with no misstep, judged on
+MuJoCo's foot spheres."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+if os.environ.get("CBFGEN_REQUIRE_BINDINGS"):
+    import cbfgen  # noqa: F401  (the package this module is part of)
+else:
+    pytest.importorskip("cbfgen", reason="build it with `scripts/cbf setup`")
+
+from cbfgen import anymal  # noqa: E402
+
+
+def square_distance(stones: np.ndarray, x: float, y: float) -> float:
+    dx = np.maximum(np.abs(x - stones[:, 0]) - stones[:, 3], 0.0)
+    dy = np.maximum(np.abs(y - stones[:, 1]) - stones[:, 3], 0.0)
+    return float(np.min(np.hypot(dx, dy)))
+
+
+def test_a_field_is_squares_where_its_table_says():
+    field = anymal.SteppingStones(strides=5, seed=2)
+    stones = field.stones
+    assert stones.shape[1] == 4 and len(stones) >= 4 + 2 * 5
+    assert np.all(stones[:, 3] == 0.07)
+    assert np.all(np.abs(stones[:, 2]) <= 0.02 + 1e-12)
+    assert field.speed == pytest.approx(0.337, abs=1e-3)  # d / 7T, d = 0.7069 m
+    assert field.distance == pytest.approx(field.speed * 2 * 0.3 * 5)
+    rng = np.random.default_rng(0)
+    for x, y in rng.uniform([-0.6, -0.5], [2.2, 0.5], size=(500, 2)):
+        assert field.misstep(x, y) == pytest.approx(square_distance(stones, x, y), abs=1e-12)
+        nearest = np.argmin(np.hypot(np.maximum(np.abs(x - stones[:, 0]) - 0.07, 0),
+                                     np.maximum(np.abs(y - stones[:, 1]) - 0.07, 0)))
+        assert field.nearest_top(x, y) == stones[nearest, 2]
+    # The same seed lays the same field; another seed another.
+    assert np.array_equal(anymal.SteppingStones(strides=5, seed=2).stones, stones)
+    assert not np.array_equal(anymal.SteppingStones(strides=5, seed=3).stones, stones)
+
+
+@pytest.mark.parametrize("bad", [dict(strides=0), dict(swings_between=4), dict(size=float("nan")),
+                                 dict(displacement=(0.1, 0.0, 0.0)), dict(swing=-0.3)])
+def test_meaningless_fields_are_refused(bad):
+    with pytest.raises((ValueError, cbfgen.CbfError)):
+        anymal.SteppingStones(**bad)
+
+
+def test_an_unknown_controller_is_refused_by_name():
+    with pytest.raises(ValueError, match="CBF in QP & MPC"):
+        anymal.StoneWalk(anymal.SteppingStones(strides=1), "CBF everywhere")
+
+
+def test_the_proposed_controller_walks_a_short_field_in_mujoco_without_a_misstep():
+    pytest.importorskip("mujoco", reason="installed from python/requirements.txt")
+    from cbfgen.physics.anymal import walk_stones
+
+    field = anymal.SteppingStones(strides=3, seed=5)
+    record = walk_stones(field, "CBF in QP & MPC").record
+    assert record["fell"] is None and not record["body_contact"]
+    landings = np.asarray(record["landings"])
+    assert len(landings) >= 12
+    for time, foot, x, y, _z, misstep, height in landings:
+        # Judged here against the squares, not by the binding's misstep.
+        assert square_distance(field.stones, x, y) == 0.0, (time, foot, x, y)
+        assert misstep == 0.0
+        # MuJoCo's soft contact lets a sphere sink a little into the stone it lands on.
+        assert abs(height) <= 0.01, (time, foot, height)
+    assert record["travelled_m"] == pytest.approx(field.distance, abs=0.05)
