@@ -622,7 +622,12 @@ class StoneWalk:
     plant Python drives, with Table II's measurements."""
 
     def __init__(
-        self, stones: SteppingStones, controller: str = "CBF in QP & MPC", margin: float = 0.02, gamma: float = 5.0
+        self,
+        stones: SteppingStones,
+        controller: str = "CBF in QP & MPC",
+        margin: float = 0.02,
+        gamma: float = 5.0,
+        threaded: bool = False,
     ) -> None: ...
     def update(self, t: float, x: ArrayLike, feet: ArrayLike, velocities: ArrayLike) -> dict[str, Any]:
         """One 2.5 ms cycle: torques, stance, solved, relaxed, planned, mpc."""

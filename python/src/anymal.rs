@@ -291,13 +291,15 @@ struct PyStoneWalk {
 
 #[pymethods]
 impl PyStoneWalk {
-    /// ``margin``: how far inside a stone's edge its region ends [m]; ``gamma``: eq. 25's rate [1/s].
+    /// ``margin``: how far inside a stone's edge its region ends [m]; ``gamma``: eq. 25's
+    /// rate [1/s]; ``threaded``: the MPC in its own thread, posted every cycle (the caller
+    /// then runs in real time), rather than inline every 16th cycle (deterministic).
     #[new]
-    #[pyo3(signature = (stones, controller = "CBF in QP & MPC", margin = 0.02, gamma = 5.0))]
-    fn new(stones: &PySteppingStones, controller: &str, margin: f64, gamma: f64) -> PyResult<Self> {
+    #[pyo3(signature = (stones, controller = "CBF in QP & MPC", margin = 0.02, gamma = 5.0, threaded = false))]
+    fn new(stones: &PySteppingStones, controller: &str, margin: f64, gamma: f64, threaded: bool) -> PyResult<Self> {
         let names = Controller::ALL.map(Controller::name);
         let controller = Controller::ALL[super::convert::choice("controller", controller, &names)?];
-        let settings = WalkSettings { margin, gamma, ..WalkSettings::default() };
+        let settings = WalkSettings { margin, gamma, threaded, ..WalkSettings::default() };
         let stones = &stones.inner;
         Ok(Self {
             layers: LayeredController::new(*stones.trot(), stones.terrain().clone(), controller, &settings)?,

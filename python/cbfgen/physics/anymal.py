@@ -24,6 +24,7 @@ each swing foot's centre against its foothold square.
 from __future__ import annotations
 
 import sys
+import time
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -262,7 +263,7 @@ class StoneRun:
 
 
 def walk_stones(stones: anymal.SteppingStones, controller: str = "CBF in QP & MPC", *,
-                keep_every: int = 0) -> StoneRun:
+                keep_every: int = 0, threaded: bool = False) -> StoneRun:
     """Seed 004's stepping-stone walk (section V) in MuJoCo: ``stones`` as boxes over a
     ground far below, the robot on its starting stones, ``controller`` (one of
     ``cbfgen.anymal.CONTROLLERS``) at 400 Hz until the walk's end. A fall is a body
@@ -270,17 +271,26 @@ def walk_stones(stones: anymal.SteppingStones, controller: str = "CBF in QP & MP
     the stones; the run stops there. The record is
     :meth:`cbfgen.anymal.StoneWalk.record`'s (measured on MuJoCo's foot spheres against
     the stones) with ``controller``, ``body_contact`` and ``travelled_m`` added; MuJoCo's
-    qpos is kept every ``keep_every`` cycles when positive (for a video)."""
+    qpos is kept every ``keep_every`` cycles when positive (for a video). ``threaded`` runs
+    the MPC in its own thread and the loop no faster than real time, so that plans are as
+    late as the machine makes them; the record's ``behind_real_time_s`` says how far the
+    loop itself fell behind (where it did, the plans were early by as much)."""
     robot = Robot(ground=-STONE_DEPTH, world=stone_geoms(stones.stones))
     x = anymal.standing()
     robot.place(x)
     standing_height = x[2]
-    walk = anymal.StoneWalk(stones, controller)
+    walk = anymal.StoneWalk(stones, controller, threaded=threaded)
     run = StoneRun({}, robot.model)
     cycle = TIMESTEP * STEPS_PER_CYCLE
     body_contact = False
+    start, behind = time.perf_counter(), 0.0
     for k in range(int(np.ceil(stones.end / cycle))):
         t = k * cycle
+        if threaded:
+            ahead = t - (time.perf_counter() - start)
+            if ahead > 0.0:
+                time.sleep(ahead)
+            behind = max(behind, -ahead)
         x = robot.measure()
         feet = robot.foot_centres()
         out = walk.update(t, x, feet, robot.foot_velocities())
@@ -296,6 +306,6 @@ def walk_stones(stones: anymal.SteppingStones, controller: str = "CBF in QP & MP
             walk.fell(t)
             break
     run.record = walk.record()
-    run.record.update(controller=controller, body_contact=body_contact,
-                      travelled_m=float(robot.data.qpos[0] - anymal.standing()[0]))
+    run.record.update(controller=controller, body_contact=body_contact, threaded=threaded,
+                      behind_real_time_s=behind, travelled_m=float(robot.data.qpos[0] - anymal.standing()[0]))
     return run

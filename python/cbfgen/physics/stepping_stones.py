@@ -96,6 +96,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--strides", type=int, default=8, help="strides per field; default 8")
     parser.add_argument("--out", type=Path, default=Path("out/stepping_stones"), help="default out/stepping_stones")
     parser.add_argument("--no-video", action="store_true", help="skip the GIF (needs no OpenGL then)")
+    parser.add_argument("--threaded", action="store_true",
+                        help="the MPC in its own thread, the walks in real time (default: inline, deterministic)")
     args = parser.parse_args(argv)
     if args.fields < 1 or args.strides < 1:
         parser.error("--fields and --strides must be at least 1")
@@ -114,7 +116,7 @@ def main(argv: list[str] | None = None) -> int:
         for seed in range(args.fields):
             stones = anymal.SteppingStones(strides=args.strides, seed=seed)
             proposed_first = name == anymal.CONTROLLERS[-1] and seed == 0
-            run = walk_stones(stones, name, keep_every=keep if proposed_first else 0)
+            run = walk_stones(stones, name, keep_every=keep if proposed_first else 0, threaded=args.threaded)
             record = run.record
             print(f"stepping stones: {name}, field {seed}: {record['steps']} steps, {record['missteps']} missteps, "
                   f"fell {record['fell']}", file=sys.stderr, flush=True)

@@ -3,11 +3,12 @@
 //! cbfgen.physics.stepping_stones`.)
 //!
 //! ```text
-//! cargo run --release -p cbfgen-anymal --example stepping_stones -- [fields] [strides] [controller index] [gamma]
+//! cargo run --release -p cbfgen-anymal --example stepping_stones -- [fields] [strides] [controller index] [gamma] [threaded]
 //! ```
 //!
 //! Defaults: 5 fields (seeds 0..5), 8 strides each, all four controllers (index 0..4 in
-//! Table II's order for one), eq. 25's γ as `WalkSettings::default()`.
+//! Table II's order for one), eq. 25's γ as `WalkSettings::default()`, the MPC inline
+//! (`threaded`: in its own thread, the walk in real time).
 
 use cbfgen_anymal::stones::{SteppingStones, StoneField};
 use cbfgen_anymal::walk::{walk, Controller, WalkSettings};
@@ -24,6 +25,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if let Some(gamma) = args.get(3) {
         settings.gamma = gamma.parse()?;
     }
+    settings.threaded = args.get(4).is_some_and(|a| a == "threaded");
     println!("| controller | seed | steps | missteps | avg misstep [mm] | worst height [mm] | swing [s] | eq. 24 [s] | eq. 25 [s] | MPC failed | OSQP iterations (mean) | WBC unsolved | fell |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for controller in controllers {

@@ -77,6 +77,7 @@ pub mod mpc_generated {
 
 pub mod gait;
 pub mod mpc;
+pub mod mpc_thread;
 pub mod plant;
 pub mod stones;
 pub mod terrain;

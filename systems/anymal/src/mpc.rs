@@ -222,16 +222,113 @@ pub struct MpcReport {
     pub updated: bool,
 }
 
+/// A plan of the MPC: states at `start + k dt` (`N + 1`) and inputs (`N`, forces in
+/// newtons, trunk frame), or none yet.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plan {
+    start: f64,
+    dt: f64,
+    states: Vec<[f64; NX]>,
+    inputs: Vec<[f64; NU]>,
+    valid: bool,
+}
+
+impl Plan {
+    /// No plan yet, for a horizon of `horizon` stages of `dt` seconds.
+    pub fn new(horizon: usize, dt: f64) -> Self {
+        Self { start: 0.0, dt, states: vec![[0.0; NX]; horizon + 1], inputs: vec![[0.0; NU]; horizon], valid: false }
+    }
+
+    /// Whether there is a plan.
+    pub fn is_valid(&self) -> bool {
+        self.valid
+    }
+
+    /// When it starts \[s\].
+    pub fn start(&self) -> f64 {
+        self.start
+    }
+
+    /// Become a copy of `other`, a plan of the same horizon, without allocating.
+    ///
+    /// # Panics
+    /// A plan of another horizon (a caller's mix-up of two MPCs).
+    pub fn copy_from(&mut self, other: &Plan) {
+        self.states.copy_from_slice(&other.states);
+        self.inputs.copy_from_slice(&other.inputs);
+        (self.start, self.dt, self.valid) = (other.start, other.dt, other.valid);
+    }
+
+    /// The plan: its start time, states (`N + 1`, one per stage) and inputs (`N`, forces
+    /// in newtons, trunk frame). Empty before the first solve that left an iterate.
+    pub fn parts(&self) -> (f64, &[[f64; NX]], &[[f64; NU]]) {
+        if self.valid {
+            (self.start, &self.states, &self.inputs)
+        } else {
+            (self.start, &[], &[])
+        }
+    }
+
+    /// The planned state and input at time `t`: linear between stages, held outside.
+    pub fn at(&self, t: f64) -> Option<([f64; NX], [f64; NU])> {
+        if !self.valid {
+            return None;
+        }
+        let n = self.inputs.len();
+        let s = ((t - self.start) / self.dt).clamp(0.0, n as f64);
+        let k = (s.floor() as usize).min(n - 1);
+        let f = s - k as f64;
+        let x = std::array::from_fn(|i| self.states[k][i] + f * (self.states[k + 1][i] - self.states[k][i]));
+        let next = (k + 1).min(n - 1);
+        let u = std::array::from_fn(|i| self.inputs[k][i] + f * (self.inputs[next][i] - self.inputs[k][i]));
+        Some((x, u))
+    }
+
+    /// What the whole-body controller tracks at time `t`: the gait's modes; the planned
+    /// trunk pose, twist and acceleration (world); each swing foot's planned position, velocity and
+    /// acceleration (a difference of the planned velocities over 1 ms); each stance foot's
+    /// planned force, in the world. `None` before the first plan.
+    pub fn whole_body_reference(&self, t: f64, trot: &Trot) -> Option<WbcReference> {
+        const DIFFERENCE: f64 = 1e-3;
+        let (x, u) = self.at(t)?;
+        let (x_next, u_next) = self.at(t + DIFFERENCE)?;
+        let mut reference = trot.reference(t);
+        let (rotation, _) = gen::orientation(&x);
+        let r = Matrix3::from_fn(|i, j| rotation[i][j]);
+        let c = Vector3::from(gen::COM_OFFSET);
+        let (w, v) = (Vector3::new(x[6], x[7], x[8]), Vector3::new(x[9], x[10], x[11]));
+        let origin = Vector3::new(x[3], x[4], x[5]) - r * c;
+        reference.trunk_position = origin.into();
+        reference.trunk_rotation = r;
+        reference.trunk_velocity = (r * (v - w.cross(&c))).into();
+        reference.trunk_angular_velocity = (r * w).into();
+        // The plan's accelerations: d(R v)/dt = R (v' + w × v) at the centre of mass, less
+        // d²(R c)/dt² = R (w' × c + w × (w × c)) for the trunk's origin; R w' angular.
+        let xdot = gen::flow(&x, &u).0;
+        let (w_dot, v_dot) = (Vector3::new(xdot[6], xdot[7], xdot[8]), Vector3::new(xdot[9], xdot[10], xdot[11]));
+        reference.trunk_acceleration = (r * (v_dot + w.cross(&v) - w_dot.cross(&c) - w.cross(&w.cross(&c)))).into();
+        reference.trunk_angular_acceleration = (r * w_dot).into();
+        let (positions, _, velocities, _, _) = gen::feet(&x, &u);
+        let next = gen::feet(&x_next, &u_next).2;
+        for foot in 0..FEET {
+            let f = r * Vector3::new(u[3 * foot], u[3 * foot + 1], u[3 * foot + 2]);
+            reference.forces[foot] = if reference.stance[foot] { f.into() } else { [0.0; 3] };
+            reference.feet[foot] = FootReference {
+                position: positions[foot],
+                velocity: velocities[foot],
+                acceleration: std::array::from_fn(|i| (next[foot][i] - velocities[foot][i]) / DIFFERENCE),
+            };
+        }
+        Some(reference)
+    }
+}
+
 /// The MPC (module docs). Holds the last plan.
 #[derive(Debug)]
 pub struct KinodynamicMpc {
     settings: MpcSettings,
     ocp: Ocp,
-    /// The plan: states at `plan_start + k dt` (N + 1) and inputs (N, forces in newtons).
-    states: Vec<[f64; NX]>,
-    inputs: Vec<[f64; NU]>,
-    plan_start: f64,
-    has_plan: bool,
+    plan: Plan,
     /// Shifted guess (scratch).
     guess_x: Vec<[f64; NX]>,
     guess_u: Vec<[f64; NU]>,
@@ -323,10 +420,7 @@ impl KinodynamicMpc {
         Ok(Self {
             settings,
             ocp,
-            states: vec![[0.0; NX]; n + 1],
-            inputs: vec![[0.0; NU]; n],
-            plan_start: 0.0,
-            has_plan: false,
+            plan: Plan::new(n, settings.dt),
             guess_x: vec![[0.0; NX]; n + 1],
             guess_u: vec![[0.0; NU]; n],
             warm: vec![0.0; n * (NX + NU) + NX],
@@ -341,64 +435,22 @@ impl KinodynamicMpc {
     /// The plan: its start time, states (`N + 1`, one per stage) and inputs (`N`, forces
     /// in newtons, trunk frame). Empty before the first solve that left an iterate.
     pub fn plan(&self) -> (f64, &[[f64; NX]], &[[f64; NU]]) {
-        if self.has_plan {
-            (self.plan_start, &self.states, &self.inputs)
-        } else {
-            (self.plan_start, &[], &[])
-        }
+        self.plan.parts()
     }
 
-    /// The planned state and input at time `t`: linear between stages, held outside.
+    /// The last plan, whole (to copy to another thread: [`Plan::copy_from`]).
+    pub fn latest(&self) -> &Plan {
+        &self.plan
+    }
+
+    /// The planned state and input at time `t` ([`Plan::at`]).
     pub fn plan_at(&self, t: f64) -> Option<([f64; NX], [f64; NU])> {
-        if !self.has_plan {
-            return None;
-        }
-        let n = self.settings.horizon;
-        let s = ((t - self.plan_start) / self.settings.dt).clamp(0.0, n as f64);
-        let k = (s.floor() as usize).min(n - 1);
-        let f = s - k as f64;
-        let x = std::array::from_fn(|i| self.states[k][i] + f * (self.states[k + 1][i] - self.states[k][i]));
-        let next = (k + 1).min(n - 1);
-        let u = std::array::from_fn(|i| self.inputs[k][i] + f * (self.inputs[next][i] - self.inputs[k][i]));
-        Some((x, u))
+        self.plan.at(t)
     }
 
-    /// What the whole-body controller tracks at time `t`: the gait's modes; the planned
-    /// trunk pose, twist and acceleration (world); each swing foot's planned position, velocity and
-    /// acceleration (a difference of the planned velocities over 1 ms); each stance foot's
-    /// planned force, in the world. `None` before the first plan.
+    /// What the whole-body controller tracks at time `t` ([`Plan::whole_body_reference`]).
     pub fn whole_body_reference(&self, t: f64, trot: &Trot) -> Option<WbcReference> {
-        const DIFFERENCE: f64 = 1e-3;
-        let (x, u) = self.plan_at(t)?;
-        let (x_next, u_next) = self.plan_at(t + DIFFERENCE)?;
-        let mut reference = trot.reference(t);
-        let (rotation, _) = gen::orientation(&x);
-        let r = Matrix3::from_fn(|i, j| rotation[i][j]);
-        let c = Vector3::from(gen::COM_OFFSET);
-        let (w, v) = (Vector3::new(x[6], x[7], x[8]), Vector3::new(x[9], x[10], x[11]));
-        let origin = Vector3::new(x[3], x[4], x[5]) - r * c;
-        reference.trunk_position = origin.into();
-        reference.trunk_rotation = r;
-        reference.trunk_velocity = (r * (v - w.cross(&c))).into();
-        reference.trunk_angular_velocity = (r * w).into();
-        // The plan's accelerations: d(R v)/dt = R (v' + w × v) at the centre of mass, less
-        // d²(R c)/dt² = R (w' × c + w × (w × c)) for the trunk's origin; R w' angular.
-        let xdot = gen::flow(&x, &u).0;
-        let (w_dot, v_dot) = (Vector3::new(xdot[6], xdot[7], xdot[8]), Vector3::new(xdot[9], xdot[10], xdot[11]));
-        reference.trunk_acceleration = (r * (v_dot + w.cross(&v) - w_dot.cross(&c) - w.cross(&w.cross(&c)))).into();
-        reference.trunk_angular_acceleration = (r * w_dot).into();
-        let (positions, _, velocities, _, _) = gen::feet(&x, &u);
-        let next = gen::feet(&x_next, &u_next).2;
-        for foot in 0..FEET {
-            let f = r * Vector3::new(u[3 * foot], u[3 * foot + 1], u[3 * foot + 2]);
-            reference.forces[foot] = if reference.stance[foot] { f.into() } else { [0.0; 3] };
-            reference.feet[foot] = FootReference {
-                position: positions[foot],
-                velocity: velocities[foot],
-                acceleration: std::array::from_fn(|i| (next[foot][i] - velocities[foot][i]) / DIFFERENCE),
-            };
-        }
-        Some(reference)
+        self.plan.whole_body_reference(t, trot)
     }
 
     /// One real-time iteration from the measured state `x` at time `t`, on the gait
@@ -652,15 +704,15 @@ impl KinodynamicMpc {
         let updated = status.is_solved() && self.ocp.has_solution();
         if updated {
             for k in 0..=n {
-                self.states[k].copy_from_slice(self.ocp.state(k));
+                self.plan.states[k].copy_from_slice(self.ocp.state(k));
                 if k < n {
                     for (j, v) in self.ocp.input(k).iter().enumerate() {
-                        self.inputs[k][j] = v * if j < 12 { FORCE_UNIT } else { 1.0 };
+                        self.plan.inputs[k][j] = v * if j < 12 { FORCE_UNIT } else { 1.0 };
                     }
                 }
             }
-            self.plan_start = t;
-            self.has_plan = true;
+            self.plan.start = t;
+            self.plan.valid = true;
         }
         Ok(MpcReport { status, iterations: self.ocp.iterations(), updated })
     }
@@ -672,7 +724,7 @@ impl KinodynamicMpc {
         let n = self.settings.horizon;
         for k in 0..=n {
             let time = t + k as f64 * self.settings.dt;
-            let planned = if self.has_plan { self.plan_at(time) } else { None };
+            let planned = self.plan.at(time);
             let (xs, us) = planned.unwrap_or_else(|| {
                 let reference = trot.reference(time);
                 let count = reference.stance.iter().filter(|s| **s).count().max(1) as f64;

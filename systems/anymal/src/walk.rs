@@ -19,8 +19,9 @@ use cbfgen::error::{within, CbfError};
 
 use crate::gait::{standing_on_the_ground, Trot};
 use crate::mpc::{
-    state_from_whole_body, FootholdConstraint, KinodynamicMpc, MpcReport, MpcSettings, Region, MAX_SIDES,
+    state_from_whole_body, FootholdConstraint, KinodynamicMpc, MpcReport, MpcSettings, Plan, Region, MAX_SIDES,
 };
+use crate::mpc_thread::MpcThread;
 use crate::plant;
 use crate::stones::SteppingStones;
 use crate::terrain::{Footholds, Terrain};
@@ -92,6 +93,10 @@ pub struct WalkSettings {
     /// Eq. 24's growth of a swing foot's region at lift-off \[m\], for the measurement of
     /// its violation (and the MPC's, were it to use eq. 24).
     pub shrinking_margin: f64,
+    /// The MPC in its own thread ([`MpcThread`]), posted every cycle, as the seed runs it;
+    /// `false`: inline every `cycles_per_plan`-th cycle, deterministic. Threaded walks on
+    /// the plant run in real time ([`walk`] paces them to the wall clock).
+    pub threaded: bool,
 }
 
 impl Default for WalkSettings {
@@ -109,6 +114,7 @@ impl Default for WalkSettings {
             cycles_per_plan: 16,
             gamma: 5.0,
             shrinking_margin: 0.25,
+            threaded: false,
         }
     }
 }
@@ -176,19 +182,30 @@ impl WalkRecord {
 }
 
 /// Seed 004's two layers on a segmented terrain for any plant: every
-/// [`WalkSettings::cycles_per_plan`]-th [`update`](Self::update) runs an MPC iteration on
-/// the measured state, every one a whole-body cycle tracking the plan, with the foothold
-/// constraints where the [`Controller`] puts them. Allocation-free after [`new`](Self::new).
+/// [`update`](Self::update) is a whole-body cycle tracking the MPC's plan, with the foothold
+/// constraints where the [`Controller`] puts them. The MPC runs inline every
+/// [`WalkSettings::cycles_per_plan`]-th update on the measured state (deterministic), or,
+/// with [`WalkSettings::threaded`], in its own thread ([`MpcThread`]) on the newest state
+/// posted. Allocation-free after [`new`](Self::new).
 #[derive(Debug)]
 pub struct LayeredController {
     trot: Trot,
     footholds: Footholds,
     controller: Controller,
     settings: WalkSettings,
-    mpc: KinodynamicMpc,
+    upper: Upper,
     wbc: WholeBodyController,
     wbc_footholds: Params,
     cycles: usize,
+}
+
+/// Where a [`LayeredController`]'s MPC runs.
+#[derive(Debug)]
+enum Upper {
+    /// Inline, every `cycles_per_plan`-th cycle: deterministic.
+    Inline(Box<KinodynamicMpc>),
+    /// In its own thread, posted every cycle; the newest plan copied in.
+    Thread { thread: MpcThread, plan: Plan },
 }
 
 /// One cycle of a [`LayeredController`].
@@ -201,7 +218,8 @@ pub struct LayeredCycle {
     /// Whether a plan exists (`false`: the first MPC iterations found none, and the
     /// gait's reference stood in).
     pub planned: bool,
-    /// The MPC iteration this cycle ran, if it ran one.
+    /// The MPC iteration this cycle ran, if it ran one (threaded: the one whose plan
+    /// arrived this cycle).
     pub mpc: Option<MpcReport>,
     /// Each foot's region: where it stands, or for a swing foot where it lands.
     pub regions: [Region; FEET],
@@ -224,12 +242,20 @@ impl LayeredController {
         let mpc_settings = MpcSettings { footholds: controller.mpc_footholds(settings.gamma), ..settings.mpc };
         let sides = if controller.whole_body_footholds() { MAX_SIDES } else { 0 };
         let capacity = Capacity { foot_region: [sides; FEET] };
+        let footholds = Footholds::new(terrain, settings.margin)?;
+        let mpc = KinodynamicMpc::new(mpc_settings)?;
+        let upper = if settings.threaded {
+            let plan = Plan::new(mpc_settings.horizon, mpc_settings.dt);
+            Upper::Thread { thread: MpcThread::spawn(mpc, trot, footholds.clone())?, plan }
+        } else {
+            Upper::Inline(Box::new(mpc))
+        };
         Ok(Self {
             trot,
-            footholds: Footholds::new(terrain, settings.margin)?,
+            footholds,
             controller,
             settings: *settings,
-            mpc: KinodynamicMpc::new(mpc_settings)?,
+            upper,
             wbc: WholeBodyController::new(capacity, settings.wbc)?,
             wbc_footholds: Params::new(capacity)?,
             cycles: 0,
@@ -246,9 +272,12 @@ impl LayeredController {
         &self.footholds
     }
 
-    /// The MPC (its plan).
-    pub fn mpc(&self) -> &KinodynamicMpc {
-        &self.mpc
+    /// The plan the controller tracks.
+    pub fn plan(&self) -> &Plan {
+        match &self.upper {
+            Upper::Inline(mpc) => mpc.latest(),
+            Upper::Thread { plan, .. } => plan,
+        }
     }
 
     /// One whole-body cycle at time `t` on the measured state `x` (the
@@ -257,14 +286,24 @@ impl LayeredController {
     /// # Errors
     /// A non-finite state or time. The controllers' states are then unchanged.
     pub fn update(&mut self, t: f64, x: &[f64; gen::NX]) -> Result<LayeredCycle, CbfError> {
+        cbfgen::error::finite("time", t)?;
+        for v in x {
+            cbfgen::error::finite("state", *v)?;
+        }
         let (trot, footholds) = (&self.trot, &self.footholds);
         let region = |foot: usize, time: f64| footholds.region(trot, foot, time);
-        let mpc = if self.cycles.is_multiple_of(self.settings.cycles_per_plan) {
-            Some(self.mpc.solve(t, &state_from_whole_body(x), trot, &region)?)
-        } else {
-            None
+        let (mpc, plan) = match &mut self.upper {
+            Upper::Inline(mpc) => {
+                let due = self.cycles.is_multiple_of(self.settings.cycles_per_plan);
+                let report = if due { Some(mpc.solve(t, &state_from_whole_body(x), trot, &region)?) } else { None };
+                (report, mpc.latest())
+            }
+            Upper::Thread { thread, plan } => {
+                thread.post(t, &state_from_whole_body(x));
+                (thread.take(plan), &*plan)
+            }
         };
-        let planned = self.mpc.whole_body_reference(t, trot);
+        let planned = plan.whole_body_reference(t, trot);
         let reference = planned.unwrap_or_else(|| trot.reference(t));
         let regions: [Region; FEET] = std::array::from_fn(|foot| region(foot, t));
         if self.controller.whole_body_footholds() {
@@ -291,8 +330,16 @@ pub fn walk(stones: &SteppingStones, controller: Controller, settings: &WalkSett
     let cycles = (stones.end() / dt).ceil() as usize;
     let standing_height = x[2];
     let mut meter = WalkMeter::new(stones, settings);
+    let clock = std::time::Instant::now();
     for cycle in 0..cycles {
         let t = cycle as f64 * dt;
+        if settings.threaded {
+            // Real time: the MPC thread's plans are as late as its solves make them.
+            let ahead = t - clock.elapsed().as_secs_f64();
+            if ahead > 0.0 {
+                std::thread::sleep(std::time::Duration::from_secs_f64(ahead));
+            }
+        }
         let step = layers.update(t, &x)?;
         let (feet, jacobians, _) = gen::contacts(&x);
         let velocities: [[f64; 3]; FEET] = std::array::from_fn(|foot| {

@@ -29,32 +29,43 @@ fn main() {
 }
 
 fn the_layered_controller_allocates_nothing() {
-    let stones = SteppingStones::new(&StoneField { strides: 2, ..StoneField::default() }).expect("stones");
-    let settings = WalkSettings::default();
-    let mut layers = LayeredController::new(*stones.trot(), stones.terrain().clone(), Controller::CbfInBoth, &settings)
-        .expect("controller");
-    let mut x = standing_on_the_ground();
-    let dt = settings.plant_step * settings.steps_per_cycle as f64;
-    let (cycles, mut planned, mut rejected) = (200, 0usize, 0usize);
-    let (_, rust, c) = alloc_count::counting(|| {
-        for k in 0..cycles {
-            let t = k as f64 * dt;
-            if k % 50 == 7 {
-                let mut nan = x;
-                nan[0] = f64::NAN;
-                rejected += usize::from(layers.update(t, &nan).is_err());
+    for threaded in [false, true] {
+        let stones = SteppingStones::new(&StoneField { strides: 2, ..StoneField::default() }).expect("stones");
+        let settings = WalkSettings { threaded, ..WalkSettings::default() };
+        let mut layers =
+            LayeredController::new(*stones.trot(), stones.terrain().clone(), Controller::CbfInBoth, &settings)
+                .expect("controller");
+        let mut x = standing_on_the_ground();
+        let dt = settings.plant_step * settings.steps_per_cycle as f64;
+        let (cycles, mut planned, mut rejected) = (200, 0usize, 0usize);
+        // Threaded: the MPC thread's solves run while this counts, and are counted too.
+        let (_, rust, c) = alloc_count::counting(|| {
+            for k in 0..cycles {
+                let t = k as f64 * dt;
+                if k % 50 == 7 {
+                    let mut nan = x;
+                    nan[0] = f64::NAN;
+                    rejected += usize::from(layers.update(t, &nan).is_err());
+                }
+                let cycle = layers.update(t, &x).expect("in the domain");
+                planned += usize::from(cycle.planned);
+                for _ in 0..settings.steps_per_cycle {
+                    let step = plant::accelerations(&x, &cycle.out.torques, cycle.reference.stance).expect("regular");
+                    plant::integrate(&mut x, &step.accelerations, settings.plant_step);
+                }
+                if threaded {
+                    // Let the thread solve now and then (this loop outruns real time).
+                    std::thread::sleep(std::time::Duration::from_micros(500));
+                }
             }
-            let cycle = layers.update(t, &x).expect("in the domain");
-            planned += usize::from(cycle.planned);
-            for _ in 0..settings.steps_per_cycle {
-                let step = plant::accelerations(&x, &cycle.out.torques, cycle.reference.stance).expect("regular");
-                plant::integrate(&mut x, &step.accelerations, settings.plant_step);
-            }
+        });
+        assert_eq!((rust, c), (0, 0), "threaded {threaded}: allocations during {cycles} cycles: Rust {rust}, C {c}");
+        if !threaded {
+            assert_eq!(planned, cycles);
         }
-    });
-    assert_eq!((rust, c), (0, 0), "allocations during {cycles} cycles: Rust {rust}, C {c}");
-    assert_eq!(planned, cycles);
-    assert_eq!(rejected, cycles / 50);
+        assert_eq!(rejected, cycles / 50);
+        drop(layers);
+    }
     println!("the_layered_controller_allocates_nothing ... ok");
 }
 
