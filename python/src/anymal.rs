@@ -343,7 +343,9 @@ impl PyStoneWalk {
     /// ``mean_misstep_m``, ``landings`` (k, 7: time, foot, centre x y z, misstep,
     /// height above the stone [m]), ``swing_time_s``, ``violated_24_s``,
     /// ``violated_25_s``, ``barriers`` (cycles, 5: time, each foot's smallest h [m]),
-    /// ``mpc_failures``, ``mpc_iterations``, ``wbc_unsolved``, ``fell`` (time or ``None``).
+    /// ``mpc_failures``, ``mpc_iterations`` (threaded: of the plans that arrived),
+    /// ``mpc_thread_solves`` (threaded: the thread's solves and those without a plan),
+    /// ``wbc_unsolved``, ``fell`` (time or ``None``).
     fn record<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let r = self.meter.record();
         let dict = PyDict::new(py);
@@ -367,6 +369,7 @@ impl PyStoneWalk {
         let b = &r.barriers;
         dict.set_item("barriers", matrix_from_fn(py, b.len(), 5, |i, j| if j == 0 { b[i].0 } else { b[i].1[j - 1] }))?;
         dict.set_item("mpc_failures", r.mpc_failures)?;
+        dict.set_item("mpc_thread_solves", self.layers.thread_solves())?;
         dict.set_item("mpc_iterations", r.mpc_solver_iterations)?;
         dict.set_item("wbc_unsolved", r.wbc_unsolved)?;
         dict.set_item("fell", r.fell)?;

@@ -33,10 +33,12 @@ struct Published {
     plan: Plan,
     /// Plans published so far.
     version: u64,
-    /// The last solve's report.
+    /// The report of the solve that made `plan`.
     report: Option<MpcReport>,
     /// The last solve's error, if it failed (a state outside the MPC's domain).
     error: Option<CbfError>,
+    /// Solves run, and of them those that found no plan.
+    solves: (u64, u64),
 }
 
 struct Shared {
@@ -79,6 +81,7 @@ impl MpcThread {
                 version: 0,
                 report: None,
                 error: None,
+                solves: (0, 0),
             }),
         });
         let worker = Arc::clone(&shared);
@@ -99,13 +102,16 @@ impl MpcThread {
                 let region = |foot: usize, time: f64| footholds.region(&trot, foot, time);
                 let result = mpc.solve(t, &x, &trot, &region);
                 let mut published = lock(&worker.published);
+                published.solves.0 += 1;
+                published.solves.1 += u64::from(!matches!(result, Ok(MpcReport { updated: true, .. })));
                 match result {
                     Ok(report) => {
+                        // A solve that found no plan leaves the last one (and its report).
                         if report.updated {
                             published.plan.copy_from(mpc.latest());
                             published.version += 1;
+                            published.report = Some(report);
                         }
-                        published.report = Some(report);
                         published.error = None;
                     }
                     Err(error) => published.error = Some(error),
@@ -142,6 +148,12 @@ impl MpcThread {
     /// Plans published so far.
     pub fn published(&self) -> u64 {
         lock(&self.shared.published).version
+    }
+
+    /// Solves run so far, and of them those that found no plan (their states are
+    /// skipped: the controller keeps tracking the last plan).
+    pub fn solves(&self) -> (u64, u64) {
+        lock(&self.shared.published).solves
     }
 
     /// The last solve's error, if the last solve failed.

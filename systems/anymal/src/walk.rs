@@ -272,6 +272,15 @@ impl LayeredController {
         &self.footholds
     }
 
+    /// Threaded: the MPC thread's solves so far, and of them those that found no plan
+    /// (inline, the cycles' reports count them).
+    pub fn thread_solves(&self) -> Option<(u64, u64)> {
+        match &self.upper {
+            Upper::Inline(_) => None,
+            Upper::Thread { thread, .. } => Some(thread.solves()),
+        }
+    }
+
     /// The plan the controller tracks.
     pub fn plan(&self) -> &Plan {
         match &self.upper {

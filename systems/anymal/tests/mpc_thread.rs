@@ -68,6 +68,8 @@ fn the_newest_state_posted_is_the_one_solved_last() {
         plan.is_valid() && plan.start() == 0.19
     });
     assert!(thread.published() <= 20);
+    let (solves, failed) = thread.solves();
+    assert!(solves >= thread.published() && solves <= 20 && failed == solves - thread.published());
     assert_eq!(thread.last_error(), None);
 }
 
