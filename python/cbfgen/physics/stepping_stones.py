@@ -121,7 +121,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"stepping stones: {name}, field {seed}: {record['steps']} steps, {record['missteps']} missteps, "
                   f"fell {record['fell']}", file=sys.stderr, flush=True)
             runs[name].append(record)
-            if proposed_first:
+            if proposed_first and not args.no_video:
                 video = run
     ours = table(runs)
     (args.out / "table2.md").write_text(markdown(ours, args.fields))
