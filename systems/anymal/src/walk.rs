@@ -99,6 +99,13 @@ pub struct WalkSettings {
     pub threaded: bool,
 }
 
+impl WalkSettings {
+    /// A whole-body cycle \[s\]: `plant_step · steps_per_cycle`.
+    pub fn cycle(&self) -> f64 {
+        self.plant_step * self.steps_per_cycle as f64
+    }
+}
+
 impl Default for WalkSettings {
     /// A 2 cm margin; the MPC's and controller's defaults; 2 kHz, 400 Hz, 25 Hz; γ = 5 /s;
     /// eq. 24
@@ -238,7 +245,7 @@ impl LayeredController {
         settings: &WalkSettings,
     ) -> Result<Self, CbfError> {
         within("whole-body cycles per MPC iteration", settings.cycles_per_plan as f64, 1.0, 1e4, "[1, 1e4]")?;
-        within("walk time step [s]", settings.plant_step * settings.steps_per_cycle as f64, 1e-5, 0.1, "[1e-5, 0.1]")?;
+        within("walk time step [s]", settings.cycle(), 1e-5, 0.1, "[1e-5, 0.1]")?;
         let mpc_settings = MpcSettings { footholds: controller.mpc_footholds(settings.gamma), ..settings.mpc };
         let sides = if controller.whole_body_footholds() { MAX_SIDES } else { 0 };
         let capacity = Capacity { foot_region: [sides; FEET] };
@@ -320,7 +327,7 @@ impl LayeredController {
                 set_foothold(&mut self.wbc_footholds, foot, r)?;
             }
         }
-        let dt = self.settings.plant_step * self.settings.steps_per_cycle as f64;
+        let dt = self.settings.cycle();
         let out = self.wbc.update(x, &reference, &self.wbc_footholds, dt)?;
         self.cycles += 1;
         Ok(LayeredCycle { out, reference, planned: planned.is_some(), mpc, regions })
@@ -335,7 +342,7 @@ pub fn walk(stones: &SteppingStones, controller: Controller, settings: &WalkSett
     let trot = *stones.trot();
     let mut layers = LayeredController::new(trot, stones.terrain().clone(), controller, settings)?;
     let mut x = standing_on_the_ground();
-    let dt = settings.plant_step * settings.steps_per_cycle as f64;
+    let dt = settings.cycle();
     let cycles = (stones.end() / dt).ceil() as usize;
     let standing_height = x[2];
     let mut meter = WalkMeter::new(stones, settings);
@@ -391,7 +398,7 @@ impl WalkMeter {
             stones: stones.clone(),
             gamma: settings.gamma,
             shrinking_margin: settings.shrinking_margin,
-            dt: settings.plant_step * settings.steps_per_cycle as f64,
+            dt: settings.cycle(),
             was_stance: [true; FEET],
             record: WalkRecord {
                 landings: Vec::new(),

@@ -36,7 +36,7 @@ fn the_layered_controller_allocates_nothing() {
             LayeredController::new(*stones.trot(), stones.terrain().clone(), Controller::CbfInBoth, &settings)
                 .expect("controller");
         let mut x = standing_on_the_ground();
-        let dt = settings.plant_step * settings.steps_per_cycle as f64;
+        let dt = settings.cycle();
         let (cycles, mut planned, mut rejected) = (200, 0usize, 0usize);
         // Threaded: the MPC thread's solves run while this counts, and are counted too.
         let (_, rust, c) = alloc_count::counting(|| {
