@@ -6,7 +6,7 @@
 // Index loops mirror the formulas.
 #![allow(clippy::needless_range_loop)]
 
-use cbfgen::qp::ocp::{Ocp, OcpShape};
+use cbfgen::qp::ocp::{Ocp, OcpMethod, OcpShape};
 use cbfgen::qp::{QpStatus, SolverSettings, INFINITY};
 use cbfgen_testkit::clarabel_qp::{self, Answer, Row};
 use rand::{Rng, SeedableRng};
@@ -44,8 +44,19 @@ fn masked(rng: &mut ChaCha8Rng, pattern: &[bool]) -> Vec<f64> {
 }
 
 fn random_problem(rng: &mut ChaCha8Rng) -> Problem {
-    let (n, nx, nu, m) =
-        (rng.random_range(1..=6), rng.random_range(1..=4), rng.random_range(0..=3), rng.random_range(0..=3));
+    random_problem_up_to(rng, [6, 4, 3, 3], false)
+}
+
+/// A random problem of at most `[horizon, states, inputs, rows]`; `contractive` scales
+/// every `A_k` to an ∞-norm of at most 0.95, so that a long horizon's states stay of the
+/// size of its inputs (as an MPC's do), not `‖A‖ᴺ`.
+fn random_problem_up_to(rng: &mut ChaCha8Rng, most: [usize; 4], contractive: bool) -> Problem {
+    let (n, nx, nu, m) = (
+        rng.random_range(1..=most[0]),
+        rng.random_range(1..=most[1]),
+        rng.random_range(0..=most[2]),
+        rng.random_range(0..=most[3]),
+    );
     let density = rng.random_range(0.3..1.0);
     let shape = OcpShape {
         horizon: n,
@@ -64,7 +75,15 @@ fn random_problem(rng: &mut ChaCha8Rng) -> Problem {
     for k in 0..=n {
         let inner = k < n;
         let u: Vec<f64> = (0..if inner { nu } else { 0 }).map(|_| rng.random_range(-1.0..1.0)).collect();
-        let a = if inner { masked(rng, &shape.a) } else { vec![] };
+        let mut a = if inner { masked(rng, &shape.a) } else { vec![] };
+        if contractive {
+            for row in a.chunks_mut(nx) {
+                let norm: f64 = row.iter().map(|v| v.abs()).sum();
+                if norm > 0.95 {
+                    row.iter_mut().for_each(|v| *v *= 0.95 / norm);
+                }
+            }
+        }
         let b = if inner { masked(rng, &shape.b) } else { vec![] };
         let offset: Vec<f64> = (0..if inner { nx } else { 0 }).map(|_| rng.random_range(-0.5..0.5)).collect();
         let c = masked(rng, &shape.c);
@@ -200,34 +219,45 @@ fn tight() -> SolverSettings {
 
 #[test]
 fn random_problems_agree_with_clarabel_and_ignore_entries_outside_the_pattern() {
+    for method in [OcpMethod::Admm, OcpMethod::InteriorPoint] {
+        agree_with_clarabel(method);
+    }
+}
+
+fn agree_with_clarabel(method: OcpMethod) {
     let mut rng = ChaCha8Rng::seed_from_u64(38);
     let (mut compared, mut skipped, mut same_point) = (0, 0, 0);
+    let mut newton_steps = Vec::new();
     for case in 0..300 {
         let problem = random_problem(&mut rng);
         let Answer::Solved(reference) = clarabel(&problem) else {
             skipped += 1;
             continue;
         };
-        let mut ocp = Ocp::new(problem.shape.clone(), tight()).expect("set-up");
+        let mut ocp = Ocp::with_method(problem.shape.clone(), tight(), method).expect("set-up");
         stage(&mut ocp, &problem, &mut rng);
         // Twice: the second solve runs on the updated (same) data, warm.
         for _ in 0..2 {
             let status = ocp.solve();
-            assert_eq!(status, QpStatus::Solved, "case {case}: {status:?}");
+            assert_eq!(status, QpStatus::Solved, "{method:?}, case {case}: {status:?}");
             // Random rows can meet at thin angles, where a point 1e-7 outside moves the
             // cost visibly: so the verdict is feasibility and cost, and the points
             // themselves must agree on most problems.
             let (violation, cost) = violation_and_cost(&problem, ocp.solution());
             let (clarabel_violation, clarabel_cost) = violation_and_cost(&problem, &reference);
-            assert!(violation < 1e-5, "case {case}: OSQP's point violates a row by {violation:e}");
+            assert!(violation < 1e-5, "{method:?}, case {case}: the point violates a row by {violation:e}");
             assert!(
                 clarabel_violation < 1e-8,
                 "case {case}: Clarabel's point violates a row by {clarabel_violation:e}"
             );
             assert!(
                 cost <= clarabel_cost + 1e-5 * (1.0 + clarabel_cost.abs()),
-                "case {case}: OSQP's cost {cost} is above Clarabel's {clarabel_cost}"
+                "{method:?}, case {case}: the cost {cost} is above Clarabel's {clarabel_cost}"
             );
+            if method == OcpMethod::InteriorPoint {
+                assert_duals_close_the_kkt_conditions(&problem, &ocp, case);
+                newton_steps.push(ocp.iterations());
+            }
         }
         let worst =
             ocp.solution().iter().zip(&reference).map(|(a, b)| (a - b).abs() / (1.0 + b.abs())).fold(0.0, f64::max);
@@ -237,11 +267,133 @@ fn random_problems_agree_with_clarabel_and_ignore_entries_outside_the_pattern() 
         compared += 1;
     }
     assert!(compared >= 250, "only {compared} compared ({skipped} without a Clarabel answer)");
-    assert!(same_point * 100 >= compared * 95, "the points agree to 1e-4 on only {same_point} of {compared}");
+    assert!(
+        same_point * 100 >= compared * 95,
+        "{method:?}: the points agree to 1e-4 on only {same_point} of {compared}"
+    );
+    if method == OcpMethod::InteriorPoint {
+        newton_steps.sort_unstable();
+        let median = newton_steps[newton_steps.len() / 2];
+        eprintln!("interior point: median {median} Newton steps, most {}", newton_steps.last().unwrap());
+        // Mehrotra's method takes tens of steps whatever the data; hundreds would mean the
+        // centring or the step length is broken.
+        assert!(median <= 40, "median {median} Newton steps");
+    }
+}
+
+#[test]
+fn the_interior_point_method_agrees_with_clarabel_on_long_horizons() {
+    let mut rng = ChaCha8Rng::seed_from_u64(4);
+    let mut compared = 0;
+    for case in 0..40 {
+        let problem = random_problem_up_to(&mut rng, [40, 12, 8, 12], true);
+        let Answer::Solved(reference) = clarabel(&problem) else { continue };
+        let mut ocp = Ocp::with_method(problem.shape.clone(), tight(), OcpMethod::InteriorPoint).expect("set-up");
+        stage(&mut ocp, &problem, &mut rng);
+        let status = ocp.solve();
+        let big = reference.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        assert_eq!(status, QpStatus::Solved, "case {case}: largest |z| {big:e}");
+        let (violation, cost) = violation_and_cost(&problem, ocp.solution());
+        let (_, clarabel_cost) = violation_and_cost(&problem, &reference);
+        assert!(violation < 1e-5, "case {case}: the point violates a row by {violation:e}");
+        assert!(
+            (cost - clarabel_cost).abs() <= 1e-5 * (1.0 + clarabel_cost.abs()),
+            "case {case}: cost {cost} against Clarabel's {clarabel_cost}"
+        );
+        // (No multiplier check here: recovering the dynamics' multipliers backwards through
+        // 40 random, often unstable, A_kᵀ amplifies rounding past any tolerance.)
+        compared += 1;
+    }
+    assert!(compared >= 30, "only {compared} compared");
+}
+
+#[test]
+fn an_infeasible_problem_is_reported_as_such_and_the_next_solve_is_unharmed() {
+    // x_{k+1} = x_k + u_k from x₀ = 0, |u_k| ≤ 1, and x_3 = 5 on the terminal row: no
+    // input reaches it. Then x_3 = 2, which u = (1, 1, 0) … reaches.
+    let shape = OcpShape::dense(3, 1, 1, 1);
+    let mut ocp = Ocp::with_method(shape, tight(), OcpMethod::InteriorPoint).expect("set-up");
+    let write = |ocp: &mut Ocp, target: f64| {
+        ocp.initial_state_mut()[0] = 0.0;
+        for k in 0..=3 {
+            let s = ocp.stage_mut(k);
+            s.q[0] = 1.0;
+            s.x_ref[0] = 0.0;
+            if k < 3 {
+                (s.a[0], s.b[0], s.offset[0], s.r[0], s.u_ref[0]) = (1.0, 1.0, 0.0, 1.0, 0.0);
+                (s.c[0], s.d[0], s.lower[0], s.upper[0]) = (0.0, 1.0, -1.0, 1.0);
+            } else {
+                (s.c[0], s.lower[0], s.upper[0]) = (1.0, target, target);
+            }
+        }
+    };
+    write(&mut ocp, 5.0);
+    let status = ocp.solve();
+    assert_eq!(status, QpStatus::PrimalInfeasible);
+    assert!(!status.is_solved());
+    write(&mut ocp, 2.0);
+    assert_eq!(ocp.solve(), QpStatus::Solved);
+    // Hand-solved: minimise ½ Σ (x_k² + u_k²) with x = (0, u₀, u₀ + u₁, 2). Without
+    // bounds u = (1/4, 1/2, 5/4); u₂ = 1 then binds and u₀ + u₁ = 1 gives u = (1/3, 2/3, 1),
+    // x = (0, 1/3, 1, 2).
+    let expected = [0.0, 1.0 / 3.0, 1.0 / 3.0, 2.0 / 3.0, 1.0, 1.0, 2.0];
+    for (got, want) in ocp.solution().iter().zip(expected) {
+        assert!((got - want).abs() < 1e-6, "{:?} against {expected:?}", ocp.solution());
+    }
+    assert!(ocp.row_duals(2)[0] > 0.0, "u₂ ≤ 1 binds: its multiplier is positive");
+}
+
+/// The interior-point solver's multipliers, read back through `row_duals`, satisfy the
+/// stationarity of the Lagrangian in every input (with the dynamics' multipliers solved
+/// from the state equations backwards) and complementarity: a row's multiplier is
+/// positive only at its upper bound, negative only at its lower.
+fn assert_duals_close_the_kkt_conditions(problem: &Problem, ocp: &Ocp, case: usize) {
+    let s = &problem.shape;
+    let (n, nx, nu, m) = (s.horizon, s.states, s.inputs, s.rows);
+    // π_N from x_N's stationarity, then π_k from x_k's: Q(x − r) + Cᵀν + π_k − Aᵀπ_{k+1} = 0.
+    let mut pi_next = vec![0.0; nx];
+    let mut worst = 0.0_f64;
+    let scale = 1.0 + (0..=n).flat_map(|k| ocp.row_duals(k).to_vec()).fold(0.0_f64, |w, v| w.max(v.abs()));
+    for k in (0..=n).rev() {
+        let d = &problem.stages[k];
+        let x = ocp.state(k);
+        let nu_k = ocp.row_duals(k);
+        for i in 0..m {
+            let v = (0..nx).map(|j| d.c[i * nx + j] * x[j]).sum::<f64>()
+                + if k < n { (0..nu).map(|j| d.d[i * nu + j] * ocp.input(k)[j]).sum::<f64>() } else { 0.0 };
+            let slack = if nu_k[i] > 0.0 { d.upper[i] - v } else { v - d.lower[i] };
+            worst = worst.max((nu_k[i].abs() * slack).abs() / scale);
+        }
+        if k < n {
+            let u = ocp.input(k);
+            for j in 0..nu {
+                let r = d.r[j] * (u[j] - d.u_ref[j]) + (0..m).map(|i| d.d[i * nu + j] * nu_k[i]).sum::<f64>()
+                    - (0..nx).map(|i| d.b[i * nu + j] * pi_next[i]).sum::<f64>();
+                worst = worst.max(r.abs() / scale);
+            }
+        }
+        if k == 0 {
+            break;
+        }
+        let pi_k: Vec<f64> = (0..nx)
+            .map(|i| {
+                -(d.q[i] * (x[i] - d.x_ref[i]) + (0..m).map(|r| d.c[r * nx + i] * nu_k[r]).sum::<f64>()
+                    - if k < n { (0..nx).map(|l| d.a[l * nx + i] * pi_next[l]).sum::<f64>() } else { 0.0 })
+            })
+            .collect();
+        pi_next = pi_k;
+    }
+    assert!(worst < 1e-5, "case {case}: the KKT conditions are off by {worst:e} (relative to the largest multiplier)");
 }
 
 #[test]
 fn bad_data_is_a_status_and_the_next_good_solve_is_unharmed() {
+    for method in [OcpMethod::Admm, OcpMethod::InteriorPoint] {
+        bad_data_then_good(method);
+    }
+}
+
+fn bad_data_then_good(method: OcpMethod) {
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let problem = loop {
         let p = random_problem(&mut rng);
@@ -250,7 +402,7 @@ fn bad_data_is_a_status_and_the_next_good_solve_is_unharmed() {
         }
     };
     let Answer::Solved(reference) = clarabel(&problem) else { unreachable!() };
-    let mut ocp = Ocp::new(problem.shape.clone(), tight()).expect("set-up");
+    let mut ocp = Ocp::with_method(problem.shape.clone(), tight(), method).expect("set-up");
     stage(&mut ocp, &problem, &mut rng);
     ocp.stage_mut(1).offset[0] = f64::NAN;
     assert_eq!(ocp.solve(), QpStatus::NonFinite);

@@ -10,7 +10,10 @@
 //!   solved by [`dual_active_set`] in the null space of the tasks above (a whole-body
 //!   controller's hierarchy).
 //! * [`ocp`] — one iteration of a nonlinear MPC: an optimal-control QP over a horizon,
-//!   its sparsity laid out once, the linearised stages written in place, solved by OSQP.
+//!   its sparsity laid out once, the linearised stages written in place, solved by OSQP
+//!   or by `riccati_ipm`'s interior-point method.
+//! * `riccati_ipm` — Mehrotra's predictor–corrector for [`ocp`], each Newton step a
+//!   Riccati recursion along the horizon.
 //! * [`metric`] — the cost's metric `P = L Lᵀ` (input weights, or a spec's objective
 //!   `P(x)`) and the scaled inputs `z = Lᵀ u` every stage and OSQP work in.
 //! * [`recorded`] — a cycle's QP kept to replay against any solver (test fixtures,
@@ -29,6 +32,7 @@ pub mod metric;
 pub mod ocp;
 pub mod osqp_workspace;
 pub mod recorded;
+mod riccati_ipm;
 mod settings;
 mod status;
 

@@ -1,5 +1,6 @@
 //! One iteration of a nonlinear MPC: the QP of a discrete-time optimal-control problem,
-//! linearised by its caller, solved by OSQP on a sparsity laid out once.
+//! linearised by its caller, solved on a sparsity laid out once by OSQP (ADMM) or by a
+//! Riccati-recursion interior-point method ([`OcpMethod`]).
 //!
 //! Variables are the states and inputs of every stage, interleaved
 //! `z = (x₀, u₀, x₁, u₁, …, x_{N−1}, u_{N−1}, x_N)` so that the KKT matrix is banded. The
@@ -11,8 +12,9 @@
 //!
 //! The caller fixes at construction which entries of `A`, `B`, `C` and `D` can be non-zero
 //! ([`OcpShape`]); each iteration it writes the values into dense per-stage blocks
-//! ([`Ocp::stage_mut`]) and [`Ocp::solve`] gathers them into OSQP's matrices in place: no
-//! allocation, one refactorisation. A stage uses as many constraint rows as it needs and
+//! ([`Ocp::stage_mut`]) and [`Ocp::solve`] gathers them into OSQP's matrices in place (no
+//! allocation, one refactorisation), or runs the interior-point method on them where they
+//! lie. A stage uses as many constraint rows as it needs and
 //! leaves the rest free (`±∞`, zero coefficients): the pattern is the union over stages.
 //! A real-time iteration scheme (one QP per control period on the dynamics linearised at
 //! the last plan, shifted) is this plus the caller's linearisation.
@@ -21,6 +23,7 @@ use osqp::Problem;
 
 use super::csc::Csc;
 use super::osqp_workspace::{self, OsqpQp};
+use super::riccati_ipm::{self, RiccatiIpm};
 use super::{Iterate, QpStatus, SolverSettings, INFINITY};
 use crate::error::CbfError;
 
@@ -165,11 +168,32 @@ pub struct Ocp {
     /// constraint matrix that the stages write.
     gather: Vec<(usize, f64, Source, usize)>,
     problem: Option<Problem>,
+    /// The interior-point workspace, under [`OcpMethod::InteriorPoint`].
+    ipm: Option<Box<RiccatiIpm>>,
     solution: Vec<f64>,
     duals: Vec<f64>,
     has_solution: bool,
     status: QpStatus,
     iterations: u32,
+}
+
+/// Which method solves an [`Ocp`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum OcpMethod {
+    /// OSQP's ADMM on the whole sparse KKT system, warm-started from the last solution:
+    /// cheap iterations, but their number grows with how hard the rows bind. Takes every
+    /// [`SolverSettings`] field that concerns OSQP.
+    #[default]
+    Admm,
+    /// Mehrotra's primal-dual interior-point method, each Newton step a Riccati recursion
+    /// along the horizon (linear in `N`, the patterns used in every product): tens of
+    /// steps whatever the conditioning, from a cold start. Reads `eps_abs` (the largest
+    /// residual and the mean complementarity accepted) and `max_iter` (Newton steps) of
+    /// [`SolverSettings`]; needs every `R_k` positive (a singular input Hessian reads as
+    /// [`QpStatus::SolverFault`]). Rows with no common point read as
+    /// [`QpStatus::PrimalInfeasible`] once a multiplier passes 10¹², and the iterate is
+    /// still handed back (it is not an optimum).
+    InteriorPoint,
 }
 
 /// Which staged matrix an entry of OSQP's constraint matrix comes from.
@@ -197,6 +221,14 @@ impl Ocp {
     /// A horizon outside `[1, MAX_HORIZON]`, no states, a pattern of the wrong length,
     /// settings outside their ranges, or OSQP refusing the set-up.
     pub fn new(shape: OcpShape, settings: SolverSettings) -> Result<Self, CbfError> {
+        Self::with_method(shape, settings, OcpMethod::Admm)
+    }
+
+    /// As [`Ocp::new`], solved by `method`.
+    ///
+    /// # Errors
+    /// As [`Ocp::new`] (OSQP is set up only for [`OcpMethod::Admm`]).
+    pub fn with_method(shape: OcpShape, settings: SolverSettings, method: OcpMethod) -> Result<Self, CbfError> {
         shape.check()?;
         settings.validate()?;
         let (n, nx, nu, m) = (shape.horizon, shape.states, shape.inputs, shape.rows);
@@ -272,6 +304,7 @@ impl Ocp {
             matrix,
             gather,
             problem: None,
+            ipm: None,
             solution: vec![0.0; vars],
             duals: vec![0.0; rows],
             has_solution: false,
@@ -279,8 +312,16 @@ impl Ocp {
             iterations: 0,
             shape,
         };
-        ocp.assemble();
-        osqp_workspace::set_up(&mut ocp)?;
+        match method {
+            OcpMethod::Admm => {
+                ocp.assemble();
+                osqp_workspace::set_up(&mut ocp)?;
+            }
+            OcpMethod::InteriorPoint => {
+                let s = &ocp.shape;
+                ocp.ipm = Some(Box::new(RiccatiIpm::new(n, nx, nu, m, &s.a, &s.b, &s.c, &s.d)));
+            }
+        }
         Ok(ocp)
     }
 
@@ -368,8 +409,19 @@ impl Ocp {
         }
     }
 
-    /// Solve the QP as staged: gathers the data, refactorises, runs OSQP warm-started from
-    /// the last solution. Allocation-free unless a fault rebuilt the workspace. Data with
+    /// The method it solves with.
+    pub fn method(&self) -> OcpMethod {
+        if self.ipm.is_some() {
+            OcpMethod::InteriorPoint
+        } else {
+            OcpMethod::Admm
+        }
+    }
+
+    /// Solve the QP as staged. ADMM gathers the data, refactorises and runs OSQP
+    /// warm-started from the last solution; the interior-point method starts from the
+    /// last solution (or the warm start) with fresh slacks and multipliers.
+    /// Allocation-free unless a fault rebuilt OSQP's workspace. Data with
     /// a NaN or infinity (bounds aside: `±∞` is no bound) reads as [`QpStatus::NonFinite`]
     /// and a negative weight as [`QpStatus::NonConvex`], before OSQP sees either; the next
     /// solve on good data is unaffected.
@@ -385,6 +437,27 @@ impl Ocp {
             self.has_solution = false;
             return self.status;
         }
+        if let Some(ipm) = self.ipm.as_mut() {
+            let data = riccati_ipm::Data {
+                a: &self.a,
+                b: &self.b,
+                offset: &self.offset,
+                c: &self.c,
+                d: &self.d,
+                lower: &self.row_lower,
+                upper: &self.row_upper,
+                q: &self.q,
+                r: &self.r,
+                x_ref: &self.x_ref,
+                u_ref: &self.u_ref,
+                initial: &self.initial,
+            };
+            self.status =
+                ipm.solve(&data, self.settings.eps_abs, self.settings.max_iter, &mut self.solution, &mut self.duals);
+            self.iterations = ipm.iterations();
+            self.has_solution = self.status != QpStatus::NonFinite && self.status != QpStatus::SolverFault;
+            return self.status;
+        }
         self.assemble();
         self.status = osqp_workspace::solve(self);
         self.status
@@ -395,7 +468,7 @@ impl Ocp {
         self.status
     }
 
-    /// ADMM iterations of the last solve.
+    /// Iterations of the last solve (ADMM's, or the interior-point method's Newton steps).
     pub fn iterations(&self) -> u32 {
         self.iterations
     }
@@ -451,6 +524,9 @@ impl Ocp {
         }
         if let Some(problem) = self.problem.as_mut() {
             problem.warm_start_x(z);
+        }
+        if let Some(ipm) = self.ipm.as_mut() {
+            ipm.warm_start(z);
         }
         Ok(())
     }

@@ -72,26 +72,29 @@ pub struct SolverSettings {
 
 impl Default for SolverSettings {
     fn default() -> Self {
-        Self {
-            backend: Solver::DenseThenOsqp,
-            dense_max_steps: 100,
-            eps_abs: 1e-3,
-            eps_rel: 1e-4,
-            max_iter: 200,
-            rho: 0.1,
-            sigma: 1e-6,
-            alpha: 1.6,
-            adaptive_rho: true,
-            adaptive_rho_interval: 25,
-            check_termination: 5,
-            time_limit: None,
-            polish: true,
-            scaling: 0,
-        }
+        Self::DEFAULT
     }
 }
 
 impl SolverSettings {
+    /// The defaults (the type's docs say why each).
+    pub const DEFAULT: Self = Self {
+        backend: Solver::DenseThenOsqp,
+        dense_max_steps: 100,
+        eps_abs: 1e-3,
+        eps_rel: 1e-4,
+        max_iter: 200,
+        rho: 0.1,
+        sigma: 1e-6,
+        alpha: 1.6,
+        adaptive_rho: true,
+        adaptive_rho_interval: 25,
+        check_termination: 5,
+        time_limit: None,
+        polish: true,
+        scaling: 0,
+    };
+
     /// Most ADMM iterations one solve may take. With the time limit it bounds an update:
     /// 10⁴ iterations of the 269-row QP take tens of milliseconds, never hours.
     pub const MAX_ITERATIONS: u32 = 10_000;
