@@ -311,7 +311,8 @@ impl PyStoneWalk {
     /// layout), with the plant's foot centres and their velocities (world, shape (4, 3)
     /// each) for the measurements. Returns a dict: ``torques`` (12,), ``stance`` (4
     /// bools), ``solved`` (every priority), ``relaxed`` (4,), ``planned`` (a plan exists),
-    /// ``mpc`` (``None``, or the iteration's ``(updated, OSQP iterations)``).
+    /// ``mpc`` (``None``, or the iteration's ``(updated, solver iterations)``: Newton steps, or
+    /// ADMM iterations under OSQP).
     fn update<'py>(
         &mut self,
         py: Python<'py>,

@@ -134,6 +134,7 @@ pub(super) struct RiccatiIpm {
     // Scratch: M = Lᵀ[B A] and the stage's [u; x] Hessian, then its factor.
     m_ba: Vec<f64>,
     stage_hessian: Vec<f64>,
+    cholesky_scratch: Vec<f64>,
     t: Vec<f64>,
     v: Vec<f64>,
     hx: Vec<f64>,
@@ -199,6 +200,7 @@ impl RiccatiIpm {
             feed: vec![0.0; n * nu],
             m_ba: vec![0.0; nx * (nu + nx)],
             stage_hessian: vec![0.0; (nu + nx) * (nu + nx)],
+            cholesky_scratch: vec![0.0; 2 * (nu + nx)],
             t: vec![0.0; nx],
             v: vec![0.0; nx],
             hx: vec![0.0; nx],
@@ -471,7 +473,7 @@ impl RiccatiIpm {
                 outer(self.c_pattern.row(i), c, self.c_pattern.row(i), c, s, terminal, nx);
             }
         }
-        if !cholesky(terminal, nx, 0) {
+        if !cholesky(terminal, nx, 0, &mut self.cholesky_scratch) {
             return false;
         }
         for k in (0..n).rev() {
@@ -530,7 +532,7 @@ impl RiccatiIpm {
                 }
             }
             // Its factor: [L_uu 0; Z L_k], Z = Hxu L_uu⁻ᵀ.
-            if !cholesky(&mut self.stage_hessian, w, nu) {
+            if !cholesky(&mut self.stage_hessian, w, nu, &mut self.cholesky_scratch) {
                 return false;
             }
             let chol = &mut self.chol[k * nu * nu..(k + 1) * nu * nu];
@@ -780,37 +782,40 @@ fn max_abs(v: &[f64]) -> f64 {
 /// read), in place, the upper triangle zeroed. The first `strict` pivots must be positive
 /// (else `false`: not positive definite, or not finite); a later pivot at rounding level
 /// zeroes its column instead, so that a semi-definite trailing block (a value function
-/// with unweighted states) keeps an exact factor `L Lᵀ`.
-fn cholesky(a: &mut [f64], n: usize, strict: usize) -> bool {
+/// with unweighted states) keeps an exact factor `L Lᵀ`. Right-looking, so that every
+/// update is an `axpy` along a contiguous row (vectorised; a dot product's fixed order of
+/// additions is not); `scratch` holds `2n` values.
+fn cholesky(a: &mut [f64], n: usize, strict: usize, scratch: &mut [f64]) -> bool {
+    let (column, diagonal) = scratch[..2 * n].split_at_mut(n);
+    for (j, d) in diagonal.iter_mut().enumerate() {
+        *d = a[j * n + j].abs();
+    }
     for j in 0..n {
-        let diagonal = a[j * n + j];
-        let mut d = diagonal;
-        for k in 0..j {
-            d -= a[j * n + k] * a[j * n + k];
-        }
-        if d.is_nan() {
+        let d = a[j * n + j];
+        if d.is_nan() || (j < strict && d <= 0.0) {
             return false;
         }
-        if j < strict && d <= 0.0 {
-            return false;
-        }
-        if j >= strict && d <= 1e-13 * diagonal.abs() {
+        if j >= strict && d <= 1e-13 * diagonal[j] {
             for i in j..n {
                 a[i * n + j] = 0.0;
-                a[j * n + i] = 0.0;
             }
             continue;
         }
         let d = d.sqrt();
         a[j * n + j] = d;
         for i in j + 1..n {
-            let mut s = a[i * n + j];
-            for k in 0..j {
-                s -= a[i * n + k] * a[j * n + k];
-            }
-            a[i * n + j] = s / d;
-            a[j * n + i] = 0.0;
+            a[i * n + j] /= d;
+            column[i] = a[i * n + j];
         }
+        for i in j + 1..n {
+            let f = column[i];
+            if f != 0.0 {
+                axpy(-f, &column[j + 1..=i], &mut a[i * n + j + 1..=i * n + i]);
+            }
+        }
+    }
+    for i in 0..n {
+        a[i * n + i + 1..(i + 1) * n].fill(0.0);
     }
     true
 }

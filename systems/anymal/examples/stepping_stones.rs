@@ -26,7 +26,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         settings.gamma = gamma.parse()?;
     }
     settings.threaded = args.get(4).is_some_and(|a| a == "threaded");
-    println!("| controller | seed | steps | missteps | avg misstep [mm] | worst height [mm] | swing [s] | eq. 24 [s] | eq. 25 [s] | MPC failed | OSQP iterations (mean) | WBC unsolved | fell |");
+    println!("| controller | seed | steps | missteps | avg misstep [mm] | worst height [mm] | swing [s] | eq. 24 [s] | eq. 25 [s] | MPC failed | solver iterations (mean) | WBC unsolved | fell |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for controller in controllers {
         for seed in 0..fields {

@@ -5,8 +5,8 @@
 //!
 //! Each [`KinodynamicMpc::solve`] is one real-time iteration: the last plan, shifted to
 //! the current time, is the point the dynamics and constraints are linearised at (the
-//! generated Jacobians), and one QP over the horizon ([`cbfgen::qp::ocp`], OSQP on a
-//! sparsity laid out once) gives the new plan. Per stage `k` at time `t + k dt`, for each
+//! generated Jacobians), and one QP over the horizon ([`cbfgen::qp::ocp`] on a sparsity
+//! laid out once, by default its Riccati interior-point method) gives the new plan. Per stage `k` at time `t + k dt`, for each
 //! foot, by the gait's mode (seed 004, IV-B):
 //!
 //! | mode | rows |
@@ -17,20 +17,21 @@
 //!
 //! and every joint inside its limits. The friction cone `‖f_t‖ ≤ μ f_n` is the inscribed
 //! pyramid `|f_t1|, |f_t2| ≤ μ f_n / √2` on the region's normal: conservative by at most
-//! 29 % of the tangential force (OSQP takes no cones).
+//! 29 % of the tangential force (the OCP's solvers take no cones).
 //!
 //! The cost is quadratic around a reference from the gait ([`Trot`]): the trunk level at
 //! the commanded velocity and height, the joints at the standing state, the weight shared
 //! equally by the stance feet, joint velocities zero.
 //!
 //! Units inside the QP: forces in [`FORCE_UNIT`] newtons, so that every variable is of
-//! order one (OSQP runs unscaled on data that changes every iteration).
+//! order one (both solvers' tolerances are absolute, and OSQP runs unscaled on data that
+//! changes every iteration).
 
 // Index loops mirror the formulas (rows × stage variables).
 #![allow(clippy::needless_range_loop)]
 
 use cbfgen::error::{within, CbfError};
-use cbfgen::qp::ocp::{Ocp, OcpShape};
+use cbfgen::qp::ocp::{Ocp, OcpMethod, OcpShape};
 use cbfgen::qp::{QpStatus, SolverSettings, INFINITY};
 
 use cbfgen::nalgebra::{Matrix3, Vector3};
@@ -181,16 +182,19 @@ pub struct MpcSettings {
     pub footholds: FootholdConstraint,
     /// The cost's weights.
     pub weights: MpcWeights,
-    /// OSQP's settings (its scaling stays off: see [`cbfgen::qp::ocp`]).
+    /// Which method solves each iteration's QP.
+    pub method: OcpMethod,
+    /// The solver's settings: every OSQP field under [`OcpMethod::Admm`] (its scaling
+    /// stays off: see [`cbfgen::qp::ocp`]); `eps_abs` and `max_iter` (Newton steps) under
+    /// [`OcpMethod::InteriorPoint`].
     pub solver: SolverSettings,
 }
 
 impl Default for MpcSettings {
-    /// A 1 s horizon of 25 stages; μ = 0.7; footholds as CBFs (γ = 20 /s); OSQP to 1e-4
-    /// with ρ = 0.01 (`examples/mpc_latency.rs`: ρ = 0.1 took twice the iterations at
-    /// p99). Looser tolerances are faster but their plans, the next iteration's
-    /// linearisation point, let the closed loop drift: at 3e-4 the trot of `tests/mpc.rs`
-    /// swayed 9 cm within 6 s, at 1e-4 it stays within 2 cm.
+    /// A 1 s horizon of 25 stages; μ = 0.7; footholds as CBFs (γ = 20 /s); the
+    /// interior-point method to 1e-6 in at most 50 Newton steps (`examples/mpc_latency.rs`
+    /// on the stepping stones: 9 steps at the median against 7 at 1e-4, and a seventh of
+    /// OSQP's time; `docs/anymal.md`).
     fn default() -> Self {
         Self {
             horizon: 25,
@@ -198,15 +202,29 @@ impl Default for MpcSettings {
             friction: 0.7,
             footholds: FootholdConstraint::Barrier { gamma: 20.0 },
             weights: MpcWeights::default(),
-            solver: SolverSettings {
-                eps_abs: 1e-4,
-                eps_rel: 1e-4,
-                rho: 0.01,
-                max_iter: 4000,
-                check_termination: 10,
-                ..SolverSettings::default()
-            },
+            method: OcpMethod::InteriorPoint,
+            solver: SolverSettings { eps_abs: 1e-6, max_iter: 50, ..Self::ADMM },
         }
+    }
+}
+
+impl MpcSettings {
+    /// OSQP's settings for this QP: to 1e-4 with ρ = 0.01 (ρ = 0.1 took twice the
+    /// iterations at p99). Looser tolerances are faster but their plans, the next
+    /// iteration's linearisation point, let the closed loop drift: at 3e-4 the trot of
+    /// `tests/mpc.rs` swayed 9 cm within 6 s, at 1e-4 it stays within 2 cm.
+    pub const ADMM: SolverSettings = SolverSettings {
+        eps_abs: 1e-4,
+        eps_rel: 1e-4,
+        rho: 0.01,
+        max_iter: 4000,
+        check_termination: 10,
+        ..SolverSettings::DEFAULT
+    };
+
+    /// These settings solved by OSQP ([`OcpMethod::Admm`] with [`Self::ADMM`]).
+    pub fn with_admm(self) -> Self {
+        Self { method: OcpMethod::Admm, solver: Self::ADMM, ..self }
     }
 }
 
@@ -215,7 +233,7 @@ impl Default for MpcSettings {
 pub struct MpcReport {
     /// How the QP ended.
     pub status: QpStatus,
-    /// OSQP's iterations.
+    /// The solver's iterations (Newton steps, or OSQP's ADMM iterations).
     pub iterations: u32,
     /// Whether the plan was replaced: only by a solved QP. Otherwise the last plan stays
     /// (it is what the next iteration linearises at, shifted).
@@ -416,7 +434,7 @@ impl KinodynamicMpc {
             _ => {}
         }
         let n = settings.horizon;
-        let ocp = Ocp::new(shape(n, settings.footholds), settings.solver)?;
+        let ocp = Ocp::with_method(shape(n, settings.footholds), settings.solver, settings.method)?;
         Ok(Self {
             settings,
             ocp,
@@ -476,10 +494,17 @@ impl KinodynamicMpc {
         let (n, dt) = (s.horizon, s.dt);
         let rows = foot_rows(s.footholds);
         self.ocp.initial_state_mut().copy_from_slice(x);
+        // A foot in the stance it stands in at `t` cannot move before it lifts off, so a
+        // foothold row on it is a constant of the measured state: satisfied, or a QP with
+        // no solution. Those rows are left out.
+        let mut first_stance: [bool; FEET] = trot.reference(t).stance;
         for k in 0..=n {
             let time = t + k as f64 * dt;
             let xk = self.guess_x[k];
             let reference = trot.reference(time);
+            for (first, stance) in first_stance.iter_mut().zip(reference.stance) {
+                *first &= stance;
+            }
             let regions: [Region; FEET] = std::array::from_fn(|foot| region(foot, time));
             let mut stage = self.ocp.stage_mut(k);
             // Cost: around the gait's trunk (the centre of mass at the commanded height
@@ -651,7 +676,7 @@ impl KinodynamicMpc {
                     linear_row(top, value, &cx, &du, target, target);
                 }
                 // Footholds.
-                if s.footholds == FootholdConstraint::Off {
+                if s.footholds == FootholdConstraint::Off || first_stance[foot] {
                     continue;
                 }
                 let r = &regions[foot];

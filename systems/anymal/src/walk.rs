@@ -153,7 +153,7 @@ pub struct WalkRecord {
     pub travelled: f64,
     /// MPC iterations that did not replace the plan, of all.
     pub mpc_failures: (usize, usize),
-    /// OSQP iterations over all MPC iterations.
+    /// Solver iterations (Newton steps, or ADMM's) over all MPC iterations.
     pub mpc_solver_iterations: u64,
     /// Whole-body cycles before the first plan (tracking the gait's own reference).
     pub unplanned: usize,

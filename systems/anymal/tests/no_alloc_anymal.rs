@@ -70,8 +70,16 @@ fn the_layered_controller_allocates_nothing() {
 }
 
 fn the_mpc_allocates_nothing() {
+    // Both solvers: the interior-point method (the default) and OSQP.
+    for settings in [MpcSettings::default(), MpcSettings::default().with_admm()] {
+        the_mpc_allocates_nothing_with(settings);
+    }
+    println!("the_mpc_allocates_nothing ... ok");
+}
+
+fn the_mpc_allocates_nothing_with(settings: MpcSettings) {
     let trot = Trot::from_standing(0.3, 0.08, [0.3, 0.0]);
-    let mut mpc = KinodynamicMpc::new(MpcSettings::default()).expect("mpc");
+    let mut mpc = KinodynamicMpc::new(settings).expect("mpc");
     let mut x = mpc::standing();
     let region = |_: usize, _: f64| Region::GROUND;
     let (dt, iterations) = (0.04, 50);
@@ -91,10 +99,10 @@ fn the_mpc_allocates_nothing() {
             x = mpc::integrate(&x, &u, dt);
         }
     });
-    assert_eq!((rust, c), (0, 0), "allocations during {iterations} iterations: Rust {rust}, C {c}");
-    assert_eq!(solved, iterations);
+    let method = settings.method;
+    assert_eq!((rust, c), (0, 0), "{method:?}: allocations during {iterations} iterations: Rust {rust}, C {c}");
+    assert_eq!(solved, iterations, "{method:?}");
     assert_eq!(rejected, iterations / 10);
-    println!("the_mpc_allocates_nothing ... ok");
 }
 
 fn the_whole_body_controller_allocates_nothing() {
