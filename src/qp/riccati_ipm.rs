@@ -336,16 +336,8 @@ impl RiccatiIpm {
     fn row_values(&mut self, data: &Data<'_>, k: usize) {
         let (n, nx, nu, m) = (self.n, self.nx, self.nu, self.m);
         let x = &self.x[k * nx..(k + 1) * nx];
-        for i in 0..m {
-            let c = &data.c[(k * m + i) * nx..];
-            let mut v: f64 = self.c_pattern.row(i).iter().map(|&j| c[j] * x[j]).sum();
-            if k < n {
-                let d = &data.d[(k * m + i) * nu..];
-                let u = &self.u[k * nu..(k + 1) * nu];
-                v += self.d_pattern.row(i).iter().map(|&j| d[j] * u[j]).sum::<f64>();
-            }
-            self.g[k * m + i] = v;
-        }
+        let u = (k < n).then(|| &self.u[k * nu..(k + 1) * nu]);
+        stage_rows([&self.c_pattern, &self.d_pattern], data, k, x, u, &mut self.g[k * m..(k + 1) * m]);
     }
 
     /// The residuals at the current iterate (writes `e`, `r_lo`, `r_hi`, and `nu_hat` as
@@ -417,33 +409,25 @@ impl RiccatiIpm {
     /// `hx = Q_k (x_k − r_k) + C_kᵀ ν̂_k`.
     fn gradient_x(&mut self, data: &Data<'_>, k: usize) {
         let (nx, m) = (self.nx, self.m);
-        for i in 0..nx {
-            self.hx[i] = data.q[k * nx + i] * (self.x[k * nx + i] - data.x_ref[k * nx + i]);
-        }
-        add_transpose_times(
-            &self.c_pattern,
-            &data.c[k * m * nx..],
-            nx,
-            &self.nu_hat[k * m..(k + 1) * m],
-            &mut self.hx,
-            1.0,
-        );
+        let span = k * nx..(k + 1) * nx;
+        let rows = Rows {
+            pattern: &self.c_pattern,
+            matrix: &data.c[k * m * nx..],
+            multipliers: &self.nu_hat[k * m..(k + 1) * m],
+        };
+        stage_gradient(&data.q[span.clone()], &self.x[span.clone()], &data.x_ref[span], rows, &mut self.hx);
     }
 
     /// `hu = R_k (u_k − s_k) + D_kᵀ ν̂_k`.
     fn gradient_u(&mut self, data: &Data<'_>, k: usize) {
         let (nu, m) = (self.nu, self.m);
-        for j in 0..nu {
-            self.hu[j] = data.r[k * nu + j] * (self.u[k * nu + j] - data.u_ref[k * nu + j]);
-        }
-        add_transpose_times(
-            &self.d_pattern,
-            &data.d[k * m * nu..],
-            nu,
-            &self.nu_hat[k * m..(k + 1) * m],
-            &mut self.hu,
-            1.0,
-        );
+        let span = k * nu..(k + 1) * nu;
+        let rows = Rows {
+            pattern: &self.d_pattern,
+            matrix: &data.d[k * m * nu..],
+            multipliers: &self.nu_hat[k * m..(k + 1) * m],
+        };
+        stage_gradient(&data.r[span.clone()], &self.u[span.clone()], &data.u_ref[span], rows, &mut self.hu);
     }
 
     /// The barrier curvature of every row and the Riccati recursion's factors, in square-
@@ -635,16 +619,8 @@ impl RiccatiIpm {
         // The rows' steps, then each side's slack and multiplier.
         for k in 0..=n {
             let dx = &self.dx[k * nx..(k + 1) * nx];
-            for i in 0..m {
-                let c = &data.c[(k * m + i) * nx..];
-                let mut v: f64 = self.c_pattern.row(i).iter().map(|&j| c[j] * dx[j]).sum();
-                if k < n {
-                    let d = &data.d[(k * m + i) * nu..];
-                    let du = &self.du[k * nu..(k + 1) * nu];
-                    v += self.d_pattern.row(i).iter().map(|&j| d[j] * du[j]).sum::<f64>();
-                }
-                self.dg[k * m + i] = v;
-            }
+            let du = (k < n).then(|| &self.du[k * nu..(k + 1) * nu]);
+            stage_rows([&self.c_pattern, &self.d_pattern], data, k, dx, du, &mut self.dg[k * m..(k + 1) * m]);
         }
         for i in 0..(n + 1) * m {
             if self.has_lo[i] {
@@ -728,6 +704,32 @@ impl RiccatiIpm {
             }
             y[top..top + m].copy_from_slice(&self.nu_hat[k * m..(k + 1) * m]);
         }
+    }
+}
+
+/// A stage's rows as one block of variables sees them: its pattern, its row-major matrix
+/// and the rows' multipliers.
+struct Rows<'a> {
+    pattern: &'a Pattern,
+    matrix: &'a [f64],
+    multipliers: &'a [f64],
+}
+
+/// `out = W (v − target) + Mᵀ ν` for a diagonal weight `W` and one block of rows.
+fn stage_gradient(weights: &[f64], v: &[f64], target: &[f64], rows: Rows<'_>, out: &mut [f64]) {
+    for (((o, w), v), t) in out.iter_mut().zip(weights).zip(v).zip(target) {
+        *o = w * (v - t);
+    }
+    add_transpose_times(rows.pattern, rows.matrix, weights.len(), rows.multipliers, out, 1.0);
+}
+
+/// `out = C_k x + D_k u` for stage `k`'s rows (`C`, `D` patterns; no `u` on the terminal
+/// stage).
+fn stage_rows(patterns: [&Pattern; 2], data: &Data<'_>, k: usize, x: &[f64], u: Option<&[f64]>, out: &mut [f64]) {
+    let (nx, m) = (x.len(), out.len());
+    times(patterns[0], &data.c[k * m * nx..], nx, x, out);
+    if let Some(u) = u {
+        add_times(patterns[1], &data.d[k * m * u.len()..], u.len(), u, out);
     }
 }
 
