@@ -18,6 +18,49 @@
 //! leaves the rest free (`±∞`, zero coefficients): the pattern is the union over stages.
 //! A real-time iteration scheme (one QP per control period on the dynamics linearised at
 //! the last plan, shifted) is this plus the caller's linearisation.
+//!
+//! A double integrator brought from rest at 0 to rest at 1 m in 2 s with the least
+//! `Σ u²` and `|u| ≤ 1 m/s²` (the bound binds: without it the peak is 1.5 m/s²), by both
+//! methods:
+//!
+//! ```
+//! use cbfgen::qp::ocp::{Ocp, OcpMethod, OcpShape};
+//! use cbfgen::qp::{QpStatus, SolverSettings};
+//!
+//! let (n, dt) = (20, 0.1);
+//! let settings = SolverSettings { eps_abs: 1e-8, eps_rel: 1e-8, max_iter: 10_000, ..SolverSettings::DEFAULT };
+//! let mut plans = Vec::new();
+//! for method in [OcpMethod::InteriorPoint, OcpMethod::Admm] {
+//!     // Two rows per stage: the input's bound; on the terminal stage, position and velocity.
+//!     let mut ocp = Ocp::with_method(OcpShape::dense(n, 2, 1, 2), settings, method)?;
+//!     ocp.initial_state_mut().copy_from_slice(&[0.0, 0.0]);
+//!     for k in 0..=n {
+//!         let mut s = ocp.stage_mut(k);
+//!         s.free_rows();
+//!         s.q.fill(0.0);
+//!         if k < n {
+//!             s.a.copy_from_slice(&[1.0, dt, 0.0, 1.0]);
+//!             s.b.copy_from_slice(&[0.5 * dt * dt, dt]);
+//!             s.offset.fill(0.0);
+//!             (s.r[0], s.u_ref[0]) = (1.0, 0.0);
+//!             s.d[0] = 1.0;
+//!             (s.lower[0], s.upper[0]) = (-1.0, 1.0);
+//!         } else {
+//!             s.c.copy_from_slice(&[1.0, 0.0, 0.0, 1.0]);
+//!             s.lower.copy_from_slice(&[1.0, 0.0]);
+//!             s.upper.copy_from_slice(&[1.0, 0.0]);
+//!         }
+//!     }
+//!     assert_eq!(ocp.solve(), QpStatus::Solved);
+//!     assert!((ocp.state(n)[0] - 1.0).abs() < 1e-6 && ocp.state(n)[1].abs() < 1e-6);
+//!     assert!((0..n).all(|k| ocp.input(k)[0].abs() <= 1.0 + 1e-6));
+//!     assert!((ocp.input(0)[0] - 1.0).abs() < 1e-6, "full thrust at the start");
+//!     plans.push(ocp.solution().to_vec());
+//! }
+//! // The two methods agree on the plan.
+//! assert!(plans[0].iter().zip(&plans[1]).all(|(a, b)| (a - b).abs() < 1e-4));
+//! # Ok::<(), cbfgen::CbfError>(())
+//! ```
 
 use osqp::Problem;
 
