@@ -10,7 +10,7 @@
 //! fresh a plan is then depends on the machine; [`crate::walk::LayeredController`]'s
 //! synchronous mode is the deterministic one.
 
-use std::sync::{Arc, Condvar, Mutex, MutexGuard, PoisonError};
+use std::sync::{Arc, Barrier, Condvar, Mutex, MutexGuard, PoisonError};
 use std::thread::JoinHandle;
 
 use cbfgen::error::CbfError;
@@ -85,39 +85,48 @@ impl MpcThread {
             }),
         });
         let worker = Arc::clone(&shared);
+        // The thread's start-up allocates (its name, its thread-locals); the caller waits
+        // until it is done, so that none of it falls into the control loop that follows.
+        let ready = Arc::new(Barrier::new(2));
+        let started = Arc::clone(&ready);
         let handle = std::thread::Builder::new()
             .name("cbfgen-anymal MPC".into())
-            .spawn(move || loop {
-                let (t, x) = {
-                    let mut request = lock(&worker.request);
-                    while !request.fresh && !request.stop {
-                        request = worker.wake.wait(request).unwrap_or_else(PoisonError::into_inner);
-                    }
-                    if request.stop {
-                        return;
-                    }
-                    request.fresh = false;
-                    (request.t, request.x)
-                };
-                let region = |foot: usize, time: f64| footholds.region(&trot, foot, time);
-                let result = mpc.solve(t, &x, &trot, &region);
-                let mut published = lock(&worker.published);
-                published.solves.0 += 1;
-                published.solves.1 += u64::from(!matches!(result, Ok(MpcReport { updated: true, .. })));
-                match result {
-                    Ok(report) => {
-                        // A solve that found no plan leaves the last one (and its report).
-                        if report.updated {
-                            published.plan.copy_from(mpc.latest());
-                            published.version += 1;
-                            published.report = Some(report);
+            .spawn(move || {
+                started.wait();
+                drop(started);
+                loop {
+                    let (t, x) = {
+                        let mut request = lock(&worker.request);
+                        while !request.fresh && !request.stop {
+                            request = worker.wake.wait(request).unwrap_or_else(PoisonError::into_inner);
                         }
-                        published.error = None;
+                        if request.stop {
+                            return;
+                        }
+                        request.fresh = false;
+                        (request.t, request.x)
+                    };
+                    let region = |foot: usize, time: f64| footholds.region(&trot, foot, time);
+                    let result = mpc.solve(t, &x, &trot, &region);
+                    let mut published = lock(&worker.published);
+                    published.solves.0 += 1;
+                    published.solves.1 += u64::from(!matches!(result, Ok(MpcReport { updated: true, .. })));
+                    match result {
+                        Ok(report) => {
+                            // A solve that found no plan leaves the last one (and its report).
+                            if report.updated {
+                                published.plan.copy_from(mpc.latest());
+                                published.version += 1;
+                                published.report = Some(report);
+                            }
+                            published.error = None;
+                        }
+                        Err(error) => published.error = Some(error),
                     }
-                    Err(error) => published.error = Some(error),
                 }
             })
             .map_err(|e| CbfError::Thread { what: "MPC", reason: e.to_string() })?;
+        ready.wait();
         Ok(Self { shared, handle: Some(handle), taken: 0 })
     }
 
