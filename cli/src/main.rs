@@ -178,6 +178,39 @@ struct LipArgs {
     /// Step budget, 1 to 10000.
     #[arg(long, default_value_t = 150, allow_hyphen_values = true, value_parser = count(1usize, 10_000))]
     steps: usize,
+    /// Course: `standard` (three blocks, to (6, 2) m) or `corner` (one block to walk
+    /// round, to (4, 3) m).
+    #[arg(long, value_enum, default_value_t = LipCourse::Standard)]
+    course: LipCourse,
+    /// CBF margin δ, 0 to 2 (m, or m² with `--barrier report`). Unless it is 0 the same
+    /// course is also walked with δ = 0, Peng et al.'s LDCBF, for the report's comparison.
+    #[arg(long, default_value_t = 0.3, allow_hyphen_values = true, value_parser = number(0.0, 2.0, Closed))]
+    delta: f64,
+    /// The half-planes' normal: `unit` (h in m) or `report` (η = x − c, h in m²).
+    #[arg(long, value_enum, default_value_t = LipBarrier::Unit)]
+    barrier: LipBarrier,
+    /// Heading preprocessing: `per-step` rates toward the bearing, or the report's one
+    /// clipped angle error for the whole horizon.
+    #[arg(long, value_enum, default_value_t = LipHeading::PerStep)]
+    heading: LipHeading,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum LipCourse {
+    Standard,
+    Corner,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum LipBarrier {
+    Unit,
+    Report,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum LipHeading {
+    PerStep,
+    Report,
 }
 
 /// `cbfgen multilayer`.
@@ -608,13 +641,31 @@ impl SimulateArgs {
 
 impl LipArgs {
     fn run(self, stdout: &mut impl Write) -> Result<(), Box<dyn std::error::Error>> {
-        let Self { out, steps } = self;
+        use cbfgen_lip::scenario::{run, Scenario};
+        use cbfgen_lip::{BarrierForm, HeadingRule, LipParams};
+        let Self { out, steps, course, delta, barrier, heading } = self;
         output_dir(&out)?;
-        let scenario =
-            cbfgen_lip::scenario::Scenario { max_steps: steps, ..cbfgen_lip::scenario::Scenario::standard() };
-        let result = cbfgen_lip::scenario::run(&scenario)?;
+        let course = match course {
+            LipCourse::Standard => Scenario::standard(),
+            LipCourse::Corner => Scenario::corner(),
+        };
+        let barrier = match barrier {
+            LipBarrier::Unit => BarrierForm::UnitNormal,
+            LipBarrier::Report => BarrierForm::ReportNormal,
+        };
+        let heading = match heading {
+            LipHeading::PerStep => HeadingRule::PerStepRate,
+            LipHeading::Report => HeadingRule::Report,
+        };
+        let params = LipParams { delta, barrier, heading, ..course.params };
+        let scenario = Scenario { max_steps: steps, params, ..course };
+        let result = run(&scenario)?;
         writeln!(stdout, "{}", result.summary())?;
-        let written = cbfgen_lip::figure::write_all(&out, &result)?;
+        let baseline = if delta > 0.0 { Some(run(&scenario.with_delta(0.0))?) } else { None };
+        if let Some(b) = &baseline {
+            writeln!(stdout, "\nThe same course with δ = 0 (Peng et al.'s LDCBF):\n{}", b.summary())?;
+        }
+        let written = cbfgen_lip::figure::write_all(&out, &result, baseline.as_ref())?;
         print_written(stdout, &written)?;
         Ok(())
     }

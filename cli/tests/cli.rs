@@ -47,6 +47,7 @@ fn numbers_outside_their_documented_ranges_are_refused_naming_the_flag_and_range
         (&["ssat", "--clearance", "2"], "--clearance", "[-1, 1]"),
         (&["ssat", "--pitch", "-4"], "--pitch", "[-3.15, 3.15]"),
         (&["lip", "--steps", "0"], "--steps", "1..=10000"),
+        (&["lip", "--delta", "-0.1"], "--delta", "[0, 2]"),
         (&["arm", "--csv-every", "0"], "--csv-every", "1..=1000000"),
         (&["perceive", "--seed", "1.5"], "--seed", "0..=18446744073709551615"),
     ];

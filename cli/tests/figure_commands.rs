@@ -43,7 +43,7 @@ fn every_figure_command_writes_svg_and_png() {
     let cases: [(&str, &[&str], usize); 6] = [
         ("simulate", &["simulate", "--scenario", "step", "--no-osqp-reference"], 4),
         ("campaign", &["campaign", "--episodes", "2", "--steps", "1,1"], 5),
-        ("lip", &["lip", "--steps", "20"], 2),
+        ("lip", &["lip", "--steps", "20"], 3),
         ("multilayer", &["multilayer"], 2),
         ("arm", &["arm"], 4),
         ("perceive", &["perceive"], 2),

@@ -57,14 +57,42 @@ pub fn min_h_chart(run: &RunResult) -> Chart {
         .with(Series::new("h = 0 (CoM at distance δ)", "gray", zero).dashed())
 }
 
-/// Write `lip_navigation` and `lip_min_h`, as SVG and PNG, into `dir` (created if
-/// missing).
+/// Write `lip_navigation` and `lip_min_h`, and with a baseline `lip_delta_comparison`,
+/// as SVG and PNG, into `dir` (created if missing).
 ///
 /// # Errors
 /// The directory or a file cannot be written.
-pub fn write_all(dir: &Path, run: &RunResult) -> io::Result<Vec<PathBuf>> {
-    cbfgen_chart::write_charts(
-        dir,
-        &[("lip_navigation".to_string(), navigation_chart(run)), ("lip_min_h".to_string(), min_h_chart(run))],
-    )
+pub fn write_all(dir: &Path, run: &RunResult, baseline: Option<&RunResult>) -> io::Result<Vec<PathBuf>> {
+    let mut charts =
+        vec![("lip_navigation".to_string(), navigation_chart(run)), ("lip_min_h".to_string(), min_h_chart(run))];
+    if let Some(b) = baseline {
+        charts.push(("lip_delta_comparison".to_string(), comparison_chart(run, b)));
+    }
+    cbfgen_chart::write_charts(dir, &charts)
+}
+
+/// Two runs of one course on one map, after the report's Figs. 2 and 3: `run` (its `δ`
+/// band drawn) and `baseline` (usually `δ = 0`), with every footstep that lands on an
+/// obstacle ringed.
+pub fn comparison_chart(run: &RunResult, baseline: &RunResult) -> Chart {
+    let label = |r: &RunResult| format!("δ = {}", r.scenario.params.delta);
+    let mut chart = navigation_chart(run);
+    chart.title = format!(
+        "Same course, {} vs {}: {} vs {} footsteps on an obstacle",
+        label(run),
+        label(baseline),
+        run.footsteps_on_obstacles().count(),
+        baseline.footsteps_on_obstacles().count()
+    );
+    let path = baseline.com_path.iter().map(|p| (p[0], p[1])).collect();
+    let feet = baseline.footsteps().map(|f| (f[0], f[1])).collect();
+    let ringed: Vec<_> =
+        run.footsteps_on_obstacles().chain(baseline.footsteps_on_obstacles()).map(|f| (f[0], f[1])).collect();
+    chart = chart
+        .with(Series::new(&format!("CoM path, {}", label(baseline)), "#7a7a7a", path).dashed())
+        .with(Series::new(&format!("footsteps, {}", label(baseline)), "#e07020", feet).markers());
+    if !ringed.is_empty() {
+        chart = chart.with(Series::new("footstep on an obstacle", "#00b0c0", ringed).markers());
+    }
+    chart
 }

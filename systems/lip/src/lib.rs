@@ -31,8 +31,8 @@ pub mod obstacles;
 pub mod scenario;
 
 pub use model::{Frame, Lip, LipInput, LipState};
-pub use mpc::{LipMpc, Plan};
-pub use obstacles::{HalfPlane, Rectangle};
+pub use mpc::{HeadingRule, LipMpc, Plan};
+pub use obstacles::{BarrierForm, HalfPlane, Rectangle};
 
 use cbfgen::error::{finite, positive, CbfError};
 
@@ -61,8 +61,14 @@ pub struct LipParams {
     /// CBF decay `γ` in (0, 1]: 0.3 (assumed).
     pub gamma: f64,
     /// CBF margin `δ`: the least CoM distance to any obstacle \[m\]: 0.3 (assumed; room for
-    /// a foot beside the CoM).
+    /// a foot beside the CoM). In m² under [`BarrierForm::ReportNormal`]. `δ = 0` is the
+    /// original LDCBF of Peng et al.; `δ > 0` is the report's variation (its section 5.3.3).
     pub delta: f64,
+    /// Which normal the half-planes use: unit (default) or the report's `x − c`.
+    pub barrier: BarrierForm,
+    /// How the turning rates are fixed before each solve: per step toward the bearing
+    /// (default) or the report's one clipped rate for the whole horizon.
+    pub heading: HeadingRule,
 }
 
 impl Default for LipParams {
@@ -77,6 +83,8 @@ impl Default for LipParams {
             alpha: 1.2,
             gamma: 0.3,
             delta: 0.3,
+            barrier: BarrierForm::UnitNormal,
+            heading: HeadingRule::PerStepRate,
         }
     }
 }

@@ -14,16 +14,19 @@
 //! only approximately. Condensed, `P` is positive definite and a solve takes tens of
 //! iterations.)
 //!
-//! The heading is not a variable: before each solve the turning rates are fixed by the
-//! report's preprocessing (section 5.1), with the bearing `ψ = atan2(g − p_0)` to the goal,
+//! The heading is not a variable: before each solve the turning rates are fixed
+//! ([`HeadingRule`], after the report's section 5.1), with the bearing
+//! `ψ = atan2(g − p_0)` to the goal. By default
 //!
 //! ```text
 //! ω_k = clip(wrap(ψ − θ_k) / T, ω_min, ω_max),   θ_{k+1} = θ_k + ω_k T
 //! ```
 //!
-//! The report clips the angle error itself to the rate bounds; dividing by `T` makes it a
-//! rate, so the heading settles on the bearing instead of overshooting it when the error is
-//! smaller than one step's turn. With `θ_k` known every row is linear in `z`:
+//! The report instead clips the angle error at the start, `ψ − θ_0`, to the rate bounds
+//! and uses that one rate for the whole horizon ([`HeadingRule::Report`]); dividing the
+//! error by `T` per step makes it a rate, so the planned heading settles on the bearing
+//! instead of turning past it when the error is smaller than one step's turn. With `θ_k`
+//! known every row is linear in `z`:
 //!
 //! | rows | per step `k = 0..N−1` |
 //! |---|---|
@@ -73,6 +76,30 @@ use cbfgen::qp::csc::Csc;
 use cbfgen::qp::dual_active_set::{ActiveRow, DenseStatus, DualActiveSet, WarmStart};
 use cbfgen::qp::osqp_workspace::{self, OsqpQp};
 use cbfgen::qp::{Backend, Iterate, QpStatus, Solver, SolverSettings, INFINITY as INF};
+
+/// How the turning rates `ω_k` are fixed before each solve, with `ψ` the bearing to the
+/// goal from the CoM and `θ` the current heading.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum HeadingRule {
+    /// `ω_k = clip(wrap(ψ − θ_k) / T, ω_min, ω_max)` per step: each step's turn closes
+    /// the remaining error when it can, and the planned heading settles on `ψ` (ours).
+    #[default]
+    PerStepRate,
+    /// `ω_k = clip(wrap(ψ − θ), ω_min, ω_max)` for every `k`, as the report writes it: one
+    /// rate for the whole horizon, from the angle error itself. Within the rate bounds a
+    /// step turns `T·(ψ − θ)`, so the plan's later steps keep turning past `ψ`.
+    Report,
+}
+
+impl HeadingRule {
+    /// `"per-step"` or `"report"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::PerStepRate => "per-step",
+            Self::Report => "report",
+        }
+    }
+}
 
 /// An obstacle slot that does not constrain: zero normal (its rows get bounds (−∞, ∞)).
 const UNUSED_PLANE: HalfPlane = HalfPlane { normal: [0.0, 0.0], point: [0.0, 0.0], delta: 0.0, inside: false };
@@ -201,8 +228,8 @@ impl Linearisation {
         }
     }
 
-    /// The report's heading preprocessing, the alternating stance signs and the free
-    /// response of `x0`.
+    /// The heading preprocessing ([`HeadingRule`]), the alternating stance signs and the
+    /// free response of `x0`.
     fn preprocess(&mut self, x0: &LipState, goal: [f64; 2], stance_sign: f64) {
         let (lip, [w_min, w_max]) = (self.params.lip, self.params.omega_bounds);
         let bearing = (goal[1] - x0[2]).atan2(goal[0] - x0[0]);
@@ -210,8 +237,12 @@ impl Linearisation {
         self.goal = goal;
         self.headings[0] = x0[4];
         for k in 0..self.layout.n {
-            let error = wrap_angle(bearing - self.headings[k]);
-            self.omegas[k] = (error / lip.step_time).clamp(w_min, w_max);
+            self.omegas[k] = match self.params.heading {
+                HeadingRule::PerStepRate => {
+                    (wrap_angle(bearing - self.headings[k]) / lip.step_time).clamp(w_min, w_max)
+                }
+                HeadingRule::Report => wrap_angle(bearing - x0[4]).clamp(w_min, w_max),
+            };
             self.headings[k + 1] = self.headings[k] + self.omegas[k] * lip.step_time;
             self.signs[k] = if k % 2 == 0 { stance_sign } else { -stance_sign };
         }

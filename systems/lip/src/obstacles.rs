@@ -12,6 +12,13 @@
 //! true free space (a rectangle is convex, so it sits wholly on the far side of the
 //! tangent line through `c`), and `h ≥ 0` keeps the CoM at least `δ` from the obstacle.
 //!
+//! # Two normals
+//! [`BarrierForm::UnitNormal`] (the default) normalises `η`, so `h` is a distance in metres
+//! and `δ` a clearance. The report's own `η = x − c` is unnormalised
+//! ([`BarrierForm::ReportNormal`]): its `h = ‖x − c‖ · (distance past the line) − δ` is in
+//! m², `δ` too, and at the CoM itself `h ≥ 0` reads `‖x − c‖ ≥ √δ`. The planned steps see a
+//! margin of `δ/‖x − c‖` along the line, which shrinks as the robot is farther away.
+//!
 //! # CoM on or inside an obstacle
 //! `η = (p − c)/‖p − c‖` is undefined there. We then use the outward normal of the edge
 //! nearest to `p` (ties: the first of −x, +x, −y, +y), with `c` the projection of `p` onto
@@ -19,6 +26,26 @@
 //! out of the obstacle instead of failing. [`HalfPlane::inside`] flags this case.
 
 use cbfgen::error::{finite, CbfError};
+
+/// Which normal `η` the barrier's half-plane uses (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum BarrierForm {
+    /// `η = (x − c)/‖x − c‖`: `h` and `δ` in metres (ours).
+    #[default]
+    UnitNormal,
+    /// `η = x − c`, as the report writes it: `h` and `δ` in m².
+    ReportNormal,
+}
+
+impl BarrierForm {
+    /// `"unit"` or `"report"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::UnitNormal => "unit",
+            Self::ReportNormal => "report",
+        }
+    }
+}
 
 /// An axis-aligned rectangle in the global frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -56,14 +83,30 @@ impl Rectangle {
         dx.hypot(dy)
     }
 
-    /// The barrier half-plane for a CoM at global `p` with margin `delta` (see the module
-    /// docs for the inside case).
-    pub fn half_plane(&self, p: [f64; 2], delta: f64) -> HalfPlane {
+    /// Signed distance: [`Rectangle::distance`] outside, minus the depth to the nearest
+    /// edge inside (so a point on an edge is 0 and one inside is negative).
+    pub fn signed_distance(&self, p: [f64; 2]) -> f64 {
+        let depth = (p[0] - self.min[0]).min(self.max[0] - p[0]).min(p[1] - self.min[1]).min(self.max[1] - p[1]);
+        if depth > 0.0 {
+            -depth
+        } else {
+            self.distance(p)
+        }
+    }
+
+    /// The barrier half-plane for a CoM at global `p` with margin `delta`, in the given
+    /// form (see the module docs, also for the inside case, where both forms use the
+    /// nearest edge's unit normal: the report's `x − c` is zero there).
+    pub fn half_plane(&self, p: [f64; 2], delta: f64, form: BarrierForm) -> HalfPlane {
         let clamped = [p[0].clamp(self.min[0], self.max[0]), p[1].clamp(self.min[1], self.max[1])];
         let d = [p[0] - clamped[0], p[1] - clamped[1]];
         let dist = d[0].hypot(d[1]);
         if dist > 0.0 {
-            return HalfPlane { normal: [d[0] / dist, d[1] / dist], point: clamped, delta, inside: false };
+            let scale = match form {
+                BarrierForm::UnitNormal => 1.0 / dist,
+                BarrierForm::ReportNormal => 1.0,
+            };
+            return HalfPlane { normal: [d[0] * scale, d[1] * scale], point: clamped, delta, inside: false };
         }
         // On or inside: leave through the nearest edge.
         let gaps = [p[0] - self.min[0], self.max[0] - p[0], p[1] - self.min[1], self.max[1] - p[1]];
@@ -86,7 +129,7 @@ impl Rectangle {
 /// The linear barrier `h(p) = ηᵀ (p − c) − δ` of one obstacle for one step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HalfPlane {
-    /// Unit normal `η`, pointing away from the obstacle.
+    /// Normal `η`, pointing away from the obstacle (unit, or `x − c` in the report's form).
     pub normal: [f64; 2],
     /// Boundary point `c` \[m\].
     pub point: [f64; 2],

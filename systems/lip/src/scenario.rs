@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 
 use super::model::{Frame, LipState};
 use super::mpc::LipMpc;
-use super::obstacles::{HalfPlane, Rectangle};
+use super::obstacles::{BarrierForm, HalfPlane, Rectangle};
 use super::LipParams;
 use cbfgen::error::{finite, positive, CbfError};
 use cbfgen::qp::{Backend, QpStatus, SolverSettings};
@@ -51,6 +51,19 @@ impl Scenario {
             params: LipParams::default(),
             solver: LipMpc::default_solver_settings(),
         }
+    }
+
+    /// The comparison course of the report's section 5.3.3: from rest at the origin
+    /// facing +x to (4, 3) m, with one block `[1, 3] × [0.3, 2]` m across the straight
+    /// line. The robot walks up its left face and round its upper-left corner, so with
+    /// `δ = 0` the CoM grazes the block and feet, which sway out from the CoM, land on it.
+    pub fn corner() -> Self {
+        Self { goal: [4.0, 3.0], obstacles: vec![Rectangle { min: [1.0, 0.3], max: [3.0, 2.0] }], ..Self::standard() }
+    }
+
+    /// The same course with another margin `δ` (`0`: Peng et al.'s LDCBF).
+    pub fn with_delta(&self, delta: f64) -> Self {
+        Self { params: LipParams { delta, ..self.params }, ..self.clone() }
     }
 }
 
@@ -120,7 +133,7 @@ impl Walker {
     fn update_h(&mut self) {
         let p = self.com();
         for (h, rect) in self.h.iter_mut().zip(&self.scenario.obstacles) {
-            *h = rect.half_plane(p, self.scenario.params.delta).h(p);
+            *h = rect.half_plane(p, self.scenario.params.delta, self.scenario.params.barrier).h(p);
         }
     }
 
@@ -132,13 +145,13 @@ impl Walker {
     pub fn step(&mut self) -> Result<StepOutcome, CbfError> {
         let started = Instant::now();
         let p = self.com();
-        let delta = self.scenario.params.delta;
+        let (delta, form) = (self.scenario.params.delta, self.scenario.params.barrier);
         self.frame = Frame { origin: p, heading: self.state[4] };
         self.local_start = self.frame.state_to_local(&self.state);
         self.planes.clear();
         let mut inside = false;
         for rect in &self.scenario.obstacles {
-            let plane = rect.half_plane(p, delta);
+            let plane = rect.half_plane(p, delta, form);
             inside |= plane.inside;
             self.planes.push(plane.to_local(&self.frame));
         }
@@ -259,6 +272,19 @@ impl RunResult {
             .fold(f64::INFINITY, f64::min)
     }
 
+    /// Smallest signed distance from any footstep to any obstacle \[m\] (negative: a foot
+    /// inside one; see [`Rectangle::signed_distance`]).
+    pub fn min_footstep_clearance(&self) -> f64 {
+        self.footsteps()
+            .flat_map(|f| self.scenario.obstacles.iter().map(move |r| r.signed_distance(f)))
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// Footsteps on or inside some obstacle.
+    pub fn footsteps_on_obstacles(&self) -> impl Iterator<Item = [f64; 2]> + '_ {
+        self.footsteps().filter(|&f| self.scenario.obstacles.iter().any(|r| r.signed_distance(f) <= 0.0))
+    }
+
     /// Solve times, sorted ascending \[µs\].
     pub fn sorted_solve_micros(&self) -> Vec<f64> {
         let mut t: Vec<f64> = self.steps.iter().map(|s| s.outcome.solve_time.as_secs_f64() * 1e6).collect();
@@ -278,7 +304,8 @@ impl RunResult {
         let p = &self.scenario.params;
         format!(
             "3D-LIP MPC navigation: N = {}, {} obstacles, T = {} s\n  steps taken          {}\n  goal reached         {}{}\n  \
-             min CoM clearance    {:.4} m (δ = {} m)\n  MPC solve median     {:.1} µs, p99 {:.1} µs, max {:.1} µs\n  \
+             min CoM clearance    {:.4} m (δ = {} {}, {} normal, {} headings)\n  \
+             min foot clearance   {:.4} m ({} footsteps in an obstacle)\n  MPC solve median     {:.1} µs, p99 {:.1} µs, max {:.1} µs\n  \
              solver               {} (OSQP answered {} of {} solves)\n  dense steps max      {}\n  \
              ADMM iterations max  {} ({} of the solves only to OSQP's 10x looser \"inaccurate\" tolerances)",
             p.horizon,
@@ -289,6 +316,11 @@ impl RunResult {
             self.failure.map(|s| format!(" (MPC stopped: {})", s.name())).unwrap_or_default(),
             self.min_clearance(),
             p.delta,
+            if p.barrier == BarrierForm::UnitNormal { "m" } else { "m²" },
+            p.barrier.name(),
+            p.heading.name(),
+            self.min_footstep_clearance(),
+            self.footsteps_on_obstacles().count(),
             pick(0.5),
             pick(0.99),
             pick(1.0),

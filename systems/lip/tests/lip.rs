@@ -70,7 +70,7 @@ fn frames_match_a_hand_computed_case_and_round_trip() {
 use cbfgen::CbfError;
 use cbfgen_lip::mpc::{wrap_angle, QpView};
 use cbfgen_lip::scenario::{run, Scenario, Walker};
-use cbfgen_lip::{LipMpc, LipState, Rectangle};
+use cbfgen_lip::{BarrierForm, HeadingRule, LipMpc, LipParams, LipState, Rectangle};
 
 /// Distance from `p` to the rectangle, by cases on the nine regions around it (written
 /// apart from the crate's clamp-based version).
@@ -136,7 +136,12 @@ fn plan_violation(walker: &Walker) -> [f64; 2] {
     let (mut theta, mut worst) = (x0[4], [0.0f64; 2]);
     let mut x = x0;
     for (k, u) in plan.inputs().iter().enumerate() {
-        let omega = (wrap_angle(bearing - theta) / t).clamp(p.omega_bounds[0], p.omega_bounds[1]);
+        let error = match p.heading {
+            HeadingRule::PerStepRate => wrap_angle(bearing - theta) / t,
+            // The report: the start's angle error, used as a rate, for every step.
+            HeadingRule::Report => wrap_angle(bearing - x0[4]),
+        };
+        let omega = error.clamp(p.omega_bounds[0], p.omega_bounds[1]);
         assert!((omega - u[2]).abs() < 1e-12, "step {k}: ω {} vs {omega}", u[2]);
         assert!((plan.states()[k][4] - theta).abs() < 1e-12, "θ_{k}");
         let (px, vx) = p.lip.axis_step(x[0], x[1], u[0]);
@@ -169,7 +174,16 @@ fn plan_violation(walker: &Walker) -> [f64; 2] {
 
 #[test]
 fn every_applied_plan_satisfies_velocity_reach_maneuver_and_cbf_rows() {
-    let mut walker = Walker::new(Scenario::standard()).expect("walker");
+    let base = Scenario::standard();
+    let report =
+        LipParams { barrier: BarrierForm::ReportNormal, delta: 0.09, heading: HeadingRule::Report, ..base.params };
+    for scenario in [base.clone(), Scenario { params: report, ..base }] {
+        every_applied_plan_satisfies_its_rows(scenario);
+    }
+}
+
+fn every_applied_plan_satisfies_its_rows(scenario: Scenario) {
+    let mut walker = Walker::new(scenario).expect("walker");
     let mut steps = 0;
     while !walker.at_goal() && steps < 100 {
         let outcome = walker.step().expect("step");
@@ -289,7 +303,7 @@ fn non_finite_input_is_an_error_and_an_obstacle_overlap_is_handled() {
     let mut mpc = LipMpc::new(Default::default(), 1, LipMpc::default_solver_settings()).expect("mpc");
     let x0 = [0.0; 5];
     assert!(matches!(mpc.solve(&x0, [f64::INFINITY, 0.0], 1.0, &[]), Err(CbfError::NonFinite { .. })));
-    let plane = Rectangle::new(1.0, 2.0, -1.0, 1.0).expect("rect").half_plane([0.0, 0.0], 0.3);
+    let plane = Rectangle::new(1.0, 2.0, -1.0, 1.0).expect("rect").half_plane([0.0, 0.0], 0.3, BarrierForm::UnitNormal);
     let bad = cbfgen_lip::HalfPlane { normal: [f64::NAN, 0.0], ..plane };
     assert!(mpc.solve(&x0, [3.0, 0.0], 1.0, &[bad]).is_err());
     assert!(mpc.solve(&x0, [3.0, 0.0], 0.5, &[plane]).is_err(), "stance sign must be ±1");
@@ -298,10 +312,10 @@ fn non_finite_input_is_an_error_and_an_obstacle_overlap_is_handled() {
 
     // A CoM inside an obstacle: the half-plane of the nearest edge, flagged, h < 0, no panic.
     let rect = Rectangle::new(1.0, 2.0, -1.0, 1.0).expect("rect");
-    let inside = rect.half_plane([1.1, 0.2], 0.3);
+    let inside = rect.half_plane([1.1, 0.2], 0.3, BarrierForm::UnitNormal);
     assert!(inside.inside && inside.normal == [-1.0, 0.0] && inside.point == [1.0, 0.2]);
     assert!((inside.h([1.1, 0.2]) - (-0.1 - 0.3)).abs() < 1e-12);
-    let on_edge = rect.half_plane([2.0, 0.5], 0.3);
+    let on_edge = rect.half_plane([2.0, 0.5], 0.3, BarrierForm::UnitNormal);
     assert!(on_edge.inside && on_edge.normal == [1.0, 0.0]);
     let scenario = Scenario { start: [1.1, 0.0, 0.2, 0.0, 0.0], obstacles: vec![rect], ..Scenario::standard() };
     let mut walker = Walker::new(scenario).expect("walker");
@@ -469,7 +483,7 @@ fn both_backends_walk_the_course_and_the_default_never_needs_osqp_or_settles_for
 fn first_problem() -> (LipState, [f64; 2], f64, Vec<cbfgen_lip::HalfPlane>) {
     let s = Scenario::standard();
     let p = [s.start[0], s.start[2]];
-    let planes = s.obstacles.iter().map(|r| r.half_plane(p, s.params.delta)).collect();
+    let planes = s.obstacles.iter().map(|r| r.half_plane(p, s.params.delta, s.params.barrier)).collect();
     (s.start, s.goal, s.first_stance, planes)
 }
 
@@ -527,5 +541,69 @@ fn contradicting_half_planes_are_infeasible_for_both_solvers() {
         let expected = if backend == Solver::Dense { Backend::Dense } else { Backend::Osqp };
         assert_eq!(mpc.answered_by(), expected);
         assert_eq!(mpc.plan(), &plan, "{backend:?}: the last plan is kept");
+    }
+}
+
+/// Whether `p` is on or inside `r`, by comparisons only.
+fn on_or_inside(p: [f64; 2], r: &Rectangle) -> bool {
+    r.min[0] <= p[0] && p[0] <= r.max[0] && r.min[1] <= p[1] && p[1] <= r.max[1]
+}
+
+#[test]
+fn with_delta_zero_feet_land_on_the_corner_block_and_with_delta_positive_none_does() {
+    // The report's section 5.3.3: δ = 0 keeps the CoM off the obstacle but not the feet,
+    // which sway out from the CoM; δ > 0 keeps both off.
+    let course = Scenario::corner();
+    let ours = run(&course).expect("δ > 0");
+    let peng = run(&course.with_delta(0.0)).expect("δ = 0");
+    let block = &course.obstacles[0];
+    for r in [&ours, &peng] {
+        assert!(r.reached_goal && r.failure.is_none(), "δ = {}: {:?}", r.scenario.params.delta, r.failure);
+        // The CoM stays out of the block in both (to δ, up to the solver's tolerance).
+        let closest = r.com_path.iter().map(|p| point_rectangle_distance(*p, block)).fold(f64::INFINITY, f64::min);
+        assert!(closest >= r.scenario.params.delta - 1e-4, "δ = {}: CoM {closest}", r.scenario.params.delta);
+    }
+    let landed = |r: &cbfgen_lip::scenario::RunResult| r.footsteps().filter(|f| on_or_inside(*f, block)).count();
+    assert!(landed(&peng) >= 1, "δ = 0: no foot on the block; min foot clearance {}", peng.min_footstep_clearance());
+    assert_eq!(landed(&ours), 0);
+    let foot_clearance = ours.footsteps().map(|f| point_rectangle_distance(f, block)).fold(f64::INFINITY, f64::min);
+    assert!(foot_clearance > 0.1, "δ = 0.3: closest foot {foot_clearance} m");
+    // The crate's own counts agree with the comparisons above.
+    assert_eq!(peng.footsteps_on_obstacles().count(), landed(&peng));
+    assert!((ours.min_footstep_clearance() - foot_clearance).abs() < 1e-12);
+}
+
+#[test]
+fn the_reports_normal_makes_h_the_squared_distance_minus_delta_at_the_com() {
+    let rect = Rectangle::new(1.0, 2.0, -1.0, 1.0).expect("rect");
+    // Corner region: c = (1, 1), x − c = (−0.6, 0.8), ‖x − c‖ = 1.
+    let (x, delta) = ([0.4, 1.8], 0.09);
+    let report = rect.half_plane(x, delta, BarrierForm::ReportNormal);
+    assert_eq!(report.point, [1.0, 1.0]);
+    assert!((report.normal[0] + 0.6).abs() < 1e-12 && (report.normal[1] - 0.8).abs() < 1e-12);
+    assert!((report.h(x) - (1.0 - delta)).abs() < 1e-12);
+    // Face region at distance 0.5: h = 0.25 − δ (m²); the unit form gives 0.5 − δ (m).
+    let face = [0.5, 0.0];
+    assert!((rect.half_plane(face, delta, BarrierForm::ReportNormal).h(face) - (0.25 - delta)).abs() < 1e-12);
+    assert!((rect.half_plane(face, delta, BarrierForm::UnitNormal).h(face) - (0.5 - delta)).abs() < 1e-12);
+    // Signed distance: outside, on an edge, inside.
+    assert!((rect.signed_distance(x) - 1.0).abs() < 1e-12);
+    assert_eq!(rect.signed_distance([1.0, 0.3]), 0.0);
+    assert!((rect.signed_distance([1.2, 0.9]) + 0.1).abs() < 1e-12);
+}
+
+#[test]
+fn the_reports_forms_walk_the_course_keeping_the_com_root_delta_away() {
+    // With η = x − c, h ≥ 0 at the CoM is ‖x − c‖ ≥ √δ: δ = 0.09 m² keeps 0.3 m.
+    let base = Scenario::standard();
+    for heading in [HeadingRule::PerStepRate, HeadingRule::Report] {
+        let params = LipParams { barrier: BarrierForm::ReportNormal, delta: 0.09, heading, ..base.params };
+        let r = run(&Scenario { params, ..base.clone() }).expect("run");
+        assert!(r.reached_goal, "{heading:?}: {:?} after {} steps", r.failure, r.steps.len());
+        for p in &r.com_path {
+            for o in &base.obstacles {
+                assert!(point_rectangle_distance(*p, o) >= 0.3 - 1e-4, "{heading:?}: CoM {p:?}");
+            }
+        }
     }
 }
