@@ -207,7 +207,8 @@ pub enum Solver {
     /// The dense solve only; when it does not verify within `dense_max_steps` its iterate
     /// is handed back, flagged unconverged.
     Dense,
-    /// OSQP on the QP with every row hard (the paper's path), then the dense solve from
+    /// OSQP on the QP with every row hard (as the paper writes its QP; the paper names no
+    /// solver), then the dense solve from
     /// OSQP's face when `polish` is set: it verifies the answer, or settles the priority
     /// tiers when the rows do not fit.
     Osqp,
