@@ -1,7 +1,8 @@
 //! Table I interleaved: every query timed in turn, round after round, so that a machine's
 //! drift (another VM's load, frequency changes) hits every row alike and the ratios
 //! between rows hold within the run. Prints per query the median over rounds of wall and
-//! thread CPU time per pair, and the ratio to parry3d's GJK in the same rounds.
+//! thread CPU time per pair, and the ratios to parry3d's GJK and to the default SSAT
+//! (LSE + x·tanh, evaluate) in the same rounds.
 //!
 //! `cargo bench --bench table_one` (or `scripts/cbf bench --bench table_one`);
 //! `-- --rounds N` for more rounds than the default 201.
@@ -48,9 +49,16 @@ fn main() {
     let wall: Vec<f64> = wall.iter_mut().map(median).collect();
     let cpu: Vec<f64> = cpu.iter_mut().map(median).collect();
     let gjk = queries.iter().position(|(n, _, _)| n == "parry3d_gjk_distance").expect("GJK is a query");
+    let ssat = queries.iter().position(|(n, _, _)| n == "evaluate/lse_xtanh").expect("the default SSAT is a query");
     println!("Table I, {rounds} interleaved rounds over {} box pairs (medians per pair)", table_one::PAIRS);
-    println!("{:<34} {:>9} {:>9} {:>9}  function timed", "query", "wall ns", "cpu ns", "vs GJK");
+    println!("{:<34} {:>9} {:>9} {:>9} {:>9}  function timed", "query", "wall ns", "cpu ns", "vs GJK", "vs SSAT");
     for (k, (name, function, _)) in queries.iter().enumerate() {
-        println!("{name:<34} {:>9.1} {:>9.1} {:>8.2}×  {function}", wall[k], cpu[k], wall[k] / wall[gjk]);
+        println!(
+            "{name:<34} {:>9.1} {:>9.1} {:>8.2}× {:>8.2}×  {function}",
+            wall[k],
+            cpu[k],
+            wall[k] / wall[gjk],
+            wall[k] / wall[ssat]
+        );
     }
 }

@@ -1,10 +1,12 @@
 //! Table I's queries, each over the same 1024 random box pairs: the SSAT variants, the
-//! exact SAT and parry3d's GJK and cuboid distances. Shared by the criterion bench
+//! exact SAT, parry3d's GJK and cuboid distances, and the LP (the growth distance solved
+//! by Clarabel, setup included). Shared by the criterion bench
 //! (`benches/ssat.rs`) and the interleaved harness (`benches/table_one.rs`).
 
 use cbfgen::ssat::{self, SmoothAbs, SmoothMax, SmoothParams};
 use cbfgen::{sat, OrientedBox};
 use cbfgen_testkit::boxes::random_pairs;
+use cbfgen_testkit::lp_boxes;
 use parry3d_f64::math::{Pose, Rot3, Vec3};
 use parry3d_f64::query::details::{distance_cuboid_cuboid, distance_support_map_support_map};
 use parry3d_f64::shape::Cuboid;
@@ -76,6 +78,20 @@ pub fn queries() -> Vec<(String, &'static str, Pass)> {
         "parry3d_cuboid_distance".into(),
         "parry3d_f64::query::details::distance_cuboid_cuboid",
         Box::new(move || parry.iter().map(|(pos12, ca, cb)| distance_cuboid_cuboid(black_box(pos12), ca, cb)).sum()),
+    ));
+    // An LP per query, built and solved afresh as an optimisation-based CBF would: the
+    // settings, the 12×4 constraint matrix, `DefaultSolver::new` and `solve` are all timed.
+    out.push((
+        "lp_growth_distance".into(),
+        "cbfgen_testkit::lp_boxes::growth_distance (clarabel DefaultSolver::new + solve)",
+        Box::new(move || {
+            pairs
+                .iter()
+                .map(|(a, b)| {
+                    lp_boxes::growth_distance(black_box(a), black_box(b), lp_boxes::settings()).unwrap_or(f64::NAN)
+                })
+                .sum()
+        }),
     ));
     out
 }
