@@ -96,6 +96,8 @@ fn figures_and_the_documented_csv_are_written() {
         "active_rows",
         "iterations",
         "source",
+        "computed_rows",
+        "culled_rows",
         "eval_us",
         "solve_us",
         "update_us",
@@ -154,4 +156,28 @@ fn unequal_rises_a_landing_a_box_and_a_platform_are_crossed_without_penetration(
         assert_out_of_the_terrain(scenario.name(), m);
         assert!(m.body > 0.0 && m.wheel_riser > 0.0, "{}: {m:?}", scenario.name());
     }
+}
+
+#[test]
+fn fig9_counts_the_rows_computed_and_applied_not_the_catalog_capacity() {
+    let result = sim::run(&SimConfig::new(Scenario::Stairs, true), |_| {}).expect("simulation");
+    // Counted from the model and the course, not from the filter's flags: per leg 4
+    // joint-limit, 1 foot-height and 2 stability rows; per step a body row and 6 toe rows
+    // (one edge cuboid along each riser); a foothold strip of 4 half-planes for each leg
+    // of the swinging tripod and 1 (its tread's start) for each standing leg.
+    let (legs, tripod) = (6, 3);
+    let fixed = legs * (4 + 1 + 2) + 7 * Stairs::HARDWARE.count;
+    for s in &result.samples {
+        let footholds = if s.swinging >= 0 { tripod * 4 + (legs - tripod) } else { legs };
+        assert_eq!(s.computed_rows, fixed + footholds, "t = {} s", s.t);
+        assert!(s.culled_rows + s.active_rows <= s.computed_rows, "culled rows applied at t = {} s", s.t);
+    }
+    let most = |f: fn(&sim::Sample) -> usize| result.samples.iter().map(f).max().expect("samples");
+    let (computed, applied) = (most(|s| s.computed_rows), most(|s| s.active_rows));
+    eprintln!(
+        "stairs: at most {computed} rows computed, {applied} applied, {} culled in one cycle (catalog capacity 269)",
+        most(|s| s.culled_rows)
+    );
+    // Some rows bind and some are culled, or the figure's lines say nothing.
+    assert!(applied > fixed / 2 && most(|s| s.culled_rows) > 0, "applied {applied}");
 }

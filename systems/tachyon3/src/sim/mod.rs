@@ -161,8 +161,19 @@ pub struct Sample {
     /// which is above the family's activation threshold
     /// ([`Row::culled`](cbfgen::system::Row::culled)).
     pub min_h: [f64; 6],
-    /// Rows that took part in the QP (applicable and below their family's activation threshold).
+    /// Rows that took part in the QP (applicable and below their family's activation
+    /// threshold): the rows applied, Fig. 9's count.
     pub active_rows: usize,
+    /// Rows computed this cycle: those whose instance is filled and whose condition holds
+    /// ([`Row::active`](cbfgen::system::Row::active)), evaluated in full or culled by their
+    /// lower bound. Empty slots of the catalog's [`Capacity`](crate::catalog::Capacity)
+    /// (edge slots beyond the course's edges, foothold slots beyond a leg's half-planes)
+    /// are not computed and do not count.
+    pub computed_rows: usize,
+    /// Of the computed rows, those culled: their lower bound on `h` was above the
+    /// activation threshold, so only the bound was computed and they could not be applied
+    /// ([`Row::culled`](cbfgen::system::Row::culled)).
+    pub culled_rows: usize,
     /// Rows each family had relaxed at the applied input (the filter's verdict,
     /// [`Family::index`] order): 0 everywhere when every active row was met.
     pub relaxed_rows: [usize; 6],
@@ -370,8 +381,11 @@ pub fn run_observed(
         observe(t, &filter);
         let clearance = course.clearance(&x)?;
         let mut min_h = [f64::INFINITY; 6];
+        let (mut computed_rows, mut culled_rows) = (0, 0);
         for (row, slot) in filter.rows().iter().zip(filter.barriers().slots()) {
             if row.active {
+                computed_rows += 1;
+                culled_rows += usize::from(row.culled);
                 let m = &mut min_h[slot.family.index()];
                 *m = m.min(row.h());
             }
@@ -382,6 +396,8 @@ pub fn run_observed(
             x,
             min_h,
             active_rows: out.active_rows,
+            computed_rows,
+            culled_rows,
             // The filter's families are the spec's, which `Family` follows.
             relaxed_rows: std::array::from_fn(|f| filter.relaxation()[f].relaxed_rows),
             iterations: out.iterations,
