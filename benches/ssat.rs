@@ -1,5 +1,6 @@
 //! Table I of the Tachyon 3 paper on this machine: cost of one box–box query for the
-//! SSAT variants, the exact SAT and parry3d's GJK, all on the same 1024 random pairs.
+//! SSAT variants, the exact SAT, parry3d's GJK and the LP (Clarabel, setup included), all
+//! on the same 1024 random pairs.
 //! Criterion reports the time for all 1024 pairs; divide by 1024 for one query. For the
 //! same table with every query interleaved in one run, see `benches/table_one.rs`.
 
