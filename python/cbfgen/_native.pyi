@@ -453,10 +453,26 @@ class Environment(Params):
 class Course:
     """A scenario's stairs and nominal gait, stepped by your own loop."""
 
-    def __init__(self, scenario: _Scenario = "step") -> None: ...
+    def __init__(
+        self,
+        scenario: _Scenario = "step",
+        perception: bool = False,
+        perception_seed: int = 1,
+        floor_lift: float | None = None,
+    ) -> None: ...
     def initial_state(self, start_gap: float = 0.3) -> Vector: ...
     def plan(self, t: float, x: ArrayLike) -> Vector:
         """The gait's nominal input; also updates `environment`."""
+    def perceive(self, t: float, x: ArrayLike, truth: ArrayLike | None = None) -> None:
+        """Perception before the cycle at ``t`` (a ``Course(perception=True)`` only): the
+        LiDAR scans from ``truth`` (the physical state; ``x`` when None) and maps its
+        returns from ``x`` (the state estimate the gait and filter are given); 10 Hz scans,
+        1 Hz updates applied 0.5 s after their request. Updates `environment`."""
+    @property
+    def perception_updates(self) -> int:
+        """Perception updates applied so far (0 without perception)."""
+    def environment_edges(self) -> list[tuple[Vector, Matrix, Vector]]:
+        """The edge boxes the filter was last given, as terrain_boxes gives boxes."""
     @property
     def environment(self) -> Environment: ...
     @property

@@ -1,6 +1,8 @@
 //! The simulation scenarios for Python: `Course`, for a control loop written in Python,
 //! and `simulate`, the whole Rust closed loop returning its time series as numpy arrays.
 
+use std::sync::Mutex;
+
 use pyo3::prelude::*;
 
 use crate::PyResult;
@@ -9,12 +11,13 @@ use pyo3::types::PyDict;
 use super::{initializer, state, PyEnvironment};
 use crate::convert::{choice, matrix, matrix_from_fn, vector, Array1Out, Array2Out, ArrayIn};
 use cbfgen::error::finite;
+use cbfgen::error::CbfError;
 use cbfgen::filter::InputSource;
 use cbfgen_tachyon3::catalog::Family;
 use cbfgen_tachyon3::model::NX;
 use cbfgen_tachyon3::sim::campaign::{self as monte_carlo, CampaignSettings, CourseRanges, Episode};
 use cbfgen_tachyon3::sim::gait::GaitParams;
-use cbfgen_tachyon3::sim::perceived::PerceptionSettings;
+use cbfgen_tachyon3::sim::perceived::{Perceiver, PerceptionSettings};
 use cbfgen_tachyon3::sim::{self, Course, Scenario, SimConfig};
 
 const SCENARIOS: [Scenario; 6] = Scenario::NAMED;
@@ -42,21 +45,86 @@ fn scenario(name: &str) -> PyResult<Scenario> {
 ///     out = filt.update(x, u_ref, course.environment)
 ///     x = x + DT * xdot(x, out.u)
 /// ```
+///
+/// With ``perception=True`` the gait and the environment see only what a LiDAR on the
+/// body perceives (the settings of ``simulate(perception=True)``, noise from
+/// ``perception_seed``, perceived levels raised by ``floor_lift`` \[m\] when given, from
+/// −0.05 to 0.5, default 0.004): call :meth:`perceive` before :meth:`plan` every cycle.
 #[pyclass(name = "Course", module = "cbfgen.tachyon3")]
 pub struct PyCourse {
     inner: Course,
     env: Py<PyEnvironment>,
     nominal_body_height: Option<f64>,
+    /// In a mutex only because a Python class must be `Sync` and the worker's channel is
+    /// not; `&mut self` methods take it uncontended.
+    perceiver: Option<Mutex<Perceiver>>,
+    perception_started: bool,
 }
 
 #[pymethods]
 impl PyCourse {
     #[new]
-    #[pyo3(signature = (scenario="step"))]
-    fn new(py: Python<'_>, scenario: &str) -> PyResult<Self> {
+    #[pyo3(signature = (scenario="step", perception=false, perception_seed=1, floor_lift=None))]
+    fn new(
+        py: Python<'_>,
+        scenario: &str,
+        perception: bool,
+        perception_seed: u64,
+        floor_lift: Option<f64>,
+    ) -> PyResult<Self> {
         let inner = Course::new(self::scenario(scenario)?, GaitParams::default())?;
         let env = Py::new(py, initializer(inner.environment().clone()))?;
-        Ok(Self { inner, env, nominal_body_height: None })
+        let defaults = PerceptionSettings::default();
+        let settings = PerceptionSettings {
+            seed: perception_seed,
+            floor_lift: floor_lift.unwrap_or(defaults.floor_lift),
+            ..defaults
+        };
+        let perceiver = perception.then(|| Perceiver::new(settings, inner.terrain())).transpose()?.map(Mutex::new);
+        Ok(Self { inner, env, nominal_body_height: None, perceiver, perception_started: false })
+    }
+
+    /// Perception before the control cycle at time ``t`` \[s\], for a robot that believes
+    /// it is at ``x`` (its state estimate, what the gait and filter are given) and is at
+    /// ``truth`` (the physical state; ``x`` when None). The LiDAR's rays leave from the
+    /// true pose; its returns are mapped from the believed one. Scans at 10 Hz, requests
+    /// an update at 1 Hz and applies it 0.5 s later; the first call scans and applies at
+    /// once. Updates ``environment``. An error on a course built without perception.
+    #[pyo3(signature = (t, x, truth=None))]
+    fn perceive(&mut self, py: Python<'_>, t: f64, x: ArrayIn<'_>, truth: Option<ArrayIn<'_>>) -> PyResult<()> {
+        let t = finite("time", t)?;
+        let estimate = state(&x)?;
+        let truth = truth.map(|x| state(&x)).transpose()?.unwrap_or(estimate);
+        let Some(perceiver) = self.perceiver.as_mut() else {
+            return Err(crate::value_error("perceive needs a Course(perception=True)"));
+        };
+        let perceiver = perceiver
+            .get_mut()
+            .map_err(|_| CbfError::Thread { what: "perception", reason: "it panicked in an earlier call".into() })?;
+        if self.perception_started {
+            perceiver.step_estimated(t, &truth, &estimate, &mut self.inner)?;
+        } else {
+            perceiver.start_estimated(&truth, &estimate, &mut self.inner)?;
+            self.perception_started = true;
+        }
+        self.sync_environment(py);
+        Ok(())
+    }
+
+    /// Perception updates applied so far (0 without perception).
+    #[getter]
+    fn perception_updates(&self) -> usize {
+        self.perceiver.as_ref().and_then(|p| p.lock().ok()).map_or(0, |p| p.updates())
+    }
+
+    /// The edge boxes the filter was last given, as :meth:`terrain_boxes` gives boxes (the
+    /// true edges' riser boxes without perception).
+    fn environment_edges<'py>(&self, py: Python<'py>) -> Vec<BoxOut<'py>> {
+        let edge = |e: &cbfgen_tachyon3::catalog::EdgeCuboid| -> BoxOut<'py> {
+            let rows: [[f64; 3]; 3] = std::array::from_fn(|i| std::array::from_fn(|j| e.rotation[(i, j)]));
+            (vector(py, &<[f64; 3]>::from(e.center)), matrix(py, &rows), vector(py, &<[f64; 3]>::from(e.half)))
+        };
+        self.inner.environment().edges().iter().map(edge).collect()
     }
 
     /// The standard posture with the robot's foremost point ``start_gap`` metres before
@@ -75,13 +143,7 @@ impl PyCourse {
         }
         finite("nominal body height", plan.body_height)?;
         self.nominal_body_height = Some(plan.body_height);
-        let mut env = self.env.borrow_mut(py);
-        let params = &mut env.as_super().inner;
-        match params.downcast_mut::<cbfgen_tachyon3::catalog::Environment>() {
-            Some(e) => e.clone_from(self.inner.environment()),
-            // Only reachable if the wrapped parameters were replaced: restore them.
-            None => *params = Box::new(self.inner.environment().clone()),
-        }
+        self.sync_environment(py);
         Ok(vector(py, &plan.u_ref))
     }
 
@@ -139,6 +201,19 @@ impl PyCourse {
     /// Ground height at world ``x`` \[m\].
     fn floor_height(&self, x: f64) -> PyResult<f64> {
         Ok(self.inner.ground().height_at(finite("x", x)?))
+    }
+}
+
+impl PyCourse {
+    /// Copy the course's environment into the one Python holds.
+    fn sync_environment(&self, py: Python<'_>) {
+        let mut env = self.env.borrow_mut(py);
+        let params = &mut env.as_super().inner;
+        match params.downcast_mut::<cbfgen_tachyon3::catalog::Environment>() {
+            Some(e) => e.clone_from(self.inner.environment()),
+            // Only reachable if the wrapped parameters were replaced: restore them.
+            None => *params = Box::new(self.inner.environment().clone()),
+        }
     }
 }
 

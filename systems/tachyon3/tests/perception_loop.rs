@@ -77,7 +77,7 @@ fn bad_perception_settings_are_typed_errors() {
         PerceptionSettings { mount: [1e300, 0.0, 0.0], ..base },
         PerceptionSettings { edge_margin: -0.1, ..base },
         PerceptionSettings { edge_lift: f64::INFINITY, ..base },
-        PerceptionSettings { floor_lift: -0.001, ..base },
+        PerceptionSettings { floor_lift: -0.051, ..base },
         PerceptionSettings { lidar: cbfgen_perception::scanner::Lidar { beams: 0, ..base.lidar }, ..base },
         PerceptionSettings {
             worker: cbfgen_perception::worker::WorkerSettings { map_voxel: f64::MAX, ..base.worker },
@@ -86,5 +86,43 @@ fn bad_perception_settings_are_typed_errors() {
     ] {
         let config = SimConfig { perception: Some(bad), ..SimConfig::new(Scenario::Step, true) };
         assert!(sim::run(&config, |_| {}).is_err(), "{bad:?}");
+    }
+}
+
+/// The ground perceived from the start pose after `steps` control cycles standing still,
+/// with the robot believing it is `offset` (x, z) away from where it is.
+fn ground_seen_with_estimate_offset(offset: [f64; 2], cycles: usize) -> Vec<cbfgen_tachyon3::terrain::Level> {
+    use cbfgen_tachyon3::sim::gait::GaitParams;
+    use cbfgen_tachyon3::sim::perceived::Perceiver;
+    use cbfgen_tachyon3::sim::{Course, DT};
+    let mut course = Course::new(Scenario::Stairs, GaitParams::default()).expect("course");
+    let truth = course.initial_state(0.3);
+    let mut estimate = truth;
+    // Every world position the state holds (body, toes) is relative to the origin, whose
+    // own position is a state too: moving it moves the whole robot.
+    estimate[0] += offset[0];
+    estimate[2] += offset[1];
+    let mut perceiver = Perceiver::new(PerceptionSettings::default(), course.terrain()).expect("perceiver");
+    perceiver.start_estimated(&truth, &estimate, &mut course).expect("start");
+    for k in 1..=cycles {
+        perceiver.step_estimated(k as f64 * DT, &truth, &estimate, &mut course).expect("step");
+    }
+    course.ground().levels().to_vec()
+}
+
+#[test]
+fn scans_registered_from_a_wrong_pose_estimate_move_the_perceived_stairs_with_the_error() {
+    // The map is built from the pose the robot believes: a belief 4 cm forward and 3 cm up
+    // puts every tread 3 cm higher and every riser 4 cm further on, as seen by the gait.
+    let offset = [0.04, 0.03];
+    let truth = ground_seen_with_estimate_offset([0.0; 2], 1600);
+    let shifted = ground_seen_with_estimate_offset(offset, 1600);
+    assert!(truth.len() >= 3, "levels seen: {truth:?}");
+    assert_eq!(truth.len(), shifted.len(), "{truth:?} vs {shifted:?}");
+    for (a, b) in truth.iter().zip(&shifted) {
+        assert!((b.height - a.height - offset[1]).abs() < 3e-3, "height {} vs {}", b.height, a.height);
+        if a.end.is_finite() {
+            assert!((b.end - a.end - offset[0]).abs() < 1e-2, "edge at {} vs {}", b.end, a.end);
+        }
     }
 }

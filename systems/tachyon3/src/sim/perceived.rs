@@ -68,7 +68,10 @@ pub struct PerceptionSettings {
     /// Every perceived level is raised this much for the gait and the floors under the
     /// wheels \[m\]: a tread's plane is found up to a few millimetres low (2.1 mm at
     /// worst in 20 episodes of rises 17.5–20 cm, seed 777), and a floor read low lets
-    /// the foot-height rows hold a wheel that far into the true tread.
+    /// the foot-height rows hold a wheel that far into the true tread. On a physical
+    /// robot the tread itself stops a wheel, and a level read high leaves the wheels
+    /// landing on it unloaded: there a lift of zero or below (down to −5 cm) is the safer
+    /// side.
     pub floor_lift: f64,
     /// Seed of the scans' noise and dropouts.
     pub seed: u64,
@@ -110,7 +113,7 @@ impl PerceptionSettings {
         within("perception latency [s]", self.latency, 0.0, self.update_period, "[0, update period]")?;
         within("edge margin [m]", self.edge_margin, 0.0, 0.5, "[0, 0.5]")?;
         within("edge lift [m]", self.edge_lift, 0.0, 0.5, "[0, 0.5]")?;
-        within("floor lift [m]", self.floor_lift, 0.0, 0.5, "[0, 0.5]")?;
+        within("floor lift [m]", self.floor_lift, -0.05, 0.5, "[-0.05, 0.5]")?;
         self.worker.validate()
     }
 }
@@ -268,7 +271,17 @@ impl Perceiver {
     /// # Errors
     /// A state outside the model's domain; a failed update.
     pub fn start(&mut self, x: &State, course: &mut Course) -> Result<(), CbfError> {
-        self.scan(x)?;
+        self.start_estimated(x, x, course)
+    }
+
+    /// [`Perceiver::start`] for a robot at `truth` that believes it is at `estimate` (see
+    /// [`Perceiver::step_estimated`]).
+    ///
+    /// # Errors
+    /// Either state outside the model's domain; a failed update.
+    pub fn start_estimated(&mut self, truth: &State, estimate: &State, course: &mut Course) -> Result<(), CbfError> {
+        let x = estimate;
+        self.scan_from(truth, estimate)?;
         self.request(0.0, x)?;
         let (_, _, toes) = gen::world_kinematics(x);
         let height = toes.iter().map(|t| t[2] - TOE_RADIUS).sum::<f64>() / 6.0;
@@ -286,10 +299,29 @@ impl Perceiver {
     /// # Errors
     /// A state outside the model's domain; a failed update.
     pub fn step(&mut self, t: f64, x: &State, course: &mut Course) -> Result<(), CbfError> {
+        self.step_estimated(t, x, x, course)
+    }
+
+    /// [`Perceiver::step`] for a robot that is at `truth` but believes it is at
+    /// `estimate` (its state estimate, with drift and noise): the LiDAR's rays leave from
+    /// the true sensor pose and meet the true terrain, and each return is placed in the
+    /// map from the estimated pose, as a robot registering scans by its odometry does.
+    /// Requests and the gait's new ground and edges use the estimate.
+    ///
+    /// # Errors
+    /// Either state outside the model's domain; a failed update.
+    pub fn step_estimated(
+        &mut self,
+        t: f64,
+        truth: &State,
+        estimate: &State,
+        course: &mut Course,
+    ) -> Result<(), CbfError> {
+        let x = estimate;
         // Half a cycle of slack: `t` is k · DT, which rounds.
         let slack = 0.5 * super::DT;
         if t + slack >= self.next_scan {
-            self.scan(x)?;
+            self.scan_from(truth, estimate)?;
             self.next_scan += self.settings.scan_period;
         }
         if self.in_flight.is_none() && t + slack >= self.next_request {
@@ -304,6 +336,11 @@ impl Perceiver {
         Ok(())
     }
 
+    /// Updates applied so far.
+    pub fn updates(&self) -> usize {
+        self.updates.len()
+    }
+
     /// Hand the map and what was found in it over: (updates, last result).
     pub fn finish(self) -> (Vec<PerceptionUpdate>, Option<Perceived>) {
         (self.updates, self.last)
@@ -314,18 +351,29 @@ impl Perceiver {
         body.center() + body.rotation() * Vector3::from(self.settings.mount)
     }
 
-    fn scan(&mut self, x: &State) -> Result<(), CbfError> {
+    /// One scan cast from `x`'s sensor pose, registered at `estimate`'s.
+    fn scan_from(&mut self, x: &State, estimate: &State) -> Result<(), CbfError> {
         model::validate_state(x)?;
+        model::validate_state(estimate)?;
         let body = model::body_box(x)?;
         let origin = self.sensor_at(&body);
         let orientation = *body.rotation();
+        let believed = model::body_box(estimate)?;
+        let (believed_origin, believed_orientation) = (self.sensor_at(&believed), *believed.rotation());
         // The robot's own body and wheels hide what is behind them.
         let (_, _, toes) = gen::world_kinematics(x);
         let mut own = vec![body];
         for toe in toes {
             own.push(OrientedBox::axis_aligned(Vector3::from(toe), Vector3::repeat(TOE_RADIUS))?);
         }
-        let points = self.settings.lidar.scan_oriented(&origin, &orientation, &self.world, &own, &mut self.rng)?;
+        let mut points = self.settings.lidar.scan_oriented(&origin, &orientation, &self.world, &own, &mut self.rng)?;
+        if x != estimate {
+            // Sensor frame from the true pose, world frame again from the believed one.
+            let register = believed_orientation * orientation.inverse();
+            for p in &mut points {
+                *p = believed_origin + register * (*p - origin);
+            }
+        }
         self.worker.add_scan(points)
     }
 
