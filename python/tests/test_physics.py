@@ -27,7 +27,14 @@ else:
     mujoco = pytest.importorskip("mujoco", reason="pip install -r python/requirements.txt")
 
 from cbfgen import tachyon3 as t3  # noqa: E402
-from cbfgen.physics import MAX_CATCH_UP, PENETRATION_TOLERANCE, PhysicalRobot, anchored, run  # noqa: E402
+from cbfgen.physics import (  # noqa: E402
+    MAX_CATCH_UP,
+    PENETRATION_TOLERANCE,
+    PhysicalRobot,
+    PoseEstimate,
+    anchored,
+    run,
+)
 
 BODY_HEIGHT_BOUND = 0.005
 TOE_BOUND = 0.015
@@ -123,6 +130,29 @@ def test_anchoring_moves_the_reference_rigidly_onto_the_robot_and_keeps_its_join
         np.testing.assert_allclose(t3.leg_joints(moved)[:, :2], t3.leg_joints(x)[:, :2], atol=1e-9)
 
 
+def test_a_pose_estimate_moves_the_whole_robot_rigidly_and_keeps_its_joints():
+    estimate = PoseEstimate()
+    rng = np.random.default_rng(8)
+    for x in random_states(20, seed=9):
+        error = estimate.error(travelled=rng.uniform(0.0, 3.0), rng=rng)
+        believed = estimate.estimate(x, error)
+        # World kinematics of the believed state: the body centre moved by the shift, the
+        # body turned by the pitch error, every wheel turned about the body centre.
+        # The error is in the origin's frame, which is yawed by x[3] in the world.
+        center, rotation, toes = t3.world_kinematics(x)
+        center_b, rotation_b, toes_b = t3.world_kinematics(believed)
+        cy, sy = np.cos(x[3]), np.sin(x[3])
+        yaw = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
+        np.testing.assert_allclose(center_b - center, yaw @ [error[0], 0.0, error[1]], atol=1e-12)
+        c, s = np.cos(error[2]), np.sin(error[2])
+        turn = yaw @ np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]) @ yaw.T
+        np.testing.assert_allclose(rotation_b, turn @ rotation, atol=1e-12)
+        np.testing.assert_allclose(toes_b, (turn @ (toes - center).T).T + center_b, atol=1e-12)
+        np.testing.assert_allclose(t3.leg_joints(believed)[:, :2], t3.leg_joints(x)[:, :2], atol=1e-9)
+    with pytest.raises(ValueError, match="non-negative noise"):
+        PoseEstimate(noise=(-1.0, 0.0, 0.0))
+
+
 def test_a_short_physical_run_tracks_the_kinematic_state_within_its_bounds():
     """Three seconds of the step course: the legs take the weight and lift the body; no
     body contact, and the physical state within the stated bounds of the kinematic one."""
@@ -192,3 +222,24 @@ def test_without_the_body_cbf_mujoco_reports_body_edge_contact(stairs_climbs):
     summary = stairs_climbs[False][0].summary()
     assert summary["body_contact_cycles"] > 100, summary
     assert summary["min_body_distance_mm"] < 0.0, summary
+
+
+@pytest.fixture(scope="module")
+def perceived_climb():
+    """The paper's hardware run: the hardware stairs perceived by the LiDAR, from the
+    default pose estimate (drift and noise, :class:`PoseEstimate`)."""
+    wheels = WheelDistances()
+    return run("stairs", body_cbf=True, on_cycle=wheels, perception=PoseEstimate()), wheels
+
+
+def test_on_perceived_stairs_from_a_drifting_estimate_no_wheel_enters_the_stairs_or_meets_a_riser(perceived_climb):
+    record, wheels = perceived_climb
+    summary = record.summary()
+    assert summary["finished"] and summary["perceived"], summary
+    # Perception ran at 1 Hz through the climb, and the estimate really was off.
+    assert summary["perception_updates"] >= int(summary["finish_time_s"]) - 1, summary
+    assert summary["max_estimate_error_mm"] > 30.0, summary
+    deepest = min(wheels.nearest)
+    assert deepest > -PENETRATION_TOLERANCE, f"a wheel {-1e3 * deepest:.2f} mm into the stairs"
+    assert summary["wheel_penetration_cycles"] == 0, summary
+    assert summary["wheel_riser_contact_cycles"] == 0 and summary["toe_riser_contact_cycles"] == 0, summary

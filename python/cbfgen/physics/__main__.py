@@ -1,9 +1,12 @@
 """``python -m cbfgen.physics``: the hardware stairs in MuJoCo, with and without the body
-CBF; summaries, Figs. 7–10 of the physical run and a side-by-side GIF of the climbs."""
+CBF; summaries, Figs. 7–10 of the physical run and a side-by-side GIF of the climbs.
+``--perception``: the same on perceived terrain from a drifting state estimate, as the
+paper's robot climbed them."""
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 from pathlib import Path
@@ -12,17 +15,30 @@ from pathlib import Path
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m cbfgen.physics", description=__doc__)
     parser.add_argument("--scenario", default="stairs", help="course (cbfgen.tachyon3.SCENARIOS); default stairs")
-    parser.add_argument("--out", type=Path, default=Path("out/mujoco"), help="output folder; default out/mujoco")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="output folder; default out/mujoco (out/mujoco_perceived with --perception)",
+    )
     parser.add_argument("--max-time", type=float, default=None, help="simulated seconds at most per run")
     parser.add_argument("--no-video", action="store_true", help="skip the GIF (needs no OpenGL then)")
+    parser.add_argument(
+        "--perception",
+        action="store_true",
+        help="the paper's hardware run: the gait and filter see only what the LiDAR perceives, "
+        "and act on a state estimate with drift and noise (cbfgen.physics.PoseEstimate)",
+    )
     args = parser.parse_args(argv)
+    if args.out is None:
+        args.out = Path("out/mujoco_perceived" if args.perception else "out/mujoco")
 
     if not args.no_video:
         # Chooses MuJoCo's OpenGL back end, so it comes before anything imports mujoco.
         from .render import FrameRecorder, write_side_by_side_gif
     from .. import tachyon3 as t3
     from .figures import write_figures
-    from .loop import run
+    from .loop import PoseEstimate, run
     from .model import ASSUMED
 
     if args.scenario not in t3.SCENARIOS:
@@ -33,12 +49,14 @@ def main(argv: list[str] | None = None) -> int:
         label = "with body CBF" if body_cbf else "without body CBF"
         recorder = None if args.no_video else FrameRecorder()
         print(f"physics: {args.scenario} {label} ...", file=sys.stderr, flush=True)
-        runs[body_cbf] = run(args.scenario, body_cbf, args.max_time, on_cycle=recorder)
+        estimate = PoseEstimate() if args.perception else None
+        runs[body_cbf] = run(args.scenario, body_cbf, args.max_time, on_cycle=recorder, perception=estimate)
         recorders[body_cbf] = recorder
         summary = runs[body_cbf].summary()
         print(json.dumps(summary, indent=1))
     report = {
         "assumed": ASSUMED,
+        "pose_estimate": dataclasses.asdict(PoseEstimate()) if args.perception else None,
         "with_body_cbf": runs[True].summary(),
         "without_body_cbf": runs[False].summary(),
     }

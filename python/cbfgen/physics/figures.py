@@ -31,13 +31,16 @@ def write_figures(with_cbf: PhysicalRun, without_cbf: PhysicalRun | None, out: P
 
     fig, ax = plt.subplots(figsize=(8, 4))
     ax.plot(a["t"], world_z, label="with body CBF (MuJoCo)")
+    if a["body_contact"].any():
+        touching = a["body_contact"]
+        ax.scatter(a["t"][touching], world_z[touching], s=2, c="purple", label="body touches, with body CBF")
     if without_cbf is not None:
         b = without_cbf.arrays()
         ax.plot(b["t"], b["x"][:, 2] + b["x"][:, 7], label="without body CBF (MuJoCo)")
         touching = b["body_contact"]
         if touching.any():
             height = b["x"][:, 2] + b["x"][:, 7]
-            ax.scatter(b["t"][touching], height[touching], s=2, c="red", label="body touches an edge")
+            ax.scatter(b["t"][touching], height[touching], s=2, c="red", label="body touches, without body CBF")
     ax.plot(a["t"], with_cbf.nominal_body_height, "k--", lw=0.8, label="gait's nominal")
     ax.set(title="Body height, physical robot (Fig. 7)", xlabel="time [s]", ylabel="body centre height [m]")
     ax.legend(fontsize=8)

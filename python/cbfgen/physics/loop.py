@@ -52,6 +52,10 @@ from the front, or a side) rather than a tread's."""
 MAX_CATCH_UP = 0.1
 """Most the reference's speed along the course may differ from the robot's [m/s]."""
 
+TIP_OVER_ROLL = np.radians(45.0)
+"""A measured roll beyond this ends a run as tipped over: the sagittal model cannot
+represent the robot any more, and its state would read as an upright robot's."""
+
 MAX_LEAD = 0.05
 """Furthest a wheel's angle target may run ahead of (or behind) the wheel, as rolled
 distance [m]: enough to catch up a slip of a few centimetres, little against the 35 cm
@@ -260,8 +264,12 @@ class PhysicalRun:
 
     scenario: str
     body_cbf: bool
+    perceived: bool = False
     t: list[float] = field(default_factory=list)
     x: list[np.ndarray] = field(default_factory=list)
+    """The physical state, measured from MuJoCo."""
+    x_estimate: list[np.ndarray] = field(default_factory=list)
+    """What the gait and filter were given: ``x``, or on a perceived run its estimate."""
     x_ref: list[np.ndarray] = field(default_factory=list)
     body_contact: list[bool] = field(default_factory=list)
     toe_riser_contacts: list[int] = field(default_factory=list)
@@ -277,13 +285,21 @@ class PhysicalRun:
     error: str | None = None
     finish_time: float | None = None
     nominal_body_height: list[float] = field(default_factory=list)
+    raise_over_standard: list[float] = field(default_factory=list)
+    """Body-centre height above the true ground under it, less the standard posture's
+    (the paper's "modified above the standard height") [m]; NaN off the stairs (on the
+    floor before them or on the top)."""
+    perception_updates: int = 0
 
     def arrays(self) -> dict[str, np.ndarray]:
         """The series as numpy arrays."""
         out = {
             "t": np.asarray(self.t),
             "x": np.asarray(self.x),
+            "x_estimate": np.asarray(self.x_estimate),
             "x_ref": np.asarray(self.x_ref),
+            "nominal_body_height": np.asarray(self.nominal_body_height),
+            "raise_over_standard": np.asarray(self.raise_over_standard),
             "body_contact": np.asarray(self.body_contact),
             "toe_riser_contacts": np.asarray(self.toe_riser_contacts),
             "body_distance": np.asarray(self.body_distance),
@@ -302,9 +318,17 @@ class PhysicalRun:
         x, ref = a["x"], a["x_ref"]
         toe_error = np.hypot(x[:, 12::4] - ref[:, 12::4], x[:, 13::4] - ref[:, 13::4])
         stance_slip = a["slip"][np.isfinite(a["slip"])]
+        estimate_error = np.hypot(a["x_estimate"][:, 6] - x[:, 6], a["x_estimate"][:, 7] - x[:, 7])
+        raise_ = x[:, 2] + x[:, 7] - a["nominal_body_height"]
         return {
             "scenario": self.scenario,
             "body_cbf": self.body_cbf,
+            "perceived": self.perceived,
+            "perception_updates": self.perception_updates,
+            "max_estimate_error_mm": 1e3 * float(estimate_error.max()),
+            "max_body_raise_mm": 1e3 * float(np.nanmax(raise_)),
+            "median_raise_over_standard_on_stairs_mm": _nan_stat(np.nanmedian, a["raise_over_standard"]),
+            "max_raise_over_standard_on_stairs_mm": _nan_stat(np.nanmax, a["raise_over_standard"]),
             "finished": self.finished,
             "finish_time_s": self.finish_time,
             "error": self.error,
@@ -330,6 +354,12 @@ class PhysicalRun:
             "median_slip_mm_s": 1e3 * float(np.median(stance_slip)) if stance_slip.size else 0.0,
             "p99_slip_mm_s": 1e3 * float(np.percentile(stance_slip, 99)) if stance_slip.size else 0.0,
         }
+
+
+def _nan_stat(stat, values: np.ndarray) -> float | None:
+    """``stat`` of the finite values in mm, None when there are none."""
+    finite = values[np.isfinite(values)]
+    return 1e3 * float(stat(finite)) if finite.size else None
 
 
 def anchored(reference: np.ndarray, measured: np.ndarray) -> np.ndarray:
@@ -377,6 +407,46 @@ def anchored(reference: np.ndarray, measured: np.ndarray) -> np.ndarray:
     return x
 
 
+@dataclass(frozen=True)
+class PoseEstimate:
+    """How the robot's state estimate differs from its physical state on a perceived run
+    (assumed; the paper states no estimator): a drift that grows with the distance the
+    robot has travelled, as odometry's does, and white noise each cycle. The whole robot
+    (body and wheels) moves rigidly with the error, which the legs cannot see."""
+
+    drift_per_metre: tuple[float, float] = (0.02, 0.005)
+    """Forward and upward drift per metre travelled: 2 % and 0.5 %."""
+    noise: tuple[float, float, float] = (0.001, 0.001, float(np.radians(0.1)))
+    """Standard deviations of the per-cycle noise in x, z [m] and pitch [rad]."""
+    seed: int = 1
+    """Seed of the noise."""
+    floor_lift: float | None = None
+    """Perceived levels raised by this [m] (None: the kinematic runs' 4 mm)."""
+
+    def __post_init__(self) -> None:
+        values = (*self.drift_per_metre, *self.noise)
+        if not all(np.isfinite(v) for v in values) or min(self.noise) < 0.0:
+            raise ValueError(f"PoseEstimate needs finite drifts and non-negative noise, got {values}")
+
+    def error(self, travelled: float, rng: np.random.Generator) -> np.ndarray:
+        """(x, z, pitch) error after ``travelled`` metres."""
+        drift = np.array([*self.drift_per_metre, 0.0]) * travelled
+        return drift + rng.normal(0.0, 1.0, 3) * np.asarray(self.noise)
+
+    def estimate(self, x: np.ndarray, error: np.ndarray) -> np.ndarray:
+        """``x`` with the robot moved rigidly by ``error``: a pitch about the body centre
+        (positions only, as :func:`anchored` turns them), then a shift."""
+        out = np.array(x, dtype=float)
+        xs, zs = [6, *range(12, 36, 4)], [7, *range(13, 36, 4)]
+        center = np.array([[x[6]], [x[7]]])
+        d = error[2]
+        turn = np.array([[np.cos(d), np.sin(d)], [-np.sin(d), np.cos(d)]])
+        moved = turn @ (np.stack([x[xs], x[zs]]) - center) + center
+        out[xs], out[zs] = moved[0] + error[0], moved[1] + error[1]
+        out[8] += d
+        return out
+
+
 def _min_h_by_family(filt) -> dict[str, float]:
     lie = filt.lie
     applicable = filt.applicable
@@ -394,12 +464,25 @@ def run(
     params: RobotParams | None = None,
     settle: float = 0.3,
     on_cycle=None,
+    perception: PoseEstimate | None = None,
 ) -> PhysicalRun:
     """The closed loop on the physical robot until the course is finished or
     ``max_time`` [s] (the Rust simulation's limit when None). The robot first stands
     ``settle`` seconds at its initial state so the legs take its weight. ``on_cycle(k,
-    robot)`` is called after every step (a renderer hooks in there)."""
-    course = t3.Course(scenario)
+    robot)`` is called after every step (a renderer hooks in there).
+
+    With ``perception`` (a :class:`PoseEstimate`) the run is the paper's hardware
+    experiment: the gait and the filter see only what the LiDAR on the body perceives
+    (:meth:`cbfgen.tachyon3.Course.perceive`: 10 Hz scans, 1 Hz updates), and they, the
+    scans' registration and the reference act on the state *estimate*, the physical state
+    with the estimate's drift and noise. Safety is still measured from MuJoCo's own poses
+    against the true terrain."""
+    course = (
+        t3.Course(scenario, perception=True, floor_lift=perception.floor_lift)
+        if perception is not None
+        else t3.Course(scenario)
+    )
+    rng = np.random.default_rng(perception.seed) if perception is not None else None
     settings = {} if body_cbf else {"activation": {BODY_FAMILY: float("-inf")}}
     filt = t3.ecbf_filter(**settings)
     robot = PhysicalRobot(course, params)
@@ -408,11 +491,24 @@ def run(
     for _ in range(int(round(settle / TIMESTEP))):
         robot.step()
     limit = max_time if max_time is not None else (60.0 if scenario == "stairs" else 40.0)
-    record = PhysicalRun(scenario=scenario, body_cbf=body_cbf)
+    record = PhysicalRun(scenario=scenario, body_cbf=body_cbf, perceived=perception is not None)
+    start = np.array(x_ref[0:3])
+    standard_height = float(t3.world_kinematics(t3.standard_posture())[0][2])
+    # The true ground from the solids (the course's floor_height is what it perceives).
+    solids = [(float(c[0] - h[0]), float(c[0] + h[0]), float(c[2] + h[2])) for c, _r, h in course.terrain_boxes()]
+    top = max(z for _lo, _hi, z in solids)
     for k in range(int(round(limit / t3.DT))):
         t = k * t3.DT
-        x, off_model = robot.measure(x_ref)
+        truth, off_model = robot.measure(x_ref)
+        x = truth
+        if abs(off_model["roll"]) > TIP_OVER_ROLL:
+            record.error = f"t = {t:.3f} s: tipped over (roll {np.degrees(off_model['roll']):.0f}°)"
+            break
         try:
+            if perception is not None:
+                travelled = float(np.linalg.norm(truth[0:3] - start))
+                x = perception.estimate(truth, perception.error(travelled, rng))
+                course.perceive(t, x, truth)
             u_ref = course.plan(t, x)
             out = filt.update(x, u_ref, course.environment, t)
         except CbfError as error:
@@ -426,22 +522,28 @@ def run(
         robot.step()
         body_contact, toe_riser = robot.contacts()
         record.t.append(t)
-        record.x.append(x)
+        record.x.append(truth)
+        record.x_estimate.append(x)
         record.x_ref.append(x_ref.copy())
         record.body_contact.append(body_contact)
         record.toe_riser_contacts.append(toe_riser)
         record.body_distance.append(robot.body_distance())
         record.wheel_distance.append(robot.wheel_distances())
-        record.clearance.append(course.clearance(x))
+        record.clearance.append(course.clearance(truth))
         record.slip.append(robot.slip())
         record.off_model.append(off_model)
         record.min_h.append(_min_h_by_family(filt))
         record.active_rows.append(out.active_rows)
         record.update_us.append(out.eval_time_us + out.solve_time_us)
         record.nominal_body_height.append(course.nominal_body_height or np.nan)
+        body = robot.data.xpos[robot.body]
+        ground = max((z for lo, hi, z in solids if lo <= body[0] <= hi), default=0.0)
+        on_stairs = 0.0 < ground < top - 1e-6
+        record.raise_over_standard.append(float(body[2]) - ground - standard_height if on_stairs else np.nan)
         if on_cycle is not None:
             on_cycle(k, robot)
-        if course.finished(x):
+        if course.finished(truth):
             record.finished, record.finish_time = True, t
             break
+    record.perception_updates = course.perception_updates
     return record
