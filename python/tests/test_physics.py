@@ -159,6 +159,11 @@ def test_a_short_physical_run_tracks_the_kinematic_state_within_its_bounds():
     record = run("step", body_cbf=True, max_time=3.0)
     a, summary = record.arrays(), record.summary()
     assert summary["error"] is None and summary["cycles"] == 3000
+    # Fig. 9's counts: applied within evaluated within computed, and the 42 per-leg rows
+    # (4 joint limits, a foot height and 2 stability rows on each of 6 legs) always there.
+    computed, culled, applied = a["computed_rows"], a["culled_rows"], a["active_rows"]
+    assert np.all(applied <= computed - culled) and np.all(culled >= 0)
+    assert computed.min() >= 42
     assert summary["body_contact_cycles"] == 0
     assert summary["max_body_height_error_mm"] <= 1e3 * BODY_HEIGHT_BOUND
     assert summary["max_toe_error_mm"] <= 1e3 * TOE_BOUND

@@ -280,6 +280,11 @@ class PhysicalRun:
     off_model: list[dict[str, float]] = field(default_factory=list)
     min_h: list[dict[str, float]] = field(default_factory=list)
     active_rows: list[int] = field(default_factory=list)
+    """Rows applied in the QP, per cycle (Fig. 9's count)."""
+    computed_rows: list[int] = field(default_factory=list)
+    """Rows computed: filled instances, empty capacity slots excluded (culled included)."""
+    culled_rows: list[int] = field(default_factory=list)
+    """Of the computed rows, those culled by their family's lower bound."""
     update_us: list[float] = field(default_factory=list)
     finished: bool = False
     error: str | None = None
@@ -307,6 +312,8 @@ class PhysicalRun:
             "clearance": np.asarray(self.clearance),
             "slip": np.asarray(self.slip),
             "active_rows": np.asarray(self.active_rows),
+            "computed_rows": np.asarray(self.computed_rows),
+            "culled_rows": np.asarray(self.culled_rows),
             "update_us": np.asarray(self.update_us),
         }
         for key in ("lateral", "roll", "heading"):
@@ -534,6 +541,8 @@ def run(
         record.off_model.append(off_model)
         record.min_h.append(_min_h_by_family(filt))
         record.active_rows.append(out.active_rows)
+        record.computed_rows.append(sum(filt.applicable))
+        record.culled_rows.append(sum(filt.culled))
         record.update_us.append(out.eval_time_us + out.solve_time_us)
         record.nominal_body_height.append(course.nominal_body_height or np.nan)
         body = robot.data.xpos[robot.body]
