@@ -55,8 +55,10 @@ def test_every_built_in_system_is_reachable_by_name():
         for f in s.families:
             assert len(f["poles"]) == f["relative_degree"] >= 1
             assert f["instances"] in {"fixed", "optional", "capacity"}
-            # The built-in systems declare barriers with the plain ECBF (no CLF, no alpha).
-            assert (f["kind"], f["class_k"]) == ("barrier", "s"), f
+            # The built-in systems use the plain ECBF (no alpha); Tachyon 3's foothold pull
+            # is their one CLF.
+            clf = (name, f["name"]) == ("tachyon3", "foothold_pull")
+            assert (f["kind"], f["class_k"]) == ("lyapunov" if clf else "barrier", "s"), f
 
 
 def test_a_python_loop_reproduces_the_rust_simulation():
@@ -374,6 +376,27 @@ def test_environment_round_trips():
     assert [env.is_enabled("foothold", member=m) for m in range(6)] == env.swing
     env.set_stability(0, lower=(1.0, 0.4), upper=None)
     assert env.get("stability", member="lf") == {"a": 1.0, "b": 0.4}
+
+
+def test_a_foothold_polygon_and_its_pull():
+    env = t3.Environment(edges=3, foothold_edges=(4, 4, 4, 4, 4, 4))
+    env.swing = [True] * 6
+    # A tread 35 cm deep from x = 1, inset 12 cm for the wheel: toe centres in x [1.12, 1.23].
+    env.set_foothold_polygon("RF", [[1.0, -0.6], [1.35, -0.6], [1.35, 0.6], [1.0, 0.6]], inset=0.12)
+    normals, offsets = env.foothold("rf")
+    assert normals @ [1.2, 0.0] + offsets == pytest.approx([0.48, 0.03, 0.48, 0.08])
+    # Outside: pulled to 1 cm inside the near edge, straight ahead; the rows go off.
+    target, outside = env.guide_toe("RF", [1.02, 0.3])
+    assert target == pytest.approx([1.13, 0.3]) and outside == pytest.approx(0.10)
+    assert env.foothold_pull("RF") == (pytest.approx([1.13, 0.3]), pytest.approx([1.0, 0.0]))
+    assert not env.is_enabled("foothold", member="rf") and env.swing[2]
+    # Inside: the rows keep it.
+    assert env.guide_toe("RF", [1.2, 0.3]) is None and env.foothold_pull("RF") is None
+    assert env.is_enabled("foothold", member="rf")
+    with pytest.raises(ValueError, match="not convex"):
+        env.set_foothold_polygon(0, [[0, 0], [2, 0], [1, 0.3], [1, 2]])
+    with pytest.raises(ValueError, match="leaves no polygon"):
+        env.set_foothold_polygon(0, [[0, 0], [1, 0], [0, 1]], inset=0.5)
     with pytest.raises(cbfgen.CbfError):
         env.floor_z = [0.0, 0.0, np.nan, 0.0, 0.0, 0.0]
 
@@ -468,7 +491,8 @@ def test_priorities_are_settings_and_out_of_range_ones_raise():
     poles, priority, activation = safety.family_settings["foothold"]
     assert priority == 5 and safety.family_settings["joint_limits"][1] == 0
     assert {f["name"]: f["priority"] for f in t3.SYSTEM.families} == {
-        "joint_limits": 0, "foot_height": 1, "stability": 2, "body_edge": 0, "toe_edge": 0, "foothold": 3}
+        "joint_limits": 0, "foot_height": 1, "stability": 2, "body_edge": 0, "toe_edge": 0, "foothold": 3,
+        "foothold_pull": 15}
     with pytest.raises(cbfgen.CbfError, match="priority tier"):
         t3.ecbf_filter(priority={"foothold": 16})
 

@@ -149,6 +149,9 @@ def family_inputs(family: str, leg: int, rng: np.random.Generator) -> Inputs:
     elif family == "foothold":
         a = rng.uniform(-np.pi, np.pi)
         v.update(normal=np.array([np.cos(a), np.sin(a)]) * rng.uniform(0.5, 2), offset=rng.uniform(-1, 1))
+    elif family == "foothold_pull":
+        a = rng.uniform(-np.pi, np.pi)
+        v.update(target=rng.uniform(-1, 1, 2), direction=np.array([np.cos(a), np.sin(a)]))
     elif family == "foot_height":
         v.update(floor_z=rng.uniform(-0.2, 0.2))
     elif family == "stability":
@@ -188,7 +191,7 @@ def domain_samplers() -> dict[tuple[str, str], Callable[[np.random.Generator], I
     out[("tachyon3", "body_edge")] = lambda rng: family_inputs("body_edge", 0, rng)
     # One kernel for every toe: the edge near a random toe, so each row is exercised.
     out[("tachyon3", "toe_edge")] = lambda rng: family_inputs("toe_edge", int(rng.integers(6)), rng)
-    for family in ("joint_limits", "foothold", "foot_height", "stability"):
+    for family in ("joint_limits", "foothold", "foothold_pull", "foot_height", "stability"):
         for leg, leg_name in enumerate(constant("leg_names")):
             out[("tachyon3", f"{family}_{leg_name.lower()}")] = lambda rng, f=family, at=leg: family_inputs(f, at, rng)
     out[("double_integrator", "sine_barrier")] = sine_barrier_inputs

@@ -14,6 +14,7 @@ use super::ssat::oriented_box;
 use super::system::PyParams;
 use cbfgen::error::finite;
 use cbfgen_tachyon3::catalog::{Capacity, EdgeCuboid, Environment, HalfPlane, StabilityBound};
+use cbfgen_tachyon3::foothold::{polygon_half_planes, ToeGuide};
 use cbfgen_tachyon3::generated as gen;
 use cbfgen_tachyon3::model::{self, State, NX};
 
@@ -211,6 +212,46 @@ impl PyEnvironment {
         }
         let planes = n.into_iter().zip(b).map(|(n, b)| HalfPlane::new(n, b)).collect::<Result<Vec<_>, _>>()?;
         Ok(env_mut(&mut slf)?.set_foothold(leg, &planes)?)
+    }
+
+    /// Replace ``leg``'s foothold with the convex polygon ``vertices`` (shape (k, 2), world
+    /// xy, either winding), shrunk by ``inset`` metres (the toe radius and a margin, so a
+    /// toe centre inside keeps that far from every side). Raises ``ValueError`` for a
+    /// polygon that is not convex, has no area or vanishes under the inset.
+    #[pyo3(signature = (leg, vertices, inset=0.0))]
+    fn set_foothold_polygon(
+        mut slf: PyRefMut<'_, Self>,
+        leg: LegArg,
+        vertices: ArrayIn<'_>,
+        inset: f64,
+    ) -> PyResult<()> {
+        let leg = leg.index()?;
+        let capacity = env_mut(&mut slf)?.capacity().foothold[leg];
+        let planes = polygon_half_planes(&rows::<2>("foothold polygon vertices", &vertices, capacity)?, inset)?;
+        Ok(env_mut(&mut slf)?.set_foothold(leg, &planes)?)
+    }
+
+    /// Each cycle, for a swing leg whose toe centre is at world ``toe`` (x, y): inside its
+    /// foothold, the foothold rows keep it (returns ``None``); outside, the rows go off
+    /// and the foothold pull (a CLF) brings it to the polygon's nearest point ``margin``
+    /// metres inside (returns ``(target, outside)``, ``outside`` in metres).
+    #[pyo3(signature = (leg, toe, margin=0.01))]
+    fn guide_toe(
+        mut slf: PyRefMut<'_, Self>,
+        leg: LegArg,
+        toe: [f64; 2],
+        margin: f64,
+    ) -> PyResult<Option<([f64; 2], f64)>> {
+        let leg = leg.index()?;
+        Ok(match env_mut(&mut slf)?.guide_toe(leg, toe, margin)? {
+            ToeGuide::Kept => None,
+            ToeGuide::Pulled { target, outside } => Some((target, outside)),
+        })
+    }
+
+    /// ``(target, direction)`` of ``leg``'s foothold pull, or ``None`` while it is off.
+    fn foothold_pull(slf: PyRef<'_, Self>, leg: LegArg) -> PyResult<Option<([f64; 2], [f64; 2])>> {
+        Ok(env(&slf)?.foothold_pull(leg.index()?).map(|p| (p.target.into(), p.direction.into())))
     }
 
     /// ``(normals (k, 2), offsets (k,))`` of ``leg``'s foothold polygon.

@@ -10,8 +10,9 @@ checks clearance with, and the constants its scenario code uses.
 Row order (the filter's QP rows): joint limits (4 per leg), foot height (1 per leg),
 static stability (lower and upper per leg, each optional), body-edge SSAT (1 per edge
 slot), toe-edge certified sphere-box clearance (one row per toe, per edge slot), foothold half-planes
-(per leg, its capacity). Per-leg families are indexed by the legs (``over``), so each leg
-keeps its own kernel with its hip baked in.
+(per leg, its capacity), then the foothold pull (one optional control-Lyapunov row per leg).
+Per-leg families are indexed by the legs (``over``), so each leg keeps its own kernel with
+its hip baked in.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ import symengine as se
 from symbolic.families import sphere_box, ssat
 from symbolic.families.ssat import certified_margin, relative_pose, separating_axes
 from symbolic.smoothing import LSE, XTANH
-from symbolic.spec import DEFAULT_TOLERANCE, Interval, Rotation, System, UnitVector
+from symbolic.spec import DEFAULT_TOLERANCE, MAX_PRIORITY, Interval, Rotation, System, UnitVector
 
 from tachyon3_model import MODEL_FILE, Leg, Tachyon3, load_model
 
@@ -60,6 +61,7 @@ EDGE_PARAMS = {
 #   2  static stability (eq. 13): an approximation with its own margin (a reach, not a
 #      support polygon).
 #   3  footholds: where the gait would like a swinging toe to stay.
+#   15 the foothold pull (a CLF, below every barrier: convergence, never safety).
 PRIORITIES = {
     "joint_limits": 0,
     "body_edge": 0,
@@ -67,7 +69,19 @@ PRIORITIES = {
     "foot_height": 1,
     "stability": 2,
     "foothold": 3,
+    "foothold_pull": MAX_PRIORITY,
 }
+
+# The foothold pull (the paper's section IV-D: a swing toe outside its region is brought
+# in by a CLF, one inside is kept there by the CBF). V = 1/2 (d . (p + lead p' - c))^2 on
+# the toe's world xy p, towards the point c along the unit direction d: the toe's
+# position has relative degree 2 in these accelerations, so V looks ahead by `lead`
+# seconds to make V' depend on the input. V' + rate V <= 0 halves z = d . (p + lead p' - c)
+# at rate / 2, and the toe then follows z with time constant `lead`: poles (8, 8) 1/s, so
+# a toe 9 cm out reaches a target 1 cm inside in about 0.5 s of the paper's 1.2 s swing,
+# asking at most 64 * 0.09 = 5.8 m/s^2 of the 10 m/s^2 a toe has.
+FOOTHOLD_PULL_RATE = 16.0
+FOOTHOLD_PULL_LEAD = 0.125
 
 
 def _toe_world(p, robot: Tachyon3, leg: Leg) -> list[se.Symbol]:
@@ -83,7 +97,8 @@ def build(model: Path | None = None) -> System:
     members = list(legs)
 
     s = System("tachyon3", doc="The Tachyon 3 model (systems/tachyon3/spec/tachyon3.toml): a hexapod on wheels "
-                               "climbing stairs, with the six ECBF families of the paper's section IV.")
+                               "climbing stairs, with the six ECBF families of the paper's section IV and its "
+                               "foothold CLF.")
     s.depends_on(model)  # the robot's numbers: editing them regenerates the module
     s.states(robot.state_names)
     s.inputs(robot.input_names, limits=[(-lim, lim) for lim in m.input_limits])
@@ -195,6 +210,26 @@ def build(model: Path | None = None) -> System:
              doc="Convex foothold half-space on the toe's world xy (eq. 12); switch a leg's set off while it "
                  "stands.")
 
+    def foothold_pull(p):
+        toe = robot.toe_world(legs[p.label])[:2]
+        # The toe's world velocity: its position does not depend on the input directly.
+        velocity = [sum((se.diff(c, xi) * fi for xi, fi in zip(robot.x, robot.f, strict=True)), se.Integer(0))
+                    for c in toe]
+        ahead = [p.let(f"ahead_{a}", toe[k] + FOOTHOLD_PULL_LEAD * velocity[k] - p.target[k])
+                 for k, a in enumerate("xy")]
+        along = p.let("along", p.direction[0] * ahead[0] + p.direction[1] * ahead[1])
+        return along * along / 2
+
+    s.lyapunov("foothold_pull", foothold_pull, rate=FOOTHOLD_PULL_RATE, priority=PRIORITIES["foothold_pull"],
+               over=members, optional=True,
+               params={"target": ((2,), "world xy point the toe is pulled to, inside its foothold [m]"),
+                       "direction": ((2,), "unit world xy direction from the toe to the target, along which "
+                                           "the pull acts", UnitVector(DEFAULT_TOLERANCE))},
+               doc="Control-Lyapunov pull of a swing toe outside its foothold (section IV-D): V = 1/2 (d . (p + "
+                   f"{FOOTHOLD_PULL_LEAD} p' - c))^2 [m^2] on the toe's world xy p, decreasing at "
+                   f"{FOOTHOLD_PULL_RATE} 1/s. Switched on (with the leg's foothold rows off) while the toe is "
+                   "outside; relaxed as convergence given up, never as a safety verdict.")
+
     # ------------------------------------------------------ outputs, constants
     s.output("world_kinematics", [
         ("body_center", robot.body_position_world(), "body box centre [m]"),
@@ -213,6 +248,9 @@ def build(model: Path | None = None) -> System:
         ("ssat_alpha", [m.ssat_alpha, m.ssat_alpha_rot], "Body SSAT sharpness (alpha, alpha_rot)."),
         ("toe_alpha", m.toe_alpha, "Toe-edge smoothing sharpness [1/m]."),
         ("ecbf_poles", list(m.ecbf_poles), "Default ECBF poles [1/s]."),
+        ("foothold_pull_rate", FOOTHOLD_PULL_RATE, "The foothold pull's decay rate: V' + rate V <= 0 [1/s]."),
+        ("foothold_pull_lead", FOOTHOLD_PULL_LEAD, "How far ahead the foothold pull's V looks along the toe's "
+                                                   "velocity [s]."),
         ("input_limits", list(m.input_limits), "Input magnitude limits, INPUT_NAMES order."),
     ]:
         s.constant(name, value, doc)

@@ -6,7 +6,8 @@
 //! Everything structural is generated from `systems/tachyon3/spec/tachyon3.py`: the row
 //! layout (joint limits 4 per leg, foot height 1 per leg, stability lower and upper per
 //! leg, body–edge SSAT 1 per edge slot, toe–edge certified clearance 6 per edge slot, foothold
-//! half-planes per leg up to its capacity), the kernels and [`FAMILIES`]. This module
+//! half-planes per leg up to its capacity, then the foothold pull, one control-Lyapunov row
+//! per leg), the kernels and [`FAMILIES`]. This module
 //! only names rows ([`RowSlot`]) and fills parameters.
 //!
 //! ```
@@ -15,7 +16,7 @@
 //! use nalgebra::Vector3;
 //!
 //! let mut catalog = Catalog::new(Capacity::PAPER_WORST_CASE)?;
-//! assert_eq!(catalog.len(), 269);
+//! assert_eq!(catalog.len(), 269 + 6); // the paper's 269 barrier rows, and a pull per leg
 //! let mut env = Environment::new(Capacity::PAPER_WORST_CASE)?;
 //! let step = cbfgen::OrientedBox::axis_aligned(Vector3::new(0.8, 0.0, 0.06), Vector3::new(0.02, 1.0, 0.02))?;
 //! env.push_edge(EdgeCuboid::from_box(&step))?;
@@ -54,13 +55,20 @@ pub type HalfPlane = gen::FootholdParams;
 /// toe's x relative to the body's (origin frame), `b` \[m\].
 pub type StabilityBound = gen::StabilityParams;
 
-/// Every family of this model has relative degree 2 (found by the generator; a model
-/// change that alters one stops the build here).
+/// Every barrier family of this model has relative degree 2 (found by the generator; a
+/// model change that alters one stops the build here).
 pub const RELATIVE_DEGREE: usize = 2;
+/// The foothold pull's `V` looks ahead by the toe's velocity, so its rate depends on
+/// the input: relative degree 1.
+pub const PULL_RELATIVE_DEGREE: usize = 1;
 const _: () = {
     let mut i = 0;
     while i < FAMILIES.len() {
-        assert!(FAMILIES[i].relative_degree == RELATIVE_DEGREE);
+        let expected = match FAMILIES[i].kind {
+            system::FamilyKind::Barrier => RELATIVE_DEGREE,
+            system::FamilyKind::Lyapunov => PULL_RELATIVE_DEGREE,
+        };
+        assert!(FAMILIES[i].relative_degree == expected);
         i += 1;
     }
 };
@@ -86,17 +94,25 @@ pub enum Family {
     ToeEdge,
     /// Swing toe inside a convex foothold half-space (eq. 12).
     Foothold,
+    /// The control-Lyapunov pull of a swing toe outside its foothold towards it
+    /// (section IV-D); see [`foothold`](crate::foothold). Its relaxation is convergence
+    /// given up, never a safety verdict.
+    FootholdPull,
 }
+
+/// How many families the model has: the length of per-family arrays.
+pub const FAMILY_COUNT: usize = Family::ALL.len();
 
 impl Family {
     /// Every family, in [`Family::index`] order.
-    pub const ALL: [Family; 6] = [
+    pub const ALL: [Family; 7] = [
         Family::JointLimits,
         Family::FootHeight,
         Family::Stability,
         Family::BodyEdge,
         Family::ToeEdge,
         Family::Foothold,
+        Family::FootholdPull,
     ];
 
     /// Position in [`Family::ALL`] and in [`FAMILIES`].
@@ -119,6 +135,7 @@ const _: () = {
     assert!(Family::BodyEdge.index() == gen::family::BODY_EDGE);
     assert!(Family::ToeEdge.index() == gen::family::TOE_EDGE);
     assert!(Family::Foothold.index() == gen::family::FOOTHOLD);
+    assert!(Family::FootholdPull.index() == gen::family::FOOTHOLD_PULL);
 };
 
 /// Where a row sits in the model's terms: family, leg, instance and input columns.
@@ -144,7 +161,9 @@ impl RowSlot {
             Family::JointLimits => (Some(layout.member), layout.row),
             Family::BodyEdge => (None, layout.instance),
             Family::ToeEdge => (Some(layout.row), layout.instance),
-            Family::FootHeight | Family::Stability | Family::Foothold => (Some(layout.member), layout.instance),
+            Family::FootHeight | Family::Stability | Family::Foothold | Family::FootholdPull => {
+                (Some(layout.member), layout.instance)
+            }
         };
         Self { family, leg, instance, columns: layout.columns }
     }
@@ -219,7 +238,9 @@ impl Tachyon3FilterExt for Tachyon3Filter {
 
 impl Capacity {
     /// The paper's worst case: 20 edge cuboids × (6 toes + body) = 140 collision rows, plus
-    /// 24 joint-limit, 6 foot-height, 12 stability and 87 foothold rows: 269 rows.
+    /// 24 joint-limit, 6 foot-height, 12 stability and 87 foothold rows: 269 barrier rows.
+    /// The catalog lays out 6 more, the foothold pull's, which apply only to a swing toe
+    /// outside its foothold, whose foothold rows are then off.
     pub const PAPER_WORST_CASE: Capacity = Capacity::edges(20, [15, 15, 15, 14, 14, 14]);
 
     /// Most edge cuboids a catalog may reserve (the spec's): 7 rows each, so 7175
@@ -319,15 +340,19 @@ impl Environment {
         }
     }
 
-    /// Which legs swing: foothold rows apply to swinging legs only.
+    /// Which legs swing: foothold rows (or, for a toe outside its foothold, the
+    /// foothold pull of [`guide_toe`](Environment::guide_toe)) apply to swinging legs only.
     pub fn swing(&self) -> [bool; LEGS] {
-        std::array::from_fn(|leg| self.foothold[leg].is_enabled())
+        std::array::from_fn(|leg| self.foothold[leg].is_enabled() || self.foothold_pull[leg][0].is_some())
     }
 
     /// Set which legs swing; a standing leg keeps its foothold half-planes, inactive.
+    /// Every foothold pull is switched off: [`guide_toe`](Environment::guide_toe), called
+    /// after this, switches on those a swing toe needs.
     pub fn set_swing(&mut self, swing: [bool; LEGS]) {
-        for (set, on) in self.foothold.iter_mut().zip(swing) {
+        for ((set, pull), on) in self.foothold.iter_mut().zip(&mut self.foothold_pull).zip(swing) {
             set.set_enabled(on);
+            *pull = [None];
         }
     }
 

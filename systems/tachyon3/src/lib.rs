@@ -5,6 +5,8 @@
 //! * [`catalog`] — every ECBF row of the model, evaluated into preallocated storage; it
 //!   implements [`BarrierSet`](cbfgen::system::BarrierSet), so the generic
 //!   [`EcbfFilter`](cbfgen::filter::EcbfFilter) runs it ([`catalog::Tachyon3Filter`]).
+//! * [`foothold`] — convex foothold polygons, and the switch between the foothold rows
+//!   and the control-Lyapunov pull of a swing toe outside its foothold.
 //! * [`terrain`] — stairs as edge cuboids and floors; [`approach`] — a scripted drive to them.
 //! * [`sim`] — the closed-loop stair simulation (gait, filter, integration, CSV and
 //!   figures), on the true terrain or on perceived terrain ([`sim::perceived`]: LiDAR,
@@ -22,6 +24,7 @@ pub mod generated {
 
 pub mod approach;
 pub mod catalog;
+pub mod foothold;
 pub mod latency;
 pub mod model;
 pub mod sim;

@@ -5,7 +5,7 @@
 //! episodes reproducible by id; and the courses that used to stop the gait (issue 15) or
 //! put a wheel into a riser (issue 32) now finish out of the terrain.
 
-use cbfgen_tachyon3::catalog::Family;
+use cbfgen_tachyon3::catalog::{Family, FAMILY_COUNT};
 use cbfgen_tachyon3::sim::campaign::{self, CampaignSettings, CourseRanges, Episode};
 use cbfgen_tachyon3::sim::{self, Scenario, SimConfig, Summary};
 use cbfgen_tachyon3::terrain::Stairs;
@@ -15,7 +15,7 @@ mod terrain_contact;
 use terrain_contact::{assert_out_of_the_terrain, measured_run, Measured};
 
 /// Everything a summary says about safety and progress (its timings differ run to run).
-fn outcome_fields(s: &Summary) -> (bool, f64, f64, f64, f64, usize, [f64; 6], usize) {
+fn outcome_fields(s: &Summary) -> (bool, f64, f64, f64, f64, usize, [f64; FAMILY_COUNT], usize) {
     (
         s.completed,
         s.duration,

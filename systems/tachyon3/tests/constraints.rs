@@ -5,7 +5,7 @@ use cbfgen_testkit::boxes as common;
 mod tachyon3_state;
 
 use cbfgen_tachyon3::catalog::{Capacity, Catalog, EdgeCuboid, Environment, Family, HalfPlane, StabilityBound};
-use cbfgen_tachyon3::generated as gen;
+use cbfgen_tachyon3::generated::{self as gen, FootholdPullParams};
 use cbfgen_tachyon3::model::{self, State, BODY_PITCH, BODY_X, BODY_Z, NU, NX, TOE_BLOCK};
 use common::{random_rotation, random_vector, rng};
 use nalgebra::{Matrix3, Rotation3, Vector2, Vector3};
@@ -247,22 +247,29 @@ fn full_environment(r: &mut impl Rng) -> Environment {
         env.stability[leg] = [Some(StabilityBound { a: 1.0, b: 0.3 }), Some(StabilityBound { a: -1.0, b: 0.3 })];
     }
     env.set_swing([true; 6]);
+    // The pull too (guide_toe never switches it on beside the leg's foothold rows, but the
+    // catalog evaluates whatever it is given).
+    for leg in 0..6 {
+        env.foothold_pull[leg] =
+            [Some(FootholdPullParams { target: Vector2::new(1.0, 0.5), direction: Vector2::new(0.6, 0.8) })];
+    }
     env.set_floors([-0.01; 6]);
     env
 }
 
 #[test]
-fn the_paper_worst_case_has_269_rows_all_evaluated() {
+fn the_paper_worst_case_has_269_barrier_rows_and_6_pull_rows_all_evaluated() {
     let mut r = rng(4);
     let env = full_environment(&mut r);
     let mut catalog = Catalog::new(Capacity::PAPER_WORST_CASE).unwrap();
-    assert_eq!(catalog.len(), 269);
+    assert_eq!(catalog.len(), 269 + 6);
     let x = random_state(&mut r);
     catalog.evaluate(&x, &env).unwrap();
     assert!(catalog.rows().iter().all(|row| row.active && row.lie.iter().all(|v| v.is_finite())));
     let count = |f: Family| catalog.slots().filter(|s| s.family == f).count();
     assert_eq!(count(Family::BodyEdge) + count(Family::ToeEdge), 140);
     assert_eq!((count(Family::JointLimits), count(Family::FootHeight), count(Family::Stability)), (24, 6, 12));
+    assert_eq!((count(Family::Foothold), count(Family::FootholdPull)), (87, 6));
     // Each slot holds what its own kernel returns for its own parameters.
     for (slot, row) in catalog.slots().zip(catalog.rows()) {
         let e = slot.instance;

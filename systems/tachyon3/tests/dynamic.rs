@@ -321,12 +321,12 @@ fn refused_updates_name_the_error_and_change_nothing() -> Result<(), CbfError> {
     assert_err(p.set(stab, 0, 2, &[1.0, 0.0]), no("instance", 2, 2));
     assert_err(p.set(body, 0, 1, &[0.0; 15]), no("instance", 1, 1)); // 2 slots, 1 pushed
     assert_err(get(p.as_ref(), body, 0, 2), no("instance", 2, 2));
-    assert_err(p.set(6, 0, 0, &[0.0]), no("family", 6, 6));
+    assert_err(p.set(7, 0, 0, &[0.0]), no("family", 7, 7));
     assert_err(p.set(feet, 6, 0, &[0.0]), no("member", 6, 6));
     assert_err(p.set(body, 1, 0, &[0.0; 15]), no("member", 1, 1));
     let free = CbfError::Unsupported { operation: "parameter access", kind: "parameter-free" };
     assert_err(p.store(sys.family_index("joint_limits")?, 0), free);
-    let known = "joint_limits, foot_height, stability, body_edge, toe_edge, foothold";
+    let known = "joint_limits, foot_height, stability, body_edge, toe_edge, foothold, foothold_pull";
     let unknown = CbfError::UnknownName { what: "family", name: "stairs".into(), known: known.into() };
     assert_err(p.family_index("stairs"), unknown.clone());
     assert_err(sys.family_index("stairs"), unknown);
@@ -342,7 +342,7 @@ fn refused_updates_name_the_error_and_change_nothing() -> Result<(), CbfError> {
     let large = CbfError::TooLarge { what: "foothold capacity", value: 257, max: 256 };
     assert_err(sys.params(&[count(hold, 3, 257)]), large);
     assert_err(sys.params(&[count(hold, 6, 1)]), no("member", 6, 6));
-    assert_err(sys.params(&[count(9, 0, 1)]), no("family", 9, 6));
+    assert_err(sys.params(&[count(9, 0, 1)]), no("family", 9, 7));
 
     // Another system's parameters.
     let planar = SYSTEMS.get("double_integrator").expect("built in");

@@ -184,8 +184,7 @@ fn a_nominal_input_that_satisfies_every_row_passes_unchanged() {
         // Independent check that u_ref satisfies every active ECBF row with margin.
         let s = filter.settings();
         let satisfied = filter.rows().iter().zip(filter.active()).zip(filter.slots()).all(|((row, &on), slot)| {
-            let &[p1, p2] = s.family(slot.family.index()).poles.as_slice() else { panic!("two poles") };
-            let b = row.lie[2] + (p1 + p2) * row.lie[1] + p1 * p2 * row.lie[0];
+            let b = kkt::ecbf_bound(&row.lie, s.family(slot.family.index()).poles.as_slice());
             !on || (0..NU).map(|j| row.lg[j] * u_ref[j]).sum::<f64>() + b > 1e-3
         });
         if !satisfied {

@@ -63,6 +63,21 @@ fn family_params() -> impl Strategy<Value = FamilyParams> {
     })
 }
 
+/// The foothold pull's settings: a Lyapunov family has one pole (its rate) and never
+/// priority 0.
+fn pull_params() -> impl Strategy<Value = FamilyParams> {
+    let [p_lo, p_hi] = domain::POLE_RANGE;
+    let activation = prop_oneof![Just(f64::INFINITY), Just(f64::NEG_INFINITY), -1.0..20.0];
+    (prop_oneof![log_range(p_lo, p_hi), log_range(1.0, 100.0)], 1..=domain::MAX_PRIORITY, activation).prop_map(
+        |(rate, priority, activation)| FamilyParams {
+            poles: Poles::from([rate]),
+            priority,
+            activation,
+            class_k: ClassK::LINEAR,
+        },
+    )
+}
+
 fn solver_settings() -> impl Strategy<Value = SolverSettings> {
     let time_limit = prop_oneof![
         3 => Just(None),
@@ -130,9 +145,9 @@ fn settings() -> impl Strategy<Value = FilterSettings<NU>> {
     let r = domain::MAX_WEIGHT_RATIO;
     let weights =
         prop_oneof![prop::array::uniform17(log_range(1.0 / r, r)), prop::array::uniform17(log_range(0.3, 3.0)),];
-    (prop::array::uniform6(family_params()), weights, input_box(), solver_settings()).prop_map(
-        |(families, input_weights, (input_min, input_max), solver)| FilterSettings {
-            families: families.to_vec(),
+    (prop::array::uniform6(family_params()), pull_params(), weights, input_box(), solver_settings()).prop_map(
+        |(barriers, pull, input_weights, (input_min, input_max), solver)| FilterSettings {
+            families: barriers.into_iter().chain([pull]).collect(),
             input_weights,
             input_min,
             input_max,

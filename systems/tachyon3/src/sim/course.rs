@@ -20,6 +20,8 @@ const STABILITY_REACH: f64 = 0.45;
 /// A standing wheel's centre stays this far past the start of the level it stands on,
 /// over its tread \[m\].
 const STANCE_INSET: f64 = 0.02;
+/// A swing toe outside its foothold strip is pulled to this far inside it \[m\].
+const FOOTHOLD_PULL_MARGIN: f64 = 0.01;
 /// A level with no start (the first) bounds a standing wheel this far back \[m\].
 const STANCE_REACH: f64 = 100.0;
 
@@ -92,7 +94,13 @@ impl Course {
         self.env.set_swing([true; 6]);
         for (leg, strip) in plan.footholds.iter().enumerate() {
             match strip {
-                Some(strip) => self.env.set_foothold(leg, strip)?,
+                Some(strip) => {
+                    // A swing toe outside its strip (the strip was re-planned on new
+                    // perception, or a row above the foothold's pushed the toe out) is
+                    // pulled in by the foothold CLF instead (section IV-D).
+                    self.env.set_foothold(leg, strip)?;
+                    self.env.guide_toe(leg, [toes[leg][0], toes[leg][1]], FOOTHOLD_PULL_MARGIN)?;
+                }
                 None => {
                     let ground = self.gait.ground();
                     let begin = ground.level_at(ground.standing_x(&toes[leg])).begin.max(-STANCE_REACH);

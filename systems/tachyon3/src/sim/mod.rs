@@ -12,6 +12,7 @@
 pub mod animation;
 pub mod campaign;
 mod course;
+pub mod foothold_swing;
 pub mod gait;
 pub mod output;
 pub mod perceived;
@@ -20,7 +21,7 @@ pub use course::Course;
 
 use std::time::Instant;
 
-use crate::catalog::{self, Catalog, Family};
+use crate::catalog::{self, Catalog, Family, FAMILY_COUNT};
 use crate::generated as gen;
 use crate::model::{self, State, NU};
 use crate::sim::perceived::{Perceiver, PerceptionSettings, PerceptionUpdate};
@@ -160,7 +161,7 @@ pub struct Sample {
     /// (`f64::INFINITY` where none applies). A culled row counts with its lower bound,
     /// which is above the family's activation threshold
     /// ([`Row::culled`](cbfgen::system::Row::culled)).
-    pub min_h: [f64; 6],
+    pub min_h: [f64; FAMILY_COUNT],
     /// Rows that took part in the QP (applicable and below their family's activation
     /// threshold): the rows applied, Fig. 9's count.
     pub active_rows: usize,
@@ -176,7 +177,7 @@ pub struct Sample {
     pub culled_rows: usize,
     /// Rows each family had relaxed at the applied input (the filter's verdict,
     /// [`Family::index`] order): 0 everywhere when every active row was met.
-    pub relaxed_rows: [usize; 6],
+    pub relaxed_rows: [usize; FAMILY_COUNT],
     /// OSQP's ADMM iterations in this cycle's solve.
     pub iterations: u32,
     /// Where the applied input came from: the QP's optimum or one of the fallbacks.
@@ -229,7 +230,7 @@ pub struct Summary {
     pub riser_contact_cycles: usize,
     /// Minimum `h` of each family over the run, [`Family::index`] order, in each family's own
     /// units (`f64::INFINITY` where no row ever applied).
-    pub min_h: [f64; 6],
+    pub min_h: [f64; FAMILY_COUNT],
     /// Largest excess of the body centre height over the gait's nominal \[m\].
     pub max_body_raise: f64,
     /// Slowest filter update \[µs\].
@@ -255,7 +256,7 @@ pub struct Summary {
     pub fallback_cycles: usize,
     /// Per family ([`Family::index`] order): cycles in which the filter reported rows of it
     /// relaxed (missed at the applied input, beyond the solver's rounding).
-    pub relaxed_cycles: [usize; 6],
+    pub relaxed_cycles: [usize; FAMILY_COUNT],
     /// Perception's figures, for a run on perceived terrain.
     pub perception: Option<PerceptionSummary>,
 }
@@ -380,7 +381,7 @@ pub fn run_observed(
 
         observe(t, &filter);
         let clearance = course.clearance(&x)?;
-        let mut min_h = [f64::INFINITY; 6];
+        let mut min_h = [f64::INFINITY; FAMILY_COUNT];
         let (mut computed_rows, mut culled_rows) = (0, 0);
         for (row, slot) in filter.rows().iter().zip(filter.barriers().slots()) {
             if row.active {
@@ -452,7 +453,7 @@ fn summarize(config: &SimConfig, samples: &[Sample], completed: bool, perception
     let [median_cpu_us, p99_cpu_us, max_cpu_us] = percentiles(samples, |s| s.cpu_us);
     let period_us = crate::latency::PERIOD.as_micros() as f64;
     let over = |f: fn(&Sample) -> f64| samples.iter().filter(|&s| f(s) > period_us).count();
-    let mut min_h = [f64::INFINITY; 6];
+    let mut min_h = [f64::INFINITY; FAMILY_COUNT];
     for s in samples {
         for (m, h) in min_h.iter_mut().zip(s.min_h) {
             *m = m.min(h);

@@ -14,6 +14,17 @@ use cbfgen_tachyon3::model::{Input, NU};
 
 use crate::lexicographic_reference::{check_answer, hard_qp, terms, violation, RefRow};
 
+/// The ECBF row's constant term for a linear class-K: the polynomial prod (s + p_i)
+/// applied to `lie` = (h, L_f h, ...): h' + p h for one pole (the foothold pull),
+/// L_f^2 h + (p1 + p2) L_f h + p1 p2 h for two (every barrier family).
+pub fn ecbf_bound(lie: &[f64], poles: &[f64]) -> f64 {
+    match *poles {
+        [p] => lie[1] + p * lie[0],
+        [p1, p2] => lie[2] + (p1 + p2) * lie[1] + p1 * p2 * lie[0],
+        _ => panic!("Tachyon 3's families have one or two poles, not {poles:?}"),
+    }
+}
+
 /// Every row of the filter's last update as `a·u + b ≥ 0` with its tier, and which took
 /// part.
 pub fn rows(filter: &Tachyon3Filter) -> (Vec<TieredRow<NU>>, Vec<bool>) {
@@ -24,9 +35,7 @@ pub fn rows(filter: &Tachyon3Filter) -> (Vec<TieredRow<NU>>, Vec<bool>) {
         .enumerate()
         .map(|(i, row)| {
             let f = s.family(filter.slot(i).family.index());
-            let &[p1, p2] = f.poles.as_slice() else { panic!("two poles") };
-            let b = row.lie[2] + (p1 + p2) * row.lie[1] + p1 * p2 * row.lie[0];
-            TieredRow { a: row.lg, b, tier: f.priority }
+            TieredRow { a: row.lg, b: ecbf_bound(&row.lie, f.poles.as_slice()), tier: f.priority }
         })
         .collect();
     (rows, filter.active().to_vec())

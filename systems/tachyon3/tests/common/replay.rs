@@ -1,6 +1,6 @@
 //! The stairs run's recorded QPs (`systems/tachyon3/tests/data/stairs_qps.bin`, written by
 //! `cargo run --release --example record_stairs_qps`) replayed through an `EcbfQp` laid out
-//! exactly as the Tachyon 3 filter's (same 269 rows, same sparsity, warm start from one
+//! exactly as the Tachyon 3 filter's (same 269 barrier rows and 6 pull rows, off, same sparsity, warm start from one
 //! problem to the next), and through Clarabel. Shared by the solver tests and the benches
 //! (benches include this file by path).
 #![allow(dead_code)]
@@ -35,10 +35,15 @@ pub struct Replay {
 impl Replay {
     pub fn new(backend: Solver, sample: &RecordedQp) -> Self {
         let catalog = Catalog::new(Course::CAPACITY).expect("catalog");
-        assert_eq!(catalog.layout().len(), sample.layout_rows, "the fixture was recorded from this layout");
+        // The fixture was recorded from this layout before the foothold pull's 6 rows were
+        // appended to it; they were off then (the stairs never start a toe outside its
+        // strip), so the recorded rows keep their indices.
+        let layout = catalog.layout();
+        assert!(layout.len() >= sample.layout_rows, "the fixture was recorded from this layout");
+        let pull = catalog::Family::FootholdPull.index();
+        assert!(layout[sample.layout_rows..].iter().all(|r| r.family == pull), "only the pull's rows were added");
         // The priorities the fixture was recorded with (the spec's may have moved since):
         // per family, as the sample's rows carry them, else the family's default.
-        let layout = catalog.layout();
         let defaults = catalog::default_settings();
         let mut priority: Vec<u8> = defaults.families.iter().map(|f| f.priority).collect();
         for r in &sample.rows {

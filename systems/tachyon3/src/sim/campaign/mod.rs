@@ -30,7 +30,7 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
 use super::{Approach, Scenario, SimConfig, Summary};
-use crate::catalog::Family;
+use crate::catalog::{Family, FAMILY_COUNT};
 use crate::sim::perceived::PerceptionSettings;
 use crate::terrain::Stairs;
 use cbfgen::error::CbfError;
@@ -381,7 +381,7 @@ pub struct Report {
     /// Per family ([`Family::index`](crate::catalog::Family::index)
     /// order): updates in which the filter reported rows of it relaxed, and the episodes
     /// holding any.
-    pub relaxed_cycles: [(usize, usize); 6],
+    pub relaxed_cycles: [(usize, usize); FAMILY_COUNT],
 }
 
 impl Campaign {
@@ -409,7 +409,7 @@ impl Campaign {
             max_cpu: None,
             max_wall: None,
             fallback_cycles: 0,
-            relaxed_cycles: [(0, 0); 6],
+            relaxed_cycles: [(0, 0); FAMILY_COUNT],
         };
         let lowest = |worst: &mut Worst, id: u64, v: f64| {
             if v.is_finite() && worst.is_none_or(|(_, w)| v < w) {
