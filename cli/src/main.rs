@@ -106,7 +106,7 @@ struct LatencyArgs {
 struct SimulateArgs {
     /// Course: one 16.5 cm step, five steps of 16.5 x 35 cm, four steps of unequal
     /// rise, steps with a landing, a 12 cm box to cross, a 20 cm platform to climb
-    /// onto and roll off.
+    /// onto and roll off, three steps with a 90° left turn on a landing and three more.
     #[arg(long, value_enum, default_value_t = ScenarioArg::Stairs)]
     scenario: ScenarioArg,
     /// Run only without the body SSAT CBF (the body hits the edge).
@@ -252,6 +252,7 @@ enum ScenarioArg {
     Landing,
     Box,
     Platform,
+    Turn,
 }
 
 impl ScenarioArg {
@@ -263,6 +264,7 @@ impl ScenarioArg {
             ScenarioArg::Landing => Scenario::Landing,
             ScenarioArg::Box => Scenario::Box,
             ScenarioArg::Platform => Scenario::Platform,
+            ScenarioArg::Turn => Scenario::Turn,
         }
     }
 }

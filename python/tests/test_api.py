@@ -92,12 +92,17 @@ def test_a_campaign_episode_reruns_alone_with_the_same_outcome():
 def test_perceived_terrain_runs_from_python_and_hides_the_truth():
     # Every named course is offered; a perceived run differs from the true-terrain one
     # (the filter saw other edges) and counts its 1 Hz updates.
-    assert t3.SCENARIOS == ["step", "stairs", "unequal_rises", "landing", "box", "platform"]
+    assert t3.SCENARIOS == ["step", "stairs", "unequal_rises", "landing", "box", "platform", "turn"]
     truth = t3.simulate("box", max_time=4.0)
     seen = t3.simulate("box", max_time=4.0, perception=True)
     assert truth["summary"]["perception_updates"] == 0
     assert seen["summary"]["perception_updates"] == 4  # before the start, and at 1, 2, 3 s
     assert not np.array_equal(truth["x"], seen["x"])
+    # Perception maps one flight along x: the course that turns is refused with it.
+    with pytest.raises(cbfgen.CbfError, match="flights of a course run on perceived terrain"):
+        t3.Course("turn", perception=True)
+    with pytest.raises(cbfgen.CbfError, match="flights of a course run on perceived terrain"):
+        t3.simulate("turn", max_time=1.0, perception=True)
     assert seen["summary"]["min_body_clearance"] > 0.0 and seen["summary"]["min_toe_clearance"] > -1e-3
 
 

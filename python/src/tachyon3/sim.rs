@@ -20,7 +20,7 @@ use cbfgen_tachyon3::sim::gait::GaitParams;
 use cbfgen_tachyon3::sim::perceived::{Perceiver, PerceptionSettings};
 use cbfgen_tachyon3::sim::{self, Course, Scenario, SimConfig};
 
-const SCENARIOS: [Scenario; 6] = Scenario::NAMED;
+const SCENARIOS: [Scenario; Scenario::NAMED.len()] = Scenario::NAMED;
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SCENARIOS", SCENARIOS.map(Scenario::name).to_vec())?;
@@ -80,7 +80,7 @@ impl PyCourse {
             floor_lift: floor_lift.unwrap_or(defaults.floor_lift),
             ..defaults
         };
-        let perceiver = perception.then(|| Perceiver::new(settings, inner.terrain())).transpose()?.map(Mutex::new);
+        let perceiver = perception.then(|| Perceiver::new(settings, inner.perceivable()?)).transpose()?.map(Mutex::new);
         Ok(Self { inner, env, nominal_body_height: None, perceiver, perception_started: false })
     }
 

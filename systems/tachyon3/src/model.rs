@@ -106,6 +106,21 @@ pub fn leg_joints(x: &State) -> [[f64; 4]; 6] {
     })
 }
 
+/// Move the ground-moving origin `d` metres along its heading without moving the robot:
+/// the origin's world position shifts by `d` along the yaw, and the body's and every
+/// toe's origin-relative x by `−d`. Every world pose is the same afterwards (so is every
+/// row's `h`), and with the yaw rate at zero every world velocity too: the paper's origin
+/// jumps this way to the wheels in contact when the support legs change (section II-B).
+pub fn shift_origin(x: &mut State, d: f64) {
+    let (s, c) = x[gen::state::YAW].sin_cos();
+    x[gen::state::PX] += d * c;
+    x[gen::state::PY] += d * s;
+    x[BODY_X] -= d;
+    for leg in 0..6 {
+        x[TOE_BLOCK + 4 * leg] -= d;
+    }
+}
+
 /// Origin-relative x of the robot's foremost point: the body's front face or a toe
 /// sphere's front, whichever reaches further (yaw and pitch ignored).
 pub fn front_reach(x: &State) -> f64 {

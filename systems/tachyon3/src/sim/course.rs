@@ -5,11 +5,12 @@
 //! (floor under each toe, which legs swing, the swing legs' foothold strips) and returns
 //! the gait's nominal input. The caller filters that input and integrates.
 
-use super::gait::{Gait, GaitParams, Plan};
+use super::gait::{Gait, GaitParams, OriginRule, Plan, TURN_TIME};
 use super::Scenario;
 use crate::catalog::{Capacity, EdgeCuboid, Environment, HalfPlane, StabilityBound};
 use crate::generated as gen;
 use crate::model::{self, State};
+use crate::terrain::route::{Placement, Route};
 use crate::terrain::solid::TerrainClearance;
 use crate::terrain::{Profile, SolidTerrain, Terrain};
 use cbfgen::error::CbfError;
@@ -30,9 +31,17 @@ const STANCE_REACH: f64 = 100.0;
 /// By default the filter and the gait see the true terrain. A perception loop replaces
 /// what they see with [`Course::set_perceived`]; the exact clearances and the finish are
 /// always judged against the true terrain.
+///
+/// A course with turns ([`Route`]) is planned one flight at a time: the gait reads the
+/// state in the current flight's frame, and at the flight's turn point it turns on the
+/// spot to face the next one ([`Gait::start_turn`]), whose frame it then plans in.
 #[derive(Debug, Clone)]
 pub struct Course {
-    terrain: Terrain,
+    route: Route,
+    /// The flight the gait plans on.
+    flight: usize,
+    /// While turning: the flight it turns to, and when the turn ends \[s\].
+    turning_to: Option<(usize, f64)>,
     env: Environment,
     /// The true terrain's solids, for the exact clearance checks.
     solids: SolidTerrain,
@@ -47,9 +56,9 @@ impl Course {
     /// Stair dimensions that fail [`Stairs::validate`](crate::terrain::Stairs::validate),
     /// or more changes of height than [`Course::CAPACITY`] has edge slots.
     pub fn new(scenario: Scenario, gait: GaitParams) -> Result<Self, CbfError> {
-        let terrain = scenario.terrain()?;
+        let route = scenario.route()?;
         let mut env = Environment::new(Self::CAPACITY)?;
-        for riser in terrain.riser_cuboids()? {
+        for riser in route.riser_cuboids()? {
             env.push_edge(riser)?;
         }
         for (leg, hip) in model::HIP_POSITIONS.iter().enumerate() {
@@ -58,9 +67,9 @@ impl Course {
                 Some(StabilityBound { a: -1.0, b: STABILITY_REACH + hip[0] }),
             ];
         }
-        let gait = Gait::new(gait, terrain.profile().clone());
-        let solids = SolidTerrain::new(&terrain)?;
-        Ok(Self { terrain, env, solids, gait })
+        let gait = Gait::new(gait, route.flights()[0].profile()?);
+        let solids = SolidTerrain::from_boxes(route.solid_boxes()?);
+        Ok(Self { route, flight: 0, turning_to: None, env, solids, gait })
     }
 
     /// The capacity every course's environment is laid out for; build the filter with it.
@@ -70,7 +79,7 @@ impl Course {
     /// metres before the first riser.
     pub fn initial_state(&self, start_gap: f64) -> State {
         let mut x = model::standard_posture();
-        x[0] = self.terrain.first_change() - start_gap - model::front_reach(&x);
+        x[0] = self.terrain().first_change() - start_gap - model::front_reach(&x);
         x
     }
 
@@ -82,6 +91,38 @@ impl Course {
         for &v in x {
             cbfgen::error::finite("state entry", v)?;
         }
+        // The gait plans in the current flight's frame. At the flight's turn point it turns
+        // on the spot to face the next flight, in whose frame it plans once turned.
+        if let Some((next, ends)) = self.turning_to {
+            if t >= ends {
+                self.flight = next;
+                self.gait.set_ground(self.route.flights()[next].profile()?);
+                self.turning_to = None;
+            }
+        } else if self.gait.swinging().is_none() {
+            let flights = self.route.flights();
+            if let (Some(turn_at), Some(next)) = (flights[self.flight].turn_at, flights.get(self.flight + 1)) {
+                let here = flights[self.flight].placement;
+                let local = here.local_state(x);
+                if local[0] >= turn_at {
+                    self.gait.start_turn(t, local[3], next.placement.heading - here.heading)?;
+                    self.turning_to = Some((self.flight + 1, t + TURN_TIME));
+                }
+            }
+        }
+        let placement = self.route.flights()[self.flight].placement;
+        let world = |planes: &[HalfPlane; 4]| -> Result<[HalfPlane; 4], CbfError> {
+            if placement == Placement::IDENTITY {
+                return Ok(*planes);
+            }
+            let mut out = *planes;
+            for (o, p) in out.iter_mut().zip(planes) {
+                *o = placement.world_half_plane(p)?;
+            }
+            Ok(out)
+        };
+        let (_, _, world_toes) = gen::world_kinematics(x);
+        let x = &placement.local_state(x);
         let (_, _, toes) = gen::world_kinematics(x);
         self.env.set_floors(self.gait.ground().floors_under(&toes));
         let plan = self.gait.plan(t, x)?;
@@ -98,17 +139,38 @@ impl Course {
                     // A swing toe outside its strip (the strip was re-planned on new
                     // perception, or a row above the foothold's pushed the toe out) is
                     // pulled in by the foothold CLF instead (section IV-D).
-                    self.env.set_foothold(leg, strip)?;
-                    self.env.guide_toe(leg, [toes[leg][0], toes[leg][1]], FOOTHOLD_PULL_MARGIN)?;
+                    self.env.set_foothold(leg, &world(strip)?)?;
+                    self.env.guide_toe(leg, [world_toes[leg][0], world_toes[leg][1]], FOOTHOLD_PULL_MARGIN)?;
                 }
                 None => {
                     let ground = self.gait.ground();
                     let begin = ground.level_at(ground.standing_x(&toes[leg])).begin.max(-STANCE_REACH);
-                    self.env.set_foothold(leg, &[HalfPlane::new([1.0, 0.0], -(begin + STANCE_INSET))?])?;
+                    let stance = HalfPlane::new([1.0, 0.0], -(begin + STANCE_INSET))?;
+                    let stance =
+                        if placement == Placement::IDENTITY { stance } else { placement.world_half_plane(&stance)? };
+                    self.env.set_foothold(leg, &[stance])?;
                 }
             }
         }
         Ok(plan)
+    }
+
+    /// With [`OriginRule::JumpAtExchange`]: at a support exchange (the swing under way
+    /// ends at `t`), move the origin of `x` to the centroid of the six wheels
+    /// ([`model::shift_origin`]) and return how far it jumped \[m\]. Call it before
+    /// [`Course::plan`] each cycle. Nothing the filter sees changes (every world pose, and
+    /// with the yaw rate at zero every world velocity, is kept), so it is skipped while
+    /// the yaw rate is not (below 1e-3 rad/s), as the paper's turns keep it at landings.
+    pub fn exchange_origin(&self, t: f64, x: &mut State) -> Option<f64> {
+        if self.gait.origin_rule() != OriginRule::JumpAtExchange
+            || !self.gait.support_exchange_due(t)
+            || x[gen::state::YAW_RATE].abs() >= 1e-3
+        {
+            return None;
+        }
+        let d = (0..6).map(|leg| x[model::TOE_BLOCK + 4 * leg]).sum::<f64>() / 6.0;
+        model::shift_origin(x, d);
+        Some(d)
     }
 
     /// What the filter must respect this cycle (as of the last [`Course::plan`]).
@@ -116,9 +178,10 @@ impl Course {
         &self.env
     }
 
-    /// The true terrain of this course.
+    /// The true terrain of this course: of its first flight, for a course with turns
+    /// ([`Course::route`]).
     pub fn terrain(&self) -> &Terrain {
-        &self.terrain
+        &self.route.flights()[0].terrain
     }
 
     /// The ground the gait plans on and the floors are read from: the true profile, or
@@ -161,12 +224,42 @@ impl Course {
         &self.solids
     }
 
-    /// Every toe stands on the true terrain's last level, the body centre is past its
-    /// last change of height and no tripod swings.
+    /// The terrain perception runs on ([`Perceiver::new`](super::perceived::Perceiver::new)).
+    ///
+    /// # Errors
+    /// A course with turns: perception builds one profile along x, and does not yet map
+    /// a route.
+    pub fn perceivable(&self) -> Result<&Terrain, CbfError> {
+        match self.route.flights() {
+            [only] => Ok(&only.terrain),
+            flights => Err(CbfError::OutOfRange {
+                what: "flights of a course run on perceived terrain",
+                value: flights.len() as f64,
+                range: "1",
+            }),
+        }
+    }
+
+    /// The whole course: its flights, where they are and where the robot turns.
+    pub fn route(&self) -> &Route {
+        &self.route
+    }
+
+    /// On the last flight, every toe stands on its true last level, the body centre is
+    /// past its last change of height and no tripod swings.
     pub fn finished(&self, x: &State) -> bool {
-        let ground = self.terrain.profile();
-        let (body_center, _, toes) = gen::world_kinematics(x);
-        let arrived = ground.floors_under(&toes).iter().all(|&floor| (floor - ground.final_height()).abs() < 1e-9);
+        let Some(last) = self.route.flights().last() else { return false };
+        if self.flight + 1 != self.route.flights().len() || self.turning_to.is_some() {
+            return false;
+        }
+        let x = last.placement.local_state(x);
+        let ground = last.terrain.profile();
+        let (body_center, _, toes) = gen::world_kinematics(&x);
+        let lift = last.placement.lift;
+        let arrived = ground
+            .floors_under(&toes.map(|t| [t[0], t[1], t[2] - lift]))
+            .iter()
+            .all(|&floor| (floor - ground.final_height()).abs() < 1e-9);
         arrived && body_center[0] > ground.last_change() && self.gait.swinging().is_none()
     }
 }

@@ -37,6 +37,9 @@ pub const FOOTHOLD_INSET: f64 = TOE_RADIUS + 0.02;
 /// this much room behind it \[m\].
 const FOOTHOLD_SLACK: f64 = 0.01;
 /// Fractions of a swing spent lifting, carrying forward, lowering.
+/// How long a turn on the spot takes \[s\]: the cubic yaw spline of a 90° turn then asks
+/// for at most 6 · (π/2) / 4² = 0.59 rad/s² of the model's 3.
+pub const TURN_TIME: f64 = 4.0;
 const LIFT_END: f64 = 0.4;
 const CARRY_END: f64 = 0.7;
 
@@ -73,6 +76,21 @@ pub struct GaitParams {
     pub stall_raise_rate: f64,
     /// Highest the stall raise takes the body target above its nominal \[m\].
     pub stall_raise_max: f64,
+    /// How the ground-moving origin moves.
+    pub origin: OriginRule,
+}
+
+/// How the ground-moving origin moves (the paper's section II-B).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum OriginRule {
+    /// It rolls with its unicycle speed and the body is held over it: the origin is the
+    /// body's footprint. The default: every run in the docs uses it.
+    #[default]
+    Rolling,
+    /// As the paper's: it also jumps, at each support exchange (a swing's touchdown), to
+    /// the centroid of the six wheels then in contact ([`Course::exchange_origin`](super::Course::exchange_origin)),
+    /// and the body is held over it, so over the support.
+    JumpAtExchange,
 }
 
 impl Default for GaitParams {
@@ -90,6 +108,7 @@ impl Default for GaitParams {
             leg_room: 0.15,
             stall_raise_rate: 0.05,
             stall_raise_max: 0.2,
+            origin: OriginRule::Rolling,
         }
     }
 }
@@ -137,6 +156,31 @@ pub struct Gait {
     last_t: f64,
     /// How far the body target is raised above the nominal to get out of a stall \[m\].
     stall_raise: f64,
+    /// A turn on the spot under way.
+    turn: Option<YawSpline>,
+}
+
+/// The paper's yaw reference through a turn: a cubic from `from` to `from + by` over
+/// [`TURN_TIME`] with zero yaw rate at both ends, so the rate is zero whenever wheels
+/// land (no tripod swings during the turn).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct YawSpline {
+    start: f64,
+    from: f64,
+    by: f64,
+}
+
+impl YawSpline {
+    /// Yaw, yaw rate and yaw acceleration at time `t`.
+    fn at(&self, t: f64) -> [f64; 3] {
+        let tau = ((t - self.start) / TURN_TIME).clamp(0.0, 1.0);
+        let rate = if (0.0..1.0).contains(&tau) { 1.0 } else { 0.0 };
+        [
+            self.from + self.by * tau * tau * (3.0 - 2.0 * tau),
+            rate * self.by * 6.0 * tau * (1.0 - tau) / TURN_TIME,
+            rate * self.by * (6.0 - 12.0 * tau) / (TURN_TIME * TURN_TIME),
+        ]
+    }
 }
 
 impl Gait {
@@ -153,7 +197,40 @@ impl Gait {
             stopped_at: 0.0,
             last_t: 0.0,
             stall_raise: 0.0,
+            turn: None,
         }
+    }
+
+    /// Turn on the spot by `by` radians (positive: left) from yaw `yaw` (the state's, in
+    /// the frame the gait plans in), starting at `t`: the origin stops, no tripod lifts off,
+    /// and the yaw follows a cubic spline with zero rate at both ends over [`TURN_TIME`].
+    ///
+    /// # Errors
+    /// A tripod swinging (turn only on all six wheels), or a non-finite or out-of-range
+    /// angle (at most a half turn).
+    pub fn start_turn(&mut self, t: f64, yaw: f64, by: f64) -> Result<(), CbfError> {
+        cbfgen::error::finite("turn start yaw", yaw)?;
+        cbfgen::error::within("turn angle [rad]", by, -std::f64::consts::PI, std::f64::consts::PI, "[-pi, pi]")?;
+        if self.swing.is_some() {
+            return Err(CbfError::OutOfRange { what: "swinging tripods at a turn", value: 1.0, range: "0" });
+        }
+        self.turn = Some(YawSpline { start: t, from: yaw, by });
+        Ok(())
+    }
+
+    /// Whether the swing under way ends at `t`: the support legs change then.
+    pub fn support_exchange_due(&self, t: f64) -> bool {
+        self.swing.is_some_and(|s| t - s.start >= self.params.swing_time)
+    }
+
+    /// How the origin moves.
+    pub fn origin_rule(&self) -> OriginRule {
+        self.params.origin
+    }
+
+    /// Whether a turn is under way.
+    pub fn turning(&self) -> bool {
+        self.turn.is_some()
     }
 
     /// Replace the ground the gait plans on (a new perception of it). A swing under way
@@ -188,6 +265,14 @@ impl Gait {
                 self.stance_since = t;
             }
         }
+        if self.turn.is_some_and(|turn| t - turn.start >= TURN_TIME) {
+            self.turn = None;
+            self.stance_since = t;
+        }
+        if self.turn.is_some() {
+            // Stopped on purpose: neither a stall nor rolling.
+            (self.moving_since, self.stopped_at) = (t, t);
+        }
         // Rolling backwards (the filter yielding to the gait's own pull) is no progress.
         if x[4] >= 0.02 {
             self.moving_since = t;
@@ -213,7 +298,7 @@ impl Gait {
             0.0
         };
         self.stall_raise = (self.stall_raise + rate * dt).clamp(0.0, p.stall_raise_max);
-        if self.swing.is_none() && t - self.stance_since >= p.stance_time {
+        if self.swing.is_none() && self.turn.is_none() && t - self.stance_since >= p.stance_time {
             let needs = TRIPODS
                 .map(|legs| legs.iter().any(|&leg| self.riser_ahead(self.ground.standing_x(&toes[leg]), lookahead)));
             let tripod = match needs {
@@ -228,9 +313,15 @@ impl Gait {
         }
 
         let mut u = [0.0; NU];
-        let speed = if self.swing.is_some() { p.step_speed } else { p.speed };
+        let speed = match (self.turn, self.swing) {
+            (Some(_), _) => 0.0,
+            (None, Some(_)) => p.step_speed,
+            (None, None) => p.speed,
+        };
         u[0] = KV * (speed - x[4]);
-        u[1] = -KP * x[3] - KD * x[5];
+        // Heading: along the path (yaw 0 in the gait's frame), or the turn's spline.
+        let [yaw, yaw_rate, yaw_accel] = self.turn.map_or([0.0; 3], |turn| turn.at(t));
+        u[1] = yaw_accel + KP * (yaw - x[3]) + KD * (yaw_rate - x[5]);
         let low = floor.iter().sum::<f64>() / 6.0 + model::NOMINAL_CLEARANCE + model::BODY_HALF_EXTENTS[2];
         let hip_z = model::HIP_POSITIONS[0][2];
         let room = self.swing.map_or(f64::NEG_INFINITY, |s| {
@@ -270,7 +361,11 @@ impl Gait {
                     // A stance wheel drifts back towards its hip only as fast as the robot
                     // rolls forward, so in the world it never rolls backwards off its tread.
                     let limit = STANCE_RETURN * x[4].max(0.0);
-                    let drift = (RETURN_RATE * (model::HIP_POSITIONS[leg][0] - x[ix])).clamp(-limit, limit);
+                    // Its hip, origin-relative: the body is the origin unless the origin
+                    // jumps, when the body lags the support centroid it jumped to.
+                    let hip = model::HIP_POSITIONS[leg][0]
+                        + if p.origin == OriginRule::JumpAtExchange { x[BODY_X] } else { 0.0 };
+                    let drift = (RETURN_RATE * (hip - x[ix])).clamp(-limit, limit);
                     u[ax] = KD * (drift - x[ix + 2]);
                     let stand_z = floor[leg] + TOE_RADIUS - x[2];
                     u[az] = KP * (stand_z - x[iz]) - KD * x[iz + 2];

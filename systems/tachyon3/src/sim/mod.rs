@@ -25,6 +25,7 @@ use crate::catalog::{self, Catalog, Family, FAMILY_COUNT};
 use crate::generated as gen;
 use crate::model::{self, State, NU};
 use crate::sim::perceived::{Perceiver, PerceptionSettings, PerceptionUpdate};
+use crate::terrain::route::Route;
 use crate::terrain::solid::{Contact, TerrainClearance, PENETRATION_TOLERANCE};
 use crate::terrain::{Stairs, Terrain};
 use cbfgen::error::CbfError;
@@ -65,25 +66,42 @@ pub enum Scenario {
     Box,
     /// A 20 cm platform to climb onto and roll off ([`Terrain::platform`]).
     Platform,
+    /// Three steps, a 90° left turn on a landing, three steps
+    /// ([`Route::turn_on_landing`]).
+    Turn,
 }
 
 impl Scenario {
     /// The named scenarios, in the order the CLI and Python list them.
-    pub const NAMED: [Scenario; 6] = [
+    pub const NAMED: [Scenario; 7] = [
         Scenario::Step,
         Scenario::Stairs,
         Scenario::UnequalRises,
         Scenario::Landing,
         Scenario::Box,
         Scenario::Platform,
+        Scenario::Turn,
     ];
 
-    /// The terrain of this course.
+    /// The whole course: one flight along x, or flights joined by turns.
+    ///
+    /// # Errors
+    /// Custom stairs that fail [`Stairs::validate`].
+    pub fn route(self) -> Result<Route, CbfError> {
+        match self {
+            Scenario::Turn => Ok(Route::turn_on_landing()),
+            _ => self.terrain().map(Route::straight),
+        }
+    }
+
+    /// The terrain of this course: its first flight's, for a course with turns
+    /// ([`Scenario::route`]).
     ///
     /// # Errors
     /// Custom stairs that fail [`Stairs::validate`].
     pub fn terrain(self) -> Result<Terrain, CbfError> {
         match self {
+            Scenario::Turn => Ok(Route::turn_on_landing().flights()[0].terrain.clone()),
             Scenario::Step => Stairs::SINGLE_STEP.terrain(),
             Scenario::Stairs => Stairs::HARDWARE.terrain(),
             Scenario::Custom(stairs) => stairs.terrain(),
@@ -95,7 +113,7 @@ impl Scenario {
     }
 
     /// Short name, as used in file names and printouts: `step`, `stairs`, `custom`,
-    /// `unequal_rises`, `landing`, `box` or `platform`.
+    /// `unequal_rises`, `landing`, `box`, `platform` or `turn`.
     pub fn name(self) -> &'static str {
         match self {
             Scenario::Step => "step",
@@ -105,6 +123,7 @@ impl Scenario {
             Scenario::Landing => "landing",
             Scenario::Box => "box",
             Scenario::Platform => "platform",
+            Scenario::Turn => "turn",
         }
     }
 }
@@ -143,6 +162,12 @@ impl SimConfig {
         let max_time = match scenario {
             Scenario::Step => 25.0,
             Scenario::Stairs => 60.0,
+            // Each flight's time, and a turn's between them.
+            Scenario::Turn => {
+                let route = Route::turn_on_landing();
+                let flights = route.flights().iter().map(|f| time_allowed(&f.terrain)).sum::<f64>();
+                (flights + gait::TURN_TIME * (route.flights().len() - 1) as f64).min(MAX_SIM_TIME)
+            }
             // A terrain that fails to build fails the run instead, with its error.
             other => other.terrain().map_or(MAX_SIM_TIME, |t| time_allowed(&t)),
         };
@@ -178,6 +203,9 @@ pub struct Sample {
     /// Rows each family had relaxed at the applied input (the filter's verdict,
     /// [`Family::index`] order): 0 everywhere when every active row was met.
     pub relaxed_rows: [usize; FAMILY_COUNT],
+    /// How far the ground-moving origin jumped at the start of this cycle \[m\], with
+    /// [`OriginRule::JumpAtExchange`](gait::OriginRule::JumpAtExchange) at a support exchange.
+    pub origin_jump: Option<f64>,
     /// OSQP's ADMM iterations in this cycle's solve.
     pub iterations: u32,
     /// Where the applied input came from: the QP's optimum or one of the fallbacks.
@@ -360,7 +388,7 @@ pub fn run_observed(
     let mut course = Course::new(config.scenario, config.gait)?;
     let mut filter = EcbfFilter::new(Catalog::new(Course::CAPACITY)?, config.filter.clone())?;
     let mut x = course.initial_state(config.start_gap);
-    let mut perceiver = config.perception.map(|p| Perceiver::new(p, course.terrain())).transpose()?;
+    let mut perceiver = config.perception.map(|p| Perceiver::new(p, course.perceivable()?)).transpose()?;
     if let Some(perceiver) = &mut perceiver {
         perceiver.start(&x, &mut course)?;
     }
@@ -374,6 +402,7 @@ pub fn run_observed(
         if let Some(perceiver) = &mut perceiver {
             perceiver.step(t, &x, &mut course)?;
         }
+        let origin_jump = course.exchange_origin(t, &mut x);
         let plan = course.plan(t, &x)?;
         let start = Instant::now();
         let out = *filter.update(&x, &plan.u_ref, course.environment())?;
@@ -401,6 +430,7 @@ pub fn run_observed(
             culled_rows,
             // The filter's families are the spec's, which `Family` follows.
             relaxed_rows: std::array::from_fn(|f| filter.relaxation()[f].relaxed_rows),
+            origin_jump,
             iterations: out.iterations,
             source: out.source,
             eval_us: out.eval_time.as_secs_f64() * 1e6,

@@ -24,6 +24,7 @@ use std::path::{Path, PathBuf};
 
 use super::{Approach, Sample, SimResult, Summary};
 use crate::catalog::Family;
+use crate::generated as gen;
 use crate::model::{BODY_Z, STATE_NAMES};
 use cbfgen_chart::{Chart, Series};
 
@@ -108,6 +109,11 @@ pub fn write_all(
         .into_iter()
         .map(|(name, chart)| (format!("{}_{name}", main.summary.scenario.name()), chart))
         .collect();
+    let route = main.summary.scenario.route().map_err(io::Error::other)?;
+    if route.flights().len() > 1 {
+        let top = top_view(&route, main).map_err(io::Error::other)?;
+        charts.push((format!("{}_top_view", main.summary.scenario.name()), top));
+    }
     if let Some(perception) = &main.perception {
         let (more_files, more_charts) = perception_files(&file_stem(&main.summary), main.summary.scenario, perception)?;
         files.extend(more_files);
@@ -193,6 +199,61 @@ fn file_stem(s: &Summary) -> String {
     } else {
         format!("{}_no_body_cbf", s.scenario.name())
     }
+}
+
+/// A course with turns from above: each solid's top face, the riser boxes the filter
+/// avoids, the body centre's path and the six toes' (the side view of the animation shows
+/// only the first flight's profile).
+///
+/// # Errors
+/// As [`Route::solid_boxes`](crate::terrain::route::Route::solid_boxes).
+pub fn top_view(route: &crate::terrain::route::Route, run: &SimResult) -> Result<Chart, cbfgen::CbfError> {
+    let outline = |b: &cbfgen::OrientedBox| -> Vec<(f64, f64)> {
+        let (c, r, h) = (b.center(), b.rotation(), b.half_extents());
+        [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0), (-1.0, -1.0)]
+            .iter()
+            .map(|&(u, v)| {
+                let p = c + r * nalgebra::Vector3::new(u * h.x, v * h.y, h.z);
+                (p.x, p.y)
+            })
+            .collect()
+    };
+    let mut chart = Chart::new(
+        &format!("{} from above: solids, riser boxes, body and toe paths", run.summary.scenario.name()),
+        "world x [m]",
+        "world y [m]",
+    )
+    .equal_axes();
+    // The floor slab would set the scale: leave it out.
+    for (k, solid) in route.solid_boxes()?.iter().enumerate().skip(1) {
+        chart = chart.with(Series::new(if k == 1 { "solid blocks (top faces)" } else { "" }, "#999", outline(solid)));
+    }
+    for (k, riser) in route.riser_boxes()?.iter().enumerate() {
+        chart = chart.with(Series::new(if k == 0 { "riser boxes (filter)" } else { "" }, "#d62728", outline(riser)));
+    }
+    let toes = |leg: usize| {
+        run.samples
+            .iter()
+            .step_by(20)
+            .map(|s| {
+                let (_, _, toes) = gen::world_kinematics(&s.x);
+                (toes[leg][0], toes[leg][1])
+            })
+            .collect()
+    };
+    for leg in 0..6 {
+        chart = chart.with(Series::new(if leg == 0 { "toe paths" } else { "" }, "#2ca02c", toes(leg)));
+    }
+    let body = run
+        .samples
+        .iter()
+        .step_by(20)
+        .map(|s| {
+            let (c, _, _) = gen::world_kinematics(&s.x);
+            (c[0], c[1])
+        })
+        .collect();
+    Ok(chart.with(Series::new("body centre", "#1f77b4", body)))
 }
 
 fn series(samples: &[Sample], f: impl Fn(&Sample) -> f64) -> Vec<(f64, f64)> {

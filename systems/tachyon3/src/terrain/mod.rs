@@ -6,12 +6,14 @@
 //!   Monte Carlo campaign's courses);
 //! * [`Terrain`] — any profile of flat levels, and the shapes a flight does not make;
 //! * [`Profile`] — the ground along the path as the gait reads it, true or perceived;
+//! * [`route`] — straight flights placed in the plane, joined where the robot turns;
 //! * [`SolidTerrain`] — the floor and every step as solid blocks, which the robot's
 //!   wheels and body are measured against by exact geometry;
 //! * [`edge_match`] — perceived edge cuboids matched to the true nosings.
 
 pub mod edge_match;
 pub mod profile;
+pub mod route;
 pub mod shapes;
 pub mod solid;
 

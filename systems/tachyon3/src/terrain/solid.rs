@@ -164,6 +164,11 @@ impl SolidTerrain {
         Ok(Self { solids: terrain.solid_boxes()? })
     }
 
+    /// Solids given as boxes (a course with turns: [`Route::solid_boxes`](super::route::Route::solid_boxes)).
+    pub fn from_boxes(solids: Vec<OrientedBox>) -> Self {
+        Self { solids }
+    }
+
     /// The solids, floor first.
     pub fn solids(&self) -> &[OrientedBox] {
         &self.solids

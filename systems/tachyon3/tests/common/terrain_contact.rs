@@ -49,10 +49,16 @@ impl Measured {
 }
 
 fn block(x: [f64; 2], y: f64, z: [f64; 2]) -> (Pose, Cuboid) {
-    let center = Vector::new(0.5 * (x[0] + x[1]), 0.0, 0.5 * (z[0] + z[1]));
+    block_xyz(x, [-y, y], z)
+}
+
+/// The axis-aligned block spanning `x`, `y` and `z` (each `[from, to]`).
+fn block_xyz(x: [f64; 2], y: [f64; 2], z: [f64; 2]) -> (Pose, Cuboid) {
+    let mid = |r: [f64; 2]| 0.5 * (r[0] + r[1]);
+    let half = |r: [f64; 2]| 0.5 * (r[1] - r[0]);
     (
-        Pose::from_parts(center, Rotation::IDENTITY),
-        Cuboid::new(Vector::new(0.5 * (x[1] - x[0]), y, 0.5 * (z[1] - z[0]))),
+        Pose::from_parts(Vector::new(mid(x), mid(y), mid(z)), Rotation::IDENTITY),
+        Cuboid::new(Vector::new(half(x), half(y), half(z))),
     )
 }
 
@@ -70,6 +76,12 @@ impl Solids {
             }
         }
         Self { blocks }
+    }
+
+    /// Axis-aligned blocks, each `[x, y, z]` ranges `[from, to]` \[m\]: a world written
+    /// out by hand.
+    pub fn blocks(blocks: &[[[f64; 2]; 3]]) -> Self {
+        Self { blocks: blocks.iter().map(|&[x, y, z]| block_xyz(x, y, z)).collect() }
     }
 
     /// A sphere's signed distance to each solid, with its contact normal's angle from
@@ -131,7 +143,12 @@ impl Solids {
 /// exact quantities), the body's no larger than the distance (the SAT's separation is a
 /// lower bound on it) and within 1e-9 m of it when the body goes in (both the depth).
 pub fn measured_run(terrain: &Terrain, result: &SimResult) -> Measured {
-    let m = Solids::of(terrain).over(&result.samples);
+    measured_run_in(&Solids::of(terrain), result)
+}
+
+/// [`measured_run`] against `solids`.
+pub fn measured_run_in(solids: &Solids, result: &SimResult) -> Measured {
+    let m = solids.over(&result.samples);
     let s = &result.summary;
     assert!(
         (s.min_toe_clearance() - m.wheel).abs() < 1e-9,

@@ -1,0 +1,89 @@
+//! The course with a turn: three steps, a 90° left turn on a 2.4 m landing, three steps.
+//! Measured against its solids written out by hand here (not from `Route`), with parry3d.
+
+use cbfgen_tachyon3::generated::state;
+use cbfgen_tachyon3::sim::gait::TURN_TIME;
+use cbfgen_tachyon3::sim::{self, Scenario, SimConfig};
+
+#[path = "common/terrain_contact.rs"]
+mod terrain_contact;
+use terrain_contact::{assert_out_of_the_terrain, measured_run_in, Solids};
+
+/// The course's world: floor; flight 1 up +x from x = 1 (16.5 × 35 cm steps, 2.4 m wide)
+/// to the landing, x 1.7–4.1 and y ±1.2 at 0.495 m; flight 2 up +y from the landing's
+/// side y = 1.2, across its x, each block down to the floor.
+fn turn_course_solids() -> Solids {
+    let (w, x_landing) = ([-1.2, 1.2], [1.7, 4.1]);
+    Solids::blocks(&[
+        [[-10.0, 12.0], [-10.0, 12.0], [-1.0, 0.0]],
+        [[1.0, 1.35], w, [0.0, 0.165]],
+        [[1.35, 1.7], w, [0.0, 0.33]],
+        [x_landing, w, [0.0, 0.495]],
+        [x_landing, [1.2, 1.55], [0.0, 0.66]],
+        [x_landing, [1.55, 1.9], [0.0, 0.825]],
+        [x_landing, [1.9, 11.9], [0.0, 0.99]],
+    ])
+}
+
+#[test]
+fn the_robot_climbs_turns_ninety_degrees_on_the_landing_and_climbs_on_without_penetration() {
+    let result = sim::run(&SimConfig::new(Scenario::Turn, true), |_| {}).expect("simulation");
+    let s = &result.summary;
+    assert!(s.completed, "{s}");
+    let m = measured_run_in(&turn_course_solids(), &result);
+    assert_out_of_the_terrain("turn", m);
+    assert!(m.body > 0.0 && m.wheel_riser > 0.0, "{m:?}");
+    // It faces +y at the end, on the top of flight 2.
+    let last = result.samples.last().expect("samples").x;
+    assert!((last[state::YAW] - std::f64::consts::FRAC_PI_2).abs() < 1f64.to_radians(), "yaw {}", last[state::YAW]);
+    assert!(
+        last[state::PY] > 1.9 && (1.7..4.1).contains(&last[state::PX]),
+        "ends at ({}, {})",
+        last[state::PX],
+        last[state::PY]
+    );
+    // The turn happened on all six wheels, over about TURN_TIME: while the yaw rate was
+    // above 0.01 rad/s no tripod swung (the paper's zero yaw rate at every landing).
+    let turning: Vec<_> = result.samples.iter().filter(|s| s.x[state::YAW_RATE].abs() > 0.01).collect();
+    assert!(turning.iter().all(|s| s.swinging < 0), "a tripod swung while turning");
+    let span = turning.last().expect("a turn").t - turning[0].t;
+    assert!((0.8 * TURN_TIME..1.2 * TURN_TIME).contains(&span), "turned over {span} s");
+}
+
+#[test]
+fn perception_on_a_course_that_turns_is_refused_with_an_error() {
+    let mut config = SimConfig::new(Scenario::Turn, true);
+    config.perception = Some(Default::default());
+    let err = sim::run(&config, |_| {}).expect_err("perception reads one flight along x");
+    assert!(err.to_string().contains("flights of a course run on perceived terrain"), "{err}");
+}
+
+#[test]
+fn a_placement_maps_boxes_half_planes_and_states_consistently() {
+    use cbfgen_tachyon3::catalog::HalfPlane;
+    use cbfgen_tachyon3::model::standard_posture;
+    use cbfgen_tachyon3::terrain::route::Placement;
+    use nalgebra::Vector3;
+    let p = Placement { origin: [2.0, -1.0], heading: 0.7, lift: 0.3 };
+    // A local point, by hand: rotate by 0.7 about z, then shift.
+    let (s, c) = 0.7f64.sin_cos();
+    let local = [0.4, -0.2, 0.1];
+    let world = [2.0 + c * 0.4 + s * 0.2, -1.0 + s * 0.4 - c * 0.2, 0.4];
+    let back = p.local_point(&world);
+    assert!((0..3).all(|i| (back[i] - local[i]).abs() < 1e-12), "{back:?}");
+    // A local box's centre goes where the point goes.
+    let b = cbfgen::OrientedBox::axis_aligned(Vector3::from(local), Vector3::new(0.1, 0.2, 0.3)).expect("box");
+    let w = p.world_box(&b).expect("box");
+    assert!((0..3).all(|i| (w.center()[i] - world[i]).abs() < 1e-12));
+    // A local half-plane holds at the world point exactly as at the local one.
+    let h = HalfPlane::new([0.6, 0.8], -0.1).expect("half-plane");
+    let hw = p.world_half_plane(&h).expect("half-plane");
+    let value = |h: &HalfPlane, q: [f64; 3]| h.normal[0] * q[0] + h.normal[1] * q[1] + h.offset;
+    assert!((value(&h, local) - value(&hw, world)).abs() < 1e-12);
+    // A state's origin maps as a point, its yaw turns by the heading, the rest is kept.
+    let mut x = standard_posture();
+    (x[0], x[1], x[3]) = (world[0], world[1], 1.0);
+    let xl = p.local_state(&x);
+    assert!((xl[0] - local[0]).abs() < 1e-12 && (xl[1] - local[1]).abs() < 1e-12 && (xl[3] - 0.3).abs() < 1e-12);
+    assert_eq!(xl[4..], x[4..]);
+}
