@@ -103,6 +103,14 @@ def test_perceived_terrain_runs_from_python_and_hides_the_truth():
         t3.Course("turn", perception=True)
     with pytest.raises(cbfgen.CbfError, match="flights of a course run on perceived terrain"):
         t3.simulate("turn", max_time=1.0, perception=True)
+    # Its solids are every flight's, in the world: the floor, flight 1's two steps and
+    # landing, and flight 2's three steps up +y from the landing's side, down to the floor.
+    boxes = t3.Course("turn").terrain_boxes()
+    assert len(boxes) == 7 and len(t3.Course("turn").edge_boxes()) == 7
+    center, rotation, half = boxes[-1]
+    extent = np.abs(rotation) @ half  # the turned box's half extents along the world axes
+    np.testing.assert_allclose(center + extent, [4.1, 4.9, 0.99], atol=1e-12)
+    np.testing.assert_allclose(center - extent, [1.7, 1.9, 0.0], atol=1e-12)
     assert seen["summary"]["min_body_clearance"] > 0.0 and seen["summary"]["min_toe_clearance"] > -1e-3
 
 

@@ -187,18 +187,19 @@ impl PyCourse {
 
     /// The true terrain as solid boxes, ``[(center (3,), rotation (3, 3), half_extents
     /// (3,))]``: a floor with its top at z = 0 and one box per raised level (what a
-    /// physics engine or a scanner is given).
+    /// physics engine or a scanner is given), every flight's on a course that turns.
     fn terrain_boxes<'py>(&self, py: Python<'py>) -> PyResult<Vec<BoxOut<'py>>> {
-        Ok(self.inner.terrain().solid_boxes()?.iter().map(|b| box_out(py, b)).collect())
+        Ok(self.inner.solids().solids().iter().map(|b| box_out(py, b)).collect())
     }
 
     /// The true edge cuboids (the nosings), one along each change of height, in order, as
-    /// :meth:`terrain_boxes` gives boxes.
+    /// :meth:`terrain_boxes` gives boxes (every flight's, in the world).
     fn edge_boxes<'py>(&self, py: Python<'py>) -> PyResult<Vec<BoxOut<'py>>> {
-        Ok(self.inner.terrain().edge_boxes()?.iter().map(|b| box_out(py, b)).collect())
+        Ok(self.inner.route().edge_boxes()?.iter().map(|b| box_out(py, b)).collect())
     }
 
-    /// Ground height at world ``x`` \[m\].
+    /// Ground height at ``x`` \[m\] along the path the gait is planning on (the current
+    /// flight's, in its own frame, on a course that turns).
     fn floor_height(&self, x: f64) -> PyResult<f64> {
         Ok(self.inner.ground().height_at(finite("x", x)?))
     }

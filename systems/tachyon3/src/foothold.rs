@@ -33,6 +33,7 @@
 use crate::catalog::{Environment, HalfPlane};
 use crate::generated::FootholdPullParams;
 use cbfgen::error::{finite, CbfError};
+use cbfgen::system;
 
 /// Feasibility tolerance of [`nearest_inside`] \[m\]: a point within this of every
 /// half-plane counts as inside (the intersections it tests are computed, not exact).
@@ -190,15 +191,18 @@ impl Environment {
     /// [`set_swing`](Environment::set_swing) for that leg; use it for swinging legs only.
     ///
     /// # Errors
-    /// `leg >= 6`, a non-finite toe or margin, a negative margin, or half-planes with no
-    /// common point (nothing to pull towards). The environment is unchanged then.
+    /// `leg >= 6`, a toe outside the state's domain ([`STATE_LIMIT`](cbfgen::system::STATE_LIMIT))
+    /// or not finite, a non-finite or negative margin, or half-planes with no common point
+    /// (nothing to pull towards). The environment is unchanged then.
     pub fn guide_toe(&mut self, leg: usize, toe: [f64; 2], margin: f64) -> Result<ToeGuide, CbfError> {
         let len = self.foothold.len();
         if leg >= len {
             return Err(CbfError::NoSuchIndex { what: "leg", index: leg, len });
         }
-        finite("toe x", toe[0])?;
-        finite("toe y", toe[1])?;
+        // Within the state's domain: a toe further out would make the pull's direction
+        // overflow to zero length.
+        system::coordinate("toe x", toe[0])?;
+        system::coordinate("toe y", toe[1])?;
         finite("foothold pull margin", margin)?;
         if margin < 0.0 {
             return Err(CbfError::OutOfRange { what: "foothold pull margin", value: margin, range: "[0, inf)" });

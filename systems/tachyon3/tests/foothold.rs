@@ -140,6 +140,7 @@ fn guide_toe_switches_between_the_rows_and_the_pull_and_refuses_bad_input() -> R
     assert!(env.swing()[2], "a pulled leg still swings");
     // Bad input leaves the pull as it was.
     assert!(env.guide_toe(2, [f64::NAN, 0.0], 0.01).is_err());
+    assert!(env.guide_toe(2, [1e308, -1e308], 0.01).is_err(), "beyond the state's domain");
     assert!(env.guide_toe(2, [0.9, -0.5], -1.0).is_err());
     assert!(env.guide_toe(6, [0.9, -0.5], 0.01).is_err());
     assert!(env.foothold_pull(2).is_some());
