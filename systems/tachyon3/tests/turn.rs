@@ -87,3 +87,62 @@ fn a_placement_maps_boxes_half_planes_and_states_consistently() {
     assert!((xl[0] - local[0]).abs() < 1e-12 && (xl[1] - local[1]).abs() < 1e-12 && (xl[3] - 0.3).abs() < 1e-12);
     assert_eq!(xl[4..], x[4..]);
 }
+
+/// A route of a user's own, placed anywhere: the first flight turned 0.3 rad and moved,
+/// a right turn on its landing, then two more steps up. Run in a loop
+/// written here (as a user's controller would), judged by the course's exact clearances
+/// and by where it ends, computed by hand.
+#[test]
+fn a_route_of_ones_own_with_a_right_turn_is_climbed_from_a_loop_written_by_hand() {
+    use cbfgen::filter::EcbfFilter;
+    use cbfgen_tachyon3::catalog::{default_settings, Catalog};
+    use cbfgen_tachyon3::model;
+    use cbfgen_tachyon3::sim::gait::GaitParams;
+    use cbfgen_tachyon3::sim::{Course, DT};
+    use cbfgen_tachyon3::terrain::route::{Flight, Placement, Route};
+    use cbfgen_tachyon3::terrain::Terrain;
+    let (heading, origin) = (0.3f64, [5.0, -2.0]);
+    // Flight 1 (its frame): steps of 15 cm at x = 1 and 1.3, a landing from 1.6 to 4.0.
+    let first = Terrain::new(&[[1.0, 0.15], [1.3, 0.30], [1.6, 0.45], [4.0, 0.0]], 1.2, 0.025).expect("terrain");
+    // Flight 2 starts at the landing's centre (x = 2.8 in flight 1's frame), facing right.
+    let (s, c) = heading.sin_cos();
+    let centre = [origin[0] + 2.8 * c, origin[1] + 2.8 * s];
+    let second = Terrain::new(&[[1.2, 0.15], [1.5, 0.30]], 1.2, 0.025).expect("terrain");
+    let turned = Placement { origin: centre, heading: heading - std::f64::consts::FRAC_PI_2, lift: 0.45 };
+    let route = Route::new(vec![
+        Flight { terrain: first, placement: Placement { origin, heading, lift: 0.0 }, turn_at: Some(2.8) },
+        Flight { terrain: second, placement: turned, turn_at: None },
+    ])
+    .expect("route");
+    let mut course = Course::from_route(route, GaitParams::default()).expect("course");
+    let mut filter =
+        EcbfFilter::new(Catalog::new(Course::CAPACITY).expect("catalog"), default_settings()).expect("filter");
+    let mut x = course.initial_state(0.3);
+    let (mut finished, mut worst_body, mut worst_wheel) = (None, f64::INFINITY, f64::INFINITY);
+    for k in 0..(80.0 / DT) as usize {
+        let t = k as f64 * DT;
+        let plan = course.plan(t, &x).expect("plan");
+        let out = *filter.update(&x, &plan.u_ref, course.environment()).expect("update");
+        let c = course.clearance(&x).expect("clearance");
+        (worst_body, worst_wheel) = (worst_body.min(c.body.distance), worst_wheel.min(c.wheel.distance));
+        if course.finished(&x) {
+            finished = Some(t);
+            break;
+        }
+        let dx = model::xdot(&x, &out.u);
+        for (v, d) in x.iter_mut().zip(dx) {
+            *v += DT * d;
+        }
+    }
+    assert!(finished.is_some(), "not finished at 80 s");
+    assert!(worst_body > 0.0 && worst_wheel > -1e-3, "body {worst_body}, wheel {worst_wheel}");
+    // It faces flight 2's heading, on its top: past its last riser (1.5 m along it from
+    // the landing's centre), within its width.
+    assert!((x[state::YAW] - (heading - std::f64::consts::FRAC_PI_2)).abs() < 1f64.to_radians());
+    let (along, across) = {
+        let h = heading - std::f64::consts::FRAC_PI_2;
+        let (dx, dy) = (x[state::PX] - centre[0], x[state::PY] - centre[1]);
+        (dx * h.cos() + dy * h.sin(), -dx * h.sin() + dy * h.cos())
+    };
+    assert!(along > 1.5 && across.abs() < 0.1, "ends {along} m along flight 2, {across} m across");
+}

@@ -56,7 +56,16 @@ impl Course {
     /// Stair dimensions that fail [`Stairs::validate`](crate::terrain::Stairs::validate),
     /// or more changes of height than [`Course::CAPACITY`] has edge slots.
     pub fn new(scenario: Scenario, gait: GaitParams) -> Result<Self, CbfError> {
-        let route = scenario.route()?;
+        Self::from_route(scenario.route()?, gait)
+    }
+
+    /// A course on a route of your own ([`Route::new`]): flights placed in the plane,
+    /// turning between them. The robot starts on the first flight's path (its x axis)
+    /// as on any course ([`Course::initial_state`]), facing along it.
+    ///
+    /// # Errors
+    /// More changes of height than [`Course::CAPACITY`] has edge slots.
+    pub fn from_route(route: Route, gait: GaitParams) -> Result<Self, CbfError> {
         let mut env = Environment::new(Self::CAPACITY)?;
         for riser in route.riser_cuboids()? {
             env.push_edge(riser)?;
@@ -76,11 +85,14 @@ impl Course {
     pub const CAPACITY: Capacity = Capacity::PAPER_WORST_CASE;
 
     /// The standard posture, placed so that the robot's foremost point is `start_gap`
-    /// metres before the first riser.
+    /// metres before the first riser, on the first flight's path and facing along it.
     pub fn initial_state(&self, start_gap: f64) -> State {
         let mut x = model::standard_posture();
         x[0] = self.terrain().first_change() - start_gap - model::front_reach(&x);
-        x
+        // The origin stands on the first flight's floor.
+        let placement = self.route.flights()[0].placement;
+        x[gen::state::PZ] = placement.lift;
+        placement.world_state(&x)
     }
 
     /// Update the environment for state `x` at time `t` and return the gait's plan.

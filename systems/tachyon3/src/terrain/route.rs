@@ -46,6 +46,19 @@ impl Placement {
         local
     }
 
+    /// `local`, a state in this frame, in the world: the inverse of
+    /// [`Placement::local_state`].
+    pub fn world_state(&self, local: &State) -> State {
+        if *self == Self::IDENTITY {
+            return *local;
+        }
+        let (s, c) = self.heading.sin_cos();
+        let mut x = *local;
+        (x[0], x[1]) = (self.origin[0] + c * local[0] - s * local[1], self.origin[1] + s * local[0] + c * local[1]);
+        x[3] = local[3] + self.heading;
+        x
+    }
+
     /// A world point in this frame (z less the lift).
     pub fn local_point(&self, p: &[f64; 3]) -> [f64; 3] {
         let (s, c) = self.heading.sin_cos();
