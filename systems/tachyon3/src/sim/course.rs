@@ -5,12 +5,12 @@
 //! (floor under each toe, which legs swing, the swing legs' foothold strips) and returns
 //! the gait's nominal input. The caller filters that input and integrates.
 
-use super::gait::{Gait, GaitParams, OriginRule, Plan, TURN_TIME};
+use super::gait::{Gait, GaitParams, OriginRule, Plan};
 use super::Scenario;
 use crate::catalog::{Capacity, EdgeCuboid, Environment, HalfPlane, StabilityBound};
 use crate::generated as gen;
 use crate::model::{self, State};
-use crate::terrain::route::{Placement, Route};
+use crate::terrain::route::Route;
 use crate::terrain::solid::TerrainClearance;
 use crate::terrain::{Profile, SolidTerrain, Terrain};
 use cbfgen::error::CbfError;
@@ -40,8 +40,8 @@ pub struct Course {
     route: Route,
     /// The flight the gait plans on.
     flight: usize,
-    /// While turning: the flight it turns to, and when the turn ends \[s\].
-    turning_to: Option<(usize, f64)>,
+    /// While turning: the flight it turns to.
+    turning_to: Option<usize>,
     env: Environment,
     /// The true terrain's solids, for the exact clearance checks.
     solids: SolidTerrain,
@@ -105,8 +105,8 @@ impl Course {
         }
         // The gait plans in the current flight's frame. At the flight's turn point it turns
         // on the spot to face the next flight, in whose frame it plans once turned.
-        if let Some((next, ends)) = self.turning_to {
-            if t >= ends {
+        if let Some(next) = self.turning_to {
+            if self.gait.turn_due_to_end(t) {
                 self.flight = next;
                 self.gait.set_ground(self.route.flights()[next].profile()?);
                 self.turning_to = None;
@@ -118,15 +118,12 @@ impl Course {
                 let local = here.local_state(x);
                 if local[0] >= turn_at {
                     self.gait.start_turn(t, local[3], next.placement.heading - here.heading)?;
-                    self.turning_to = Some((self.flight + 1, t + TURN_TIME));
+                    self.turning_to = Some(self.flight + 1);
                 }
             }
         }
         let placement = self.route.flights()[self.flight].placement;
         let world = |planes: &[HalfPlane; 4]| -> Result<[HalfPlane; 4], CbfError> {
-            if placement == Placement::IDENTITY {
-                return Ok(*planes);
-            }
             let mut out = *planes;
             for (o, p) in out.iter_mut().zip(planes) {
                 *o = placement.world_half_plane(p)?;
@@ -158,9 +155,7 @@ impl Course {
                     let ground = self.gait.ground();
                     let begin = ground.level_at(ground.standing_x(&toes[leg])).begin.max(-STANCE_REACH);
                     let stance = HalfPlane::new([1.0, 0.0], -(begin + STANCE_INSET))?;
-                    let stance =
-                        if placement == Placement::IDENTITY { stance } else { placement.world_half_plane(&stance)? };
-                    self.env.set_foothold(leg, &[stance])?;
+                    self.env.set_foothold(leg, &[placement.world_half_plane(&stance)?])?;
                 }
             }
         }

@@ -174,12 +174,9 @@ impl YawSpline {
     /// Yaw, yaw rate and yaw acceleration at time `t`.
     fn at(&self, t: f64) -> [f64; 3] {
         let tau = ((t - self.start) / TURN_TIME).clamp(0.0, 1.0);
-        let rate = if (0.0..1.0).contains(&tau) { 1.0 } else { 0.0 };
-        [
-            self.from + self.by * tau * tau * (3.0 - 2.0 * tau),
-            rate * self.by * 6.0 * tau * (1.0 - tau) / TURN_TIME,
-            rate * self.by * (6.0 - 12.0 * tau) / (TURN_TIME * TURN_TIME),
-        ]
+        let (sigma, rate) = smoothstep(tau);
+        let accel = if (0.0..1.0).contains(&tau) { 6.0 - 12.0 * tau } else { 0.0 };
+        [self.from + self.by * sigma, self.by * rate / TURN_TIME, self.by * accel / (TURN_TIME * TURN_TIME)]
     }
 }
 
@@ -228,6 +225,11 @@ impl Gait {
         self.params.origin
     }
 
+    /// Whether the turn under way ends at `t`.
+    pub fn turn_due_to_end(&self, t: f64) -> bool {
+        self.turn.is_some_and(|turn| t - turn.start >= TURN_TIME)
+    }
+
     /// Whether a turn is under way.
     pub fn turning(&self) -> bool {
         self.turn.is_some()
@@ -265,7 +267,7 @@ impl Gait {
                 self.stance_since = t;
             }
         }
-        if self.turn.is_some_and(|turn| t - turn.start >= TURN_TIME) {
+        if self.turn_due_to_end(t) {
             self.turn = None;
             self.stance_since = t;
         }

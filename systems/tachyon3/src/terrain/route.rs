@@ -77,11 +77,15 @@ impl Placement {
     }
 
     /// A half-plane of this frame's xy in the world: `n · p_local + b ≥ 0` is
-    /// `(R n) · (p − origin) + b ≥ 0`.
+    /// `(R n) · (p − origin) + b ≥ 0` (the same half-plane, bit for bit, in the world
+    /// frame itself).
     ///
     /// # Errors
     /// None for a valid half-plane (a rotation keeps its normal a unit vector).
     pub fn world_half_plane(&self, h: &HalfPlane) -> Result<HalfPlane, CbfError> {
+        if *self == Self::IDENTITY {
+            return Ok(*h);
+        }
         let (s, c) = self.heading.sin_cos();
         let n = [c * h.normal[0] - s * h.normal[1], s * h.normal[0] + c * h.normal[1]];
         HalfPlane::new(n, h.offset - n[0] * self.origin[0] - n[1] * self.origin[1])
@@ -226,15 +230,8 @@ impl Route {
     pub fn solid_boxes(&self) -> Result<Vec<OrientedBox>, CbfError> {
         let mut out = self.flights[0].terrain.solid_boxes()?;
         for f in &self.flights[1..] {
-            let (lift, last) = (f.placement.lift, f.terrain.profile().last_change());
-            for level in f.terrain.profile().levels().iter().filter(|l| l.height > 0.0) {
-                let end = level.end.min(last + 3.0);
-                let top = level.height + lift;
-                let local = OrientedBox::axis_aligned(
-                    Vector3::new((level.begin + end) / 2.0, 0.0, top / 2.0 - lift),
-                    Vector3::new((end - level.begin) / 2.0, f.terrain.half_width(), top / 2.0),
-                )?;
-                out.push(f.placement.world_box(&local)?);
+            for b in f.terrain.level_boxes(f.placement.lift)? {
+                out.push(f.placement.world_box(&b)?);
             }
         }
         Ok(out)

@@ -186,14 +186,30 @@ impl Terrain {
             Vector3::new((lo + hi) / 2.0, 0.0, -0.5),
             Vector3::new((hi - lo) / 2.0, self.half_width + 3.0, 0.5),
         )?];
-        for level in self.profile.levels().iter().filter(|l| l.height > 0.0) {
-            let end = level.end.min(last + 3.0);
-            boxes.push(OrientedBox::axis_aligned(
-                Vector3::new((level.begin + end) / 2.0, 0.0, level.height / 2.0),
-                Vector3::new((end - level.begin) / 2.0, self.half_width, level.height / 2.0),
-            )?);
-        }
+        boxes.extend(self.level_boxes(0.0)?);
         Ok(boxes)
+    }
+
+    /// One box per raised level (the last one 3 m long), from `below` metres under the
+    /// terrain's floor up to the level's top: `below` is 0 on the floor, and a flight
+    /// placed on a landing reaches down to the world's floor ([`Route`](super::route::Route)).
+    ///
+    /// # Errors
+    /// None for a terrain built by [`Terrain::new`] and a finite `below` ≥ 0.
+    pub fn level_boxes(&self, below: f64) -> Result<Vec<OrientedBox>, CbfError> {
+        let last = self.profile.last_change();
+        self.profile
+            .levels()
+            .iter()
+            .filter(|l| l.height > 0.0)
+            .map(|level| {
+                let (end, bottom) = (level.end.min(last + 3.0), -below);
+                OrientedBox::axis_aligned(
+                    Vector3::new((level.begin + end) / 2.0, 0.0, (level.height + bottom) / 2.0),
+                    Vector3::new((end - level.begin) / 2.0, self.half_width, (level.height - bottom) / 2.0),
+                )
+            })
+            .collect()
     }
 
     /// Four steps of unequal rise (10, 18, 12, 16 cm) and run (35, 30, 40 cm) from x = 1 m.
