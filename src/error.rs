@@ -124,6 +124,14 @@ pub enum CbfError {
         /// The family's kind (`"fixed"`, `"optional"`, `"capacity"`, `"parameter-free"`).
         kind: &'static str,
     },
+    /// Data that does not read as what it claims to be (a campaign's CSV of another
+    /// version, a line cut short), with where and why.
+    Malformed {
+        /// What was read.
+        what: &'static str,
+        /// Where it went wrong and why.
+        why: String,
+    },
     /// Parameters of one system handed to another system's rows or filter.
     SystemMismatch {
         /// The system that was asked.
@@ -197,6 +205,7 @@ impl fmt::Display for CbfError {
             CbfError::NoSuchIndex { what, index, len } => write!(f, "no {what} {index}: there are {len}"),
             CbfError::UnknownName { what, name, known } => write!(f, "no {what} named {name:?}; known: {known}"),
             CbfError::Unsupported { operation, kind } => write!(f, "{operation} is not available for {kind} families"),
+            CbfError::Malformed { what, why } => write!(f, "{what}: {why}"),
             CbfError::SystemMismatch { expected, got } => {
                 write!(f, "parameters of system {got} given to system {expected}")
             }

@@ -46,6 +46,10 @@ enum Command {
     /// episodes, CPU and wall time per update) and writes episodes.csv, report.txt and
     /// figures to --out. Rerun one episode with `cbfgen simulate --episode ID --seed S`.
     Campaign(CampaignArgs),
+    /// Merge campaign shards (`campaign --shard I/N` runs, each its episodes.csv) into the
+    /// one campaign's episodes.csv, report.txt and figures, as `campaign` without --shard
+    /// writes them.
+    Merge(MergeArgs),
     /// Bipedal navigation: a 3D-LIP MPC with linear discrete CBFs walks from the origin
     /// to a goal past three rectangles. Prints a summary and writes the path figure
     /// (lip_navigation.svg/.png) and the barrier figure (lip_min_h.svg/.png) to --out.
@@ -158,15 +162,44 @@ struct CampaignArgs {
     /// Worker threads, 1 to 1024 (default: one per core).
     #[arg(long, allow_hyphen_values = true, value_parser = count(1, campaign::MAX_THREADS))]
     threads: Option<usize>,
-    /// Directory for the CSV, the report and the figures.
-    #[arg(long, default_value = "out/campaign")]
-    out: std::path::PathBuf,
+    /// Directory for the CSV, the report and the figures (default: out/campaign, or
+    /// out/campaign/shard-I-of-N for --shard I/N).
+    #[arg(long)]
+    out: Option<std::path::PathBuf>,
     #[command(flatten)]
     ranges: RangeArgs,
     /// Every episode on perceived terrain (see `simulate --perception`); rerun one
     /// with `cbfgen simulate --episode ID --seed S --perception`.
     #[arg(long)]
     perception: bool,
+    /// Run only shard I of N (0 <= I < N <= episodes): a contiguous block of the
+    /// campaign's ids, as an array job of a batch scheduler would (`--shard
+    /// $SLURM_ARRAY_TASK_ID/N` with `--array=0-(N-1)`). `cbfgen merge` joins the shards'
+    /// episodes.csv into the campaign's files.
+    #[arg(long, value_name = "I/N", value_parser = shard)]
+    shard: Option<(usize, usize)>,
+}
+
+/// `--shard I/N`.
+fn shard(text: &str) -> Result<(usize, usize), String> {
+    let message = || format!("`{text}` is not I/N with 0 <= I < N");
+    let (i, n) = text.split_once('/').ok_or_else(message)?;
+    let (i, n): (usize, usize) = (i.parse().map_err(|_| message())?, n.parse().map_err(|_| message())?);
+    if i >= n {
+        return Err(message());
+    }
+    Ok((i, n))
+}
+
+/// `cbfgen merge`.
+#[derive(clap::Args)]
+struct MergeArgs {
+    /// The shards' episodes.csv files (or the directories holding them).
+    #[arg(required = true)]
+    shards: Vec<std::path::PathBuf>,
+    /// Directory for the merged CSV, report and figures.
+    #[arg(long, default_value = "out/campaign")]
+    out: std::path::PathBuf,
 }
 
 /// `cbfgen lip`.
@@ -534,6 +567,7 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
         Command::Arm(args) => args.run(&mut stdout),
         Command::Perceive(args) => args.run(&mut stdout),
         Command::Campaign(args) => args.run(&mut stdout),
+        Command::Merge(args) => args.run(&mut stdout),
         Command::Generate => generate_command(),
     }
 }
@@ -716,9 +750,13 @@ impl PerceiveArgs {
 
 impl CampaignArgs {
     fn run(self, stdout: &mut impl Write) -> Result<(), Box<dyn std::error::Error>> {
-        let Self { episodes, seed, first_id, no_body_cbf, threads, out, ranges, perception } = self;
+        let Self { episodes, seed, first_id, no_body_cbf, threads, out, ranges, perception, shard } = self;
+        let out = out.unwrap_or_else(|| match shard {
+            Some((index, count)) => format!("out/campaign/shard-{index}-of-{count}").into(),
+            None => "out/campaign".into(),
+        });
         output_dir(&out)?;
-        let settings = CampaignSettings {
+        let mut settings = CampaignSettings {
             seed,
             episodes,
             first_id,
@@ -727,6 +765,12 @@ impl CampaignArgs {
             threads,
             perception,
         };
+        if let Some((index, count)) = shard {
+            settings = settings.shard(index, count)?;
+            let last = settings.first_id + settings.episodes as u64 - 1;
+            writeln!(stdout, "shard {index}/{count}: episodes {} to {last}", settings.first_id)?;
+        }
+        let episodes = settings.episodes;
         let bar = indicatif::ProgressBar::new(episodes as u64);
         bar.set_style(
             indicatif::ProgressStyle::with_template("campaign {bar:40} {pos}/{len} episodes, {elapsed} (eta {eta})")
@@ -748,6 +792,35 @@ impl CampaignArgs {
         if !report.errors.is_empty() {
             return Err(format!("{} episodes ended with an error", report.errors.len()).into());
         }
+        Ok(())
+    }
+}
+
+impl MergeArgs {
+    fn run(self, stdout: &mut impl Write) -> Result<(), Box<dyn std::error::Error>> {
+        let Self { shards, out } = self;
+        let mut texts = Vec::with_capacity(shards.len());
+        for path in &shards {
+            let file = if path.is_dir() { path.join("episodes.csv") } else { path.clone() };
+            texts.push(std::fs::read_to_string(&file).map_err(|e| format!("cannot read {}: {e}", file.display()))?);
+        }
+        let rows = campaign::table::merge(&texts)?;
+        let (first, last) = (rows[0].id, rows[rows.len() - 1].id);
+        writeln!(
+            stdout,
+            "merged {} shards: {} episodes of seed {}, ids {first} to {last}",
+            shards.len(),
+            rows.len(),
+            rows[0].seed
+        )?;
+        for (a, b) in campaign::table::gaps(&rows) {
+            writeln!(stdout, "missing: episodes {a} to {b} (a shard that did not run?)")?;
+        }
+        let report = campaign::Report::of(&rows);
+        writeln!(stdout, "{report}")?;
+        output_dir(&out)?;
+        let written = campaign::output::write_rows(&out, &rows)?;
+        print_written(stdout, &written)?;
         Ok(())
     }
 }

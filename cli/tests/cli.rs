@@ -36,6 +36,8 @@ fn numbers_outside_their_documented_ranges_are_refused_naming_the_flag_and_range
         (&["campaign", "--rise", "0.2,0.05"], "--rise", "(0, 0.3]"),
         (&["campaign", "--rise", "0.05"], "--rise", "(0, 0.3]"),
         (&["campaign", "--rise", "0,0.1"], "--rise", "(0, 0.3]"),
+        (&["campaign", "--shard", "3/3"], "--shard", "0 <= I < N"),
+        (&["campaign", "--shard", "1"], "--shard", "0 <= I < N"),
         (&["simulate", "--run", "0.1,0.3"], "--run", "(0.15, 10]"),
         (&["simulate", "--steps", "0,3"], "--steps", "1..=20"),
         (&["simulate", "--steps", "1,21"], "--steps", "1..=20"),
@@ -156,6 +158,44 @@ fn a_range_given_as_lo_comma_hi_reaches_the_campaign() {
     let rise: f64 = field("rise").parse().expect("rise");
     assert!((0.05..=0.06).contains(&rise), "rise {rise}");
     assert_eq!(field("steps"), "1");
+    std::fs::remove_dir_all(&dir).expect("clean up");
+}
+
+#[test]
+fn shards_run_as_array_jobs_merge_into_the_campaigns_files() {
+    let dir = std::env::temp_dir().join(format!("cbfgen-cli-shards-{}", std::process::id()));
+    let path = |name: &str| dir.join(name).to_str().expect("utf-8").to_string();
+    let common = ["--episodes", "3", "--seed", "4", "--threads", "1", "--rise", "0.05,0.06", "--steps", "1,1"];
+    let whole = cbfgen(&[&["campaign"][..], &common, &["--out", &path("whole")]].concat());
+    assert!(whole.status.success(), "{}", String::from_utf8_lossy(&whole.stderr));
+    let mut shards = Vec::new();
+    for index in 0..2 {
+        let (shard, out) = (format!("{index}/2"), path(&format!("shard{index}")));
+        let run = cbfgen(&[&["campaign"][..], &common, &["--shard", &shard, "--out", &out]].concat());
+        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+        // Shard 0 of 2 runs ids 0 (3 * 0 / 2 to 3 * 1 / 2 = 1); shard 1 ids 1 and 2.
+        let expected = if index == 0 { "episodes 0 to 0" } else { "episodes 1 to 2" };
+        assert!(String::from_utf8_lossy(&run.stdout).contains(expected), "{}", String::from_utf8_lossy(&run.stdout));
+        shards.push(out);
+    }
+    let merged = cbfgen(&["merge", &shards[1], &format!("{}/episodes.csv", shards[0]), "--out", &path("merged")]);
+    let stdout = String::from_utf8_lossy(&merged.stdout);
+    assert!(merged.status.success(), "{}", String::from_utf8_lossy(&merged.stderr));
+    assert!(stdout.contains("merged 2 shards: 3 episodes of seed 4, ids 0 to 2"), "{stdout}");
+    let outcome = |name: &str| -> Vec<String> {
+        // Every column up to the timings (id .. min_h_*): the episode's own outcome.
+        let text = std::fs::read_to_string(dir.join(name).join("episodes.csv")).expect("episodes.csv");
+        text.lines().map(|l| l.split(',').take(25).collect::<Vec<_>>().join(",")).collect()
+    };
+    assert_eq!(outcome("merged"), outcome("whole"));
+    assert_eq!(outcome("whole").len(), 4);
+    for file in ["report.txt", "campaign_outcome_map.svg"] {
+        assert!(dir.join("merged").join(file).exists(), "{file}");
+    }
+    // The same shard twice is refused, naming the episode.
+    let twice = cbfgen(&["merge", &shards[0], &shards[0], "--out", &path("twice")]);
+    assert_eq!(twice.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&twice.stderr).contains("episode 0 is in two shards"));
     std::fs::remove_dir_all(&dir).expect("clean up");
 }
 

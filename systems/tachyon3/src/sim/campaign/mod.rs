@@ -21,6 +21,7 @@
 //! ```
 
 pub mod output;
+pub mod table;
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -29,11 +30,12 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
-use super::{Approach, Scenario, SimConfig, Summary};
+use super::{Scenario, SimConfig, Summary};
 use crate::catalog::{Family, FAMILY_COUNT};
 use crate::sim::perceived::PerceptionSettings;
 use crate::terrain::Stairs;
 use cbfgen::error::CbfError;
+use table::{EpisodeRow, Nearest};
 
 /// Penetration counted as a collision \[m\]: the body or a wheel more than 1 mm into a
 /// solid of the terrain, by exact geometry.
@@ -209,12 +211,6 @@ impl EpisodeRecord {
             Err(_) => Outcome::Error,
         }
     }
-
-    /// The smallest `h` of the joint-limit rows over the run (rad or m), `+∞` without a
-    /// summary.
-    pub fn min_joint_limit_h(&self) -> f64 {
-        self.result.as_ref().map_or(f64::INFINITY, |s| s.min_h[Family::JointLimits.index()])
-    }
 }
 
 /// A campaign's set-up.
@@ -247,6 +243,36 @@ impl Default for CampaignSettings {
             threads: None,
             perception: false,
         }
+    }
+}
+
+impl CampaignSettings {
+    /// Shard `index` of `count` (0-based): the same campaign narrowed to a contiguous block
+    /// of its ids, episodes `first_id + ⌊index·episodes/count⌋` up to the next shard's
+    /// first. The shards cover every id once, and each episode is drawn from `(seed, id)`
+    /// alone, so shards run anywhere (a batch scheduler's array jobs, a Ray cluster) and
+    /// [`table::merge`]d are the campaign run in one go.
+    ///
+    /// # Errors
+    /// `count` zero or above the number of episodes, or `index` not below `count`.
+    pub fn shard(&self, index: usize, count: usize) -> Result<Self, CbfError> {
+        if count == 0 {
+            return Err(CbfError::NotPositive { what: "shard count", value: 0.0 });
+        }
+        if count > self.episodes {
+            return Err(CbfError::TooLarge {
+                what: "shard count (more shards than episodes)",
+                value: count,
+                max: self.episodes,
+            });
+        }
+        if index >= count {
+            return Err(CbfError::NoSuchIndex { what: "shard", index, len: count });
+        }
+        // u128: index · episodes cannot overflow.
+        let start = |i: usize| (i as u128 * self.episodes as u128 / count as u128) as usize;
+        let (begin, end) = (start(index), start(index + 1));
+        Ok(Self { first_id: self.first_id + begin as u64, episodes: end - begin, ..self.clone() })
     }
 }
 
@@ -324,8 +350,8 @@ pub fn run_episode(episode: &Episode, body_cbf: bool, perception: bool) -> Episo
 /// An episode id and the value it holds the record for.
 pub type Worst = Option<(u64, f64)>;
 
-/// An episode id and its closest approach that holds the record (part, solid, face, time).
-pub type WorstApproach = Option<(u64, Approach)>;
+/// An episode id and its closest approach that holds the record (distance, place, time).
+pub type WorstApproach = Option<(u64, Nearest)>;
 
 /// What a campaign established: outcomes, safety counts against the documented tolerances,
 /// the worst episode of each kind, and the filter's time per update (thread CPU time beside
@@ -385,10 +411,23 @@ pub struct Report {
 }
 
 impl Campaign {
-    /// Count and rank what the episodes established.
+    /// Each record as `episodes.csv` holds it.
+    pub fn rows(&self) -> Vec<EpisodeRow> {
+        self.records.iter().map(EpisodeRow::of).collect()
+    }
+
+    /// Count and rank what the episodes established ([`Report::of`] its rows).
     pub fn report(&self) -> Report {
+        Report::of(&self.rows())
+    }
+}
+
+impl Report {
+    /// Count and rank what `rows` established: the same report for a campaign just run
+    /// and for its shards read back and merged.
+    pub fn of(rows: &[EpisodeRow]) -> Self {
         let mut r = Report {
-            episodes: self.records.len(),
+            episodes: rows.len(),
             finished: 0,
             not_finished: Vec::new(),
             errors: Vec::new(),
@@ -416,10 +455,10 @@ impl Campaign {
                 *worst = Some((id, v));
             }
         };
-        let nearest = |worst: &mut WorstApproach, id: u64, a: Option<Approach>| {
-            if let Some(a) = a.filter(|a| a.contact.distance.is_finite()) {
-                if worst.is_none_or(|(_, w)| a.contact.distance < w.contact.distance) {
-                    *worst = Some((id, a));
+        let nearest = |worst: &mut WorstApproach, id: u64, a: &Option<Nearest>| {
+            if let Some(a) = a.as_ref().filter(|a| a.distance.is_finite()) {
+                if worst.as_ref().is_none_or(|(_, w)| a.distance < w.distance) {
+                    *worst = Some((id, a.clone()));
                 }
             }
         };
@@ -428,10 +467,10 @@ impl Campaign {
                 *worst = Some((id, v));
             }
         };
-        let mut medians = Vec::with_capacity(self.records.len());
-        for record in &self.records {
-            let id = record.episode.id;
-            let s = match (&record.result, record.outcome()) {
+        let mut medians = Vec::with_capacity(rows.len());
+        for row in rows {
+            let id = row.id;
+            let s = match (&row.result, row.outcome) {
                 (Err(e), _) => {
                     r.errors.push((id, e.clone()));
                     continue;
@@ -451,20 +490,21 @@ impl Campaign {
             r.riser_contacts.1 += s.riser_contact_cycles;
             let joint = s.min_h[Family::JointLimits.index()];
             r.joint_limit_violations += usize::from(joint < -JOINT_LIMIT_TOLERANCE);
-            nearest(&mut r.worst_body, id, s.body_nearest);
-            nearest(&mut r.worst_toe, id, s.toe_nearest);
-            nearest(&mut r.worst_toe_riser, id, s.toe_riser_nearest);
+            nearest(&mut r.worst_body, id, &s.body_nearest);
+            nearest(&mut r.worst_toe, id, &s.toe_nearest);
+            nearest(&mut r.worst_toe_riser, id, &s.toe_riser_nearest);
             lowest(&mut r.worst_joint_limit, id, joint);
             lowest(&mut r.worst_foothold, id, s.min_h[Family::Foothold.index()]);
             r.cycles += s.cycles;
-            r.over_period_cpu.0 += s.over_period_cpu;
-            r.over_period_cpu.1 += usize::from(s.over_period_cpu > 0);
-            r.over_period_wall.0 += s.over_period_wall;
-            r.over_period_wall.1 += usize::from(s.over_period_wall > 0);
-            medians.push(s.median_cpu_us);
-            highest(&mut r.worst_p99_cpu, id, s.p99_cpu_us);
-            highest(&mut r.max_cpu, id, s.max_cpu_us);
-            highest(&mut r.max_wall, id, s.max_update_us);
+            r.over_period_cpu.0 += s.over_1ms_cpu;
+            r.over_period_cpu.1 += usize::from(s.over_1ms_cpu > 0);
+            r.over_period_wall.0 += s.over_1ms_wall;
+            r.over_period_wall.1 += usize::from(s.over_1ms_wall > 0);
+            let [median_cpu, p99_cpu, max_cpu] = s.cpu_us;
+            medians.push(median_cpu);
+            highest(&mut r.worst_p99_cpu, id, p99_cpu);
+            highest(&mut r.max_cpu, id, max_cpu);
+            highest(&mut r.max_wall, id, s.wall_us[2]);
             r.fallback_cycles += s.fallback_cycles;
             for (total, &n) in r.relaxed_cycles.iter_mut().zip(&s.relaxed_cycles) {
                 *total = (total.0 + n, total.1 + usize::from(n > 0));
@@ -474,9 +514,7 @@ impl Campaign {
         r.median_cpu_us = crate::latency::nearest_rank(&medians, 0.5).unwrap_or(0.0);
         r
     }
-}
 
-impl Report {
     /// No penetration or joint-limit violation beyond the tolerances, no error, and every
     /// episode finished: what the CI campaign requires.
     pub fn all_safe_and_finished(&self) -> bool {

@@ -19,86 +19,24 @@
 //! | `over_1ms_cpu`, `over_1ms_wall`, `cycles`, `fallback_cycles` | update counts |
 //! | `relaxed_<family>` | updates in which the filter reported rows of that family relaxed |
 //! | `error` | the error message, quoted |
+//!
+//! Numbers are written at full precision (the shortest text that reads back to the same
+//! `f64`), so shards read back with [`table::parse`] and merged give the report and file
+//! of the campaign run in one go; an empty number is not finite (no such row or contact).
 
-use std::fmt::{self, Write as _};
+use std::fmt;
 use std::io;
 use std::path::{Path, PathBuf};
 
-use super::{
-    Campaign, EpisodeRecord, Outcome, Report, Worst, WorstApproach, JOINT_LIMIT_TOLERANCE, PENETRATION_TOLERANCE,
-};
+use super::table::{self, EpisodeRow};
+use super::{Campaign, Outcome, Report, Worst, WorstApproach, JOINT_LIMIT_TOLERANCE, PENETRATION_TOLERANCE};
 use crate::catalog::Family;
-use crate::sim::Approach;
 use cbfgen_chart::{Chart, Series};
 
-/// The CSV text of the campaign, one line per episode in id order.
+/// The CSV text of the campaign, one line per episode in id order ([`table::csv`] of its
+/// rows).
 pub fn csv(campaign: &Campaign) -> String {
-    let mut out =
-        String::from("id,seed,rise,run,steps,start_gap,speed,outcome,duration,min_body_clearance,body_nearest,body_nearest_t,min_toe_clearance,toe_nearest,toe_nearest_t,min_toe_riser_clearance,toe_riser_nearest,riser_contact_cycles");
-    for f in Family::ALL {
-        let _ = write!(out, ",min_h_{}", f.name());
-    }
-    out.push_str(
-        ",median_cpu_us,p99_cpu_us,max_cpu_us,median_wall_us,p99_wall_us,max_wall_us,over_1ms_cpu,over_1ms_wall,cycles,fallback_cycles",
-    );
-    for f in Family::ALL {
-        let _ = write!(out, ",relaxed_{}", f.name());
-    }
-    out.push_str(",error\n");
-    let number = |v: f64| if v.is_finite() { format!("{v:.6}") } else { String::new() };
-    for r in &campaign.records {
-        let e = &r.episode;
-        let _ = write!(
-            out,
-            "{},{},{:.4},{:.4},{},{:.4},{:.4},{}",
-            e.id,
-            e.seed,
-            e.stairs.rise,
-            e.stairs.run,
-            e.stairs.count,
-            e.start_gap,
-            e.speed,
-            r.outcome().name()
-        );
-        match &r.result {
-            Ok(s) => {
-                let _ = write!(out, ",{:.3}", s.duration);
-                for a in [s.body_nearest, s.toe_nearest] {
-                    let (d, place, t) =
-                        a.map_or((f64::NAN, String::new(), f64::NAN), |a| (a.contact.distance, a.contact.place(), a.t));
-                    let _ = write!(out, ",{},{place},{}", number(d), number(t));
-                }
-                let riser = s.toe_riser_nearest.map_or(String::new(), |a| a.contact.place());
-                let _ = write!(out, ",{},{riser},{}", number(s.min_toe_riser_clearance()), s.riser_contact_cycles);
-                for h in s.min_h {
-                    let _ = write!(out, ",{}", number(h));
-                }
-                let _ = write!(
-                    out,
-                    ",{:.1},{:.1},{:.1},{:.1},{:.1},{:.1},{},{},{},{}",
-                    s.median_cpu_us,
-                    s.p99_cpu_us,
-                    s.max_cpu_us,
-                    s.median_update_us,
-                    s.p99_update_us,
-                    s.max_update_us,
-                    s.over_period_cpu,
-                    s.over_period_wall,
-                    s.cycles,
-                    s.fallback_cycles
-                );
-                for n in s.relaxed_cycles {
-                    let _ = write!(out, ",{n}");
-                }
-                out.push_str(",\n");
-            }
-            Err(message) => {
-                out.push_str(&",".repeat(10 + 2 * Family::ALL.len() + 10));
-                let _ = writeln!(out, ",\"{}\"", message.replace('"', "\"\""));
-            }
-        }
-    }
-    out
+    table::csv(&campaign.rows())
 }
 
 /// Write `episodes.csv`, `report.txt` and the figures (`campaign_*.svg` and `.png`) into
@@ -108,9 +46,19 @@ pub fn csv(campaign: &Campaign) -> String {
 /// # Errors
 /// Any I/O error.
 pub fn write_all(dir: &Path, campaign: &Campaign) -> io::Result<Vec<PathBuf>> {
-    let files = vec![("episodes.csv".into(), csv(campaign)), ("report.txt".into(), format!("{}\n", campaign.report()))];
+    write_rows(dir, &campaign.rows())
+}
+
+/// [`write_all`] for rows: a campaign's, or its shards' [`table::merge`]d (the same files
+/// for both).
+///
+/// # Errors
+/// Any I/O error.
+pub fn write_rows(dir: &Path, rows: &[EpisodeRow]) -> io::Result<Vec<PathBuf>> {
+    let files =
+        vec![("episodes.csv".into(), table::csv(rows)), ("report.txt".into(), format!("{}\n", Report::of(rows)))];
     let charts: Vec<(String, Chart)> =
-        figures(campaign).into_iter().map(|(name, chart)| (format!("campaign_{name}"), chart)).collect();
+        figures(rows).into_iter().map(|(name, chart)| (format!("campaign_{name}"), chart)).collect();
     let mut written = cbfgen_chart::write_files(dir, files)?;
     written.extend(cbfgen_chart::write_charts(dir, &charts)?);
     Ok(written)
@@ -121,23 +69,23 @@ const OUTCOME_COLORS: [(Outcome, &str); 3] =
 
 /// Scatter of `y` against `x` over the episodes with a summary, one dot set per outcome.
 fn scatter(
-    campaign: &Campaign,
+    rows: &[EpisodeRow],
     title: &str,
     x_label: &str,
     y_label: &str,
-    x: fn(&EpisodeRecord) -> f64,
-    y: &dyn Fn(&EpisodeRecord) -> f64,
+    x: fn(&EpisodeRow) -> f64,
+    y: &dyn Fn(&EpisodeRow) -> f64,
     limit: Option<f64>,
 ) -> Chart {
     let mut chart = Chart::new(title, x_label, y_label);
     for (outcome, color) in OUTCOME_COLORS {
-        let points: Vec<_> = campaign.records.iter().filter(|r| r.outcome() == outcome).map(|r| (x(r), y(r))).collect();
+        let points: Vec<_> = rows.iter().filter(|r| r.outcome == outcome).map(|r| (x(r), y(r))).collect();
         if !points.is_empty() {
             chart = chart.with(Series::new(outcome.name(), color, points).markers());
         }
     }
     if let Some(limit) = limit {
-        let xs = campaign.records.iter().map(x).filter(|v| v.is_finite());
+        let xs = rows.iter().map(x).filter(|v| v.is_finite());
         let (lo, hi) = xs.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
         if lo <= hi {
             chart = chart.with(Series::new("tolerance", "#555", vec![(lo, limit), (hi, limit)]).dashed());
@@ -148,20 +96,19 @@ fn scatter(
 
 /// The campaign's figures: minimum clearance (body and toes) and minimum joint-limit `h`
 /// against rise and gait speed, and the outcome of each episode over rise and speed.
-pub fn figures(campaign: &Campaign) -> Vec<(&'static str, Chart)> {
-    let rise = |r: &EpisodeRecord| r.episode.stairs.rise;
-    let speed = |r: &EpisodeRecord| r.episode.speed;
-    let clearance = |r: &EpisodeRecord| {
+pub fn figures(rows: &[EpisodeRow]) -> Vec<(&'static str, Chart)> {
+    let rise = |r: &EpisodeRow| r.rise;
+    let speed = |r: &EpisodeRow| r.speed;
+    let clearance = |r: &EpisodeRow| {
         r.result.as_ref().map_or(f64::NAN, |s| s.min_body_clearance().min(s.min_toe_clearance()) * 1e3)
     };
-    let joint = |r: &EpisodeRecord| r.min_joint_limit_h();
+    let joint = |r: &EpisodeRow| r.min_joint_limit_h();
     let tol_mm = -PENETRATION_TOLERANCE * 1e3;
     let clearance_label = "min exact clearance to the solid terrain, body or wheel [mm]";
     let joint_label = "min joint-limit h [rad or m]";
     let mut map = Chart::new("Outcome per episode", "rise [m]", "gait speed [m/s]");
     for (outcome, color) in OUTCOME_COLORS {
-        let points: Vec<_> =
-            campaign.records.iter().filter(|r| r.outcome() == outcome).map(|r| (rise(r), speed(r))).collect();
+        let points: Vec<_> = rows.iter().filter(|r| r.outcome == outcome).map(|r| (rise(r), speed(r))).collect();
         if !points.is_empty() {
             map = map.with(Series::new(outcome.name(), color, points).markers());
         }
@@ -169,36 +116,20 @@ pub fn figures(campaign: &Campaign) -> Vec<(&'static str, Chart)> {
     vec![
         (
             "clearance_vs_rise",
-            scatter(campaign, "Minimum clearance", "rise [m]", clearance_label, rise, &clearance, Some(tol_mm)),
+            scatter(rows, "Minimum clearance", "rise [m]", clearance_label, rise, &clearance, Some(tol_mm)),
         ),
         (
             "clearance_vs_speed",
-            scatter(
-                campaign,
-                "Minimum clearance",
-                "gait speed [m/s]",
-                clearance_label,
-                speed,
-                &clearance,
-                Some(tol_mm),
-            ),
+            scatter(rows, "Minimum clearance", "gait speed [m/s]", clearance_label, speed, &clearance, Some(tol_mm)),
         ),
         (
             "joint_limits_vs_rise",
-            scatter(
-                campaign,
-                "Minimum joint-limit h",
-                "rise [m]",
-                joint_label,
-                rise,
-                &joint,
-                Some(-JOINT_LIMIT_TOLERANCE),
-            ),
+            scatter(rows, "Minimum joint-limit h", "rise [m]", joint_label, rise, &joint, Some(-JOINT_LIMIT_TOLERANCE)),
         ),
         (
             "joint_limits_vs_speed",
             scatter(
-                campaign,
+                rows,
                 "Minimum joint-limit h",
                 "gait speed [m/s]",
                 joint_label,
@@ -215,8 +146,14 @@ fn worst(w: Worst, scale: f64, unit: &str) -> String {
     w.map_or_else(|| "-".into(), |(id, v)| format!("{:.3} {unit} (episode {id})", v * scale))
 }
 
-fn worst_approach(w: WorstApproach) -> String {
-    w.map_or_else(|| "-".into(), |(id, Approach { t, contact })| format!("{contact} (episode {id}, t {t:.2} s)"))
+fn worst_approach(w: &WorstApproach) -> String {
+    w.as_ref().map_or_else(
+        || "-".into(),
+        |(id, n)| {
+            let when = if n.t.is_finite() { format!(", t {:.2} s", n.t) } else { String::new() };
+            format!("{:+.3} mm, {} (episode {id}{when})", n.distance * 1e3, n.place)
+        },
+    )
 }
 
 impl fmt::Display for Report {
@@ -236,9 +173,9 @@ impl fmt::Display for Report {
             self.riser_contacts.0, self.riser_contacts.1
         )?;
         writeln!(f, "| joint-limit h < -1e-4 | {} |", self.joint_limit_violations)?;
-        writeln!(f, "| worst body clearance | {} |", worst_approach(self.worst_body))?;
-        writeln!(f, "| deepest wheel (0: on a tread) | {} |", worst_approach(self.worst_toe))?;
-        writeln!(f, "| worst wheel clearance to a riser | {} |", worst_approach(self.worst_toe_riser))?;
+        writeln!(f, "| worst body clearance | {} |", worst_approach(&self.worst_body))?;
+        writeln!(f, "| deepest wheel (0: on a tread) | {} |", worst_approach(&self.worst_toe))?;
+        writeln!(f, "| worst wheel clearance to a riser | {} |", worst_approach(&self.worst_toe_riser))?;
         writeln!(f, "| worst joint-limit h | {} |", worst(self.worst_joint_limit, 1.0, "rad or m"))?;
         writeln!(f, "| worst foothold h (toe outside its strip) | {} |", worst(self.worst_foothold, 1e3, "mm"))?;
         writeln!(f, "| filter updates | {} |", self.cycles)?;
