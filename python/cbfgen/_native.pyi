@@ -547,8 +547,21 @@ def campaign(
     min_toe_clearance, min_toe_riser_clearance, riser_contact_cycles, min_h (n, 6),
     median/p99/max_cpu_us, median/p99/max_wall_us, over_1ms_cpu, over_1ms_wall, cycles;
     ``outcome``, a list of "finished", "not_finished", "error"), ``errors`` as (id, message) pairs and ``report``, the
-    printed table. Summary columns read 0 for an episode whose outcome is "error".
-    Raises CbfError for invalid ranges or settings. Releases the GIL while it runs."""
+    printed table, and ``csv``, the episodes.csv text at full precision (what
+    :func:`merge_campaign` joins). Summary columns read 0 for an episode whose outcome is
+    "error". Raises CbfError for invalid ranges or settings. Releases the GIL while it runs."""
+
+COURSE_RANGES: dict[str, list[float] | list[int]]
+"""The ranges a campaign draws its courses from by default, ``[lo, hi]`` per key
+``rise``, ``run``, ``steps``, ``start_gap``, ``speed`` (as ``cbfgen campaign``)."""
+
+def merge_campaign(shards: Sequence[str], out: str | os.PathLike[str] | None = None) -> dict[str, object]:
+    """Join campaign shards (each a :func:`campaign` ``csv``, or an episodes.csv written by
+    ``cbfgen campaign --shard``) into one campaign: ``csv`` (merged, id order), ``report``
+    (the printed table), ``missing`` ((first, last) id spans no shard held) and ``written``
+    (the files, when ``out`` names a directory: episodes.csv, report.txt and the figures,
+    as the command line writes them). Raises CbfError for a text that is not a campaign
+    CSV of this version, shards of different seeds, or an episode in two shards."""
 
 # ----------------------------------------------------------- ANYmal C (cbfgen.anymal)
 ANYMAL_LEGS: list[str]

@@ -24,6 +24,7 @@ from collections.abc import Sequence
 
 from ._native import (
     BODY_HALF_EXTENTS,
+    COURSE_RANGES,
     DT,
     HIP_OUTWARD,
     HIP_POSITIONS,
@@ -42,6 +43,7 @@ from ._native import (
     System,
     campaign,
     leg_joints,
+    merge_campaign,
     simulate,
     standard_posture,
     world_kinematics,
@@ -75,6 +77,7 @@ def ecbf_filter(edges: int = 20, foothold_edges: Sequence[int] | None = None, **
 
 __all__ = [
     "BODY_HALF_EXTENTS",
+    "COURSE_RANGES",
     "DT",
     "FAMILIES",
     "HIP_OUTWARD",
@@ -101,6 +104,7 @@ __all__ = [
     "capacity",
     "ecbf_filter",
     "leg_joints",
+    "merge_campaign",
     "simulate",
     "standard_posture",
     "world_kinematics",

@@ -24,9 +24,17 @@ const SCENARIOS: [Scenario; Scenario::NAMED.len()] = Scenario::NAMED;
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SCENARIOS", SCENARIOS.map(Scenario::name).to_vec())?;
+    let r = CourseRanges::default();
+    let ranges = PyDict::new(m.py());
+    for (key, range) in [("rise", r.rise), ("run", r.run), ("start_gap", r.start_gap), ("speed", r.speed)] {
+        ranges.set_item(key, range.to_vec())?;
+    }
+    ranges.set_item("steps", r.steps.to_vec())?;
+    m.add("COURSE_RANGES", ranges)?;
     m.add_class::<PyCourse>()?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(campaign, m)?)?;
+    m.add_function(wrap_pyfunction!(merge_campaign, m)?)?;
     Ok(())
 }
 
@@ -366,8 +374,9 @@ fn course_ranges(ranges: Option<&Bound<'_, PyDict>>) -> PyResult<CourseRanges> {
 /// ``median_cpu_us``, ``p99_cpu_us``, ``max_cpu_us``, ``median_wall_us``, ``p99_wall_us``,
 /// ``max_wall_us``, ``over_1ms_cpu``, ``over_1ms_wall``, ``cycles`` (all 0 for an episode
 /// whose outcome is ``"error"``: no output of the module is NaN); ``errors``, a list of ``(id, message)``; and ``report``, the
-/// printed table as text. Rerun one episode with ``simulate(episode=id, seed=seed)``. With
-/// ``perception=True`` every episode runs on perceived terrain.
+/// printed table as text; and ``csv``, the text of ``episodes.csv`` at full precision
+/// (what :func:`merge_campaign` joins). Rerun one episode with ``simulate(episode=id,
+/// seed=seed)``. With ``perception=True`` every episode runs on perceived terrain.
 #[pyfunction]
 #[pyo3(signature = (episodes=200, seed=0, first_id=0, body_cbf=true, threads=None, ranges=None, perception=false))]
 #[allow(clippy::too_many_arguments)] // one per keyword argument of the Python function
@@ -416,5 +425,35 @@ fn campaign<'py>(
         r.iter().filter_map(|x| x.result.as_ref().err().map(|e| (x.episode.id, e.clone()))).collect();
     out.set_item("errors", errors)?;
     out.set_item("report", result.report().to_string())?;
+    out.set_item("csv", monte_carlo::output::csv(&result))?;
     Ok(out)
+}
+
+/// Join campaign shards (each the ``csv`` of a :func:`campaign` call, or an
+/// ``episodes.csv`` a ``cbfgen campaign --shard`` wrote) into one campaign: returns a dict
+/// with ``csv`` (the merged ``episodes.csv`` text, in id order), ``report`` (the printed
+/// table), ``missing`` (``(first, last)`` id spans no shard held) and ``written`` (the
+/// paths, when ``out`` names a directory to write ``episodes.csv``, ``report.txt`` and the
+/// figures into, as the command line does). Raises ``CbfError`` for a text that is not a
+/// campaign CSV of this version, shards of different seeds, or an episode in two shards.
+#[pyfunction]
+#[pyo3(signature = (shards, out=None))]
+fn merge_campaign<'py>(
+    py: Python<'py>,
+    shards: Vec<String>,
+    out: Option<std::path::PathBuf>,
+) -> PyResult<Bound<'py, PyDict>> {
+    use monte_carlo::table;
+    let rows = table::merge(&shards)?;
+    let result = PyDict::new(py);
+    result.set_item("csv", table::csv(&rows))?;
+    result.set_item("report", monte_carlo::Report::of(&rows).to_string())?;
+    result.set_item("missing", table::gaps(&rows))?;
+    let written = match out {
+        Some(dir) => monte_carlo::output::write_rows(&dir, &rows)
+            .map_err(|e| pyo3::exceptions::PyOSError::new_err(format!("{}: {e}", dir.display())))?,
+        None => Vec::new(),
+    };
+    result.set_item("written", written.iter().map(|p| p.display().to_string()).collect::<Vec<_>>())?;
+    Ok(result)
 }
