@@ -664,3 +664,18 @@ class StoneWalk:
         """Mark a fall at t."""
     def record(self) -> dict[str, Any]:
         """Table II's measurements so far."""
+
+# ------------------------------------------ Panda among obstacles (cbfgen.campaign)
+ARM_MAX_OBSTACLES: int
+
+def arm_episode(
+    obstacles: int = 25,
+    seed: int = 0,
+    duration: float = 10.0,
+    cruise_speed: float = 0.8,
+    filter: bool = True,
+) -> dict[str, float | int]:
+    """One run of the Panda under its torque filter among ``obstacles`` random spheres
+    drawn from ``seed`` above a table, the hand swept low across them: exact minimum
+    ``min_obstacle_clearance`` and ``min_table_clearance`` [m], ``cycles``,
+    ``fallback_cycles``, ``median_cpu_us``, ``max_cpu_us``. Releases the GIL."""

@@ -27,6 +27,7 @@
 #![warn(missing_docs)]
 
 mod anymal;
+mod arm;
 mod convert;
 mod embedded {
     include!(concat!(env!("OUT_DIR"), "/core_sources.rs"));
@@ -127,5 +128,6 @@ fn _native(m: &Bound<'_, PyModule>) -> pyo3::PyResult<()> {
     kernel_table::register(m)?;
     tachyon3::register(m)?;
     anymal::register(m)?;
+    arm::register(m)?;
     Ok(())
 }

@@ -47,9 +47,10 @@ subclass :class:`Scenario`, declare ``parameters`` and ``measures``, and write
 from .engine import Campaign, Engine, Progress, run_campaign, shard_blocks
 from .falsifier import Falsification, falsify
 from .scenario import Measure, Parameter, Row, Scenario
-from .scenarios import TachyonStairs, parse_rows, rows_csv
+from .scenarios import ArmObstacles, TachyonStairs, parse_rows, rows_csv
 
 __all__ = [
+    "ArmObstacles",
     "Campaign",
     "Engine",
     "Falsification",

@@ -67,6 +67,7 @@ def falsify(
     engine: Engine = None,
     search_share: float = 0.5,
     defensive: float = 0.2,
+    spread: float = 0.2,
     sigma0: float = 0.3,
     progress: Progress | None = None,
 ) -> Falsification:
@@ -76,24 +77,29 @@ def falsify(
     1. **Search** (``search_share`` of the budget): CMA-ES (``cma``) over the parameters
        mapped onto the unit cube, each generation's episodes run on ``engine``.
     2. **Estimate** (the rest, in two stages): importance sampling under a *defensive*
-       proposal. Each parameter is drawn on its own from the box around the failures
-       found so far (the worst tenth if fewer than three; padded by a quarter of its
-       width), or with chance ``defensive`` from its whole range, so a parameter the
-       failures never spread over is still covered. The second stage's box takes in the
-       first stage's failures. Each episode is weighted by ``p / q`` of its stage (``p``
-       uniform on the cube), at most ``defensive ** -d``. The estimate is the mean
-       weighted failure with a normal 95 % interval; with no failure sampled, the upper
-       end is ``3 / n`` times the largest weight (the rule of three on ``q``). The
-       estimate is unbiased whatever the box; the interval is only as good as the box's
-       cover of the failure region (a region the search never came near is found by the
-       defensive share alone, and the interval is then too narrow).
+       proposal ``q = defensive · uniform + (1 − defensive) · box``. In ``box`` each
+       parameter is drawn on its own from the box around the failures found so far (the
+       worst tenth if fewer than three; padded by a quarter of its width), or with chance
+       ``spread`` from its whole range, so a parameter the failures never spread over is
+       still covered. The whole cube's share keeps every weight ``p / q`` (``p`` uniform
+       on the cube) at most ``1 / defensive``, so a failure region broader than the box
+       is still counted at a bounded weight. The second stage's box takes in the first
+       stage's failures. The estimate is the mean weighted failure with a normal 95 %
+       interval; with no failure sampled, the upper end is ``3 / (defensive · n)`` (the
+       rule of three on ``q``, times the largest weight), at most 1. The estimate is
+       unbiased whatever the box; the interval assumes the weighted failures' spread is
+       seen, which a failure region that neither the box nor a few of the cube's draws
+       touched defeats (then it is too narrow).
     """
     import cma
 
     if not isinstance(budget, int) or budget < 4:
         raise ValueError(f"budget must be an integer >= 4, got {budget!r}")
-    if not 0.0 < search_share < 1.0 or not 0.0 < defensive < 1.0 or not 0.0 < sigma0 <= 1.0:
-        raise ValueError("search_share and defensive must be in (0, 1), sigma0 in (0, 1]")
+    shares = (search_share, defensive, spread)
+    if not all(0.0 < v < 1.0 for v in shares) or not 0.0 < sigma0 <= 1.0:
+        raise ValueError(
+            f"search_share, defensive and spread must be in (0, 1), sigma0 in (0, 1]; got {shares}, {sigma0}"
+        )
     m = scenario.measure(measure)
     names, params = list(scenario.parameters), list(scenario.parameters.values())
     if len(names) < 2:
@@ -143,13 +149,14 @@ def falsify(
             known, lambda r: m.failed(scenario.value(r, m)), lambda r: m.badness(scenario.value(r, m))
         )
         boxes.append((lo, hi))
-        # Each parameter on its own: from the box, or (with chance `defensive`) from its
-        # whole range, so a parameter the failures never spread over is still covered.
-        from_box = rng.random((size, len(names))) >= defensive
-        samples = np.where(from_box, lo + rng.random((size, len(names))) * (hi - lo), rng.random((size, len(names))))
+        # The whole cube with chance `defensive`; else each parameter on its own from the
+        # box, or (with chance `spread`) from its whole range.
+        d = len(names)
+        from_box = (rng.random((size, 1)) >= defensive) & (rng.random((size, d)) >= spread)
+        samples = np.where(from_box, lo + rng.random((size, d)) * (hi - lo), rng.random((size, d)))
         inside = (samples >= lo) & (samples <= hi)
-        density = defensive + (1.0 - defensive) * inside / (hi - lo)
-        weights.append(1.0 / np.prod(density, axis=1))
+        box_density = np.prod(spread + (1.0 - spread) * inside / (hi - lo), axis=1)
+        weights.append(1.0 / (defensive + (1.0 - defensive) * box_density))
         rows = run(list(samples))
         sampled += rows
         known += list(zip(samples, rows, strict=True))
@@ -161,7 +168,7 @@ def falsify(
         half = 1.96 * float(terms.std(ddof=1)) / math.sqrt(n)
         interval = (max(0.0, probability - half), probability + half)
     else:
-        interval = (0.0, 3.0 / n * defensive ** -len(names) if n else math.inf)
+        interval = (0.0, min(1.0, 3.0 / (defensive * n)) if n else 1.0)
     lo, hi = boxes[-1] if boxes else (np.zeros(len(names)), np.ones(len(names)))
     return Falsification(
         scenario,

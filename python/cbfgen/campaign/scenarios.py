@@ -1,4 +1,5 @@
-"""Built-in scenarios: Tachyon 3 on random staircases (the command line's campaign)."""
+"""Built-in scenarios: Tachyon 3 on random staircases (the command line's campaign) and
+the Panda arm among random obstacles."""
 
 from __future__ import annotations
 
@@ -8,6 +9,8 @@ import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from .scenario import Measure, Parameter, Row, Scenario, csv_field
 
@@ -141,3 +144,59 @@ def rows_csv(rows: Sequence[Row]) -> str:
         fields.append('"' + error.replace('"', '""') + '"' if r.get("outcome") == "error" else "")
         lines.append(",".join(fields))
     return "\n".join(lines) + "\n"
+
+
+class ArmObstacles(Scenario):
+    """Franka's Panda under its torque filter, its hand swept low among random sphere
+    obstacles above a table (``cbfgen_panda_spheres``, docs/arm.md: OSCBF's setting).
+    Parameters: how many obstacles (whole, within ``obstacles``) and the joints' cruise
+    speed [rad/s]; the obstacles' layout is each episode's own randomness, drawn from
+    ``(seed, id)`` (its ``layout_seed`` column). Clearances are exact distances between
+    the arm's 21 spheres and the obstacles or the table (the model's geometry)."""
+
+    name = "arm among obstacles"
+    measures = (
+        Measure("min_obstacle_clearance", fails_below=-1e-3),
+        Measure("min_table_clearance", fails_below=-1e-3),
+        Measure("fallback_cycles", worse="higher", fails_above=0.0),
+    )
+    timing_columns = ("median_cpu_us", "max_cpu_us")
+
+    def __init__(
+        self,
+        obstacles: Sequence[int] = (5, 25),
+        cruise_speed: Sequence[float] = (0.4, 1.2),
+        duration: float = 10.0,
+        filter: bool = True,
+    ) -> None:
+        from .. import _native
+
+        lo, hi = obstacles
+        if not 0 <= lo <= hi <= _native.ARM_MAX_OBSTACLES:
+            raise ValueError(f"obstacles must be 0 <= lo <= hi <= {_native.ARM_MAX_OBSTACLES}, got {obstacles}")
+        self.parameters = {"obstacles": Parameter(lo, hi, integer=True), "cruise_speed": Parameter(*cruise_speed)}
+        self.duration, self.filter = float(duration), bool(filter)
+
+    @staticmethod
+    def layout_seed(seed: int, episode_id: int) -> int:
+        """The seed of episode ``episode_id``'s obstacle layout, from ``(seed, id)``."""
+        return int(np.random.SeedSequence([seed, episode_id]).generate_state(1, np.uint64)[0])
+
+    def episode(self, params: Mapping[str, float | int], seed: int, episode_id: int) -> Row:
+        from .. import _native
+
+        layout = self.layout_seed(seed, episode_id)
+        out = _native.arm_episode(
+            obstacles=int(params["obstacles"]),
+            seed=layout,
+            duration=self.duration,
+            cruise_speed=float(params["cruise_speed"]),
+            filter=self.filter,
+        )
+        return {"layout_seed": layout, **out}
+
+    def replay(self, row: Row) -> str:
+        return (
+            f"cbfgen._native.arm_episode(obstacles={row['obstacles']}, seed={row['layout_seed']}, "
+            f"duration={self.duration!r}, cruise_speed={row['cruise_speed']!r}, filter={self.filter})"
+        )
