@@ -234,3 +234,7 @@ def test_the_command_runs_a_users_scenario_file_on_a_process_pool(tmp_path):
         [sys.executable, "-m", "cbfgen.campaign", "run", "--scenario", "nowhere"], capture_output=True, text=True
     )
     assert bad.returncode != 0 and "unknown scenario 'nowhere'" in bad.stderr
+    refused = subprocess.run(
+        [*command, "--out", str(tmp_path / "x"), "--seed", "-1"], capture_output=True, text=True, check=False
+    )
+    assert refused.returncode == 2 and refused.stderr.strip() == "error: seed must be an integer >= 0, got -1"

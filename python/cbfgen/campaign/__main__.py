@@ -201,5 +201,14 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
+def entry() -> int:
+    """:func:`main`, with a refused setting as one line (status 2) instead of a traceback."""
+    try:
+        return main()
+    except (ValueError, TypeError) as refused:
+        print(f"error: {refused}", file=sys.stderr)
+        return 2
+
+
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(entry())
