@@ -555,6 +555,9 @@ COURSE_RANGES: dict[str, list[float] | list[int]]
 """The ranges a campaign draws its courses from by default, ``[lo, hi]`` per key
 ``rise``, ``run``, ``steps``, ``start_gap``, ``speed`` (as ``cbfgen campaign``)."""
 
+CAMPAIGN_TIMING_COLUMNS: list[str]
+"""The columns of a campaign's episodes.csv that depend on the machine and the moment."""
+
 def merge_campaign(shards: Sequence[str], out: str | os.PathLike[str] | None = None) -> dict[str, object]:
     """Join campaign shards (each a :func:`campaign` ``csv``, or an episodes.csv written by
     ``cbfgen campaign --shard``) into one campaign: ``csv`` (merged, id order), ``report``

@@ -24,6 +24,7 @@ from collections.abc import Sequence
 
 from ._native import (
     BODY_HALF_EXTENTS,
+    CAMPAIGN_TIMING_COLUMNS,
     COURSE_RANGES,
     DT,
     HIP_OUTWARD,
@@ -77,6 +78,7 @@ def ecbf_filter(edges: int = 20, foothold_edges: Sequence[int] | None = None, **
 
 __all__ = [
     "BODY_HALF_EXTENTS",
+    "CAMPAIGN_TIMING_COLUMNS",
     "COURSE_RANGES",
     "DT",
     "FAMILIES",

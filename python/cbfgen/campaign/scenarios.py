@@ -25,16 +25,6 @@ class TachyonStairs(Scenario):
     ``steps``, ``start_gap``, ``speed``); ``perception=True`` runs on perceived terrain."""
 
     name = "tachyon3 stairs"
-    timing_columns = (
-        "median_cpu_us",
-        "p99_cpu_us",
-        "max_cpu_us",
-        "median_wall_us",
-        "p99_wall_us",
-        "max_wall_us",
-        "over_1ms_cpu",
-        "over_1ms_wall",
-    )
     measures = (
         Measure("min_body_clearance", fails_below=-1e-3),
         Measure("min_toe_clearance", fails_below=-1e-3),
@@ -61,6 +51,7 @@ class TachyonStairs(Scenario):
                 raise ValueError(f"no course range {key!r}; known: {', '.join(merged)}")
             merged[key] = list(value)
         self.ranges = merged
+        self.timing_columns = tuple(t3.CAMPAIGN_TIMING_COLUMNS)
         self.body_cbf, self.perception, self.threads = body_cbf, perception, threads
         self.parameters = {
             k: Parameter(*merged[k], integer=k == "steps") for k in ("rise", "run", "steps", "start_gap", "speed")

@@ -31,6 +31,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     }
     ranges.set_item("steps", r.steps.to_vec())?;
     m.add("COURSE_RANGES", ranges)?;
+    m.add("CAMPAIGN_TIMING_COLUMNS", monte_carlo::table::TIMING_COLUMNS.to_vec())?;
     m.add_class::<PyCourse>()?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(campaign, m)?)?;

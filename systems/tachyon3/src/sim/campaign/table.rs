@@ -180,21 +180,7 @@ pub fn header() -> Vec<String> {
     .map(String::from)
     .into();
     columns.extend(Family::ALL.iter().map(|f| format!("min_h_{}", f.name())));
-    columns.extend(
-        [
-            "median_cpu_us",
-            "p99_cpu_us",
-            "max_cpu_us",
-            "median_wall_us",
-            "p99_wall_us",
-            "max_wall_us",
-            "over_1ms_cpu",
-            "over_1ms_wall",
-            "cycles",
-            "fallback_cycles",
-        ]
-        .map(String::from),
-    );
+    columns.extend(TIMING_COLUMNS.iter().chain(&["cycles", "fallback_cycles"]).map(|c| c.to_string()));
     columns.extend(Family::ALL.iter().map(|f| format!("relaxed_{}", f.name())));
     columns.push("error".into());
     columns
