@@ -238,3 +238,16 @@ def test_the_command_runs_a_users_scenario_file_on_a_process_pool(tmp_path):
         [*command, "--out", str(tmp_path / "x"), "--seed", "-1"], capture_output=True, text=True, check=False
     )
     assert refused.returncode == 2 and refused.stderr.strip() == "error: seed must be an integer >= 0, got -1"
+
+
+def test_perceived_stairs_are_the_same_scenario_on_perceived_terrain():
+    one_step = {**SHORT, "steps": [1, 1]}
+    perceived = TachyonStairs(ranges=one_step, perception=True)
+    rows = run_campaign(perceived, 1, seed=2).rows
+    direct = campaign.parse_rows(t3.campaign(episodes=1, seed=2, ranges=one_step, perception=True)["csv"])
+    assert outcome(rows, perceived) == outcome(direct, perceived)
+    true_terrain = run_campaign(TachyonStairs(ranges=one_step), 1, seed=2).rows
+    # The same course, climbed on what the LiDAR saw: its clearances are not the true run's.
+    assert rows[0]["rise"] == true_terrain[0]["rise"]
+    assert rows[0]["min_body_clearance"] != true_terrain[0]["min_body_clearance"]
+    assert perceived.replay(rows[0]).endswith(" --perception")

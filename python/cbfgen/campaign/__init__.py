@@ -8,7 +8,7 @@ value beyond which an episode has failed. On any scenario:
 * :func:`run_campaign` runs episodes ``first_id .. first_id + episodes`` of a seed. Each
   episode is drawn from ``(seed, id)`` alone, so the episodes can be cut into contiguous
   shards and run anywhere: in this process, on any :class:`concurrent.futures.Executor`
-  (a process pool, Dask's ``Client``), or on Ray (a local instance, or a cluster by
+  (a process pool, a Dask cluster's ``client.get_executor()``), or on Ray (a local instance, or a cluster by
   address). The shards are merged in id order into one :class:`Campaign`, with the same
   rows whatever ran them.
 * :func:`falsify` searches the parameters for the worst outcome with CMA-ES (the ``cma``
