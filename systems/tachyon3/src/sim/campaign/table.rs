@@ -308,7 +308,22 @@ pub fn parse(text: &str) -> Result<Vec<EpisodeRow>, CbfError> {
     if found != expected.join(",") {
         return Err(bad(1, format!("not this version's header (expected `{}`)", expected.join(","))));
     }
-    let families = Family::ALL.len();
+    // Every position by its column's name: the header above is the one source of the order.
+    let column =
+        |name: &str| expected.iter().position(|c| c == name).ok_or_else(|| bad(1, format!("no column `{name}`")));
+    let names = |names: &[&str; 4]| array::<usize, 4>(|j| column(names[j]));
+    let [id_at, seed_at, rise_at, run_at] = names(&["id", "seed", "rise", "run"])?;
+    let [steps_at, gap_at, speed_at, outcome_at] = names(&["steps", "start_gap", "speed", "outcome"])?;
+    let [duration_at, riser_cycles_at, cpu_at, wall_at] =
+        names(&["duration", "riser_contact_cycles", "median_cpu_us", "median_wall_us"])?;
+    let [over_cpu_at, over_wall_at, cycles_at, fallback_at] =
+        names(&["over_1ms_cpu", "over_1ms_wall", "cycles", "fallback_cycles"])?;
+    let body_at = [column("min_body_clearance")?, column("body_nearest")?, column("body_nearest_t")?];
+    let toe_at = [column("min_toe_clearance")?, column("toe_nearest")?, column("toe_nearest_t")?];
+    let riser_at = [column("min_toe_riser_clearance")?, column("toe_riser_nearest")?];
+    let h_at = column(&format!("min_h_{}", Family::ALL[0].name()))?;
+    let relaxed_at = column(&format!("relaxed_{}", Family::ALL[0].name()))?;
+    let error_at = column("error")?;
     let mut rows = Vec::new();
     for (k, line) in lines.enumerate().filter(|(_, l)| !l.is_empty()) {
         let at = k + 2;
@@ -321,54 +336,48 @@ pub fn parse(text: &str) -> Result<Vec<EpisodeRow>, CbfError> {
         let whole = |i: usize| -> Result<u64, CbfError> {
             f[i].parse::<u64>().map_err(|_| bad(at, format!("`{}` in column {} is not a count", f[i], expected[i])))
         };
-        let outcome = match f[7].as_str() {
+        let count = |i: usize| whole(i).map(|n| n as usize);
+        let outcome = match f[outcome_at].as_str() {
             "finished" => Outcome::Finished,
             "not_finished" => Outcome::NotFinished,
             "error" => Outcome::Error,
             other => return Err(bad(at, format!("unknown outcome `{other}`"))),
         };
+        // A closest approach from its distance, place and (where kept) time columns.
+        let nearest = |distance: usize, place: usize, t: Option<usize>| -> Result<Option<Nearest>, CbfError> {
+            if f[place].is_empty() {
+                return Ok(None);
+            }
+            let t = t.map_or(Ok(f64::NAN), |t| maybe(t, f64::NAN))?;
+            Ok(Some(Nearest { distance: maybe(distance, f64::INFINITY)?, place: f[place].clone(), t }))
+        };
         let result = if outcome == Outcome::Error {
-            Err(f[expected.len() - 1].clone())
+            Err(f[error_at].clone())
         } else {
-            let nearest = |d: usize, t: Option<usize>| -> Result<Option<Nearest>, CbfError> {
-                if f[d + 1].is_empty() {
-                    return Ok(None);
-                }
-                let t = match t {
-                    Some(t) => maybe(t, f64::NAN)?,
-                    None => f64::NAN,
-                };
-                Ok(Some(Nearest { distance: maybe(d, f64::INFINITY)?, place: f[d + 1].clone(), t }))
-            };
-            let h0 = 18;
-            let time0 = h0 + families;
-            let count0 = time0 + 6;
-            let relaxed0 = count0 + 4;
-            let count = |i: usize| whole(i).map(|n| n as usize);
             Ok(RowSummary {
-                duration: maybe(8, f64::NAN)?,
-                body_nearest: nearest(9, Some(11))?,
-                toe_nearest: nearest(12, Some(14))?,
-                toe_riser_nearest: nearest(15, None)?,
-                riser_contact_cycles: count(17)?,
-                min_h: array(|j| maybe(h0 + j, f64::INFINITY))?,
-                cpu_us: [real(time0)?, real(time0 + 1)?, real(time0 + 2)?],
-                wall_us: [real(time0 + 3)?, real(time0 + 4)?, real(time0 + 5)?],
-                over_1ms_cpu: count(count0)?,
-                over_1ms_wall: count(count0 + 1)?,
-                cycles: count(count0 + 2)?,
-                fallback_cycles: count(count0 + 3)?,
-                relaxed_cycles: array(|j| count(relaxed0 + j))?,
+                duration: maybe(duration_at, f64::NAN)?,
+                body_nearest: nearest(body_at[0], body_at[1], Some(body_at[2]))?,
+                toe_nearest: nearest(toe_at[0], toe_at[1], Some(toe_at[2]))?,
+                toe_riser_nearest: nearest(riser_at[0], riser_at[1], None)?,
+                riser_contact_cycles: count(riser_cycles_at)?,
+                min_h: array(|j| maybe(h_at + j, f64::INFINITY))?,
+                cpu_us: array(|j| real(cpu_at + j))?,
+                wall_us: array(|j| real(wall_at + j))?,
+                over_1ms_cpu: count(over_cpu_at)?,
+                over_1ms_wall: count(over_wall_at)?,
+                cycles: count(cycles_at)?,
+                fallback_cycles: count(fallback_at)?,
+                relaxed_cycles: array(|j| count(relaxed_at + j))?,
             })
         };
         rows.push(EpisodeRow {
-            id: whole(0)?,
-            seed: whole(1)?,
-            rise: real(2)?,
-            run: real(3)?,
-            steps: whole(4)? as usize,
-            start_gap: real(5)?,
-            speed: real(6)?,
+            id: whole(id_at)?,
+            seed: whole(seed_at)?,
+            rise: real(rise_at)?,
+            run: real(run_at)?,
+            steps: count(steps_at)?,
+            start_gap: real(gap_at)?,
+            speed: real(speed_at)?,
             outcome,
             result,
         });
