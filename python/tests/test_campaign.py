@@ -195,6 +195,7 @@ def test_the_arm_among_obstacles_is_a_scenario_like_the_stairs():
     for row in result.rows:
         assert 5 <= row["obstacles"] <= 10 and isinstance(row["obstacles"], int)
         assert row["cycles"] == 2000 and row["fallback_cycles"] == 0
+        assert 0.0 < row["median_cpu_us"] <= row["max_cpu_us"]  # the filter's own CPU time, measured
         # The filter holds the arm's spheres off the obstacles and the table (to rounding).
         assert row["min_obstacle_clearance"] > -1e-3 and row["min_table_clearance"] > -1e-3
         # The episode's layout is its own, from (seed, id): the same call gives the same run.

@@ -93,8 +93,9 @@ def progress(done: int, total: int) -> None:
 
 
 def write_rows(scenario: Scenario, rows: list[Row], out: Path) -> list[Path]:
-    """Rows as the scenario's generic CSV (no report figures), for the falsifier's files."""
-    return Scenario.write(scenario, rows, out)[:1]
+    """Rows in the generic CSV and report (not a built-in scenario's own files, which
+    assume a campaign's ids): the falsifier's searched, sampled and uniform episodes."""
+    return Scenario.write(scenario, rows, out)
 
 
 def running_worst_figure(result: Falsification, uniform: list[Row] | None, path: Path) -> Path:
@@ -108,10 +109,8 @@ def running_worst_figure(result: Falsification, uniform: list[Row] | None, path:
     m, scenario = result.measure, result.scenario
 
     def running(rows: list[Row]) -> np.ndarray:
-        values = np.array([scenario.value(r, m) if scenario.value(r, m) is not None else np.nan for r in rows], float)
-        oriented = np.where(np.isfinite(values), values if m.worse == "lower" else -values, np.inf)
-        worst = np.minimum.accumulate(oriented)
-        return worst if m.worse == "lower" else -worst
+        worst = np.minimum.accumulate([m.badness(scenario.value(r, m)) for r in rows])
+        return np.where(np.isfinite(worst), worst if m.worse == "lower" else -worst, np.nan)
 
     fig, ax = plt.subplots(figsize=(7, 4))
     found = running(result.search + result.sampled)
@@ -181,13 +180,12 @@ def main(argv: list[str] | None = None) -> int:
         if args.compare_uniform:
             uniform = run_campaign(scenario, args.budget, seed=args.seed, engine=engine, progress=progress)
             m = result.measure
-            values = [scenario.value(r, m) for r in uniform.rows]
-            worst = min(uniform.rows, key=lambda r: m.badness(scenario.value(r, m)))
-            failed = [k + 1 for k, v in enumerate(values) if m.failed(v)]
+            (worst,) = scenario.worst(uniform.rows, m)
+            failed = uniform.failures(m.column)  # ids from 0: the k-th episode run is id k - 1
             text += (
                 f"\nuniform sampling, {args.budget} episodes of seed {args.seed}: worst {m.column} = "
                 f"{scenario.value(worst, m)} (episode {worst['id']}); "
-                + (f"first failure at episode {failed[0]}, {len(failed)} in all" if failed else "no failure")
+                + (f"first failure at episode {failed[0] + 1}, {len(failed)} in all" if failed else "no failure")
             )
             written += write_rows(scenario, uniform.rows, args.out / "uniform")
         written.append(

@@ -90,7 +90,7 @@ def map_tasks(engine: Engine, tasks: list[tuple], done: Callable[[int], None] | 
             finished(futures[future], future.result())
     else:
         raise TypeError(f"engine is None, 'ray', a Ray address or a concurrent.futures.Executor, got {engine!r}")
-    return [r for r in results if r is not None]
+    return results  # type: ignore[return-value]  # every task has finished
 
 
 def _merged(parts: list[list[Row]]) -> list[Row]:
@@ -122,7 +122,7 @@ class Campaign:
     def failures(self, measure: str | None = None) -> list[int]:
         """Ids of the episodes that failed ``measure`` (the first when None)."""
         m = self.scenario.measure(measure)
-        return [r["id"] for r in self.rows if m.failed(self.scenario.value(r, m))]
+        return [r["id"] for r in self.rows if self.scenario.failed(r, m)]
 
     def report(self) -> str:
         """The scenario's report of the rows."""

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -39,8 +38,7 @@ class Falsification:
 
     def worst(self, k: int = 5) -> list[Row]:
         """The ``k`` worst episodes run (search and sampling), worst first."""
-        every = self.search + self.sampled
-        return sorted(every, key=lambda r: self.measure.badness(self.scenario.value(r, self.measure)))[:k]
+        return self.scenario.worst(self.search + self.sampled, self.measure, k)
 
     def report(self, k: int = 5) -> str:
         m = self.measure
@@ -133,7 +131,7 @@ def falsify(
         finite = [v for v in values if math.isfinite(v)]
         ceiling = (max(finite) + 1.0 + abs(max(finite))) if finite else 1.0
         es.tell(points, [v if math.isfinite(v) else ceiling for v in values])
-    failed = [m.failed(scenario.value(r, m)) for r in search]
+    failed = [scenario.failed(r, m) for r in search]
     first_failure = failed.index(True) + 1 if any(failed) else None
 
     # Importance sampling in stages: each stage's box spans the failures found so far
@@ -145,9 +143,7 @@ def falsify(
     known = list(zip(units, search, strict=True))
     sampled, weights, boxes = [], [], []
     for size in (n // 2, n - n // 2)[: 2 if n >= 2 else n]:
-        lo, hi = _failure_box(
-            known, lambda r: m.failed(scenario.value(r, m)), lambda r: m.badness(scenario.value(r, m))
-        )
+        lo, hi = _failure_box(known, scenario, m)
         boxes.append((lo, hi))
         # The whole cube with chance `defensive`; else each parameter on its own from the
         # box, or (with chance `spread`) from its whole range.
@@ -161,7 +157,7 @@ def falsify(
         sampled += rows
         known += list(zip(samples, rows, strict=True))
     weights = np.concatenate(weights) if weights else np.zeros(0)
-    hits = np.array([m.failed(scenario.value(r, m)) for r in sampled], dtype=float)
+    hits = np.array([scenario.failed(r, m) for r in sampled], dtype=float)
     terms = weights * hits
     probability = float(terms.mean()) if n else math.nan
     if n > 1 and hits.any():
@@ -184,15 +180,13 @@ def falsify(
     )
 
 
-def _failure_box(
-    known: list[tuple[np.ndarray, Row]], failed: Callable[[Row], bool], badness: Callable[[Row], float]
-) -> tuple[np.ndarray, np.ndarray]:
-    """The unit-cube box around the failing points of ``known`` (the worst tenth, at
-    least three, when fewer than three failed), padded by a quarter of its width (at least
-    0.02) on each side."""
-    elite = [u for u, r in known if failed(r)]
+def _failure_box(known: list[tuple[np.ndarray, Row]], scenario: Scenario, m: Measure) -> tuple[np.ndarray, np.ndarray]:
+    """The unit-cube box around the points of ``known`` that failed ``m`` (the worst
+    tenth, at least three, when fewer than three failed), padded by a quarter of its width
+    (at least 0.02) on each side."""
+    elite = [u for u, r in known if scenario.failed(r, m)]
     if len(elite) < 3:
-        ranked = sorted(known, key=lambda item: badness(item[1]))
+        ranked = sorted(known, key=lambda item: m.badness(scenario.value(item[1], m)))
         elite = [u for u, _ in ranked[: max(3, len(ranked) // 10)]]
     points = np.array(elite)
     pad = np.maximum(0.25 * (points.max(axis=0) - points.min(axis=0)), 0.02)

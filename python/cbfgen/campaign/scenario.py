@@ -132,12 +132,12 @@ class Scenario(ABC):
         """A table: episodes, and per measure the failures and the worst episode."""
         lines = [f"| {self.name}: episodes | {len(rows)} |", "|---|---|"]
         for m in self.measures:
-            failed = [r["id"] for r in rows if m.failed(r.get(m.column))]
-            worst = min(rows, key=lambda r: m.badness(r.get(m.column)), default=None)
+            failed = [r["id"] for r in rows if self.failed(r, m)]
+            worst = self.worst(rows, m)
             beyond = f"< {m.fails_below}" if m.worse == "lower" else f"> {m.fails_above}"
             lines.append(f"| {m.column} {beyond} (failed) | {len(failed)} |")
-            if worst is not None:
-                lines.append(f"| worst {m.column} | {worst.get(m.column)} (episode {worst['id']}) |")
+            if worst:
+                lines.append(f"| worst {m.column} | {self.value(worst[0], m)} (episode {worst[0]['id']}) |")
         return "\n".join(lines)
 
     def write(self, rows: Sequence[Row], out: str | os.PathLike[str]) -> list[Path]:
@@ -159,8 +159,16 @@ class Scenario(ABC):
         return f"{type(self).__name__}(...).episode({params!r}, seed={row['seed']}, episode_id={row['id']})"
 
     def value(self, row: Row, measure: Measure) -> Any:
-        """``row``'s value of ``measure`` (its column)."""
+        """``row``'s value of ``measure`` (its column; override for a derived measure)."""
         return row.get(measure.column)
+
+    def failed(self, row: Row, measure: Measure) -> bool:
+        """Whether ``row`` failed ``measure``."""
+        return measure.failed(self.value(row, measure))
+
+    def worst(self, rows: Sequence[Row], measure: Measure, k: int = 1) -> list[Row]:
+        """The ``k`` worst of ``rows`` by ``measure``, worst first."""
+        return sorted(rows, key=lambda r: measure.badness(self.value(r, measure)))[:k]
 
 
 def csv_field(value: Any) -> str:
