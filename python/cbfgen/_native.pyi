@@ -423,6 +423,10 @@ def leg_joints(x: ArrayLike) -> Matrix:
     [rad, positive outward], knee rate [m/s], hip rate [rad/s] (the joint-limit kernels'
     quantities)."""
 
+def roll_clearance(roll: float) -> float:
+    """The farthest any point of the body box moves when it rolls by ``roll`` [rad] about
+    its own x axis [m]: what Course.set_body_roll keeps the body rows clear by."""
+
 class Environment(Params):
     """Tachyon 3's Params with typed helpers: edge cuboids, floors, footholds, swing legs,
     stability bounds. Sized once (edges, foothold_edges per leg)."""
@@ -468,11 +472,15 @@ class Course:
         LiDAR scans from ``truth`` (the physical state; ``x`` when None) and maps its
         returns from ``x`` (the state estimate the gait and filter are given); 10 Hz scans,
         1 Hz updates applied 0.5 s after their request. Updates `environment`."""
+    def set_body_roll(self, roll: float) -> None:
+        """The body's measured roll [rad] (an IMU's): the body rows keep the model's body
+        roll_clearance(roll) from every edge, now and after every perception update."""
     @property
     def perception_updates(self) -> int:
         """Perception updates applied so far (0 without perception)."""
     def environment_edges(self) -> list[tuple[Vector, Matrix, Vector]]:
-        """The edge boxes the filter was last given, as terrain_boxes gives boxes."""
+        """The edge boxes the filter was last given, as terrain_boxes gives boxes, as its
+        body rows see them (grown by roll_clearance of the roll given to set_body_roll)."""
     @property
     def environment(self) -> Environment: ...
     @property

@@ -114,6 +114,31 @@ def test_perceived_terrain_runs_from_python_and_hides_the_truth():
     assert seen["summary"]["min_body_clearance"] > 0.0 and seen["summary"]["min_toe_clearance"] > -1e-3
 
 
+def test_a_measured_roll_grows_the_body_rows_edges_and_survives_perception_updates():
+    # The body turned about its x axis: the farthest corner moves roll_clearance (numpy).
+    half = np.asarray(t3.BODY_HALF_EXTENTS)
+    corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * half
+    for roll in (-0.3, 0.0, 0.05, 0.2):
+        c, s = np.cos(roll), np.sin(roll)
+        turned = corners @ np.array([[1, 0, 0], [0, c, -s], [0, s, c]]).T
+        assert t3.roll_clearance(roll) == pytest.approx(np.linalg.norm(turned - corners, axis=1).max(), abs=1e-12)
+    # Two courses perceiving alike, one told of a roll: its body rows' edges are the
+    # other's grown by roll_clearance, before and after a perception update replaces them.
+    level, rolled = t3.Course("stairs", perception=True), t3.Course("stairs", perception=True)
+    x = level.initial_state()
+    rolled.set_body_roll(0.1)
+    for k in range(1600):
+        for course in (level, rolled):
+            course.perceive(k * t3.DT, x)
+        if k in (0, 1599):
+            halves = [np.asarray([half for _c, _r, half in c.environment_edges()]) for c in (level, rolled)]
+            assert halves[0].size > 0
+            np.testing.assert_allclose(halves[1] - halves[0], t3.roll_clearance(0.1), atol=1e-12)
+    assert level.perception_updates == rolled.perception_updates == 2
+    with pytest.raises(cbfgen.CbfError, match="body roll"):
+        rolled.set_body_roll(float("nan"))
+
+
 def test_simulation_arrays_are_consistent():
     run = t3.simulate("step", max_time=0.5)
     n = len(run["t"])

@@ -34,6 +34,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(world_kinematics, m)?)?;
     m.add_function(wrap_pyfunction!(standard_posture, m)?)?;
     m.add_function(wrap_pyfunction!(leg_joints, m)?)?;
+    m.add_function(wrap_pyfunction!(roll_clearance, m)?)?;
     m.add_class::<PyEnvironment>()?;
     sim::register(m)
 }
@@ -70,6 +71,13 @@ fn leg_joints<'py>(py: Python<'py>, x: ArrayIn<'py>) -> PyResult<Array2Out<'py>>
         finite("leg joints", v)?;
     }
     Ok(matrix(py, &joints))
+}
+
+/// The farthest any point of the body box moves when it rolls by ``roll`` \[rad\] about
+/// its own x axis \[m\]: what :meth:`Course.set_body_roll` keeps the body rows clear by.
+#[pyfunction]
+fn roll_clearance(roll: f64) -> PyResult<f64> {
+    Ok(model::roll_clearance(finite("roll", roll)?))
 }
 
 /// The standard low posture at rest at the world origin, shape (NX,).

@@ -120,6 +120,16 @@ impl PyCourse {
         Ok(())
     }
 
+    /// The body's measured roll \[rad\] (an IMU's), which the sagittal model does not
+    /// hold: the body rows then keep the model's body ``roll_clearance(roll)`` from every
+    /// edge, so that the rolled body is clear when they hold. Applies to the environment
+    /// at once and to every later perception update; 0 (the default) is the model's body.
+    fn set_body_roll(&mut self, py: Python<'_>, roll: f64) -> PyResult<()> {
+        self.inner.set_body_roll(roll)?;
+        self.sync_environment(py);
+        Ok(())
+    }
+
     /// Perception updates applied so far (0 without perception).
     #[getter]
     fn perception_updates(&self) -> usize {
@@ -127,7 +137,8 @@ impl PyCourse {
     }
 
     /// The edge boxes the filter was last given, as :meth:`terrain_boxes` gives boxes (the
-    /// true edges' riser boxes without perception).
+    /// true edges' riser boxes without perception), as its body rows see them: grown by
+    /// ``roll_clearance`` of the roll given to :meth:`set_body_roll`.
     fn environment_edges<'py>(&self, py: Python<'py>) -> Vec<BoxOut<'py>> {
         let edge = |e: &cbfgen_tachyon3::catalog::EdgeCuboid| -> BoxOut<'py> {
             let rows: [[f64; 3]; 3] = std::array::from_fn(|i| std::array::from_fn(|j| e.rotation[(i, j)]));

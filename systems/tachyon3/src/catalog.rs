@@ -317,6 +317,32 @@ impl Environment {
         self.toe_edge.push(gen::ToeEdgeParams { center: edge.center, rotation: edge.rotation, half: edge.half })
     }
 
+    /// Grow the cuboid of every body–edge row by `clearance` along each of its axes (the
+    /// toe–edge rows keep the true cuboids, from which this grows): `h ≥ 0` then keeps the
+    /// model's body `clearance` away from each edge, so that anything within `clearance`
+    /// of it, such as the body turned by a roll the model does not hold
+    /// ([`model::roll_clearance`](crate::model::roll_clearance)), is clear too. 0 restores
+    /// the true cuboids. Edges pushed later are not grown: call it again.
+    ///
+    /// # Errors
+    /// A clearance that is negative, not finite, or grows a cuboid past
+    /// [`MAX_HALF_EXTENT`](cbfgen::geometry::MAX_HALF_EXTENT); nothing changes then.
+    pub fn set_body_clearance(&mut self, clearance: f64) -> Result<(), CbfError> {
+        finite("body clearance", clearance)?;
+        if clearance < 0.0 {
+            return Err(CbfError::OutOfRange { what: "body clearance [m]", value: clearance, range: "[0, inf)" });
+        }
+        for (k, toe) in self.toe_edge.as_slice().iter().enumerate() {
+            let grown = EdgeCuboid { half: toe.half.add_scalar(clearance), ..self.body_edge.as_slice()[k] };
+            grown.validate().map_err(|e| e.in_instance(k))?;
+        }
+        let toes = self.toe_edge.as_slice();
+        for (body, toe) in self.body_edge.as_mut_slice().iter_mut().zip(toes) {
+            body.half = toe.half.add_scalar(clearance);
+        }
+        Ok(())
+    }
+
     /// Remove every edge cuboid, so their rows go inactive; keeps the storage.
     pub fn clear_edges(&mut self) {
         self.body_edge.clear();

@@ -126,3 +126,13 @@ pub fn shift_origin(x: &mut State, d: f64) {
 pub fn front_reach(x: &State) -> f64 {
     (0..6).map(|leg| x[TOE_BLOCK + 4 * leg] + TOE_RADIUS).fold(x[BODY_X] + BODY_HALF_EXTENTS[0], f64::max)
 }
+
+/// The farthest any point of the body box moves when the body rolls by `roll` \[rad\]
+/// about its own x axis: a corner, `2 r sin(|roll| / 2)` with `r` the half-diagonal of the
+/// box's y–z face \[m\]. The model's state has no roll; a body keeping this clearance
+/// ([`Environment::set_body_clearance`](crate::catalog::Environment::set_body_clearance))
+/// is clear however it is rolled by `roll` or less.
+pub fn roll_clearance(roll: f64) -> f64 {
+    let r = BODY_HALF_EXTENTS[1].hypot(BODY_HALF_EXTENTS[2]);
+    2.0 * r * (roll.abs().min(std::f64::consts::PI) / 2.0).sin()
+}

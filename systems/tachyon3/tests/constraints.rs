@@ -353,3 +353,81 @@ fn world_kinematics_matches_an_independent_pose_and_the_body_row() {
         assert!((lie[0][0] - want_h).abs() <= 1e-9 * (1.0 + want_h.abs()), "{} vs {want_h}", lie[0][0]);
     }
 }
+
+#[test]
+fn roll_clearance_is_the_farthest_a_corner_moves() {
+    // Independently: every corner of the body box turned about the body's x axis.
+    let half = Vector3::from(model::BODY_HALF_EXTENTS);
+    for k in 0..=90 {
+        let roll = -1.5 + k as f64 / 30.0;
+        let turn = Rotation3::from_axis_angle(&Vector3::x_axis(), roll);
+        let farthest = (0..8)
+            .map(|c| {
+                let corner = Vector3::new(
+                    half.x * if c & 1 == 0 { 1.0 } else { -1.0 },
+                    half.y * if c & 2 == 0 { 1.0 } else { -1.0 },
+                    half.z * if c & 4 == 0 { 1.0 } else { -1.0 },
+                );
+                (turn * corner - corner).norm()
+            })
+            .fold(0.0, f64::max);
+        assert!((model::roll_clearance(roll) - farthest).abs() < 1e-12, "roll {roll}");
+    }
+}
+
+#[test]
+fn body_rows_with_the_roll_clearance_keep_the_rolled_body_clear() {
+    // The claim of Course::set_body_roll, against the exact SAT: wherever the body row
+    // holds (h >= 0) on cuboids grown by roll_clearance(roll), the body turned by that
+    // roll does not overlap the true cuboid. And the clearance is needed: without it the
+    // row holds at poses where the rolled body does overlap.
+    let mut r = rng(43);
+    let (mut held, mut needed) = (0, 0);
+    let half = Vector3::from(model::BODY_HALF_EXTENTS);
+    for _ in 0..20_000 {
+        let x = random_state(&mut r);
+        let roll = r.random_range(-0.4..0.4);
+        let (ec, er, eh) = random_edge(&mut r);
+        let edge = cbfgen::OrientedBox::new(ec, Rotation3::from_matrix_unchecked(er), eh).unwrap();
+        let mut env = Environment::new(Capacity::edges(1, [1; 6])).unwrap();
+        env.push_edge(EdgeCuboid::from_box(&edge)).unwrap();
+        let h_model = {
+            let (c, rot, h) = env.edges()[0].kernel_args();
+            gen::body_edge(&x, &c, &rot, &h).0[0][0]
+        };
+        env.set_body_clearance(model::roll_clearance(roll)).unwrap();
+        let (c, rot, h) = env.edges()[0].kernel_args();
+        assert!((h - eh).iter().all(|d| (d - model::roll_clearance(roll)).abs() < 1e-15), "grown by the clearance");
+        assert_eq!(env.toe_edge.as_slice()[0].half, eh, "the toe rows keep the true cuboid");
+        let h_rolled = gen::body_edge(&x, &c, &rot, &h).0[0][0];
+        let (center, rotation, _) = gen::world_kinematics(&x);
+        let turned = Matrix3::from_fn(|i, j| rotation[i][j]) * Rotation3::from_axis_angle(&Vector3::x_axis(), roll);
+        let body =
+            cbfgen::OrientedBox::new(Vector3::from(center), Rotation3::from_matrix_unchecked(turned), half).unwrap();
+        let rolled_overlaps = cbfgen::sat::overlaps(&edge, &body);
+        if h_rolled >= 0.0 {
+            held += 1;
+            assert!(!rolled_overlaps, "row holds with the clearance, but the rolled body overlaps the edge");
+        }
+        if h_model >= 0.0 && rolled_overlaps {
+            needed += 1;
+        }
+    }
+    assert!(held > 1000 && needed > 10, "vacuous: {held} held, {needed} needed the clearance");
+}
+
+#[test]
+fn a_body_clearance_out_of_its_domain_is_refused_and_changes_nothing() {
+    let mut r = rng(44);
+    let (ec, er, eh) = random_edge(&mut r);
+    let edge = cbfgen::OrientedBox::new(ec, Rotation3::from_matrix_unchecked(er), eh).unwrap();
+    let mut env = Environment::new(Capacity::edges(1, [1; 6])).unwrap();
+    env.push_edge(EdgeCuboid::from_box(&edge)).unwrap();
+    env.set_body_clearance(0.05).unwrap();
+    for bad in [-1e-3, f64::NAN, f64::INFINITY, 1e9] {
+        assert!(env.set_body_clearance(bad).is_err(), "{bad}");
+        assert!((env.edges()[0].half - eh).iter().all(|d| (d - 0.05).abs() < 1e-15), "{bad} changed the edges");
+    }
+    env.set_body_clearance(0.0).unwrap();
+    assert_eq!(env.edges()[0].half, eh, "0 restores the true cuboid");
+}

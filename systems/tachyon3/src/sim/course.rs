@@ -43,6 +43,9 @@ pub struct Course {
     /// While turning: the flight it turns to.
     turning_to: Option<usize>,
     env: Environment,
+    /// How far the body rows keep the model's body from every edge
+    /// ([`Course::set_body_roll`]) \[m\].
+    body_clearance: f64,
     /// The true terrain's solids, for the exact clearance checks.
     solids: SolidTerrain,
     gait: Gait,
@@ -78,7 +81,7 @@ impl Course {
         }
         let gait = Gait::new(gait, route.flights()[0].profile()?);
         let solids = SolidTerrain::from_boxes(route.solid_boxes()?);
-        Ok(Self { route, flight: 0, turning_to: None, env, solids, gait })
+        Ok(Self { route, flight: 0, turning_to: None, env, body_clearance: 0.0, solids, gait })
     }
 
     /// The capacity every course's environment is laid out for; build the filter with it.
@@ -209,6 +212,20 @@ impl Course {
         for &edge in edges.iter().take(Self::CAPACITY.body_edge.min(Self::CAPACITY.toe_edge)) {
             self.env.push_edge(edge)?;
         }
+        self.env.set_body_clearance(self.body_clearance)
+    }
+
+    /// The body's measured roll \[rad\], which the sagittal model does not hold: from now
+    /// on the body rows keep the model's body [`model::roll_clearance`] away from every
+    /// edge, so the rolled body is clear when they hold (0, the default: the body as the
+    /// model has it). A physical robot's loop calls it each cycle with its IMU's roll.
+    ///
+    /// # Errors
+    /// A roll that is not finite; nothing changes then.
+    pub fn set_body_roll(&mut self, roll: f64) -> Result<(), CbfError> {
+        let clearance = model::roll_clearance(cbfgen::error::finite("body roll", roll)?);
+        self.env.set_body_clearance(clearance)?;
+        self.body_clearance = clearance;
         Ok(())
     }
 
