@@ -101,6 +101,38 @@ def test_the_state_read_from_mujoco_is_the_state_it_was_posed_in():
         assert abs(off_model["lateral"]) < 1e-9 and abs(off_model["roll"]) < 1e-9
 
 
+def test_a_rolled_robot_reads_as_its_joints_on_the_upright_robot():
+    """The model holds no roll: a robot rolled about its body's x axis, with a roll rate
+    and moving joints, reads as the state of the same joints on the upright robot
+    (MuJoCo's joint positions and rates, through leg_joints), and reports the roll."""
+    robot = PhysicalRobot(t3.Course("step"))
+    rng = np.random.default_rng(21)
+    d = robot.data
+    for x in random_states(20, seed=22):
+        x[4:6] = 0.0
+        robot.pose(x)
+        roll = rng.uniform(0.05, 0.3) * rng.choice([-1.0, 1.0])
+        c, s = np.cos(roll), np.sin(roll)
+        rolled = d.xmat[robot.body].reshape(3, 3) @ np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
+        mujoco.mju_mat2Quat(d.qpos[3:7], rolled.ravel())
+        d.qvel[3] = rng.uniform(-1.0, 1.0)  # the roll rate, about the body's own x axis
+        d.qvel[robot.knee_v] = rng.uniform(-0.2, 0.2, 6)
+        d.qvel[robot.hip_v] = rng.uniform(-0.5, 0.5, 6)
+        mujoco.mj_forward(robot.model, d)
+        # Where the wheels are is not where the model's toes are: a side is lifted.
+        assert np.abs(d.xpos[robot.wheels][:, 2] - t3.world_kinematics(x)[2][:, 2]).max() > 0.01
+        measured, off_model = robot.measure(x)
+        assert off_model["roll"] == pytest.approx(roll, abs=1e-12)
+        positions = [6, 7, 8, *range(12, 36, 4), *range(13, 36, 4)]
+        np.testing.assert_allclose(measured[positions], x[positions], atol=1e-9)
+        joints = t3.leg_joints(measured)
+        np.testing.assert_allclose(joints[:, 0], d.qpos[robot.knee_q], atol=1e-9)
+        np.testing.assert_allclose(joints[:, 1], d.qpos[robot.hip_q], atol=1e-9)
+        np.testing.assert_allclose(joints[:, 2], d.qvel[robot.knee_v], atol=1e-9)
+        np.testing.assert_allclose(joints[:, 3], d.qvel[robot.hip_v], atol=1e-9)
+        np.testing.assert_allclose(measured[9:12], 0.0, atol=1e-9)
+
+
 def test_anchoring_moves_the_reference_rigidly_onto_the_robot_and_keeps_its_joints():
     rng = np.random.default_rng(5)
     for x in random_states(30, seed=6):
@@ -237,7 +269,7 @@ def perceived_climb():
     return run("stairs", body_cbf=True, on_cycle=wheels, perception=PoseEstimate()), wheels
 
 
-def test_on_perceived_stairs_from_a_drifting_estimate_no_wheel_enters_the_stairs_or_meets_a_riser(perceived_climb):
+def test_on_perceived_stairs_from_a_drifting_estimate_the_body_never_touches_and_no_wheel_enters(perceived_climb):
     record, wheels = perceived_climb
     summary = record.summary()
     assert summary["finished"] and summary["perceived"], summary
@@ -248,3 +280,8 @@ def test_on_perceived_stairs_from_a_drifting_estimate_no_wheel_enters_the_stairs
     assert deepest > -PENETRATION_TOLERANCE, f"a wheel {-1e3 * deepest:.2f} mm into the stairs"
     assert summary["wheel_penetration_cycles"] == 0, summary
     assert summary["wheel_riser_contact_cycles"] == 0 and summary["toe_riser_contact_cycles"] == 0, summary
+    # The body, by MuJoCo's contacts and distances to the true solid stairs.
+    assert summary["body_contact_cycles"] == 0, summary
+    assert summary["min_body_distance_mm"] > 0.0 and summary["body_penetration_cycles"] == 0, summary
+    # The model holds no roll; read from the joints, the robot does not build one up.
+    assert summary["max_roll_deg"] < 1.0 and summary["max_lateral_mm"] < 10.0, summary

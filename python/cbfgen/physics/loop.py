@@ -117,6 +117,8 @@ class PhysicalRobot:
         self.outward = np.asarray(t3.HIP_OUTWARD)
         self.hip_y = np.asarray(t3.HIP_POSITIONS)[:, 1]
         self._velocity = np.zeros(6)
+        # The robot with its roll taken out, posed by measure() each cycle.
+        self.upright = mujoco.MjData(m)
 
     def pose(self, x: np.ndarray) -> None:
         """Place the robot at model state ``x``, at rest relative to it."""
@@ -133,15 +135,40 @@ class PhysicalRobot:
         self.command(x)
         mujoco.mj_forward(self.model, d)
 
-    def _velocity_of(self, body: int) -> np.ndarray:
-        """(angular, linear) velocity of ``body``'s frame, world axes."""
-        mujoco.mj_objectVelocity(self.model, self.data, mujoco.mjtObj.mjOBJ_BODY, body, self._velocity, 0)
+    def _velocity_of(self, body: int, data=None) -> np.ndarray:
+        """(angular, linear) velocity of ``body``'s frame in ``data`` (the robot's when
+        None), world axes."""
+        data = self.data if data is None else data
+        mujoco.mj_objectVelocity(self.model, data, mujoco.mjtObj.mjOBJ_BODY, body, self._velocity, 0)
         return self._velocity.copy()
+
+    def _pose_upright(self) -> float:
+        """Pose :attr:`upright` as the robot with its roll taken out: the same body
+        centre, heading and pitch, every joint and joint rate the same, and the body's
+        rate of roll removed from its angular velocity. Returns the roll [rad]."""
+        d, u = self.data, self.upright
+        rotation = d.xmat[self.body].reshape(3, 3)
+        # rotation = Rz(yaw) Ry(pitch) Rx(roll): roll is about the body's own x axis.
+        roll = float(np.arctan2(rotation[2, 1], rotation[2, 2]))
+        c, s = np.cos(roll), np.sin(roll)
+        upright = rotation @ np.array([[1.0, 0.0, 0.0], [0.0, c, s], [0.0, -s, c]])
+        # The angular velocity as yaw, pitch and roll rates about their own axes; the
+        # upright body turns at the first two.
+        yaw_axis, roll_axis = np.eye(3)[2], upright[:, 0]
+        pitch_axis = _rot_z(np.arctan2(upright[1, 0], upright[0, 0]))[:, 1]
+        omega = rotation @ d.qvel[3:6]
+        rates = np.linalg.solve(np.column_stack([yaw_axis, pitch_axis, roll_axis]), omega)
+        u.qpos[:] = d.qpos
+        u.qvel[:] = d.qvel
+        u.qpos[3:7] = _quat_of(upright)
+        u.qvel[3:6] = upright.T @ (rates[0] * yaw_axis + rates[1] * pitch_axis)
+        mujoco.mj_fwdPosition(self.model, u)
+        mujoco.mj_fwdVelocity(self.model, u)
+        return roll
 
     def measure(self, reference: np.ndarray) -> tuple[np.ndarray, dict[str, float]]:
         """The model state of the physical robot, its origin taken from ``reference``;
         and what the model cannot hold (lateral offset, roll, heading error) as a dict."""
-        d = self.data
         x = np.array(reference, dtype=float)
         origin = x[0:3]
         yaw, speed, yaw_rate = x[3], x[4], x[5]
@@ -153,17 +180,24 @@ class PhysicalRobot:
             rel = to_origin @ (position - origin)
             return rel, to_origin @ (velocity - origin_velocity) - np.cross(spin, rel)
 
-        angular_linear = self._velocity_of(self.body)
-        rel, rel_v = relative(d.xpos[self.body], angular_linear[3:])
-        body_in_origin = to_origin @ d.xmat[self.body].reshape(3, 3)
+        # The model holds no roll, so it reads the robot's joints on the upright robot: a
+        # knee lengthened under one side shows as that toe lower, where the gait and
+        # the filter act on it. Read from where the wheels are, the toes of a rolled
+        # robot standing on one tread look level, and what the gait pushes on them
+        # winds up unseen in the reference as the roll itself.
+        roll = self._pose_upright()
+        u = self.upright
+        angular_linear = self._velocity_of(self.body, u)
+        rel, rel_v = relative(u.xpos[self.body], angular_linear[3:])
+        body_in_origin = to_origin @ u.xmat[self.body].reshape(3, 3)
         pitch = np.arctan2(body_in_origin[0, 2], body_in_origin[0, 0])
         x[6:12] = rel[0], rel[2], pitch, rel_v[0], rel_v[2], (to_origin @ angular_linear[:3])[1]
         for leg, wheel in enumerate(self.wheels):
-            toe, toe_v = relative(d.xpos[wheel], self._velocity_of(wheel)[3:])
+            toe, toe_v = relative(u.xpos[wheel], self._velocity_of(wheel, u)[3:])
             x[12 + 4 * leg : 16 + 4 * leg] = toe[0], toe[2], toe_v[0], toe_v[2]
         off_model = {
             "lateral": float(rel[1]),
-            "roll": float(np.arctan2(body_in_origin[2, 1], body_in_origin[2, 2])),
+            "roll": roll,
             "heading": float(np.arctan2(body_in_origin[1, 0], body_in_origin[0, 0])),
         }
         return x, off_model
@@ -472,6 +506,7 @@ def run(
     settle: float = 0.3,
     on_cycle=None,
     perception: PoseEstimate | None = None,
+    roll_clearance: bool = True,
 ) -> PhysicalRun:
     """The closed loop on the physical robot until the course is finished or
     ``max_time`` [s] (the Rust simulation's limit when None). The robot first stands
@@ -483,7 +518,11 @@ def run(
     (:meth:`cbfgen.tachyon3.Course.perceive`: 10 Hz scans, 1 Hz updates), and they, the
     scans' registration and the reference act on the state *estimate*, the physical state
     with the estimate's drift and noise. Safety is still measured from MuJoCo's own poses
-    against the true terrain."""
+    against the true terrain.
+
+    With ``roll_clearance`` the body rows keep the model's body clear of every edge by
+    the farthest its measured roll (an IMU's) moves any point of the box
+    (:meth:`cbfgen.tachyon3.Course.set_body_roll`): the sagittal model holds no roll."""
     course = (
         t3.Course(scenario, perception=True, floor_lift=perception.floor_lift)
         if perception is not None
@@ -512,6 +551,8 @@ def run(
             record.error = f"t = {t:.3f} s: tipped over (roll {np.degrees(off_model['roll']):.0f}°)"
             break
         try:
+            if roll_clearance:
+                course.set_body_roll(off_model["roll"])
             if perception is not None:
                 travelled = float(np.linalg.norm(truth[0:3] - start))
                 x = perception.estimate(truth, perception.error(travelled, rng))
