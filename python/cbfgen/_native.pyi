@@ -463,6 +463,7 @@ class Course:
         perception: bool = False,
         perception_seed: int = 1,
         floor_lift: float | None = None,
+        origin: Literal["rolling", "jump_at_exchange"] = "rolling",
     ) -> None: ...
     def initial_state(self, start_gap: float = 0.3) -> Vector: ...
     def plan(self, t: float, x: ArrayLike) -> Vector:
@@ -472,6 +473,10 @@ class Course:
         LiDAR scans from ``truth`` (the physical state; ``x`` when None) and maps its
         returns from ``x`` (the state estimate the gait and filter are given); 10 Hz scans,
         1 Hz updates applied 0.5 s after their request. Updates `environment`."""
+    def exchange_origin(self, t: float, x: ArrayLike) -> tuple[Vector, float | None]:
+        """With origin="jump_at_exchange", at a support exchange: x with its origin moved to
+        the six wheels' centroid (every world pose kept) and the jump [m]; else (x, None).
+        Call it before plan each cycle."""
     def set_body_roll(self, roll: float) -> None:
         """The body's measured roll [rad] (an IMU's): the body rows keep the model's body
         roll_clearance(roll) from every edge, now and after every perception update."""

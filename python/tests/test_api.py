@@ -139,6 +139,33 @@ def test_a_measured_roll_grows_the_body_rows_edges_and_survives_perception_updat
         rolled.set_body_roll(float("nan"))
 
 
+def test_the_origin_jumps_to_the_wheels_at_each_support_exchange_from_python():
+    # The paper's origin rule from a loop written here: at each touchdown the origin
+    # moves to the six wheels' centroid (numpy), and every world pose stays where it was.
+    jumping, rolling = t3.Course("stairs", origin="jump_at_exchange"), t3.Course("stairs")
+    safety = t3.ecbf_filter()
+    x = jumping.initial_state()
+    jumps = []
+    for k in range(round(9.0 / t3.DT)):
+        t = k * t3.DT
+        moved, jump = jumping.exchange_origin(t, x)
+        assert rolling.exchange_origin(t, x)[1] is None
+        if jump is None:
+            np.testing.assert_array_equal(moved, x)
+        else:
+            jumps.append(jump)
+            assert jump == pytest.approx(np.mean(x[t3.STATE_NAMES.index("lf_x") :: 4]), abs=1e-12)
+            assert np.mean(moved[t3.STATE_NAMES.index("lf_x") :: 4]) == pytest.approx(0.0, abs=1e-12)
+            for before, after in zip(t3.world_kinematics(x), t3.world_kinematics(moved), strict=True):
+                np.testing.assert_allclose(after, before, atol=1e-12)
+        x = moved
+        out = safety.update(x, jumping.plan(t, x), jumping.environment)
+        x = x + t3.DT * t3.SYSTEM.xdot(x, out.u)
+    assert len(jumps) >= 2 and max(abs(j) for j in jumps) > 0.01, jumps
+    with pytest.raises(ValueError, match="unknown origin"):
+        t3.Course("stairs", origin="teleporting")
+
+
 def test_simulation_arrays_are_consistent():
     run = t3.simulate("step", max_time=0.5)
     n = len(run["t"])

@@ -16,7 +16,7 @@ use cbfgen::filter::InputSource;
 use cbfgen_tachyon3::catalog::Family;
 use cbfgen_tachyon3::model::NX;
 use cbfgen_tachyon3::sim::campaign::{self as monte_carlo, CampaignSettings, CourseRanges, Episode};
-use cbfgen_tachyon3::sim::gait::GaitParams;
+use cbfgen_tachyon3::sim::gait::{GaitParams, OriginRule};
 use cbfgen_tachyon3::sim::perceived::{Perceiver, PerceptionSettings};
 use cbfgen_tachyon3::sim::{self, Course, Scenario, SimConfig};
 
@@ -39,6 +39,9 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     Ok(())
 }
 
+/// ``Course(origin=...)``'s names, in `OriginRule`'s order.
+const ORIGIN_RULES: [&str; 2] = ["rolling", "jump_at_exchange"];
+
 fn scenario(name: &str) -> PyResult<Scenario> {
     Ok(SCENARIOS[choice("scenario", name, &SCENARIOS.map(Scenario::name))?])
 }
@@ -59,6 +62,11 @@ fn scenario(name: &str) -> PyResult<Scenario> {
 /// body perceives (the settings of ``simulate(perception=True)``, noise from
 /// ``perception_seed``, perceived levels raised by ``floor_lift`` \[m\] when given, from
 /// −0.05 to 0.5, default 0.004): call :meth:`perceive` before :meth:`plan` every cycle.
+///
+/// ``origin`` is how the ground-moving origin moves: ``"rolling"`` (the default, every
+/// documented run) or ``"jump_at_exchange"``, the paper's, where it also jumps to the
+/// wheels' centroid at each support exchange: call :meth:`exchange_origin` before
+/// :meth:`plan` every cycle then.
 #[pyclass(name = "Course", module = "cbfgen.tachyon3")]
 pub struct PyCourse {
     inner: Course,
@@ -73,15 +81,17 @@ pub struct PyCourse {
 #[pymethods]
 impl PyCourse {
     #[new]
-    #[pyo3(signature = (scenario="step", perception=false, perception_seed=1, floor_lift=None))]
+    #[pyo3(signature = (scenario="step", perception=false, perception_seed=1, floor_lift=None, origin="rolling"))]
     fn new(
         py: Python<'_>,
         scenario: &str,
         perception: bool,
         perception_seed: u64,
         floor_lift: Option<f64>,
+        origin: &str,
     ) -> PyResult<Self> {
-        let inner = Course::new(self::scenario(scenario)?, GaitParams::default())?;
+        let origin = [OriginRule::Rolling, OriginRule::JumpAtExchange][choice("origin", origin, &ORIGIN_RULES)?];
+        let inner = Course::new(self::scenario(scenario)?, GaitParams { origin, ..GaitParams::default() })?;
         let env = Py::new(py, initializer(inner.environment().clone()))?;
         let defaults = PerceptionSettings::default();
         let settings = PerceptionSettings {
@@ -128,6 +138,22 @@ impl PyCourse {
         self.inner.set_body_roll(roll)?;
         self.sync_environment(py);
         Ok(())
+    }
+
+    /// With ``origin="jump_at_exchange"``: at a support exchange (the swing under way ends
+    /// at ``t``), ``x`` with its origin moved to the centroid of the six wheels, and how
+    /// far it jumped \[m\]; otherwise ``x`` unchanged and None. Every world pose is kept,
+    /// so nothing the filter sees changes. Call it before :meth:`plan` each cycle, and go
+    /// on from the state it returns.
+    fn exchange_origin<'py>(
+        &self,
+        py: Python<'py>,
+        t: f64,
+        x: ArrayIn<'py>,
+    ) -> PyResult<(Array1Out<'py>, Option<f64>)> {
+        let mut x = state(&x)?;
+        let jump = self.inner.exchange_origin(finite("time", t)?, &mut x);
+        Ok((vector(py, &x), jump))
     }
 
     /// Perception updates applied so far (0 without perception).
