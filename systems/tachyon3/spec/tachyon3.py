@@ -76,8 +76,9 @@ PRIORITIES = {
 # in by a CLF, one inside is kept there by the CBF). V = 1/2 (d . (p + lead p' - c))^2 on
 # the toe's world xy p, towards the point c along the unit direction d: the toe's
 # position has relative degree 2 in these accelerations, so V looks ahead by `lead`
-# seconds to make V' depend on the input. V' + rate V <= 0 halves z = d . (p + lead p' - c)
-# at rate / 2, and the toe then follows z with time constant `lead`: poles (8, 8) 1/s, so
+# seconds to make V' depend on the input. V' + rate V <= 0 makes z = d . (p + lead p' - c)
+# decay at least at rate / 2 (z' <= -rate z / 2), and the toe then follows z with time
+# constant `lead`: poles (8, 8) 1/s, so
 # a toe 9 cm out reaches a target 1 cm inside in about 0.5 s of the paper's 1.2 s swing,
 # asking at most 64 * 0.09 = 5.8 m/s^2 of the 10 m/s^2 a toe has.
 FOOTHOLD_PULL_RATE = 16.0
