@@ -48,6 +48,15 @@ pub fn time_allowed(terrain: &Terrain) -> f64 {
     (20.0 + 10.0 * terrain.changes().len() as f64).min(MAX_SIM_TIME)
 }
 
+/// Time a run on `route` gets to finish \[s\]: each flight's [`time_allowed`] and a
+/// [`TURN_TIME`](gait::TURN_TIME) between flights, at most [`MAX_SIM_TIME`]. On one
+/// flight, its terrain's [`time_allowed`].
+pub fn route_time_allowed(route: &Route) -> f64 {
+    let flights = route.flights();
+    let climbing = flights.iter().map(|f| time_allowed(&f.terrain)).sum::<f64>();
+    (climbing + gait::TURN_TIME * flights.len().saturating_sub(1) as f64).min(MAX_SIM_TIME)
+}
+
 /// Which course the robot runs.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Scenario {
@@ -151,7 +160,7 @@ pub struct SimConfig {
 
 impl SimConfig {
     /// The standard run of `scenario`: default gait and filter settings, 0.3 m start gap, and
-    /// 25 s (step), 60 s (stairs) or [`time_allowed`] (the others) to finish. With `body_cbf == false` the body–edge family's
+    /// 25 s (step), 60 s (stairs) or [`route_time_allowed`] (the others) to finish. With `body_cbf == false` the body–edge family's
     /// activation threshold is set to −∞, so its rows never take part.
     pub fn new(scenario: Scenario, body_cbf: bool) -> Self {
         let mut filter = catalog::default_settings();
@@ -162,14 +171,8 @@ impl SimConfig {
         let max_time = match scenario {
             Scenario::Step => 25.0,
             Scenario::Stairs => 60.0,
-            // Each flight's time, and a turn's between them.
-            Scenario::Turn => {
-                let route = Route::turn_on_landing();
-                let flights = route.flights().iter().map(|f| time_allowed(&f.terrain)).sum::<f64>();
-                (flights + gait::TURN_TIME * (route.flights().len() - 1) as f64).min(MAX_SIM_TIME)
-            }
             // A terrain that fails to build fails the run instead, with its error.
-            other => other.terrain().map_or(MAX_SIM_TIME, |t| time_allowed(&t)),
+            other => other.route().map_or(MAX_SIM_TIME, |route| route_time_allowed(&route)),
         };
         Self { scenario, body_cbf, max_time, start_gap: 0.3, gait: GaitParams::default(), filter, perception: None }
     }
