@@ -14,7 +14,9 @@ from pathlib import Path
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m cbfgen.physics", description=__doc__)
-    parser.add_argument("--scenario", default="stairs", help="course (cbfgen.tachyon3.SCENARIOS); default stairs")
+    parser.add_argument(
+        "--scenario", default="stairs", help="course (cbfgen.physics.PHYSICAL_SCENARIOS); default stairs"
+    )
     parser.add_argument(
         "--out",
         type=Path,
@@ -38,11 +40,15 @@ def main(argv: list[str] | None = None) -> int:
         from .render import FrameRecorder, write_side_by_side_gif
     from .. import tachyon3 as t3
     from .figures import write_figures
-    from .loop import PoseEstimate, run
+    from .loop import PHYSICAL_SCENARIOS, PoseEstimate, run
     from .model import ASSUMED
 
-    if args.scenario not in t3.SCENARIOS:
-        parser.error(f"unknown scenario {args.scenario!r}; one of {', '.join(t3.SCENARIOS)}")
+    if args.scenario not in PHYSICAL_SCENARIOS:
+        why = " (its wheels cannot steer the gait's turn on the spot)" if args.scenario in t3.SCENARIOS else ""
+        parser.error(
+            f"scenario {args.scenario!r} is not one the physical robot runs{why}; "
+            f"one of {', '.join(PHYSICAL_SCENARIOS)}"
+        )
     args.out.mkdir(parents=True, exist_ok=True)
     runs, recorders = {}, {}
     for body_cbf in (True, False):

@@ -56,6 +56,13 @@ TIP_OVER_ROLL = np.radians(45.0)
 """A measured roll beyond this ends a run as tipped over: the sagittal model cannot
 represent the robot any more, and its state would read as an upright robot's."""
 
+PHYSICAL_SCENARIOS = [name for name in t3.SCENARIOS if name != "turn"]
+"""The courses the physical robot can run. Not ``turn``: the gait turns on the spot on
+all six wheels, whose toes the kinematic model slides round, but the physical wheels
+cannot steer. In MuJoCo the front and rear wheels scrub, the body stays 60–70° behind
+the turning reference, and the robot tips over (measured 2026-12-04 at t = 31.9 s). The
+paper turns on three legs about a drive axle, which the gait does not yet do."""
+
 MAX_LEAD = 0.05
 """Furthest a wheel's angle target may run ahead of (or behind) the wheel, as rolled
 distance [m]: enough to catch up a slip of a few centimetres, little against the 35 cm
@@ -523,6 +530,9 @@ def run(
     With ``roll_clearance`` the body rows keep the model's body clear of every edge by
     the farthest its measured roll (an IMU's) moves any point of the box
     (:meth:`cbfgen.tachyon3.Course.set_body_roll`): the sagittal model holds no roll."""
+    if scenario not in PHYSICAL_SCENARIOS:
+        why = " (its wheels cannot steer the gait's turn on the spot)" if scenario in t3.SCENARIOS else ""
+        raise ValueError(f"the physical robot does not run {scenario!r}{why}; one of {', '.join(PHYSICAL_SCENARIOS)}")
     course = (
         t3.Course(scenario, perception=True, floor_lift=perception.floor_lift)
         if perception is not None
