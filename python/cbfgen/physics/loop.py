@@ -308,7 +308,8 @@ class PhysicalRun:
     perceived: bool = False
     t: list[float] = field(default_factory=list)
     x: list[np.ndarray] = field(default_factory=list)
-    """The physical state, measured from MuJoCo."""
+    """The physical state, measured from MuJoCo (:meth:`PhysicalRobot.measure`: the
+    robot's joints on the upright robot)."""
     x_estimate: list[np.ndarray] = field(default_factory=list)
     """What the gait and filter were given: ``x``, or on a perceived run its estimate."""
     x_ref: list[np.ndarray] = field(default_factory=list)
@@ -317,6 +318,9 @@ class PhysicalRun:
     body_distance: list[float] = field(default_factory=list)
     wheel_distance: list[tuple[float, float]] = field(default_factory=list)
     clearance: list[tuple[float, float, float]] = field(default_factory=list)
+    """Exact (body, wheel, wheel-to-riser) clearances of ``x`` to the true solids: of the
+    upright robot. The rolled robot's own are :attr:`body_distance` and
+    :attr:`wheel_distance`, from MuJoCo's poses."""
     slip: list[np.ndarray] = field(default_factory=list)
     off_model: list[dict[str, float]] = field(default_factory=list)
     min_h: list[dict[str, float]] = field(default_factory=list)
