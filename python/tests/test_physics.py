@@ -252,6 +252,10 @@ def test_with_the_filter_the_physical_robot_climbs_the_hardware_stairs_without_b
     # What the run reports of its wheels against the solid stairs (its own exact
     # sphere-box geometry on MuJoCo's wheel centres) is what MuJoCo's distances say.
     np.testing.assert_allclose(record.arrays()["wheel_distance"][:, 0], wheels.nearest, atol=1e-6)
+    # The filter's own cost is read from its thread's CPU clock every cycle, beside the wall time.
+    cpu = record.arrays()["cpu_us"]
+    assert cpu.shape == record.arrays()["update_us"].shape and np.all(np.isfinite(cpu)) and np.all(cpu > 0.0)
+    assert summary["median_filter_cpu_us"] < 1000.0, summary
 
 
 def test_no_wheel_goes_more_than_1_mm_into_the_solid_stairs_nor_touches_a_riser(stairs_climbs):

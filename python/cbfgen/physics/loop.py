@@ -331,6 +331,10 @@ class PhysicalRun:
     culled_rows: list[int] = field(default_factory=list)
     """Of the computed rows, those culled by their family's lower bound."""
     update_us: list[float] = field(default_factory=list)
+    """The filter update's wall time per cycle [µs]: on a busy machine it includes
+    waiting for the CPU (a 4 ms scheduler slice)."""
+    cpu_us: list[float] = field(default_factory=list)
+    """The filter update's thread CPU time per cycle [µs]: its own cost."""
     finished: bool = False
     error: str | None = None
     finish_time: float | None = None
@@ -360,6 +364,7 @@ class PhysicalRun:
             "computed_rows": np.asarray(self.computed_rows),
             "culled_rows": np.asarray(self.culled_rows),
             "update_us": np.asarray(self.update_us),
+            "cpu_us": np.asarray(self.cpu_us),
         }
         for key in ("lateral", "roll", "heading"):
             out[key] = np.asarray([o[key] for o in self.off_model])
@@ -403,15 +408,27 @@ class PhysicalRun:
             "p99_toe_error_mm": 1e3 * float(np.percentile(toe_error, 99)),
             "max_lateral_mm": 1e3 * float(np.abs(a["lateral"]).max()),
             "max_roll_deg": float(np.degrees(np.abs(a["roll"]).max())),
+            "median_filter_cpu_us": _stat(np.median, a["cpu_us"]),
+            "p99_filter_cpu_us": _stat(lambda v: np.percentile(v, 99), a["cpu_us"]),
+            "max_filter_cpu_us": _stat(np.max, a["cpu_us"]),
+            "max_filter_wall_us": float(a["update_us"].max()),
+            "filter_cycles_over_1ms_cpu": int((a["cpu_us"] > 1000.0).sum()),
+            "filter_cycles_over_1ms_wall": int((a["update_us"] > 1000.0).sum()),
             "median_slip_mm_s": 1e3 * float(np.median(stance_slip)) if stance_slip.size else 0.0,
             "p99_slip_mm_s": 1e3 * float(np.percentile(stance_slip, 99)) if stance_slip.size else 0.0,
         }
 
 
+def _stat(stat, values: np.ndarray) -> float | None:
+    """``stat`` of the finite values, None when there are none."""
+    finite = values[np.isfinite(values)]
+    return float(stat(finite)) if finite.size else None
+
+
 def _nan_stat(stat, values: np.ndarray) -> float | None:
     """``stat`` of the finite values in mm, None when there are none."""
-    finite = values[np.isfinite(values)]
-    return 1e3 * float(stat(finite)) if finite.size else None
+    value = _stat(stat, values)
+    return None if value is None else 1e3 * value
 
 
 def anchored(reference: np.ndarray, measured: np.ndarray) -> np.ndarray:
@@ -544,7 +561,7 @@ def run(
     )
     rng = np.random.default_rng(perception.seed) if perception is not None else None
     settings = {} if body_cbf else {"activation": {BODY_FAMILY: float("-inf")}}
-    filt = t3.ecbf_filter(**settings)
+    filt = t3.ecbf_filter(measure_cpu_time=True, **settings)
     robot = PhysicalRobot(course, params)
     x_ref = course.initial_state()
     robot.pose(x_ref)
@@ -599,6 +616,7 @@ def run(
         record.computed_rows.append(sum(filt.applicable))
         record.culled_rows.append(sum(filt.culled))
         record.update_us.append(out.eval_time_us + out.solve_time_us)
+        record.cpu_us.append(np.nan if out.cpu_time_us is None else out.cpu_time_us)
         record.nominal_body_height.append(course.nominal_body_height or np.nan)
         body = robot.data.xpos[robot.body]
         ground = max((z for lo, hi, z in solids if lo <= body[0] <= hi), default=0.0)
