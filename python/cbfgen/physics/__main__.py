@@ -38,17 +38,14 @@ def main(argv: list[str] | None = None) -> int:
     if not args.no_video:
         # Chooses MuJoCo's OpenGL back end, so it comes before anything imports mujoco.
         from .render import FrameRecorder, write_side_by_side_gif
-    from .. import tachyon3 as t3
     from .figures import write_figures
-    from .loop import PHYSICAL_SCENARIOS, PoseEstimate, run
+    from .loop import PoseEstimate, check_physical_scenario, run
     from .model import ASSUMED
 
-    if args.scenario not in PHYSICAL_SCENARIOS:
-        why = " (its wheels cannot steer the gait's turn on the spot)" if args.scenario in t3.SCENARIOS else ""
-        parser.error(
-            f"scenario {args.scenario!r} is not one the physical robot runs{why}; "
-            f"one of {', '.join(PHYSICAL_SCENARIOS)}"
-        )
+    try:
+        check_physical_scenario(args.scenario)
+    except ValueError as refused:
+        parser.error(str(refused))
     args.out.mkdir(parents=True, exist_ok=True)
     runs, recorders = {}, {}
     for body_cbf in (True, False):

@@ -63,6 +63,13 @@ cannot steer. In MuJoCo the front and rear wheels scrub, the body stays 60–70�
 the turning reference, and the robot tips over (measured 2026-12-04 at t = 31.9 s). The
 paper turns on three legs about a drive axle, which the gait does not yet do."""
 
+def check_physical_scenario(scenario: str) -> None:
+    """Raise ``ValueError`` naming why, unless ``scenario`` is one of :data:`PHYSICAL_SCENARIOS`."""
+    if scenario not in PHYSICAL_SCENARIOS:
+        why = " (its wheels cannot steer the gait's turn on the spot)" if scenario in t3.SCENARIOS else ""
+        raise ValueError(f"the physical robot does not run {scenario!r}{why}; one of {', '.join(PHYSICAL_SCENARIOS)}")
+
+
 MAX_LEAD = 0.05
 """Furthest a wheel's angle target may run ahead of (or behind) the wheel, as rolled
 distance [m]: enough to catch up a slip of a few centimetres, little against the 35 cm
@@ -74,9 +81,9 @@ def _rot_z(yaw: float) -> np.ndarray:
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
-def _rot_y(angle: float) -> np.ndarray:
+def _rot_x(angle: float) -> np.ndarray:
     c, s = np.cos(angle), np.sin(angle)
-    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
 
 
 def _quat_of(rotation: np.ndarray) -> np.ndarray:
@@ -157,8 +164,7 @@ class PhysicalRobot:
         rotation = d.xmat[self.body].reshape(3, 3)
         # rotation = Rz(yaw) Ry(pitch) Rx(roll): roll is about the body's own x axis.
         roll = float(np.arctan2(rotation[2, 1], rotation[2, 2]))
-        c, s = np.cos(roll), np.sin(roll)
-        upright = rotation @ np.array([[1.0, 0.0, 0.0], [0.0, c, s], [0.0, -s, c]])
+        upright = rotation @ _rot_x(-roll)
         # The angular velocity as yaw, pitch and roll rates about their own axes; the
         # upright body turns at the first two.
         yaw_axis, roll_axis = np.eye(3)[2], upright[:, 0]
@@ -174,7 +180,8 @@ class PhysicalRobot:
         return roll
 
     def measure(self, reference: np.ndarray) -> tuple[np.ndarray, dict[str, float]]:
-        """The model state of the physical robot, its origin taken from ``reference``;
+        """The model state of the physical robot, its origin taken from ``reference``: its
+        joints on the upright robot (:meth:`_pose_upright`), as the model holds no roll;
         and what the model cannot hold (lateral offset, roll, heading error) as a dict."""
         x = np.array(reference, dtype=float)
         origin = x[0:3]
@@ -534,7 +541,7 @@ def run(
     settle: float = 0.3,
     on_cycle=None,
     perception: PoseEstimate | None = None,
-    roll_clearance: bool = True,
+    clear_the_roll: bool = True,
 ) -> PhysicalRun:
     """The closed loop on the physical robot until the course is finished or
     ``max_time`` [s] (the Rust simulation's limit when None). The robot first stands
@@ -548,12 +555,10 @@ def run(
     with the estimate's drift and noise. Safety is still measured from MuJoCo's own poses
     against the true terrain.
 
-    With ``roll_clearance`` the body rows keep the model's body clear of every edge by
+    With ``clear_the_roll`` the body rows keep the model's body clear of every edge by
     the farthest its measured roll (an IMU's) moves any point of the box
     (:meth:`cbfgen.tachyon3.Course.set_body_roll`): the sagittal model holds no roll."""
-    if scenario not in PHYSICAL_SCENARIOS:
-        why = " (its wheels cannot steer the gait's turn on the spot)" if scenario in t3.SCENARIOS else ""
-        raise ValueError(f"the physical robot does not run {scenario!r}{why}; one of {', '.join(PHYSICAL_SCENARIOS)}")
+    check_physical_scenario(scenario)
     course = (
         t3.Course(scenario, perception=True, floor_lift=perception.floor_lift)
         if perception is not None
@@ -582,7 +587,7 @@ def run(
             record.error = f"t = {t:.3f} s: tipped over (roll {np.degrees(off_model['roll']):.0f}°)"
             break
         try:
-            if roll_clearance:
+            if clear_the_roll:
                 course.set_body_roll(off_model["roll"])
             if perception is not None:
                 travelled = float(np.linalg.norm(truth[0:3] - start))

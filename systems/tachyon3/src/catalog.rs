@@ -332,9 +332,9 @@ impl Environment {
         if clearance < 0.0 {
             return Err(CbfError::OutOfRange { what: "body clearance [m]", value: clearance, range: "[0, inf)" });
         }
-        for (k, toe) in self.toe_edge.as_slice().iter().enumerate() {
-            let grown = EdgeCuboid { half: toe.half.add_scalar(clearance), ..self.body_edge.as_slice()[k] };
-            grown.validate().map_err(|e| e.in_instance(k))?;
+        // Every grown cuboid checked before any is written, so a refusal changes nothing.
+        for (k, (body, toe)) in self.body_edge.as_slice().iter().zip(self.toe_edge.as_slice()).enumerate() {
+            EdgeCuboid { half: toe.half.add_scalar(clearance), ..*body }.validate().map_err(|e| e.in_instance(k))?;
         }
         let toes = self.toe_edge.as_slice();
         for (body, toe) in self.body_edge.as_mut_slice().iter_mut().zip(toes) {

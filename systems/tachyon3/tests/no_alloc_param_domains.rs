@@ -1,7 +1,9 @@
 //! Refusing a parameter outside its domain allocates nothing: the barrier set re-checks
 //! every parameter on the control path, so a bad edge cuboid (a reflection, 2 I, a
 //! negative half extent, NaN) refused by `update`, by `Catalog::evaluate` and by the
-//! run-time door's `set` and `push` must cost no allocation, between updates that solve.
+//! run-time door's `set` and `push` must cost no allocation, between updates that solve;
+//! so must growing the body rows' edges for a measured roll
+//! (`Environment::set_body_clearance`, called every cycle), accepted or refused.
 //! Counted for Rust's global allocator and for the C `malloc` family OSQP calls; every
 //! refusal is checked to be the domain error, so the path counted is the one taken.
 //!
@@ -79,6 +81,7 @@ fn refusing_parameters_outside_their_domains_allocates_nothing() {
     let is_domain_error =
         |r: Result<(), CbfError>| matches!(r, Err(CbfError::ParamOutOfDomain { family: "body_edge", .. }));
     let (mut refused, mut solved) = (0usize, 0usize);
+    let (mut grown, mut solved_grown, mut refused_clearance) = (0usize, 0usize, 0usize);
     let (_, rust, c) = alloc_count::counting(|| {
         for _ in 0..ROUNDS {
             for (bad, numbers) in bad_envs.iter().zip(&bad_flat) {
@@ -88,9 +91,19 @@ fn refusing_parameters_outside_their_domains_allocates_nothing() {
                 refused += usize::from(is_domain_error(params.push(body_edge, 0, numbers)));
                 solved += usize::from(filter.update(&x, &u_ref, &env).is_ok());
             }
+            // A measured roll's clearance, applied every cycle: grown, refused, restored.
+            grown += usize::from(env.set_body_clearance(0.03).is_ok());
+            solved_grown += usize::from(filter.update(&x, &u_ref, &env).is_ok());
+            refused_clearance += usize::from(matches!(env.set_body_clearance(-1.0), Err(CbfError::OutOfRange { .. })));
+            refused_clearance +=
+                usize::from(matches!(env.set_body_clearance(f64::NAN), Err(CbfError::NonFinite { .. })));
+            refused_clearance += usize::from(is_domain_error(env.set_body_clearance(1e9)));
+            grown += usize::from(env.set_body_clearance(0.0).is_ok());
         }
     });
     assert_eq!(refused, ROUNDS * bad_envs.len() * 4, "every refusal must be the domain error");
+    assert_eq!((grown, solved_grown, refused_clearance), (2 * ROUNDS, ROUNDS, 3 * ROUNDS), "body clearance");
+    assert_eq!(env.body_edge.as_slice()[0], good, "clearance 0 restores the true cuboid");
     assert_eq!(solved, ROUNDS * bad_envs.len(), "the good environment must still update");
     assert!(matches!(
         catalog.evaluate(&x, &bad_envs[2]),
