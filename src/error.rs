@@ -125,7 +125,7 @@ pub enum CbfError {
         kind: &'static str,
     },
     /// Data that does not read as what it claims to be (a campaign's CSV of another
-    /// version, a line cut short), with where and why.
+    /// version, a line cut short), or calls made out of their order, with where and why.
     Malformed {
         /// What was read.
         what: &'static str,

@@ -398,6 +398,11 @@ KNEE_RANGE: list[float]
 """Knee length limits [m]."""
 HIP_POSITIONS: list[list[float]]
 """Hip mounts, body frame [m], rows in LEG_NAMES order."""
+TRIPODS: list[list[int]]
+"""The two tripods' legs (LEG_NAMES indices): LR RR MF, then MR LF RF."""
+STANCE_AXLE: list[list[int]]
+"""The drive axle left down while each tripod swings (LF RF, then LR RR): a turning
+swing turns the robot about its centre."""
 HIP_RANGES: list[list[float]]
 """Hip angle limits [rad], positive outward."""
 HIP_OUTWARD: list[float]
@@ -474,9 +479,19 @@ class Course:
         returns from ``x`` (the state estimate the gait and filter are given); 10 Hz scans,
         1 Hz updates applied 0.5 s after their request. Updates `environment`."""
     def exchange_origin(self, t: float, x: ArrayLike) -> tuple[Vector, float | None]:
-        """With origin="jump_at_exchange", at a support exchange: x with its origin moved to
-        the six wheels' centroid (every world pose kept) and the jump [m]; else (x, None).
-        Call it before plan each cycle."""
+        """x with its origin moved where the support puts it (every world pose kept) and
+        the jump [m], else (x, None): onto the drive axle a turning swing turns about and
+        back off it; with origin="jump_at_exchange" also to the six wheels' centroid at
+        each support exchange. Call it before plan each cycle."""
+    def command(self, speed: float, yaw_rate: float) -> None:
+        """The velocity command: roll at speed [m/s], turn at yaw_rate [rad/s] (at most
+        max_yaw_rate) by three-leg turning swings about a drive axle."""
+    @property
+    def time_allowed(self) -> float:
+        """The time a run on this course gets to finish [s]: each flight's climb and turn."""
+    @property
+    def max_yaw_rate(self) -> float:
+        """The fastest yaw rate command accepts [rad/s]."""
     def set_body_roll(self, roll: float) -> None:
         """The body's measured roll [rad] (an IMU's): the body rows keep the model's body
         roll_clearance(roll) from every edge, now and after every perception update."""

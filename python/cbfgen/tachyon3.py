@@ -37,7 +37,9 @@ from ._native import (
     MAX_SIM_TIME,
     NOMINAL_CLEARANCE,
     SCENARIOS,
+    STANCE_AXLE,
     TOE_RADIUS,
+    TRIPODS,
     Course,
     EcbfFilter,
     Environment,
@@ -61,6 +63,9 @@ FAMILIES: list[str] = [f["name"] for f in SYSTEM.families]
 JOINT_LIMIT_ROWS: list[str] = SYSTEM.families[FAMILIES.index("joint_limits")]["row_names"]
 PAPER_FOOTHOLD_EDGES: tuple[int, ...] = (15, 15, 15, 14, 14, 14)
 """Foothold half-planes per leg in the paper's worst case (269 rows with 20 edges)."""
+DRIVE_LEGS: tuple[int, ...] = tuple(sorted({leg for axle in STANCE_AXLE for leg in axle}))
+"""The legs with driven wheels (LF, RF, LR, RR): the two axles. The middle legs' wheels
+are passive and omnidirectional (the paper's Fig. 2)."""
 
 
 def capacity(edges: int = 20, foothold_edges: Sequence[int] | None = None) -> dict[str, int | list[int]]:
@@ -81,6 +86,7 @@ __all__ = [
     "BODY_HALF_EXTENTS",
     "CAMPAIGN_TIMING_COLUMNS",
     "COURSE_RANGES",
+    "DRIVE_LEGS",
     "DT",
     "FAMILIES",
     "HIP_OUTWARD",
@@ -98,9 +104,11 @@ __all__ = [
     "NX",
     "PAPER_FOOTHOLD_EDGES",
     "SCENARIOS",
+    "STANCE_AXLE",
     "STATE_NAMES",
     "SYSTEM",
     "TOE_RADIUS",
+    "TRIPODS",
     "Course",
     "Environment",
     "campaign",

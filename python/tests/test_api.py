@@ -166,6 +166,44 @@ def test_the_origin_jumps_to_the_wheels_at_each_support_exchange_from_python():
         t3.Course("stairs", origin="teleporting")
 
 
+def test_a_velocity_and_yaw_rate_command_turns_the_robot_on_three_legs_from_python():
+    # The paper's velocity command from a loop written here, 3 m before the step: the
+    # robot rolls and turns left, the yaw rate zero whenever all six wheels are down,
+    # and each turning swing's origin stands on the centre of the drive axle left down
+    # (numpy, from the toes' world positions).
+    course = t3.Course("step")
+    with pytest.raises(ValueError, match="yaw rate"):
+        course.command(0.1, 1.01 * course.max_yaw_rate)
+    with pytest.raises(ValueError):
+        course.command(float("nan"), 0.0)
+    course.command(0.1, 0.15)
+    safety = t3.ecbf_filter()
+    x = course.initial_state(start_gap=3.0)
+    yaw, rate = t3.STATE_NAMES.index("yaw"), t3.STATE_NAMES.index("yaw_rate")
+    start, lifted_turning, on_axle = x[yaw], 0, 0
+    for k in range(round(8.0 / t3.DT)):
+        t = k * t3.DT
+        x, jump = course.exchange_origin(t, x)
+        u_ref = course.plan(t, x)
+        if course.swinging is None:
+            assert abs(x[rate]) < 0.01
+        elif abs(x[rate]) > 0.01:
+            lifted_turning += 1
+            _, _, toes = t3.world_kinematics(x)
+            axle = toes[t3.STANCE_AXLE[course.swinging]].mean(axis=0)
+            on_axle += bool(np.hypot(*(axle[:2] - x[:2])) < 0.01)
+        x = x + t3.DT * t3.SYSTEM.xdot(x, safety.update(x, u_ref, course.environment).u)
+    assert lifted_turning > 500 and on_axle == lifted_turning
+    assert x[yaw] - start > 0.3
+    # The same course in a loop that never moves the origin is told to.
+    course = t3.Course("step")
+    course.command(0.1, 0.15)
+    x = course.initial_state(start_gap=3.0)
+    with pytest.raises(cbfgen.CbfError, match="exchange_origin"):
+        for k in range(round(3.0 / t3.DT)):
+            course.plan(k * t3.DT, x)
+
+
 def test_simulation_arrays_are_consistent():
     run = t3.simulate("step", max_time=0.5)
     n = len(run["t"])

@@ -27,6 +27,8 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("HIP_POSITIONS", model::HIP_POSITIONS.map(|h| h.to_vec()).to_vec())?;
     m.add("HIP_RANGES", model::HIP_RANGES.map(|r| r.to_vec()).to_vec())?;
     m.add("HIP_OUTWARD", model::HIP_OUTWARD.to_vec())?;
+    m.add("TRIPODS", cbfgen_tachyon3::sim::gait::TRIPODS.map(|t| t.to_vec()).to_vec())?;
+    m.add("STANCE_AXLE", cbfgen_tachyon3::sim::gait::STANCE_AXLE.map(|a| a.to_vec()).to_vec())?;
     m.add("DT", cbfgen_tachyon3::sim::DT)?;
     m.add("MAX_EDGES", Capacity::MAX_EDGES)?;
     m.add("MAX_FOOTHOLD_EDGES", Capacity::MAX_FOOTHOLD_EDGES)?;

@@ -65,11 +65,14 @@ fn scenario(name: &str) -> PyResult<Scenario> {
 ///
 /// ``origin`` is how the ground-moving origin moves: ``"rolling"`` (the default, every
 /// documented run) or ``"jump_at_exchange"``, the paper's, where it also jumps to the
-/// wheels' centroid at each support exchange: call :meth:`exchange_origin` before
-/// :meth:`plan` every cycle then.
+/// wheels' centroid at each support exchange. Call :meth:`exchange_origin` before
+/// :meth:`plan` every cycle then, and on a course that turns (``"turn"``, or after
+/// :meth:`command` with a yaw rate): the robot turns on three legs about a drive axle,
+/// onto which it moves the origin.
 #[pyclass(name = "Course", module = "cbfgen.tachyon3")]
 pub struct PyCourse {
     inner: Course,
+    scenario: Scenario,
     env: Py<PyEnvironment>,
     nominal_body_height: Option<f64>,
     /// In a mutex only because a Python class must be `Sync` and the worker's channel is
@@ -91,7 +94,8 @@ impl PyCourse {
         origin: &str,
     ) -> PyResult<Self> {
         let origin = [OriginRule::Rolling, OriginRule::JumpAtExchange][choice("origin", origin, &ORIGIN_RULES)?];
-        let inner = Course::new(self::scenario(scenario)?, GaitParams { origin, ..GaitParams::default() })?;
+        let scenario = self::scenario(scenario)?;
+        let inner = Course::new(scenario, GaitParams { origin, ..GaitParams::default() })?;
         let env = Py::new(py, initializer(inner.environment().clone()))?;
         let defaults = PerceptionSettings::default();
         let settings = PerceptionSettings {
@@ -100,7 +104,7 @@ impl PyCourse {
             ..defaults
         };
         let perceiver = perception.then(|| Perceiver::new(settings, inner.perceivable()?)).transpose()?.map(Mutex::new);
-        Ok(Self { inner, env, nominal_body_height: None, perceiver, perception_started: false })
+        Ok(Self { inner, scenario, env, nominal_body_height: None, perceiver, perception_started: false })
     }
 
     /// Perception before the control cycle at time ``t`` \[s\], for a robot that believes
@@ -140,13 +144,38 @@ impl PyCourse {
         Ok(())
     }
 
-    /// With ``origin="jump_at_exchange"``: at a support exchange (the swing under way ends
-    /// at ``t``), ``x`` with its origin moved to the centroid of the six wheels, and how
-    /// far it jumped \[m\]; otherwise ``x`` unchanged and None. Every world pose is kept,
-    /// so nothing the filter sees changes. Call it before :meth:`plan` each cycle, and go
-    /// on from the state it returns.
+    /// The paper's velocity command from now on: roll at ``speed`` \[m/s\] (0 to 1) and
+    /// turn at ``yaw_rate`` \[rad/s\] (positive left, at most :attr:`max_yaw_rate`).
+    /// Whenever the heading lags the command's, a tripod lifts and the robot turns on the
+    /// other three legs about their drive axle (:data:`STANCE_AXLE`), the lifted toes
+    /// landing under their hips. A ``ValueError`` for a speed or rate out of range.
+    fn command(&mut self, speed: f64, yaw_rate: f64) -> PyResult<()> {
+        Ok(self.inner.command(speed, yaw_rate)?)
+    }
+
+    /// The time a run on this course gets to finish \[s\] (``simulate``'s limit): each
+    /// flight's climb and each turn's.
+    #[getter]
+    fn time_allowed(&self) -> f64 {
+        self.scenario.time_allowed()
+    }
+
+    /// The fastest yaw rate :meth:`command` accepts \[rad/s\]: one 30° turning swing per
+    /// turning swing and stance.
+    #[getter]
+    fn max_yaw_rate(&self) -> f64 {
+        self.inner.gait().max_yaw_rate()
+    }
+
+    /// ``x`` with its origin moved where the support puts it, and how far it jumped \[m\]
+    /// (otherwise ``x`` unchanged and None): onto the drive axle a turning swing turns
+    /// about, and back off it after; with ``origin="jump_at_exchange"`` also to the six
+    /// wheels' centroid at each support exchange. Every world pose is kept, so nothing
+    /// the filter sees changes. Call it before :meth:`plan` each cycle, and go on from
+    /// the state it returns: a course that turns refuses to plan a turning swing's
+    /// cycles otherwise.
     fn exchange_origin<'py>(
-        &self,
+        &mut self,
         py: Python<'py>,
         t: f64,
         x: ArrayIn<'py>,

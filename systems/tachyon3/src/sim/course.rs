@@ -5,7 +5,7 @@
 //! (floor under each toe, which legs swing, the swing legs' foothold strips) and returns
 //! the gait's nominal input. The caller filters that input and integrates.
 
-use super::gait::{Gait, GaitParams, OriginRule, Plan};
+use super::gait::{Gait, GaitParams, OriginRule, Plan, STANCE_AXLE};
 use super::Scenario;
 use crate::catalog::{Capacity, EdgeCuboid, Environment, HalfPlane, StabilityBound};
 use crate::generated as gen;
@@ -34,7 +34,8 @@ const STANCE_REACH: f64 = 100.0;
 ///
 /// A course with turns ([`Route`]) is planned one flight at a time: the gait reads the
 /// state in the current flight's frame, and at the flight's turn point it turns on the
-/// spot to face the next one ([`Gait::start_turn`]), whose frame it then plans in.
+/// spot to face the next one ([`Gait::turn_by`]: turning swings on three legs about a
+/// drive axle), whose frame it then plans in.
 #[derive(Debug, Clone)]
 pub struct Course {
     route: Route,
@@ -42,6 +43,8 @@ pub struct Course {
     flight: usize,
     /// While turning: the flight it turns to.
     turning_to: Option<usize>,
+    /// Whether the loop calls [`Course::exchange_origin`] (a turn needs it).
+    origin_exchanged: bool,
     env: Environment,
     /// How far the body rows keep the model's body from every edge
     /// ([`Course::set_body_roll`]) \[m\].
@@ -81,7 +84,7 @@ impl Course {
         }
         let gait = Gait::new(gait, route.flights()[0].profile()?);
         let solids = SolidTerrain::from_boxes(route.solid_boxes()?);
-        Ok(Self { route, flight: 0, turning_to: None, env, body_clearance: 0.0, solids, gait })
+        Ok(Self { route, flight: 0, turning_to: None, origin_exchanged: false, env, body_clearance: 0.0, solids, gait })
     }
 
     /// The capacity every course's environment is laid out for; build the filter with it.
@@ -108,19 +111,27 @@ impl Course {
         }
         // The gait plans in the current flight's frame. At the flight's turn point it turns
         // on the spot to face the next flight, in whose frame it plans once turned.
+        if self.gait.turning_swing().is_some() && !self.origin_exchanged {
+            return Err(CbfError::Malformed {
+                what: "control loop",
+                why: "a turning swing turns about a drive axle, onto which Course::exchange_origin moves the \
+                      origin: call it before Course::plan each cycle"
+                    .into(),
+            });
+        }
+        let flights = self.route.flights();
         if let Some(next) = self.turning_to {
-            if self.gait.turn_due_to_end(t) {
+            if self.gait.turned() {
+                self.gait.turn_frame(flights[next].placement.heading - flights[self.flight].placement.heading);
+                self.gait.set_ground(flights[next].profile()?);
                 self.flight = next;
-                self.gait.set_ground(self.route.flights()[next].profile()?);
                 self.turning_to = None;
             }
         } else if self.gait.swinging().is_none() {
-            let flights = self.route.flights();
             if let (Some(turn_at), Some(next)) = (flights[self.flight].turn_at, flights.get(self.flight + 1)) {
                 let here = flights[self.flight].placement;
-                let local = here.local_state(x);
-                if local[0] >= turn_at {
-                    self.gait.start_turn(t, local[3], next.placement.heading - here.heading)?;
+                if here.local_state(x)[0] >= turn_at {
+                    self.gait.turn_by(next.placement.heading - here.heading)?;
                     self.turning_to = Some(self.flight + 1);
                 }
             }
@@ -165,22 +176,59 @@ impl Course {
         Ok(plan)
     }
 
-    /// With [`OriginRule::JumpAtExchange`]: at a support exchange (the swing under way
-    /// ends at `t`), move the origin of `x` to the centroid of the six wheels
-    /// ([`model::shift_origin`]) and return how far it jumped \[m\]. Call it before
-    /// [`Course::plan`] each cycle. Nothing the filter sees changes (every world pose, and
-    /// with the yaw rate at zero every world velocity, is kept), so it is skipped while
-    /// the yaw rate is not (below 1e-3 rad/s), as the paper's turns keep it at landings.
-    pub fn exchange_origin(&self, t: f64, x: &mut State) -> Option<f64> {
-        if self.gait.origin_rule() != OriginRule::JumpAtExchange
-            || !self.gait.support_exchange_due(t)
-            || x[gen::state::YAW_RATE].abs() >= 1e-3
-        {
+    /// Move the origin of `x` where the support puts it ([`model::shift_origin`]) and
+    /// return how far it jumped \[m\] along its heading; call it before [`Course::plan`]
+    /// each cycle. A turning swing moves it onto the centre of the drive axle left down
+    /// ([`STANCE_AXLE`]), which the robot turns about, and back once the swing is over:
+    /// under the body with the rolling origin, to the six wheels' centroid with
+    /// [`OriginRule::JumpAtExchange`], which also moves it there at every other support
+    /// exchange (a swing ending at `t`). Nothing the filter sees changes (every world
+    /// pose, and with the yaw rate at zero every world velocity, is kept), so it waits
+    /// while the yaw rate is not zero (above 1e-3 rad/s): the turns keep it zero when the
+    /// drive wheels lift and land.
+    pub fn exchange_origin(&mut self, t: f64, x: &mut State) -> Option<f64> {
+        self.origin_exchanged = true;
+        if x[gen::state::YAW_RATE].abs() >= 1e-3 {
             return None;
         }
-        let d = (0..6).map(|leg| x[model::TOE_BLOCK + 4 * leg]).sum::<f64>() / 6.0;
+        let toe_x = |x: &State, leg: usize| x[model::TOE_BLOCK + 4 * leg];
+        let centroid = |x: &State| (0..6).map(|leg| toe_x(x, leg)).sum::<f64>() / 6.0;
+        let jump_at_exchange = self.gait.origin_rule() == OriginRule::JumpAtExchange;
+        let d = match (self.gait.turning_swing(), self.gait.origin_on_axle()) {
+            (Some(tripod), false) if !self.gait.support_exchange_due(t) => {
+                let [a, b] = STANCE_AXLE[tripod];
+                self.gait.set_origin_on_axle(true);
+                (toe_x(x, a) + toe_x(x, b)) / 2.0
+            }
+            (Some(_), _) => return None,
+            (None, true) => {
+                self.gait.set_origin_on_axle(false);
+                if jump_at_exchange {
+                    centroid(x)
+                } else {
+                    x[model::BODY_X]
+                }
+            }
+            (None, false) if jump_at_exchange && self.gait.support_exchange_due(t) => centroid(x),
+            (None, false) => return None,
+        };
         model::shift_origin(x, d);
         Some(d)
+    }
+
+    /// The paper's velocity command from now on: roll at `speed` \[m/s\] and turn at
+    /// `yaw_rate` \[rad/s\] ([`Gait::command`]: three-leg turning swings whenever the
+    /// heading lags the command's). A route's own turns still turn on the spot.
+    ///
+    /// # Errors
+    /// As [`Gait::command`]; nothing changes then.
+    pub fn command(&mut self, speed: f64, yaw_rate: f64) -> Result<(), CbfError> {
+        self.gait.command(speed, yaw_rate)
+    }
+
+    /// The gait (its turn state and limits, such as [`Gait::max_yaw_rate`]).
+    pub fn gait(&self) -> &Gait {
+        &self.gait
     }
 
     /// What the filter must respect this cycle (as of the last [`Course::plan`]).

@@ -36,10 +36,25 @@ pub const FOOTHOLD_INSET: f64 = TOE_RADIUS + 0.02;
 /// A strip reaching back to a lift-off point outside its region's inset leaves the toe
 /// this much room behind it \[m\].
 const FOOTHOLD_SLACK: f64 = 0.01;
+/// The drive axle that stays down while each tripod swings, in `LEG_NAMES` indices:
+/// LF and RF while tripod 0 (LR, RR, MF) is lifted, LR and RR while tripod 1 is. With
+/// the middle omnidirectional wheel of the same tripod they carry a turn (the paper's
+/// section II-B): the robot turns about that axle's centre.
+pub const STANCE_AXLE: [[usize; 2]; 2] = [[0, 2], [3, 5]];
+/// How long a turning swing takes \[s\].
+pub const TURN_SWING_TIME: f64 = 2.5;
+/// Fractions of a turning swing between which the yaw spline runs: the lifted wheels are
+/// then at least half their lift above the floor, and both ends have zero yaw rate, so
+/// the drive wheels land (and lift) with the robot not turning.
+pub const TURN_WINDOW: [f64; 2] = [0.2, 0.8];
+/// Most a turning swing turns \[rad\] (30°): the cubic spline over the window then asks
+/// for at most 6 · (π/6) / 1.5² = 1.4 rad/s² of the model's 3, and 0.52 rad/s.
+pub const MAX_SWING_TURN: f64 = std::f64::consts::FRAC_PI_6;
+/// Below this forward speed \[m/s\] a turn on the spot may lift a tripod.
+const STOPPED_SPEED: f64 = 0.01;
+/// A heading this close to the goal \[rad\] needs no turning swing.
+const HEADING_TOLERANCE: f64 = 1e-3;
 /// Fractions of a swing spent lifting, carrying forward, lowering.
-/// How long a turn on the spot takes \[s\]: the cubic yaw spline of a 90° turn then asks
-/// for at most 6 · (π/2) / 4² = 0.59 rad/s² of the model's 3.
-pub const TURN_TIME: f64 = 4.0;
 const LIFT_END: f64 = 0.4;
 const CARRY_END: f64 = 0.7;
 
@@ -117,6 +132,10 @@ impl Default for GaitParams {
 struct Swing {
     tripod: usize,
     start: f64,
+    /// A turning swing's yaw spline: the robot turns on the other tripod about its
+    /// [`STANCE_AXLE`], and the lifted toes land under their hips (body-relative x in
+    /// `from` and `land_x`) rather than at world points ahead.
+    turn: Option<YawSpline>,
     /// Per leg (only the tripod's are used): origin-relative x and z at lift-off, the
     /// world x it lands at, apex and touchdown heights, and the foothold strip from
     /// lift-off to landing (fixed for the swing, in the world: the origin moves under it).
@@ -156,13 +175,25 @@ pub struct Gait {
     last_t: f64,
     /// How far the body target is raised above the nominal to get out of a stall \[m\].
     stall_raise: f64,
-    /// A turn on the spot under way.
-    turn: Option<YawSpline>,
+    /// The heading the robot is to face, in the frame the gait plans in \[rad\]: set by
+    /// a turn ([`Gait::turn_by`]) or run on by a yaw-rate command ([`Gait::command`]).
+    heading_goal: f64,
+    /// The heading held on six wheels: where the last turning swing ended \[rad\].
+    yaw_hold: f64,
+    /// The commanded yaw rate \[rad/s\] that runs `heading_goal` on.
+    yaw_rate_command: f64,
+    /// Whether the turn under way is on the spot (a route's turn): the robot stops to
+    /// turn rather than rolling on through it.
+    on_the_spot: bool,
+    /// Whether the origin stands on a drive axle (moved there for a turning swing by
+    /// [`Course::exchange_origin`](super::Course::exchange_origin)): the body holds its
+    /// place relative to it instead of being brought over it.
+    origin_on_axle: bool,
 }
 
-/// The paper's yaw reference through a turn: a cubic from `from` to `from + by` over
-/// [`TURN_TIME`] with zero yaw rate at both ends, so the rate is zero whenever wheels
-/// land (no tripod swings during the turn).
+/// The paper's yaw reference through a turning swing: a cubic from `from` to `from + by`
+/// over the swing's [`TURN_WINDOW`], with zero yaw rate at both ends, so the rate is zero
+/// whenever the drive wheels land.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct YawSpline {
     start: f64,
@@ -171,13 +202,21 @@ struct YawSpline {
 }
 
 impl YawSpline {
-    /// Yaw, yaw rate and yaw acceleration at time `t`.
+    /// Yaw, yaw rate and yaw acceleration at time `t` (the swing started at `start`).
     fn at(&self, t: f64) -> [f64; 3] {
-        let tau = ((t - self.start) / TURN_TIME).clamp(0.0, 1.0);
+        let span = (TURN_WINDOW[1] - TURN_WINDOW[0]) * TURN_SWING_TIME;
+        let tau = ((t - self.start) / TURN_SWING_TIME - TURN_WINDOW[0]) * TURN_SWING_TIME / span;
         let (sigma, rate) = smoothstep(tau);
         let accel = if (0.0..1.0).contains(&tau) { 6.0 - 12.0 * tau } else { 0.0 };
-        [self.from + self.by * sigma, self.by * rate / TURN_TIME, self.by * accel / (TURN_TIME * TURN_TIME)]
+        [self.from + self.by * sigma, self.by * rate / span, self.by * accel / (span * span)]
     }
+}
+
+/// How long turning by `angle` \[rad\] takes on the spot with `stance_time` \[s\] on six
+/// wheels between turning swings: one swing per [`MAX_SWING_TURN`].
+pub fn turn_time(angle: f64, stance_time: f64) -> f64 {
+    let swings = (angle.abs() / MAX_SWING_TURN - 1e-9).ceil().max(0.0);
+    swings * (TURN_SWING_TIME + stance_time)
 }
 
 impl Gait {
@@ -194,45 +233,91 @@ impl Gait {
             stopped_at: 0.0,
             last_t: 0.0,
             stall_raise: 0.0,
-            turn: None,
+            heading_goal: 0.0,
+            yaw_hold: 0.0,
+            yaw_rate_command: 0.0,
+            on_the_spot: false,
+            origin_on_axle: false,
         }
     }
 
-    /// Turn on the spot by `by` radians (positive: left) from yaw `yaw` (the state's, in
-    /// the frame the gait plans in), starting at `t`: the origin stops, no tripod lifts off,
-    /// and the yaw follows a cubic spline with zero rate at both ends over [`TURN_TIME`].
+    /// Turn on the spot by `by` radians (positive: left) from the heading held now: the
+    /// robot stops rolling and turns in turning swings of at most [`MAX_SWING_TURN`]
+    /// each, the tripods taking turns to lift (the paper's three-leg turn, see
+    /// [`STANCE_AXLE`]), until it faces the new heading ([`Gait::turned`]).
     ///
     /// # Errors
-    /// A tripod swinging (turn only on all six wheels), or a non-finite or out-of-range
-    /// angle (at most a half turn).
-    pub fn start_turn(&mut self, t: f64, yaw: f64, by: f64) -> Result<(), CbfError> {
-        cbfgen::error::finite("turn start yaw", yaw)?;
+    /// A non-finite or out-of-range angle (at most a half turn); nothing changes then.
+    pub fn turn_by(&mut self, by: f64) -> Result<(), CbfError> {
         cbfgen::error::within("turn angle [rad]", by, -std::f64::consts::PI, std::f64::consts::PI, "[-pi, pi]")?;
-        if self.swing.is_some() {
-            return Err(CbfError::OutOfRange { what: "swinging tripods at a turn", value: 1.0, range: "0" });
-        }
-        self.turn = Some(YawSpline { start: t, from: yaw, by });
+        self.heading_goal = self.yaw_hold + by;
+        self.on_the_spot = true;
         Ok(())
+    }
+
+    /// The fastest yaw rate a command may ask for \[rad/s\]: one [`MAX_SWING_TURN`] per
+    /// turning swing and stance.
+    pub fn max_yaw_rate(&self) -> f64 {
+        MAX_SWING_TURN / (TURN_SWING_TIME + self.params.stance_time)
+    }
+
+    /// The paper's velocity command: roll at `speed` \[m/s\] and turn at `yaw_rate`
+    /// \[rad/s\] (positive: left). The heading goal runs on at `yaw_rate`; whenever the
+    /// held heading lags it, a tripod lifts and the robot turns on the other three legs
+    /// about their drive axle, still rolling (at `step_speed`), and the lifted
+    /// toes land under their hips: the 2-D footsteps of the commanded motion.
+    ///
+    /// # Errors
+    /// A speed outside \[0, 1\] m/s or a yaw rate beyond [`Gait::max_yaw_rate`] (or
+    /// either not finite); nothing changes then.
+    pub fn command(&mut self, speed: f64, yaw_rate: f64) -> Result<(), CbfError> {
+        cbfgen::error::within("commanded speed [m/s]", speed, 0.0, 1.0, "[0, 1]")?;
+        let max = self.max_yaw_rate();
+        cbfgen::error::within("commanded yaw rate [rad/s]", yaw_rate, -max, max, "|rate| <= Gait::max_yaw_rate()")?;
+        self.params.speed = speed;
+        self.yaw_rate_command = yaw_rate;
+        self.on_the_spot = false;
+        Ok(())
+    }
+
+    /// Whether the robot faces its heading goal, on six wheels, with the origin off the
+    /// axle: a turn is over.
+    pub fn turned(&self) -> bool {
+        self.swing.is_none() && !self.origin_on_axle && (self.heading_goal - self.yaw_hold).abs() < HEADING_TOLERANCE
+    }
+
+    /// Plan from now on in a frame turned by `by` \[rad\] from the present one (the next
+    /// flight's, after a turn): the held heading and the goal are re-expressed in it.
+    pub fn turn_frame(&mut self, by: f64) {
+        self.heading_goal -= by;
+        self.yaw_hold -= by;
+        self.on_the_spot = false;
+    }
+
+    /// The turning swing under way, if any: the tripod lifted.
+    pub fn turning_swing(&self) -> Option<usize> {
+        self.swing.filter(|s| s.turn.is_some()).map(|s| s.tripod)
+    }
+
+    /// Whether the origin stands on a drive axle (see [`Gait::turning_swing`]).
+    pub fn origin_on_axle(&self) -> bool {
+        self.origin_on_axle
+    }
+
+    /// Record that the origin was moved onto the turning swing's drive axle (`true`) or
+    /// back off it (`false`) ([`Course::exchange_origin`](super::Course::exchange_origin)).
+    pub fn set_origin_on_axle(&mut self, on: bool) {
+        self.origin_on_axle = on;
     }
 
     /// Whether the swing under way ends at `t`: the support legs change then.
     pub fn support_exchange_due(&self, t: f64) -> bool {
-        self.swing.is_some_and(|s| t - s.start >= self.params.swing_time)
+        self.swing.is_some_and(|s| t - s.start >= s.duration(&self.params))
     }
 
     /// How the origin moves.
     pub fn origin_rule(&self) -> OriginRule {
         self.params.origin
-    }
-
-    /// Whether the turn under way ends at `t`.
-    pub fn turn_due_to_end(&self, t: f64) -> bool {
-        self.turn.is_some_and(|turn| t - turn.start >= TURN_TIME)
-    }
-
-    /// Whether a turn is under way.
-    pub fn turning(&self) -> bool {
-        self.turn.is_some()
     }
 
     /// Replace the ground the gait plans on (a new perception of it). A swing under way
@@ -260,18 +345,22 @@ impl Gait {
         let (_, _, toes) = gen::world_kinematics(x);
         let floor = self.ground.floors_under(&toes);
 
+        let dt = (t - self.last_t).clamp(0.0, 1.0);
+        self.last_t = t;
+        self.heading_goal += self.yaw_rate_command * dt;
         if let Some(s) = self.swing {
-            if t - s.start >= p.swing_time {
+            if t - s.start >= s.duration(&p) {
                 self.swing = None;
                 self.last_tripod = s.tripod;
                 self.stance_since = t;
+                if let Some(turn) = s.turn {
+                    self.yaw_hold = turn.from + turn.by;
+                }
             }
         }
-        if self.turn_due_to_end(t) {
-            self.turn = None;
-            self.stance_since = t;
-        }
-        if self.turn.is_some() {
+        let turn_due = (self.heading_goal - self.yaw_hold).abs() >= HEADING_TOLERANCE;
+        let stopped_to_turn = self.on_the_spot && (turn_due || self.swing.is_some_and(|s| s.turn.is_some()));
+        if stopped_to_turn {
             // Stopped on purpose: neither a stall nor rolling.
             (self.moving_since, self.stopped_at) = (t, t);
         }
@@ -289,8 +378,6 @@ impl Gait {
         // again, then lowers it slowly once rolling has lasted a whole `stall_time` (a
         // brief roll at the first nosing is not yet clear of it: lowering then makes the
         // body oscillate on the nosing).
-        let dt = (t - self.last_t).clamp(0.0, 1.0);
-        self.last_t = t;
         let rolling = t - self.stopped_at >= p.stall_time;
         let rate = if stalled {
             p.stall_raise_rate
@@ -300,7 +387,15 @@ impl Gait {
             0.0
         };
         self.stall_raise = (self.stall_raise + rate * dt).clamp(0.0, p.stall_raise_max);
-        if self.swing.is_none() && self.turn.is_none() && t - self.stance_since >= p.stance_time {
+        // A turn lifts the tripods in turn, whatever lies ahead; the origin must be off
+        // the last turning swing's axle first (the course moves it once the yaw rate
+        // has settled), and a turn on the spot waits for the robot to stop rolling.
+        let stance_done = self.swing.is_none() && t - self.stance_since >= p.stance_time;
+        let stopped = !self.on_the_spot || x[4].abs() < STOPPED_SPEED;
+        if stance_done && turn_due && !self.origin_on_axle && stopped {
+            let by = (self.heading_goal - self.yaw_hold).clamp(-MAX_SWING_TURN, MAX_SWING_TURN);
+            self.swing = Some(self.lift_to_turn(1 - self.last_tripod, t, x, &toes, by)?);
+        } else if stance_done && !turn_due {
             let needs = TRIPODS
                 .map(|legs| legs.iter().any(|&leg| self.riser_ahead(self.ground.standing_x(&toes[leg]), lookahead)));
             let tripod = match needs {
@@ -315,14 +410,18 @@ impl Gait {
         }
 
         let mut u = [0.0; NU];
-        let speed = match (self.turn, self.swing) {
-            (Some(_), _) => 0.0,
-            (None, Some(_)) => p.step_speed,
-            (None, None) => p.speed,
+        let turn = self.swing.and_then(|s| s.turn);
+        let speed = if stopped_to_turn {
+            0.0
+        } else if self.swing.is_some() {
+            p.step_speed
+        } else {
+            p.speed
         };
         u[0] = KV * (speed - x[4]);
-        // Heading: along the path (yaw 0 in the gait's frame), or the turn's spline.
-        let [yaw, yaw_rate, yaw_accel] = self.turn.map_or([0.0; 3], |turn| turn.at(t));
+        // Heading: the one held on six wheels (the drive wheels cannot steer), or the
+        // turning swing's spline.
+        let [yaw, yaw_rate, yaw_accel] = turn.map_or([self.yaw_hold, 0.0, 0.0], |turn| turn.at(t));
         u[1] = yaw_accel + KP * (yaw - x[3]) + KD * (yaw_rate - x[5]);
         let low = floor.iter().sum::<f64>() / 6.0 + model::NOMINAL_CLEARANCE + model::BODY_HALF_EXTENTS[2];
         let hip_z = model::HIP_POSITIONS[0][2];
@@ -338,12 +437,20 @@ impl Gait {
         let mean = |legs: [usize; 3], f: &dyn Fn(usize) -> f64| legs.iter().map(|&l| f(l)).sum::<f64>() / 3.0;
         let (front, rear) = ([0, 1, 2], [3, 4, 5]);
         let rise = mean(front, &|l| floor[l]) - mean(rear, &|l| floor[l]);
-        let run = mean(front, &|l| toes[l][0]) - mean(rear, &|l| toes[l][0]);
+        // Along the heading: a turn faces the robot across the frame's x.
+        let (sin_yaw, cos_yaw) = x[3].sin_cos();
+        let along = |l: usize| toes[l][0] * cos_yaw + toes[l][1] * sin_yaw;
+        let run = mean(front, &along) - mean(rear, &along);
         let pitch = -rise.atan2(run);
         // Body targets are origin-relative; the origin stays at its initial height.
         let body_z = body_height - x[2];
         for (k, (pos, target)) in [(BODY_X, 0.0), (BODY_Z, body_z), (BODY_PITCH, pitch)].into_iter().enumerate() {
             u[2 + k] = KP * (target - x[pos]) - KD * x[pos + 3];
+        }
+        // With the origin on a drive axle the body holds its place over the support.
+        let pivoting = self.origin_on_axle || turn.is_some();
+        if pivoting {
+            u[2] = -KD * x[BODY_X + 3];
         }
 
         let mut swing = [false; 6];
@@ -353,7 +460,11 @@ impl Gait {
             let (ax, az) = (5 + 2 * leg, 6 + 2 * leg);
             match self.swing.filter(|s| TRIPODS[s.tripod].contains(&leg)) {
                 Some(s) => {
-                    let ([rx, vx], [rz, vz]) = swing_reference(&s, leg, t, x[0], &p);
+                    // A turning swing's toes are placed relative to the body, which
+                    // the origin moves under (its carry is body-relative), and the
+                    // others at world points along the path.
+                    let bases = if s.turn.is_some() { [x[BODY_X]; 2] } else { [0.0, -x[0]] };
+                    let ([rx, vx], [rz, vz]) = swing_reference(&s, leg, t, bases, &p);
                     u[ax] = KP_SWING * (rx - x[ix]) + KD_SWING * (vx - x[ix + 2]);
                     u[az] = KP_SWING * (rz - x[iz]) + KD_SWING * (vz - x[iz + 2]);
                     swing[leg] = true;
@@ -366,7 +477,7 @@ impl Gait {
                     // Its hip, origin-relative: the body is the origin unless the origin
                     // jumps, when the body lags the support centroid it jumped to.
                     let hip = model::HIP_POSITIONS[leg][0]
-                        + if p.origin == OriginRule::JumpAtExchange { x[BODY_X] } else { 0.0 };
+                        + if p.origin == OriginRule::JumpAtExchange || pivoting { x[BODY_X] } else { 0.0 };
                     let drift = (RETURN_RATE * (hip - x[ix])).clamp(-limit, limit);
                     u[ax] = KD * (drift - x[ix + 2]);
                     let stand_z = floor[leg] + TOE_RADIUS - x[2];
@@ -392,6 +503,7 @@ impl Gait {
         let mut s = Swing {
             tripod,
             start: t,
+            turn: None,
             from: [[0.0; 2]; 6],
             land_x: [0.0; 6],
             apex: [0.0; 6],
@@ -417,6 +529,38 @@ impl Gait {
         }
         Ok(s)
     }
+
+    /// Plan a turning swing of `tripod` by `by` \[rad\] from the held heading: each
+    /// lifted toe rises by the swing clearance over the level it stands on and lands on
+    /// that level under its hip, its foothold the whole flat region it stands in. The
+    /// robot turns about the other tripod's [`STANCE_AXLE`] meanwhile.
+    fn lift_to_turn(&self, tripod: usize, t: f64, x: &State, toes: &[[f64; 3]; 6], by: f64) -> Result<Swing, CbfError> {
+        let mut s = self.lift_off(tripod, t, x, toes)?;
+        s.turn = Some(YawSpline { start: t, from: self.yaw_hold, by });
+        for &leg in &TRIPODS[tripod] {
+            let toe_x = self.ground.standing_x(&toes[leg]);
+            let here = self.ground.height_at(toe_x);
+            // Body-relative: the origin moves onto the drive axle under the swing.
+            s.from[leg][0] = x[TOE_BLOCK + 4 * leg] - x[BODY_X];
+            s.land_x[leg] = model::HIP_POSITIONS[leg][0];
+            s.apex[leg] = here + TOE_RADIUS + self.params.clearance - x[2];
+            s.land[leg] = here + TOE_RADIUS - x[2];
+            let (begin, end) = self.ground.flat_region(toe_x);
+            s.strip[leg] = foothold_strip(self.ground.level_at(toe_x).half_width, begin, end, FOOTHOLD_INSET)?;
+        }
+        Ok(s)
+    }
+}
+
+impl Swing {
+    /// How long this swing lasts \[s\].
+    fn duration(&self, p: &GaitParams) -> f64 {
+        if self.turn.is_some() {
+            TURN_SWING_TIME
+        } else {
+            p.swing_time
+        }
+    }
 }
 
 /// Smoothstep from 0 to 1 over `tau` in [0, 1], and its derivative in `tau`.
@@ -425,20 +569,23 @@ fn smoothstep(tau: f64) -> (f64, f64) {
     (tau * tau * (3.0 - 2.0 * tau), 6.0 * tau * (1.0 - tau))
 }
 
-/// Origin-relative ([x, ẋ], [z, ż]) of a swinging toe: lift, carry to the landing point
-/// (world-fixed, so relative to the origin at `px`), lower.
-fn swing_reference(s: &Swing, leg: usize, t: f64, px: f64, p: &GaitParams) -> ([f64; 2], [f64; 2]) {
-    let phase = ((t - s.start) / p.swing_time).clamp(0.0, 1.0);
+/// Origin-relative ([x, ẋ], [z, ż]) of a swinging toe: lift, carry to the landing point,
+/// lower. `bases` are what `from` and `land_x` are measured from, origin-relative: for
+/// a swing along the path, the origin at lift-off and minus the origin's x now (the
+/// landing is a world point); for a turning swing's, the body's x (both body-relative).
+fn swing_reference(s: &Swing, leg: usize, t: f64, bases: [f64; 2], p: &GaitParams) -> ([f64; 2], [f64; 2]) {
+    let phase = ((t - s.start) / s.duration(p)).clamp(0.0, 1.0);
     let [x0, z0] = s.from[leg];
+    let x0 = bases[0] + x0;
     let segment = |a: f64, b: f64| {
         let (sigma, rate) = smoothstep((phase - a) / (b - a));
-        (sigma, rate / ((b - a) * p.swing_time))
+        (sigma, rate / ((b - a) * s.duration(p)))
     };
     let (lift, lift_rate) = segment(0.0, LIFT_END);
     let (carry, carry_rate) = segment(LIFT_END, CARRY_END);
     let (lower, lower_rate) = segment(CARRY_END, 1.0);
     let z = z0 + (s.apex[leg] - z0) * lift + (s.land[leg] - s.apex[leg]) * lower;
     let vz = (s.apex[leg] - z0) * lift_rate + (s.land[leg] - s.apex[leg]) * lower_rate;
-    let reach = s.land_x[leg] - px - x0;
+    let reach = bases[1] + s.land_x[leg] - x0;
     ([x0 + reach * carry, reach * carry_rate], [z, vz])
 }

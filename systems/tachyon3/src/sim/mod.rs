@@ -48,13 +48,19 @@ pub fn time_allowed(terrain: &Terrain) -> f64 {
     (20.0 + 10.0 * terrain.changes().len() as f64).min(MAX_SIM_TIME)
 }
 
-/// Time a run on `route` gets to finish \[s\]: each flight's [`time_allowed`] and a
-/// [`TURN_TIME`](gait::TURN_TIME) between flights, at most [`MAX_SIM_TIME`]. On one
-/// flight, its terrain's [`time_allowed`].
+/// Time a run on `route` gets to finish \[s\]: each flight's [`time_allowed`] and, for
+/// each turn between flights, twice the time its turning swings take
+/// ([`gait::turn_time`]), at most [`MAX_SIM_TIME`]. On one flight, its terrain's
+/// [`time_allowed`].
 pub fn route_time_allowed(route: &Route) -> f64 {
     let flights = route.flights();
     let climbing = flights.iter().map(|f| time_allowed(&f.terrain)).sum::<f64>();
-    (climbing + gait::TURN_TIME * flights.len().saturating_sub(1) as f64).min(MAX_SIM_TIME)
+    let stance = gait::GaitParams::default().stance_time;
+    let turning = flights
+        .windows(2)
+        .map(|pair| 2.0 * gait::turn_time(pair[1].placement.heading - pair[0].placement.heading, stance))
+        .sum::<f64>();
+    (climbing + turning).min(MAX_SIM_TIME)
 }
 
 /// Which course the robot runs.
@@ -91,6 +97,17 @@ impl Scenario {
         Scenario::Platform,
         Scenario::Turn,
     ];
+
+    /// The time a run of this course gets to finish \[s\]: 25 s (step), 60 s (stairs) or
+    /// [`route_time_allowed`] (the others).
+    pub fn time_allowed(self) -> f64 {
+        match self {
+            Scenario::Step => 25.0,
+            Scenario::Stairs => 60.0,
+            // A terrain that fails to build fails the run instead, with its error.
+            other => other.route().map_or(MAX_SIM_TIME, |route| route_time_allowed(&route)),
+        }
+    }
 
     /// The whole course: one flight along x, or flights joined by turns.
     ///
@@ -160,7 +177,7 @@ pub struct SimConfig {
 
 impl SimConfig {
     /// The standard run of `scenario`: default gait and filter settings, 0.3 m start gap, and
-    /// 25 s (step), 60 s (stairs) or [`route_time_allowed`] (the others) to finish. With `body_cbf == false` the body–edge family's
+    /// [`Scenario::time_allowed`] to finish. With `body_cbf == false` the body–edge family's
     /// activation threshold is set to −∞, so its rows never take part.
     pub fn new(scenario: Scenario, body_cbf: bool) -> Self {
         let mut filter = catalog::default_settings();
@@ -168,12 +185,7 @@ impl SimConfig {
         if !body_cbf {
             filter.family_mut(Family::BodyEdge.index()).activation = f64::NEG_INFINITY;
         }
-        let max_time = match scenario {
-            Scenario::Step => 25.0,
-            Scenario::Stairs => 60.0,
-            // A terrain that fails to build fails the run instead, with its error.
-            other => other.route().map_or(MAX_SIM_TIME, |route| route_time_allowed(&route)),
-        };
+        let max_time = scenario.time_allowed();
         Self { scenario, body_cbf, max_time, start_gap: 0.3, gait: GaitParams::default(), filter, perception: None }
     }
 }
