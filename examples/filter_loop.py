@@ -6,7 +6,7 @@ the gait's input; the loop integrates x' = f(x) + g(x) u with explicit Euler. It
 twice: with every constraint, and with the body-edge SSAT rows switched off, which lets
 the body strike the step's nosing.
 
-    scripts/cbf python examples/filter_loop.py [--scenario step|stairs] [--out FILE.png]
+    scripts/cbf python examples/filter_loop.py [--scenario step|stairs|turn|...] [--out FILE.png]
 """
 
 from __future__ import annotations
@@ -33,6 +33,7 @@ def run(scenario: str, body_cbf: bool, max_time: float) -> dict:
     done_at = None
     for k in range(int(max_time / t3.DT)):
         t = k * t3.DT
+        x, _jump = course.exchange_origin(t, x)  # the origin onto a turning swing's drive axle
         u_ref = course.plan(t, x)
         out = safety.update(x, u_ref, course.environment)
         body_center, _, _ = t3.world_kinematics(x)

@@ -13,6 +13,7 @@ for the Rust one.
     safety = t3.ecbf_filter()
     x = course.initial_state()
     for k in range(2000):
+        x, _jump = course.exchange_origin(k * t3.DT, x)  # needed on a course that turns
         u_ref = course.plan(k * t3.DT, x)
         out = safety.update(x, u_ref, course.environment)
         x = x + t3.DT * t3.SYSTEM.xdot(x, out.u)

@@ -31,6 +31,12 @@ def main(argv: list[str] | None = None) -> int:
         help="the paper's hardware run: the gait and filter see only what the LiDAR perceives, "
         "and act on a state estimate with drift and noise (cbfgen.physics.PoseEstimate)",
     )
+    parser.add_argument(
+        "--origin",
+        choices=["rolling", "jump_at_exchange"],
+        default="rolling",
+        help="how the ground-moving origin moves: rolling (default) or the paper's jump at each support exchange",
+    )
     args = parser.parse_args(argv)
     if args.out is None:
         args.out = Path("out/mujoco_perceived" if args.perception else "out/mujoco")
@@ -38,7 +44,7 @@ def main(argv: list[str] | None = None) -> int:
     if not args.no_video:
         # Chooses MuJoCo's OpenGL back end, so it comes before anything imports mujoco.
         from .render import FrameRecorder, write_side_by_side_gif
-    from .figures import write_figures
+    from .figures import write_figures, write_turn_figure
     from .loop import PoseEstimate, check_physical_scenario, run
     from .model import ASSUMED
 
@@ -53,18 +59,21 @@ def main(argv: list[str] | None = None) -> int:
         recorder = None if args.no_video else FrameRecorder()
         print(f"physics: {args.scenario} {label} ...", file=sys.stderr, flush=True)
         estimate = PoseEstimate() if args.perception else None
-        runs[body_cbf] = run(args.scenario, body_cbf, args.max_time, on_cycle=recorder, perception=estimate)
+        runs[body_cbf] = run(
+            args.scenario, body_cbf, args.max_time, on_cycle=recorder, perception=estimate, origin=args.origin
+        )
         recorders[body_cbf] = recorder
         summary = runs[body_cbf].summary()
         print(json.dumps(summary, indent=1))
     report = {
         "assumed": ASSUMED,
         "pose_estimate": dataclasses.asdict(PoseEstimate()) if args.perception else None,
+        "origin": args.origin,
         "with_body_cbf": runs[True].summary(),
         "without_body_cbf": runs[False].summary(),
     }
     (args.out / f"{args.scenario}_physics.json").write_text(json.dumps(report, indent=1) + "\n")
-    written = write_figures(runs[True], runs[False], args.out)
+    written = write_figures(runs[True], runs[False], args.out) + write_turn_figure(runs[True], args.out)
     if not args.no_video:
         gif, stills = args.out / f"{args.scenario}_physics.gif", args.out / f"{args.scenario}_physics_stills.png"
         end = min(r.t[-1] for r in runs.values())

@@ -1,4 +1,5 @@
-"""The paper's Figs. 7–10 from physical runs, and the tracking error, as PNG and SVG."""
+"""The paper's Figs. 7–10 from physical runs, the tracking error, and a turn's yaw and
+path, as PNG and SVG."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from .. import tachyon3 as t3  # noqa: E402
 from .loop import PhysicalRun  # noqa: E402
 
 
@@ -80,3 +82,49 @@ def write_figures(with_cbf: PhysicalRun, without_cbf: PhysicalRun | None, out: P
     ax.legend(fontsize=8)
     written += _save(fig, out, "mujoco_tracking_error")
     return written
+
+
+def write_turn_figure(run: PhysicalRun, out: Path, stem: str = "mujoco_turn") -> list[Path]:
+    """A run that turns: the reference's yaw and MuJoCo's body heading, and the yaw rate,
+    with the intervals each tripod is lifted shaded (the yaw rate is zero whenever the
+    six wheels are down), beside the body centre's path seen from above with the
+    wheels' tracks. Returns the files written (none for a run that does not turn)."""
+    a = run.arrays()
+    t, ref = a["t"], a["x_ref"]
+    if np.ptp(ref[:, 3]) < np.radians(1.0):
+        return []
+    heading = ref[:, 3] + a["heading"]
+    fig, (yaw_ax, rate_ax, top) = plt.subplots(1, 3, figsize=(16, 5), gridspec_kw={"width_ratios": [1.2, 1.2, 1.0]})
+    turning = np.abs(ref[:, 5]) > 1e-3
+    span = (t[turning].min() - 1.5, t[turning].max() + 1.5)
+    window = (t >= span[0]) & (t <= span[1])
+    colours = {0: "tab:orange", 1: "tab:green"}
+    for ax in (yaw_ax, rate_ax):
+        for tripod, colour in colours.items():
+            lifted = (a["swinging"] == tripod) & window
+            ax.fill_between(t, 0, 1, where=lifted, color=colour, alpha=0.15, transform=ax.get_xaxis_transform(), lw=0)
+        ax.set_xlim(*span)
+    yaw_ax.plot(t[window], np.degrees(ref[window, 3]), "k--", lw=0.8, label="reference (cubic per swing)")
+    yaw_ax.plot(t[window], np.degrees(heading[window]), lw=1.0, label="MuJoCo's body")
+    yaw_ax.set(title="Yaw through the turn", xlabel="time [s]", ylabel="yaw [°]")
+    yaw_ax.legend(fontsize=8)
+    rate_ax.plot(t[window], ref[window, 5], lw=1.0, label="yaw rate (reference)")
+    for tripod, colour in colours.items():
+        rate_ax.plot([], [], color=colour, alpha=0.4, lw=6, label=f"tripod {tripod} lifted")
+    rate_ax.set(title="Yaw rate: zero whenever six wheels are down", xlabel="time [s]", ylabel="[rad/s]")
+    rate_ax.legend(fontsize=8)
+    x = a["x"]
+    centres, toes = [], []
+    for state in x[window][::20]:
+        centre, _rotation, feet = t3.world_kinematics(state)
+        centres.append(centre)
+        toes.append(feet)
+    centres, toes = np.asarray(centres), np.asarray(toes)
+    for leg, name in enumerate(t3.LEG_NAMES):
+        style = "-" if leg in t3.DRIVE_LEGS else ":"
+        top.plot(toes[:, leg, 0], toes[:, leg, 1], style, lw=0.8, label=f"{name} wheel")
+    top.plot(centres[:, 0], centres[:, 1], "k", lw=1.5, label="body centre")
+    top.set(title="From above: wheels and body centre", xlabel="x [m]", ylabel="y [m]", aspect="equal")
+    top.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.02, 0.5))
+    fig.tight_layout()
+    return _save(fig, out, stem)

@@ -12,7 +12,11 @@ Each cycle:
    built on) takes one Euler step with the filtered input;
 4. **track** — the joint targets are ``x_ref``'s knee lengths and hip angles and their
    rates (the joint-limit kernels' quantities, :func:`cbfgen.tachyon3.leg_joints`), and
-   each wheel's spin for its toe's ground speed; MuJoCo steps 1 ms.
+   each driven wheel's spin for its toe's ground speed (the middle wheels are passive
+   and omnidirectional); MuJoCo steps 1 ms.
+
+Before measuring, :meth:`cbfgen.tachyon3.Course.exchange_origin` moves the reference's
+origin where the support puts it: onto the drive axle a turning swing turns about.
 
 Because the gait and the filter act on the measured state while the servos chase the
 reference, the gait's feedback on the physical error accumulates in the reference: the
@@ -56,18 +60,16 @@ TIP_OVER_ROLL = np.radians(45.0)
 """A measured roll beyond this ends a run as tipped over: the sagittal model cannot
 represent the robot any more, and its state would read as an upright robot's."""
 
-PHYSICAL_SCENARIOS = [name for name in t3.SCENARIOS if name != "turn"]
-"""The courses the physical robot can run. Not ``turn``: the gait turns on the spot on
-all six wheels, whose toes the kinematic model slides round, but the physical wheels
-cannot steer. In MuJoCo the front and rear wheels scrub, the body stays 60–70° behind
-the turning reference, and the robot tips over (measured 2026-12-04 at t = 31.9 s). The
-paper turns on three legs about a drive axle, which the gait does not yet do."""
+PHYSICAL_SCENARIOS = list(t3.SCENARIOS)
+"""The courses the physical robot runs: all of them. The ``turn`` course's turn is the
+paper's, on three legs about a drive axle, so no wheel has to steer (an earlier turn
+on the spot on all six wheels scrubbed the driven wheels and tipped the robot over)."""
+
 
 def check_physical_scenario(scenario: str) -> None:
-    """Raise ``ValueError`` naming why, unless ``scenario`` is one of :data:`PHYSICAL_SCENARIOS`."""
+    """Raise ``ValueError`` naming the courses, unless ``scenario`` is one of :data:`PHYSICAL_SCENARIOS`."""
     if scenario not in PHYSICAL_SCENARIOS:
-        why = " (its wheels cannot steer the gait's turn on the spot)" if scenario in t3.SCENARIOS else ""
-        raise ValueError(f"the physical robot does not run {scenario!r}{why}; one of {', '.join(PHYSICAL_SCENARIOS)}")
+        raise ValueError(f"the physical robot does not run {scenario!r}; one of {', '.join(PHYSICAL_SCENARIOS)}")
 
 
 MAX_LEAD = 0.05
@@ -116,20 +118,19 @@ class PhysicalRobot:
             ids = [name(m, mujoco.mjtObj.mjOBJ_JOINT, f"{leg}_{kind}") for leg in t3.LEG_NAMES]
             return [int(m.jnt_qposadr[j]) for j in ids], [int(m.jnt_dofadr[j]) for j in ids]
 
-        (self.hip_q, self.hip_v), (self.knee_q, self.knee_v), (self.wheel_q, self.wheel_v) = (
-            joint("hip"),
-            joint("knee"),
-            joint("wheel"),
-        )
+        (self.hip_q, self.hip_v), (self.knee_q, self.knee_v) = joint("hip"), joint("knee")
+        # Only the driven wheels have a hinge and servos; the middle ones roll freely.
+        self.drive = list(t3.DRIVE_LEGS)
+        drive_names = [t3.LEG_NAMES[leg] for leg in self.drive]
+        self.wheel_q = [int(m.jnt_qposadr[name(m, mujoco.mjtObj.mjOBJ_JOINT, f"{n}_wheel")]) for n in drive_names]
 
-        def actuator(suffix: str) -> list[int]:
-            return [name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, f"{leg}_{suffix}") for leg in t3.LEG_NAMES]
+        def actuator(suffix: str, legs: list[str] = t3.LEG_NAMES) -> list[int]:
+            return [name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, f"{leg}_{suffix}") for leg in legs]
 
         self.hip_pos, self.hip_vel = actuator("hip_pos"), actuator("hip_vel")
         self.knee_pos, self.knee_vel = actuator("knee_pos"), actuator("knee_vel")
-        self.wheel_pos, self.wheel_vel = actuator("wheel_pos"), actuator("wheel_vel")
+        self.wheel_pos, self.wheel_vel = actuator("wheel_pos", drive_names), actuator("wheel_vel", drive_names)
         self.outward = np.asarray(t3.HIP_OUTWARD)
-        self.hip_y = np.asarray(t3.HIP_POSITIONS)[:, 1]
         self._velocity = np.zeros(6)
         # The robot with its roll taken out, posed by measure() each cycle.
         self.upright = mujoco.MjData(m)
@@ -138,14 +139,14 @@ class PhysicalRobot:
         """Place the robot at model state ``x``, at rest relative to it."""
         d = self.data
         center, rotation, _ = t3.world_kinematics(x)
-        d.qpos[:] = 0.0
+        d.qpos[:] = self.model.qpos0  # the ball joints' identity quaternions
         d.qvel[:] = 0.0
         d.qpos[0:3] = center
         d.qpos[3:7] = _quat_of(rotation)
         joints = t3.leg_joints(x)
         d.qpos[self.knee_q] = joints[:, 0]
         d.qpos[self.hip_q] = joints[:, 1]
-        self.wheel_target = np.zeros(6)
+        self.wheel_target = d.qpos[self.wheel_q].copy()
         self.command(x)
         mujoco.mj_forward(self.model, d)
 
@@ -180,10 +181,17 @@ class PhysicalRobot:
         return roll
 
     def measure(self, reference: np.ndarray) -> tuple[np.ndarray, dict[str, float]]:
-        """The model state of the physical robot, its origin taken from ``reference``: its
-        joints on the upright robot (:meth:`_pose_upright`), as the model holds no roll;
-        and what the model cannot hold (lateral offset, roll, heading error) as a dict."""
+        """The model state of the physical robot: its joints on the upright robot
+        (:meth:`_pose_upright`), as the model holds no roll, relative to an origin at
+        ``reference``'s position and speeds with the body's measured heading (the model's
+        body faces along its origin); and what the model cannot hold (lateral offset,
+        roll) and the heading's error from ``reference``'s as a dict."""
         x = np.array(reference, dtype=float)
+        roll = self._pose_upright()
+        u = self.upright
+        upright = u.xmat[self.body].reshape(3, 3)
+        heading_error = float(np.angle(np.exp(1j * (np.arctan2(upright[1, 0], upright[0, 0]) - x[3]))))
+        x[3] += heading_error
         origin = x[0:3]
         yaw, speed, yaw_rate = x[3], x[4], x[5]
         to_origin = _rot_z(yaw).T
@@ -199,8 +207,6 @@ class PhysicalRobot:
         # the filter act on it. Read from where the wheels are, the toes of a rolled
         # robot standing on one tread look level, and what the gait pushes on them
         # winds up unseen in the reference as the roll itself.
-        roll = self._pose_upright()
-        u = self.upright
         angular_linear = self._velocity_of(self.body, u)
         rel, rel_v = relative(u.xpos[self.body], angular_linear[3:])
         body_in_origin = to_origin @ u.xmat[self.body].reshape(3, 3)
@@ -209,11 +215,7 @@ class PhysicalRobot:
         for leg, wheel in enumerate(self.wheels):
             toe, toe_v = relative(u.xpos[wheel], self._velocity_of(wheel, u)[3:])
             x[12 + 4 * leg : 16 + 4 * leg] = toe[0], toe[2], toe_v[0], toe_v[2]
-        off_model = {
-            "lateral": float(rel[1]),
-            "roll": roll,
-            "heading": float(np.arctan2(body_in_origin[1, 0], body_in_origin[0, 0])),
-        }
+        off_model = {"lateral": float(rel[1]), "roll": roll, "heading": heading_error}
         return x, off_model
 
     def command(self, reference: np.ndarray) -> None:
@@ -227,10 +229,13 @@ class PhysicalRobot:
         d.ctrl[self.hip_vel] = joints[:, 3]
         speed, yaw_rate, pitch_rate = reference[4], reference[5], reference[11]
         toe_vx = reference[14::4]
-        ground_speed = speed - yaw_rate * self.hip_y + toe_vx
+        # Each toe's offset across the heading, where the yaw rate moves it along.
+        _, _, toes = t3.world_kinematics(reference)
+        across = (toes[:, :2] - reference[0:2]) @ _rot_z(reference[3])[:2, 1]
+        ground_speed = speed - yaw_rate * across + toe_vx
         # A hinge about (0, -outward, 0) turns the shin about +y at -outward times its rate.
         shin_spin = pitch_rate - self.outward * joints[:, 3]
-        spin = ground_speed / t3.TOE_RADIUS - shin_spin
+        spin = (ground_speed / t3.TOE_RADIUS - shin_spin)[self.drive]
         # The angle target runs on with the spin, at most MAX_LEAD of rolling ahead of
         # (or behind) the wheel: a wheel held by an obstacle is not wound up.
         reach = MAX_LEAD / t3.TOE_RADIUS
@@ -351,6 +356,8 @@ class PhysicalRun:
     (the paper's "modified above the standard height") [m]; NaN off the stairs (on the
     floor before them or on the top)."""
     perception_updates: int = 0
+    swinging: list[int] = field(default_factory=list)
+    """The tripod the gait lifted this cycle (0: LR RR MF, 1: MR LF RF), or -1."""
 
     def arrays(self) -> dict[str, np.ndarray]:
         """The series as numpy arrays."""
@@ -372,6 +379,7 @@ class PhysicalRun:
             "culled_rows": np.asarray(self.culled_rows),
             "update_us": np.asarray(self.update_us),
             "cpu_us": np.asarray(self.cpu_us),
+            "swinging": np.asarray(self.swinging, dtype=int),
         }
         for key in ("lateral", "roll", "heading"):
             out[key] = np.asarray([o[key] for o in self.off_model])
@@ -448,8 +456,13 @@ def anchored(reference: np.ndarray, measured: np.ndarray) -> np.ndarray:
     One rigid rate is the wheels' to drive: the speed along the course. The reference
     keeps its own there, up to :data:`MAX_CATCH_UP` faster or slower than the robot, so
     that a robot slipping back (MuJoCo's soft contacts creep under load) is driven on
-    until it catches up, and one held by an obstacle is not driven ever harder."""
+    until it catches up, and one held by an obstacle is not driven ever harder.
+
+    The heading is the measured one (:meth:`PhysicalRobot.measure` reads it from the body):
+    on a tripod of one drive axle and a passive omnidirectional wheel the robot pivots
+    freely about that axle, so the gait must see and correct its heading."""
     x = np.array(reference, dtype=float)
+    x[3] = measured[3]
     xs, zs = [6, *range(12, 36, 4)], [7, *range(13, 36, 4)]
     p, q = np.stack([x[xs], x[zs]]), np.stack([measured[xs], measured[zs]])
     center_p, center_q = p.mean(axis=1, keepdims=True), q.mean(axis=1, keepdims=True)
@@ -542,6 +555,7 @@ def run(
     on_cycle=None,
     perception: PoseEstimate | None = None,
     clear_the_roll: bool = True,
+    origin: str = "rolling",
 ) -> PhysicalRun:
     """The closed loop on the physical robot until the course is finished or
     ``max_time`` [s] (the Rust simulation's limit when None). The robot first stands
@@ -557,12 +571,15 @@ def run(
 
     With ``clear_the_roll`` the body rows keep the model's body clear of every edge by
     the farthest its measured roll (an IMU's) moves any point of the box
-    (:meth:`cbfgen.tachyon3.Course.set_body_roll`): the sagittal model holds no roll."""
+    (:meth:`cbfgen.tachyon3.Course.set_body_roll`): the sagittal model holds no roll.
+
+    ``origin`` is how the ground-moving origin moves (``Course``'s ``origin``):
+    ``"rolling"`` or the paper's ``"jump_at_exchange"``."""
     check_physical_scenario(scenario)
     course = (
-        t3.Course(scenario, perception=True, floor_lift=perception.floor_lift)
+        t3.Course(scenario, perception=True, floor_lift=perception.floor_lift, origin=origin)
         if perception is not None
-        else t3.Course(scenario)
+        else t3.Course(scenario, origin=origin)
     )
     rng = np.random.default_rng(perception.seed) if perception is not None else None
     settings = {} if body_cbf else {"activation": {BODY_FAMILY: float("-inf")}}
@@ -572,15 +589,27 @@ def run(
     robot.pose(x_ref)
     for _ in range(int(round(settle / TIMESTEP))):
         robot.step()
-    limit = max_time if max_time is not None else (60.0 if scenario == "stairs" else 40.0)
+    limit = max_time if max_time is not None else course.time_allowed
     record = PhysicalRun(scenario=scenario, body_cbf=body_cbf, perceived=perception is not None)
     start = np.array(x_ref[0:3])
     standard_height = float(t3.world_kinematics(t3.standard_posture())[0][2])
     # The true ground from the solids (the course's floor_height is what it perceives).
-    solids = [(float(c[0] - h[0]), float(c[0] + h[0]), float(c[2] + h[2])) for c, _r, h in course.terrain_boxes()]
-    top = max(z for _lo, _hi, z in solids)
+    solids = [(np.asarray(c), np.asarray(r), np.asarray(h)) for c, r, h in course.terrain_boxes()]
+    top = max(float(c[2] + h[2]) for c, _r, h in solids)
+
+    def ground_under(point: np.ndarray) -> float:
+        """The top of the highest solid under ``point`` (x, y) [m]."""
+        tops = [
+            float(c[2] + h[2])
+            for c, r, h in solids
+            if np.all(np.abs((r.T @ np.append(point[:2] - c[:2], 0.0))[:2]) <= h[:2])
+        ]
+        return max(tops, default=0.0)
+
     for k in range(int(round(limit / t3.DT))):
         t = k * t3.DT
+        # The origin moves onto the drive axle a turning swing turns about, and back.
+        x_ref, _jump = course.exchange_origin(t, x_ref)
         truth, off_model = robot.measure(x_ref)
         x = truth
         if abs(off_model["roll"]) > TIP_OVER_ROLL:
@@ -623,8 +652,9 @@ def run(
         record.update_us.append(out.eval_time_us + out.solve_time_us)
         record.cpu_us.append(np.nan if out.cpu_time_us is None else out.cpu_time_us)
         record.nominal_body_height.append(course.nominal_body_height or np.nan)
+        record.swinging.append(-1 if course.swinging is None else course.swinging)
         body = robot.data.xpos[robot.body]
-        ground = max((z for lo, hi, z in solids if lo <= body[0] <= hi), default=0.0)
+        ground = ground_under(body)
         on_stairs = 0.0 < ground < top - 1e-6
         record.raise_over_standard.append(float(body[2]) - ground - standard_height if on_stairs else np.nan)
         if on_cycle is not None:

@@ -4,9 +4,12 @@ terrain.
 
 Each leg is a hip hinge at its mount (axis chosen so the joint angle *is* the model's hip
 angle, positive outward), a prismatic knee along the leg (its position *is* the knee
-length) and a wheel: a sphere of the toe radius on a hinge about the lateral axis. Hips
-and knees are PD servos on a position and a velocity target; so are the wheels, whose angle target
-integrates the spin the toe's ground speed needs. Robot geoms collide with the terrain only.
+length) and a wheel, a sphere of the toe radius. As on the robot (the paper's Fig. 2),
+the four outer wheels are driven, on a hinge about the lateral axis, and the two middle
+ones are passive and omnidirectional, on a ball joint, so that they roll sideways when
+the robot turns about a drive axle. Hips and knees are PD servos on a position and a
+velocity target; so are the driven wheels, whose angle target integrates the spin the
+toe's ground speed needs. Robot geoms collide with the terrain only.
 
 What the paper does not state is assumed and listed in :data:`ASSUMED`.
 """
@@ -102,6 +105,11 @@ def robot_mjcf(course: t3.Course, params: RobotParams | None = None) -> str:
         )
     legs = []
     for leg, name in enumerate(t3.LEG_NAMES):
+        wheel_joint = (
+            f'<joint name="{name}_wheel" type="hinge" axis="0 1 0"/>'
+            if leg in t3.DRIVE_LEGS
+            else f'<joint name="{name}_wheel" type="ball"/>'
+        )
         hip = t3.HIP_POSITIONS[leg]
         outward = t3.HIP_OUTWARD[leg]
         lo, hi = t3.HIP_RANGES[leg]
@@ -114,7 +122,7 @@ def robot_mjcf(course: t3.Course, params: RobotParams | None = None) -> str:
           <geom name="{name}_shin" type="capsule" fromto="0 0 0 0 0 {knee_lo + 0.12:.9g}" size="0.025"
                 mass="{p.shin_mass:g}" contype="0" conaffinity="0" material="leg"/>
           <body name="{name}_wheel">
-            <joint name="{name}_wheel" type="hinge" axis="0 1 0"/>
+            {wheel_joint}
             <geom name="{name}_toe" type="sphere" size="{r:.9g}" mass="{p.wheel_mass:g}" material="wheel"/>
           </body>
         </body>
@@ -126,6 +134,10 @@ def robot_mjcf(course: t3.Course, params: RobotParams | None = None) -> str:
             f'    <velocity name="{name}_hip_vel" joint="{name}_hip" kv="{p.hip_kv:g}"/>',
             f'    <position name="{name}_knee_pos" joint="{name}_knee" kp="{p.knee_kp:g}"/>',
             f'    <velocity name="{name}_knee_vel" joint="{name}_knee" kv="{p.knee_kv:g}"/>',
+        ]
+    for leg in t3.DRIVE_LEGS:
+        name = t3.LEG_NAMES[leg]
+        actuators += [
             f'    <position name="{name}_wheel_pos" joint="{name}_wheel" kp="{p.wheel_kp:g}"/>',
             f'    <velocity name="{name}_wheel_vel" joint="{name}_wheel" kv="{p.wheel_kv:g}"/>',
         ]
