@@ -273,7 +273,7 @@ impl Gait {
     pub fn command(&mut self, speed: f64, yaw_rate: f64) -> Result<(), CbfError> {
         cbfgen::error::within("commanded speed [m/s]", speed, 0.0, 1.0, "[0, 1]")?;
         let max = self.max_yaw_rate();
-        cbfgen::error::within("commanded yaw rate [rad/s]", yaw_rate, -max, max, "|rate| <= Gait::max_yaw_rate()")?;
+        cbfgen::error::within("commanded yaw rate [rad/s]", yaw_rate, -max, max, "|rate| <= max_yaw_rate")?;
         self.params.speed = speed;
         self.yaw_rate_command = yaw_rate;
         self.on_the_spot = false;
