@@ -594,7 +594,7 @@ def run(
     start = np.array(x_ref[0:3])
     standard_height = float(t3.world_kinematics(t3.standard_posture())[0][2])
     # The true ground from the solids (the course's floor_height is what it perceives).
-    solids = [(np.asarray(c), np.asarray(r), np.asarray(h)) for c, r, h in course.terrain_boxes()]
+    solids = robot.solids
     top = max(float(c[2] + h[2]) for c, _r, h in solids)
 
     def ground_under(point: np.ndarray) -> float:

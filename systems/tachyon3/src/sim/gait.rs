@@ -499,17 +499,7 @@ impl Gait {
     /// lands in.
     fn lift_off(&self, tripod: usize, t: f64, x: &State, toes: &[[f64; 3]; 6]) -> Result<Swing, CbfError> {
         let p = self.params;
-        let unused = HalfPlane { normal: nalgebra::Vector2::new(1.0, 0.0), offset: 0.0 };
-        let mut s = Swing {
-            tripod,
-            start: t,
-            turn: None,
-            from: [[0.0; 2]; 6],
-            land_x: [0.0; 6],
-            apex: [0.0; 6],
-            land: [0.0; 6],
-            strip: [[unused; 4]; 6],
-        };
+        let mut s = Swing::lifting(tripod, t, None);
         for &leg in &TRIPODS[tripod] {
             let (ix, iz) = (TOE_BLOCK + 4 * leg, TOE_BLOCK + 4 * leg + 1);
             s.from[leg] = [x[ix], x[iz]];
@@ -535,13 +525,12 @@ impl Gait {
     /// that level under its hip, its foothold the whole flat region it stands in. The
     /// robot turns about the other tripod's [`STANCE_AXLE`] meanwhile.
     fn lift_to_turn(&self, tripod: usize, t: f64, x: &State, toes: &[[f64; 3]; 6], by: f64) -> Result<Swing, CbfError> {
-        let mut s = self.lift_off(tripod, t, x, toes)?;
-        s.turn = Some(YawSpline { start: t, from: self.yaw_hold, by });
+        let mut s = Swing::lifting(tripod, t, Some(YawSpline { start: t, from: self.yaw_hold, by }));
         for &leg in &TRIPODS[tripod] {
             let toe_x = self.ground.standing_x(&toes[leg]);
             let here = self.ground.height_at(toe_x);
             // Body-relative: the origin moves onto the drive axle under the swing.
-            s.from[leg][0] = x[TOE_BLOCK + 4 * leg] - x[BODY_X];
+            s.from[leg] = [x[TOE_BLOCK + 4 * leg] - x[BODY_X], x[TOE_BLOCK + 4 * leg + 1]];
             s.land_x[leg] = model::HIP_POSITIONS[leg][0];
             s.apex[leg] = here + TOE_RADIUS + self.params.clearance - x[2];
             s.land[leg] = here + TOE_RADIUS - x[2];
@@ -553,6 +542,22 @@ impl Gait {
 }
 
 impl Swing {
+    /// A swing of `tripod` lifting off at `t`, turning by `turn` if given, with every
+    /// leg's plan still to fill in.
+    fn lifting(tripod: usize, t: f64, turn: Option<YawSpline>) -> Self {
+        let unused = HalfPlane { normal: nalgebra::Vector2::new(1.0, 0.0), offset: 0.0 };
+        Self {
+            tripod,
+            start: t,
+            turn,
+            from: [[0.0; 2]; 6],
+            land_x: [0.0; 6],
+            apex: [0.0; 6],
+            land: [0.0; 6],
+            strip: [[unused; 4]; 6],
+        }
+    }
+
     /// How long this swing lasts \[s\].
     fn duration(&self, p: &GaitParams) -> f64 {
         if self.turn.is_some() {
