@@ -33,6 +33,7 @@
 
 #![warn(missing_docs)]
 
+pub mod compose;
 pub mod cpu_time;
 pub mod dynamic;
 pub mod error;

@@ -12,6 +12,7 @@ generation must run again.
 from __future__ import annotations
 
 import argparse
+import functools
 import re
 import sys
 from collections.abc import Callable
@@ -53,16 +54,22 @@ def builtin_specs() -> list[Path]:
     return [p for d in sorted(SYSTEMS_ROOT.iterdir()) for p in crate_specs(d)]
 
 
-def builtin_systems() -> list[SystemDefinition]:
-    """The built-in systems, from their spec files in crate-folder order."""
-    return [define(load(p)) for p in builtin_specs()]
+@functools.cache
+def builtin_systems(unrolled: bool = False) -> list[SystemDefinition]:
+    """The built-in systems, from their spec files in crate-folder order (``unrolled``: see
+    :func:`symbolic.codegen.definition.define`). Defined once per process (do not change
+    what it returns)."""
+    return [define(load(p), unrolled=unrolled) for p in builtin_specs()]
 
 
+@functools.cache
 def all_kernels() -> dict[str, list[Kernel]]:
     """Module name -> every kernel generated/ holds for it: the generator's own list, which
-    the SymEngine cross-check iterates (adding a system adds no test code)."""
+    the SymEngine cross-check iterates (adding a system adds no test code). A composed
+    family's members are their unrolled definitions: the composed Rust is held to them.
+    Built once per process (do not change what it returns)."""
     out = {name: build() for name, (_, build) in MODULES.items()}
-    for definition in builtin_systems():
+    for definition in builtin_systems(unrolled=True):
         out[definition.name] = definition.kernels()
     return out
 

@@ -169,7 +169,8 @@ def sphere_box(p: FamilyContext, center: Sequence[se.Expr], radius: se.Expr, box
 
 
 def ssat(p: FamilyContext, a: Box, b: Box, alpha: se.Expr = 100.0, alpha_rot: se.Expr = 100.0,
-         smax: SmoothMax = LSE, sabs: SmoothAbs = XTANH, certified: bool = True) -> se.Expr:
+         smax: SmoothMax = LSE, sabs: SmoothAbs = XTANH, certified: bool = True,
+         names: tuple[str | None, str | None] = (None, None)) -> se.Expr:
     """The smooth SAT separation of two oriented boxes (Tachyon 3 paper, eq. 7-10), in
     box A's frame as :mod:`symbolic.families.ssat` formulates it: > 0 separated, < 0
     overlapping. ``alpha`` [1/m] sharpens the smooth max and |.| on distances,
@@ -179,10 +180,24 @@ def ssat(p: FamilyContext, a: Box, b: Box, alpha: se.Expr = 100.0, alpha_rot: se
 
     The relative pose, the smoothed |R_ij|, every axis value and the smooth max's pieces
     are named intermediates: L_f^2 h then costs O(15) instead of a dense Hessian.
+
+    ``names`` name the boxes' pose kernels in a ``compose=True`` family (``pose_<name>``;
+    say the frame when a box is placed in several: ``"link5_in_link1"``); unnamed, a
+    pose kernel is named after the first member that uses it.
     """
     _require_box(a, "prim.ssat", p)
     _require_box(b, "prim.ssat", p)
     alpha, alpha_rot = se.sympify(alpha), se.sympify(alpha_rot)
+    if p.composer is not None:  # a compose=True family: the generator builds it from parts
+        return p.composer.record("ssat", ssat_value, (a, b), dict(alpha=alpha, alpha_rot=alpha_rot, smax=smax,
+                                                                  sabs=sabs, certified=certified), names)
+    return ssat_value(p, a, b, alpha=alpha, alpha_rot=alpha_rot, smax=smax, sabs=sabs, certified=certified)
+
+
+def ssat_value(p: FamilyContext, a: Box, b: Box, *, alpha: se.Expr, alpha_rot: se.Expr, smax: SmoothMax,
+               sabs: SmoothAbs, certified: bool) -> se.Expr:
+    """:func:`ssat`'s expression, domains already required (what a composed family's chain
+    kernel is built from)."""
     t, rot = relative_pose(p.let, a.center, a.rotation, b.center, b.rotation)
     axes = separating_axes(t, rot, a.half_extents, b.half_extents, sabs, alpha, alpha_rot, p.let)
     ys = [p.let(f"y_{i}", y) for i, (y, _) in enumerate(axes)]

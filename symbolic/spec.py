@@ -467,8 +467,11 @@ class FamilyContext:
 
     def __init__(self, where: str, kernel, engine, params: dict[str, object], time: se.Symbol | None,
                  index: int | None = None, label: str | None = None, declared: Sequence[Param] = (),
-                 required: dict[str, tuple[Domain, str]] | None = None):
+                 required: dict[str, tuple[Domain, str]] | None = None, composer=None):
         self._where = where
+        # In a family declared compose=True: what records the composable primitives h
+        # calls (symbolic.codegen.composition.Recorder) instead of expanding them.
+        self._composer = composer
         self._kernel = kernel
         self._engine = engine
         self._params = params
@@ -495,6 +498,11 @@ class FamilyContext:
         if self._time is None:
             raise SpecError(f"{self._where}: uses time, but the family was declared without time=True")
         return self._time
+
+    @property
+    def composer(self):
+        """The recorder of a ``compose=True`` family's primitives, else None."""
+        return self.__dict__.get("_composer")
 
     @property
     def index(self) -> int:
@@ -686,6 +694,9 @@ class Family:
     class_k: Callable[[se.Symbol], object] | None = None
     # "barrier" (h >= 0 kept) or "lyapunov" (h = -V: the decrease V' + rate V <= 0).
     kind: str = "barrier"
+    # Rows built from per-body pose kernels and one shared primitive kernel instead of
+    # unrolled per member (symbolic.codegen.composition); see System.family.
+    compose: bool = False
 
     @property
     def instances_doc(self) -> str:
@@ -926,6 +937,7 @@ class System:
                lower_bound: Callable[[FamilyContext], se.Expr] | None = None,
                defaults: dict[str, object] | None = None,
                class_k: Callable[[se.Symbol], object] | None = None,
+               compose: bool = False,
                doc: str = "") -> None:
         """Declare a barrier family h(x, params[, t]) >= 0.
 
@@ -974,6 +986,18 @@ class System:
         alone; it is generated as ``<family>_class_k(s)`` and evaluated each cycle.
         s**3 lets the boundary be approached later and damps it harder near it; tanh(s)
         caps the approach rate at p_r far from it (cbfgen::system::ClassK).
+
+        ``compose=True`` builds the rows from parts instead of unrolling each member: h
+        must be one composable primitive (``prim.ssat``) of boxes that each either move
+        with the state (a link's box) or are fixed by numbers and parameters (an
+        obstacle). Each moving box's pose becomes a *pose kernel* with its Lie
+        derivatives (shared by every member and family that places the same box the same
+        way), the primitive one *chain kernel* per family with the boxes' sizes as
+        arguments, and each member a few lines that call them and contract the chain's
+        gradient with the poses' input columns. The rows are the same functions as
+        unrolled (the SymEngine cross-check compares them), in a fraction of the code:
+        what makes an arm's or a legged robot's collision pairs cheap to regenerate and
+        compile. Not for time-varying families.
         """
         where = f"{self.where}, family {name!r}"
         check_identifier(self.where, "family name", name, module_item=True)
@@ -1043,10 +1067,15 @@ class System:
                                 "a finite activation")
         if class_k is not None and not callable(class_k):
             raise SpecError(f"{where}: class_k must be a function of one symbol (lambda s: ...), got {class_k!r}")
+        if not isinstance(compose, bool):
+            raise SpecError(f"{where}: compose is True or False, got {compose!r}")
+        if compose and time:
+            raise SpecError(f"{where}: compose=True is for time-invariant rows; declare time=True families "
+                            "without it")
         self.families.append(Family(name, h, parsed, None if capacity else count, capacity, max_capacity,
                                     optional, labels,
                                     time, pole_list, priority, activation, doc, lower_bound, caller_origin(),
-                                    class_k))
+                                    class_k, compose=compose))
 
     def lyapunov(self, name: str, V: Callable[[FamilyContext], object], *, rate: float,
                  params: dict[str, object] | None = None, count: int | None = None,

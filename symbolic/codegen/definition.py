@@ -17,7 +17,7 @@ from pathlib import Path
 
 import symengine as se
 
-from ..families.rows import build_row_kernel
+from ..families.rows import RowKernel, build_row_kernel, rust_str_array
 from ..kernel import Kernel, Let, RuntimeMax
 from ..lie import MAX_RELATIVE_DEGREE, LieEngine
 from ..spec import (
@@ -34,6 +34,7 @@ from ..spec import (
     System,
     check_identifier,
 )
+from .composition import SLOTS, Jets, MemberPlan, Recorder, Slot, Static, build_chain, pose_entries
 from .partial import partial_warnings
 
 
@@ -67,6 +68,11 @@ class FamilyDefinition:
     # and its formula in s; None for the linear one.
     class_k: Kernel | None = None
     class_k_text: str = ""
+    # compose=True: how each member (as ``kernels``) is assembled, and the family's chain
+    # kernels; ``kernels`` then hold each member's signature (its unrolled rows when
+    # defined with ``unrolled=True``), not what is emitted.
+    composed: tuple[MemberPlan, ...] = ()
+    chains: tuple[Kernel, ...] = ()
 
     @property
     def indexed(self) -> bool:
@@ -92,6 +98,8 @@ class SystemDefinition:
     source: Path | None
     # ``objective(x) -> (p, q)``: the spec's cost (``s.objective``); None for input weights.
     objective: Kernel | None = None
+    # The pose kernels composed families share (symbolic.codegen.composition).
+    jets: tuple[Kernel, ...] = ()
 
     @property
     def time_varying(self) -> bool:
@@ -99,8 +107,9 @@ class SystemDefinition:
 
     def kernels(self) -> list[Kernel]:
         """Every kernel, in the order a backend emits them."""
-        return ([self.drift, self.input_matrix, self.input_nonzeros]
-                + [k for f in self.families for k in (*f.kernels, *f.bounds, *([f.class_k] if f.class_k else []))]
+        return ([self.drift, self.input_matrix, self.input_nonzeros, *self.jets]
+                + [k for f in self.families
+                   for k in (*f.chains, *f.kernels, *f.bounds, *([f.class_k] if f.class_k else []))]
                 + list(self.outputs) + ([self.objective] if self.objective else []))
 
 
@@ -170,15 +179,16 @@ def _declare_params(k: Kernel, family: Family) -> tuple[dict[str, object], dict[
     return values, symbols
 
 
-def _family(system: System, family: Family) -> FamilyDefinition:
+def _family(system: System, family: Family, jets: Jets, unrolled: bool) -> FamilyDefinition:
     where = f"{system.where}, family {family.name!r}"
     required: dict[str, tuple[Domain, str]] = {}  # what the primitives asked, across members
-    if family.over is None:
-        built = [_member(system, family, where, family.name, None, None, required)]
+    members = [(where, family.name, None, None)] if family.over is None else [
+        (f"{where}, member {label!r}", f"{family.name}_{label}", i, label) for i, label in enumerate(family.over)]
+    if family.compose:
+        built, plans, chains = _composed(system, family, where, members, required, jets, unrolled)
     else:
-        built = [_member(system, family, f"{where}, member {label!r}", f"{family.name}_{label}", i, label,
-                         required)
-                 for i, label in enumerate(family.over)]
+        built = [_member(system, family, w, name, i, label, required) for w, name, i, label in members]
+        plans, chains = (), ()
     degrees = {b.degree for b in built}
     if len(degrees) != 1:
         found = {label: b.degree for label, b in zip(family.over or [], built, strict=True)}
@@ -208,15 +218,133 @@ def _family(system: System, family: Family) -> FamilyDefinition:
                        for i, (lb, b) in enumerate(zip(labels, built, strict=True)))
     params = _checked_params(family, required)
     labels = family.over or [None]
-    partial = tuple(w for lb, b in zip(labels, built, strict=True)
-                    for w in partial_warnings(where + (f", member {lb!r}" if lb else ""), b.kernel, params))
+    partial = () if family.compose else tuple(
+        w for lb, b in zip(labels, built, strict=True)
+        for w in partial_warnings(where + (f", member {lb!r}" if lb else ""), b.kernel, params))
     return FamilyDefinition(family.name, family.doc, tuple(b.kernel for b in built), degree,
                             built[0].row_names, tuple(b.columns for b in built),
                             tuple(b.row_columns for b in built), params,
                             family.count, family.capacity, family.max_capacity, family.optional,
                             tuple(family.over or ()),
                             family.time, poles, family.priority, family.activation, bounds,
-                            warnings=partial, kind=family.kind, **_class_k(where, family))
+                            warnings=partial, kind=family.kind, composed=plans, chains=chains,
+                            **_class_k(where, family))
+
+
+def _static(where: str, e: se.Expr, lets: dict, params: dict, what: str) -> Static:
+    """An entry of a fixed box: a number, or a whole parameter entry (lets expanded)."""
+    while e.free_symbols & lets.keys():
+        e = e.xreplace(lets)
+    if e in params:
+        return params[e]
+    if e.is_Number or not e.free_symbols:
+        return float(e)
+    raise SpecError(f"{where}: compose=True takes a fixed box's {what} as numbers or whole parameter entries, "
+                    f"not {e}; declare the family without compose=True")
+
+
+def _composed(system: System, family: Family, where: str, members, required, jets: Jets, unrolled: bool):
+    """A ``compose=True`` family's members (signatures, or their unrolled rows), how each is
+    assembled and the family's chain kernels (:mod:`symbolic.codegen.composition`)."""
+    state_set = frozenset(system.x)
+    plans: list[MemberPlan] = []
+    built: list[RowKernel] = []
+    chains: dict[tuple[bool, ...], Kernel] = {}
+    first = None
+    for member_where, name, index, label in members:
+        k = Kernel(name, "")
+        k.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
+        eng = LieEngine(k, system.x, system.f, system.g)
+        try:
+            values, _ = _declare_params(k, family)
+        except ValueError as exc:
+            raise SpecError(f"{member_where}: {exc}") from exc
+        recorder = Recorder()
+        ctx = FamilyContext(member_where, k, eng, values, None, index, label, family.params, required,
+                            composer=recorder)
+        with ctx.active():
+            rows = _rows(member_where, family, family.h(ctx))
+        if not (len(rows) == 1 and len(recorder.calls) == 1 and rows[0][1] == recorder.calls[0].placeholder):
+            raise SpecError(f"{member_where}: compose=True needs h to return one composable primitive call "
+                            "(prim.ssat) as its only row, with nothing added to it; declare the family without "
+                            "compose=True to differentiate any other h whole")
+        call = recorder.calls[0]
+        params = {sym: (inp.name, n) for inp in k.inputs if inp.name != "x" for n, sym in enumerate(inp.symbols)}
+        base = _base_symbols(k)
+        lets = {d.symbol: d.expr for d in k.definitions if isinstance(d, Let)}
+
+        slots, jet_list = [], []
+        for slot_name, box in zip(SLOTS, call.boxes, strict=True):
+            entries = pose_entries(box)
+            reads = frozenset().union(*(base(e) for e in entries))
+            half = tuple(_static(member_where, se.sympify(e), lets, params, "half extents") for e in box[2])
+            if reads & state_set:
+                if reads - state_set:
+                    raise SpecError(f"{member_where}: box {slot_name.upper()} moves with the state and depends on "
+                                    f"parameters {sorted(map(str, reads - state_set))}; compose=True needs a box "
+                                    "that moves to be placed by the state alone")
+                given = call.names[len(slots)]
+                jet_name = f"pose_{given}" if given else f"{name}_pose_{slot_name}"
+                try:
+                    check_identifier(member_where, "pose name", jet_name, module_item=True)
+                except SpecError as exc:
+                    raise SpecError(f"{member_where}: names: {exc}") from exc
+                jet = jets.get(member_where, jet_name, entries, k)
+                jet_list.append(jet)
+                slots.append((jet, (), half))
+            else:
+                slots.append((None, tuple(_static(member_where, e, lets, params, "pose") for e in entries), half))
+        if not jet_list:
+            raise SpecError(f"{member_where}: neither box moves with the state; no input can change the row")
+        degrees = {j.degree for j in jet_list}
+        if len(degrees) != 1:
+            raise SpecError(f"{member_where}: its boxes' poses reach the input at different derivatives "
+                            f"{sorted(degrees)}; declare the family without compose=True")
+        degree = degrees.pop()
+        columns = tuple(sorted({c for j in jet_list for c in j.columns}))
+        plan_slots = tuple(Slot(j.kernel.name if j else None, tuple(columns.index(c) for c in j.columns) if j else (),
+                                pose, half) for j, pose, half in slots)
+        moving = tuple(s.moving for s in plan_slots)
+        options = (call.primitive, tuple((key, str(v) if isinstance(v, se.Basic) else v)
+                                         for key, v in sorted(call.options.items())))
+        if first is None:
+            first = options
+        elif options != first:
+            raise SpecError(f"{member_where}: compose=True needs every member to call the same primitive with the "
+                            f"same options (one chain kernel serves them all): {options} against {first}")
+        if moving not in chains:
+            variant = "" if all(moving) else "_fixed_" + "".join(s for s, m in zip(SLOTS, moving, strict=True)
+                                                                    if not m)
+            chains[moving] = build_chain(where, f"{family.name}_chain{variant}", call, moving, degree)
+        plans.append(MemberPlan(name, chains[moving].name, plan_slots, columns))
+        row_name = rows[0][0]
+        if unrolled:
+            whole = _member(system, family, member_where, name, index, label, required)
+            if (whole.degree, whole.columns) != (degree, columns):
+                raise SpecError(f"{member_where}: composed rows have degree {degree} on columns {columns}, but "
+                                f"unrolled {whole.degree} on {whole.columns}")
+            built.append(whole)
+            continue
+        doc = family.doc or f"The {family.name} family of {system.name}."
+        if label is not None:
+            doc = f"{doc}\n\nMember `{label}` of the family."
+        sig = Kernel(name, doc + "\n\nComposed: its pose kernels and the family's chain kernel "
+                                 f"`{chains[moving].name}`.")
+        sig.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
+        _declare_params(sig, family)
+        upper = name.upper()
+        sig.constant(f"{upper}_RELATIVE_DEGREE", "usize", str(degree),
+                     f"Relative degree of every row of [`{name}`] (found symbolically).")
+        sig.constant(f"{upper}_INPUT_COLUMNS", f"[usize; {len(columns)}]", str(list(columns)),
+                     f"Input columns of `lg_lf` in [`{name}`]: the only inputs its rows depend on.")
+        sig.constant(f"{upper}_ROW_NAMES", "[&str; 1]", rust_str_array([row_name]),
+                     f"What each row of [`{name}`] constrains.")
+        zero = se.Integer(0)
+        sig.output_matrix("lie", [[zero] * (degree + 1)], "per row: h, L_f h, ..., L_f^r h")
+        sig.output_matrix("lg_lf", [[zero] * len(columns)],
+                          f"per row: L_g L_f^(r-1) h on the columns `{upper}_INPUT_COLUMNS`")
+        built.append(RowKernel(sig, degree, columns, (row_name,), (columns,)))
+    return built, tuple(plans), tuple(chains.values())
 
 
 # |s| at which a spec's class-K function is checked odd, increasing and through 0.
@@ -385,10 +513,10 @@ _SMOOTH_FORMS = {
 }
 
 
-def _located(system: System, family: Family):
+def _located(system: System, family: Family, jets: Jets, unrolled: bool):
     """``_family``, with a SpecError about the family pointing at its declaration."""
     try:
-        return _family(system, family)
+        return _family(system, family, jets, unrolled)
     except SpecError as exc:
         if exc.origin is None:
             exc.origin = family.origin
@@ -479,8 +607,10 @@ def _objective(system: System) -> Kernel | None:
     return k
 
 
-def define(system: System) -> SystemDefinition:
-    """Differentiate every family of ``system`` and build its dynamics kernels."""
+def define(system: System, unrolled: bool = False) -> SystemDefinition:
+    """Differentiate every family of ``system`` and build its dynamics kernels. With
+    ``unrolled``, a composed family's member kernels are also differentiated whole (the
+    definition the tests hold the composed rows to; slower)."""
     system.check_complete()
     drift = Kernel("drift", f"The drift f(x) of {system.name}: x' = f(x) + g(x) u.")
     drift.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
@@ -494,9 +624,10 @@ def define(system: System) -> SystemDefinition:
                       "`xdot` multiplies, without the zeros.")
     nonzeros.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
     nonzeros.output_vector("g", [system.g[r][c] for r, c in pattern], "g(x) at `INPUT_MATRIX_PATTERN`")
-    families = _one_sided_authority(system, tuple(_located(system, f) for f in system.families))
+    jets = Jets(system)
+    families = _one_sided_authority(system, tuple(_located(system, f, jets, unrolled) for f in system.families))
     outputs = tuple(_output(system, o) for o in system.outputs)
     return SystemDefinition(system.name, system.doc, tuple(system.state_names), tuple(system.state_docs),
                             tuple(system.input_names), tuple(system.input_docs), tuple(system.input_limits),
                             drift, g, pattern, nonzeros, families, outputs, tuple(system.constants),
-                            system.source, _objective(system))
+                            system.source, _objective(system), jets=tuple(jets.kernels))

@@ -176,6 +176,22 @@ def panda_inputs(rng: np.random.Generator) -> Inputs:
             "rotation": random_rotation(rng).ravel(), "half": rng.uniform(0.02, 0.6, 3)}
 
 
+def chain_inputs(kernel: Kernel) -> Callable[[np.random.Generator], Inputs]:
+    """A composed family's chain kernel: boxes of proper rotations, within a metre of
+    each other (touching, overlapping and apart), moving at up to a few m/s and rad/s."""
+    def draw(rng: np.random.Generator) -> Inputs:
+        v: Inputs = {}
+        for inp in kernel.inputs:
+            if inp.name.startswith("pose_"):
+                v[inp.name] = np.concatenate([rng.uniform(-0.5, 0.5, 3), random_rotation(rng).ravel()])
+            elif inp.name.startswith("half_"):
+                v[inp.name] = rng.uniform(0.02, 0.4, 3)
+            else:  # rates_*: derivatives of the pose
+                v[inp.name] = rng.uniform(-3, 3, len(inp.symbols))
+        return v
+    return draw
+
+
 def domain_samplers() -> dict[tuple[str, str], Callable[[np.random.Generator], Inputs]]:
     """Kernels whose inputs need a domain better than uniform numbers."""
     out = {}
@@ -197,6 +213,10 @@ def domain_samplers() -> dict[tuple[str, str], Callable[[np.random.Generator], I
     out[("double_integrator", "sine_barrier")] = sine_barrier_inputs
     for kernel in all_kernels()["panda"]:
         out[("panda", kernel.name)] = panda_inputs
+    for module, kernels in all_kernels().items():
+        for kernel in kernels:
+            if any(i.name == "pose_a" for i in kernel.inputs):
+                out[(module, kernel.name)] = chain_inputs(kernel)
     return out
 
 

@@ -147,7 +147,8 @@ def build() -> System:
     def obstacle(p):
         obstacle_box = prim.Box(p.center, p.rotation, p.half)
         link = f"panda_{p.label}"
-        return [("obstacle", prim.ssat(p, obstacle_box, box(link, kinematics(q, p.let)), alpha, alpha_rot))]
+        return [("obstacle", prim.ssat(p, obstacle_box, box(link, kinematics(q, p.let)), alpha, alpha_rot,
+                                       names=(None, p.label)))]
 
     def obstacle_far(p):
         # The exact SAT's face axes less the smoothing: an obstacle beyond the activation
@@ -163,7 +164,7 @@ def build() -> System:
     s.family("obstacle", obstacle, params=OBSTACLE_PARAMS, over=[short(link) for link in OBSTACLE_LINKS],
              capacity=MAX_OBSTACLES,
              poles=COLLISION_POLES, priority=PRIORITIES["obstacle"], activation=OBSTACLE_ACTIVATION,
-             lower_bound=obstacle_far,
+             lower_bound=obstacle_far, compose=True,
              doc="A link box against an obstacle box by smooth SAT minus its certified margin [m]: h >= 0 proves "
                  f"no overlap. One member per link box, each with its obstacles. alpha = {SSAT_ALPHA}, alpha_rot = "
                  f"{SSAT_ALPHA_ROT}; active while "
@@ -173,8 +174,11 @@ def build() -> System:
         a, b = SELF_PAIRS[p.index]
         # In the frame of the link both hang from: the joints above it move both boxes
         # alike and drop out, exactly (the input columns then list only the joints between).
-        fk = kinematics(q, p.let, base=urdf.common_ancestor(ROBOT, a, b))
-        return [("self_collision", prim.ssat(p, box(a, fk), box(b, fk), alpha, alpha_rot))]
+        base = urdf.common_ancestor(ROBOT, a, b)
+        fk = kinematics(q, p.let, base=base)
+        # Pose kernels are shared: a box placed in the base frame is the obstacle rows' one.
+        names = tuple(short(link) if base == ROBOT.root else f"{short(link)}_in_{short(base)}" for link in (a, b))
+        return [("self_collision", prim.ssat(p, box(a, fk), box(b, fk), alpha, alpha_rot, names=names))]
 
     def self_collision_far(p):
         # As obstacle_far: a pair farther apart than the activation distance is not evaluated.
@@ -185,6 +189,7 @@ def build() -> System:
     s.family("self_collision", self_collision, over=[f"{short(a)}_{short(b)}" for a, b in SELF_PAIRS],
              poles=COLLISION_POLES,
              priority=PRIORITIES["self_collision"], activation=SELF_ACTIVATION, lower_bound=self_collision_far,
+             compose=True,
              doc="Two link boxes the SRDF lets meet, by smooth SAT minus its certified margin [m]: h >= 0 proves they "
                  f"do not overlap. Active while h < {SELF_ACTIVATION} m.")
 

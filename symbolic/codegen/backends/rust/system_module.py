@@ -26,6 +26,7 @@ import json
 
 from ....spec import Domain, Interval, NonNegative, Positive, Real, Rotation, UnitVector
 from ...definition import FamilyDefinition, SystemDefinition
+from .composed import emit_composed_member
 from .emitter import emit_kernel, emit_split_kernel, float_literal, kernel_fn_type, rustdoc_text
 from .kernel_table import emit_kernel_table
 
@@ -491,8 +492,13 @@ def _emit_kernels(out: list[str], d: SystemDefinition, rt: str) -> None:
     # its kernels (rows and bound) are emitted cut in two, the state's part shared.
     split_kernels = {k.name: ["x"] + (["t"] if f.time else []) for f in d.families if f.params
                      for k in (*f.kernels, *f.bounds)}
+    # A composed family's members are assembled from their pose and chain kernels.
+    composed = {plan.kernel: (f, plan) for f in d.families for plan in f.composed}
     for k in d.kernels():
-        if k.name in split_kernels:
+        if k.name in composed:
+            f, plan = composed[k.name]
+            w(emit_composed_member(k, plan, f.degree, bool(f.params), rt, attributes=[KERNEL_ALLOWS]))
+        elif k.name in split_kernels:
             w(emit_split_kernel(k, rt, split_kernels[k.name], attributes=[KERNEL_ALLOWS]))
         else:
             w(emit_kernel(k, rt, attributes=[KERNEL_ALLOWS]))

@@ -1,0 +1,211 @@
+"""Composed collision rows (``compose=True``) against the same rows differentiated whole.
+
+Every member of a composed family of the built-in systems (the Panda's obstacle and
+self-collision rows, ANYmal's self-collision rows) is called in Rust as the module runs
+it: pose kernels, the family's chain kernel and the contraction with the poses' input
+columns (``cbfgen.call_kernel``). Its truth is the unrolled definition of the same row
+(``define(..., unrolled=True)``: h through the kinematics, differentiated by the Lie
+engine as a non-composed family is), evaluated by SymEngine in 256-bit arithmetic. Every
+output (h, each L_f^k h, each L_g L_f h entry) must be within 1e-12 of the truth,
+relative to the larger of the truth and that output's typical size over the member's
+samples (a value that cancels to nothing carries the rounding of the terms it cancels).
+
+States: random ones (the arm inside its limits; ANYmal's joints in [-2, 2] as the
+cross-check draws them), states where the boxes overlap, and states where they touch
+(h = 0 to 1e-9, by bisection between a state apart and one overlapping; for an obstacle,
+the obstacle slid along a line through the link box).
+
+The generator-side checks (mismatched members, boxes that are neither moving nor fixed,
+names that collide) are tested at the end on small specs.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import zlib
+
+import numpy as np
+import pytest
+
+from symbolic.generate import all_kernels, builtin_systems
+from symbolic.spec import SpecError
+
+from .symengine_reference import SymEngineReference
+from .test_rust_vs_symengine import constant, random_rotation, rust_call
+
+if os.environ.get("CBFGEN_REQUIRE_BINDINGS"):
+    import cbfgen
+else:
+    cbfgen = pytest.importorskip("cbfgen", reason="build it with `scripts/cbf setup`")
+
+TOLERANCE = 1e-12
+TOUCHING = 1e-9
+RANDOM_STATES = 2
+
+
+@functools.cache
+def composed_members() -> list[tuple[str, str, bool]]:
+    """(module, member kernel, has parameters) of every composed family's members."""
+    return [(d.name, plan.kernel, bool(f.params)) for d in builtin_systems(unrolled=True) for f in d.families
+            for plan in f.composed]
+
+
+def kernel(module: str, name: str):
+    return next(k for k in all_kernels()[module] if k.name == name)
+
+
+def random_state(module: str, rng: np.random.Generator) -> np.ndarray:
+    if module == "panda":
+        q_min, q_max = np.array(constant("q_min")), np.array(constant("q_max"))
+        qd_max = np.array(constant("qd_max"))
+        return np.concatenate([rng.uniform(q_min, q_max), rng.uniform(-qd_max, qd_max)])
+    n = len(kernel(module, "drift").inputs[0].symbols)
+    return rng.uniform(-2, 2, n)
+
+
+def bisect(h, apart: dict, overlapping: dict, key: str) -> dict:
+    """Inputs between ``apart`` (h > 0) and ``overlapping`` (h < 0), moving ``key``, where
+    |h| <= TOUCHING."""
+    lo, hi = 0.0, 1.0
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        v = {**apart, key: (1 - mid) * apart[key] + mid * overlapping[key]}
+        value = h(v)
+        if abs(value) <= TOUCHING:
+            return v
+        lo, hi = (mid, hi) if value > 0 else (lo, mid)
+    raise AssertionError(f"no touching pose between the two (last h {value})")
+
+
+def samples(module: str, name: str, with_params: bool, rng: np.random.Generator) -> tuple[list[dict], int]:
+    """Random inputs, overlapping ones and touching ones; and how many of them overlap or touch."""
+    call = rust_call(module, kernel(module, name))
+
+    def h(v):
+        return call(v)["lie"][0]
+
+    if with_params:  # an obstacle box around the link box, then slid off it
+        x = random_state(module, rng)
+        # The link box's centre: the obstacle overlaps it when centred there.
+        link = constant("link_names").index(name.removeprefix("obstacle_"))
+        center = np.asarray(cbfgen.call_kernel(module, "link_boxes", x))[3 * link:3 * link + 3]
+        base = {"x": x, "rotation": random_rotation(rng).ravel(), "half": rng.uniform(0.02, 0.2, 3)}
+        inside = {**base, "center": center}
+        direction = rng.normal(size=3)
+        outside = {**base, "center": center + 2.0 * direction / np.linalg.norm(direction)}
+        assert h(inside) < 0 < h(outside), name
+        far = [{**base, "center": center + rng.uniform(-0.6, 0.6, 3)} for _ in range(RANDOM_STATES)]
+        return far + [inside, bisect(h, outside, inside, "center")], 2
+    states = [{"x": random_state(module, rng)} for _ in range(8 * RANDOM_STATES)]
+    values = [h(v) for v in states]
+    chosen = states[:RANDOM_STATES]
+    apart = [v for v, value in zip(states, values, strict=True) if value > 0]
+    overlapping = [v for v, value in zip(states, values, strict=True) if value < 0]
+    if apart and overlapping:
+        chosen += [overlapping[0], bisect(h, apart[0], overlapping[0], "x")]
+        return chosen, 2
+    return chosen, 0
+
+
+@pytest.mark.parametrize("module, name, with_params", composed_members())
+def test_composed_row_is_the_unrolled_row(module, name, with_params):
+    unrolled = kernel(module, name)
+    reference = SymEngineReference(unrolled)
+    rust = rust_call(module, unrolled)
+    rng = np.random.default_rng(zlib.crc32(f"composed.{module}.{name}".encode()))
+    inputs, _ = samples(module, name, with_params, rng)
+    truths = [reference.high_precision(v) for v in inputs]
+    gots = [rust(v) for v in inputs]
+    for out in truths[0]:
+        truth = np.array([t[out] for t in truths])
+        got = np.array([g[out] for g in gots])
+        scale = np.maximum(np.abs(truth), np.sqrt(np.mean(truth ** 2, axis=0)))
+        worst = np.max(np.abs(got - truth) / np.where(scale > 0, scale, 1.0))
+        assert worst <= TOLERANCE, f"{name}.{out}: off by {worst:.2e} of its scale"
+
+
+def test_touching_and_overlapping_poses_are_among_the_samples():
+    # The bisection needs both signs among a member's random states: most self-collision
+    # pairs of an arm that stays inside its limits never meet, so count the members that did.
+    touched = {}
+    for module, name, with_params in composed_members():
+        rng = np.random.default_rng(zlib.crc32(f"composed.{module}.{name}".encode()))
+        touched[name] = samples(module, name, with_params, rng)[1]
+    met = [n for n, c in touched.items() if c]
+    assert len(met) >= 20, f"only {met} were sampled touching and overlapping"
+
+
+# ------------------------------------------------------------- generator checks
+def arm(h, **family):
+    """A planar two-link arm on joint accelerations, with one family ``h``."""
+    import symengine as se
+
+    from symbolic import primitives as prim
+    from symbolic.spec import System
+
+    s = System("two_link")
+    x = s.states(["q1", "q2", "qd1", "qd2"])
+    s.inputs(["qdd1", "qdd2"], limits=[(-1.0, 1.0)] * 2)
+    s.dynamics(f=[x[2], x[3], 0, 0], g=[[0, 0], [0, 0], [1, 0], [0, 1]])
+
+    def link(p, angle, length):
+        rot = prim.rot_z(angle)
+        center = [length * se.cos(angle), length * se.sin(angle), 0]
+        return prim.Box(center, rot, [length, 0.05, 0.05])
+
+    s.family("pair", lambda p: h(p, link, x), **family)
+    return s
+
+
+def test_a_composed_family_needs_one_primitive_call():
+    from symbolic import primitives as prim
+    from symbolic.codegen.definition import define
+
+    def doubled(p, link, x):
+        return 2 * prim.ssat(p, link(p, x[0], 0.5), link(p, x[1], 0.3))
+
+    with pytest.raises(SpecError, match="one composable primitive call"):
+        define(arm(doubled, compose=True))
+
+
+def test_a_moving_box_may_not_depend_on_parameters():
+    from symbolic import primitives as prim
+    from symbolic.codegen.definition import define
+
+    def scaled(p, link, x):
+        return prim.ssat(p, link(p, x[0], 0.5), link(p, x[1] * p.k, 0.3))
+
+    with pytest.raises(SpecError, match="depends on parameters"):
+        define(arm(scaled, compose=True, params={"k": ()}, count=1))
+
+
+def test_one_name_for_two_placements_is_refused():
+    from symbolic import primitives as prim
+    from symbolic.codegen.definition import define
+
+    def named(p, link, x):
+        return prim.ssat(p, link(p, x[0], 0.5), link(p, x[1], 0.3), names=("link", "link"))
+
+    with pytest.raises(SpecError, match="already places another box"):
+        define(arm(named, compose=True))
+
+
+def test_composed_and_unrolled_rows_agree_on_a_small_arm():
+    # Two moving boxes (the chain with both poses moving): the composed definition's
+    # degree and columns are the unrolled one's (define checks), and generation emits it.
+    from symbolic import primitives as prim
+    from symbolic.codegen.backends.rust.system_module import emit_system
+    from symbolic.codegen.definition import define
+
+    def pair(p, link, x):
+        return prim.ssat(p, link(p, x[0], 0.5), link(p, x[1], 0.3), names=("upper", "lower"))
+
+    spec = arm(pair, compose=True)
+    definition = define(spec, unrolled=True)
+    (family,) = definition.families
+    assert [k.name for k in family.chains] == ["pair_chain"]
+    assert [k.name for k in definition.jets] == ["pose_upper", "pose_lower"]
+    assert family.kernels[0].outputs[0].exprs[0] != 0  # the unrolled row, not a signature
+    text = emit_system(define(arm(pair, compose=True)), "cbfgen")
+    assert "pub fn pair(" in text and "accumulate_columns(&grad_a" in text and "accumulate_columns(&grad_b" in text

@@ -1,0 +1,57 @@
+"""Generated code is a budget: what the repository holds, file by file, may not grow past
+what is stated here without this test (and the reason) changing with it.
+
+Every line of generated Rust is compiled in each profile, linted and shipped, and a spec
+edit regenerates and recompiles it: its size is what makes a system light or heavy to
+change. The figures are the lines of each file as generated, with a little room (about
+3 %) for a spec's ordinary edits. The repository's target is 100 000 lines in all
+(DESIGN.md, "Weight"); the figures below are where it stands on the way there: the
+Panda's and ANYmal's collision pairs are composed (pose kernels + one chain kernel per
+family, ``compose=True``), the Panda-as-spheres' and the whole-body models' kernels not
+yet.
+"""
+
+from __future__ import annotations
+
+from symbolic.codegen.output import REPO_ROOT
+from symbolic.generate import builtin_specs
+
+# Lines per generated file, by its path in the repository.
+BUDGET = {
+    "generated/ssat.rs": 6_700,
+    "generated/sphere_box.rs": 320,
+    "generated/mod.rs": 20,
+    "systems/anymal/generated/anymal.rs": 50_000,
+    "systems/anymal/generated/anymal_mpc.rs": 11_900,
+    "systems/anymal/generated/anymal_wbc.rs": 22_100,
+    "systems/double_integrator/generated/double_integrator.rs": 560,
+    "systems/panda/generated/panda.rs": 52_600,
+    "systems/panda_spheres/generated/panda_spheres.rs": 40_100,
+    "systems/tachyon3/generated/tachyon3.rs": 10_700,
+}
+TOTAL = 195_000
+
+
+def generated_files() -> list[str]:
+    core = sorted(p.relative_to(REPO_ROOT).as_posix() for p in (REPO_ROOT / "generated").glob("*.rs"))
+    systems = [(spec.parent.parent / "generated" / f"{spec.stem}.rs").relative_to(REPO_ROOT).as_posix()
+               for spec in builtin_specs()]
+    return core + systems
+
+
+def lines(path: str) -> int:
+    return len((REPO_ROOT / path).read_text().splitlines())
+
+
+def test_every_generated_file_has_a_budget():
+    assert sorted(generated_files()) == sorted(BUDGET)
+
+
+def test_each_file_is_within_its_budget():
+    over = {p: (lines(p), BUDGET[p]) for p in generated_files() if lines(p) > BUDGET[p]}
+    assert not over, f"generated files past their budget (lines, budget): {over}"
+
+
+def test_the_repository_is_within_its_total():
+    total = sum(lines(p) for p in generated_files())
+    assert total <= TOTAL, f"{total} generated lines, budget {TOTAL}"
