@@ -207,12 +207,25 @@ def ssat_value(p: FamilyContext, a: Box, b: Box, *, alpha: se.Expr, alpha_rot: s
 
 
 def ssat_lower_bound(p: FamilyContext, a: Box, b: Box, alpha: se.Expr = 100.0, alpha_rot: se.Expr = 100.0,
-                     sabs: SmoothAbs = XTANH, certified: bool = True) -> se.Expr:
+                     sabs: SmoothAbs = XTANH, certified: bool = True,
+                     names: tuple[str | None, str | None] = (None, None)) -> se.Expr:
     """A cheap bound never above :func:`ssat` with the same arguments (log-sum-exp only):
     the exact SAT's six face axes less what smoothing can take from each, and the
     certified margin when ``certified``; no transcendental call. For a family's
-    ``lower_bound=`` (see :meth:`symbolic.spec.System.family`)."""
+    ``lower_bound=`` (see :meth:`symbolic.spec.System.family`); in a ``compose=True``
+    family it reads the boxes' poses from value kernels ``pose_<name>_value`` (``names``
+    as :func:`ssat`'s) and one bound kernel per family."""
     alpha, alpha_rot = se.sympify(alpha), se.sympify(alpha_rot)
+    if p.composer is not None:
+        return p.composer.record("ssat_lower_bound", ssat_lower_bound_value, (a, b),
+                                 dict(alpha=alpha, alpha_rot=alpha_rot, sabs=sabs, certified=certified), names)
+    return ssat_lower_bound_value(p, a, b, alpha=alpha, alpha_rot=alpha_rot, sabs=sabs, certified=certified)
+
+
+def ssat_lower_bound_value(p: FamilyContext, a: Box, b: Box, *, alpha: se.Expr, alpha_rot: se.Expr,
+                           sabs: SmoothAbs, certified: bool) -> se.Expr:
+    """:func:`ssat_lower_bound`'s expression (what a composed family's bound kernel is built
+    from)."""
     t, rot = relative_pose(p.let, a.center, a.rotation, b.center, b.rotation)
     axes = separating_axes(t, rot, a.half_extents, b.half_extents, sabs, alpha, alpha_rot, p.let)
     margin = certified_margin(p, LSE, axes, alpha) if certified else se.Integer(0)

@@ -94,6 +94,16 @@ class Slot:
 
 
 @dataclass(frozen=True)
+class BoundPlan:
+    """How one member's lower bound is assembled: its boxes' value kernels (``Slot.jet``
+    names them here), the family's bound kernel."""
+
+    kernel: str
+    chain: str
+    slots: tuple[Slot, ...]
+
+
+@dataclass(frozen=True)
 class MemberPlan:
     """How one member's row function is assembled: its pose kernels, the family's chain."""
 
@@ -101,6 +111,7 @@ class MemberPlan:
     chain: str
     slots: tuple[Slot, ...]
     columns: tuple[int, ...]
+    bound: BoundPlan | None = None
 
 
 @dataclass(frozen=True)
@@ -134,6 +145,7 @@ class Jets:
     def __init__(self, system) -> None:
         self.system = system
         self._by_key: dict[tuple, Jet] = {}
+        self._values: dict[tuple, Kernel] = {}
         self.kernels: list[Kernel] = []
 
     def get(self, where: str, name: str, entries: Sequence[se.Expr], source: Kernel) -> Jet:
@@ -148,6 +160,31 @@ class Jets:
             self._by_key[key] = jet = self._build(where, name, entries, defs)
             self.kernels.append(jet.kernel)
         return self._by_key[key]
+
+    def value(self, where: str, name: str, entries: Sequence[se.Expr], source: Kernel) -> Kernel:
+        """The value-only kernel ``<name>_value`` of a placed box (for lower bounds: the pose
+        without its derivatives), shared as the pose kernels are."""
+        defs = _closure(source, entries)
+        key = ("value", tuple(map(str, entries)),
+               tuple((str(d.symbol), str(d.expr) if isinstance(d, Let) else tuple(map(str, d.exprs)))
+                     for d in defs))
+        if key not in self._values:
+            value_name = f"{name}_value"
+            if any(k.name == value_name for k in self.kernels):
+                raise SpecError(f"{where}: pose kernel {value_name!r} already places another box (or the same "
+                                "box in another frame); give each its own name")
+            k = Kernel(value_name, "The pose of a box, value only (what lower bounds read): centre, then rotation "
+                                   "row by row.")
+            k.array_input("x", self.system.state_names, "state, laid out as `STATE_NAMES`")
+            for d in defs:
+                if isinstance(d, Let):
+                    k.let_(str(d.symbol), d.expr)
+                else:
+                    k.runtime_max(str(d.symbol), d.exprs)
+            k.output_vector("pose", list(entries), "centre [m], then rotation row by row (columns = the box's axes)")
+            self._values[key] = k
+            self.kernels.append(k)
+        return self._values[key]
 
     def _build(self, where: str, name: str, entries: Sequence[se.Expr], defs) -> Jet:
         s = self.system
@@ -228,4 +265,21 @@ def build_chain(where: str, name: str, call: Recorded, moving: Sequence[bool], d
     for m, slot in enumerate(s for s, is_moving in zip(SLOTS, moving, strict=True) if is_moving):
         k.output_vector(f"grad_{slot}", [row.lg.get(m * POSE_SIZE + i, se.Integer(0)) for i in range(POSE_SIZE)],
                         f"dh / d(box {slot.upper()}'s pose)")
+    return k
+
+
+def build_bound(where: str, name: str, call: Recorded) -> Kernel:
+    """The family's bound kernel: ``call``'s (value-only) primitive of boxes posed by
+    arguments: what a composed family's ``lower_bound`` is per member."""
+    k = Kernel(name, f"The `{call.primitive}` of {where.split(', ', 1)[-1]} from its boxes' poses.")
+    poses = [k.array_input(f"pose_{slot}", _POSE_COMPONENTS, f"box {slot.upper()}'s pose: centre [m], rotation "
+                                                             "row by row") for slot in SLOTS]
+    halves = [k.array_input(f"half_{slot}", ["x", "y", "z"], f"box {slot.upper()}'s half extents [m]")
+              for slot in SLOTS]
+    ctx = FamilyContext(where, k, k, {}, None)
+    with ctx.active():
+        from ..primitives import Box
+        placed = [Box(pose[:3], [pose[3 + 3 * r:6 + 3 * r] for r in range(3)], half)
+                  for pose, half in zip(poses, halves, strict=True)]
+        k.output_scalar("bound", call.build(ctx, *placed, **call.options), "the bound [m]")
     return k

@@ -34,7 +34,18 @@ from ..spec import (
     System,
     check_identifier,
 )
-from .composition import SLOTS, Jets, MemberPlan, Recorder, Slot, Static, build_chain, pose_entries
+from .composition import (
+    SLOTS,
+    BoundPlan,
+    Jets,
+    MemberPlan,
+    Recorder,
+    Slot,
+    Static,
+    build_bound,
+    build_chain,
+    pose_entries,
+)
 from .partial import partial_warnings
 
 
@@ -185,10 +196,10 @@ def _family(system: System, family: Family, jets: Jets, unrolled: bool) -> Famil
     members = [(where, family.name, None, None)] if family.over is None else [
         (f"{where}, member {label!r}", f"{family.name}_{label}", i, label) for i, label in enumerate(family.over)]
     if family.compose:
-        built, plans, chains = _composed(system, family, where, members, required, jets, unrolled)
+        built, plans, chains, bounds = _composed(system, family, where, members, required, jets, unrolled)
     else:
         built = [_member(system, family, w, name, i, label, required) for w, name, i, label in members]
-        plans, chains = (), ()
+        plans, chains, bounds = (), (), ()
     degrees = {b.degree for b in built}
     if len(degrees) != 1:
         found = {label: b.degree for label, b in zip(family.over or [], built, strict=True)}
@@ -210,8 +221,7 @@ def _family(system: System, family: Family, jets: Jets, unrolled: bool) -> Famil
                         f"{degree}; give {degree} poles (or omit poles for {degree} x {DEFAULT_POLE:g})")
     else:
         poles = tuple(family.poles)
-    bounds = ()
-    if family.lower_bound is not None:
+    if family.lower_bound is not None and not family.compose:
         labels = family.over or [None]
         bounds = tuple(_lower_bound(system, family, f"{where}, lower_bound" + (f", member {lb!r}" if lb else ""),
                                     b.kernel.name, i if lb else None, lb, required)
@@ -243,6 +253,62 @@ def _static(where: str, e: se.Expr, lets: dict, params: dict, what: str) -> Stat
                     f"not {e}; declare the family without compose=True")
 
 
+def _recorded_call(where: str, k: Kernel, rows_or_value, recorder: Recorder, what: str):
+    """The one primitive call a composed family's ``h`` (or ``lower_bound``) must be."""
+    value = rows_or_value
+    if not (len(recorder.calls) == 1 and value == recorder.calls[0].placeholder):
+        raise SpecError(f"{where}: compose=True needs {what} to be one composable primitive call (prim.ssat, "
+                        "prim.ssat_lower_bound) with nothing added to it; declare the family without compose=True "
+                        "to differentiate any other h whole")
+    return recorder.calls[0]
+
+
+def _composed_bound(system: System, family: Family, where: str, row_kernel: str, index, label, required,
+                    jets: Jets, unrolled: bool, chains: dict):
+    """One member's lower bound, composed: the boxes' value kernels and the family's bound
+    kernel (or, ``unrolled``, the bound's whole definition)."""
+    name = f"{row_kernel}_lower_bound"
+    k = Kernel(name, "")
+    k.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
+    try:
+        values, _ = _declare_params(k, family)
+    except ValueError as exc:
+        raise SpecError(f"{where}: {exc}") from exc
+    recorder = Recorder()
+    ctx = FamilyContext(where, k, k, values, None, index, label, family.params, required, composer=recorder)
+    with ctx.active():
+        value = family.lower_bound(ctx)
+    call = _recorded_call(where, k, value, recorder, "lower_bound")
+    params = {sym: (inp.name, n) for inp in k.inputs if inp.name != "x" for n, sym in enumerate(inp.symbols)}
+    lets = {d.symbol: d.expr for d in k.definitions if isinstance(d, Let)}
+    base = _base_symbols(k)
+    state_set = frozenset(system.x)
+    slots = []
+    for slot_name, box in zip(SLOTS, call.boxes, strict=True):
+        entries = pose_entries(box)
+        half = tuple(_static(where, se.sympify(e), lets, params, "half extents") for e in box[2])
+        if frozenset().union(*(base(e) for e in entries)) & state_set:
+            given = call.names[len(slots)]
+            jet_name = f"pose_{given}" if given else f"{row_kernel}_pose_{slot_name}"
+            slots.append(Slot(jets.value(where, jet_name, entries, k).name, (), (), half))
+        else:
+            slots.append(Slot(None, (), tuple(_static(where, e, lets, params, "pose") for e in entries), half))
+    moving = tuple(s.moving for s in slots)
+    if moving not in chains:
+        variant = "" if all(moving) else "_fixed_" + "".join(s for s, m in zip(SLOTS, moving, strict=True) if not m)
+        chains[moving] = build_bound(where, f"{family.name}_bound{variant}", call)
+    plan = BoundPlan(name, chains[moving].name, tuple(slots))
+    if unrolled:
+        return _lower_bound(system, family, where, row_kernel, index, label, required), plan
+    sig = Kernel(name, f"A lower bound on every row's h of one instance of `{row_kernel}` (the spec's "
+                       "`lower_bound`): where it is above the family's activation threshold, the rows are not "
+                       f"evaluated. Composed: its boxes' value kernels and the family's `{chains[moving].name}`.")
+    sig.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
+    _declare_params(sig, family)
+    sig.output_scalar("bound", se.Integer(0), "never above any row's h of the instance")
+    return sig, plan
+
+
 def _composed(system: System, family: Family, where: str, members, required, jets: Jets, unrolled: bool):
     """A ``compose=True`` family's members (signatures, or their unrolled rows), how each is
     assembled and the family's chain kernels (:mod:`symbolic.codegen.composition`)."""
@@ -250,6 +316,8 @@ def _composed(system: System, family: Family, where: str, members, required, jet
     plans: list[MemberPlan] = []
     built: list[RowKernel] = []
     chains: dict[tuple[bool, ...], Kernel] = {}
+    bound_chains: dict[tuple[bool, ...], Kernel] = {}
+    bounds: list[Kernel] = []
     first = None
     for member_where, name, index, label in members:
         k = Kernel(name, "")
@@ -264,11 +332,9 @@ def _composed(system: System, family: Family, where: str, members, required, jet
                             composer=recorder)
         with ctx.active():
             rows = _rows(member_where, family, family.h(ctx))
-        if not (len(rows) == 1 and len(recorder.calls) == 1 and rows[0][1] == recorder.calls[0].placeholder):
-            raise SpecError(f"{member_where}: compose=True needs h to return one composable primitive call "
-                            "(prim.ssat) as its only row, with nothing added to it; declare the family without "
-                            "compose=True to differentiate any other h whole")
-        call = recorder.calls[0]
+        if len(rows) != 1:
+            raise SpecError(f"{member_where}: compose=True needs h to return one row, got {len(rows)}")
+        call = _recorded_call(member_where, k, rows[0][1], recorder, "h")
         params = {sym: (inp.name, n) for inp in k.inputs if inp.name != "x" for n, sym in enumerate(inp.symbols)}
         base = _base_symbols(k)
         lets = {d.symbol: d.expr for d in k.definitions if isinstance(d, Let)}
@@ -316,7 +382,13 @@ def _composed(system: System, family: Family, where: str, members, required, jet
             variant = "" if all(moving) else "_fixed_" + "".join(s for s, m in zip(SLOTS, moving, strict=True)
                                                                     if not m)
             chains[moving] = build_chain(where, f"{family.name}_chain{variant}", call, moving, degree)
-        plans.append(MemberPlan(name, chains[moving].name, plan_slots, columns))
+        bound_plan = None
+        if family.lower_bound is not None:
+            bound_where = f"{where}, lower_bound" + (f", member {label!r}" if label else "")
+            bound_kernel, bound_plan = _composed_bound(system, family, bound_where, name, index, label, required,
+                                                       jets, unrolled, bound_chains)
+            bounds.append(bound_kernel)
+        plans.append(MemberPlan(name, chains[moving].name, plan_slots, columns, bound_plan))
         row_name = rows[0][0]
         if unrolled:
             whole = _member(system, family, member_where, name, index, label, required)
@@ -344,7 +416,7 @@ def _composed(system: System, family: Family, where: str, members, required, jet
         sig.output_matrix("lg_lf", [[zero] * len(columns)],
                           f"per row: L_g L_f^(r-1) h on the columns `{upper}_INPUT_COLUMNS`")
         built.append(RowKernel(sig, degree, columns, (row_name,), (columns,)))
-    return built, tuple(plans), tuple(chains.values())
+    return built, tuple(plans), (*chains.values(), *bound_chains.values()), tuple(bounds)
 
 
 # |s| at which a spec's class-K function is checked odd, increasing and through 0.

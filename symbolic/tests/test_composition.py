@@ -6,9 +6,10 @@ it: pose kernels, the family's chain kernel and the contraction with the poses' 
 columns (``cbfgen.call_kernel``). Its truth is the unrolled definition of the same row
 (``define(..., unrolled=True)``: h through the kinematics, differentiated by the Lie
 engine as a non-composed family is), evaluated by SymEngine in 256-bit arithmetic. Every
-output (h, each L_f^k h, each L_g L_f h entry) must be within 1e-12 of the truth,
-relative to the larger of the truth and that output's typical size over the member's
-samples (a value that cancels to nothing carries the rounding of the terms it cancels).
+output must be within 1e-12 of the truth, relative to the larger of the truth and its
+typical size: for h and each L_f^k h, its size over the member's samples (a value that
+cancels to nothing carries the rounding of the terms it cancels); for an L_g L_f h entry,
+the size of its row, the vector the QP reads.
 
 States: random ones (the arm inside its limits; ANYmal's joints in [-2, 2] as the
 cross-check draws them), states where the boxes overlap, and states where they touch
@@ -120,7 +121,11 @@ def test_composed_row_is_the_unrolled_row(module, name, with_params):
     for out in truths[0]:
         truth = np.array([t[out] for t in truths])
         got = np.array([g[out] for g in gots])
-        scale = np.maximum(np.abs(truth), np.sqrt(np.mean(truth ** 2, axis=0)))
+        # An input column is an entry of the row the QP reads as one vector: its scale is
+        # the row's size. Each of h, L_f h, ... is its own quantity, in its own units.
+        typical = np.linalg.norm(truth, axis=1, keepdims=True) if out == "lg_lf" else np.sqrt(
+            np.mean(truth ** 2, axis=0))
+        scale = np.maximum(np.abs(truth), typical)
         worst = np.max(np.abs(got - truth) / np.where(scale > 0, scale, 1.0))
         assert worst <= TOLERANCE, f"{name}.{out}: off by {worst:.2e} of its scale"
 

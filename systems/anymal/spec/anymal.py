@@ -156,15 +156,17 @@ def build() -> System:
         fk = kinematics(base, q, p.let, frame=urdf.common_ancestor(ROBOT, a, b))
         return BOXES[a].placed(fk.pose(a)), BOXES[b].placed(fk.pose(b))
 
-    def self_collision(p):
+    def names(p):
         # Each box's pose kernel is named after its link (all are placed in the trunk's frame).
-        names = tuple(link.lower() for link in SELF_PAIRS[p.index])
-        return [("self_collision", prim.ssat(p, *pair_boxes(p), alpha, alpha_rot, names=names))]
+        return tuple(link.lower() for link in SELF_PAIRS[p.index])
+
+    def self_collision(p):
+        return [("self_collision", prim.ssat(p, *pair_boxes(p), alpha, alpha_rot, names=names(p)))]
 
     s.family("self_collision", self_collision,
              over=[f"{a}_{b}".lower() for a, b in SELF_PAIRS], poles=COLLISION_POLES,
              priority=PRIORITIES["self_collision"], activation=SELF_ACTIVATION, compose=True,
-             lower_bound=lambda p: prim.ssat_lower_bound(p, *pair_boxes(p), alpha, alpha_rot),
+             lower_bound=lambda p: prim.ssat_lower_bound(p, *pair_boxes(p), alpha, alpha_rot, names=names(p)),
              doc="Two link boxes the SRDF lets meet, by smooth SAT minus its certified margin [m]: h >= 0 proves they "
                  f"do not overlap. Active while h < {SELF_ACTIVATION} m.")
 

@@ -155,7 +155,8 @@ def build() -> System:
         # distance from a link is not evaluated.
         obstacle_box = prim.Box(p.center, p.rotation, p.half)
         link = f"panda_{p.label}"
-        return prim.ssat_lower_bound(p, obstacle_box, box(link, kinematics(q, p.let)), alpha, alpha_rot)
+        return prim.ssat_lower_bound(p, obstacle_box, box(link, kinematics(q, p.let)), alpha, alpha_rot,
+                                     names=(None, p.label))
 
     # One member per link box, each with its own obstacle list: a kernel per link stays a
     # few thousand temporaries (all eight links in one kernel made 17 000, past what rustc's
@@ -170,21 +171,23 @@ def build() -> System:
                  f"{SSAT_ALPHA_ROT}; active while "
                  f"h < {OBSTACLE_ACTIVATION} m.")
 
+    def self_names(a, b):
+        # Pose kernels are shared: a box placed in the base frame is the obstacle rows' one.
+        base = urdf.common_ancestor(ROBOT, a, b)
+        return tuple(short(link) if base == ROBOT.root else f"{short(link)}_in_{short(base)}" for link in (a, b))
+
     def self_collision(p):
         a, b = SELF_PAIRS[p.index]
         # In the frame of the link both hang from: the joints above it move both boxes
         # alike and drop out, exactly (the input columns then list only the joints between).
-        base = urdf.common_ancestor(ROBOT, a, b)
-        fk = kinematics(q, p.let, base=base)
-        # Pose kernels are shared: a box placed in the base frame is the obstacle rows' one.
-        names = tuple(short(link) if base == ROBOT.root else f"{short(link)}_in_{short(base)}" for link in (a, b))
-        return [("self_collision", prim.ssat(p, box(a, fk), box(b, fk), alpha, alpha_rot, names=names))]
+        fk = kinematics(q, p.let, base=urdf.common_ancestor(ROBOT, a, b))
+        return [("self_collision", prim.ssat(p, box(a, fk), box(b, fk), alpha, alpha_rot, names=self_names(a, b)))]
 
     def self_collision_far(p):
         # As obstacle_far: a pair farther apart than the activation distance is not evaluated.
         a, b = SELF_PAIRS[p.index]
         fk = kinematics(q, p.let, base=urdf.common_ancestor(ROBOT, a, b))
-        return prim.ssat_lower_bound(p, box(a, fk), box(b, fk), alpha, alpha_rot)
+        return prim.ssat_lower_bound(p, box(a, fk), box(b, fk), alpha, alpha_rot, names=self_names(a, b))
 
     s.family("self_collision", self_collision, over=[f"{short(a)}_{short(b)}" for a, b in SELF_PAIRS],
              poles=COLLISION_POLES,

@@ -2,14 +2,15 @@
 kernels, the family's chain kernel, and the chain's gradient contracted with the poses'
 input columns by ``cbfgen::compose::accumulate_columns``. Same name, signature and
 constants as the unrolled kernel it stands for (and, for a family with parameters, the
-same ``_state`` / ``_instance`` split), so the module around it does not change."""
+same ``_state`` / ``_instance`` split), so what calls it does not change; the filter calls
+``<member>_from_poses`` with each pose kernel evaluated once per cycle."""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 
 from ....kernel import Kernel
-from ...composition import SLOTS, MemberPlan, Static
+from ...composition import SLOTS, BoundPlan, MemberPlan, Static
 from .emitter import _doc_lines, float_literal, input_element, input_type, kernel_signature, rustdoc_text
 
 
@@ -28,37 +29,85 @@ def emit_composed_member(kernel: Kernel, plan: MemberPlan, degree: int, with_par
     moving = [(s, slot) for s, slot in zip(SLOTS, plan.slots, strict=True) if slot.moving]
     chain_args = []
     for s, slot in zip(SLOTS, plan.slots, strict=True):
-        chain_args += [f"pose_{s}", f"rates_{s}"] if slot.moving else [array(slot.pose)]
+        chain_args += [f"&pose_{s}.0", f"&pose_{s}.1"] if slot.moving else [array(slot.pose)]
     chain_args += [array(slot.half) for slot in plan.slots]
     grads = ", ".join(f"grad_{s}" for s, _ in moving)
-    assemble = [
+    args, ret = kernel_signature(kernel, runtime_crate)
+    params = [inp for inp in kernel.inputs if inp.name != "x"]
+    param_args = "".join(f", {p.name}: {input_type(p, runtime_crate)}" for p in params)
+    param_names = "".join(f", {p.name}" for p in params)
+    jet_types = {s: f"([f64; 12], [f64; {12 * degree}], [[f64; {len(slot.at)}]; 12])" for s, slot in moving}
+    poses = ", ".join(f"pose_{s}: &{jet_types[s]}" for s, _ in moving)
+    from_poses = [
+        f"/// [`{kernel.name}`] from its boxes' pose kernels ({', '.join(f'[`{slot.jet}`]' for _, slot in moving)}) "
+        "at the state: what the filter calls, each pose computed once per cycle for every row that reads it.",
+        *attributes, "#[inline]", f"pub fn {kernel.name}_from_poses({poses}{param_args}) -> {ret} {{",
         f"    let (lie, {grads}) = {plan.chain}({', '.join(chain_args)});",
         f"    let mut lg_lf = [0.0; {len(plan.columns)}];",
-        *(f"    {runtime_crate}::compose::accumulate_columns(&grad_{s}, lg_{s}, "
+        *(f"    {runtime_crate}::compose::accumulate_columns(&grad_{s}, &pose_{s}.2, "
           f"&[{', '.join(map(str, slot.at))}], &mut lg_lf);" for s, slot in moving),
-        "    ([lie], [lg_lf])",
-    ]
-    args, ret = kernel_signature(kernel, runtime_crate)
+        "    ([lie], [lg_lf])", "}"]
     consts: list[str] = []
     for c in kernel.constants:
         consts += [f"/// {rustdoc_text(c.doc)}", f"pub const {c.name}: {c.rust_type} = {c.value};"]
     head = [*_doc_lines(kernel), *attributes, "#[inline]"]
+    fresh = ", ".join(f"&{slot.jet}(x)" for _, slot in moving)
     if not with_params:
-        body = [f"    let (pose_{s}, rates_{s}, lg_{s}) = &{slot.jet}(x);" for s, slot in moving]
-        return "\n".join(consts + head + [f"pub fn {kernel.name}({args}) -> {ret} {{", *body, *assemble, "}"]) + "\n"
-    # A family with parameters: the poses once per cycle (``_state``), the chain per instance.
-    jet_types = [f"([f64; 12], [f64; {12 * degree}], [[f64; {len(slot.at)}]; 12])" for _, slot in moving]
-    state_type = "(" + ", ".join(jet_types) + ",)"
-    params = [inp for inp in kernel.inputs if inp.name != "x"]
-    param_args = "".join(f", {p.name}: {input_type(p, runtime_crate)}" for p in params)
+        whole = [*head, f"pub fn {kernel.name}({args}) -> {ret} {{",
+                 f"    {kernel.name}_from_poses({fresh}{param_names})", "}"]
+        return "\n".join(consts + from_poses + whole) + "\n"
+    # A family with parameters keeps the split every such family's kernels have: the poses
+    # once per cycle (``_state``), the rest per instance.
+    state_type = "(" + ", ".join(jet_types[s] for s, _ in moving) + ",)"
     state_fn = [f"/// The poses [`{kernel.name}`] reads: computed once per cycle for every instance, and handed to "
                 f"[`{kernel.name}_instance`].", *attributes, "#[inline]",
                 f"pub fn {kernel.name}_state(x: &[f64; {len(inputs['x'].symbols)}]) -> {state_type} {{",
                 "    (" + "".join(f"{slot.jet}(x), " for _, slot in moving) + ")", "}"]
     instance_fn = [f"/// One instance of [`{kernel.name}`], from [`{kernel.name}_state`]'s poses.", *attributes,
                    "#[inline]", f"pub fn {kernel.name}_instance(state_part: &{state_type}{param_args}) -> {ret} {{",
-                   *(f"    let (pose_{s}, rates_{s}, lg_{s}) = &state_part.{n};" for n, (s, _) in enumerate(moving)),
-                   *assemble, "}"]
+                   f"    {kernel.name}_from_poses("
+                   + ", ".join(f"&state_part.{n}" for n in range(len(moving))) + f"{param_names})", "}"]
     wrapper = [*head, f"pub fn {kernel.name}({args}) -> {ret} {{",
-               f"    {kernel.name}_instance(&{kernel.name}_state(x){''.join(f', {p.name}' for p in params)})", "}"]
-    return "\n".join(consts + state_fn + instance_fn + wrapper) + "\n"
+               f"    {kernel.name}_instance(&{kernel.name}_state(x){param_names})", "}"]
+    return "\n".join(consts + from_poses + state_fn + instance_fn + wrapper) + "\n"
+
+
+def emit_composed_bound(kernel: Kernel, plan: BoundPlan, with_params: bool, runtime_crate: str,
+                        attributes: Sequence[str] = ()) -> str:
+    """A composed member's lower bound: its boxes' value kernels and the family's bound
+    kernel, with the unrolled bound's name and signature (and split, with parameters)."""
+    inputs = {inp.name: inp for inp in kernel.inputs}
+
+    def array(values: Sequence[Static]) -> str:
+        return "&[" + ", ".join(input_element(inputs[v[0]], v[1]) if isinstance(v, tuple) else float_literal(v)
+                                for v in values) + "]"
+
+    moving = [(s, slot) for s, slot in zip(SLOTS, plan.slots, strict=True) if slot.moving]
+    params = [inp for inp in kernel.inputs if inp.name != "x"]
+    param_args = "".join(f", {p.name}: {input_type(p, runtime_crate)}" for p in params)
+    param_names = "".join(f", {p.name}" for p in params)
+    chain_args = [f"pose_{s}" if slot.moving else array(slot.pose) for s, slot in zip(SLOTS, plan.slots, strict=True)]
+    chain_args += [array(slot.half) for slot in plan.slots]
+    poses = ", ".join(f"pose_{s}: &[f64; 12]" for s, _ in moving)
+    from_poses = [f"/// [`{kernel.name}`] from its boxes' poses "
+                  f"({', '.join(f'[`{slot.jet}`]' for _, slot in moving)}) at the state.", *attributes, "#[inline]",
+                  f"pub fn {kernel.name}_from_poses({poses}{param_args}) -> f64 {{",
+                  f"    {plan.chain}({', '.join(chain_args)})", "}"]
+    args, _ = kernel_signature(kernel, runtime_crate)
+    head = [*_doc_lines(kernel), *attributes, "#[inline]"]
+    if not with_params:
+        whole = [*head, f"pub fn {kernel.name}({args}) -> f64 {{",
+                 f"    {kernel.name}_from_poses({', '.join(f'&{slot.jet}(x)' for _, slot in moving)}{param_names})",
+                 "}"]
+        return "\n".join(from_poses + whole) + "\n"
+    state_type = "(" + "[f64; 12], " * len(moving) + ")"
+    state_fn = [f"/// The poses [`{kernel.name}`] reads, once per cycle for every instance.", *attributes, "#[inline]",
+                f"pub fn {kernel.name}_state(x: &[f64; {len(inputs['x'].symbols)}]) -> {state_type} {{",
+                "    (" + "".join(f"{slot.jet}(x), " for _, slot in moving) + ")", "}"]
+    instance_fn = [f"/// One instance of [`{kernel.name}`], from [`{kernel.name}_state`]'s poses.", *attributes,
+                   "#[inline]", f"pub fn {kernel.name}_instance(state_part: &{state_type}{param_args}) -> f64 {{",
+                   f"    {kernel.name}_from_poses("
+                   + ", ".join(f"&state_part.{n}" for n in range(len(moving))) + f"{param_names})", "}"]
+    wrapper = [*head, f"pub fn {kernel.name}({args}) -> f64 {{",
+               f"    {kernel.name}_instance(&{kernel.name}_state(x){param_names})", "}"]
+    return "\n".join(from_poses + state_fn + instance_fn + wrapper) + "\n"

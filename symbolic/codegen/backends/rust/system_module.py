@@ -26,7 +26,7 @@ import json
 
 from ....spec import Domain, Interval, NonNegative, Positive, Real, Rotation, UnitVector
 from ...definition import FamilyDefinition, SystemDefinition
-from .composed import emit_composed_member
+from .composed import emit_composed_bound, emit_composed_member
 from .emitter import emit_kernel, emit_split_kernel, float_literal, kernel_fn_type, rustdoc_text
 from .kernel_table import emit_kernel_table
 
@@ -280,7 +280,11 @@ def _evaluate_family(w, f: FamilyDefinition) -> None:
         param_args = [_param_arg("p", p.name, p.shape) for p in f.params]
         args = per_cycle + param_args
         call = f"self::{k.name}({', '.join(args)})"
-        if f.params:
+        if f.composed:
+            poses = [f"{slot.jet}.get_or_insert_with(|| self::{slot.jet}(x))" for slot in f.composed[m].slots
+                     if slot.moving]
+            call = f"self::{k.name}_from_poses({', '.join(poses + param_args)})"
+        elif f.params:
             # The state's part of the kernel once per member and cycle, when an instance
             # first needs it (a member whose instances are all culled or absent never does).
             w("        let mut state_part = None;")
@@ -293,7 +297,12 @@ def _evaluate_family(w, f: FamilyDefinition) -> None:
             # A NaN bound fails the comparison: the rows are evaluated and show the NaN. Debug
             # builds evaluate a culled instance too and check the spec's promise, so a wrong
             # bound fails the user's tests, never a release build's control path.
-            if f.params:
+            if f.composed:
+                bound_plan = f.composed[m].bound
+                poses = [f"{slot.jet}.get_or_insert_with(|| self::{slot.jet}(x))" for slot in bound_plan.slots
+                         if slot.moving]
+                bound = f"self::{bound_plan.kernel}_from_poses({', '.join(poses + param_args)})"
+            elif f.params:
                 w("        let mut bound_part = None;")
                 bound_state = (f"bound_part.get_or_insert_with(|| "
                                f"self::{f.bounds[m].name}_state({', '.join(per_cycle)}))")
@@ -494,10 +503,14 @@ def _emit_kernels(out: list[str], d: SystemDefinition, rt: str) -> None:
                      for k in (*f.kernels, *f.bounds)}
     # A composed family's members are assembled from their pose and chain kernels.
     composed = {plan.kernel: (f, plan) for f in d.families for plan in f.composed}
+    composed_bounds = {plan.bound.kernel: (f, plan.bound) for f in d.families for plan in f.composed if plan.bound}
     for k in d.kernels():
         if k.name in composed:
             f, plan = composed[k.name]
             w(emit_composed_member(k, plan, f.degree, bool(f.params), rt, attributes=[KERNEL_ALLOWS]))
+        elif k.name in composed_bounds:
+            f, bound = composed_bounds[k.name]
+            w(emit_composed_bound(k, bound, bool(f.params), rt, attributes=[KERNEL_ALLOWS]))
         elif k.name in split_kernels:
             w(emit_split_kernel(k, rt, split_kernels[k.name], attributes=[KERNEL_ALLOWS]))
         else:
@@ -827,6 +840,9 @@ def _emit_barriers(out: list[str], d: SystemDefinition, rt: str) -> None:
     w(f"        {rt}::system::validate_time(t)?;")
     for f in d.families:
         _validate_family(w, f)
+    if d.jets:
+        # Composed rows' pose kernels: each evaluated once per cycle, when a row first needs it.
+        w("        " + " ".join(f"let mut {k.name} = None;" for k in d.jets))
     w("        let mut i = 0;")
     for f in d.families:
         _evaluate_family(w, f)
