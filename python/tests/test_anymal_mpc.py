@@ -3,7 +3,7 @@ Pinocchio on the same URDF: the rigid body it freezes at the standing state (mas
 of mass, rotational inertia: Pinocchio's ccrba at the SRDF's standing joints) as the flow
 moves it under forces at the feet; the feet's world positions and velocities at random
 states. The Jacobians against finite differences are in
-systems/anymal/tests/mpc_model.rs."""
+systems/anymal/tests/integration/mpc_model.rs."""
 
 from __future__ import annotations
 

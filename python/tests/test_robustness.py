@@ -1144,7 +1144,7 @@ them as push_edge does (their domains: half extents in [1e-6, 1e4], a proper rot
 so no row is evaluated on them; the kernel itself, reached past the domains through the
 kernel table, stays finite on every such box: the certified clearance divides only by
 square roots of sums with a positive floor. The filter's handling of a NaN h is tested in
-systems/tachyon3/tests/filter.rs."""
+systems/tachyon3/tests/integration/filter.rs."""
 
 
 @pytest.mark.parametrize("box", DEGENERATE_BOXES.values(), ids=DEGENERATE_BOXES.keys())

@@ -71,7 +71,7 @@ impl Pattern {
 const DIVERGED: f64 = 1e12;
 
 /// The lowest complementarity the centring aims at, as a fraction of the tolerance (at
-/// 0.1 a degenerate random problem of `tests/ocp.rs` stalled; with no floor the
+/// 0.1 a degenerate random problem of `tests/integration/ocp.rs` stalled; with no floor the
 /// kino-dynamic MPC's equality rows drove `Σ` to 10¹⁵).
 const MU_FLOOR: f64 = 0.01;
 

@@ -137,7 +137,7 @@ impl Terrain {
     /// meet only its face. A box cannot reach past the rise into the upper step without
     /// meeting wheels on that tread, and need not: a wheel outside this box whose
     /// centre is before the riser cannot reach the step's solid beyond the box
-    /// (`systems/tachyon3/tests/terrain.rs` checks it), and a wheel past the riser stands on the upper
+    /// (`systems/tachyon3/tests/integration/terrain.rs` checks it), and a wheel past the riser stands on the upper
     /// level, where its foot-height row keeps it above the tread.
     ///
     /// # Errors

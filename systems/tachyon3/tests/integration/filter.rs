@@ -6,11 +6,9 @@
 // Index loops mirror the formulas (rows × inputs) in this file.
 #![allow(clippy::needless_range_loop)]
 
+use crate::kkt;
 use cbfgen_tachyon3::catalog::Tachyon3FilterExt;
 use cbfgen_testkit::boxes as common;
-#[path = "common/kkt.rs"]
-mod kkt;
-use cbfgen_testkit::lexicographic_reference;
 
 use cbfgen::filter::{
     Backend, EcbfFilter, EcbfQp, FilterSettings, InputSource, QpStatus, RowSpec, Solver, SolverSettings,

@@ -4,8 +4,7 @@
 use cbfgen_tachyon3::generated::{self as gen, state};
 use cbfgen_tachyon3::sim::{self, Scenario, SimConfig};
 
-#[path = "common/terrain_contact.rs"]
-mod terrain_contact;
+use crate::terrain_contact;
 use terrain_contact::{assert_out_of_the_terrain, measured_run_in, Solids};
 
 /// The course's world: floor; flight 1 up +x from x = 1 (16.5 × 35 cm steps, 2.4 m wide)

@@ -1,8 +1,7 @@
 //! The generated constraint rows against numerical Lie derivatives and hand-built cases.
 
+use crate::tachyon3_state;
 use cbfgen_testkit::boxes as common;
-#[path = "common/tachyon3_state.rs"]
-mod tachyon3_state;
 
 use cbfgen_tachyon3::catalog::{Capacity, Catalog, EdgeCuboid, Environment, Family, HalfPlane, StabilityBound};
 use cbfgen_tachyon3::generated::{self as gen, FootholdPullParams};

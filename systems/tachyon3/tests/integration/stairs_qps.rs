@@ -3,9 +3,8 @@
 //! backend's answer verified, checked stage by stage against Clarabel, and equal to a
 //! cold solve of the same problem.
 
+use crate::replay;
 use cbfgen_testkit::lexicographic_reference;
-#[path = "common/replay.rs"]
-mod replay;
 
 use cbfgen::filter::{Backend, QpStatus, Solver};
 use cbfgen::qp::lexicographic::{LexicographicSolver, Outcome};

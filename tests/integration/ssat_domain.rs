@@ -4,7 +4,7 @@
 //!
 //! CI runs a few thousand cases per property with a fixed seed (about a second in
 //! release); a campaign is `PROPTEST_CASES=100000 PROPTEST_RNG_SEED=<n> cargo test
-//! --release --test ssat_domain`.
+//! --release --test integration ssat_domain`.
 
 use cbfgen::generated::ssat as kernels;
 use cbfgen::geometry::{MAX_COORDINATE, MAX_HALF_EXTENT, MIN_HALF_EXTENT, ROTATION_TOLERANCE};
@@ -381,7 +381,7 @@ fn kernels_have_decades_of_headroom_beyond_the_alpha_domain() {
 // Properties over the whole domain.
 
 /// `PROPTEST_CASES` and `PROPTEST_RNG_SEED` as proptest reads them; without a seed the
-/// draws are fixed, so CI runs the same cases every time (as systems/tachyon3/tests/filter_properties.rs).
+/// draws are fixed, so CI runs the same cases every time (as systems/tachyon3/tests/integration/filter_properties.rs).
 fn config(ci_cases: u32) -> Config {
     let base = Config::default();
     let cases = std::env::var("PROPTEST_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(ci_cases);

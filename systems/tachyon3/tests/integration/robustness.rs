@@ -6,8 +6,7 @@
 use cbfgen_tachyon3::catalog::Tachyon3FilterExt;
 use std::time::Duration;
 
-#[path = "common/singular.rs"]
-mod singular;
+use crate::singular;
 
 use cbfgen::filter::{domain, EcbfFilter, EcbfQp, FilterSettings, InputSource, RowSpec, SolverSettings};
 use cbfgen::system::{Gains, Poles};

@@ -7,14 +7,11 @@
 //! returned input, measured here, is reported relaxed, and no row met is.
 //!
 //! CI runs a few hundred cases with a fixed seed; the long fuzz run is
-//! `PROPTEST_CASES=100000 PROPTEST_RNG_SEED=<n> cargo test --release --test filter_properties`.
+//! `PROPTEST_CASES=100000 PROPTEST_RNG_SEED=<n> cargo test --release --test integration filter_properties`.
 
-#[path = "common/kkt.rs"]
-mod kkt;
+use crate::kkt;
+use crate::singular;
 use cbfgen_tachyon3::catalog::Tachyon3FilterExt;
-use cbfgen_testkit::lexicographic_reference;
-#[path = "common/singular.rs"]
-mod singular;
 
 use std::time::Duration;
 
@@ -88,7 +85,7 @@ fn solver_settings() -> impl Strategy<Value = SolverSettings> {
             log_range(SolverSettings::MIN_TOLERANCE, SolverSettings::MAX_TOLERANCE),
             log_range(SolverSettings::MIN_TOLERANCE, SolverSettings::MAX_TOLERANCE),
             // Up to 400 iterations keeps a case fast; the iteration bound itself is
-            // covered by systems/tachyon3/tests/robustness.rs.
+            // covered by systems/tachyon3/tests/integration/robustness.rs.
             1u32..400,
             log_range(SolverSettings::RHO_RANGE[0], SolverSettings::RHO_RANGE[1]),
             log_range(SolverSettings::SIGMA_RANGE[0], SolverSettings::SIGMA_RANGE[1]),

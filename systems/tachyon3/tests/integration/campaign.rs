@@ -10,8 +10,7 @@ use cbfgen_tachyon3::sim::campaign::{self, CampaignSettings, CourseRanges, Episo
 use cbfgen_tachyon3::sim::{self, Scenario, SimConfig, Summary};
 use cbfgen_tachyon3::terrain::Stairs;
 
-#[path = "common/terrain_contact.rs"]
-mod terrain_contact;
+use crate::terrain_contact;
 use terrain_contact::{assert_out_of_the_terrain, measured_run, Measured};
 
 /// Everything a summary says about safety and progress (its timings differ run to run).

@@ -9,8 +9,7 @@ use cbfgen_tachyon3::sim::gait::OriginRule;
 use cbfgen_tachyon3::sim::{self, Scenario, SimConfig};
 use cbfgen_tachyon3::terrain::Stairs;
 
-#[path = "common/terrain_contact.rs"]
-mod terrain_contact;
+use crate::terrain_contact;
 use terrain_contact::{assert_out_of_the_terrain, measured_run};
 
 #[test]

@@ -5,9 +5,8 @@
 //! filter that culls and one that evaluates every row give the same input, bit for bit,
 //! on the stairs run.
 
+use crate::tachyon3_state;
 use cbfgen_testkit::boxes::{random_rotation, rng};
-#[path = "common/tachyon3_state.rs"]
-mod tachyon3_state;
 
 use cbfgen::system::BarrierSet;
 use cbfgen::OrientedBox;

@@ -10,8 +10,7 @@ use cbfgen_tachyon3::model::STATE_NAMES;
 use cbfgen_tachyon3::sim::{self, output, Scenario, SimConfig};
 use cbfgen_tachyon3::terrain::Stairs;
 
-#[path = "common/terrain_contact.rs"]
-mod terrain_contact;
+use crate::terrain_contact;
 use terrain_contact::{assert_out_of_the_terrain, measured_run, PENETRATION_TOLERANCE};
 
 #[test]

@@ -4,9 +4,8 @@
 //! documented bound. The exact distance is checked against a second, world-frame
 //! implementation everywhere and against parry3d on a subset.
 
+use crate::tachyon3_state;
 use cbfgen_testkit::boxes as common;
-#[path = "common/tachyon3_state.rs"]
-mod tachyon3_state;
 
 use cbfgen::geometry::{MAX_COORDINATE, MAX_HALF_EXTENT, MIN_HALF_EXTENT};
 use cbfgen::sphere_box::{self, Smoothing, Sphere, ALPHA_MAX, ALPHA_MIN, DEFAULT_ALPHA};

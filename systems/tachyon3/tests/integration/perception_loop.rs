@@ -8,8 +8,7 @@
 use cbfgen_tachyon3::sim::perceived::PerceptionSettings;
 use cbfgen_tachyon3::sim::{self, Scenario, SimConfig, SimResult};
 
-#[path = "common/terrain_contact.rs"]
-mod terrain_contact;
+use crate::terrain_contact;
 use terrain_contact::{assert_out_of_the_terrain, measured_run};
 
 fn perceived_run(scenario: Scenario) -> SimResult {
