@@ -148,15 +148,21 @@ class Jets:
         self._values: dict[tuple, Kernel] = {}
         self.kernels: list[Kernel] = []
 
-    def get(self, where: str, name: str, entries: Sequence[se.Expr], source: Kernel) -> Jet:
+    def _key(self, where: str, name: str, entries: Sequence[se.Expr], source: Kernel, known: dict):
+        """(the placement's key, the definitions it reads); a new placement under a name
+        already taken is an error."""
         defs = _closure(source, entries)
         key = (tuple(map(str, entries)),
                tuple((str(d.symbol), str(d.expr) if isinstance(d, Let) else tuple(map(str, d.exprs)))
                      for d in defs))
+        if key not in known and any(k.name == name for k in self.kernels):
+            raise SpecError(f"{where}: pose kernel {name!r} already places another box (or the same box in "
+                            "another frame); give each its own name")
+        return key, defs
+
+    def get(self, where: str, name: str, entries: Sequence[se.Expr], source: Kernel) -> Jet:
+        key, defs = self._key(where, name, entries, source, self._by_key)
         if key not in self._by_key:
-            if any(k.name == name for k in self.kernels):
-                raise SpecError(f"{where}: pose kernel {name!r} already places another box (or the same box in "
-                                "another frame); give each its own name")
             self._by_key[key] = jet = self._build(where, name, entries, defs)
             self.kernels.append(jet.kernel)
         return self._by_key[key]
@@ -164,15 +170,9 @@ class Jets:
     def value(self, where: str, name: str, entries: Sequence[se.Expr], source: Kernel) -> Kernel:
         """The value-only kernel ``<name>_value`` of a placed box (for lower bounds: the pose
         without its derivatives), shared as the pose kernels are."""
-        defs = _closure(source, entries)
-        key = ("value", tuple(map(str, entries)),
-               tuple((str(d.symbol), str(d.expr) if isinstance(d, Let) else tuple(map(str, d.exprs)))
-                     for d in defs))
+        value_name = f"{name}_value"
+        key, defs = self._key(where, value_name, entries, source, self._values)
         if key not in self._values:
-            value_name = f"{name}_value"
-            if any(k.name == value_name for k in self.kernels):
-                raise SpecError(f"{where}: pose kernel {value_name!r} already places another box (or the same "
-                                "box in another frame); give each its own name")
             k = Kernel(value_name, "The pose of a box, value only (what lower bounds read): centre, then rotation "
                                    "row by row.")
             k.array_input("x", self.system.state_names, "state, laid out as `STATE_NAMES`")

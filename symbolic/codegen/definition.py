@@ -263,6 +263,34 @@ def _recorded_call(where: str, k: Kernel, rows_or_value, recorder: Recorder, wha
     return recorder.calls[0]
 
 
+def _boxes(system: System, where: str, k: Kernel, call, row_kernel: str):
+    """Per box of a recorded call: (its pose entries, the name of its pose kernel when it
+    moves with the state, else its fixed pose) and its half extents (fixed)."""
+    params = {sym: (inp.name, n) for inp in k.inputs if inp.name != "x" for n, sym in enumerate(inp.symbols)}
+    lets = {d.symbol: d.expr for d in k.definitions if isinstance(d, Let)}
+    base = _base_symbols(k)
+    state_set = frozenset(system.x)
+    out = []
+    for slot_name, box, given in zip(SLOTS, call.boxes, call.names, strict=True):
+        entries = pose_entries(box)
+        reads = frozenset().union(*(base(e) for e in entries))
+        half = tuple(_static(where, se.sympify(e), lets, params, "half extents") for e in box[2])
+        if not reads & state_set:
+            out.append((entries, None, tuple(_static(where, e, lets, params, "pose") for e in entries), half))
+            continue
+        if reads - state_set:
+            raise SpecError(f"{where}: box {slot_name.upper()} moves with the state and depends on parameters "
+                            f"{sorted(map(str, reads - state_set))}; compose=True needs a box that moves to be "
+                            "placed by the state alone")
+        name = f"pose_{given}" if given else f"{row_kernel}_pose_{slot_name}"
+        try:
+            check_identifier(where, "pose name", name, module_item=True)
+        except SpecError as exc:
+            raise SpecError(f"{where}: names: {exc}") from exc
+        out.append((entries, name, (), half))
+    return out
+
+
 def _composed_bound(system: System, family: Family, where: str, row_kernel: str, index, label, required,
                     jets: Jets, unrolled: bool, chains: dict):
     """One member's lower bound, composed: the boxes' value kernels and the family's bound
@@ -279,20 +307,8 @@ def _composed_bound(system: System, family: Family, where: str, row_kernel: str,
     with ctx.active():
         value = family.lower_bound(ctx)
     call = _recorded_call(where, k, value, recorder, "lower_bound")
-    params = {sym: (inp.name, n) for inp in k.inputs if inp.name != "x" for n, sym in enumerate(inp.symbols)}
-    lets = {d.symbol: d.expr for d in k.definitions if isinstance(d, Let)}
-    base = _base_symbols(k)
-    state_set = frozenset(system.x)
-    slots = []
-    for slot_name, box in zip(SLOTS, call.boxes, strict=True):
-        entries = pose_entries(box)
-        half = tuple(_static(where, se.sympify(e), lets, params, "half extents") for e in box[2])
-        if frozenset().union(*(base(e) for e in entries)) & state_set:
-            given = call.names[len(slots)]
-            jet_name = f"pose_{given}" if given else f"{row_kernel}_pose_{slot_name}"
-            slots.append(Slot(jets.value(where, jet_name, entries, k).name, (), (), half))
-        else:
-            slots.append(Slot(None, (), tuple(_static(where, e, lets, params, "pose") for e in entries), half))
+    slots = [Slot(jets.value(where, name, entries, k).name if name else None, (), pose, half)
+             for entries, name, pose, half in _boxes(system, where, k, call, row_kernel)]
     moving = tuple(s.moving for s in slots)
     if moving not in chains:
         variant = "" if all(moving) else "_fixed_" + "".join(s for s, m in zip(SLOTS, moving, strict=True) if not m)
@@ -312,7 +328,6 @@ def _composed_bound(system: System, family: Family, where: str, row_kernel: str,
 def _composed(system: System, family: Family, where: str, members, required, jets: Jets, unrolled: bool):
     """A ``compose=True`` family's members (signatures, or their unrolled rows), how each is
     assembled and the family's chain kernels (:mod:`symbolic.codegen.composition`)."""
-    state_set = frozenset(system.x)
     plans: list[MemberPlan] = []
     built: list[RowKernel] = []
     chains: dict[tuple[bool, ...], Kernel] = {}
@@ -335,31 +350,12 @@ def _composed(system: System, family: Family, where: str, members, required, jet
         if len(rows) != 1:
             raise SpecError(f"{member_where}: compose=True needs h to return one row, got {len(rows)}")
         call = _recorded_call(member_where, k, rows[0][1], recorder, "h")
-        params = {sym: (inp.name, n) for inp in k.inputs if inp.name != "x" for n, sym in enumerate(inp.symbols)}
-        base = _base_symbols(k)
-        lets = {d.symbol: d.expr for d in k.definitions if isinstance(d, Let)}
-
         slots, jet_list = [], []
-        for slot_name, box in zip(SLOTS, call.boxes, strict=True):
-            entries = pose_entries(box)
-            reads = frozenset().union(*(base(e) for e in entries))
-            half = tuple(_static(member_where, se.sympify(e), lets, params, "half extents") for e in box[2])
-            if reads & state_set:
-                if reads - state_set:
-                    raise SpecError(f"{member_where}: box {slot_name.upper()} moves with the state and depends on "
-                                    f"parameters {sorted(map(str, reads - state_set))}; compose=True needs a box "
-                                    "that moves to be placed by the state alone")
-                given = call.names[len(slots)]
-                jet_name = f"pose_{given}" if given else f"{name}_pose_{slot_name}"
-                try:
-                    check_identifier(member_where, "pose name", jet_name, module_item=True)
-                except SpecError as exc:
-                    raise SpecError(f"{member_where}: names: {exc}") from exc
-                jet = jets.get(member_where, jet_name, entries, k)
+        for entries, jet_name, pose, half in _boxes(system, member_where, k, call, name):
+            jet = jets.get(member_where, jet_name, entries, k) if jet_name else None
+            if jet:
                 jet_list.append(jet)
-                slots.append((jet, (), half))
-            else:
-                slots.append((None, tuple(_static(member_where, e, lets, params, "pose") for e in entries), half))
+            slots.append((jet, pose, half))
         if not jet_list:
             raise SpecError(f"{member_where}: neither box moves with the state; no input can change the row")
         degrees = {j.degree for j in jet_list}

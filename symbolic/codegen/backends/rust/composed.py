@@ -14,18 +14,20 @@ from ...composition import SLOTS, BoundPlan, MemberPlan, Static
 from .emitter import _doc_lines, float_literal, input_element, input_type, kernel_signature, rustdoc_text
 
 
-def emit_composed_member(kernel: Kernel, plan: MemberPlan, degree: int, with_params: bool, runtime_crate: str,
-                         attributes: Sequence[str] = ()) -> str:
+def _fixed_array(kernel: Kernel):
+    """A fixed box's entries (numbers, or the kernel's parameter components) as a Rust array
+    reference."""
     inputs = {inp.name: inp for inp in kernel.inputs}
 
-    def value(v: Static) -> str:
-        if isinstance(v, tuple):
-            return input_element(inputs[v[0]], v[1])
-        return float_literal(v)
-
     def array(values: Sequence[Static]) -> str:
-        return "&[" + ", ".join(value(v) for v in values) + "]"
+        return "&[" + ", ".join(input_element(inputs[v[0]], v[1]) if isinstance(v, tuple) else float_literal(v)
+                                for v in values) + "]"
+    return array
 
+
+def emit_composed_member(kernel: Kernel, plan: MemberPlan, degree: int, with_params: bool, runtime_crate: str,
+                         attributes: Sequence[str] = ()) -> str:
+    array = _fixed_array(kernel)
     moving = [(s, slot) for s, slot in zip(SLOTS, plan.slots, strict=True) if slot.moving]
     chain_args = []
     for s, slot in zip(SLOTS, plan.slots, strict=True):
@@ -35,7 +37,6 @@ def emit_composed_member(kernel: Kernel, plan: MemberPlan, degree: int, with_par
     args, ret = kernel_signature(kernel, runtime_crate)
     params = [inp for inp in kernel.inputs if inp.name != "x"]
     param_args = "".join(f", {p.name}: {input_type(p, runtime_crate)}" for p in params)
-    param_names = "".join(f", {p.name}" for p in params)
     jet_types = {s: f"([f64; 12], [f64; {12 * degree}], [[f64; {len(slot.at)}]; 12])" for s, slot in moving}
     poses = ", ".join(f"pose_{s}: &{jet_types[s]}" for s, _ in moving)
     from_poses = [
@@ -50,42 +51,46 @@ def emit_composed_member(kernel: Kernel, plan: MemberPlan, degree: int, with_par
     consts: list[str] = []
     for c in kernel.constants:
         consts += [f"/// {rustdoc_text(c.doc)}", f"pub const {c.name}: {c.rust_type} = {c.value};"]
+    jets = [(slot.jet, jet_types[s]) for s, slot in moving]
+    return "\n".join(consts + from_poses + _entry_points(kernel, jets, ret, with_params, runtime_crate,
+                                                          attributes)) + "\n"
+
+
+def _entry_points(kernel: Kernel, jets: Sequence[tuple[str, str]], ret: str, with_params: bool,
+                  runtime_crate: str, attributes: Sequence[str]) -> list[str]:
+    """``<kernel>(x, params...)`` over ``<kernel>_from_poses`` with the poses ``jets`` (name,
+    Rust type) evaluated afresh; with parameters also the ``_state`` / ``_instance`` split
+    every family with parameters has (the poses once per cycle, the rest per instance)."""
+    args, _ = kernel_signature(kernel, runtime_crate)
+    params = [inp for inp in kernel.inputs if inp.name != "x"]
+    param_args = "".join(f", {p.name}: {input_type(p, runtime_crate)}" for p in params)
+    param_names = "".join(f", {p.name}" for p in params)
     head = [*_doc_lines(kernel), *attributes, "#[inline]"]
-    fresh = ", ".join(f"&{slot.jet}(x)" for _, slot in moving)
     if not with_params:
-        whole = [*head, f"pub fn {kernel.name}({args}) -> {ret} {{",
-                 f"    {kernel.name}_from_poses({fresh}{param_names})", "}"]
-        return "\n".join(consts + from_poses + whole) + "\n"
-    # A family with parameters keeps the split every such family's kernels have: the poses
-    # once per cycle (``_state``), the rest per instance.
-    state_type = "(" + ", ".join(jet_types[s] for s, _ in moving) + ",)"
-    state_fn = [f"/// The poses [`{kernel.name}`] reads: computed once per cycle for every instance, and handed to "
-                f"[`{kernel.name}_instance`].", *attributes, "#[inline]",
-                f"pub fn {kernel.name}_state(x: &[f64; {len(inputs['x'].symbols)}]) -> {state_type} {{",
-                "    (" + "".join(f"{slot.jet}(x), " for _, slot in moving) + ")", "}"]
-    instance_fn = [f"/// One instance of [`{kernel.name}`], from [`{kernel.name}_state`]'s poses.", *attributes,
-                   "#[inline]", f"pub fn {kernel.name}_instance(state_part: &{state_type}{param_args}) -> {ret} {{",
-                   f"    {kernel.name}_from_poses("
-                   + ", ".join(f"&state_part.{n}" for n in range(len(moving))) + f"{param_names})", "}"]
-    wrapper = [*head, f"pub fn {kernel.name}({args}) -> {ret} {{",
-               f"    {kernel.name}_instance(&{kernel.name}_state(x){param_names})", "}"]
-    return "\n".join(consts + from_poses + state_fn + instance_fn + wrapper) + "\n"
+        return [*head, f"pub fn {kernel.name}({args}) -> {ret} {{",
+                f"    {kernel.name}_from_poses({', '.join(f'&{jet}(x)' for jet, _ in jets)}{param_names})", "}"]
+    state_type = "(" + ", ".join(t for _, t in jets) + ",)"
+    n_x = len(next(inp for inp in kernel.inputs if inp.name == "x").symbols)
+    return [f"/// The poses [`{kernel.name}`] reads: computed once per cycle for every instance, and handed to "
+            f"[`{kernel.name}_instance`].", *attributes, "#[inline]",
+            f"pub fn {kernel.name}_state(x: &[f64; {n_x}]) -> {state_type} {{",
+            "    (" + "".join(f"{jet}(x), " for jet, _ in jets) + ")", "}",
+            f"/// One instance of [`{kernel.name}`], from [`{kernel.name}_state`]'s poses.", *attributes,
+            "#[inline]", f"pub fn {kernel.name}_instance(state_part: &{state_type}{param_args}) -> {ret} {{",
+            f"    {kernel.name}_from_poses(" + ", ".join(f"&state_part.{n}" for n in range(len(jets)))
+            + f"{param_names})", "}",
+            *head, f"pub fn {kernel.name}({args}) -> {ret} {{",
+            f"    {kernel.name}_instance(&{kernel.name}_state(x){param_names})", "}"]
 
 
 def emit_composed_bound(kernel: Kernel, plan: BoundPlan, with_params: bool, runtime_crate: str,
                         attributes: Sequence[str] = ()) -> str:
     """A composed member's lower bound: its boxes' value kernels and the family's bound
     kernel, with the unrolled bound's name and signature (and split, with parameters)."""
-    inputs = {inp.name: inp for inp in kernel.inputs}
-
-    def array(values: Sequence[Static]) -> str:
-        return "&[" + ", ".join(input_element(inputs[v[0]], v[1]) if isinstance(v, tuple) else float_literal(v)
-                                for v in values) + "]"
-
+    array = _fixed_array(kernel)
     moving = [(s, slot) for s, slot in zip(SLOTS, plan.slots, strict=True) if slot.moving]
     params = [inp for inp in kernel.inputs if inp.name != "x"]
     param_args = "".join(f", {p.name}: {input_type(p, runtime_crate)}" for p in params)
-    param_names = "".join(f", {p.name}" for p in params)
     chain_args = [f"pose_{s}" if slot.moving else array(slot.pose) for s, slot in zip(SLOTS, plan.slots, strict=True)]
     chain_args += [array(slot.half) for slot in plan.slots]
     poses = ", ".join(f"pose_{s}: &[f64; 12]" for s, _ in moving)
@@ -93,21 +98,5 @@ def emit_composed_bound(kernel: Kernel, plan: BoundPlan, with_params: bool, runt
                   f"({', '.join(f'[`{slot.jet}`]' for _, slot in moving)}) at the state.", *attributes, "#[inline]",
                   f"pub fn {kernel.name}_from_poses({poses}{param_args}) -> f64 {{",
                   f"    {plan.chain}({', '.join(chain_args)})", "}"]
-    args, _ = kernel_signature(kernel, runtime_crate)
-    head = [*_doc_lines(kernel), *attributes, "#[inline]"]
-    if not with_params:
-        whole = [*head, f"pub fn {kernel.name}({args}) -> f64 {{",
-                 f"    {kernel.name}_from_poses({', '.join(f'&{slot.jet}(x)' for _, slot in moving)}{param_names})",
-                 "}"]
-        return "\n".join(from_poses + whole) + "\n"
-    state_type = "(" + "[f64; 12], " * len(moving) + ")"
-    state_fn = [f"/// The poses [`{kernel.name}`] reads, once per cycle for every instance.", *attributes, "#[inline]",
-                f"pub fn {kernel.name}_state(x: &[f64; {len(inputs['x'].symbols)}]) -> {state_type} {{",
-                "    (" + "".join(f"{slot.jet}(x), " for _, slot in moving) + ")", "}"]
-    instance_fn = [f"/// One instance of [`{kernel.name}`], from [`{kernel.name}_state`]'s poses.", *attributes,
-                   "#[inline]", f"pub fn {kernel.name}_instance(state_part: &{state_type}{param_args}) -> f64 {{",
-                   f"    {kernel.name}_from_poses("
-                   + ", ".join(f"&state_part.{n}" for n in range(len(moving))) + f"{param_names})", "}"]
-    wrapper = [*head, f"pub fn {kernel.name}({args}) -> f64 {{",
-               f"    {kernel.name}_instance(&{kernel.name}_state(x){param_names})", "}"]
-    return "\n".join(from_poses + state_fn + instance_fn + wrapper) + "\n"
+    jets = [(slot.jet, "[f64; 12]") for _, slot in moving]
+    return "\n".join(from_poses + _entry_points(kernel, jets, "f64", with_params, runtime_crate, attributes)) + "\n"
