@@ -6,9 +6,10 @@ edit regenerates and recompiles it: its size is what makes a system light or hea
 change. The figures are the lines of each file as generated, with a little room (about
 3 %) for a spec's ordinary edits. The repository's target is 100 000 lines in all
 (DESIGN.md, "Weight"); the figures below are where it stands on the way there: the
-Panda's and ANYmal's collision pairs are composed (pose kernels + one chain kernel per
-family, ``compose=True``), the Panda-as-spheres' and the whole-body models' kernels not
-yet.
+Panda's and ANYmal's collision pairs and their lower bounds are composed (pose kernels +
+one chain kernel per family, ``compose=True``: 177 498 lines in all, from 425 138); the
+pose kernels themselves (the Panda's 24 are 28 000 lines), the Panda-as-spheres' sphere
+centres and the whole-body models' kernels are not yet.
 """
 
 from __future__ import annotations
@@ -21,15 +22,15 @@ BUDGET = {
     "generated/ssat.rs": 6_700,
     "generated/sphere_box.rs": 320,
     "generated/mod.rs": 20,
-    "systems/anymal/generated/anymal.rs": 50_000,
+    "systems/anymal/generated/anymal.rs": 40_100,
     "systems/anymal/generated/anymal_mpc.rs": 11_900,
     "systems/anymal/generated/anymal_wbc.rs": 22_100,
     "systems/double_integrator/generated/double_integrator.rs": 560,
-    "systems/panda/generated/panda.rs": 52_600,
+    "systems/panda/generated/panda.rs": 50_500,
     "systems/panda_spheres/generated/panda_spheres.rs": 40_100,
     "systems/tachyon3/generated/tachyon3.rs": 10_700,
 }
-TOTAL = 195_000
+TOTAL = 183_000
 
 
 def generated_files() -> list[str]:
