@@ -253,9 +253,13 @@ def _static(where: str, e: se.Expr, lets: dict, params: dict, what: str) -> Stat
                     f"not {e}; declare the family without compose=True")
 
 
-def _recorded_call(where: str, k: Kernel, rows_or_value, recorder: Recorder, what: str):
+def _variant(moving: tuple[bool, ...]) -> str:
+    """A chain or bound kernel's name suffix: which boxes are fixed (``_fixed_a``), if any."""
+    return "" if all(moving) else "_fixed_" + "".join(s for s, m in zip(SLOTS, moving, strict=True) if not m)
+
+
+def _recorded_call(where: str, value, recorder: Recorder, what: str):
     """The one primitive call a composed family's ``h`` (or ``lower_bound``) must be."""
-    value = rows_or_value
     if not (len(recorder.calls) == 1 and value == recorder.calls[0].placeholder):
         raise SpecError(f"{where}: compose=True needs {what} to be one composable primitive call (prim.ssat, "
                         "prim.ssat_lower_bound) with nothing added to it; declare the family without compose=True "
@@ -306,13 +310,12 @@ def _composed_bound(system: System, family: Family, where: str, row_kernel: str,
     ctx = FamilyContext(where, k, k, values, None, index, label, family.params, required, composer=recorder)
     with ctx.active():
         value = family.lower_bound(ctx)
-    call = _recorded_call(where, k, value, recorder, "lower_bound")
+    call = _recorded_call(where, value, recorder, "lower_bound")
     slots = [Slot(jets.value(where, name, entries, k).name if name else None, (), pose, half)
              for entries, name, pose, half in _boxes(system, where, k, call, row_kernel)]
     moving = tuple(s.moving for s in slots)
     if moving not in chains:
-        variant = "" if all(moving) else "_fixed_" + "".join(s for s, m in zip(SLOTS, moving, strict=True) if not m)
-        chains[moving] = build_bound(where, f"{family.name}_bound{variant}", call)
+        chains[moving] = build_bound(where, f"{family.name}_bound{_variant(moving)}", call)
     plan = BoundPlan(name, chains[moving].name, tuple(slots))
     if unrolled:
         return _lower_bound(system, family, where, row_kernel, index, label, required), plan
@@ -349,7 +352,7 @@ def _composed(system: System, family: Family, where: str, members, required, jet
             rows = _rows(member_where, family, family.h(ctx))
         if len(rows) != 1:
             raise SpecError(f"{member_where}: compose=True needs h to return one row, got {len(rows)}")
-        call = _recorded_call(member_where, k, rows[0][1], recorder, "h")
+        call = _recorded_call(member_where, rows[0][1], recorder, "h")
         slots, jet_list = [], []
         for entries, jet_name, pose, half in _boxes(system, member_where, k, call, name):
             jet = jets.get(member_where, jet_name, entries, k) if jet_name else None
@@ -375,9 +378,7 @@ def _composed(system: System, family: Family, where: str, members, required, jet
             raise SpecError(f"{member_where}: compose=True needs every member to call the same primitive with the "
                             f"same options (one chain kernel serves them all): {options} against {first}")
         if moving not in chains:
-            variant = "" if all(moving) else "_fixed_" + "".join(s for s, m in zip(SLOTS, moving, strict=True)
-                                                                    if not m)
-            chains[moving] = build_chain(where, f"{family.name}_chain{variant}", call, moving, degree)
+            chains[moving] = build_chain(where, f"{family.name}_chain{_variant(moving)}", call, moving, degree)
         bound_plan = None
         if family.lower_bound is not None:
             bound_where = f"{where}, lower_bound" + (f", member {label!r}" if label else "")
