@@ -88,6 +88,12 @@ def _rot_x(angle: float) -> np.ndarray:
     return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
 
 
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b of two 3-vectors: numpy's products and differences in numpy's order, without
+    its general machinery (the loop calls it tens of thousands of times a run)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
 def _quat_of(rotation: np.ndarray) -> np.ndarray:
     q = np.zeros(4)
     mujoco.mju_mat2Quat(q, np.ascontiguousarray(rotation).ravel())
@@ -109,10 +115,18 @@ class PhysicalRobot:
         self.body_geom = name(m, mujoco.mjtObj.mjOBJ_GEOM, "body")
         self.wheels = [name(m, mujoco.mjtObj.mjOBJ_BODY, f"{leg}_wheel") for leg in t3.LEG_NAMES]
         self.toe_geoms = [name(m, mujoco.mjtObj.mjOBJ_GEOM, f"{leg}_toe") for leg in t3.LEG_NAMES]
+        # Geom id -> leg, -1 for every other geom: contacts are classified in one lookup.
+        self._leg_of_geom = np.full(m.ngeom, -1)
+        self._leg_of_geom[self.toe_geoms] = np.arange(len(self.toe_geoms))
         geom_names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or "" for g in range(m.ngeom)]
         self.terrain_geoms = [g for g, n in enumerate(geom_names) if n.startswith("terrain")]
         # The solids as (centre, rotation, half extents), for the wheels' exact distances.
         self.solids = [(np.asarray(c), np.asarray(r), np.asarray(h)) for c, r, h in course.terrain_boxes()]
+        # The same, stacked: the per-cycle measures run on every solid at once.
+        self._solid_centers = np.array([c for c, _, _ in self.solids])
+        self._solid_rotations = np.array([r for _, r, _ in self.solids])
+        self._solid_halves = np.array([h for _, _, h in self.solids])
+        self.solid_tops = self._solid_centers[:, 2] + self._solid_halves[:, 2]
 
         def joint(kind: str) -> tuple[list[int], list[int]]:
             ids = [name(m, mujoco.mjtObj.mjOBJ_JOINT, f"{leg}_{kind}") for leg in t3.LEG_NAMES]
@@ -200,7 +214,7 @@ class PhysicalRobot:
 
         def relative(position: np.ndarray, velocity: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             rel = to_origin @ (position - origin)
-            return rel, to_origin @ (velocity - origin_velocity) - np.cross(spin, rel)
+            return rel, to_origin @ (velocity - origin_velocity) - _cross(spin, rel)
 
         # The model holds no roll, so it reads the robot's joints on the upright robot: a
         # knee lengthened under one side shows as that toe lower, where the gait and
@@ -250,16 +264,20 @@ class PhysicalRobot:
     def contacts(self) -> tuple[bool, int]:
         """(the body touches the terrain, toes touching a riser or an edge: a contact whose
         normal is more than :data:`RISER_ANGLE` from vertical)."""
-        d = self.data
-        body_contact, toe_riser = False, 0
-        toes = set(self.toe_geoms)
-        for c in d.contact[: d.ncon]:
-            pair = {int(c.geom1), int(c.geom2)}
-            if self.body_geom in pair:
-                body_contact = True
-            elif pair & toes and abs(c.frame[2]) < np.cos(RISER_ANGLE):
-                toe_riser += 1
-        return body_contact, toe_riser
+        contact = self.data.contact  # MuJoCo's active contacts, one array per field
+        geom1, geom2 = contact.geom1, contact.geom2
+        body = (geom1 == self.body_geom) | (geom2 == self.body_geom)
+        toe = (self._leg_of_geom[geom1] >= 0) | (self._leg_of_geom[geom2] >= 0)
+        riser = ~body & toe & (np.abs(contact.frame[:, 2]) < np.cos(RISER_ANGLE))
+        return bool(body.any()), int(riser.sum())
+
+    def ground_under(self, point: np.ndarray) -> float:
+        """The top of the highest solid under ``point`` (x, y) [m]: the true ground (the
+        course's floor height is what it perceives); 0 off every solid."""
+        offset = point[:2] - self._solid_centers[:, :2]
+        local = np.einsum("sji,sj->si", self._solid_rotations[:, :2, :2], offset)
+        under = np.all(np.abs(local) <= self._solid_halves[:, :2], axis=1)
+        return float(self.solid_tops[under].max(initial=0.0))
 
     def body_distance(self) -> float:
         """MuJoCo's signed distance between the body box and the nearest terrain box [m]
@@ -275,39 +293,37 @@ class PhysicalRobot:
         A riser is where the normal from the solid's nearest point to the wheel's centre
         (or, for a centre inside, the face it is least deep under) is more than
         :data:`RISER_ANGLE` from vertical, as :meth:`contacts` reads MuJoCo's normals."""
-        nearest, riser = np.inf, np.inf
-        for wheel in self.wheels:
-            center = self.data.xpos[wheel]
-            for c, rot, half in self.solids:
-                local = rot.T @ (center - c)
-                outward = local - np.clip(local, -half, half)
-                if outward.any():
-                    distance = float(np.linalg.norm(outward)) - t3.TOE_RADIUS
-                    normal = outward
-                else:
-                    depth = half - np.abs(local)
-                    axis = int(np.argmin(depth))
-                    distance = -float(depth[axis]) - t3.TOE_RADIUS
-                    normal = np.eye(3)[axis]
-                nearest = min(nearest, distance)
-                if abs((rot @ normal)[2]) < np.cos(RISER_ANGLE) * np.linalg.norm(normal):
-                    riser = min(riser, distance)
-        return nearest, riser
+        centers = self.data.xpos[self.wheels]  # (wheel, 3)
+        rotations, halves = self._solid_rotations, self._solid_halves
+        # Each wheel centre in each solid's frame: (wheel, solid, 3).
+        local = np.einsum("sji,wsj->wsi", rotations, centers[:, None, :] - self._solid_centers)
+        outward = local - np.clip(local, -halves, halves)
+        outside = outward.any(axis=2)
+        depth = halves - np.abs(local)
+        least = depth.argmin(axis=2)
+        inside_distance = -np.take_along_axis(depth, least[..., None], axis=2)[..., 0]
+        distance = np.where(outside, np.linalg.norm(outward, axis=2), inside_distance) - t3.TOE_RADIUS
+        # Outside: the normal is the offset from the nearest point; inside: the face's axis.
+        normal = np.where(outside[..., None], outward, np.eye(3)[least])
+        vertical = np.einsum("sj,wsj->ws", rotations[:, 2, :], normal)
+        riser = np.abs(vertical) < np.cos(RISER_ANGLE) * np.linalg.norm(normal, axis=2)
+        return float(distance.min()), float(distance[riser].min(initial=np.inf))
 
     def slip(self) -> np.ndarray:
         """Each wheel's slip speed where it touches the terrain [m/s] (NaN in the air):
         the speed of the wheel's material at the contact point."""
-        d = self.data
+        d, contact = self.data, self.data.contact
         out = np.full(6, np.nan)
-        for c in d.contact[: d.ncon]:
-            for leg, g in enumerate(self.toe_geoms):
-                if g in (int(c.geom1), int(c.geom2)):
-                    w = self._velocity_of(self.wheels[leg])
-                    offset = c.pos - d.xpos[self.wheels[leg]]
-                    point = w[3:] + np.cross(w[:3], offset)
-                    normal = c.frame[:3]
-                    tangential = point - normal * point.dot(normal)
-                    out[leg] = float(np.linalg.norm(tangential))
+        legs = self._leg_of_geom
+        for c in range(d.ncon):
+            for leg in (legs[contact.geom1[c]], legs[contact.geom2[c]]):
+                if leg < 0:
+                    continue
+                w = self._velocity_of(self.wheels[leg])
+                point = w[3:] + _cross(w[:3], contact.pos[c] - d.xpos[self.wheels[leg]])
+                normal = contact.frame[c, :3]
+                tangential = point - normal * point.dot(normal)
+                out[leg] = float(np.linalg.norm(tangential))
         return out
 
 
@@ -536,14 +552,21 @@ class PoseEstimate:
         return out
 
 
-def _min_h_by_family(filt) -> dict[str, float]:
-    lie = filt.lie
-    applicable = filt.applicable
-    out: dict[str, float] = {}
-    for (family, _member, _instance, _row), row, used in zip(filt.layout, lie, applicable, strict=True):
-        if used:
-            out[family] = min(out.get(family, np.inf), float(row[0]))
-    return out
+class _MinHByFamily:
+    """Per cycle, each family's least h over its applied rows (the layout is fixed, so the
+    rows are grouped by family once)."""
+
+    def __init__(self, filt) -> None:
+        self.families = list(dict.fromkeys(family for family, *_ in filt.layout))
+        index = {family: i for i, family in enumerate(self.families)}
+        self.family_of_row = np.array([index[family] for family, *_ in filt.layout], dtype=int)
+
+    def __call__(self, filt) -> dict[str, float]:
+        used = np.asarray(filt.applicable, dtype=bool)
+        least = np.full(len(self.families), np.inf)
+        np.minimum.at(least, self.family_of_row[used], filt.lie[used, 0])
+        return {family: float(least[i]) for i, family in enumerate(self.families) if np.isfinite(least[i])}
+
 
 
 def run(
@@ -584,6 +607,7 @@ def run(
     rng = np.random.default_rng(perception.seed) if perception is not None else None
     settings = {} if body_cbf else {"activation": {BODY_FAMILY: float("-inf")}}
     filt = t3.ecbf_filter(measure_cpu_time=True, **settings)
+    min_h_by_family = _MinHByFamily(filt)
     robot = PhysicalRobot(course, params)
     x_ref = course.initial_state()
     robot.pose(x_ref)
@@ -593,18 +617,7 @@ def run(
     record = PhysicalRun(scenario=scenario, body_cbf=body_cbf, perceived=perception is not None)
     start = np.array(x_ref[0:3])
     standard_height = float(t3.world_kinematics(t3.standard_posture())[0][2])
-    # The true ground from the solids (the course's floor_height is what it perceives).
-    solids = robot.solids
-    top = max(float(c[2] + h[2]) for c, _r, h in solids)
-
-    def ground_under(point: np.ndarray) -> float:
-        """The top of the highest solid under ``point`` (x, y) [m]."""
-        tops = [
-            float(c[2] + h[2])
-            for c, r, h in solids
-            if np.all(np.abs((r.T @ np.append(point[:2] - c[:2], 0.0))[:2]) <= h[:2])
-        ]
-        return max(tops, default=0.0)
+    top = float(robot.solid_tops.max())
 
     for k in range(int(round(limit / t3.DT))):
         t = k * t3.DT
@@ -645,7 +658,7 @@ def run(
         record.clearance.append(course.clearance(truth))
         record.slip.append(robot.slip())
         record.off_model.append(off_model)
-        record.min_h.append(_min_h_by_family(filt))
+        record.min_h.append(min_h_by_family(filt))
         record.active_rows.append(out.active_rows)
         record.computed_rows.append(sum(filt.applicable))
         record.culled_rows.append(sum(filt.culled))
@@ -654,7 +667,7 @@ def run(
         record.nominal_body_height.append(course.nominal_body_height or np.nan)
         record.swinging.append(-1 if course.swinging is None else course.swinging)
         body = robot.data.xpos[robot.body]
-        ground = ground_under(body)
+        ground = robot.ground_under(body)
         on_stairs = 0.0 < ground < top - 1e-6
         record.raise_over_standard.append(float(body[2]) - ground - standard_height if on_stairs else np.nan)
         if on_cycle is not None:
