@@ -7,9 +7,11 @@ change. The figures are the lines of each file as generated, with a little room 
 3 %) for a spec's ordinary edits. The repository's target is 100 000 lines in all
 (DESIGN.md, "Weight"); the figures below are where it stands on the way there: the
 Panda's and ANYmal's collision pairs and their lower bounds are composed (pose kernels +
-one chain kernel per family, ``compose=True``: 177 498 lines in all, from 425 138); the
-pose kernels themselves (the Panda's 24 are 28 000 lines), the Panda-as-spheres' sphere
-centres and the whole-body models' kernels are not yet.
+one chain kernel per family, ``compose=True``), and the Panda's self-collision pairs share
+the obstacle rows' pose kernels (both boxes in the base frame): 161 307 lines in all, from
+425 138. The pose kernels themselves (the Panda's 10 and their value-only twins are 13 600
+lines), the Panda-as-spheres' sphere centres and the whole-body models' kernels are not
+composed yet.
 """
 
 from __future__ import annotations
@@ -26,11 +28,11 @@ BUDGET = {
     "systems/anymal/generated/anymal_mpc.rs": 11_900,
     "systems/anymal/generated/anymal_wbc.rs": 22_100,
     "systems/double_integrator/generated/double_integrator.rs": 560,
-    "systems/panda/generated/panda.rs": 50_500,
+    "systems/panda/generated/panda.rs": 33_800,
     "systems/panda_spheres/generated/panda_spheres.rs": 40_100,
     "systems/tachyon3/generated/tachyon3.rs": 10_700,
 }
-TOTAL = 183_000
+TOTAL = 166_500
 
 
 def generated_files() -> list[str]:

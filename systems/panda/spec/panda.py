@@ -171,23 +171,25 @@ def build() -> System:
                  f"{SSAT_ALPHA_ROT}; active while "
                  f"h < {OBSTACLE_ACTIVATION} m.")
 
-    def self_names(a, b):
-        # Pose kernels are shared: a box placed in the base frame is the obstacle rows' one.
-        base = urdf.common_ancestor(ROBOT, a, b)
-        return tuple(short(link) if base == ROBOT.root else f"{short(link)}_in_{short(base)}" for link in (a, b))
+    def self_boxes(p):
+        # Both boxes in the base frame, where the obstacle rows place them: each link's
+        # pose kernel serves every row on it. (In the frame of the link both hang from,
+        # the joints above would drop out exactly, but every pair would need its own
+        # relative poses: 14 more pose kernels and their value-only twins, a third of the
+        # module.)
+        a, b = SELF_PAIRS[p.index]
+        fk = kinematics(q, p.let)
+        return box(a, fk), box(b, fk)
+
+    def self_names(p):
+        return tuple(short(link) for link in SELF_PAIRS[p.index])
 
     def self_collision(p):
-        a, b = SELF_PAIRS[p.index]
-        # In the frame of the link both hang from: the joints above it move both boxes
-        # alike and drop out, exactly (the input columns then list only the joints between).
-        fk = kinematics(q, p.let, base=urdf.common_ancestor(ROBOT, a, b))
-        return [("self_collision", prim.ssat(p, box(a, fk), box(b, fk), alpha, alpha_rot, names=self_names(a, b)))]
+        return [("self_collision", prim.ssat(p, *self_boxes(p), alpha, alpha_rot, names=self_names(p)))]
 
     def self_collision_far(p):
         # As obstacle_far: a pair farther apart than the activation distance is not evaluated.
-        a, b = SELF_PAIRS[p.index]
-        fk = kinematics(q, p.let, base=urdf.common_ancestor(ROBOT, a, b))
-        return prim.ssat_lower_bound(p, box(a, fk), box(b, fk), alpha, alpha_rot, names=self_names(a, b))
+        return prim.ssat_lower_bound(p, *self_boxes(p), alpha, alpha_rot, names=self_names(p))
 
     s.family("self_collision", self_collision, over=[f"{short(a)}_{short(b)}" for a, b in SELF_PAIRS],
              poles=COLLISION_POLES,
