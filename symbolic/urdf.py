@@ -928,16 +928,12 @@ def box_separation(a: tuple, b: tuple) -> float:
     (ca, ra, ha), (cb, rb, hb) = ((np.asarray(c, float), np.asarray(r, float), np.asarray(h, float))
                                   for c, r, h in (a, b))
     t = cb - ca
-    axes = [*ra.T, *rb.T, *(np.cross(u, v) for u in ra.T for v in rb.T)]
-    best = -math.inf
-    for axis in axes:
-        n = float(np.linalg.norm(axis))
-        if n < 1e-9:  # parallel edges: their cross product is no axis
-            continue
-        axis = axis / n
-        gap = abs(t @ axis) - float(np.abs(ra.T @ axis) @ ha) - float(np.abs(rb.T @ axis) @ hb)
-        best = max(best, gap)
-    return best
+    # The 15 axes as rows: A's and B's face normals, then their edges' cross products.
+    axes = np.concatenate([ra.T, rb.T, np.cross(ra.T[:, None, :], rb.T[None, :, :]).reshape(9, 3)])
+    norms = np.linalg.norm(axes, axis=1)
+    axes = axes[norms >= 1e-9] / norms[norms >= 1e-9, None]  # parallel edges' cross product is no axis
+    gaps = np.abs(axes @ t) - np.abs(axes @ ra) @ ha - np.abs(axes @ rb) @ hb
+    return float(gaps.max())
 
 
 def numeric_pose(fk: Kinematics, link: str) -> tuple[list[list[float]], list[float]]:

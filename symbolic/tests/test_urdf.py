@@ -182,12 +182,13 @@ def test_the_front_ends_jacobians_are_pinocchios(relative):
         pin.computeJointJacobians(model, data, _pinocchio_q(model, q, values))
         pin.updateFramePlacements(model, data)
         got = np.asarray(ours(values)).reshape(len(robot.links), 2, 6, len(q))
-        for k, f in enumerate(frames):
-            origin = pin.getFrameJacobian(model, data, f, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)[:, columns]
-            arm = data.oMf[f].rotation @ np.array(offset)
-            shifted = origin.copy()
-            shifted[:3] += np.cross(origin[3:].T, arm).T
-            worst = max(worst, float(np.max(np.abs(got[k, 0] - origin))), float(np.max(np.abs(got[k, 1] - shifted))))
+        # Every frame at once: (frame, 6, joint) Jacobians and (frame, 3) arms.
+        origin = np.stack([pin.getFrameJacobian(model, data, f, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)[:, columns]
+                           for f in frames])
+        arm = np.stack([data.oMf[f].rotation @ np.array(offset) for f in frames])
+        shifted = origin.copy()
+        shifted[:, :3] += np.cross(origin[:, 3:], arm[:, :, None], axis=1)
+        worst = max(worst, float(np.max(np.abs(got[:, 0] - origin))), float(np.max(np.abs(got[:, 1] - shifted))))
     assert worst <= 1e-12, f"{relative}: largest Jacobian difference {worst:.3g}"
 
 def test_limits_are_the_urdfs_as_pinocchio_reads_them():
