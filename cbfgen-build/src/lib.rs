@@ -70,7 +70,7 @@ use inputs_hash::Header;
 use std::ffi::OsString;
 use std::fmt;
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Command, Stdio};
 
 /// The `symbolic` package's parent folder in the source tree this crate comes from.
 const SOURCE_TREE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/..");
@@ -281,21 +281,36 @@ impl Generator {
             spec: out.clone(),
             message: format!("cannot create {}: {e}", out.display()),
         })?;
-        let mut written = Vec::new();
-        for spec in &self.specs {
-            let done = Command::new(&env.python)
+        // The specs generate side by side, as many at once as Cargo gives this build
+        // jobs (`NUM_JOBS`), each finished in spec order: a crate of several specs
+        // (ANYmal's three) waits for the slowest, not for their sum.
+        let spawn = |spec: &PathBuf| {
+            Command::new(&env.python)
                 .args(["-m", "symbolic", "generate"])
                 .arg(spec)
                 .arg("--out")
                 .arg(&out)
                 .args(["--runtime-crate", self.runtime()])
                 .env("PYTHONPATH", &generator)
-                .output()
-                .map_err(|_| Error::NoPython { python: env.python.clone() })?;
+                .stdout(Stdio::piped())
+                .stderr(Stdio::piped())
+                .spawn()
+                .map_err(|_| Error::NoPython { python: env.python.clone() })
+        };
+        let mut running = std::collections::VecDeque::new();
+        let mut waiting = self.specs.iter();
+        let mut written = Vec::new();
+        loop {
+            while running.len() < env.jobs {
+                let Some(spec) = waiting.next() else { break };
+                running.push_back((spec, spawn(spec)?));
+            }
+            let Some((spec, child)) = running.pop_front() else { break };
+            let done = child.wait_with_output().map_err(|_| Error::NoPython { python: env.python.clone() })?;
             if !done.status.success() {
                 // The whole of it (a spec's own bug comes with its traceback) on the build
                 // script's stderr, which cargo shows; the last line, `error: <file>:<line>: …`,
-                // is the error's message.
+                // is the error's message. The specs still running end with this process.
                 eprint!("{}", String::from_utf8_lossy(&done.stderr));
                 return Err(Error::Generator { spec: spec.clone(), message: last_line(&done.stderr) });
             }
@@ -485,6 +500,9 @@ struct Env {
     out_dir: Option<PathBuf>,
     /// `CBFGEN_ALLOW_STALE=1`.
     allow_stale: bool,
+    /// How many specs may generate at once: Cargo's `NUM_JOBS` for this build script (1
+    /// outside Cargo).
+    jobs: usize,
 }
 
 impl Env {
@@ -499,6 +517,7 @@ impl Env {
             symbolic: std::env::var_os("CBFGEN_SYMBOLIC").map(PathBuf::from),
             out_dir: std::env::var_os("OUT_DIR").map(PathBuf::from),
             allow_stale: std::env::var_os(ALLOW_STALE).is_some_and(|v| v == "1"),
+            jobs: std::env::var("NUM_JOBS").ok().and_then(|v| v.parse().ok()).unwrap_or(1).max(1),
         }
     }
 }
@@ -616,6 +635,56 @@ mod tests {
         assert_eq!(python_from(none, None, &[&nowhere]), Path::new("python3"));
     }
 
+    /// A one-state spec named `name` whose build raises when `broken`.
+    fn point_spec(name: &str, broken: bool) -> String {
+        let raise = if broken { "    raise ValueError('this spec is broken on purpose')\n" } else { "" };
+        format!(
+            "from symbolic.spec import System\n\n\ndef build():\n{raise}    s = System('{name}', doc='A point.')\n    \
+             (p,) = s.states(['p'], docs=['position [m]'])\n    \
+             s.inputs(['v'], limits=[(-1.0, 1.0)], docs=['velocity [m/s]'])\n    s.dynamics(f=[0], g=[[1]])\n    \
+             s.family('wall', lambda _: [('wall', 1 - p)], poles=[1.0], doc='p <= 1 [m].')\n    return s\n"
+        )
+    }
+
+    #[test]
+    fn specs_generate_side_by_side_and_report_in_spec_order() {
+        // Three specs on two jobs: every module written, listed in spec order; a broken
+        // spec among them is the one the error names, whichever finished first.
+        let python = python();
+        if check_python(&python).is_err() {
+            assert!(std::env::var_os("CBFGEN_REQUIRE_SYMENGINE").is_none(), "{} has no symengine", python.display());
+            eprintln!("SKIPPED: {} has no symengine (run `scripts/cbf setup`)", python.display());
+            return;
+        }
+        let tree = Scratch::new("side-by-side");
+        let specs: Vec<PathBuf> = ["first", "second", "third"]
+            .iter()
+            .map(|n| tree.write(&format!("{n}.py"), point_spec(n, false).as_bytes()))
+            .collect();
+        let out = tree.0.join("out");
+        let env = Env { python, symbolic: None, out_dir: Some(out.clone()), allow_stale: false, jobs: 2 };
+        let generator = specs.iter().fold(Generator::new(), |g, spec| g.spec(spec));
+        let written = generator.generate_in(&env).expect("three good specs generate");
+        let expected: Vec<PathBuf> = ["first", "second", "third"].iter().map(|n| out.join(format!("{n}.rs"))).collect();
+        assert_eq!(written, expected);
+        for (file, name) in expected.iter().zip(["first", "second", "third"]) {
+            let text = fs::read_to_string(file).unwrap();
+            assert!(
+                text.contains(&format!("const NAME: &'static str = \"{name}\";")),
+                "{} is not {name}'s module",
+                file.display()
+            );
+        }
+        let broken = tree.write("second.py", point_spec("second", true).as_bytes());
+        match generator.generate_in(&env) {
+            Err(Error::Generator { spec, message }) => {
+                assert_eq!(spec, broken);
+                assert!(message.contains("broken on purpose"), "{message}");
+            }
+            other => panic!("a broken spec must fail the build, got {other:?}"),
+        }
+    }
+
     fn run_python(code: &str, args: &[&Path]) -> String {
         let done = Command::new(python())
             .args(["-c", code])
@@ -645,7 +714,7 @@ mod tests {
     }
 
     fn no_python(allow_stale: bool) -> Env {
-        Env { python: PathBuf::from("/nonexistent/python3"), symbolic: None, out_dir: None, allow_stale }
+        Env { python: PathBuf::from("/nonexistent/python3"), symbolic: None, out_dir: None, allow_stale, jobs: 1 }
     }
 
     #[test]
