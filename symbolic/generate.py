@@ -23,6 +23,7 @@ from .codegen.backends.rust.kernel_table import emit_kernel_table
 from .codegen.definition import SystemDefinition, define
 from .codegen.generate import render_with_warnings
 from .codegen.output import HASH_PREFIX, REPO_ROOT, rustfmt
+from .definition_cache import cached, inputs_key
 from .families import sphere_box, ssat
 from .inputs_hash import inputs_hash
 from .kernel import Kernel
@@ -57,9 +58,12 @@ def builtin_specs() -> list[Path]:
 @functools.cache
 def builtin_systems(unrolled: bool = False) -> list[SystemDefinition]:
     """The built-in systems, from their spec files in crate-folder order (``unrolled``: see
-    :func:`symbolic.codegen.definition.define`). Defined once per process (do not change
-    what it returns)."""
-    return [define(load(p), unrolled=unrolled) for p in builtin_specs()]
+    :func:`symbolic.codegen.definition.define`). Defined once per process, and kept between
+    processes by their inputs (:mod:`symbolic.definition_cache`; do not change what it
+    returns)."""
+    specs = builtin_specs()
+    return cached("unrolled-systems" if unrolled else "systems", inputs_key(specs),
+                  lambda: [define(load(p), unrolled=unrolled) for p in specs])
 
 
 @functools.cache
@@ -67,11 +71,16 @@ def all_kernels() -> dict[str, list[Kernel]]:
     """Module name -> every kernel generated/ holds for it: the generator's own list, which
     the SymEngine cross-check iterates (adding a system adds no test code). A composed
     family's members are their unrolled definitions: the composed Rust is held to them.
-    Built once per process (do not change what it returns)."""
-    out = {name: build() for name, (_, build) in MODULES.items()}
-    for definition in builtin_systems(unrolled=True):
-        out[definition.name] = definition.kernels()
-    return out
+    Built once per process, and kept between processes as :func:`builtin_systems` is (do
+    not change what it returns)."""
+
+    def build_all() -> dict[str, list[Kernel]]:
+        out = {name: build() for name, (_, build) in MODULES.items()}
+        for definition in builtin_systems(unrolled=True):
+            out[definition.name] = definition.kernels()
+        return out
+
+    return cached("kernels", inputs_key(builtin_specs()), build_all)
 
 
 def _header(digest: str) -> str:
