@@ -27,9 +27,90 @@ pub fn accumulate_columns<const N: usize, const J: usize, const C: usize>(
     }
 }
 
+/// The rows of `m` one after the other: a frame's input columns as the kernel of the
+/// next node along the kinematic tree reads them. `N` must be `R * C` (checked when it
+/// compiles).
+#[inline]
+pub fn flatten<const R: usize, const C: usize, const N: usize>(m: &[[f64; C]; R]) -> [f64; N] {
+    const { assert!(R * C == N, "flatten: N must be R * C") };
+    let mut out = [0.0; N];
+    for (o, v) in out.iter_mut().zip(m.iter().flatten()) {
+        *o = *v;
+    }
+    out
+}
+
+/// One pose-like block y = (p, R) (centre, then rotation row by row, read through `y`)
+/// carried to a body fixed in its frame: (p + R offset, R axes). Linear in y, so a jet's
+/// derivatives and input columns are carried by the same map.
+#[inline]
+fn place_block(y: impl Fn(usize) -> f64, offset: &[f64; 3], axes: &[f64; 9], mut out: impl FnMut(usize, f64)) {
+    for i in 0..3 {
+        let row = [y(3 + 3 * i), y(4 + 3 * i), y(5 + 3 * i)];
+        out(i, y(i) + row[0] * offset[0] + row[1] * offset[1] + row[2] * offset[2]);
+        for j in 0..3 {
+            out(3 + 3 * i + j, row[0] * axes[j] + row[1] * axes[3 + j] + row[2] * axes[6 + j]);
+        }
+    }
+}
+
+/// The pose of a body fixed in a frame at `offset` (its origin, in the frame's axes) with
+/// axes `axes` (row by row: column j is the body's axis j in the frame), from the frame's
+/// pose (centre, then rotation row by row).
+#[inline]
+pub fn place_pose(frame: &[f64; 12], offset: &[f64; 3], axes: &[f64; 9]) -> [f64; 12] {
+    let mut out = [0.0; 12];
+    place_block(|i| frame[i], offset, axes, |i, v| out[i] = v);
+    out
+}
+
+/// [`place_pose`] for a whole jet: the frame's pose, its drift derivatives (`L` entries,
+/// 12 per derivative) and its input columns (12 rows of `C`), each carried to the body.
+#[inline]
+#[allow(clippy::type_complexity)]
+pub fn place_jet<const L: usize, const C: usize>(
+    frame: &([f64; 12], [f64; L], [[f64; C]; 12]),
+    offset: &[f64; 3],
+    axes: &[f64; 9],
+) -> ([f64; 12], [f64; L], [[f64; C]; 12]) {
+    let pose = place_pose(&frame.0, offset, axes);
+    let mut rates = [0.0; L];
+    for (level, block) in frame.1.chunks_exact(12).enumerate() {
+        place_block(|i| block[i], offset, axes, |i, v| rates[12 * level + i] = v);
+    }
+    let mut lg = [[0.0; C]; 12];
+    for c in 0..C {
+        place_block(|i| frame.2[i][c], offset, axes, |i, v| lg[i][c] = v);
+    }
+    (pose, rates, lg)
+}
+
 #[cfg(test)]
 mod tests {
-    use super::accumulate_columns;
+    use super::{accumulate_columns, flatten, place_jet, place_pose};
+
+    #[test]
+    fn places_a_body_by_hand() {
+        // Frame at (1, 2, 3) turned 90 degrees about z; body 0.5 along the frame's x, its
+        // axes the frame's turned 90 degrees about x.
+        let frame = [1.0, 2.0, 3.0, 0.0, -1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0];
+        let axes = [1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0];
+        let body = place_pose(&frame, &[0.5, 0.0, 0.0], &axes);
+        // Centre: (1, 2, 3) + 0.5 * (frame x = world y). Rotation: Rz(90) Rx(90).
+        let expected = [1.0, 2.5, 3.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+        assert_eq!(body, expected);
+        // The jet's derivative blocks and columns are carried linearly: no centre offset.
+        let (pose, rates, lg) = place_jet(&(frame, frame, [[1.0]; 12]), &[0.5, 0.0, 0.0], &axes);
+        assert_eq!((pose, rates), (expected, expected));
+        let ones = place_pose(&[1.0; 12], &[0.5, 0.0, 0.0], &axes);
+        assert_eq!(lg.map(|row| row[0]), ones);
+    }
+
+    #[test]
+    fn flattens_row_by_row() {
+        let m = [[1.0, 2.0], [3.0, 4.0], [5.0, 6.0]];
+        assert_eq!(flatten::<3, 2, 6>(&m), [1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
+    }
 
     #[test]
     fn contracts_a_gradient_with_scattered_columns() {

@@ -116,110 +116,329 @@ class MemberPlan:
 
 @dataclass(frozen=True)
 class Jet:
+    """A node of a pose's path: its kernel, the derivatives before the input appears, the
+    input columns of its ``lg``, and the frame node its kernel reads (None: the state
+    alone)."""
+
     kernel: Kernel
+    degree: int
+    columns: tuple[int, ...]
+    parent: Jet | None = None
+
+    def path(self) -> list[Jet]:
+        """The nodes from the root down to this one."""
+        return [*(self.parent.path() if self.parent else []), self]
+
+
+@dataclass(frozen=True)
+class Placed:
+    """A placed box's jet as the rows read it: the pose function ``name`` returns it."""
+
+    name: str
     degree: int
     columns: tuple[int, ...]
 
 
-def _closure(source: Kernel, exprs: Sequence[se.Expr]) -> list[Let | RuntimeMax]:
-    """The definitions of ``source`` that ``exprs`` read, directly or through others, in
-    declaration (evaluation) order."""
-    defs = {d.symbol: d for d in source.definitions}
+@dataclass(frozen=True)
+class ValueNode:
+    kernel: Kernel
+    parent: ValueNode | None = None
+
+    def path(self) -> list[ValueNode]:
+        return [*(self.parent.path() if self.parent else []), self]
+
+
+@dataclass(frozen=True)
+class PosePlan:
+    """A pose function the rows call, assembled from node kernels along the kinematic
+    tree: ``steps`` from the root frame down to the box; each after the first reads the
+    previous one's jet (or, ``value``, its pose)."""
+
+    name: str
+    steps: tuple[str, ...]
+    value: bool
+    degree: int = 0
+    columns: int = 0
+    # The box fixed in the last node's frame: its origin in the frame's axes (3), then its
+    # axes in the frame (rotation row by row, 9); None when the last node is the box's own.
+    placement: tuple[float, ...] | None = None
+
+
+# A frame is a group of 12 named intermediates <prefix>_p0 .. <prefix>_p2, <prefix>_r00 ..
+# <prefix>_r22 (the names urdf.Kinematics gives every link pose it builds): a place where a
+# pose's path can be cut, in the pose layout's order.
+_FRAME_SUFFIXES = ("_p0", "_p1", "_p2", *(f"_r{i}{j}" for i in range(3) for j in range(3)))
+
+
+def _frames(defs: Sequence[Let | RuntimeMax]) -> dict[str, tuple[se.Symbol, ...]]:
+    """Every complete frame among ``defs``: prefix -> its 12 symbols in pose order."""
+    lets = {str(d.symbol): d.symbol for d in defs if isinstance(d, Let)}
+    frames = {}
+    for name in lets:
+        if name.endswith("_r00"):
+            group = [f"{name[:-4]}{suffix}" for suffix in _FRAME_SUFFIXES]
+            if all(g in lets for g in group):
+                frames[name[:-4]] = tuple(lets[g] for g in group)
+    return frames
+
+
+def _cut(defs: Sequence[Let | RuntimeMax], exprs: Sequence[se.Expr], stop: dict[se.Symbol, str]):
+    """The definitions ``exprs`` read without passing a frame's symbols (``stop``), in
+    declaration order, and the frames they read."""
+    by_symbol = {d.symbol: d for d in defs}
     needed: set[se.Symbol] = set()
-    stack = [s for e in exprs for s in e.free_symbols if s in defs]
+    frames: set[str] = set()
+    stack = [s for e in exprs for s in e.free_symbols]
     while stack:
         sym = stack.pop()
-        if sym in needed:
-            continue
-        needed.add(sym)
-        d = defs[sym]
-        for e in ([d.expr] if isinstance(d, Let) else d.exprs):
-            stack.extend(s for s in e.free_symbols if s in defs and s not in needed)
-    return [d for d in source.definitions if d.symbol in needed]
+        if sym in stop:
+            frames.add(stop[sym])
+        elif sym in by_symbol and sym not in needed:
+            needed.add(sym)
+            d = by_symbol[sym]
+            stack.extend(s for e in ([d.expr] if isinstance(d, Let) else d.exprs) for s in e.free_symbols)
+    return [d for d in defs if d.symbol in needed], frames
+
+
+_PLACEMENT_ROUNDING = 1e-15
+
+
+def _placement(entries: Sequence[se.Expr], local, frame: Sequence[se.Symbol]) -> tuple[float, ...] | None:
+    """(c, B) when ``entries`` (through the definitions ``local``) are a box rigidly fixed in
+    ``frame`` = (p, R): centre p + R c and rotation R B with numbers c and B; else None."""
+    full: dict[se.Symbol, se.Expr] = {}
+    for d in local:
+        if not isinstance(d, Let):
+            return None
+        full[d.symbol] = d.expr.xreplace(full)
+    pose = [se.sympify(e).xreplace(full) for e in entries]
+    p, r = frame[:3], [frame[3 + 3 * i:6 + 3 * i] for i in range(3)]
+    c = [se.diff(pose[0], r[0][j]) for j in range(3)]
+    axes = [[se.diff(pose[3 + j], r[0][k]) for j in range(3)] for k in range(3)]
+    if not all(v.is_Number for v in [*c, *(v for row in axes for v in row)]):
+        return None
+    residuals = [pose[i] - p[i] - sum(r[i][j] * c[j] for j in range(3)) for i in range(3)]
+    residuals += [pose[3 + 3 * i + j] - sum(r[i][k] * axes[k][j] for k in range(3)) for i in range(3) for j in range(3)]
+    for residual in map(se.expand, residuals):
+        # Zero, or what the numbers' rounding leaves (the same products summed in another
+        # order): linear in the frame with coefficients below 1e-12 of its unit entries.
+        if residual != 0 and not (residual.free_symbols <= set(frame) and all(
+                term.is_Number and abs(float(term)) <= _PLACEMENT_ROUNDING
+                for term in [se.diff(residual, v) for v in frame] + [residual.xreplace(dict.fromkeys(frame, 0))])):
+            return None
+    return tuple(float(v) for v in [*c, *(v for row in axes for v in row)])
+
+
+def _text(entries: Sequence[se.Expr], defs: Sequence[Let | RuntimeMax]) -> tuple:
+    return (tuple(map(str, entries)),
+            tuple((str(d.symbol), str(d.expr) if isinstance(d, Let) else tuple(map(str, d.exprs))) for d in defs))
 
 
 class Jets:
-    """The system's pose kernels, one per distinct placed box (key: its entries and every
-    definition they read, as text: the same kinematics in the same frame gives the same)."""
+    """The system's pose functions, one per distinct placed box (key: its entries and every
+    definition they read, as text: the same kinematics in the same frame gives the same).
+
+    A box placed in a frame of a kinematic tree (a link pose from ``urdf.Kinematics``) is
+    not differentiated whole: its path is cut at every frame, and each node's kernel takes
+    its parent frame's jet (pose, its drift derivatives, input columns) as pseudo-states,
+    as the chain kernels take the boxes' (module doc). A link then costs one joint's
+    arithmetic, shared by every box below it, instead of the whole chain's derivatives
+    again. A box whose pose reads no frame, or two, gets one whole kernel."""
 
     def __init__(self, system) -> None:
         self.system = system
-        self._by_key: dict[tuple, Jet] = {}
-        self._values: dict[tuple, Kernel] = {}
+        self._boxes: dict[tuple, Placed] = {}
+        self._values: dict[tuple, str] = {}
+        self._nodes: dict[tuple, Jet | ValueNode] = {}
         self.kernels: list[Kernel] = []
+        self.poses: list[PosePlan] = []  # the pose functions assembled from several nodes
+        self.pose_names: list[str] = []  # every pose function rows call, in first-use order
 
-    def _key(self, where: str, name: str, entries: Sequence[se.Expr], source: Kernel, known: dict):
+    def _checked_key(self, where: str, name: str, entries: Sequence[se.Expr], source: Kernel, known: dict):
         """(the placement's key, the definitions it reads); a new placement under a name
         already taken is an error."""
-        defs = _closure(source, entries)
-        key = (tuple(map(str, entries)),
-               tuple((str(d.symbol), str(d.expr) if isinstance(d, Let) else tuple(map(str, d.exprs)))
-                     for d in defs))
-        if key not in known and any(k.name == name for k in self.kernels):
+        defs, _ = _cut(source.definitions, entries, {})
+        key = _text(entries, defs)
+        if key not in known and name in self.pose_names:
             raise SpecError(f"{where}: pose kernel {name!r} already places another box (or the same box in "
                             "another frame); give each its own name")
         return key, defs
 
-    def get(self, where: str, name: str, entries: Sequence[se.Expr], source: Kernel) -> Jet:
-        key, defs = self._key(where, name, entries, source, self._by_key)
-        if key not in self._by_key:
-            self._by_key[key] = jet = self._build(where, name, entries, defs)
-            self.kernels.append(jet.kernel)
-        return self._by_key[key]
+    def get(self, where: str, name: str, entries: Sequence[se.Expr], source: Kernel) -> Placed:
+        """The jet of a placed box: the pose function that returns it, its degree and columns."""
+        key, defs = self._checked_key(where, name, entries, source, self._boxes)
+        if key not in self._boxes:
+            jet, placement = self._box(where, name, list(entries), defs, value=False)
+            self._boxes[key] = Placed(name, jet.degree, jet.columns)
+            self._publish(name, jet, placement, value=False)
+        return self._boxes[key]
 
-    def value(self, where: str, name: str, entries: Sequence[se.Expr], source: Kernel) -> Kernel:
-        """The value-only kernel ``<name>_value`` of a placed box (for lower bounds: the pose
-        without its derivatives), shared as the pose kernels are."""
+    def value(self, where: str, name: str, entries: Sequence[se.Expr], source: Kernel) -> str:
+        """The value-only pose function ``<name>_value`` of a placed box (for lower bounds:
+        the pose without its derivatives), shared as the jets are."""
         value_name = f"{name}_value"
-        key, defs = self._key(where, value_name, entries, source, self._values)
+        key, defs = self._checked_key(where, value_name, entries, source, self._values)
         if key not in self._values:
-            k = Kernel(value_name, "The pose of a box, value only (what lower bounds read): centre, then rotation "
-                                   "row by row.")
-            k.array_input("x", self.system.state_names, "state, laid out as `STATE_NAMES`")
-            for d in defs:
-                if isinstance(d, Let):
-                    k.let_(str(d.symbol), d.expr)
-                else:
-                    k.runtime_max(str(d.symbol), d.exprs)
-            k.output_vector("pose", list(entries), "centre [m], then rotation row by row (columns = the box's axes)")
-            self._values[key] = k
-            self.kernels.append(k)
+            node, placement = self._box(where, value_name, list(entries), defs, value=True)
+            self._values[key] = value_name
+            self._publish(value_name, node, placement, value=True)
         return self._values[key]
 
-    def _build(self, where: str, name: str, entries: Sequence[se.Expr], defs) -> Jet:
-        s = self.system
-        k = Kernel(name, f"The pose of a box the rows of {where.split(', ', 1)[-1]} compose (and every row that "
-                         "places the same box the same way): centre and rotation (row by row), their drift "
-                         "derivatives and the input part of the last.")
-        k.array_input("x", s.state_names, "state, laid out as `STATE_NAMES`")
-        eng = LieEngine(k, s.x, s.f, s.g)
+    def _frames(self, defs) -> dict[str, tuple[se.Symbol, ...]]:
+        """The frames among ``defs`` with a joint of their own: whose pose reads the state
+        other than through another frame. A frame fixed to its parent is the parent's pose
+        and numbers: no place to cut (its definitions join the next node's)."""
+        states = frozenset(self.system.x)
+        candidates = _frames(defs)
+        by_symbol = {d.symbol: d for d in defs}
+        moving = {}
+        for prefix, syms in candidates.items():
+            stop = {sym: other for other, others in candidates.items() if other != prefix for sym in others}
+            exprs = [by_symbol[sym].expr for sym in syms]
+            local, _ = _cut(defs, exprs, stop)
+            read = frozenset().union(*(e.free_symbols for e in exprs),
+                                     *(e.free_symbols for d in local
+                                       for e in ([d.expr] if isinstance(d, Let) else d.exprs)))
+            if read & states:
+                moving[prefix] = syms
+        return moving
+
+    def _box(self, where: str, name: str, entries: list[se.Expr], defs, value: bool):
+        """A placed box: (its frame's node, the box's fixed placement in that frame) when the
+        box is rigidly fixed in one frame, else (the box's own node, None)."""
+        frames = self._frames(defs)
+        stop = {sym: prefix for prefix, syms in frames.items() for sym in syms}
+        local, read = _cut(defs, entries, stop)
+        if len(read) == 1:
+            (prefix,) = read
+            placement = _placement(entries, local, frames[prefix])
+            if placement is not None:
+                return self._frame(where, prefix, defs, frames, value), placement
+        return self._node(where, name, f"{name}_in_frame", entries, defs, frames, value), None
+
+    def _frame(self, where: str, prefix: str, defs, frames, value: bool):
+        by_symbol = {d.symbol: d for d in defs}
+        name = f"frame_{prefix}" + ("_value" if value else "")
+        return self._node(where, name, name, [by_symbol[sym].expr for sym in frames[prefix]], defs, frames, value,
+                          own=prefix)
+
+    def _publish(self, name: str, node, placement, value: bool) -> None:
+        self.pose_names.append(name)
+        path = node.path()
+        if len(path) > 1 or placement is not None:
+            self.poses.append(PosePlan(name, tuple(n.kernel.name for n in path), value,
+                                       0 if value else node.degree, 0 if value else len(node.columns), placement))
+
+    def _node(self, where: str, name: str, cut_name: str, entries: list[se.Expr], defs, frames, value: bool,
+              own: str | None = None):
+        """The node whose kernel computes ``entries``: cut at the one frame they read (that
+        frame's node first, recursively; this kernel is then ``cut_name``), or whole
+        (``name``) when they read none or several. ``own`` is the frame a frame node is."""
+        stop = {sym: prefix for prefix, syms in frames.items() if prefix != own for sym in syms}
+        local, read = _cut(defs, entries, stop)
+        if len(read) == 1:
+            (prefix,) = read
+            parent = self._frame(where, prefix, defs, frames, value)
+            node = self._cached(where, cut_name, entries, local, parent, frames[prefix], value)
+            if node is not None:
+                return node
+        whole, _ = _cut(defs, entries, {})
+        return self._cached(where, name, entries, whole, None, (), value)
+
+    def _cached(self, where, name, entries, defs, parent, parent_symbols, value):
+        key = (_text(entries, defs), parent.kernel.name if parent else None, value)
+        if key not in self._nodes:
+            taken = {n.kernel.name for n in self._nodes.values()}
+            unique, count = name, 1
+            while unique in taken:  # the same frame name over other kinematics
+                count += 1
+                unique = f"{name}_{count}"
+            if value:
+                node = ValueNode(self._value_kernel(unique, entries, defs, parent, parent_symbols), parent)
+            else:
+                node = self._build(where, unique, entries, defs, parent, parent_symbols)
+                if node is None:
+                    return None
+            self._nodes[key] = node
+            self.kernels.append(node.kernel)
+        return self._nodes[key]
+
+    def _value_kernel(self, name, entries, defs, parent, parent_symbols) -> Kernel:
+        k = Kernel(name, "A pose, value only (what lower bounds read): centre, then rotation row by row"
+                         + (f"; from its frame's pose ([`{parent.kernel.name}`])." if parent else "."))
+        k.array_input("x", self.system.state_names, "state, laid out as `STATE_NAMES`")
+        subs = {}
+        if parent is not None:
+            subs = dict(zip(parent_symbols, k.array_input("frame", _POSE_COMPONENTS, "the frame's pose"),
+                            strict=True))
         for d in defs:
             if isinstance(d, Let):
-                eng.let_(str(d.symbol), d.expr)
+                subs[d.symbol] = k.let_(str(d.symbol), d.expr.xreplace(subs))
             else:
-                k.runtime_max(str(d.symbol), d.exprs)
-        lf = [list(entries)]
+                subs[d.symbol] = k.runtime_max(str(d.symbol), [e.xreplace(subs) for e in d.exprs])
+        k.output_vector("pose", [se.sympify(e).xreplace(subs) for e in entries],
+                        "centre [m], then rotation row by row (columns = the axes)")
+        return k
+
+    def _build(self, where: str, name: str, entries: Sequence[se.Expr], defs, parent: Jet | None,
+               parent_symbols) -> Jet | None:
+        """The node's kernel: its pose, drift derivatives and the input part of the last,
+        along the system (``parent`` None) or along the pseudo-system of the parent frame's
+        jet and the state. None when a parent's degree is not the node's (cut elsewhere)."""
+        s = self.system
+        doc = ("A pose the composed rows read (and every row that places it the same way): centre and rotation "
+               "(row by row), their drift derivatives and the input part of the last")
+        k = Kernel(name, doc + (f"; from its frame's jet ([`{parent.kernel.name}`])." if parent else "."))
+        k.array_input("x", s.state_names, "state, laid out as `STATE_NAMES`")
+        subs = {}
+        if parent is None:
+            eng = LieEngine(k, s.x, s.f, s.g)
+        else:
+            r, cols = parent.degree, parent.columns
+            pose = k.array_input("frame", _POSE_COMPONENTS, "the frame's pose: centre [m], rotation row by row")
+            rates = k.array_input("frame_rates", [f"d{d}_{c}" for d in range(1, r + 1) for c in _POSE_COMPONENTS],
+                                  "the frame's L_f y ... L_f^r y")
+            lg = k.array_input("frame_lg", [f"{c}_u{u}" for c in _POSE_COMPONENTS for u in cols],
+                               "the frame's L_g L_f^(r-1) y, row by row")
+            levels = [pose] + [rates[POSE_SIZE * d:POSE_SIZE * (d + 1)] for d in range(r)]
+            zero = se.Integer(0)
+            nu = len(s.g[0])
+            g = [[zero] * nu for _ in range(POSE_SIZE * r)] + [list(row) for row in s.g]
+            for i in range(POSE_SIZE):
+                for j, u in enumerate(cols):
+                    g[POSE_SIZE * (r - 1) + i][u] = lg[i * len(cols) + j]
+            eng = LieEngine(k, [v for d in range(r) for v in levels[d]] + list(s.x),
+                            [v for d in range(r) for v in levels[d + 1]] + list(s.f), g)
+            subs = dict(zip(parent_symbols, pose, strict=True))
+        for d in defs:
+            if isinstance(d, Let):
+                subs[d.symbol] = eng.let_(str(d.symbol), d.expr.xreplace(subs))
+            else:
+                subs[d.symbol] = k.runtime_max(str(d.symbol), [e.xreplace(subs) for e in d.exprs])
+        lf = [[se.sympify(e).xreplace(subs) for e in entries]]
         for level in range(MAX_RELATIVE_DEGREE):
-            lg = {(i, u): e for i, y in enumerate(lf[-1]) for u in range(eng.nu) if (e := eng.along(y, u)) != 0}
+            lg_out = {(i, u): e for i, y in enumerate(lf[-1]) for u in range(eng.nu) if (e := eng.along(y, u)) != 0}
             lf.append([eng.along(y, None) for y in lf[-1]])
-            if lg:
+            if lg_out:
                 degree = level + 1
                 break
         else:
             raise SpecError(f"{where}: a moving box's pose does not depend on the input within "
                             f"{MAX_RELATIVE_DEGREE} derivatives; no row on it can be enforced")
-        columns = tuple(sorted({u for _, u in lg}))
+        if parent is not None and degree != parent.degree:
+            return None
+        columns = tuple(sorted({u for _, u in lg_out}))
         upper = name.upper()
         k.constant(f"{upper}_RELATIVE_DEGREE", "usize", str(degree),
                    f"Derivatives of the pose in [`{name}`] before the input appears (found symbolically).")
         k.constant(f"{upper}_INPUT_COLUMNS", f"[usize; {len(columns)}]", str(list(columns)),
                    f"Input columns of `lg` in [`{name}`].")
-        k.output_vector("pose", lf[0], "centre [m], then rotation row by row (columns = the box's axes)")
+        k.output_vector("pose", lf[0], "centre [m], then rotation row by row (columns = the axes)")
         k.output_vector("rates", [e for level in lf[1:] for e in level],
                         "L_f y, ..., L_f^r y of the pose y, one after the other")
-        k.output_matrix("lg", [[lg.get((i, u), se.Integer(0)) for u in columns] for i in range(POSE_SIZE)],
+        k.output_matrix("lg", [[lg_out.get((i, u), se.Integer(0)) for u in columns] for i in range(POSE_SIZE)],
                         "L_g L_f^(r-1) y: one row per pose entry, one column per input column")
-        return Jet(k, degree, columns)
+        return Jet(k, degree, columns, parent)
 
 
 def build_chain(where: str, name: str, call: Recorded, moving: Sequence[bool], degree: int) -> Kernel:

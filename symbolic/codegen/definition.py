@@ -39,6 +39,7 @@ from .composition import (
     BoundPlan,
     Jets,
     MemberPlan,
+    PosePlan,
     Recorder,
     Slot,
     Static,
@@ -109,8 +110,12 @@ class SystemDefinition:
     source: Path | None
     # ``objective(x) -> (p, q)``: the spec's cost (``s.objective``); None for input weights.
     objective: Kernel | None = None
-    # The pose kernels composed families share (symbolic.codegen.composition).
+    # The pose kernels composed families share (symbolic.codegen.composition): every
+    # node's kernel, the pose functions assembled from several nodes, and the name of every
+    # pose function the rows call (a whole node's kernel is its own function).
     jets: tuple[Kernel, ...] = ()
+    poses: tuple[PosePlan, ...] = ()
+    pose_names: tuple[str, ...] = ()
 
     @property
     def time_varying(self) -> bool:
@@ -311,7 +316,7 @@ def _composed_bound(system: System, family: Family, where: str, row_kernel: str,
     with ctx.active():
         value = family.lower_bound(ctx)
     call = _recorded_call(where, value, recorder, "lower_bound")
-    slots = [Slot(jets.value(where, name, entries, k).name if name else None, (), pose, half)
+    slots = [Slot(jets.value(where, name, entries, k) if name else None, (), pose, half)
              for entries, name, pose, half in _boxes(system, where, k, call, row_kernel)]
     moving = tuple(s.moving for s in slots)
     if moving not in chains:
@@ -367,7 +372,7 @@ def _composed(system: System, family: Family, where: str, members, required, jet
                             f"{sorted(degrees)}; declare the family without compose=True")
         degree = degrees.pop()
         columns = tuple(sorted({c for j in jet_list for c in j.columns}))
-        plan_slots = tuple(Slot(j.kernel.name if j else None, tuple(columns.index(c) for c in j.columns) if j else (),
+        plan_slots = tuple(Slot(j.name if j else None, tuple(columns.index(c) for c in j.columns) if j else (),
                                 pose, half) for j, pose, half in slots)
         moving = tuple(s.moving for s in plan_slots)
         options = (call.primitive, tuple((key, str(v) if isinstance(v, se.Basic) else v)
@@ -699,4 +704,5 @@ def define(system: System, unrolled: bool = False) -> SystemDefinition:
     return SystemDefinition(system.name, system.doc, tuple(system.state_names), tuple(system.state_docs),
                             tuple(system.input_names), tuple(system.input_docs), tuple(system.input_limits),
                             drift, g, pattern, nonzeros, families, outputs, tuple(system.constants),
-                            system.source, _objective(system), jets=tuple(jets.kernels))
+                            system.source, _objective(system), jets=tuple(jets.kernels), poses=tuple(jets.poses),
+                            pose_names=tuple(jets.pose_names))

@@ -146,6 +146,19 @@ def test_touching_and_overlapping_poses_are_among_the_samples():
     assert len(met) >= 20, f"only {met} were sampled touching and overlapping"
 
 
+def test_the_arms_poses_are_assembled_along_its_kinematic_tree():
+    # One node per joint, shared by every box below it; a box fixed in a link (the hand,
+    # past two fixed joints) is placed in that link's frame by numbers, with no kernel.
+    (panda,) = [d for d in builtin_systems() if d.name == "panda"]
+    plans = {p.name: p for p in panda.poses}
+    joints = tuple(f"frame_panda_link{i}" for i in range(1, 8))
+    assert plans["pose_link7"].steps == joints
+    assert plans["pose_hand"].steps == joints and plans["pose_hand"].placement is not None
+    assert plans["pose_hand_value"].steps == tuple(f"{j}_value" for j in joints)
+    assert set(panda.pose_names) == set(plans)
+    assert sorted(k.name for k in panda.jets) == sorted([*joints, *(f"{j}_value" for j in joints)])
+
+
 # ------------------------------------------------------------- generator checks
 def arm(h, **family):
     """A planar two-link arm on joint accelerations, with one family ``h``."""

@@ -192,6 +192,23 @@ def chain_inputs(kernel: Kernel) -> Callable[[np.random.Generator], Inputs]:
     return draw
 
 
+def frame_inputs(kernel: Kernel, state: Callable[[np.random.Generator], np.ndarray] | None):
+    """A node of a pose's path along the kinematic tree: the state (``state``, else uniform)
+    and its frame's jet: a proper rotation within a metre of the origin, moving at up to a
+    few m/s and rad/s, input columns of a few units."""
+    def draw(rng: np.random.Generator) -> Inputs:
+        v: Inputs = {}
+        for inp in kernel.inputs:
+            if inp.name == "x":
+                v["x"] = state(rng) if state else rng.uniform(-2, 2, len(inp.symbols))
+            elif inp.name == "frame":
+                v["frame"] = np.concatenate([rng.uniform(-0.5, 0.5, 3), random_rotation(rng).ravel()])
+            else:  # frame_rates, frame_lg
+                v[inp.name] = rng.uniform(-3, 3, len(inp.symbols))
+        return v
+    return draw
+
+
 def domain_samplers() -> dict[tuple[str, str], Callable[[np.random.Generator], Inputs]]:
     """Kernels whose inputs need a domain better than uniform numbers."""
     out = {}
@@ -217,6 +234,9 @@ def domain_samplers() -> dict[tuple[str, str], Callable[[np.random.Generator], I
         for kernel in kernels:
             if any(i.name == "pose_a" for i in kernel.inputs):
                 out[(module, kernel.name)] = chain_inputs(kernel)
+            elif any(i.name == "frame" for i in kernel.inputs):
+                arm = module in ("panda", "panda_spheres")
+                out[(module, kernel.name)] = frame_inputs(kernel, (lambda rng: panda_inputs(rng)["x"]) if arm else None)
     return out
 
 

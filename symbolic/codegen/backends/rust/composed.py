@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from ....kernel import Kernel
-from ...composition import SLOTS, BoundPlan, MemberPlan, Static
+from ...composition import SLOTS, BoundPlan, MemberPlan, PosePlan, Static
 from .emitter import _doc_lines, float_literal, input_element, input_type, kernel_signature, rustdoc_text
 
 
@@ -100,3 +100,32 @@ def emit_composed_bound(kernel: Kernel, plan: BoundPlan, with_params: bool, runt
                   f"    {plan.chain}({', '.join(chain_args)})", "}"]
     jets = [(slot.jet, "[f64; 12]") for _, slot in moving]
     return "\n".join(from_poses + _entry_points(kernel, jets, "f64", with_params, runtime_crate, attributes)) + "\n"
+
+
+def emit_pose_function(plan: PosePlan, n_x: int, runtime_crate: str, attributes: Sequence[str] = ()) -> str:
+    """A pose function assembled along the kinematic tree: the root frame's kernel, then
+    each node's kernel on its parent's jet (or pose), down to the box's frame, and the box
+    placed in it (``cbfgen::compose::place_jet``)."""
+    steps = ", ".join(f"[`{step}`]" for step in plan.steps)
+    placed = ""
+    if plan.placement is not None:
+        offset = ", ".join(float_literal(v) for v in plan.placement[:3])
+        axes = ", ".join(float_literal(v) for v in plan.placement[3:])
+        placed = f"&[{offset}], &[{axes}]"
+    if plan.value:
+        ret = "[f64; 12]"
+        calls = [f"    let pose = {plan.steps[0]}(x);",
+                 *(f"    let pose = {step}(x, &pose);" for step in plan.steps[1:]),
+                 f"    {runtime_crate}::compose::place_pose(&pose, {placed})" if placed else "    pose"]
+        what = "The pose of a box, value only (what lower bounds read): centre, then rotation row by row"
+    else:
+        ret = f"([f64; 12], [f64; {12 * plan.degree}], [[f64; {plan.columns}]; 12])"
+        calls = [f"    let jet = {plan.steps[0]}(x);",
+                 *(f"    let jet = {step}(x, &jet.0, &jet.1, &{runtime_crate}::compose::flatten(&jet.2));"
+                   for step in plan.steps[1:]),
+                 f"    {runtime_crate}::compose::place_jet(&jet, {placed})" if placed else "    jet"]
+        what = ("The pose of a box the composed rows read: centre and rotation (row by row), their drift "
+                "derivatives L_f y ... L_f^r y and the input part L_g L_f^(r-1) y (one row per pose entry)")
+    how = f"along the kinematic tree: {steps}" + (", then the box placed in the last frame" if placed else "")
+    return "\n".join([f"/// {what}; {how}.", *attributes, "#[inline]",
+                      f"pub fn {plan.name}(x: &[f64; {n_x}]) -> {ret} {{", *calls, "}"]) + "\n"

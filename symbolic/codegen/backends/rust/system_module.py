@@ -26,7 +26,7 @@ import json
 
 from ....spec import Domain, Interval, NonNegative, Positive, Real, Rotation, UnitVector
 from ...definition import FamilyDefinition, SystemDefinition
-from .composed import emit_composed_bound, emit_composed_member
+from .composed import emit_composed_bound, emit_composed_member, emit_pose_function
 from .emitter import emit_kernel, emit_split_kernel, float_literal, kernel_fn_type, rustdoc_text
 from .kernel_table import emit_kernel_table
 
@@ -515,6 +515,8 @@ def _emit_kernels(out: list[str], d: SystemDefinition, rt: str) -> None:
             w(emit_split_kernel(k, rt, split_kernels[k.name], attributes=[KERNEL_ALLOWS]))
         else:
             w(emit_kernel(k, rt, attributes=[KERNEL_ALLOWS]))
+    for plan in d.poses:
+        w(emit_pose_function(plan, len(d.state_names), rt, attributes=[KERNEL_ALLOWS]))
     for f in d.families:
         for k, per_row in zip(f.kernels, f.row_columns, strict=True):
             w(f"/// Input columns each row of [`{k.name}`] can touch (its own sparsity in the QP; "
@@ -840,9 +842,9 @@ def _emit_barriers(out: list[str], d: SystemDefinition, rt: str) -> None:
     w(f"        {rt}::system::validate_time(t)?;")
     for f in d.families:
         _validate_family(w, f)
-    if d.jets:
-        # Composed rows' pose kernels: each evaluated once per cycle, when a row first needs it.
-        w("        " + " ".join(f"let mut {k.name} = None;" for k in d.jets))
+    if d.pose_names:
+        # Composed rows' pose functions: each evaluated once per cycle, when a row first needs it.
+        w("        " + " ".join(f"let mut {name} = None;" for name in d.pose_names))
     w("        let mut i = 0;")
     for f in d.families:
         _evaluate_family(w, f)
