@@ -40,27 +40,20 @@ pub fn flatten<const R: usize, const C: usize, const N: usize>(m: &[[f64; C]; R]
     out
 }
 
-/// One pose-like block y = (p, R) (centre, then rotation row by row, read through `y`)
-/// carried to a body fixed in its frame: (p + R offset, R axes). Linear in y, so a jet's
-/// derivatives and input columns are carried by the same map.
-#[inline]
-fn place_block(y: impl Fn(usize) -> f64, offset: &[f64; 3], axes: &[f64; 9], mut out: impl FnMut(usize, f64)) {
-    for i in 0..3 {
-        let row = [y(3 + 3 * i), y(4 + 3 * i), y(5 + 3 * i)];
-        out(i, y(i) + row[0] * offset[0] + row[1] * offset[1] + row[2] * offset[2]);
-        for j in 0..3 {
-            out(3 + 3 * i + j, row[0] * axes[j] + row[1] * axes[3 + j] + row[2] * axes[6 + j]);
-        }
-    }
-}
-
 /// The pose of a body fixed in a frame at `offset` (its origin, in the frame's axes) with
 /// axes `axes` (row by row: column j is the body's axis j in the frame), from the frame's
-/// pose (centre, then rotation row by row).
+/// pose y = (p, R) (centre, then rotation row by row): (p + R offset, R axes). Linear in
+/// y, so a jet's derivatives and input columns are carried by the same map.
 #[inline]
 pub fn place_pose(frame: &[f64; 12], offset: &[f64; 3], axes: &[f64; 9]) -> [f64; 12] {
     let mut out = [0.0; 12];
-    place_block(|i| frame[i], offset, axes, |i, v| out[i] = v);
+    for i in 0..3 {
+        let row = &frame[3 + 3 * i..6 + 3 * i];
+        out[i] = frame[i] + row[0] * offset[0] + row[1] * offset[1] + row[2] * offset[2];
+        for j in 0..3 {
+            out[3 + 3 * i + j] = row[0] * axes[j] + row[1] * axes[3 + j] + row[2] * axes[6 + j];
+        }
+    }
     out
 }
 
@@ -73,16 +66,20 @@ pub fn place_jet<const L: usize, const C: usize>(
     offset: &[f64; 3],
     axes: &[f64; 9],
 ) -> ([f64; 12], [f64; L], [[f64; C]; 12]) {
-    let pose = place_pose(&frame.0, offset, axes);
     let mut rates = [0.0; L];
-    for (level, block) in frame.1.chunks_exact(12).enumerate() {
-        place_block(|i| block[i], offset, axes, |i, v| rates[12 * level + i] = v);
+    for (out, block) in rates.chunks_exact_mut(12).zip(frame.1.chunks_exact(12)) {
+        let mut y = [0.0; 12];
+        y.copy_from_slice(block);
+        out.copy_from_slice(&place_pose(&y, offset, axes));
     }
     let mut lg = [[0.0; C]; 12];
     for c in 0..C {
-        place_block(|i| frame.2[i][c], offset, axes, |i, v| lg[i][c] = v);
+        let column = place_pose(&std::array::from_fn(|i| frame.2[i][c]), offset, axes);
+        for (row, v) in lg.iter_mut().zip(column) {
+            row[c] = v;
+        }
     }
-    (pose, rates, lg)
+    (place_pose(&frame.0, offset, axes), rates, lg)
 }
 
 #[cfg(test)]

@@ -115,6 +115,19 @@ class MemberPlan:
 
 
 @dataclass(frozen=True)
+class FramePlan:
+    """A member (or, ``degree`` 0, its lower bound) computed on the one frame its rows read:
+    the kernel ``on_frame`` on the jet (or pose) the pose function ``frame`` returns."""
+
+    kernel: str
+    on_frame: str
+    frame: str
+    degree: int
+    columns: int = 0  # the jet's input columns
+    bound: FramePlan | None = None
+
+
+@dataclass(frozen=True)
 class Jet:
     """A node of a pose's path: its kernel, the derivatives before the input appears, the
     input columns of its ``lg``, and the frame node its kernel reads (None: the state
@@ -170,6 +183,10 @@ class PosePlan:
 _FRAME_SUFFIXES = ("_p0", "_p1", "_p2", *(f"_r{i}{j}" for i in range(3) for j in range(3)))
 
 
+def _def_exprs(d: Let | RuntimeMax) -> Sequence[se.Expr]:
+    return [d.expr] if isinstance(d, Let) else d.exprs
+
+
 def _frames(defs: Sequence[Let | RuntimeMax]) -> dict[str, tuple[se.Symbol, ...]]:
     """Every complete frame among ``defs``: prefix -> its 12 symbols in pose order."""
     lets = {str(d.symbol): d.symbol for d in defs if isinstance(d, Let)}
@@ -196,7 +213,7 @@ def _cut(defs: Sequence[Let | RuntimeMax], exprs: Sequence[se.Expr], stop: dict[
         elif sym in by_symbol and sym not in needed:
             needed.add(sym)
             d = by_symbol[sym]
-            stack.extend(s for e in ([d.expr] if isinstance(d, Let) else d.exprs) for s in e.free_symbols)
+            stack.extend(s for e in _def_exprs(d) for s in e.free_symbols)
     return [d for d in defs if d.symbol in needed], frames
 
 
@@ -253,6 +270,23 @@ class Jets:
         self.kernels: list[Kernel] = []
         self.poses: list[PosePlan] = []  # the pose functions assembled from several nodes
         self.pose_names: list[str] = []  # every pose function rows call, in first-use order
+        self._shared: dict[tuple, Kernel] = {}
+        self._emitted: set[str] = set()
+
+    def shared(self, key: tuple, build: Callable[[], Kernel]) -> Kernel:
+        """A chain or bound kernel, shared by every family of the system that calls the same
+        primitive with the same options on the same moving boxes (key): the same function,
+        emitted once under the first family's name."""
+        if key not in self._shared:
+            self._shared[key] = build()
+        return self._shared[key]
+
+    def first_use(self, kernel: Kernel) -> bool:
+        """True the first time a family claims ``kernel`` for its own (to emit it)."""
+        if kernel.name in self._emitted:
+            return False
+        self._emitted.add(kernel.name)
+        return True
 
     def _checked_key(self, where: str, name: str, entries: Sequence[se.Expr], source: Kernel, known: dict):
         """(the placement's key, the definitions it reads); a new placement under a name
@@ -298,7 +332,7 @@ class Jets:
             local, _ = _cut(defs, exprs, stop)
             read = frozenset().union(*(e.free_symbols for e in exprs),
                                      *(e.free_symbols for d in local
-                                       for e in ([d.expr] if isinstance(d, Let) else d.exprs)))
+                                       for e in _def_exprs(d)))
             if read & states:
                 moving[prefix] = syms
         return moving
@@ -380,6 +414,115 @@ class Jets:
                         "centre [m], then rotation row by row (columns = the axes)")
         return k
 
+    def _on_jet(self, k: Kernel, parent: Jet, parent_symbols, with_state: bool):
+        """``k``'s inputs for the parent frame's jet and the Lie engine of the pseudo-system
+        whose states are that jet's levels (and, ``with_state``, the state): the frame's
+        last level driven by its input columns. Returns (engine, frame symbol -> input)."""
+        s = self.system
+        r, cols = parent.degree, parent.columns
+        pose = k.array_input("frame", _POSE_COMPONENTS, "the frame's pose: centre [m], rotation row by row")
+        rates = k.array_input("frame_rates", [f"d{d}_{c}" for d in range(1, r + 1) for c in _POSE_COMPONENTS],
+                              "the frame's L_f y ... L_f^r y")
+        lg = k.array_input("frame_lg", [f"{c}_u{u}" for c in _POSE_COMPONENTS for u in cols],
+                           "the frame's L_g L_f^(r-1) y, row by row")
+        levels = [pose] + [rates[POSE_SIZE * d:POSE_SIZE * (d + 1)] for d in range(r)]
+        zero = se.Integer(0)
+        nu = len(s.g[0])
+        g = [[zero] * nu for _ in range(POSE_SIZE * r)] + ([list(row) for row in s.g] if with_state else [])
+        for i in range(POSE_SIZE):
+            for j, u in enumerate(cols):
+                g[POSE_SIZE * (r - 1) + i][u] = lg[i * len(cols) + j]
+        states = [v for d in range(r) for v in levels[d]] + (list(s.x) if with_state else [])
+        drift = [v for d in range(r) for v in levels[d + 1]] + (list(s.f) if with_state else [])
+        return LieEngine(k, states, drift, g), dict(zip(parent_symbols, pose, strict=True))
+
+    def frame_read(self, rows: Sequence[tuple[str, se.Expr]], source: Kernel) -> str | None:
+        """The one moving frame ``rows`` read when they read nothing else of the state."""
+        defs = list(source.definitions)
+        frames = self._frames(defs)
+        stop = {sym: prefix for prefix, syms in frames.items() for sym in syms}
+        exprs = [se.sympify(e) for _, e in rows]
+        local, read = _cut(defs, exprs, stop)
+        states = frozenset(self.system.x)
+        if len(read) != 1 or any(e.free_symbols & states for e in exprs) or any(
+                e.free_symbols & states for d in local for e in _def_exprs(d)):
+            return None
+        return next(iter(read))
+
+    def on_frame(self, where: str, name: str, rows: Sequence[tuple[str, se.Expr]], source: Kernel,
+                 declare_params: Callable[[Kernel], object], value: bool):
+        """A member's rows (or, ``value``, its bound: one row) on the one moving frame they
+        read, when they read nothing else of the state: ``(its kernel, the pose function of
+        the frame's jet or pose)`` with the kernel ``<name>_on_frame`` taking that jet and the
+        parameters (``declare_params`` declares them). None when the rows read no frame,
+        several, or the state besides, or differ in degree from the frame."""
+        prefix = self.frame_read(rows, source)
+        if prefix is None:
+            return None
+        defs = list(source.definitions)
+        frames = self._frames(defs)
+        stop = {sym: other for other, syms in frames.items() for sym in syms}
+        exprs = [se.sympify(e) for _, e in rows]
+        local, _ = _cut(defs, exprs, stop)
+        frame = self._frame(where, prefix, defs, frames, value)
+        k = Kernel(f"{name}_on_frame", "")
+        if value:
+            subs = dict(zip(frames[prefix], k.array_input("frame", _POSE_COMPONENTS, "the frame's pose"),
+                            strict=True))
+            define = k
+        else:
+            eng, subs = self._on_jet(k, frame, frames[prefix], with_state=False)
+            define = eng
+        declare_params(k)
+        for d in local:
+            if isinstance(d, Let):
+                subs[d.symbol] = define.let_(str(d.symbol), d.expr.xreplace(subs))
+            else:
+                subs[d.symbol] = k.runtime_max(str(d.symbol), [e.xreplace(subs) for e in d.exprs])
+        exprs = [e.xreplace(subs) for e in exprs]
+        if value:
+            k.doc = f"The bound `{name}` on its frame's pose ([`{frame.kernel.name}`])."
+            k.output_scalar("bound", exprs[0], "never above any row's h of the instance")
+        else:
+            k.doc = (f"The rows of `{name}` on its frame's jet ([`{frame.kernel.name}`] and the nodes above it): "
+                     "lie = h, L_f h, ..., L_f^r h per row; lg_lf = L_g L_f^(r-1) h.")
+            from ..families.rows import finish_row_kernel
+            built = finish_row_kernel(k, eng, [(row, e) for (row, _), e in zip(rows, exprs, strict=True)],
+                                      self._columns_possible(rows, defs, frame.degree))
+            if built.degree != frame.degree:
+                return None
+        function = self._publish_frame(frame, value)
+        return (k if value else built), function
+
+    def _columns_possible(self, rows, defs, degree: int) -> set[int]:
+        """The input columns that can reach the rows within ``degree`` derivatives along the
+        real system: those acting on a state the rows read, or that the drift carries into
+        one. The frame's jet has a column for every joint above it, but a point on a
+        joint's axis does not move with that joint: its column is zero to rounding there,
+        and exactly zero here."""
+        s = self.system
+        exprs = [se.sympify(e) for _, e in rows]
+        full, _ = _cut(defs, exprs, {})
+        states = frozenset(s.x)
+        reads = frozenset().union(*(e.free_symbols for e in exprs),
+                                  *(e.free_symbols for d in full for e in _def_exprs(d)))
+        reads &= states
+        for _ in range(degree - 1):
+            carried = (fx.free_symbols for x, fx in zip(s.x, s.f, strict=True) if x in reads)
+            reads |= frozenset().union(*carried) & states
+        return {u for x, row in zip(s.x, s.g, strict=True) if x in reads for u, e in enumerate(row) if e != 0}
+
+    def _publish_frame(self, frame, value: bool) -> str:
+        """The pose function of a frame's jet (or pose) from the state, published once."""
+        path = frame.path()
+        name = frame.kernel.name if len(path) == 1 else f"{frame.kernel.name}_from_state"
+        if name not in self.pose_names:
+            self.pose_names.append(name)
+            if len(path) > 1:
+                self.poses.append(PosePlan(name, tuple(n.kernel.name for n in path), value,
+                                           0 if value else frame.degree, 0 if value else len(frame.columns)))
+        return name
+
     def _build(self, where: str, name: str, entries: Sequence[se.Expr], defs, parent: Jet | None,
                parent_symbols) -> Jet | None:
         """The node's kernel: its pose, drift derivatives and the input part of the last,
@@ -390,26 +533,10 @@ class Jets:
                "(row by row), their drift derivatives and the input part of the last")
         k = Kernel(name, doc + (f"; from its frame's jet ([`{parent.kernel.name}`])." if parent else "."))
         k.array_input("x", s.state_names, "state, laid out as `STATE_NAMES`")
-        subs = {}
         if parent is None:
-            eng = LieEngine(k, s.x, s.f, s.g)
+            eng, subs = LieEngine(k, s.x, s.f, s.g), {}
         else:
-            r, cols = parent.degree, parent.columns
-            pose = k.array_input("frame", _POSE_COMPONENTS, "the frame's pose: centre [m], rotation row by row")
-            rates = k.array_input("frame_rates", [f"d{d}_{c}" for d in range(1, r + 1) for c in _POSE_COMPONENTS],
-                                  "the frame's L_f y ... L_f^r y")
-            lg = k.array_input("frame_lg", [f"{c}_u{u}" for c in _POSE_COMPONENTS for u in cols],
-                               "the frame's L_g L_f^(r-1) y, row by row")
-            levels = [pose] + [rates[POSE_SIZE * d:POSE_SIZE * (d + 1)] for d in range(r)]
-            zero = se.Integer(0)
-            nu = len(s.g[0])
-            g = [[zero] * nu for _ in range(POSE_SIZE * r)] + [list(row) for row in s.g]
-            for i in range(POSE_SIZE):
-                for j, u in enumerate(cols):
-                    g[POSE_SIZE * (r - 1) + i][u] = lg[i * len(cols) + j]
-            eng = LieEngine(k, [v for d in range(r) for v in levels[d]] + list(s.x),
-                            [v for d in range(r) for v in levels[d + 1]] + list(s.f), g)
-            subs = dict(zip(parent_symbols, pose, strict=True))
+            eng, subs = self._on_jet(k, parent, parent_symbols, with_state=True)
         for d in defs:
             if isinstance(d, Let):
                 subs[d.symbol] = eng.let_(str(d.symbol), d.expr.xreplace(subs))

@@ -11,6 +11,7 @@ nothing here knows a target language.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -37,6 +38,7 @@ from ..spec import (
 from .composition import (
     SLOTS,
     BoundPlan,
+    FramePlan,
     Jets,
     MemberPlan,
     PosePlan,
@@ -85,6 +87,10 @@ class FamilyDefinition:
     # defined with ``unrolled=True``), not what is emitted.
     composed: tuple[MemberPlan, ...] = ()
     chains: tuple[Kernel, ...] = ()
+    # Per member (as ``kernels``), when its rows read one moving frame and parameters only:
+    # how it is assembled on that frame's jet (``chains`` then hold its kernels there), else
+    # None; empty when no member is.
+    framed: tuple[FramePlan | None, ...] = ()
 
     @property
     def indexed(self) -> bool:
@@ -200,11 +206,27 @@ def _family(system: System, family: Family, jets: Jets, unrolled: bool) -> Famil
     required: dict[str, tuple[Domain, str]] = {}  # what the primitives asked, across members
     members = [(where, family.name, None, None)] if family.over is None else [
         (f"{where}, member {label!r}", f"{family.name}_{label}", i, label) for i, label in enumerate(family.over)]
+    on_frame_kernels: dict[str, Kernel] = {}  # a framed member's kernel on its frame, by member
+    framed: list = []
     if family.compose:
         built, plans, chains, bounds = _composed(system, family, where, members, required, jets, unrolled)
     else:
-        built = [_member(system, family, w, name, i, label, required) for w, name, i, label in members]
-        plans, chains, bounds = (), (), ()
+        built, framed, chains = [], [], []
+        on_frames = _framed_members(system, family, members, required, jets)
+        for w, name, i, label in members:
+            on_frame = name in on_frames and _framed_member(system, family, w, name, i, label, required, jets,
+                                                            unrolled, *on_frames[name])
+            if not on_frame:
+                built.append(_member(system, family, w, name, i, label, required))
+                framed.append(None)
+            else:
+                built.append(on_frame[0])
+                framed.append(on_frame[1])
+                chains.append(on_frame[2])
+                on_frame_kernels[name] = on_frame[2]
+        plans, bounds = (), ()
+        if not any(framed):
+            framed = []
     degrees = {b.degree for b in built}
     if len(degrees) != 1:
         found = {label: b.degree for label, b in zip(family.over or [], built, strict=True)}
@@ -228,21 +250,35 @@ def _family(system: System, family: Family, jets: Jets, unrolled: bool) -> Famil
         poles = tuple(family.poles)
     if family.lower_bound is not None and not family.compose:
         labels = family.over or [None]
-        bounds = tuple(_lower_bound(system, family, f"{where}, lower_bound" + (f", member {lb!r}" if lb else ""),
-                                    b.kernel.name, i if lb else None, lb, required)
-                       for i, (lb, b) in enumerate(zip(labels, built, strict=True)))
+        bound_list = []
+        for i, (lb, b) in enumerate(zip(labels, built, strict=True)):
+            bound_where = f"{where}, lower_bound" + (f", member {lb!r}" if lb else "")
+            index = i if lb else None
+            plan = framed[i] if framed else None
+            on_frame = plan and _framed_bound(system, family, bound_where, b.kernel.name, index, lb, required, jets,
+                                              unrolled)
+            if on_frame:
+                framed[i] = replace(plan, bound=on_frame[1])
+                chains.append(on_frame[2])
+                bound_list.append(on_frame[0])
+            else:
+                bound_list.append(_lower_bound(system, family, bound_where, b.kernel.name, index, lb, required))
+        bounds = tuple(bound_list)
     params = _checked_params(family, required)
     labels = family.over or [None]
+    # A member on its frame is checked on its kernel there (its signature has no rows).
     partial = () if family.compose else tuple(
         w for lb, b in zip(labels, built, strict=True)
-        for w in partial_warnings(where + (f", member {lb!r}" if lb else ""), b.kernel, params))
+        for w in partial_warnings(where + (f", member {lb!r}" if lb else ""),
+                                  on_frame_kernels.get(b.kernel.name, b.kernel), params))
     return FamilyDefinition(family.name, family.doc, tuple(b.kernel for b in built), degree,
                             built[0].row_names, tuple(b.columns for b in built),
                             tuple(b.row_columns for b in built), params,
                             family.count, family.capacity, family.max_capacity, family.optional,
                             tuple(family.over or ()),
                             family.time, poles, family.priority, family.activation, bounds,
-                            warnings=partial, kind=family.kind, composed=plans, chains=chains,
+                            warnings=partial, kind=family.kind, composed=plans, chains=tuple(chains),
+                            framed=tuple(framed),
                             **_class_k(where, family))
 
 
@@ -320,7 +356,9 @@ def _composed_bound(system: System, family: Family, where: str, row_kernel: str,
              for entries, name, pose, half in _boxes(system, where, k, call, row_kernel)]
     moving = tuple(s.moving for s in slots)
     if moving not in chains:
-        chains[moving] = build_bound(where, f"{family.name}_bound{_variant(moving)}", call)
+        chains[moving] = jets.shared(("bound", _options(call), moving),
+                                     functools.partial(build_bound, where, f"{family.name}_bound{_variant(moving)}",
+                                                       call))
     plan = BoundPlan(name, chains[moving].name, tuple(slots))
     if unrolled:
         return _lower_bound(system, family, where, row_kernel, index, label, required), plan
@@ -331,6 +369,12 @@ def _composed_bound(system: System, family: Family, where: str, row_kernel: str,
     _declare_params(sig, family)
     sig.output_scalar("bound", se.Integer(0), "never above any row's h of the instance")
     return sig, plan
+
+
+def _options(call) -> tuple:
+    """A recorded call's primitive and options, as a key."""
+    options = sorted(call.options.items())
+    return call.primitive, tuple((key, str(v) if isinstance(v, se.Basic) else v) for key, v in options)
 
 
 def _composed(system: System, family: Family, where: str, members, required, jets: Jets, unrolled: bool):
@@ -375,15 +419,15 @@ def _composed(system: System, family: Family, where: str, members, required, jet
         plan_slots = tuple(Slot(j.name if j else None, tuple(columns.index(c) for c in j.columns) if j else (),
                                 pose, half) for j, pose, half in slots)
         moving = tuple(s.moving for s in plan_slots)
-        options = (call.primitive, tuple((key, str(v) if isinstance(v, se.Basic) else v)
-                                         for key, v in sorted(call.options.items())))
+        options = _options(call)
         if first is None:
             first = options
         elif options != first:
             raise SpecError(f"{member_where}: compose=True needs every member to call the same primitive with the "
                             f"same options (one chain kernel serves them all): {options} against {first}")
         if moving not in chains:
-            chains[moving] = build_chain(where, f"{family.name}_chain{_variant(moving)}", call, moving, degree)
+            chains[moving] = jets.shared(("chain", options, moving, degree), functools.partial(
+                build_chain, where, f"{family.name}_chain{_variant(moving)}", call, moving, degree))
         bound_plan = None
         if family.lower_bound is not None:
             bound_where = f"{where}, lower_bound" + (f", member {label!r}" if label else "")
@@ -418,7 +462,9 @@ def _composed(system: System, family: Family, where: str, members, required, jet
         sig.output_matrix("lg_lf", [[zero] * len(columns)],
                           f"per row: L_g L_f^(r-1) h on the columns `{upper}_INPUT_COLUMNS`")
         built.append(RowKernel(sig, degree, columns, (row_name,), (columns,)))
-    return built, tuple(plans), (*chains.values(), *bound_chains.values()), tuple(bounds)
+    # A chain another family built first is that family's to emit.
+    own = [k for k in (*chains.values(), *bound_chains.values()) if jets.first_use(k)]
+    return built, tuple(plans), tuple(own), tuple(bounds)
 
 
 # |s| at which a spec's class-K function is checked odd, increasing and through 0.
@@ -511,10 +557,148 @@ def _checked_params(family: Family, required: dict[str, tuple[Domain, str]]) -> 
     return tuple(replace(p, domain=p.domain or required.get(p.name, (Real(), ""))[0]) for p in family.params)
 
 
+def _signature(system: System, family: Family, name: str, doc: str, built, rows) -> RowKernel:
+    """A member assembled from other kernels: its name, inputs and constants, no rows."""
+    sig = Kernel(name, doc)
+    sig.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
+    _declare_params(sig, family)
+    upper = name.upper()
+    sig.constant(f"{upper}_RELATIVE_DEGREE", "usize", str(built.degree),
+                 f"Relative degree of every row of [`{name}`] (found symbolically).")
+    sig.constant(f"{upper}_INPUT_COLUMNS", f"[usize; {len(built.columns)}]", str(list(built.columns)),
+                 f"Input columns of `lg_lf` in [`{name}`]: the only inputs its rows depend on.")
+    sig.constant(f"{upper}_ROW_NAMES", f"[&str; {len(rows)}]", rust_str_array(built.row_names),
+                 f"What each row of [`{name}`] constrains.")
+    zero = se.Integer(0)
+    sig.output_matrix("lie", [[zero] * (built.degree + 1) for _ in rows], "per row: h, L_f h, ..., L_f^r h")
+    sig.output_matrix("lg_lf", [[zero] * len(built.columns) for _ in rows],
+                      f"per row: L_g L_f^(r-1) h on the columns `{upper}_INPUT_COLUMNS`")
+    return RowKernel(sig, built.degree, built.columns, built.row_names, built.row_columns)
+
+
+def _member_rows(system: System, family: Family, where: str, name: str, index, label, required):
+    """A member's rows (checked) and the kernel holding their definitions, undifferentiated."""
+    k = Kernel(name, "")
+    k.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
+    try:
+        values, param_symbols = _declare_params(k, family)
+    except ValueError as exc:
+        raise SpecError(f"{where}: {exc}") from exc
+    ctx = FamilyContext(where, k, k, values, None, index, label, family.params, required)
+    with ctx.active():
+        rows = _checked_rows(system, family, where, k, _rows(where, family, family.h(ctx)), param_symbols, None)
+    return rows, k
+
+
+def _framed_members(system: System, family: Family, members, required, jets: Jets) -> dict[str, tuple]:
+    """The members of a family with parameters that are computed on a frame's jet: those
+    whose rows read one moving frame and the parameters only, on a frame at least one other
+    member reads (a member alone on its frame is smaller differentiated whole: the jet
+    carries the frame's whole rotation, a row often a point). Member name -> (rows, kernel)."""
+    if not family.params or family.time or family.kind != "barrier":
+        return {}
+    probed = {}
+    for where, name, index, label in members:
+        rows, k = _member_rows(system, family, where, name, index, label, required)
+        frame = jets.frame_read(rows, k)
+        if frame is not None:
+            probed[name] = (frame, rows, k)
+    shared = [frame for frame, _, _ in probed.values()]
+    return {name: (rows, k) for name, (frame, rows, k) in probed.items() if shared.count(frame) > 1}
+
+
+def _framed_member(system: System, family: Family, where: str, name: str, index, label, required, jets: Jets,
+                   unrolled: bool, rows, k: Kernel):
+    """A member on its frame's jet (``_framed_members``): (its signature, or its unrolled
+    rows; how it is assembled; its kernel on the frame's jet), else None."""
+    try:
+        on_frame = jets.on_frame(where, name, rows, k, lambda kernel: _declare_params(kernel, family), value=False)
+    except ValueError:  # mixed degrees: the whole member says so
+        return None
+    if on_frame is None:
+        return None
+    built, function = on_frame
+    _require_differentiable(where, built.kernel)
+    frame_lg = next(i for i in built.kernel.inputs if i.name == "frame_lg")
+    plan = FramePlan(name, built.kernel.name, function, built.degree, len(frame_lg.symbols) // 12)
+    if unrolled:
+        whole = _member(system, family, where, name, index, label, required)
+        if (whole.degree, whole.columns) != (built.degree, built.columns):
+            raise SpecError(f"{where}: rows on the frame have degree {built.degree} on columns {built.columns}, "
+                            f"but unrolled {whole.degree} on {whole.columns}")
+        return whole, plan, built.kernel
+    doc = family.doc or f"The {family.name} family of {system.name}."
+    if label is not None:
+        doc = f"{doc}\n\nMember `{label}` of the family."
+    doc += f"\n\nOn its frame: [`{function}`] and [`{built.kernel.name}`]."
+    return _signature(system, family, name, doc, built, rows), plan, built.kernel
+
+
+def _framed_bound(system: System, family: Family, where: str, row_kernel: str, index, label, required, jets: Jets,
+                  unrolled: bool):
+    """A framed member's lower bound on its frame's pose: (its signature, or the whole
+    bound; how it is assembled; its kernel on the frame), else None."""
+    name = f"{row_kernel}_lower_bound"
+    k = Kernel(name, "")
+    k.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
+    values, _ = _declare_params(k, family)
+    ctx = FamilyContext(where, k, k, values, None, index, label, family.params, required)
+    with ctx.active():
+        bound = family.lower_bound(ctx)
+    if isinstance(bound, (list, tuple)):
+        return None  # the whole bound's builder says what is wrong
+    on_frame = jets.on_frame(where, name, [("bound", se.sympify(bound))], k,
+                             lambda kernel: _declare_params(kernel, family), value=True)
+    if on_frame is None:
+        return None
+    kernel, function = on_frame
+    plan = FramePlan(name, kernel.name, function, 0)
+    if unrolled:
+        return _lower_bound(system, family, where, row_kernel, index, label, required), plan, kernel
+    sig = Kernel(name, f"A lower bound on every row's h of one instance of `{row_kernel}` (the spec's "
+                       f"`lower_bound`): where it is above the family's activation threshold, the rows are not "
+                       f"evaluated. On its frame: [`{function}`] and [`{kernel.name}`].")
+    sig.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
+    _declare_params(sig, family)
+    sig.output_scalar("bound", se.Integer(0), "never above any row's h of the instance")
+    return sig, plan, kernel
+
+
+def _checked_rows(system: System, family: Family, where: str, k: Kernel, rows, param_symbols, time_sym):
+    """``rows`` of one member, checked: states, declared parameters (and t with time=True)
+    only, each row on a state, every parameter used."""
+    state_set = frozenset(system.x)
+    base = _base_symbols(k)
+    allowed = state_set | frozenset().union(*param_symbols.values())
+    if family.time:
+        allowed |= {time_sym}
+    used: frozenset = frozenset()
+    for row, e in rows:
+        syms = base(e)
+        used |= syms
+        stray = syms - allowed
+        if stray:
+            names = sorted(map(str, stray))
+            hint = ""
+            if time_sym in stray:
+                hint = " (declare the family with time=True to use t)"
+            elif any(s in system.u for s in stray):
+                hint = " (barriers depend on states, parameters and time, never on inputs)"
+            raise SpecError(f"{where}: row {row!r} uses {names}, which are not states or declared "
+                            f"parameters{hint}")
+        if not syms & state_set:
+            raise SpecError(f"{where}: row {row!r} depends on no state; no input can change it")
+    if family.time and time_sym not in used:
+        raise SpecError(f"{where}: declared time=True but h does not depend on t")
+    unused = [p.name for p in family.params if not used & param_symbols[p.name]]
+    if unused:
+        raise SpecError(f"{where}: parameters {unused} are declared but h does not use them")
+    return rows
+
+
 def _member(system: System, family: Family, where: str, kernel_name: str, index: int | None,
             label: str | None, required: dict[str, tuple[Domain, str]]):
     """One row kernel of ``family`` (of member ``label`` of an indexed family)."""
-    state_set = frozenset(system.x)
     time_sym = system.time
 
     def build(k: Kernel, eng: LieEngine):
@@ -527,32 +711,7 @@ def _member(system: System, family: Family, where: str, kernel_name: str, index:
             rows = _rows(where, family, family.h(ctx))
         if family.kind == "lyapunov":
             rows = [(row, -e) for row, e in rows]  # V' + rate V <= 0 is the barrier row of h = -V
-        base = _base_symbols(k)
-        allowed = state_set | frozenset().union(*param_symbols.values())
-        if family.time:
-            allowed |= {time_sym}
-        used: frozenset = frozenset()
-        for row, e in rows:
-            syms = base(e)
-            used |= syms
-            stray = syms - allowed
-            if stray:
-                names = sorted(map(str, stray))
-                hint = ""
-                if time_sym in stray:
-                    hint = " (declare the family with time=True to use t)"
-                elif any(s in system.u for s in stray):
-                    hint = " (barriers depend on states, parameters and time, never on inputs)"
-                raise SpecError(f"{where}: row {row!r} uses {names}, which are not states or declared "
-                                f"parameters{hint}")
-            if not syms & state_set:
-                raise SpecError(f"{where}: row {row!r} depends on no state; no input can change it")
-        if family.time and time_sym not in used:
-            raise SpecError(f"{where}: declared time=True but h does not depend on t")
-        unused = [p.name for p in family.params if not used & param_symbols[p.name]]
-        if unused:
-            raise SpecError(f"{where}: parameters {unused} are declared but h does not use them")
-        return rows
+        return _checked_rows(system, family, where, k, rows, param_symbols, time_sym)
 
     time_input = ("t", "time t [s]") if family.time else None
     doc = family.doc or f"The {family.name} family of {system.name}."

@@ -9,8 +9,8 @@ listed in the kernel's ``*_INPUT_COLUMNS`` constant.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Collection, Sequence
+from dataclasses import dataclass, replace
 
 import symengine as se
 
@@ -51,8 +51,18 @@ def build_row_kernel(name: str, doc: str, state_names: Sequence[str], x: Sequenc
     k.array_input("x", state_names, "state, laid out as `STATE_NAMES`")
     time = k.scalar_input(*time_input) if time_input else None
     engine = LieEngine(k, x, f, g, time=time)
-    rows = build(k, engine)
+    return finish_row_kernel(k, engine, build(k, engine))
+
+
+def finish_row_kernel(k: Kernel, engine: LieEngine, rows: Sequence[tuple[str, se.Expr]],
+                      columns_possible: Collection[int] | None = None) -> RowKernel:
+    """Differentiate ``rows`` along ``engine``'s field into ``k``'s outputs and constants;
+    ``columns_possible``, when given, are the only input columns that can be non-zero (the
+    others are zero to rounding: dropped)."""
+    name = k.name
     lie = [engine.row(h, f"{name}.{row}") for row, h in rows]
+    if columns_possible is not None:
+        lie = [replace(r, lg={u: e for u, e in r.lg.items() if u in columns_possible}) for r in lie]
     degrees = {r.degree for r in lie}
     if len(degrees) != 1:
         raise ValueError(f"{name}: rows of one kernel must share a relative degree, got {degrees}")

@@ -110,13 +110,12 @@ def samples(module: str, name: str, with_params: bool, rng: np.random.Generator)
     return chosen, 0
 
 
-@pytest.mark.parametrize("module, name, with_params", composed_members())
-def test_composed_row_is_the_unrolled_row(module, name, with_params):
+def assert_rows_equal(module: str, name: str, inputs: list[dict]) -> None:
+    """The module's ``name`` (as Rust runs it) against its unrolled definition in SymEngine,
+    to TOLERANCE of each output's scale (module doc)."""
     unrolled = kernel(module, name)
     reference = SymEngineReference(unrolled)
     rust = rust_call(module, unrolled)
-    rng = np.random.default_rng(zlib.crc32(f"composed.{module}.{name}".encode()))
-    inputs, _ = samples(module, name, with_params, rng)
     refs = reference.batch(inputs)
     gots = [rust(v) for v in inputs]
     truths: dict[int, dict] = {}
@@ -133,6 +132,51 @@ def test_composed_row_is_the_unrolled_row(module, name, with_params):
                 truths[i] = reference.high_precision(inputs[i])
             worst = np.max(np.abs(got[i] - truths[i][out]) / scale[i])
             assert worst <= TOLERANCE, f"{name}.{out}, sample {i}: off by {worst:.2e} of its scale"
+
+
+@pytest.mark.parametrize("module, name, with_params", composed_members())
+def test_composed_row_is_the_unrolled_row(module, name, with_params):
+    rng = np.random.default_rng(zlib.crc32(f"composed.{module}.{name}".encode()))
+    inputs, _ = samples(module, name, with_params, rng)
+    assert_rows_equal(module, name, inputs)
+
+
+@functools.cache
+def framed_members() -> list[tuple[str, str]]:
+    """(module, kernel) of every member computed on its frame's jet, and of its bound."""
+    return [(d.name, p.kernel) for d in builtin_systems(unrolled=True) for f in d.families for plan in f.framed
+            if plan for p in (plan, plan.bound) if p]
+
+
+def test_members_are_computed_on_their_frames():
+    # The Panda-as-spheres' spheres share their links' frames: every member on a link with
+    # another sphere of its family, and its bound, is computed on that link's jet; a sphere
+    # alone on its link (link1's in sphere_obstacle, link2's in table) is smaller whole.
+    members = {name for module, name in framed_members() if module == "panda_spheres"}
+    (spheres,) = [d for d in builtin_systems() if d.name == "panda_spheres"]
+    expected = set()
+    for f in spheres.families:
+        links = [label.rsplit("_", 1)[0] for label in f.members]
+        for link, k, bound in zip(links, f.kernels, f.bounds, strict=True):
+            if links.count(link) > 1:
+                expected |= {k.name, bound.name}
+    assert members == expected and len(expected) == 2 * (19 + 17)
+
+
+@pytest.mark.parametrize("module, name", framed_members())
+def test_a_member_on_its_frame_is_the_unrolled_member(module, name):
+    # Random states and parameters: a parameter named radius or half is a positive size,
+    # any other a few units either way (the rows are smooth in them).
+    rng = np.random.default_rng(zlib.crc32(f"framed.{module}.{name}".encode()))
+    inputs = []
+    for _ in range(6):
+        v = {"x": random_state(module, rng)}
+        for inp in kernel(module, name).inputs[1:]:
+            n = len(inp.symbols)
+            low, high = (0.01, 0.3) if inp.name in ("radius", "half") else (-1.0, 1.0)
+            v[inp.name] = rng.uniform(low, high, n) if inp.is_array else rng.uniform(low, high)
+        inputs.append(v)
+    assert_rows_equal(module, name, inputs)
 
 
 def test_touching_and_overlapping_poses_are_among_the_samples():

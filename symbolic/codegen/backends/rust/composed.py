@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from ....kernel import Kernel
-from ...composition import SLOTS, BoundPlan, MemberPlan, PosePlan, Static
+from ...composition import SLOTS, BoundPlan, FramePlan, MemberPlan, PosePlan, Static
 from .emitter import _doc_lines, float_literal, input_element, input_type, kernel_signature, rustdoc_text
 
 
@@ -57,7 +57,7 @@ def emit_composed_member(kernel: Kernel, plan: MemberPlan, degree: int, with_par
 
 
 def _entry_points(kernel: Kernel, jets: Sequence[tuple[str, str]], ret: str, with_params: bool,
-                  runtime_crate: str, attributes: Sequence[str]) -> list[str]:
+                  runtime_crate: str, attributes: Sequence[str], assembled: str = "_from_poses") -> list[str]:
     """``<kernel>(x, params...)`` over ``<kernel>_from_poses`` with the poses ``jets`` (name,
     Rust type) evaluated afresh; with parameters also the ``_state`` / ``_instance`` split
     every family with parameters has (the poses once per cycle, the rest per instance)."""
@@ -68,7 +68,7 @@ def _entry_points(kernel: Kernel, jets: Sequence[tuple[str, str]], ret: str, wit
     head = [*_doc_lines(kernel), *attributes, "#[inline]"]
     if not with_params:
         return [*head, f"pub fn {kernel.name}({args}) -> {ret} {{",
-                f"    {kernel.name}_from_poses({', '.join(f'&{jet}(x)' for jet, _ in jets)}{param_names})", "}"]
+                f"    {kernel.name}{assembled}({', '.join(f'&{jet}(x)' for jet, _ in jets)}{param_names})", "}"]
     state_type = "(" + ", ".join(t for _, t in jets) + ",)"
     n_x = len(next(inp for inp in kernel.inputs if inp.name == "x").symbols)
     return [f"/// The poses [`{kernel.name}`] reads: computed once per cycle for every instance, and handed to "
@@ -77,7 +77,7 @@ def _entry_points(kernel: Kernel, jets: Sequence[tuple[str, str]], ret: str, wit
             "    (" + "".join(f"{jet}(x), " for jet, _ in jets) + ")", "}",
             f"/// One instance of [`{kernel.name}`], from [`{kernel.name}_state`]'s poses.", *attributes,
             "#[inline]", f"pub fn {kernel.name}_instance(state_part: &{state_type}{param_args}) -> {ret} {{",
-            f"    {kernel.name}_from_poses(" + ", ".join(f"&state_part.{n}" for n in range(len(jets)))
+            f"    {kernel.name}{assembled}(" + ", ".join(f"&state_part.{n}" for n in range(len(jets)))
             + f"{param_names})", "}",
             *head, f"pub fn {kernel.name}({args}) -> {ret} {{",
             f"    {kernel.name}_instance(&{kernel.name}_state(x){param_names})", "}"]
@@ -100,6 +100,33 @@ def emit_composed_bound(kernel: Kernel, plan: BoundPlan, with_params: bool, runt
                   f"    {plan.chain}({', '.join(chain_args)})", "}"]
     jets = [(slot.jet, "[f64; 12]") for _, slot in moving]
     return "\n".join(from_poses + _entry_points(kernel, jets, "f64", with_params, runtime_crate, attributes)) + "\n"
+
+
+def emit_framed_member(kernel: Kernel, plan: FramePlan, runtime_crate: str, attributes: Sequence[str] = ()) -> str:
+    """A member whose rows read one frame: ``<member>_from_frame`` (its kernel on the frame's
+    jet, what the filter calls with the jet computed once per cycle for every row on that
+    frame) and the entry points every family with parameters has."""
+    args, ret = kernel_signature(kernel, runtime_crate)
+    params = [inp for inp in kernel.inputs if inp.name != "x"]
+    param_args = "".join(f", {p.name}: {input_type(p, runtime_crate)}" for p in params)
+    param_names = "".join(f", {p.name}" for p in params)
+    if plan.degree:
+        jet_type = f"([f64; 12], [f64; {12 * plan.degree}], [[f64; {plan.columns}]; 12])"
+        call = (f"{plan.on_frame}(&frame.0, &frame.1, &{runtime_crate}::compose::flatten(&frame.2)"
+                f"{param_names})")
+        what = "its frame's jet"
+    else:
+        jet_type = "[f64; 12]"
+        call = f"{plan.on_frame}(frame{param_names})"
+        what = "its frame's pose"
+    consts: list[str] = []
+    for c in kernel.constants:
+        consts += [f"/// {rustdoc_text(c.doc)}", f"pub const {c.name}: {c.rust_type} = {c.value};"]
+    from_frame = [f"/// [`{kernel.name}`] from {what} ([`{plan.frame}`]): what the filter calls, the frame computed "
+                  "once per cycle for every row on it.", *attributes, "#[inline]",
+                  f"pub fn {kernel.name}_from_frame(frame: &{jet_type}{param_args}) -> {ret} {{", f"    {call}", "}"]
+    return "\n".join(consts + from_frame + _entry_points(kernel, [(plan.frame, jet_type)], ret, True, runtime_crate,
+                                                           attributes, assembled="_from_frame")) + "\n"
 
 
 def emit_pose_function(plan: PosePlan, n_x: int, runtime_crate: str, attributes: Sequence[str] = ()) -> str:

@@ -26,7 +26,7 @@ import json
 
 from ....spec import Domain, Interval, NonNegative, Positive, Real, Rotation, UnitVector
 from ...definition import FamilyDefinition, SystemDefinition
-from .composed import emit_composed_bound, emit_composed_member, emit_pose_function
+from .composed import emit_composed_bound, emit_composed_member, emit_framed_member, emit_pose_function
 from .emitter import emit_kernel, emit_split_kernel, float_literal, kernel_fn_type, rustdoc_text
 from .kernel_table import emit_kernel_table
 
@@ -280,10 +280,15 @@ def _evaluate_family(w, f: FamilyDefinition) -> None:
         param_args = [_param_arg("p", p.name, p.shape) for p in f.params]
         args = per_cycle + param_args
         call = f"self::{k.name}({', '.join(args)})"
+        framed = f.framed[m] if f.framed else None
         if f.composed:
             poses = [f"{slot.jet}.get_or_insert_with(|| self::{slot.jet}(x))" for slot in f.composed[m].slots
                      if slot.moving]
             call = f"self::{k.name}_from_poses({', '.join(poses + param_args)})"
+        elif framed:
+            # The frame's jet once per cycle, for every member on that frame.
+            frame = f"{framed.frame}.get_or_insert_with(|| self::{framed.frame}(x))"
+            call = f"self::{k.name}_from_frame({', '.join([frame] + param_args)})"
         elif f.params:
             # The state's part of the kernel once per member and cycle, when an instance
             # first needs it (a member whose instances are all culled or absent never does).
@@ -302,6 +307,9 @@ def _evaluate_family(w, f: FamilyDefinition) -> None:
                 poses = [f"{slot.jet}.get_or_insert_with(|| self::{slot.jet}(x))" for slot in bound_plan.slots
                          if slot.moving]
                 bound = f"self::{bound_plan.kernel}_from_poses({', '.join(poses + param_args)})"
+            elif framed and framed.bound:
+                frame = f"{framed.bound.frame}.get_or_insert_with(|| self::{framed.bound.frame}(x))"
+                bound = f"self::{framed.bound.kernel}_from_frame({', '.join([frame] + param_args)})"
             elif f.params:
                 w("        let mut bound_part = None;")
                 bound_state = (f"bound_part.get_or_insert_with(|| "
@@ -504,8 +512,12 @@ def _emit_kernels(out: list[str], d: SystemDefinition, rt: str) -> None:
     # A composed family's members are assembled from their pose and chain kernels.
     composed = {plan.kernel: (f, plan) for f in d.families for plan in f.composed}
     composed_bounds = {plan.bound.kernel: (f, plan.bound) for f in d.families for plan in f.composed if plan.bound}
+    # A member whose rows read one frame is computed on that frame's jet.
+    framed = {p.kernel: p for f in d.families for plan in f.framed if plan for p in (plan, plan.bound) if p}
     for k in d.kernels():
-        if k.name in composed:
+        if k.name in framed:
+            w(emit_framed_member(k, framed[k.name], rt, attributes=[KERNEL_ALLOWS]))
+        elif k.name in composed:
             f, plan = composed[k.name]
             w(emit_composed_member(k, plan, f.degree, bool(f.params), rt, attributes=[KERNEL_ALLOWS]))
         elif k.name in composed_bounds:
