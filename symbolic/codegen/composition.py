@@ -273,6 +273,10 @@ class Jets:
         self._shared: dict[tuple, Kernel] = {}
         self._emitted: set[str] = set()
 
+    def nodes(self) -> list[tuple[str, str | None]]:
+        """Every node kernel with the node kernel it reads (None: the state alone)."""
+        return [(n.kernel.name, n.parent.kernel.name if n.parent else None) for n in self._nodes.values()]
+
     def shared(self, key: tuple, build: Callable[[], Kernel]) -> Kernel:
         """A chain or bound kernel, shared by every family of the system that calls the same
         primitive with the same options on the same moving boxes (key): the same function,

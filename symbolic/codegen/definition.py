@@ -122,6 +122,7 @@ class SystemDefinition:
     jets: tuple[Kernel, ...] = ()
     poses: tuple[PosePlan, ...] = ()
     pose_names: tuple[str, ...] = ()
+    nodes: tuple[tuple[str, str | None], ...] = ()  # (node kernel, the node kernel it reads)
 
     @property
     def time_varying(self) -> bool:
@@ -864,4 +865,4 @@ def define(system: System, unrolled: bool = False) -> SystemDefinition:
                             tuple(system.input_names), tuple(system.input_docs), tuple(system.input_limits),
                             drift, g, pattern, nonzeros, families, outputs, tuple(system.constants),
                             system.source, _objective(system), jets=tuple(jets.kernels), poses=tuple(jets.poses),
-                            pose_names=tuple(jets.pose_names))
+                            pose_names=tuple(jets.pose_names), nodes=tuple(jets.nodes()))

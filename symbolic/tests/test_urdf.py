@@ -438,3 +438,41 @@ def test_root_pose_and_another_base_do_not_mix():
         urdf.Kinematics(robot, q, base="LF_HIP", root_pose=(urdf.euler_zyx(0, 0, 0), [0, 0, 0]))
     with pytest.raises(SpecError, match="root_pose is"):
         urdf.Kinematics(robot, q, root_pose=([[1, 0, 0]], [0, 0, 0]))
+
+
+def test_a_fitted_box_is_kept_between_generations(tmp_path, monkeypatch):
+    # Fitted once, read back equal without touching the mesh; a changed mesh (or the cache
+    # off) fits again.
+    monkeypatch.setenv("CBFGEN_SYMBOLIC_CACHE", str(tmp_path / "cache"))
+    robot = urdf.load(urdf.description("panda_description/urdf/panda.urdf"))
+    fitted = urdf.link_box(robot, "panda_link3")
+    assert len(list((tmp_path / "cache" / "boxes").iterdir())) == 1
+    fit_box = urdf.fit_box
+
+    def refuse(*args):
+        raise AssertionError("fitted again")
+
+    monkeypatch.setattr(urdf, "fit_box", refuse)
+    assert urdf.link_box(robot, "panda_link3") == fitted
+    monkeypatch.setenv("CBFGEN_SYMBOLIC_CACHE", "off")
+    with pytest.raises(AssertionError, match="fitted again"):
+        urdf.link_box(robot, "panda_link3")
+    # The mesh's bytes are the key, not its path: a copy elsewhere is kept; a copy whose
+    # bytes differ (a binary STL's free 80-byte header) is fitted again.
+    monkeypatch.setenv("CBFGEN_SYMBOLIC_CACHE", str(tmp_path / "cache"))
+    (element,) = robot.collision("panda_link3")
+    data = element.mesh.read_bytes()
+    assert not data.startswith(b"solid")  # binary: bytes 0-79 are a header no reader interprets
+
+    def with_mesh(name: str, content: bytes):
+        copy = tmp_path / name
+        copy.write_bytes(content)
+        return dataclasses.replace(robot, collisions=tuple(dataclasses.replace(c, mesh=copy) if c == element else c
+                                                           for c in robot.collisions))
+
+    assert urdf.link_box(with_mesh("same.stl", data), "panda_link3") == fitted
+    changed = with_mesh("changed.stl", b"X" + data[1:])
+    with pytest.raises(AssertionError, match="fitted again"):
+        urdf.link_box(changed, "panda_link3")
+    monkeypatch.setattr(urdf, "fit_box", fit_box)
+    assert urdf.link_box(changed, "panda_link3") == fitted

@@ -156,3 +156,47 @@ def emit_pose_function(plan: PosePlan, n_x: int, runtime_crate: str, attributes:
     how = f"along the kinematic tree: {steps}" + (", then the box placed in the last frame" if placed else "")
     return "\n".join([f"/// {what}; {how}.", *attributes, "#[inline]",
                       f"pub fn {plan.name}(x: &[f64; {n_x}]) -> {ret} {{", *calls, "}"]) + "\n"
+
+
+def emit_pose_cache(nodes: Sequence[tuple[Kernel, str | None]], plans: Sequence[PosePlan], n_x: int,
+                    runtime_crate: str) -> str:
+    """``PoseCache``: every node's jet and every pose function's result, each computed at
+    most once per cycle, when a row first asks (a node after the node it reads). What the
+    filter's ``evaluate`` reads poses through: a link shared by ten rows costs one
+    evaluation of each joint above it."""
+    types = {k.name: kernel_signature(k, runtime_crate)[1] for k, _ in nodes}
+    for plan in plans:
+        types[plan.name] = ("[f64; 12]" if plan.value else
+                            f"([f64; 12], [f64; {12 * plan.degree}], [[f64; {plan.columns}]; 12])")
+    x = f"x: &[f64; {n_x}]"
+    out = ["/// Every pose a cycle's rows read, each computed at most once per cycle: the node kernels' jets "
+           "along the kinematic tree, and the boxes placed in them.", "#[derive(Default)]",
+           "#[allow(clippy::type_complexity)]", "struct PoseCache {"]
+    out += [f"    {name}: Option<{t}>," for name, t in types.items()]
+    out += ["}", "", "#[allow(clippy::type_complexity)]", "impl PoseCache {"]
+    for k, parent in nodes:
+        if parent is None:
+            call = f"self::{k.name}(x)"
+        elif types[parent] == "[f64; 12]":
+            call = f"self::{k.name}(x, &self.{parent}(x))"
+        else:
+            call = (f"{{ let parent = self.{parent}(x); "
+                    f"self::{k.name}(x, &parent.0, &parent.1, &{runtime_crate}::compose::flatten(&parent.2)) }}")
+        out += _cached_method(k.name, types[k.name], x, call)
+    for plan in plans:
+        frame = f"self.{plan.steps[-1]}(x)"
+        if plan.placement is None:
+            call = frame
+        else:
+            offset = ", ".join(float_literal(v) for v in plan.placement[:3])
+            axes = ", ".join(float_literal(v) for v in plan.placement[3:])
+            place = "place_pose" if plan.value else "place_jet"
+            call = f"{runtime_crate}::compose::{place}(&{frame}, &[{offset}], &[{axes}])"
+        out += _cached_method(plan.name, types[plan.name], x, call)
+    return "\n".join([*out, "}"]) + "\n"
+
+
+def _cached_method(name: str, rust_type: str, x: str, call: str) -> list[str]:
+    return ["    #[inline]", f"    fn {name}(&mut self, {x}) -> {rust_type} {{",
+            f"        if let Some(value) = self.{name} {{", "            return value;", "        }",
+            f"        let value = {call};", f"        self.{name} = Some(value);", "        value", "    }"]

@@ -429,7 +429,7 @@ def emit_split_kernel(kernel: Kernel, runtime_crate: str, per_cycle: Sequence[st
     return "\n".join(consts + state_fn + instance_fn + wrapper) + "\n"
 
 
-def emit_kernel(kernel: Kernel, runtime_crate: str, attributes: Sequence[str] = ()) -> str:
+def emit_kernel(kernel: Kernel, runtime_crate: str, attributes: Sequence[str] = (), inline: str = "#[inline]") -> str:
     """The Rust text of one kernel: constants, then the function. ``runtime_crate`` is the
     path of cbfgen's core where the kernel is compiled (``crate`` inside it, ``cbfgen``
     elsewhere); ``attributes`` (outer attributes such as ``#[allow(...)]``) go on the
@@ -439,7 +439,7 @@ def emit_kernel(kernel: Kernel, runtime_crate: str, attributes: Sequence[str] = 
     names = _local_names(kernel, code)
     p = RustPrinter(names)
     args, ret = kernel_signature(kernel, runtime_crate)
-    lines = _doc_lines(kernel) + list(attributes) + ["#[inline]", f"pub fn {kernel.name}({args}) -> {ret} {{"]
+    lines = _doc_lines(kernel) + list(attributes) + [inline, f"pub fn {kernel.name}({args}) -> {ret} {{"]
     # Scalar inputs are already locals under their own name; arrays are unpacked.
     for inp in filter(lambda i: i.is_array, kernel.inputs):
         for k, sym in enumerate(inp.symbols):

@@ -26,7 +26,13 @@ import json
 
 from ....spec import Domain, Interval, NonNegative, Positive, Real, Rotation, UnitVector
 from ...definition import FamilyDefinition, SystemDefinition
-from .composed import emit_composed_bound, emit_composed_member, emit_framed_member, emit_pose_function
+from .composed import (
+    emit_composed_bound,
+    emit_composed_member,
+    emit_framed_member,
+    emit_pose_cache,
+    emit_pose_function,
+)
 from .emitter import emit_kernel, emit_split_kernel, float_literal, kernel_fn_type, rustdoc_text
 from .kernel_table import emit_kernel_table
 
@@ -282,12 +288,11 @@ def _evaluate_family(w, f: FamilyDefinition) -> None:
         call = f"self::{k.name}({', '.join(args)})"
         framed = f.framed[m] if f.framed else None
         if f.composed:
-            poses = [f"{slot.jet}.get_or_insert_with(|| self::{slot.jet}(x))" for slot in f.composed[m].slots
-                     if slot.moving]
+            poses = [f"&poses.{slot.jet}(x)" for slot in f.composed[m].slots if slot.moving]
             call = f"self::{k.name}_from_poses({', '.join(poses + param_args)})"
         elif framed:
             # The frame's jet once per cycle, for every member on that frame.
-            frame = f"{framed.frame}.get_or_insert_with(|| self::{framed.frame}(x))"
+            frame = f"&poses.{framed.frame}(x)"
             call = f"self::{k.name}_from_frame({', '.join([frame] + param_args)})"
         elif f.params:
             # The state's part of the kernel once per member and cycle, when an instance
@@ -304,11 +309,10 @@ def _evaluate_family(w, f: FamilyDefinition) -> None:
             # bound fails the user's tests, never a release build's control path.
             if f.composed:
                 bound_plan = f.composed[m].bound
-                poses = [f"{slot.jet}.get_or_insert_with(|| self::{slot.jet}(x))" for slot in bound_plan.slots
-                         if slot.moving]
+                poses = [f"&poses.{slot.jet}(x)" for slot in bound_plan.slots if slot.moving]
                 bound = f"self::{bound_plan.kernel}_from_poses({', '.join(poses + param_args)})"
             elif framed and framed.bound:
-                frame = f"{framed.bound.frame}.get_or_insert_with(|| self::{framed.bound.frame}(x))"
+                frame = f"&poses.{framed.bound.frame}(x)"
                 bound = f"self::{framed.bound.kernel}_from_frame({', '.join([frame] + param_args)})"
             elif f.params:
                 w("        let mut bound_part = None;")
@@ -514,6 +518,9 @@ def _emit_kernels(out: list[str], d: SystemDefinition, rt: str) -> None:
     composed_bounds = {plan.bound.kernel: (f, plan.bound) for f in d.families for plan in f.composed if plan.bound}
     # A member whose rows read one frame is computed on that frame's jet.
     framed = {p.kernel: p for f in d.families for plan in f.framed if plan for p in (plan, plan.bound) if p}
+    nodes = {name for name, _ in d.nodes}
+    # A composed family's chain and bound kernels serve every member: compiled once.
+    shared = nodes | {k.name for f in d.families if f.composed for k in f.chains}
     for k in d.kernels():
         if k.name in framed:
             w(emit_framed_member(k, framed[k.name], rt, attributes=[KERNEL_ALLOWS]))
@@ -525,10 +532,17 @@ def _emit_kernels(out: list[str], d: SystemDefinition, rt: str) -> None:
             w(emit_composed_bound(k, bound, bool(f.params), rt, attributes=[KERNEL_ALLOWS]))
         elif k.name in split_kernels:
             w(emit_split_kernel(k, rt, split_kernels[k.name], attributes=[KERNEL_ALLOWS]))
+        elif k.name in shared:
+            # Compiled once and called: inlined, every member would repeat the chain, and
+            # every path down the tree every joint above it.
+            w(emit_kernel(k, rt, attributes=[KERNEL_ALLOWS], inline="#[inline(never)]"))
         else:
             w(emit_kernel(k, rt, attributes=[KERNEL_ALLOWS]))
     for plan in d.poses:
         w(emit_pose_function(plan, len(d.state_names), rt, attributes=[KERNEL_ALLOWS]))
+    if d.pose_names:
+        by_name = {k.name: k for k in d.jets}
+        w(emit_pose_cache([(by_name[name], parent) for name, parent in d.nodes], d.poses, len(d.state_names), rt))
     for f in d.families:
         for k, per_row in zip(f.kernels, f.row_columns, strict=True):
             w(f"/// Input columns each row of [`{k.name}`] can touch (its own sparsity in the QP; "
@@ -855,8 +869,8 @@ def _emit_barriers(out: list[str], d: SystemDefinition, rt: str) -> None:
     for f in d.families:
         _validate_family(w, f)
     if d.pose_names:
-        # Composed rows' pose functions: each evaluated once per cycle, when a row first needs it.
-        w("        " + " ".join(f"let mut {name} = None;" for name in d.pose_names))
+        # Composed rows' poses: each evaluated once per cycle, when a row first needs it.
+        w("        let mut poses = PoseCache::default();")
     w("        let mut i = 0;")
     for f in d.families:
         _evaluate_family(w, f)
