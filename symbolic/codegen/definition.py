@@ -342,12 +342,7 @@ def _composed_bound(system: System, family: Family, where: str, row_kernel: str,
     """One member's lower bound, composed: the boxes' value kernels and the family's bound
     kernel (or, ``unrolled``, the bound's whole definition)."""
     name = f"{row_kernel}_lower_bound"
-    k = Kernel(name, "")
-    k.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
-    try:
-        values, _ = _declare_params(k, family)
-    except ValueError as exc:
-        raise SpecError(f"{where}: {exc}") from exc
+    k, values, _ = _member_kernel(system, family, where, name)
     recorder = Recorder()
     ctx = FamilyContext(where, k, k, values, None, index, label, family.params, required, composer=recorder)
     with ctx.active():
@@ -388,13 +383,8 @@ def _composed(system: System, family: Family, where: str, members, required, jet
     bounds: list[Kernel] = []
     first = None
     for member_where, name, index, label in members:
-        k = Kernel(name, "")
-        k.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
+        k, values, _ = _member_kernel(system, family, member_where, name)
         eng = LieEngine(k, system.x, system.f, system.g)
-        try:
-            values, _ = _declare_params(k, family)
-        except ValueError as exc:
-            raise SpecError(f"{member_where}: {exc}") from exc
         recorder = Recorder()
         ctx = FamilyContext(member_where, k, eng, values, None, index, label, family.params, required,
                             composer=recorder)
@@ -577,14 +567,21 @@ def _signature(system: System, family: Family, name: str, doc: str, built, rows)
     return RowKernel(sig, built.degree, built.columns, built.row_names, built.row_columns)
 
 
-def _member_rows(system: System, family: Family, where: str, name: str, index, label, required):
-    """A member's rows (checked) and the kernel holding their definitions, undifferentiated."""
+def _member_kernel(system: System, family: Family, where: str, name: str):
+    """A member's kernel with its inputs (the state, then the family's parameters): the
+    kernel, the parameters' values for ``p.<name>`` and their symbols."""
     k = Kernel(name, "")
     k.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
     try:
         values, param_symbols = _declare_params(k, family)
     except ValueError as exc:
         raise SpecError(f"{where}: {exc}") from exc
+    return k, values, param_symbols
+
+
+def _member_rows(system: System, family: Family, where: str, name: str, index, label, required):
+    """A member's rows (checked) and the kernel holding their definitions, undifferentiated."""
+    k, values, param_symbols = _member_kernel(system, family, where, name)
     ctx = FamilyContext(where, k, k, values, None, index, label, family.params, required)
     with ctx.active():
         rows = _checked_rows(system, family, where, k, _rows(where, family, family.h(ctx)), param_symbols, None)
@@ -640,9 +637,7 @@ def _framed_bound(system: System, family: Family, where: str, row_kernel: str, i
     """A framed member's lower bound on its frame's pose: (its signature, or the whole
     bound; how it is assembled; its kernel on the frame), else None."""
     name = f"{row_kernel}_lower_bound"
-    k = Kernel(name, "")
-    k.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
-    values, _ = _declare_params(k, family)
+    k, values, _ = _member_kernel(system, family, where, name)
     ctx = FamilyContext(where, k, k, values, None, index, label, family.params, required)
     with ctx.active():
         bound = family.lower_bound(ctx)
