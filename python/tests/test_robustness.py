@@ -949,6 +949,8 @@ def kernel_inputs(module: str, inputs: list) -> np.ndarray:
             parts.append(nominal_state(cbfgen.System(module)))
         elif name.startswith("r_") or name == "rotation":
             parts.append(np.eye(3).ravel())
+        elif name == "frame":  # a link frame's pose (kernels on a frame's jet): off the origin, turned by I
+            parts.append([0.1, 0.2, 0.3, *np.eye(3).ravel()])
         elif name.startswith("p_b"):
             parts.append([1.5, 0.2, 0.1])
         elif name.startswith("alpha"):
