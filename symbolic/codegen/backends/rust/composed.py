@@ -159,7 +159,7 @@ def emit_pose_function(plan: PosePlan, n_x: int, runtime_crate: str, attributes:
 
 
 def emit_pose_cache(nodes: Sequence[tuple[Kernel, str | None]], plans: Sequence[PosePlan], n_x: int,
-                    runtime_crate: str) -> str:
+                    runtime_crate: str, attributes: Sequence[str] = ()) -> str:
     """``PoseCache``: every node's jet and every pose function's result, each computed at
     most once per cycle, when a row first asks (a node after the node it reads). What the
     filter's ``evaluate`` reads poses through: a link shared by ten rows costs one
@@ -170,10 +170,10 @@ def emit_pose_cache(nodes: Sequence[tuple[Kernel, str | None]], plans: Sequence[
                             f"([f64; 12], [f64; {12 * plan.degree}], [[f64; {plan.columns}]; 12])")
     x = f"x: &[f64; {n_x}]"
     out = ["/// Every pose a cycle's rows read, each computed at most once per cycle: the node kernels' jets "
-           "along the kinematic tree, and the boxes placed in them.", "#[derive(Default)]",
-           "#[allow(clippy::type_complexity)]", "struct PoseCache {"]
+           "along the kinematic tree, and the boxes placed in them.", "#[derive(Default)]", *attributes,
+           "struct PoseCache {"]
     out += [f"    {name}: Option<{t}>," for name, t in types.items()]
-    out += ["}", "", "#[allow(clippy::type_complexity)]", "impl PoseCache {"]
+    out += ["}", "", *attributes, "impl PoseCache {"]
     for k, parent in nodes:
         if parent is None:
             call = f"self::{k.name}(x)"

@@ -542,7 +542,8 @@ def _emit_kernels(out: list[str], d: SystemDefinition, rt: str) -> None:
         w(emit_pose_function(plan, len(d.state_names), rt, attributes=[KERNEL_ALLOWS]))
     if d.pose_names:
         by_name = {k.name: k for k in d.jets}
-        w(emit_pose_cache([(by_name[name], parent) for name, parent in d.nodes], d.poses, len(d.state_names), rt))
+        w(emit_pose_cache([(by_name[name], parent) for name, parent in d.nodes], d.poses, len(d.state_names), rt,
+                          attributes=[KERNEL_ALLOWS]))
     for f in d.families:
         for k, per_row in zip(f.kernels, f.row_columns, strict=True):
             w(f"/// Input columns each row of [`{k.name}`] can touch (its own sparsity in the QP; "
