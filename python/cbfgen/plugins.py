@@ -5,8 +5,9 @@ builds it against cbfgen's core as a small shared library exporting the core's v
 C ABI (``cbfgen::plugin``: the only thing that crosses is plain data and ``extern "C"``
 calls, so the plugin and this module need not come from one compiler run), and loads it.
 The build is cached by its inputs — the spec, every file it imports or names with
-``depends_on``, and the core's and generator's sources — in a per-user directory; the
-same inputs a second time load in a fraction of a second. The returned :class:`System`
+``depends_on``, and the core's and generator's sources — in a per-user directory. An
+index keyed by the spec's bytes records what its last run depended on, so the same inputs
+a second time load without running the spec: hashing the inputs and opening the library. The returned :class:`System`
 is like any built-in one: ``Params``, ``Rows``, ``EcbfFilter`` and the dynamics take it,
 and ``System(name)`` finds it afterwards.
 
@@ -170,6 +171,38 @@ def _key(source: Path, spec: Path, dependencies: list[Path]) -> str:
     return h.hexdigest()[:20]
 
 
+def _index_entry(source: Path, spec: Path) -> Path:
+    """Where a spec's last build is indexed: by the spec's own bytes and where it and the
+    sources are, so a warm load finds its plugin without running the spec."""
+    h = hashlib.sha256(f"cbfgen plugin index {ABI_VERSION}\0{source}\0{spec}\0".encode())
+    h.update(spec.read_bytes())
+    return cache_dir() / "plugins" / "index" / f"{h.hexdigest()[:20]}.json"
+
+
+def _indexed(entry: Path, source: Path, spec: Path) -> Path | None:
+    """The library the index names, when every input it was built from (the spec, the
+    dependencies its run recorded, the sources) is unchanged; else None. A dependency the
+    spec would newly import can only come from a change to the spec or to a recorded
+    dependency, and either changes the key."""
+    try:
+        recorded = json.loads(entry.read_text())
+        dependencies = [Path(d) for d in recorded["dependencies"]]
+        library = cache_dir() / "plugins" / recorded["folder"] / recorded["library"]
+        key = _key(source, spec, dependencies)
+    except (OSError, ValueError, KeyError, TypeError):  # no entry, a torn one, a dependency gone
+        return None
+    return library if key == recorded["key"] and library.is_file() else None
+
+
+def _write_index(entry: Path, key: str, dependencies: list[Path], library: Path) -> None:
+    record = {"key": key, "dependencies": [str(d) for d in dependencies], "folder": library.parent.name,
+              "library": library.name}
+    entry.parent.mkdir(parents=True, exist_ok=True)
+    staging = entry.with_name(f"{entry.name}.{os.getpid()}.tmp")
+    staging.write_text(json.dumps(record))
+    os.replace(staging, entry)  # readers see the old entry or the new one, never half
+
+
 def _spec(source: Path, spec: Path):
     """The spec's System (its name and dependencies), read with the generator."""
     try:
@@ -273,10 +306,15 @@ def load(spec: str | os.PathLike, *, progress: bool = True) -> _native.System:
     if not spec.is_file():
         raise LoadError(f"cbfgen.load: no spec file {spec}")
     source = source_dir(spec.parent)
-    system = _spec(source, spec)
-    key = _key(source, spec, list(system.dependencies))
-    folder = cache_dir() / "plugins" / f"{system.name}-{key}"
-    library = folder / f"libcbfgen_plugin_{system.name}.so"
-    if not library.is_file():
-        _build(source, spec, system.name, folder, library, progress)
+    entry = _index_entry(source, spec)
+    library = _indexed(entry, source, spec)
+    if library is None:  # the spec runs only when an input changed or it was never built
+        system = _spec(source, spec)
+        dependencies = list(system.dependencies)
+        key = _key(source, spec, dependencies)
+        folder = cache_dir() / "plugins" / f"{system.name}-{key}"
+        library = folder / f"libcbfgen_plugin_{system.name}.so"
+        if not library.is_file():
+            _build(source, spec, system.name, folder, library, progress)
+        _write_index(entry, key, dependencies, library)
     return _native.load_plugin(library)

@@ -89,6 +89,34 @@ def test_a_second_load_hits_the_cache_and_a_changed_spec_rebuilds(environment, t
     assert {f["name"]: f["poles"] for f in changed.families}["speed_goal"] == [3.0]
 
 
+def test_a_warm_load_runs_no_spec_and_a_changed_dependency_runs_it_again(environment, tmp_path, monkeypatch):
+    # The spec takes its CLF rate from a module beside it (a recorded dependency).
+    spec = _spec_copy(tmp_path, CRUISE)
+    (spec.parent / "cruise_rates.py").write_text("SPEED_GOAL_RATE = 2.0\n")
+    text = spec.read_text().replace("from symbolic.spec import", "import cruise_rates\nfrom symbolic.spec import", 1)
+    spec.write_text(text.replace("rate=2.0", "rate=cruise_rates.SPEED_GOAL_RATE"))
+    first = cbfgen.load(spec, progress=False)
+    runs = []
+    real_spec = cbfgen.plugins._spec
+
+    def counted(source, path):
+        runs.append(path)
+        return real_spec(source, path)
+
+    monkeypatch.setattr(cbfgen.plugins, "_spec", counted)
+    again = cbfgen.load(spec, progress=False)
+    assert runs == [] and again.families == first.families  # the index found it: the spec did not run
+    # The dependency changes, the spec file does not: the spec runs again and builds anew.
+    (spec.parent / "cruise_rates.py").write_text("SPEED_GOAL_RATE = 3.0\n")
+    changed = cbfgen.load(spec, progress=False)
+    assert runs == [spec.resolve()]
+    assert {f["name"]: f["poles"] for f in changed.families}["speed_goal"] == [3.0]
+    # Back to the first rate: the first build is found again, by running the spec once more.
+    (spec.parent / "cruise_rates.py").write_text("SPEED_GOAL_RATE = 2.0\n")
+    assert {f["name"]: f["poles"] for f in cbfgen.load(spec, progress=False).families}["speed_goal"] == [2.0]
+    assert len(runs) == 2
+
+
 def test_a_loaded_clf_is_reported_as_convergence_never_as_safety(environment, tmp_path):
     system = cbfgen.load(_spec_copy(tmp_path, CRUISE), progress=False)
     params = system.params()
