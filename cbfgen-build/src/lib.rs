@@ -266,11 +266,14 @@ impl Generator {
             println!("cargo:rerun-if-changed={}", file.display());
         }
         // A committed file that is current is used as it is: nothing to run, and a fresh
-        // clone builds the same with or without Python.
-        if let Some(dir) = &self.checked_in {
-            if let Some(current) = self.all_current(dir, &generator) {
-                return Ok(current);
-            }
+        // clone builds the same with or without Python. Only the stale specs run: an edit
+        // to one spec of several regenerates that one.
+        let mut files: Vec<Option<PathBuf>> = match &self.checked_in {
+            Some(dir) => self.current_files(dir, &generator),
+            None => vec![None; self.specs.len()],
+        };
+        if files.iter().all(Option::is_some) {
+            return Ok(files.into_iter().flatten().collect());
         }
         match check_python(&env.python) {
             Ok(()) => {}
@@ -298,14 +301,14 @@ impl Generator {
                 .map_err(|_| Error::NoPython { python: env.python.clone() })
         };
         let mut running = std::collections::VecDeque::new();
-        let mut waiting = self.specs.iter();
-        let mut written = Vec::new();
+        let stale: Vec<usize> = (0..self.specs.len()).filter(|&i| files[i].is_none()).collect();
+        let mut waiting = stale.into_iter().map(|i| (i, &self.specs[i]));
         loop {
             while running.len() < env.jobs {
-                let Some(spec) = waiting.next() else { break };
-                running.push_back((spec, spawn(spec)?));
+                let Some((i, spec)) = waiting.next() else { break };
+                running.push_back((i, spec, spawn(spec)?));
             }
-            let Some((spec, child)) = running.pop_front() else { break };
+            let Some((i, spec, child)) = running.pop_front() else { break };
             let done = child.wait_with_output().map_err(|_| Error::NoPython { python: env.python.clone() })?;
             if !done.status.success() {
                 // The whole of it (a spec's own bug comes with its traceback) on the build
@@ -324,9 +327,9 @@ impl Generator {
                 println!("cargo:rerun-if-changed={dependency}");
             }
             let line = last_line(&done.stdout);
-            written.push(PathBuf::from(line.strip_prefix("generated ").unwrap_or(&line)));
+            files[i] = Some(PathBuf::from(line.strip_prefix("generated ").unwrap_or(&line)));
         }
-        Ok(written)
+        Ok(files.into_iter().flatten().collect())
     }
 
     /// Checked in without Python: each spec's committed file, verified by its inputs hash.
@@ -371,10 +374,10 @@ impl Generator {
         Ok(used)
     }
 
-    /// Every spec's committed file, when each one is current.
-    fn all_current(&self, dir: &Path, generator: &Path) -> Option<Vec<PathBuf>> {
+    /// Each spec's committed file when it is current, else None (the spec must run).
+    fn current_files(&self, dir: &Path, generator: &Path) -> Vec<Option<PathBuf>> {
         let headers = checked_in_headers(dir);
-        let package = inputs_hash::package_hash(generator).ok()?;
+        let Ok(package) = inputs_hash::package_hash(generator) else { return vec![None; self.specs.len()] };
         self.specs
             .iter()
             .map(|spec| match self.verify(spec, generator, &package, &headers) {
@@ -683,6 +686,36 @@ mod tests {
             }
             other => panic!("a broken spec must fail the build, got {other:?}"),
         }
+    }
+
+    #[test]
+    fn checked_in_an_edit_to_one_spec_regenerates_that_spec_alone() {
+        let python = python();
+        if check_python(&python).is_err() {
+            assert!(std::env::var_os("CBFGEN_REQUIRE_SYMENGINE").is_none(), "{} has no symengine", python.display());
+            eprintln!("SKIPPED: {} has no symengine (run `scripts/cbf setup`)", python.display());
+            return;
+        }
+        let tree = Scratch::new("one-stale");
+        let names = ["first", "second", "third"];
+        let specs: Vec<PathBuf> =
+            names.iter().map(|n| tree.write(&format!("{n}.py"), point_spec(n, false).as_bytes())).collect();
+        let dir = tree.0.join("generated");
+        let env = Env { python, symbolic: None, out_dir: None, allow_stale: false, jobs: 2 };
+        let generator = specs.iter().fold(Generator::new(), |g, spec| g.spec(spec)).checked_in(&dir);
+        let expected: Vec<PathBuf> = names.iter().map(|n| dir.join(format!("{n}.rs"))).collect();
+        assert_eq!(generator.generate_in(&env).expect("three good specs generate"), expected);
+        // Mark every module as written long ago; then the second spec's wall moves.
+        let long_ago = std::time::SystemTime::UNIX_EPOCH + std::time::Duration::from_secs(1_000_000_000);
+        for file in &expected {
+            fs::File::options().write(true).open(file).unwrap().set_modified(long_ago).unwrap();
+        }
+        tree.write("second.py", point_spec("second", false).replace("1 - p", "2 - p").as_bytes());
+        assert_eq!(generator.generate_in(&env).expect("the edited spec generates"), expected);
+        let modified = |file: &PathBuf| fs::metadata(file).unwrap().modified().unwrap();
+        assert_eq!(modified(&expected[0]), long_ago, "the first spec did not change and must not run");
+        assert_eq!(modified(&expected[2]), long_ago, "the third spec did not change and must not run");
+        assert!(fs::read_to_string(&expected[1]).unwrap().contains("2.0"), "the second module is not regenerated");
     }
 
     fn run_python(code: &str, args: &[&Path]) -> String {
