@@ -26,8 +26,9 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-# crate, the spec edited; every module of the crate is saved and restored (ANYmal's
-# whole-body and MPC specs import its spec, so they regenerate with it).
+# crate, the spec edited; every module of the crate is saved and restored. (ANYmal's
+# whole-body and MPC specs read the robot from anymal_robot.py, not from the spec edited,
+# and are generated in their own crate: an edit here regenerates and compiles the filter.)
 SYSTEMS = {
     "panda": ("cbfgen-panda", ROOT / "systems/panda/spec/panda.py"),
     "anymal": ("cbfgen-anymal", ROOT / "systems/anymal/spec/anymal.py"),

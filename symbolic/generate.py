@@ -38,21 +38,27 @@ MODULES: dict[str, tuple[str, Callable[[], list[Kernel]]]] = {
     "sphere_box": (sphere_box.MODULE_DOC, sphere_box.kernels),
 }
 # Built-in systems: the specs each crate under systems/ generates, as its build.rs names
-# them (`.spec("spec/<name>.py")`, one module per spec: anymal's crate has two).
+# them (`.spec("spec/<name>.py")`, one module per spec, written to that crate's generated/).
 SYSTEMS_ROOT = REPO_ROOT / "systems"
 SYSTEM_RUNTIME_CRATE = "cbfgen"
 _BUILD_RS_SPEC = re.compile(r'\.spec\("([^"]+)"\)')
 
 
 def crate_specs(crate: Path) -> list[Path]:
-    """The spec files a system crate's build.rs generates, in the order it names them."""
+    """The spec files a system crate's build.rs generates, in the order it names them (a
+    spec may sit in another crate's folder: ANYmal's dynamics specs share its robot module)."""
     build = crate / "build.rs"
-    return [crate / m for m in _BUILD_RS_SPEC.findall(build.read_text())] if build.is_file() else []
+    return [(crate / m).resolve() for m in _BUILD_RS_SPEC.findall(build.read_text())] if build.is_file() else []
+
+
+def builtin_crate_specs() -> list[tuple[Path, Path]]:
+    """(crate folder, spec file) of every built-in system, in crate-folder order."""
+    return [(d, p) for d in sorted(SYSTEMS_ROOT.iterdir()) for p in crate_specs(d)]
 
 
 def builtin_specs() -> list[Path]:
     """The built-in systems' spec files, in crate-folder order."""
-    return [p for d in sorted(SYSTEMS_ROOT.iterdir()) for p in crate_specs(d)]
+    return [spec for _, spec in builtin_crate_specs()]
 
 
 @functools.cache
@@ -116,9 +122,9 @@ def render_all(repo_root: Path = REPO_ROOT) -> dict[Path, str]:
     """Path -> contents of every generated file in the repository: the core's generated/
     and each built-in system crate's generated/<system>.rs."""
     out = {repo_root / "generated" / name: text for name, text in render(repo_root).items()}
-    for spec in builtin_specs():
+    for crate, spec in builtin_crate_specs():
         name, text, _, _ = render_with_warnings(spec, SYSTEM_RUNTIME_CRATE)
-        out[spec.parent.parent / "generated" / name] = text
+        out[crate / "generated" / name] = text
     return out
 
 

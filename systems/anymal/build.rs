@@ -1,13 +1,8 @@
-//! Generate this crate's three modules from their specs (the kinematic filter's, the
-//! whole-body controller's and the kino-dynamic MPC's), as any user's crate does (cbfgen-build in
-//! checked-in mode: generated/ is committed, so a build without Python uses it after
-//! checking its inputs hash).
+//! Generate the kinematic filter's module from its spec, as any user's crate does
+//! (cbfgen-build in checked-in mode: generated/ is committed, so a build without Python
+//! uses it after checking its inputs hash). The whole-body controller's and the MPC's
+//! modules, from the specs beside it, are generated in cbfgen-anymal-dynamics.
 
 fn main() {
-    cbfgen_build::Generator::new()
-        .spec("spec/anymal.py")
-        .spec("spec/anymal_wbc.py")
-        .spec("spec/anymal_mpc.py")
-        .checked_in("generated")
-        .build();
+    cbfgen_build::Generator::new().spec("spec/anymal.py").checked_in("generated").build();
 }

@@ -2,13 +2,9 @@
 limits, feet kept inside convex foothold regions, and its legs kept off each other by
 smooth SAT. The robot of seed 004's stepping-stone experiment.
 
-**Description.** example-robot-data's ``anymal_c_simple_description`` (``anymal.urdf``
-and ``anymal.srdf``, the wheel pinned in symbolic/requirements-urdf.txt, read offline):
-the kinematic tree, the joint position and velocity limits, one box per link fitted to
-its collision primitives (boxes as given; cylinders and the foot spheres bounded, the
-containment checked at generation), the foot spheres; the self-collision pairs are the
-SRDF's, every pair of links with geometry that it does not disable and that is not
-adjacent, and must be clear at its ``standing`` state.
+**Description.** The robot's facts (kinematic tree, limits, link boxes, feet, the SRDF's
+self-collision pairs and standing state) come from its URDF and SRDF through
+``anymal_robot.py``, which this crate's three specs share.
 
 **Model.** A floating base: states are the trunk's position p (world [m]) and orientation
 as roll, pitch, yaw (R = Rz(yaw) Ry(pitch) Rx(roll), singular at pitch = +-pi/2, which a
@@ -28,10 +24,8 @@ torques come through the floating-base dynamics, issue 37).
 * ``self_collision``: SSAT between the boxes of each checked pair minus its certified
   margin (degree 2), in the trunk's frame, where the floating base drops out.
 
-From the URDF: kinematics, position and velocity limits, collision geometry; from the
-SRDF: the checked pairs and the standing state. **Assumed**: the acceleration limits of
-the input box (ANYmal's description has none), the SSAT sharpness, the poles and
-priorities.
+**Assumed** here: the SSAT sharpness, the poles and priorities (and, in
+``anymal_robot.py``, the acceleration limits of the input box).
 """
 
 from __future__ import annotations
@@ -42,42 +36,29 @@ from symbolic import primitives as prim
 from symbolic import urdf
 from symbolic.spec import System
 
-ROBOT = urdf.load(urdf.description("anymal_c_simple_description/urdf/anymal.urdf"))
-SRDF = urdf.load_srdf(urdf.description("anymal_c_simple_description/srdf/anymal.srdf"), ROBOT)
-LEGS = ["LF", "RF", "LH", "RH"]
-JOINT_NAMES = [f"{leg}_{joint}" for leg in LEGS for joint in ("HAA", "HFE", "KFE")]
-JOINTS = len(JOINT_NAMES)
-BASE = ["x", "y", "z", "roll", "pitch", "yaw"]
-COORDINATES = len(BASE) + JOINTS
-Q_MIN, Q_MAX = (list(v) for v in zip(*ROBOT.limits(JOINT_NAMES, "position"), strict=True))
-QD_MAX = [upper for _, upper in ROBOT.limits(JOINT_NAMES, "velocity")]
-TAU_MAX = [upper for _, upper in ROBOT.limits(JOINT_NAMES, "effort")]
-# The input box [m/s^2, rad/s^2]: assumed, generous for a 50 kg trunk and its drives, so
-# that the barrier rows and not the box decide what is feasible.
-BASE_LINEAR_ACCELERATION = 30.0
-BASE_ANGULAR_ACCELERATION = 60.0
-JOINT_ACCELERATION = 200.0
-
-# The SRDF's standing state: joint angles, and the trunk's pose (its floating virtual
-# joint: x y z qx qy qz qw; the identity quaternion there, so roll = pitch = yaw = 0).
-STANDING_STATE = "standing"
-STANDING_JOINTS = [SRDF.states[STANDING_STATE][j] for j in JOINT_NAMES]
-(_ROOT_JOINT, _STANDING_POSE), = SRDF.virtual_states[STANDING_STATE].items()
-if tuple(_STANDING_POSE[3:]) != (0.0, 0.0, 0.0, 1.0):
-    raise ValueError(f"anymal.srdf's {STANDING_STATE!r} trunk is not level: {_STANDING_POSE}")
-STANDING = [*_STANDING_POSE[:3], 0.0, 0.0, 0.0, *STANDING_JOINTS]
-
-# The feet: each FOOT link's collision sphere (its centre is the point the foothold rows
-# keep in their region).
-FEET = [next(s for s in urdf.collision_shapes(ROBOT, f"{leg}_FOOT") if isinstance(s, urdf.Sphere)) for leg in LEGS]
-FOOT_RADIUS = FEET[0].radius
-if any(f.radius != FOOT_RADIUS for f in FEET):
-    raise ValueError("anymal.urdf's four foot spheres differ in radius")
-
-LINKS = [link for link in ROBOT.links if ROBOT.collision(link)]
-BOXES = {link: urdf.link_box(ROBOT, link) for link in LINKS}
-SELF_PAIRS = urdf.self_collision_pairs(ROBOT, SRDF, LINKS)
-urdf.require_clear(ROBOT, SELF_PAIRS, BOXES, SRDF.states[STANDING_STATE], f"anymal.srdf's {STANDING_STATE!r} state")
+from anymal_robot import (
+    BASE,
+    BASE_ANGULAR_ACCELERATION,
+    BASE_LINEAR_ACCELERATION,
+    BOXES,
+    COORDINATES,
+    FOOT_RADIUS,
+    JOINT_ACCELERATION,
+    JOINT_NAMES,
+    JOINTS,
+    LEGS,
+    LINKS,
+    MAX_HALF_SPACES,
+    Q_MAX,
+    Q_MIN,
+    QD_MAX,
+    ROBOT,
+    SELF_PAIRS,
+    STANDING,
+    TAU_MAX,
+    foot_center,
+    kinematics,
+)
 
 # SSAT sharpness, as the Panda's (systems/panda/spec/panda.py says why so soft).
 SSAT_ALPHA = 100.0
@@ -87,23 +68,8 @@ VELOCITY_POLES = [20.0]
 FOOT_POLES = [10.0, 10.0]
 COLLISION_POLES = [4.0, 4.0]
 SELF_ACTIVATION = 0.2
-MAX_HALF_SPACES = 8
 # Joint limits, footholds and collisions hold; the actuators' rate limits yield to them.
 PRIORITIES = {"joint_limits": 0, "foot_region": 0, "self_collision": 0, "velocity_limits": 1}
-
-
-def kinematics(base, joints, let=None, frame: str | None = None) -> urdf.Kinematics:
-    """Link poses for the trunk pose ``base`` (x y z roll pitch yaw) and ``joints``, in the
-    world; in link ``frame``'s frame instead if given (then ``base`` is not used)."""
-    q = dict(zip(JOINT_NAMES, joints, strict=True))
-    if frame is not None:
-        return urdf.Kinematics(ROBOT, q, let, frame)
-    return urdf.Kinematics(ROBOT, q, let, root_pose=(urdf.euler_zyx(*base[3:]), list(base[:3])))
-
-
-def foot_center(leg: int, fk: urdf.Kinematics) -> list[se.Expr]:
-    """Leg ``leg``'s foot sphere centre in ``fk``'s frame."""
-    return FEET[leg].placed(fk.pose(f"{LEGS[leg]}_FOOT"))[0]
 
 
 def build() -> System:

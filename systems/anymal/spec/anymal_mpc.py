@@ -1,8 +1,8 @@
 """ANYmal C as seed 004's kino-dynamic MPC sees it (eqs. 18-20): one rigid body with the
 legs' joints as kinematic integrators, contact forces and joint velocities as inputs.
 
-**Description.** The same URDF and SRDF as ``anymal.py`` (imported from it: the robot,
-its legs, feet, limits and standing state are stated once, there).
+**Description.** The same URDF and SRDF as ``anymal.py``, through ``anymal_robot.py``
+(the robot, its legs, feet, limits and standing state are stated once, there).
 
 **Model.** States: the trunk's orientation as roll, pitch, yaw (R = Rz Ry Rx, as
 ``anymal.py``), the centre of mass p in the world [m], the trunk's angular velocity w and
@@ -33,12 +33,13 @@ at run time); relative degree 1 in the joint velocities: seed 004's eq. 25, h' +
 
 from __future__ import annotations
 
-import anymal
 import symengine as se
 
 from symbolic import urdf
 from symbolic.linalg import cross, matvec, matvec_transposed
 from symbolic.spec import System
+
+import anymal_robot
 
 GRAVITY = 9.81
 FORCE_LIMIT = 2000.0  # |f| per axis [N]: an input box wide enough never to bind (4x the weight)
@@ -49,9 +50,10 @@ def _standing_body() -> tuple[float, list[float], list[list[float]]]:
     """The standing robot as one rigid body: mass [kg], centre of mass in the trunk frame
     [m], rotational inertia about it in the trunk frame [kg m^2], from the URDF's
     inertials at the SRDF's standing joints."""
-    fk = urdf.Kinematics(anymal.ROBOT, dict(zip(anymal.JOINT_NAMES, anymal.STANDING_JOINTS, strict=True)))
+    standing = dict(zip(anymal_robot.JOINT_NAMES, anymal_robot.STANDING_JOINTS, strict=True))
+    fk = urdf.Kinematics(anymal_robot.ROBOT, standing)
     parts = []
-    for link, inertial in anymal.ROBOT.inertials.items():
+    for link, inertial in anymal_robot.ROBOT.inertials.items():
         rotation, position = fk.pose(link)
         r = [[float(v) for v in row] for row in rotation]
         centre = [float(position[i]) + sum(r[i][k] * inertial.com[k] for k in range(3)) for i in range(3)]
@@ -71,13 +73,13 @@ def _standing_body() -> tuple[float, list[float], list[list[float]]]:
 
 
 MASS, COM_OFFSET, INERTIA = _standing_body()
-STANDING_COM_HEIGHT = anymal.STANDING[2] + COM_OFFSET[2]
+STANDING_COM_HEIGHT = anymal_robot.STANDING[2] + COM_OFFSET[2]
 
 
 def _arm(leg: int, q, let=None) -> list[se.Expr]:
     """Foot ``leg``'s sphere centre relative to the centre of mass, trunk frame."""
-    fk = urdf.Kinematics(anymal.ROBOT, dict(zip(anymal.JOINT_NAMES, q, strict=True)), let)
-    return [c - o for c, o in zip(anymal.foot_center(leg, fk), COM_OFFSET, strict=True)]
+    fk = urdf.Kinematics(anymal_robot.ROBOT, dict(zip(anymal_robot.JOINT_NAMES, q, strict=True)), let)
+    return [c - o for c, o in zip(anymal_robot.foot_center(leg, fk), COM_OFFSET, strict=True)]
 
 
 def _jacobian(exprs, symbols):
@@ -88,21 +90,21 @@ def build() -> System:
     s = System("anymal_mpc", doc="ANYmal C for seed 004's kino-dynamic MPC (systems/anymal/spec/anymal_mpc.py): "
                                  "the standing robot as one rigid body, contact forces and joint velocities as "
                                  "inputs, feet inside convex foothold regions.")
-    joints = [j.lower() for j in anymal.JOINT_NAMES]
+    joints = [j.lower() for j in anymal_robot.JOINT_NAMES]
     euler_names, com_names = ["roll", "pitch", "yaw"], ["com_x", "com_y", "com_z"]
     names = [*euler_names, *com_names, "wx", "wy", "wz", "vx", "vy", "vz", *joints]
     docs = (["trunk roll [rad]", "trunk pitch [rad]", "trunk yaw [rad]"]
             + [f"centre of mass {a}, world [m]" for a in "xyz"]
             + [f"trunk angular velocity {a}, trunk frame [rad/s]" for a in "xyz"]
             + [f"centre-of-mass velocity {a}, trunk frame [m/s]" for a in "xyz"]
-            + [f"joint {j} angle [rad]" for j in anymal.JOINT_NAMES])
+            + [f"joint {j} angle [rad]" for j in anymal_robot.JOINT_NAMES])
     x = s.states(names, docs=docs)
     euler, p, w, v, q = x[0:3], x[3:6], x[6:9], x[9:12], x[12:24]
-    legs = [leg.lower() for leg in anymal.LEGS]
+    legs = [leg.lower() for leg in anymal_robot.LEGS]
     u = s.inputs([f"{leg}_f{a}" for leg in legs for a in "xyz"] + [f"{j}_rate" for j in joints],
-                 limits=[(-FORCE_LIMIT, FORCE_LIMIT)] * 12 + [(-m, m) for m in anymal.QD_MAX],
-                 docs=[f"{leg} foot contact force {a}, trunk frame [N]" for leg in anymal.LEGS for a in "xyz"]
-                 + [f"joint {j} velocity [rad/s]" for j in anymal.JOINT_NAMES])
+                 limits=[(-FORCE_LIMIT, FORCE_LIMIT)] * 12 + [(-m, m) for m in anymal_robot.QD_MAX],
+                 docs=[f"{leg} foot contact force {a}, trunk frame [N]" for leg in anymal_robot.LEGS for a in "xyz"]
+                 + [f"joint {j} velocity [rad/s]" for j in anymal_robot.JOINT_NAMES])
     rates = u[12:24]
 
     rotation = urdf.euler_zyx(*euler)
@@ -175,24 +177,24 @@ def build() -> System:
     s.family("foot_region", foot_region,
              params={"normal": ((3,), "half-space normal n, world frame (outward; unit for h in metres)"),
                      "offset": ((), "half-space offset d [m]: the region is n . c <= d")},
-             over=legs, capacity=anymal.MAX_HALF_SPACES, poles=CBF_RATE,
+             over=legs, capacity=anymal_robot.MAX_HALF_SPACES, poles=CBF_RATE,
              doc="A foot sphere's centre c inside the half-space n . c <= d: h = d - n . c (metres when |n| = 1), "
                  "relative degree 1 in the joint velocities (seed 004, eq. 25).")
 
     for name, value, doc in [
-        ("legs", anymal.LEGS, "The legs, in force-input order and member order of foot_region."),
-        ("joint_names", anymal.JOINT_NAMES, "The URDF's joints, in state and joint-velocity order."),
-        ("standing_joints", anymal.STANDING_JOINTS, "The SRDF's standing joint angles [rad]."),
+        ("legs", anymal_robot.LEGS, "The legs, in force-input order and member order of foot_region."),
+        ("joint_names", anymal_robot.JOINT_NAMES, "The URDF's joints, in state and joint-velocity order."),
+        ("standing_joints", anymal_robot.STANDING_JOINTS, "The SRDF's standing joint angles [rad]."),
         ("standing_com_height", STANDING_COM_HEIGHT, "The standing robot's centre-of-mass height [m]."),
         ("mass", MASS, "The robot's mass [kg] (URDF)."),
         ("com_offset", COM_OFFSET, "The standing robot's centre of mass in the trunk frame [m]."),
         ("inertia", INERTIA, "The standing robot's rotational inertia about its centre of mass, trunk frame "
                              "[kg m^2]."),
         ("gravity", GRAVITY, "Gravity's magnitude [m/s^2], along -z."),
-        ("foot_radius", anymal.FOOT_RADIUS, "Foot sphere radius [m] (URDF)."),
-        ("q_min", anymal.Q_MIN, "Joint angle lower limits [rad] (URDF)."),
-        ("q_max", anymal.Q_MAX, "Joint angle upper limits [rad] (URDF)."),
-        ("qd_max", anymal.QD_MAX, "Joint velocity limits [rad/s] (URDF)."),
+        ("foot_radius", anymal_robot.FOOT_RADIUS, "Foot sphere radius [m] (URDF)."),
+        ("q_min", anymal_robot.Q_MIN, "Joint angle lower limits [rad] (URDF)."),
+        ("q_max", anymal_robot.Q_MAX, "Joint angle upper limits [rad] (URDF)."),
+        ("qd_max", anymal_robot.QD_MAX, "Joint velocity limits [rad/s] (URDF)."),
     ]:
         s.constant(name, value, doc)
     return s

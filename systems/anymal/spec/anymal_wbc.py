@@ -3,8 +3,8 @@ coordinates, its rigid-body dynamics, the feet as contact points, and the footho
 rows written in the generalized accelerations the controller solves for (seed 004,
 Table I, priority 0, eq. 26).
 
-**Description.** The same URDF and SRDF as ``anymal.py`` (imported from it: the robot,
-its legs, feet, limits and standing state are stated once, there).
+**Description.** The same URDF and SRDF as ``anymal.py``, through ``anymal_robot.py``
+(the robot, its legs, feet, limits and standing state are stated once, there).
 
 **Model.** States: the trunk's position p (world [m]) and rotation R (world from trunk,
 row-major ``r00 .. r22``; its columns are the trunk's axes), the 12 joint angles, the
@@ -26,12 +26,13 @@ run time (world), relative degree 2 in nu'. With its input columns ``a`` and dri
 
 from __future__ import annotations
 
-import anymal
 import symengine as se
 
 from symbolic import urdf
 from symbolic.dynamics import BASE_DOFS, RigidBodyDynamics, contact_point
 from symbolic.spec import System
+
+import anymal_robot
 
 LINEAR = ["vx", "vy", "vz"]
 ANGULAR = ["wx", "wy", "wz"]
@@ -43,14 +44,14 @@ def build() -> System:
     s = System("anymal_wbc", doc="ANYmal C for a whole-body controller (systems/anymal/spec/anymal_wbc.py): "
                                  "free-flyer coordinates, rigid-body dynamics, foot contact points, feet inside "
                                  "convex foothold regions in generalized accelerations.")
-    joints = [j.lower() for j in anymal.JOINT_NAMES]
+    joints = [j.lower() for j in anymal_robot.JOINT_NAMES]
     names = ["x", "y", "z", *ROTATION, *joints, *LINEAR, *ANGULAR, *(f"{j}_rate" for j in joints)]
     docs = (["trunk x, world [m]", "trunk y, world [m]", "trunk z, world [m]"]
             + [f"trunk rotation R[{i}][{j}] (world from trunk)" for i in range(3) for j in range(3)]
-            + [f"joint {j} angle [rad]" for j in anymal.JOINT_NAMES]
+            + [f"joint {j} angle [rad]" for j in anymal_robot.JOINT_NAMES]
             + [f"trunk origin velocity {a}, trunk frame [m/s]" for a in "xyz"]
             + [f"trunk angular velocity {a}, trunk frame [rad/s]" for a in "xyz"]
-            + [f"joint {j} rate [rad/s]" for j in anymal.JOINT_NAMES])
+            + [f"joint {j} rate [rad/s]" for j in anymal_robot.JOINT_NAMES])
     x = s.states(names, docs=docs)
     p, flat, q = x[0:3], x[3:12], x[12:24]
     rotation = [flat[3 * i:3 * i + 3] for i in range(3)]
@@ -58,24 +59,25 @@ def build() -> System:
     v, w = twist[:3], twist[3:]
     velocity = [*twist, *qd]
     s.inputs([f"{n}_acc" for n in [*LINEAR, *ANGULAR, *joints]],
-             limits=[(-a, a) for a in [anymal.BASE_LINEAR_ACCELERATION] * 3 + [anymal.BASE_ANGULAR_ACCELERATION] * 3
-                     + [anymal.JOINT_ACCELERATION] * anymal.JOINTS],
+             limits=[(-a, a) for a in [anymal_robot.BASE_LINEAR_ACCELERATION] * 3
+                     + [anymal_robot.BASE_ANGULAR_ACCELERATION] * 3
+                     + [anymal_robot.JOINT_ACCELERATION] * anymal_robot.JOINTS],
              docs=[f"rate of the trunk's twist {d}, trunk frame" for d in [*LINEAR, *ANGULAR]]
-             + [f"joint {j} acceleration [rad/s^2]" for j in anymal.JOINT_NAMES])
+             + [f"joint {j} acceleration [rad/s^2]" for j in anymal_robot.JOINT_NAMES])
     # p' = R v, R' = R [w]x: column k of R' is R (w x e_k).
     skew = [[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]]
     p_dot = [sum((rotation[i][k] * v[k] for k in range(3)), se.Integer(0)) for i in range(3)]
     r_dot = [sum((rotation[i][k] * skew[k][j] for k in range(3)), se.Integer(0)) for i in range(3) for j in range(3)]
     nv = len(velocity)
-    positions = 3 + 9 + anymal.JOINTS
+    positions = 3 + 9 + anymal_robot.JOINTS
     s.dynamics(f=p_dot + r_dot + list(qd) + [0] * nv,
                g=[[0] * nv for _ in range(positions)] + [[int(r == c) for c in range(nv)] for r in range(nv)])
 
-    joint_q = dict(zip(anymal.JOINT_NAMES, q, strict=True))
+    joint_q = dict(zip(anymal_robot.JOINT_NAMES, q, strict=True))
 
     def foot_center(leg: int, let=None) -> list[se.Expr]:
-        fk = urdf.Kinematics(anymal.ROBOT, joint_q, let, root_pose=(rotation, list(p)))
-        return anymal.foot_center(leg, fk)
+        fk = urdf.Kinematics(anymal_robot.ROBOT, joint_q, let, root_pose=(rotation, list(p)))
+        return anymal_robot.foot_center(leg, fk)
 
     def foot_region(prm):
         c = foot_center(prm.index, prm.let)
@@ -84,13 +86,13 @@ def build() -> System:
     s.family("foot_region", foot_region,
              params={"normal": ((3,), "half-space normal n, world frame (outward; unit for h in metres)"),
                      "offset": ((), "half-space offset d [m]: the region is n . c <= d")},
-             over=[leg.lower() for leg in anymal.LEGS], capacity=anymal.MAX_HALF_SPACES, poles=FOOT_POLES,
+             over=[leg.lower() for leg in anymal_robot.LEGS], capacity=anymal_robot.MAX_HALF_SPACES, poles=FOOT_POLES,
              doc="A foot sphere's centre c inside the half-space n . c <= d: h = d - n . c (metres when |n| = 1). "
                  "One member per foot; a foothold region is its half-spaces (seed 004, eq. 26).")
 
-    dynamics = RigidBodyDynamics(anymal.ROBOT, joint_q, base_rotation=rotation)
+    dynamics = RigidBodyDynamics(anymal_robot.ROBOT, joint_q, base_rotation=rotation)
     # The dynamics number the joints in tree order; the states, leg by leg.
-    order = [dynamics.dofs.index(name) for name in [*BASE_DOFS, *anymal.JOINT_NAMES]]
+    order = [dynamics.dofs.index(name) for name in [*BASE_DOFS, *anymal_robot.JOINT_NAMES]]
     velocity_in_tree_order = [velocity[order.index(k)] for k in range(nv)]
     mass = dynamics.mass_matrix()
     bias = dynamics.bias(velocity_in_tree_order)
@@ -102,10 +104,11 @@ def build() -> System:
     ], doc="The floating-base equations of motion M nu' + bias = S^T tau + sum_i J_i^T f_i, from the URDF's "
            "inertials (gravity 9.81 m/s^2 along -z), as Pinocchio's crba and nonLinearEffects.")
 
-    rates = dict(zip(anymal.JOINT_NAMES, qd, strict=True))
+    rates = dict(zip(anymal_robot.JOINT_NAMES, qd, strict=True))
     positions, jacobians, drifts = [], [], []
-    for leg, foot in zip(anymal.LEGS, anymal.FEET, strict=True):
-        r, jacobian, jdot_v = contact_point(anymal.ROBOT, joint_q, rates, rotation, twist, f"{leg}_FOOT", foot.center)
+    for leg, foot in zip(anymal_robot.LEGS, anymal_robot.FEET, strict=True):
+        r, jacobian, jdot_v = contact_point(anymal_robot.ROBOT, joint_q, rates, rotation, twist, f"{leg}_FOOT",
+                                            foot.center)
         positions.append([p[i] + sum((rotation[i][k] * r[k] for k in range(3)), se.Integer(0)) for i in range(3)])
         jacobians.extend(jacobian)
         drifts.append(jdot_v)
@@ -115,15 +118,15 @@ def build() -> System:
         ("drifts", drifts, "J' nu: each foot centre's world acceleration when nu' = 0 [m/s^2]"),
     ], doc="The feet as contact points (each foot sphere's centre): position, Jacobian and J' nu, world frame.")
     for name, value, doc in [
-        ("legs", anymal.LEGS, "The legs, in member order of foot_region and row order of contacts."),
-        ("joint_names", anymal.JOINT_NAMES, "The URDF's joints, in state and torque order."),
-        ("standing_joints", anymal.STANDING_JOINTS, "The SRDF's standing joint angles [rad]."),
-        ("standing_height", anymal.STANDING[2], "The SRDF's standing trunk height [m]."),
-        ("foot_radius", anymal.FOOT_RADIUS, "Foot sphere radius [m] (URDF)."),
-        ("tau_max", anymal.TAU_MAX, "Joint torque limits [N m] (URDF)."),
-        ("q_min", anymal.Q_MIN, "Joint angle lower limits [rad] (URDF)."),
-        ("q_max", anymal.Q_MAX, "Joint angle upper limits [rad] (URDF)."),
-        ("total_mass", sum(i.mass for i in anymal.ROBOT.inertials.values()), "The robot's mass [kg] (URDF)."),
+        ("legs", anymal_robot.LEGS, "The legs, in member order of foot_region and row order of contacts."),
+        ("joint_names", anymal_robot.JOINT_NAMES, "The URDF's joints, in state and torque order."),
+        ("standing_joints", anymal_robot.STANDING_JOINTS, "The SRDF's standing joint angles [rad]."),
+        ("standing_height", anymal_robot.STANDING[2], "The SRDF's standing trunk height [m]."),
+        ("foot_radius", anymal_robot.FOOT_RADIUS, "Foot sphere radius [m] (URDF)."),
+        ("tau_max", anymal_robot.TAU_MAX, "Joint torque limits [N m] (URDF)."),
+        ("q_min", anymal_robot.Q_MIN, "Joint angle lower limits [rad] (URDF)."),
+        ("q_max", anymal_robot.Q_MAX, "Joint angle upper limits [rad] (URDF)."),
+        ("total_mass", sum(i.mass for i in anymal_robot.ROBOT.inertials.values()), "The robot's mass [kg] (URDF)."),
     ]:
         s.constant(name, value, doc)
     return s

@@ -57,23 +57,15 @@ pub mod generated {
     include!(concat!(env!("CARGO_MANIFEST_DIR"), "/generated/anymal.rs"));
 }
 
-/// The module generated from `spec/anymal_wbc.py`: the same robot in free-flyer
-/// coordinates for a whole-body controller — its floating-base dynamics (`dynamics`), the
-/// feet as contact points (`contacts`) and the foothold rows in generalized accelerations.
-/// Never edited by hand.
-#[allow(missing_docs)]
-pub mod wbc_generated {
-    include!(concat!(env!("CARGO_MANIFEST_DIR"), "/generated/anymal_wbc.rs"));
-}
+/// The whole-body controller's model (`spec/anymal_wbc.py`), generated in
+/// `cbfgen-anymal-dynamics`: its floating-base dynamics (`dynamics`), the feet as contact
+/// points (`contacts`) and the foothold rows in generalized accelerations.
+pub use cbfgen_anymal_dynamics::wbc as wbc_generated;
 
-/// The module generated from `spec/anymal_mpc.py`: the robot as seed 004's kino-dynamic
-/// MPC sees it — one rigid body frozen at the standing state, contact forces and joint
-/// velocities as inputs — with the flow and the feet and their Jacobians (`flow`, `feet`,
-/// `orientation`) for the MPC's linearisation. Never edited by hand.
-#[allow(missing_docs)]
-pub mod mpc_generated {
-    include!(concat!(env!("CARGO_MANIFEST_DIR"), "/generated/anymal_mpc.rs"));
-}
+/// The kino-dynamic MPC's model (`spec/anymal_mpc.py`), generated in
+/// `cbfgen-anymal-dynamics`: one rigid body frozen at the standing state, with the flow and
+/// the feet and their Jacobians (`flow`, `feet`, `orientation`) for the MPC's linearisation.
+pub use cbfgen_anymal_dynamics::mpc as mpc_generated;
 
 pub mod gait;
 pub mod mpc;
