@@ -28,6 +28,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import symengine as se
 
@@ -159,6 +160,16 @@ class ValueNode:
 
     def path(self) -> list[ValueNode]:
         return [*(self.parent.path() if self.parent else []), self]
+
+
+class _FrameCut(NamedTuple):
+    """Rows cut at the link frames they read (``Jets._frame_cut``)."""
+
+    prefix: str  # the one moving frame they read
+    defs: list  # the source kernel's definitions
+    frames: dict  # frame prefix -> its 12 pose symbols
+    local: list  # the definitions between the frame and the rows
+    exprs: list  # the rows' expressions
 
 
 @dataclass(frozen=True)
@@ -442,6 +453,12 @@ class Jets:
 
     def frame_read(self, rows: Sequence[tuple[str, se.Expr]], source: Kernel) -> str | None:
         """The one moving frame ``rows`` read when they read nothing else of the state."""
+        cut = self._frame_cut(rows, source)
+        return None if cut is None else cut.prefix
+
+    def _frame_cut(self, rows: Sequence[tuple[str, se.Expr]], source: Kernel) -> _FrameCut | None:
+        """``rows`` cut at the moving frames of ``source``'s definitions, when they read one
+        frame and nothing else of the state; else None."""
         defs = list(source.definitions)
         frames = self._frames(defs)
         stop = {sym: prefix for prefix, syms in frames.items() for sym in syms}
@@ -451,7 +468,7 @@ class Jets:
         if len(read) != 1 or any(e.free_symbols & states for e in exprs) or any(
                 e.free_symbols & states for d in local for e in _def_exprs(d)):
             return None
-        return next(iter(read))
+        return _FrameCut(next(iter(read)), defs, frames, local, exprs)
 
     def on_frame(self, where: str, name: str, rows: Sequence[tuple[str, se.Expr]], source: Kernel,
                  declare_params: Callable[[Kernel], object], value: bool):
@@ -460,14 +477,10 @@ class Jets:
         the frame's jet or pose)`` with the kernel ``<name>_on_frame`` taking that jet and the
         parameters (``declare_params`` declares them). None when the rows read no frame,
         several, or the state besides, or differ in degree from the frame."""
-        prefix = self.frame_read(rows, source)
-        if prefix is None:
+        cut = self._frame_cut(rows, source)
+        if cut is None:
             return None
-        defs = list(source.definitions)
-        frames = self._frames(defs)
-        stop = {sym: other for other, syms in frames.items() for sym in syms}
-        exprs = [se.sympify(e) for _, e in rows]
-        local, _ = _cut(defs, exprs, stop)
+        prefix, defs, frames, local, exprs = cut
         frame = self._frame(where, prefix, defs, frames, value)
         k = Kernel(f"{name}_on_frame", "")
         if value:
