@@ -40,12 +40,22 @@ pub fn flatten<const R: usize, const C: usize, const N: usize>(m: &[[f64; C]; R]
     out
 }
 
-/// The pose of a body fixed in a frame at `offset` (its origin, in the frame's axes) with
-/// axes `axes` (row by row: column j is the body's axis j in the frame), from the frame's
-/// pose y = (p, R) (centre, then rotation row by row): (p + R offset, R axes). Linear in
-/// y, so a jet's derivatives and input columns are carried by the same map.
+/// Where a body sits in a frame it is fixed in: generated as one named constant per body,
+/// read by every pose function that places it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Placement {
+    /// The body's origin, in the frame's axes [m].
+    pub offset: [f64; 3],
+    /// The body's axes, row by row: column j is the body's axis j in the frame.
+    pub axes: [f64; 9],
+}
+
+/// The pose of a body at `placement` in a frame, from the frame's pose y = (p, R)
+/// (centre, then rotation row by row): (p + R offset, R axes). Linear in y, so a jet's
+/// derivatives and input columns are carried by the same map.
 #[inline]
-pub fn place_pose(frame: &[f64; 12], offset: &[f64; 3], axes: &[f64; 9]) -> [f64; 12] {
+pub fn place_pose(frame: &[f64; 12], placement: &Placement) -> [f64; 12] {
+    let Placement { offset, axes } = placement;
     let mut out = [0.0; 12];
     for i in 0..3 {
         let row = &frame[3 + 3 * i..6 + 3 * i];
@@ -63,43 +73,42 @@ pub fn place_pose(frame: &[f64; 12], offset: &[f64; 3], axes: &[f64; 9]) -> [f64
 #[allow(clippy::type_complexity)]
 pub fn place_jet<const L: usize, const C: usize>(
     frame: &([f64; 12], [f64; L], [[f64; C]; 12]),
-    offset: &[f64; 3],
-    axes: &[f64; 9],
+    placement: &Placement,
 ) -> ([f64; 12], [f64; L], [[f64; C]; 12]) {
     let mut rates = [0.0; L];
     for (out, block) in rates.chunks_exact_mut(12).zip(frame.1.chunks_exact(12)) {
         let mut y = [0.0; 12];
         y.copy_from_slice(block);
-        out.copy_from_slice(&place_pose(&y, offset, axes));
+        out.copy_from_slice(&place_pose(&y, placement));
     }
     let mut lg = [[0.0; C]; 12];
     for c in 0..C {
-        let column = place_pose(&std::array::from_fn(|i| frame.2[i][c]), offset, axes);
+        let column = place_pose(&std::array::from_fn(|i| frame.2[i][c]), placement);
         for (row, v) in lg.iter_mut().zip(column) {
             row[c] = v;
         }
     }
-    (place_pose(&frame.0, offset, axes), rates, lg)
+    (place_pose(&frame.0, placement), rates, lg)
 }
 
 #[cfg(test)]
 mod tests {
-    use super::{accumulate_columns, flatten, place_jet, place_pose};
+    use super::{accumulate_columns, flatten, place_jet, place_pose, Placement};
 
     #[test]
     fn places_a_body_by_hand() {
         // Frame at (1, 2, 3) turned 90 degrees about z; body 0.5 along the frame's x, its
         // axes the frame's turned 90 degrees about x.
         let frame = [1.0, 2.0, 3.0, 0.0, -1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0];
-        let axes = [1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0];
-        let body = place_pose(&frame, &[0.5, 0.0, 0.0], &axes);
+        let placement = Placement { offset: [0.5, 0.0, 0.0], axes: [1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0] };
+        let body = place_pose(&frame, &placement);
         // Centre: (1, 2, 3) + 0.5 * (frame x = world y). Rotation: Rz(90) Rx(90).
         let expected = [1.0, 2.5, 3.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
         assert_eq!(body, expected);
         // The jet's derivative blocks and columns are carried linearly: no centre offset.
-        let (pose, rates, lg) = place_jet(&(frame, frame, [[1.0]; 12]), &[0.5, 0.0, 0.0], &axes);
+        let (pose, rates, lg) = place_jet(&(frame, frame, [[1.0]; 12]), &placement);
         assert_eq!((pose, rates), (expected, expected));
-        let ones = place_pose(&[1.0; 12], &[0.5, 0.0, 0.0], &axes);
+        let ones = place_pose(&[1.0; 12], &placement);
         assert_eq!(lg.map(|row| row[0]), ones);
     }
 

@@ -129,16 +129,39 @@ def emit_framed_member(kernel: Kernel, plan: FramePlan, runtime_crate: str, attr
                                                            attributes, assembled="_from_frame")) + "\n"
 
 
+def placement_name(plan: PosePlan) -> str:
+    """The constant holding where a pose plan's box sits in its frame: one per box, shared
+    by its jet's and its value's pose functions."""
+    return plan.name.removeprefix("pose_").removesuffix("_value").upper() + "_PLACEMENT"
+
+
+def emit_placements(plans: Sequence[PosePlan], runtime_crate: str, attributes: Sequence[str] = ()) -> str:
+    """One ``Placement`` constant per box fixed in a link frame (``placement_name``)."""
+    seen: dict[str, tuple[float, ...]] = {}
+    out: list[str] = []
+    for plan in plans:
+        if plan.placement is None:
+            continue
+        name = placement_name(plan)
+        if name in seen:
+            if seen[name] != plan.placement:
+                raise ValueError(f"pose plans {plan.name} and another place one box differently")
+            continue
+        seen[name] = plan.placement
+        offset = ", ".join(float_literal(v) for v in plan.placement[:3])
+        axes = ", ".join(float_literal(v) for v in plan.placement[3:])
+        out += [f"/// Where the box of [`{plan.name}`] sits in its frame ([`{plan.steps[-1]}`]).", *attributes,
+                f"const {name}: {runtime_crate}::compose::Placement = {runtime_crate}::compose::Placement {{ "
+                f"offset: [{offset}], axes: [{axes}] }};"]
+    return "\n".join(out) + "\n" if out else ""
+
+
 def emit_pose_function(plan: PosePlan, n_x: int, runtime_crate: str, attributes: Sequence[str] = ()) -> str:
     """A pose function assembled along the kinematic tree: the root frame's kernel, then
     each node's kernel on its parent's jet (or pose), down to the box's frame, and the box
     placed in it (``cbfgen::compose::place_jet``)."""
     steps = ", ".join(f"[`{step}`]" for step in plan.steps)
-    placed = ""
-    if plan.placement is not None:
-        offset = ", ".join(float_literal(v) for v in plan.placement[:3])
-        axes = ", ".join(float_literal(v) for v in plan.placement[3:])
-        placed = f"&[{offset}], &[{axes}]"
+    placed = f"&{placement_name(plan)}" if plan.placement is not None else ""
     if plan.value:
         ret = "[f64; 12]"
         calls = [f"    let pose = {plan.steps[0]}(x);",
@@ -188,10 +211,8 @@ def emit_pose_cache(nodes: Sequence[tuple[Kernel, str | None]], plans: Sequence[
         if plan.placement is None:
             call = frame
         else:
-            offset = ", ".join(float_literal(v) for v in plan.placement[:3])
-            axes = ", ".join(float_literal(v) for v in plan.placement[3:])
             place = "place_pose" if plan.value else "place_jet"
-            call = f"{runtime_crate}::compose::{place}(&{frame}, &[{offset}], &[{axes}])"
+            call = f"{runtime_crate}::compose::{place}(&{frame}, &{placement_name(plan)})"
         out += _cached_method(plan.name, types[plan.name], x, call)
     return "\n".join([*out, "}"]) + "\n"
 

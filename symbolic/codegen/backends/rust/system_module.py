@@ -30,6 +30,7 @@ from .composed import (
     emit_composed_bound,
     emit_composed_member,
     emit_framed_member,
+    emit_placements,
     emit_pose_cache,
     emit_pose_function,
 )
@@ -538,6 +539,7 @@ def _emit_kernels(out: list[str], d: SystemDefinition, rt: str) -> None:
             w(emit_kernel(k, rt, attributes=[KERNEL_ALLOWS], inline="#[inline(never)]"))
         else:
             w(emit_kernel(k, rt, attributes=[KERNEL_ALLOWS]))
+    w(emit_placements(d.poses, rt, attributes=[KERNEL_ALLOWS]))
     for plan in d.poses:
         w(emit_pose_function(plan, len(d.state_names), rt, attributes=[KERNEL_ALLOWS]))
     if d.pose_names:
