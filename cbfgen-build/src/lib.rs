@@ -638,6 +638,18 @@ mod tests {
         assert_eq!(python_from(none, None, &[&nowhere]), Path::new("python3"));
     }
 
+    /// [`python`] when it has SymEngine (a generation test needs it); else the test skips,
+    /// saying so, unless `CBFGEN_REQUIRE_SYMENGINE` is set (CI), where it fails.
+    fn python_with_symengine() -> Option<PathBuf> {
+        let python = python();
+        if check_python(&python).is_err() {
+            assert!(std::env::var_os("CBFGEN_REQUIRE_SYMENGINE").is_none(), "{} has no symengine", python.display());
+            eprintln!("SKIPPED: {} has no symengine (run `scripts/cbf setup`)", python.display());
+            return None;
+        }
+        Some(python)
+    }
+
     /// A one-state spec named `name` whose build raises when `broken`.
     fn point_spec(name: &str, broken: bool) -> String {
         let raise = if broken { "    raise ValueError('this spec is broken on purpose')\n" } else { "" };
@@ -653,12 +665,7 @@ mod tests {
     fn specs_generate_side_by_side_and_report_in_spec_order() {
         // Three specs on two jobs: every module written, listed in spec order; a broken
         // spec among them is the one the error names, whichever finished first.
-        let python = python();
-        if check_python(&python).is_err() {
-            assert!(std::env::var_os("CBFGEN_REQUIRE_SYMENGINE").is_none(), "{} has no symengine", python.display());
-            eprintln!("SKIPPED: {} has no symengine (run `scripts/cbf setup`)", python.display());
-            return;
-        }
+        let Some(python) = python_with_symengine() else { return };
         let tree = Scratch::new("side-by-side");
         let specs: Vec<PathBuf> = ["first", "second", "third"]
             .iter()
@@ -690,12 +697,7 @@ mod tests {
 
     #[test]
     fn checked_in_an_edit_to_one_spec_regenerates_that_spec_alone() {
-        let python = python();
-        if check_python(&python).is_err() {
-            assert!(std::env::var_os("CBFGEN_REQUIRE_SYMENGINE").is_none(), "{} has no symengine", python.display());
-            eprintln!("SKIPPED: {} has no symengine (run `scripts/cbf setup`)", python.display());
-            return;
-        }
+        let Some(python) = python_with_symengine() else { return };
         let tree = Scratch::new("one-stale");
         let names = ["first", "second", "third"];
         let specs: Vec<PathBuf> =
