@@ -44,7 +44,7 @@ pub fn flatten<const R: usize, const C: usize, const N: usize>(m: &[[f64; C]; R]
 /// read by every pose function that places it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Placement {
-    /// The body's origin, in the frame's axes [m].
+    /// The body's origin, in the frame's axes \[m\].
     pub offset: [f64; 3],
     /// The body's axes, row by row: column j is the body's axis j in the frame.
     pub axes: [f64; 9],
