@@ -44,6 +44,7 @@ pub mod limits;
 pub mod param_domain;
 pub mod plugin;
 pub mod qp;
+pub mod rigid_body;
 pub mod sat;
 pub mod sphere_box;
 pub mod ssat;
