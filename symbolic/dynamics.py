@@ -32,7 +32,9 @@ the joints only; the orientation enters through gravity, seen from the base.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 
 import symengine as se
 
@@ -54,6 +56,37 @@ from .urdf import (
 
 Vector3 = list[se.Expr]
 Spatial = tuple[Vector3, Vector3]
+
+
+@dataclass(frozen=True)
+class TreeBody:
+    """One body of a :class:`Tree`, in numbers (``cbfgen::rigid_body::Body``)."""
+
+    parent: int
+    rotation: tuple[float, ...]  # its frame in the parent's at zero coordinate, row by row
+    origin: tuple[float, float, float]
+    joint: str  # "fixed", "revolute" or "prismatic"
+    axis: tuple[float, float, float]
+    coordinate: int  # index into the joint coordinates (moving joints)
+    velocity: int  # index into the generalized velocities (moving joints)
+    mass: float
+    com: tuple[float, float, float]
+    inertia: tuple[float, ...]  # about the centre of mass, row by row
+
+
+@dataclass(frozen=True)
+class Tree:
+    """The tree :class:`RigidBodyDynamics` walks, as numbers the run time walks the same
+    way (``cbfgen::rigid_body``): every rigidly attached link merged into the moving body
+    it hangs from, and where each coordinate, velocity and the base's rotation are in the
+    state."""
+
+    bodies: tuple[TreeBody, ...]
+    floating: bool
+    gravity: tuple[float, float, float]
+    coordinate_states: tuple[int, ...]  # state index of each joint coordinate
+    velocity_states: tuple[int, ...]  # state index of each generalized velocity
+    rotation_states: tuple[int, ...] | None  # the base rotation's 9 state indices, row by row
 
 
 def _add(a: Sequence[se.Expr], b: Sequence[se.Expr]) -> Vector3:
@@ -197,11 +230,130 @@ class RigidBodyDynamics:
         """g(q): the joint forces that hold the robot still."""
         return self.inverse([0] * len(self.dofs), [0] * len(self.dofs))
 
+    def tree(self, states: Sequence[se.Symbol], velocity: Sequence[se.Expr]) -> Tree:
+        """This model as numbers (:class:`Tree`) for ``velocity`` (one per ``dofs`` entry),
+        each joint coordinate, velocity and base rotation entry located in ``states``.
+        Raises SpecError when one is not a state itself."""
+        where = f"URDF {self.robot.source.name}, rigid-body tree"
+        index = {sym: i for i, sym in enumerate(states)}
+
+        def state_of(what: str, expr: se.Expr) -> int:
+            if expr not in index:
+                raise SpecError(f"{where}: {what} is {expr}, not a state: the run-time tree reads the joint "
+                                "coordinates, the velocities and the base rotation straight from the state")
+            return index[expr]
+
+        if len(velocity) != len(self.dofs):
+            raise SpecError(f"{where}: give one velocity per degree of freedom ({self.dofs})")
+        floating = self._base_rotation is not None
+        base = len(BASE_DOFS) if floating else 0
+        coordinate = {name: k for k, name in enumerate(self.joint_dofs)}
+        # Each link's carrier (the moving body it is rigidly attached to, or the root) and
+        # its pose in the carrier's frame; each carrier's parts: (mass, com, inertia) in it.
+        carrier = {self.robot.root: (0, _IDENTITY, (0.0, 0.0, 0.0))}
+        parts: list[list[tuple[float, Vec, Mat]]] = [[]]
+        bodies: list[dict] = [dict(parent=0, rotation=_IDENTITY, origin=(0.0, 0.0, 0.0), joint="fixed",
+                                   axis=(0.0, 0.0, 0.0), coordinate=0, velocity=0)]
+
+        def add_inertial(link: str, body: int, rotation: Mat, origin: Vec) -> None:
+            inertial = self.robot.inertials.get(link)
+            if inertial is not None:
+                com = _plus(origin, _times(rotation, [float(_number(c)) for c in inertial.com]))
+                inertia = _rotate(rotation, [[float(_number(v)) for v in row] for row in inertial.inertia])
+                parts[body].append((float(_number(inertial.mass)), com, inertia))
+
+        add_inertial(self.robot.root, 0, _IDENTITY, (0.0, 0.0, 0.0))
+        for joint in self.robot.joints:  # parents first
+            body, rotation, origin = carrier[joint.parent]
+            r = [[float(v) for v in row] for row in rpy_matrix(joint.rpy)]
+            placed_rotation, placed_origin = _compose(rotation, origin, r, [float(_number(v)) for v in joint.xyz])
+            value = self._q.get(joint.name)
+            moving = joint.name in coordinate
+            if not moving and value is not None and joint.type in ("revolute", "continuous", "prismatic"):
+                # Held still: its value folds into the placement.
+                turn = axis_rotation(joint.axis, value) if joint.type != "prismatic" else None
+                if turn is not None:
+                    placed_rotation = _matmul3(placed_rotation, [[float(v) for v in row] for row in turn])
+                else:
+                    slide = [float(_snap(a)) * float(value) for a in joint.axis]
+                    placed_origin = _plus(placed_origin, _times(placed_rotation, slide))
+            if not moving:
+                carrier[joint.child] = (body, placed_rotation, placed_origin)
+                add_inertial(joint.child, body, placed_rotation, placed_origin)
+                continue
+            k = coordinate[joint.name]
+            state_of(f"joint {joint.name}'s coordinate", self._q[joint.name])
+            bodies.append(dict(parent=body, rotation=placed_rotation, origin=placed_origin,
+                               joint="prismatic" if joint.type == "prismatic" else "revolute",
+                               axis=tuple(float(_snap(a)) for a in joint.axis), coordinate=k, velocity=base + k))
+            parts.append([])
+            carrier[joint.child] = (len(bodies) - 1, _IDENTITY, (0.0, 0.0, 0.0))
+            add_inertial(joint.child, len(bodies) - 1, _IDENTITY, (0.0, 0.0, 0.0))
+        out = []
+        for b, body_parts in zip(bodies, parts, strict=True):
+            mass, com, inertia = _combine(body_parts)
+            out.append(TreeBody(b["parent"], tuple(v for row in b["rotation"] for v in row), tuple(b["origin"]),
+                                b["joint"], b["axis"], b["coordinate"], b["velocity"], mass, com,
+                                tuple(v for row in inertia for v in row)))
+        rotation_states = None
+        if floating:
+            rotation_states = tuple(state_of(f"base rotation entry {i}{j}", self._base_rotation[i][j])
+                                    for i in range(3) for j in range(3))
+        return Tree(tuple(out), floating, tuple(float(g) for g in self._gravity),
+                    tuple(state_of(f"joint {n}'s coordinate", self._q[n]) for n in self.joint_dofs),
+                    tuple(state_of(f"velocity {n}", se.sympify(v)) for n, v in zip(self.dofs, velocity, strict=True)),
+                    rotation_states)
+
     def mass_matrix(self) -> list[list[se.Expr]]:
         """M(q), rows and columns in ``dofs`` order (symmetric; built column by column)."""
         n = len(self.dofs)
         columns = [self.inverse([0] * n, [int(i == j) for i in range(n)], gravity=False) for j in range(n)]
         return [[columns[j][i] for j in range(n)] for i in range(n)]
+
+
+Vec = tuple[float, float, float]
+Mat = list[list[float]]
+_IDENTITY: Mat = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+
+
+def _matmul3(a: Mat, b: Mat) -> Mat:
+    return [[sum(a[i][k] * b[k][j] for k in range(3)) for j in range(3)] for i in range(3)]
+
+
+def _times(a: Mat, v: Sequence[float]) -> Vec:
+    return tuple(sum(a[i][k] * v[k] for k in range(3)) for i in range(3))
+
+
+def _plus(a: Sequence[float], b: Sequence[float]) -> Vec:
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+def _compose(rotation: Mat, origin: Vec, r: Mat, p: Sequence[float]) -> tuple[Mat, Vec]:
+    """(rotation, origin) followed by (r, p): a frame placed in a frame."""
+    return _matmul3(rotation, r), _plus(origin, _times(rotation, p))
+
+
+def _rotate(r: Mat, inertia: Mat) -> Mat:
+    """R I Rᵀ: an inertia seen in the frame R is given in."""
+    return _matmul3(_matmul3(r, inertia), [list(row) for row in zip(*r, strict=True)])
+
+
+def _combine(parts: Sequence[tuple[float, Vec, Mat]]) -> tuple[float, Vec, Mat]:
+    """Rigidly joined inertials (each mass, centre and inertia about it, in one frame) as
+    one: the total mass, its centre and the inertia about it (parallel axes)."""
+    mass = math.fsum(m for m, _, _ in parts)
+    if mass == 0.0:
+        com: Vec = (0.0, 0.0, 0.0)
+    else:
+        com = tuple(math.fsum(m * c[i] for m, c, _ in parts) / mass for i in range(3))
+    inertia = [[0.0] * 3 for _ in range(3)]
+    for m, c, own in parts:
+        d = [c[i] - com[i] for i in range(3)]
+        dd = d[0] ** 2 + d[1] ** 2 + d[2] ** 2
+        for i in range(3):
+            for j in range(3):
+                inertia[i][j] += own[i][j] + m * ((dd if i == j else 0.0) - d[i] * d[j])
+    return mass, com, inertia
 
 
 def contact_point(robot: Urdf, q: Mapping[str, se.Expr | float], joint_rates: Mapping[str, se.Expr],

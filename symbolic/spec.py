@@ -733,6 +733,12 @@ class Output:
     values: list[tuple[str, object, str]]
     doc: str
     inputs: bool = False
+    # A rigid-body dynamics output (:meth:`System.rigid_body_output`): the tree the
+    # generated function walks at run time (``symbolic.dynamics.Tree``) and the order of
+    # its degrees of freedom in the values; the values are then the definition it is
+    # tested against.
+    tree: object = None
+    order: tuple[int, ...] = ()
 
 
 def _constant_value(where: str, value: object) -> object:
@@ -1145,6 +1151,29 @@ class System:
         if len(set(names)) != len(names):
             raise SpecError(f"{where}: value names {names} repeat a name")
         self.outputs.append(Output(name, parsed, doc, inputs))
+
+    def rigid_body_output(self, name: str, dynamics, velocity: Sequence[se.Expr], doc: str, *,
+                          order: Sequence[int] | None = None,
+                          mass_doc: str = "joint-space mass matrix M(q)",
+                          bias_doc: str = "C(q, v) v + g(q): the generalized forces at zero acceleration") -> None:
+        """The output ``name`` of two values, ``mass_matrix`` M(q) and ``bias``
+        C(q, v) v + g(q), of ``dynamics`` (a ``symbolic.dynamics.RigidBodyDynamics``) at the
+        velocities ``velocity`` (one per degree of freedom, in its ``dofs`` order; each a
+        state), rows and columns in ``order`` (indices into ``dofs``; default as they are).
+        Generated as the tree in numbers and the run time's composite-rigid-body and
+        Newton–Euler algorithms (``cbfgen::rigid_body``), not as unrolled expressions: a
+        floating quadruped's M and bias unrolled are ten thousand lines. The expressions
+        remain the definition the generated function is tested against."""
+        where = f"{self.where}, output {name!r}"
+        tree = dynamics.tree(self.x, velocity)
+        n = len(dynamics.dofs)
+        order = tuple(range(n)) if order is None else tuple(order)
+        if sorted(order) != list(range(n)):
+            raise SpecError(f"{where}: order must list each of the {n} degrees of freedom once, got {order}")
+        mass, bias = dynamics.mass_matrix(), dynamics.bias(velocity)
+        self.output(name, [("mass_matrix", [[mass[i][j] for j in order] for i in order], mass_doc),
+                           ("bias", [bias[i] for i in order], bias_doc)], doc)
+        self.outputs[-1] = replace(self.outputs[-1], tree=tree, order=order)
 
     def objective(self, P: object, q: object = None, *, doc: str = "") -> None:
         """The filter's cost, a quadratic in the input with coefficients of the state:

@@ -123,6 +123,9 @@ class SystemDefinition:
     poses: tuple[PosePlan, ...] = ()
     pose_names: tuple[str, ...] = ()
     nodes: tuple[tuple[str, str | None], ...] = ()  # (node kernel, the node kernel it reads)
+    # Outputs generated as a rigid-body tree walked at run time (System.rigid_body_output):
+    # (output kernel name, its symbolic.dynamics.Tree, its degrees of freedom's order).
+    rigid_bodies: tuple[tuple[str, object, tuple[int, ...]], ...] = ()
 
     @property
     def time_varying(self) -> bool:
@@ -860,4 +863,5 @@ def define(system: System, unrolled: bool = False) -> SystemDefinition:
                             tuple(system.input_names), tuple(system.input_docs), tuple(system.input_limits),
                             drift, g, pattern, nonzeros, families, outputs, tuple(system.constants),
                             system.source, _objective(system), jets=tuple(jets.kernels), poses=tuple(jets.poses),
-                            pose_names=tuple(jets.pose_names), nodes=tuple(jets.nodes()))
+                            pose_names=tuple(jets.pose_names), nodes=tuple(jets.nodes()),
+                            rigid_bodies=tuple((o.name, o.tree, o.order) for o in system.outputs if o.tree is not None))

@@ -236,3 +236,66 @@ def test_contact_points_of_a_floating_base_match_pinocchios_frames():
                     "Jdot_v": pin.getFrameClassicalAcceleration(model, data, frame, world).linear}
             _fold(worst, got, want)
     assert max(worst.values()) <= 1e-12, f"feet: largest relative differences {worst}"
+
+
+@pytest.mark.parametrize("relative, locked", CASES)
+def test_the_run_time_tree_keeps_the_robots_mass_and_centre_of_mass(relative, locked):
+    # The tree the generated code walks (symbolic.dynamics.Tree: rigid links merged into
+    # the body they hang from, held joints folded in) against Pinocchio's total mass and
+    # centre of mass of the same URDF, at the zero configuration and at a turned one. On a
+    # fixed base, Pinocchio counts neither: what is rigid on the world is its universe's,
+    # here the root body's.
+    path = urdf.description(relative)
+    robot = urdf.load(path)
+    names = [j.name for j in robot.moving_joints if j.name not in locked]
+    q = se.symbols([f"q{k}" for k in range(len(names))])
+    v = se.symbols([f"v{k}" for k in range(len(names))])
+    dynamics = RigidBodyDynamics(robot, {**dict(zip(names, q, strict=True)), **locked})
+    tree = dynamics.tree([*q, *v], [v[dynamics.joint_dofs.index(n)] for n in dynamics.dofs])
+    assert len(tree.bodies) == len(names) + 1 and tree.coordinate_states == tuple(
+        names.index(n) for n in dynamics.joint_dofs)
+    model, data = _pinocchio(path, locked)
+    assert sum(b.mass for b in tree.bodies[1:]) == pytest.approx(pin.computeTotalMass(model), rel=1e-14)
+    rng = np.random.default_rng(3)
+    for values in (np.zeros(len(names)), rng.uniform(-1.0, 1.0, len(names))):
+        # The tree's bodies placed by hand: each joint's rotation about its axis.
+        poses = []
+        for b in tree.bodies:
+            r, p = np.array(b.rotation).reshape(3, 3), np.array(b.origin)
+            if b.joint == "revolute":
+                r = r @ _rotation(np.array(b.axis), values[b.coordinate])
+            elif b.joint == "prismatic":
+                p = p + r @ (np.array(b.axis) * values[b.coordinate])
+            if poses:
+                parent_r, parent_p = poses[b.parent]
+                r, p = parent_r @ r, parent_p + parent_r @ p
+            poses.append((r, p))
+        moments = sum(b.mass * (p + r @ np.array(b.com)) for b, (r, p) in zip(tree.bodies[1:], poses[1:], strict=True))
+        pin_q = pin.neutral(model)
+        for name, value in zip(names, values, strict=True):
+            pin_q[model.joints[model.getJointId(name)].idx_q] = value
+        np.testing.assert_allclose(moments / pin.computeTotalMass(model), pin.centerOfMass(model, data, pin_q),
+                                   rtol=0, atol=1e-12)
+
+
+def _rotation(axis: np.ndarray, angle: float) -> np.ndarray:
+    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * k @ k
+
+
+def test_a_run_time_dynamics_output_refuses_what_is_not_a_state():
+    from symbolic.spec import System
+
+    robot = urdf.load(urdf.description(CASES[0][0]))
+    s = System("arm", doc="An arm.")
+    names = [j.name for j in robot.moving_joints if j.name not in CASES[0][1]]
+    x = s.states([f"q{k}" for k in range(len(names))] + [f"v{k}" for k in range(len(names))],
+                 docs=["angle [rad]"] * len(names) + ["rate [rad/s]"] * len(names))
+    q, v = x[:len(names)], x[len(names):]
+    dynamics = RigidBodyDynamics(robot, {**dict(zip(names, q, strict=True)), **CASES[0][1]})
+    with pytest.raises(SpecError, match="velocity panda_joint1 is 2\\*x_v0, not a state"):
+        s.rigid_body_output("dynamics", dynamics, [2 * v[0], *v[1:]], doc="M and bias.")
+    with pytest.raises(SpecError, match="order must list each of the 7 degrees of freedom once"):
+        s.rigid_body_output("dynamics", dynamics, v, doc="M and bias.", order=[0, 0, 1, 2, 3, 4, 5])
+    s.rigid_body_output("dynamics", dynamics, v, doc="M and bias.")
+    assert [name for name, _, _ in s.outputs[0].values] == ["mass_matrix", "bias"] and s.outputs[0].tree is not None

@@ -29,13 +29,13 @@ BUDGET = {
     "generated/mod.rs": 20,
     "systems/anymal/generated/anymal.rs": 27_200,
     "systems/anymal_dynamics/generated/anymal_mpc.rs": 11_900,
-    "systems/anymal_dynamics/generated/anymal_wbc.rs": 22_100,
+    "systems/anymal_dynamics/generated/anymal_wbc.rs": 11_200,
     "systems/double_integrator/generated/double_integrator.rs": 560,
-    "systems/panda/generated/panda.rs": 18_600,
-    "systems/panda_spheres/generated/panda_spheres.rs": 21_900,
+    "systems/panda/generated/panda.rs": 16_900,
+    "systems/panda_spheres/generated/panda_spheres.rs": 19_900,
     "systems/tachyon3/generated/tachyon3.rs": 10_700,
 }
-TOTAL = 118_500
+TOTAL = 104_500
 
 
 def generated_files() -> list[str]:

@@ -94,15 +94,13 @@ def build() -> System:
     # The dynamics number the joints in tree order; the states, leg by leg.
     order = [dynamics.dofs.index(name) for name in [*BASE_DOFS, *anymal_robot.JOINT_NAMES]]
     velocity_in_tree_order = [velocity[order.index(k)] for k in range(nv)]
-    mass = dynamics.mass_matrix()
-    bias = dynamics.bias(velocity_in_tree_order)
-    s.output("dynamics", [
-        ("mass_matrix", [[mass[i][j] for j in order] for i in order],
-         "M(q) [kg, kg m, kg m^2], free-flyer coordinates (trunk twist in its own frame, linear first, then the "
-         "joints in state order)"),
-        ("bias", [bias[i] for i in order], "C(q, nu) nu + g(R, q): the generalized forces at nu' = 0 [N, N m]"),
-    ], doc="The floating-base equations of motion M nu' + bias = S^T tau + sum_i J_i^T f_i, from the URDF's "
-           "inertials (gravity 9.81 m/s^2 along -z), as Pinocchio's crba and nonLinearEffects.")
+    s.rigid_body_output(
+        "dynamics", dynamics, velocity_in_tree_order, order=order,
+        doc="The floating-base equations of motion M nu' + bias = S^T tau + sum_i J_i^T f_i, from the URDF's "
+            "inertials (gravity 9.81 m/s^2 along -z), as Pinocchio's crba and nonLinearEffects.",
+        mass_doc="M(q) [kg, kg m, kg m^2], free-flyer coordinates (trunk twist in its own frame, linear first, then "
+                 "the joints in state order)",
+        bias_doc="C(q, nu) nu + g(R, q): the generalized forces at nu' = 0 [N, N m]")
 
     rates = dict(zip(anymal_robot.JOINT_NAMES, qd, strict=True))
     positions, jacobians, drifts = [], [], []

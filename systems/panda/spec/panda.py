@@ -219,11 +219,11 @@ def build() -> System:
     ], doc="The hand frame (panda_hand, the flange side of the gripper): its pose and its 6 x 7 Jacobian, as "
            "Pinocchio's LOCAL_WORLD_ALIGNED frame Jacobian; what an operational-space controller starts from.")
     dynamics = RigidBodyDynamics(ROBOT, {**dict(zip(JOINT_NAMES, q, strict=True)), **FINGERS})
-    s.output("dynamics", [
-        ("mass_matrix", dynamics.mass_matrix(), "joint-space mass matrix M(q) [kg m^2], fingers held still"),
-        ("bias", dynamics.bias(qd), "C(q, q') q' + g(q) [N m]: the torques that hold the arm at q'' = 0"),
-    ], doc="The arm's rigid-body dynamics from the URDF's inertials (gravity 9.81 m/s^2 along -z): "
-           "tau = M(q) q'' + bias(q, q').")
+    s.rigid_body_output("dynamics", dynamics, qd,
+                        doc="The arm's rigid-body dynamics from the URDF's inertials (gravity 9.81 m/s^2 along -z): "
+                            "tau = M(q) q'' + bias(q, q').",
+                        mass_doc="joint-space mass matrix M(q) [kg m^2], fingers held still",
+                        bias_doc="C(q, q') q' + g(q) [N m]: the torques that hold the arm at q'' = 0")
     for name, value, doc in [
         ("link_names", [short(link) for link in LINKS], "Link boxes, in row order of every per-link output."),
         ("obstacle_links", [LINKS.index(link) for link in OBSTACLE_LINKS],

@@ -145,10 +145,10 @@ def build() -> System:
                                  "arm sphere centres, base frame [m], SPHERE_NAMES order")],
              doc="Every arm sphere's centre.")
     dynamics = RigidBodyDynamics(ROBOT, {**dict(zip(JOINT_NAMES, q, strict=True)), **FINGERS})
-    s.output("dynamics", [
-        ("mass_matrix", dynamics.mass_matrix(), "joint-space mass matrix M(q) [kg m^2], fingers held still"),
-        ("bias", dynamics.bias(qd), "C(q, q') q' + g(q) [N m]"),
-    ], doc="The arm's rigid-body dynamics from the URDF's inertials: tau = M(q) q'' + bias(q, q').")
+    s.rigid_body_output("dynamics", dynamics, qd,
+                        doc="The arm's rigid-body dynamics from the URDF's inertials: tau = M(q) q'' + bias(q, q').",
+                        mass_doc="joint-space mass matrix M(q) [kg m^2], fingers held still",
+                        bias_doc="C(q, q') q' + g(q) [N m]")
     for name, value, doc in [
         ("sphere_names", SPHERE_NAMES, "Arm spheres, in member order of sphere_obstacle and of sphere_centers."),
         ("table_spheres", [MOVING.index(k) for k in RISING],

@@ -36,6 +36,7 @@ from .composed import (
 )
 from .emitter import emit_kernel, emit_split_kernel, float_literal, kernel_fn_type, rustdoc_text
 from .kernel_table import emit_kernel_table
+from .rigid_body import emit_rigid_body_output
 
 KERNEL_ALLOWS = ("#[allow(clippy::all, clippy::pedantic, clippy::nursery, unused_parens, unused_variables, "
                  "non_snake_case)]")
@@ -522,8 +523,12 @@ def _emit_kernels(out: list[str], d: SystemDefinition, rt: str) -> None:
     nodes = {name for name, _ in d.nodes}
     # A composed family's chain and bound kernels serve every member: compiled once.
     shared = nodes | {k.name for f in d.families if f.composed for k in f.chains}
+    # A rigid-body dynamics output walks its tree at run time.
+    rigid_bodies = {name: (tree, order) for name, tree, order in d.rigid_bodies}
     for k in d.kernels():
-        if k.name in framed:
+        if k.name in rigid_bodies:
+            w(emit_rigid_body_output(k, *rigid_bodies[k.name], rt, attributes=[KERNEL_ALLOWS]))
+        elif k.name in framed:
             w(emit_framed_member(k, framed[k.name], rt, attributes=[KERNEL_ALLOWS]))
         elif k.name in composed:
             f, plan = composed[k.name]
