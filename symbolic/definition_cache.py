@@ -48,14 +48,16 @@ def cache_dir(repo_root: Path = REPO_ROOT) -> Path | None:
     return Path(setting) if setting else repo_root / "target" / "symbolic-cache"
 
 
-def inputs_key(specs: list[Path], repo_root: Path = REPO_ROOT) -> str:
+def inputs_key(specs: list[Path], repo_root: Path = REPO_ROOT,
+               generated_dir: Callable[[Path], Path] = lambda spec: spec.parent.parent / "generated") -> str:
     """SHA-256 over the symbolic package's hash, the Python and SymEngine versions and,
-    per spec, every file of its folder tree and every dependency its generated file names
-    (paths relative to ``repo_root``, in byte order, each path NUL bytes NUL)."""
+    per spec, every file of its folder tree and every dependency its generated file (in
+    ``generated_dir(spec)``: its crate's generated/) names (paths relative to
+    ``repo_root``, in byte order, each path NUL bytes NUL)."""
     files: set[Path] = set()
     for spec in specs:
         files.update(p for p in spec.parent.rglob("*") if p.is_file() and "__pycache__" not in p.parts)
-        generated = spec.parent.parent / "generated" / f"{spec.stem}.rs"
+        generated = generated_dir(spec) / f"{spec.stem}.rs"
         if generated.is_file():
             for line in _DEPENDS.findall(generated.read_text()[:4096]):
                 files.update((spec.parent / name.strip()).resolve() for name in line.split(","))

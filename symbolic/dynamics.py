@@ -282,7 +282,6 @@ class RigidBodyDynamics:
                 add_inertial(joint.child, body, placed_rotation, placed_origin)
                 continue
             k = coordinate[joint.name]
-            state_of(f"joint {joint.name}'s coordinate", self._q[joint.name])
             bodies.append(dict(parent=body, rotation=placed_rotation, origin=placed_origin,
                                joint="prismatic" if joint.type == "prismatic" else "revolute",
                                axis=tuple(float(_snap(a)) for a in joint.axis), coordinate=k, velocity=base + k))

@@ -61,6 +61,13 @@ def builtin_specs() -> list[Path]:
     return [spec for _, spec in builtin_crate_specs()]
 
 
+def _builtin_inputs_key() -> str:
+    """The definition cache's key over every built-in spec, each read beside the
+    generated file of the crate that names it."""
+    crates = {spec: crate for crate, spec in builtin_crate_specs()}
+    return inputs_key(list(crates), generated_dir=lambda spec: crates[spec] / "generated")
+
+
 @functools.cache
 def builtin_systems(unrolled: bool = False) -> list[SystemDefinition]:
     """The built-in systems, from their spec files in crate-folder order (``unrolled``: see
@@ -68,7 +75,7 @@ def builtin_systems(unrolled: bool = False) -> list[SystemDefinition]:
     processes by their inputs (:mod:`symbolic.definition_cache`; do not change what it
     returns)."""
     specs = builtin_specs()
-    return cached("unrolled-systems" if unrolled else "systems", inputs_key(specs),
+    return cached("unrolled-systems" if unrolled else "systems", _builtin_inputs_key(),
                   lambda: [define(load(p), unrolled=unrolled) for p in specs])
 
 
@@ -86,7 +93,7 @@ def all_kernels() -> dict[str, list[Kernel]]:
             out[definition.name] = definition.kernels()
         return out
 
-    return cached("kernels", inputs_key(builtin_specs()), build_all)
+    return cached("kernels", _builtin_inputs_key(), build_all)
 
 
 def _header(digest: str) -> str:
