@@ -1,0 +1,1 @@
+//! No code. This crate exists for its manifest: see `Cargo.toml`.
