@@ -20,6 +20,7 @@ from pathlib import Path
 
 from .codegen.backends.rust.emitter import emit_kernel, rustdoc_text
 from .codegen.backends.rust.kernel_table import emit_kernel_table
+from .codegen.composition import LIBRARY, library_kernels
 from .codegen.definition import SystemDefinition, define
 from .codegen.generate import render_with_warnings
 from .codegen.output import HASH_PREFIX, REPO_ROOT, rustfmt
@@ -31,10 +32,16 @@ from .spec import load
 
 REGENERATE = "scripts/cbf generate  (or: python -m symbolic.generate)"
 
+LIBRARY_DOC = """
+The chain and bound kernels (`ssat_chain2`, `ssat_bound`, `_fixed_a` with box A fixed)
+are what a `compose=True` family of any system calls for a default `prim.ssat` row of
+relative degree 2: see `symbolic/codegen/composition.py`."""
+assert LIBRARY == "ssat"  # the module LIBRARY_DOC is appended to
+
 # Kernel libraries that are not systems (the SSAT variants the benches and cross-checks
 # compare, the certified sphere-box clearance): module name -> (doc, kernel builder).
 MODULES: dict[str, tuple[str, Callable[[], list[Kernel]]]] = {
-    "ssat": (ssat.MODULE_DOC, ssat.kernels),
+    "ssat": (ssat.MODULE_DOC + LIBRARY_DOC, lambda: ssat.kernels() + library_kernels()),
     "sphere_box": (sphere_box.MODULE_DOC, sphere_box.kernels),
 }
 # Built-in systems: the specs each crate under systems/ generates, as its build.rs names

@@ -26,6 +26,7 @@ the composed ones to (``define(..., unrolled=True)``).
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -102,6 +103,10 @@ class BoundPlan:
     kernel: str
     chain: str
     slots: tuple[Slot, ...]
+    # The bound kernel's numeric options (the primitive's sharpness), in its argument order.
+    options: tuple[float, ...] = ()
+    # The core's generated module that holds the bound kernel (see LIBRARY), else None.
+    library: str | None = None
 
 
 @dataclass(frozen=True)
@@ -113,6 +118,10 @@ class MemberPlan:
     slots: tuple[Slot, ...]
     columns: tuple[int, ...]
     bound: BoundPlan | None = None
+    # The chain's numeric options (the primitive's sharpness), in its argument order.
+    options: tuple[float, ...] = ()
+    # The core's generated module that holds the chain (see LIBRARY), else None.
+    library: str | None = None
 
 
 @dataclass(frozen=True)
@@ -585,6 +594,28 @@ class Jets:
         return Jet(k, degree, columns, parent)
 
 
+def numeric_options(call: Recorded) -> tuple[tuple[str, float], ...]:
+    """The call's options that are numbers (the primitive's sharpness), in call order: the
+    chain and bound kernels take them as arguments, so one kernel serves every value."""
+    return tuple((key, float(v)) for key, v in call.options.items() if isinstance(v, se.Basic) and v.is_Number)
+
+
+def options_key(call: Recorded) -> tuple:
+    """What a chain or bound kernel depends on of a call: its primitive and its options,
+    numbers only by name (they are the kernel's arguments)."""
+    numeric = dict(numeric_options(call))
+    return call.primitive, tuple((key, "<argument>" if key in numeric else str(v) if isinstance(v, se.Basic) else v)
+                                 for key, v in sorted(call.options.items()))
+
+
+def _build_options(k: Kernel, call: Recorded) -> dict:
+    """``call.options`` with every number replaced by a scalar argument of ``k``."""
+    options = dict(call.options)
+    for key, _ in numeric_options(call):
+        options[key] = k.scalar_input(key, f"the primitive's `{key}` (as the spec passes it)")
+    return options
+
+
 def build_chain(where: str, name: str, call: Recorded, moving: Sequence[bool], degree: int) -> Kernel:
     """The family's chain kernel: ``call``'s primitive of boxes posed by arguments, with
     its Lie derivatives along the pseudo-system of the moving poses (see the module)."""
@@ -607,6 +638,7 @@ def build_chain(where: str, name: str, call: Recorded, moving: Sequence[bool], d
         boxes.append(pose)
     halves = [k.array_input(f"half_{slot}", ["x", "y", "z"], f"box {slot.upper()}'s half extents [m]")
               for slot in SLOTS]
+    options = _build_options(k, call)
     n_moving = sum(moving)
     # The input acts on each moving pose's highest derivative below r: one column per entry.
     g = [[se.Integer(0)] * (POSE_SIZE * n_moving) for _ in states]
@@ -619,7 +651,7 @@ def build_chain(where: str, name: str, call: Recorded, moving: Sequence[bool], d
         from ..primitives import Box
         placed = [Box(pose[:3], [pose[3 + 3 * r:6 + 3 * r] for r in range(3)], half)
                   for pose, half in zip(boxes, halves, strict=True)]
-        h = call.build(ctx, *placed, **call.options)
+        h = call.build(ctx, *placed, **options)
     row = eng.row(h, name)
     if row.degree != degree:
         raise SpecError(f"{where}: the composed {call.primitive} has relative degree {row.degree} in its boxes' "
@@ -639,10 +671,52 @@ def build_bound(where: str, name: str, call: Recorded) -> Kernel:
                                                              "row by row") for slot in SLOTS]
     halves = [k.array_input(f"half_{slot}", ["x", "y", "z"], f"box {slot.upper()}'s half extents [m]")
               for slot in SLOTS]
+    options = _build_options(k, call)
     ctx = FamilyContext(where, k, k, {}, None)
     with ctx.active():
         from ..primitives import Box
         placed = [Box(pose[:3], [pose[3 + 3 * r:6 + 3 * r] for r in range(3)], half)
                   for pose, half in zip(poses, halves, strict=True)]
-        k.output_scalar("bound", call.build(ctx, *placed, **call.options), "the bound [m]")
+        k.output_scalar("bound", call.build(ctx, *placed, **options), "the bound [m]")
     return k
+
+
+# The chain and bound kernels the core ships in its generated module `ssat`: the smooth SAT
+# with its defaults (LSE, x tanh, certified) at relative degree 2 (an arm or a legged
+# robot on acceleration or torque inputs), both boxes moving or box A fixed (an obstacle).
+# A family whose call matches one calls the core's and emits none of its own: an edit of
+# its sharpness then regenerates a number, not the chain, and every robot shares one copy.
+LIBRARY = "ssat"
+_LIBRARY_DEGREE = 2
+_LIBRARY_MOVING = ((True, True), (False, True))
+
+
+def _library_call() -> Recorded:
+    from ..primitives import ssat_value
+    from ..smoothing import LSE, XTANH
+    options = dict(alpha=se.Integer(1), alpha_rot=se.Integer(1), smax=LSE, sabs=XTANH, certified=True)
+    return Recorded("ssat", ssat_value, (), options, se.Symbol("library"), ())
+
+
+@functools.cache
+def library() -> dict[tuple, Kernel]:
+    """Key (as ``_composed`` keys the chains it shares) -> the core's kernel for it."""
+    call = _library_call()
+    where = "cbfgen, every composed family that calls prim.ssat with its default smoothing"
+    out: dict[tuple, Kernel] = {}
+    for moving in _LIBRARY_MOVING:
+        suffix = variant_suffix(moving)
+        out[("chain", options_key(call), moving, _LIBRARY_DEGREE)] = build_chain(
+            where, f"ssat_chain{_LIBRARY_DEGREE}{suffix}", call, moving, _LIBRARY_DEGREE)
+        out[("bound", options_key(call), moving)] = build_bound(where, f"ssat_bound{suffix}", call)
+    return out
+
+
+def library_kernels() -> list[Kernel]:
+    """The core's chain and bound kernels, for its generated module ``LIBRARY``."""
+    return list(library().values())
+
+
+def variant_suffix(moving: tuple[bool, ...]) -> str:
+    """A chain or bound kernel's name suffix: which boxes are fixed (``_fixed_a``), if any."""
+    return "" if all(moving) else "_fixed_" + "".join(s for s, m in zip(SLOTS, moving, strict=True) if not m)

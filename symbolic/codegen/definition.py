@@ -36,6 +36,7 @@ from ..spec import (
     check_identifier,
 )
 from .composition import (
+    LIBRARY,
     SLOTS,
     BoundPlan,
     FramePlan,
@@ -47,7 +48,11 @@ from .composition import (
     Static,
     build_bound,
     build_chain,
+    library,
+    numeric_options,
+    options_key,
     pose_entries,
+    variant_suffix,
 )
 from .partial import partial_warnings
 
@@ -298,11 +303,6 @@ def _static(where: str, e: se.Expr, lets: dict, params: dict, what: str) -> Stat
                     f"not {e}; declare the family without compose=True")
 
 
-def _variant(moving: tuple[bool, ...]) -> str:
-    """A chain or bound kernel's name suffix: which boxes are fixed (``_fixed_a``), if any."""
-    return "" if all(moving) else "_fixed_" + "".join(s for s, m in zip(SLOTS, moving, strict=True) if not m)
-
-
 def _recorded_call(where: str, value, recorder: Recorder, what: str):
     """The one primitive call a composed family's ``h`` (or ``lower_bound``) must be."""
     if not (len(recorder.calls) == 1 and value == recorder.calls[0].placeholder):
@@ -354,11 +354,12 @@ def _composed_bound(system: System, family: Family, where: str, row_kernel: str,
     slots = [Slot(jets.value(where, name, entries, k) if name else None, (), pose, half)
              for entries, name, pose, half in _boxes(system, where, k, call, row_kernel)]
     moving = tuple(s.moving for s in slots)
+    key = ("bound", options_key(call), moving)
     if moving not in chains:
-        chains[moving] = jets.shared(("bound", _options(call), moving),
-                                     functools.partial(build_bound, where, f"{family.name}_bound{_variant(moving)}",
-                                                       call))
-    plan = BoundPlan(name, chains[moving].name, tuple(slots))
+        chains[moving] = library().get(key) or jets.shared(key, functools.partial(
+            build_bound, where, f"{family.name}_bound{variant_suffix(moving)}", call))
+    plan = BoundPlan(name, chains[moving].name, tuple(slots), tuple(v for _, v in numeric_options(call)),
+                     LIBRARY if key in library() else None)
     if unrolled:
         return _lower_bound(system, family, where, row_kernel, index, label, required), plan
     sig = Kernel(name, f"A lower bound on every row's h of one instance of `{row_kernel}` (the spec's "
@@ -368,12 +369,6 @@ def _composed_bound(system: System, family: Family, where: str, row_kernel: str,
     _declare_params(sig, family)
     sig.output_scalar("bound", se.Integer(0), "never above any row's h of the instance")
     return sig, plan
-
-
-def _options(call) -> tuple:
-    """A recorded call's primitive and options, as a key."""
-    options = sorted(call.options.items())
-    return call.primitive, tuple((key, str(v) if isinstance(v, se.Basic) else v) for key, v in options)
 
 
 def _composed(system: System, family: Family, where: str, members, required, jets: Jets, unrolled: bool):
@@ -413,22 +408,24 @@ def _composed(system: System, family: Family, where: str, members, required, jet
         plan_slots = tuple(Slot(j.name if j else None, tuple(columns.index(c) for c in j.columns) if j else (),
                                 pose, half) for j, pose, half in slots)
         moving = tuple(s.moving for s in plan_slots)
-        options = _options(call)
+        options = (options_key(call), numeric_options(call))
         if first is None:
             first = options
         elif options != first:
             raise SpecError(f"{member_where}: compose=True needs every member to call the same primitive with the "
                             f"same options (one chain kernel serves them all): {options} against {first}")
+        key = ("chain", options[0], moving, degree)
         if moving not in chains:
-            chains[moving] = jets.shared(("chain", options, moving, degree), functools.partial(
-                build_chain, where, f"{family.name}_chain{_variant(moving)}", call, moving, degree))
+            chains[moving] = library().get(key) or jets.shared(key, functools.partial(
+                build_chain, where, f"{family.name}_chain{variant_suffix(moving)}", call, moving, degree))
         bound_plan = None
         if family.lower_bound is not None:
             bound_where = f"{where}, lower_bound" + (f", member {label!r}" if label else "")
             bound_kernel, bound_plan = _composed_bound(system, family, bound_where, name, index, label, required,
                                                        jets, unrolled, bound_chains)
             bounds.append(bound_kernel)
-        plans.append(MemberPlan(name, chains[moving].name, plan_slots, columns, bound_plan))
+        plans.append(MemberPlan(name, chains[moving].name, plan_slots, columns, bound_plan,
+                                tuple(v for _, v in options[1]), LIBRARY if key in library() else None))
         row_name = rows[0][0]
         if unrolled:
             whole = _member(system, family, member_where, name, index, label, required)
@@ -457,7 +454,8 @@ def _composed(system: System, family: Family, where: str, members, required, jet
                           f"per row: L_g L_f^(r-1) h on the columns `{upper}_INPUT_COLUMNS`")
         built.append(RowKernel(sig, degree, columns, (row_name,), (columns,)))
     # A chain another family built first is that family's to emit.
-    own = [k for k in (*chains.values(), *bound_chains.values()) if jets.first_use(k)]
+    core = set(map(id, library().values()))
+    own = [k for k in (*chains.values(), *bound_chains.values()) if id(k) not in core and jets.first_use(k)]
     return built, tuple(plans), tuple(own), tuple(bounds)
 
 

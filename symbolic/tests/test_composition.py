@@ -271,8 +271,28 @@ def test_composed_and_unrolled_rows_agree_on_a_small_arm():
     spec = arm(pair, compose=True)
     definition = define(spec, unrolled=True)
     (family,) = definition.families
-    assert [k.name for k in family.chains] == ["pair_chain"]
+    # The default smooth SAT at degree 2 is the core's chain: the system emits none.
+    assert family.chains == () and {p.chain for p in family.composed} == {"ssat_chain2"}
+    assert {p.library for p in family.composed} == {"ssat"}
     assert [k.name for k in definition.jets] == ["pose_upper", "pose_lower"]
     assert family.kernels[0].outputs[0].exprs[0] != 0  # the unrolled row, not a signature
     text = emit_system(define(arm(pair, compose=True)), "cbfgen")
     assert "pub fn pair(" in text and "accumulate_columns(&grad_a" in text and "accumulate_columns(&grad_b" in text
+    assert "cbfgen::generated::ssat::ssat_chain2(" in text and "fn pair_chain" not in text
+
+
+def test_a_smoothing_the_core_does_not_ship_gets_the_systems_own_chain_with_the_sharpness_as_arguments():
+    from symbolic import primitives as prim
+    from symbolic.codegen.backends.rust.system_module import emit_system
+    from symbolic.codegen.definition import define
+
+    def pair(p, link, x):
+        return prim.ssat(p, link(p, x[0], 0.5), link(p, x[1], 0.3), alpha=50.0, alpha_rot=20.0, smax=prim.BOLTZMANN,
+                         names=("upper", "lower"))
+
+    (family,) = define(arm(pair, compose=True)).families
+    assert [k.name for k in family.chains] == ["pair_chain"]
+    assert [i.name for i in family.chains[0].inputs][-2:] == ["alpha", "alpha_rot"]
+    assert [(p.library, p.options) for p in family.composed] == [(None, (50.0, 20.0))]
+    text = emit_system(define(arm(pair, compose=True)), "cbfgen")
+    assert "pub fn pair_chain(" in text and "pair_chain(&pose_a.0, &pose_a.1, &pose_b.0, &pose_b.1, &[" in text

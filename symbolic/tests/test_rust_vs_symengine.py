@@ -186,6 +186,8 @@ def chain_inputs(kernel: Kernel) -> Callable[[np.random.Generator], Inputs]:
                 v[inp.name] = np.concatenate([rng.uniform(-0.5, 0.5, 3), random_rotation(rng).ravel()])
             elif inp.name.startswith("half_"):
                 v[inp.name] = rng.uniform(0.02, 0.4, 3)
+            elif inp.name in ("alpha", "alpha_rot"):  # the core's chains take the sharpness
+                v[inp.name] = rng.uniform(5, 300)
             else:  # rates_*: derivatives of the pose
                 v[inp.name] = rng.uniform(-3, 3, len(inp.symbols))
         return v

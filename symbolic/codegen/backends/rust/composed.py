@@ -25,6 +25,11 @@ def _fixed_array(kernel: Kernel):
     return array
 
 
+def _chain_path(plan: MemberPlan | BoundPlan, runtime_crate: str) -> str:
+    """The chain or bound kernel's path: the system's own, or the core's (``plan.library``)."""
+    return f"{runtime_crate}::generated::{plan.library}::{plan.chain}" if plan.library else plan.chain
+
+
 def emit_composed_member(kernel: Kernel, plan: MemberPlan, degree: int, with_params: bool, runtime_crate: str,
                          attributes: Sequence[str] = ()) -> str:
     array = _fixed_array(kernel)
@@ -33,6 +38,7 @@ def emit_composed_member(kernel: Kernel, plan: MemberPlan, degree: int, with_par
     for s, slot in zip(SLOTS, plan.slots, strict=True):
         chain_args += [f"&pose_{s}.0", f"&pose_{s}.1"] if slot.moving else [array(slot.pose)]
     chain_args += [array(slot.half) for slot in plan.slots]
+    chain_args += [float_literal(v) for v in plan.options]
     grads = ", ".join(f"grad_{s}" for s, _ in moving)
     args, ret = kernel_signature(kernel, runtime_crate)
     params = [inp for inp in kernel.inputs if inp.name != "x"]
@@ -43,7 +49,7 @@ def emit_composed_member(kernel: Kernel, plan: MemberPlan, degree: int, with_par
         f"/// [`{kernel.name}`] from its boxes' pose kernels ({', '.join(f'[`{slot.jet}`]' for _, slot in moving)}) "
         "at the state: what the filter calls, each pose computed once per cycle for every row that reads it.",
         *attributes, "#[inline]", f"pub fn {kernel.name}_from_poses({poses}{param_args}) -> {ret} {{",
-        f"    let (lie, {grads}) = {plan.chain}({', '.join(chain_args)});",
+        f"    let (lie, {grads}) = {_chain_path(plan, runtime_crate)}({', '.join(chain_args)});",
         f"    let mut lg_lf = [0.0; {len(plan.columns)}];",
         *(f"    {runtime_crate}::compose::accumulate_columns(&grad_{s}, &pose_{s}.2, "
           f"&[{', '.join(map(str, slot.at))}], &mut lg_lf);" for s, slot in moving),
@@ -93,11 +99,12 @@ def emit_composed_bound(kernel: Kernel, plan: BoundPlan, with_params: bool, runt
     param_args = "".join(f", {p.name}: {input_type(p, runtime_crate)}" for p in params)
     chain_args = [f"pose_{s}" if slot.moving else array(slot.pose) for s, slot in zip(SLOTS, plan.slots, strict=True)]
     chain_args += [array(slot.half) for slot in plan.slots]
+    chain_args += [float_literal(v) for v in plan.options]
     poses = ", ".join(f"pose_{s}: &[f64; 12]" for s, _ in moving)
     from_poses = [f"/// [`{kernel.name}`] from its boxes' poses "
                   f"({', '.join(f'[`{slot.jet}`]' for _, slot in moving)}) at the state.", *attributes, "#[inline]",
                   f"pub fn {kernel.name}_from_poses({poses}{param_args}) -> f64 {{",
-                  f"    {plan.chain}({', '.join(chain_args)})", "}"]
+                  f"    {_chain_path(plan, runtime_crate)}({', '.join(chain_args)})", "}"]
     jets = [(slot.jet, "[f64; 12]") for _, slot in moving]
     return "\n".join(from_poses + _entry_points(kernel, jets, "f64", with_params, runtime_crate, attributes)) + "\n"
 
