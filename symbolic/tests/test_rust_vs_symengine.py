@@ -36,6 +36,7 @@ CBFGEN_REQUIRE_BINDINGS, so a missing module fails instead of skipping.
 from __future__ import annotations
 
 import ast
+import functools
 import os
 import zlib
 from collections.abc import Callable
@@ -73,6 +74,7 @@ KERNELS: dict[tuple[str, str], Kernel] = {(module, k.name): k for module, ks in 
 SYSTEM_CONSTANTS = {c.name: c.value for d in builtin_systems() for c in d.constants}
 
 
+@functools.cache  # it scans every kernel, and the Panda sampler asks three times a sample
 def constant(name: str):
     """A kernel's constant, or a built-in system's (``hip_positions``)."""
     for k in KERNELS.values():
