@@ -39,6 +39,7 @@ pub mod dynamic;
 pub mod error;
 pub mod filter;
 pub mod geometry;
+pub mod kernel_table;
 pub mod lanes;
 pub mod limits;
 pub mod param_domain;

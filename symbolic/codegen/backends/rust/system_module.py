@@ -942,5 +942,5 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
     for emit in (_emit_description, _emit_system_type, _emit_kernels, _emit_parameter_structs,
                  _emit_family_table, _emit_capacity, _emit_params, _emit_barriers, _emit_filter_and_system):
         emit(out, d, rt)
-    out.append(emit_kernel_table(d.kernels(), rt, f"`{d.name}`", attributes=[KERNEL_ALLOWS]))
+    out.append(emit_kernel_table(d.kernels(), rt, f"`{d.name}`"))
     return "\n".join(out) + "\n"
