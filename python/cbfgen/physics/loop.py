@@ -27,6 +27,7 @@ driven on until its toe catches up.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -52,6 +53,7 @@ on a tread touches it, and MuJoCo's soft contact lets it a little way in."""
 RISER_ANGLE = np.radians(30.0)
 """A contact whose normal is more than this from vertical is a riser's (or a nosing met
 from the front, or a side) rather than a tread's."""
+_COS_RISER_ANGLE = float(np.cos(RISER_ANGLE))
 
 MAX_CATCH_UP = 0.1
 """Most the reference's speed along the course may differ from the robot's [m/s]."""
@@ -78,26 +80,51 @@ distance [m]: enough to catch up a slip of a few centimetres, little against the
 of a tread, and no winding up of a wheel held by an obstacle."""
 
 
+# The per-cycle code below runs a hundred thousand times a run on 3-vectors, where a numpy
+# call costs more than its arithmetic: it hoists what is fixed out of the loop and works
+# on Python floats where the operations are single IEEE products and sums (the same
+# numbers either way). It keeps numpy's matrix products, solves, sums and sin, cos and
+# arctan2 as they are: BLAS, numpy's pairwise sums and numpy's vectorised functions (on
+# AVX-512) round differently from the same formulas written out, and the closed loop
+# would drift from its recorded runs.
+
+
 def _rot_z(yaw: float) -> np.ndarray:
-    c, s = np.cos(yaw), np.sin(yaw)
+    c, s = float(np.cos(yaw)), float(np.sin(yaw))  # numpy's numbers; floats build the array faster
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
 def _rot_x(angle: float) -> np.ndarray:
-    c, s = np.cos(angle), np.sin(angle)
+    c, s = float(np.cos(angle)), float(np.sin(angle))
     return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a × b of two 3-vectors: numpy's products and differences in numpy's order, without
-    its general machinery (the loop calls it tens of thousands of times a run)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+def _cross(a, b) -> tuple[float, float, float]:
+    """a × b of two 3-vectors of Python floats."""
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-def _quat_of(rotation: np.ndarray) -> np.ndarray:
-    q = np.zeros(4)
-    mujoco.mju_mat2Quat(q, np.ascontiguousarray(rotation).ravel())
-    return q
+def _set_quat(quat: np.ndarray, rotation: np.ndarray) -> None:
+    """Write ``rotation``'s quaternion into ``quat`` (a view into ``qpos``, say)."""
+    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(rotation).ravel())
+
+
+_YAW_AXIS = (0.0, 0.0, 1.0)
+_BODY = mujoco.mjtObj.mjOBJ_BODY
+
+_POINT_POSITIONS = np.array([[6, *range(12, 36, 4)], [7, *range(13, 36, 4)]])
+"""The state's sagittal points, the body centre and the six toes: the indices of their x
+(first row) and z (second row)."""
+_POINT_VELOCITIES = np.array([[9, *range(14, 36, 4)], [10, *range(15, 36, 4)]])
+"""The indices of the same points' x and z velocities."""
+_POINT_STATES = np.array([_POINT_POSITIONS, _POINT_VELOCITIES])
+_POINTS = _POINT_POSITIONS.shape[1]
+_Z_DOWN = np.array([[1.0], [-1.0]])  # (r_z, r_x) reversed from (r_x, r_z) times this: (r_z, -r_x)
+_RIGID_RATES = np.zeros((2 * _POINTS + 1, 3))
+"""The least-squares rows of :func:`anchored`'s rigid rates (vx, vz, spin) over the
+points' x and z velocities and the pitch rate, less the spin's column above the last
+row (each point's offset from the centroid): vx moves every x, vz every z."""
+_RIGID_RATES[:_POINTS, 0] = _RIGID_RATES[_POINTS:-1, 1] = _RIGID_RATES[-1, 2] = 1.0
 
 
 class PhysicalRobot:
@@ -116,8 +143,9 @@ class PhysicalRobot:
         self.wheels = [name(m, mujoco.mjtObj.mjOBJ_BODY, f"{leg}_wheel") for leg in t3.LEG_NAMES]
         self.toe_geoms = [name(m, mujoco.mjtObj.mjOBJ_GEOM, f"{leg}_toe") for leg in t3.LEG_NAMES]
         # Geom id -> leg, -1 for every other geom: contacts are classified in one lookup.
-        self._leg_of_geom = np.full(m.ngeom, -1)
-        self._leg_of_geom[self.toe_geoms] = np.arange(len(self.toe_geoms))
+        self._leg_of_geom = [-1] * m.ngeom
+        for leg, geom in enumerate(self.toe_geoms):
+            self._leg_of_geom[geom] = leg
         geom_names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or "" for g in range(m.ngeom)]
         self.terrain_geoms = [g for g, n in enumerate(geom_names) if n.startswith("terrain")]
         # The solids as (centre, rotation, half extents), for the wheels' exact distances.
@@ -145,7 +173,17 @@ class PhysicalRobot:
         self.knee_pos, self.knee_vel = actuator("knee_pos"), actuator("knee_vel")
         self.wheel_pos, self.wheel_vel = actuator("wheel_pos", drive_names), actuator("wheel_vel", drive_names)
         self.outward = np.asarray(t3.HIP_OUTWARD)
-        self._velocity = np.zeros(6)
+        self._outward = self.outward.tolist()
+        # The per-cycle code's index arrays: servo targets by joint quantity (the columns
+        # of leg_joints: knee length, hip angle, their rates), and the bodies measure()
+        # reads, the body first and then the wheels.
+        self._joint_servos = np.array([self.knee_pos, self.hip_pos, self.knee_vel, self.hip_vel])
+        self._wheel_q = np.array(self.wheel_q)
+        self._wheel_pos, self._wheel_vel = np.array(self.wheel_pos), np.array(self.wheel_vel)
+        self._wheels = np.array(self.wheels)
+        self._measured_bodies = np.array([self.body, *self.wheels])
+        self._velocities = np.zeros((len(self._measured_bodies), 6))
+        self._fromto = np.zeros(6)  # mj_geomDistance's segment, unread
         # The robot with its roll taken out, posed by measure() each cycle.
         self.upright = mujoco.MjData(m)
 
@@ -156,20 +194,13 @@ class PhysicalRobot:
         d.qpos[:] = self.model.qpos0  # the ball joints' identity quaternions
         d.qvel[:] = 0.0
         d.qpos[0:3] = center
-        d.qpos[3:7] = _quat_of(rotation)
+        _set_quat(d.qpos[3:7], rotation)
         joints = t3.leg_joints(x)
         d.qpos[self.knee_q] = joints[:, 0]
         d.qpos[self.hip_q] = joints[:, 1]
         self.wheel_target = d.qpos[self.wheel_q].copy()
         self.command(x)
         mujoco.mj_forward(self.model, d)
-
-    def _velocity_of(self, body: int, data=None) -> np.ndarray:
-        """(angular, linear) velocity of ``body``'s frame in ``data`` (the robot's when
-        None), world axes."""
-        data = self.data if data is None else data
-        mujoco.mj_objectVelocity(self.model, data, mujoco.mjtObj.mjOBJ_BODY, body, self._velocity, 0)
-        return self._velocity.copy()
 
     def _pose_upright(self) -> float:
         """Pose :attr:`upright` as the robot with its roll taken out: the same body
@@ -182,16 +213,21 @@ class PhysicalRobot:
         upright = rotation @ _rot_x(-roll)
         # The angular velocity as yaw, pitch and roll rates about their own axes; the
         # upright body turns at the first two.
-        yaw_axis, roll_axis = np.eye(3)[2], upright[:, 0]
-        pitch_axis = _rot_z(np.arctan2(upright[1, 0], upright[0, 0]))[:, 1]
+        yaw = np.arctan2(upright[1, 0], upright[0, 0])
+        pitch_axis = (float(-np.sin(yaw)), float(np.cos(yaw)), 0.0)  # Rz(yaw)'s y axis
         omega = rotation @ d.qvel[3:6]
-        rates = np.linalg.solve(np.column_stack([yaw_axis, pitch_axis, roll_axis]), omega)
+        axes = np.array([_YAW_AXIS, pitch_axis, upright[:, 0].tolist()]).T
+        yaw_rate, pitch_rate, _ = np.linalg.solve(axes, omega).tolist()
         u.qpos[:] = d.qpos
         u.qvel[:] = d.qvel
-        u.qpos[3:7] = _quat_of(upright)
-        u.qvel[3:6] = upright.T @ (rates[0] * yaw_axis + rates[1] * pitch_axis)
-        mujoco.mj_fwdPosition(self.model, u)
-        mujoco.mj_fwdVelocity(self.model, u)
+        _set_quat(u.qpos[3:7], upright)
+        turning = [yaw_rate * z + pitch_rate * p for z, p in zip(_YAW_AXIS, pitch_axis, strict=True)]
+        u.qvel[3:6] = upright.T @ np.array(turning)
+        # What measure() reads (poses and body velocities), and nothing of mj_forward's
+        # contacts, mass matrix and forces.
+        mujoco.mj_kinematics(self.model, u)
+        mujoco.mj_comPos(self.model, u)
+        mujoco.mj_comVel(self.model, u)
         return roll
 
     def measure(self, reference: np.ndarray) -> tuple[np.ndarray, dict[str, float]]:
@@ -204,32 +240,42 @@ class PhysicalRobot:
         roll = self._pose_upright()
         u = self.upright
         upright = u.xmat[self.body].reshape(3, 3)
-        heading_error = float(np.angle(np.exp(1j * (np.arctan2(upright[1, 0], upright[0, 0]) - x[3]))))
+        # The heading's error wrapped into (-pi, pi]: np.angle, without its wrapper.
+        error_turn = np.exp(1j * (np.arctan2(upright[1, 0], upright[0, 0]) - x[3]))
+        heading_error = float(np.arctan2(error_turn.imag, error_turn.real))
         x[3] += heading_error
         origin = x[0:3]
-        yaw, speed, yaw_rate = x[3], x[4], x[5]
-        to_origin = _rot_z(yaw).T
-        origin_velocity = _rot_z(yaw) @ np.array([speed, 0.0, 0.0])
-        spin = np.array([0.0, 0.0, yaw_rate])
-
-        def relative(position: np.ndarray, velocity: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            rel = to_origin @ (position - origin)
-            return rel, to_origin @ (velocity - origin_velocity) - _cross(spin, rel)
+        yaw, speed, yaw_rate = x[3], float(x[4]), float(x[5])
+        heading = _rot_z(yaw)
+        to_origin = heading.T
+        origin_velocity = heading @ np.array([speed, 0.0, 0.0])
+        spin = (0.0, 0.0, yaw_rate)
 
         # The model holds no roll, so it reads the robot's joints on the upright robot: a
         # knee lengthened under one side shows as that toe lower, where the gait and
         # the filter act on it. Read from where the wheels are, the toes of a rolled
         # robot standing on one tread look level, and what the gait pushes on them
         # winds up unseen in the reference as the roll itself.
-        angular_linear = self._velocity_of(self.body, u)
-        rel, rel_v = relative(u.xpos[self.body], angular_linear[3:])
-        body_in_origin = to_origin @ u.xmat[self.body].reshape(3, 3)
-        pitch = np.arctan2(body_in_origin[0, 2], body_in_origin[0, 0])
-        x[6:12] = rel[0], rel[2], pitch, rel_v[0], rel_v[2], (to_origin @ angular_linear[:3])[1]
-        for leg, wheel in enumerate(self.wheels):
-            toe, toe_v = relative(u.xpos[wheel], self._velocity_of(wheel, u)[3:])
-            x[12 + 4 * leg : 16 + 4 * leg] = toe[0], toe[2], toe_v[0], toe_v[2]
-        off_model = {"lateral": float(rel[1]), "roll": roll, "heading": heading_error}
+        # Each body's position and velocity relative to the origin (body, wheels...), and
+        # the body's angular velocity, in the origin's frame: one matrix-vector product
+        # per vector, as a stack (the same BLAS call for each).
+        bodies, velocities = self._measured_bodies, self._velocities
+        for row, body in zip(velocities, bodies.tolist(), strict=True):
+            mujoco.mj_objectVelocity(self.model, u, _BODY, body, row, 0)
+        vectors = np.concatenate((u.xpos[bodies] - origin, velocities[:, 3:] - origin_velocity, velocities[:1, :3]))
+        in_origin = np.matmul(to_origin, vectors[:, :, None])[:, :, 0].tolist()
+        count = len(bodies)
+        positions, moving, pitch_rate = in_origin[:count], in_origin[count:-1], in_origin[-1][1]
+        # (x, z, vx, vz) of each point in the origin's frame, which turns at the yaw rate.
+        points = []
+        for position, velocity in zip(positions, moving, strict=True):
+            turning = _cross(spin, position)
+            points.append((position[0], position[2], velocity[0] - turning[0], velocity[2] - turning[2]))
+        body_in_origin = to_origin @ upright
+        pitch = float(np.arctan2(body_in_origin[0, 2], body_in_origin[0, 0]))
+        (body_x, body_z, body_vx, body_vz), *toes = points
+        x[6:] = [body_x, body_z, pitch, body_vx, body_vz, pitch_rate, *(value for toe in toes for value in toe)]
+        off_model = {"lateral": positions[0][1], "roll": roll, "heading": heading_error}
         return x, off_model
 
     def command(self, reference: np.ndarray) -> None:
@@ -237,26 +283,23 @@ class PhysicalRobot:
         positions and rates, each wheel to roll at its toe's ground speed."""
         d = self.data
         joints = t3.leg_joints(reference)
-        d.ctrl[self.knee_pos] = joints[:, 0]
-        d.ctrl[self.hip_pos] = joints[:, 1]
-        d.ctrl[self.knee_vel] = joints[:, 2]
-        d.ctrl[self.hip_vel] = joints[:, 3]
-        speed, yaw_rate, pitch_rate = reference[4], reference[5], reference[11]
-        toe_vx = reference[14::4]
+        d.ctrl[self._joint_servos] = joints.T
+        speed, yaw_rate, pitch_rate = reference[[4, 5, 11]].tolist()
         # Each toe's offset across the heading, where the yaw rate moves it along.
         _, _, toes = t3.world_kinematics(reference)
-        across = (toes[:, :2] - reference[0:2]) @ _rot_z(reference[3])[:2, 1]
-        ground_speed = speed - yaw_rate * across + toe_vx
+        across = ((toes[:, :2] - reference[0:2]) @ _rot_z(reference[3])[:2, 1]).tolist()
+        toe_vx, hip_rate, outward = reference[14::4].tolist(), joints[:, 3].tolist(), self._outward
+        ground_speed = [speed - yaw_rate * across[leg] + toe_vx[leg] for leg in self.drive]
         # A hinge about (0, -outward, 0) turns the shin about +y at -outward times its rate.
-        shin_spin = pitch_rate - self.outward * joints[:, 3]
-        spin = (ground_speed / t3.TOE_RADIUS - shin_spin)[self.drive]
+        shin_spin = [pitch_rate - outward[leg] * hip_rate[leg] for leg in self.drive]
+        spin = np.array([v / t3.TOE_RADIUS - s for v, s in zip(ground_speed, shin_spin, strict=True)])
         # The angle target runs on with the spin, at most MAX_LEAD of rolling ahead of
         # (or behind) the wheel: a wheel held by an obstacle is not wound up.
         reach = MAX_LEAD / t3.TOE_RADIUS
-        angle = d.qpos[self.wheel_q]
-        self.wheel_target = np.clip(self.wheel_target + spin * TIMESTEP, angle - reach, angle + reach)
-        d.ctrl[self.wheel_pos] = self.wheel_target
-        d.ctrl[self.wheel_vel] = spin
+        angle = d.qpos[self._wheel_q]
+        self.wheel_target = (self.wheel_target + spin * TIMESTEP).clip(angle - reach, angle + reach)
+        d.ctrl[self._wheel_pos] = self.wheel_target
+        d.ctrl[self._wheel_vel] = spin
 
     def step(self) -> None:
         mujoco.mj_step(self.model, self.data)
@@ -264,67 +307,124 @@ class PhysicalRobot:
     def contacts(self) -> tuple[bool, int]:
         """(the body touches the terrain, toes touching a riser or an edge: a contact whose
         normal is more than :data:`RISER_ANGLE` from vertical)."""
+        body_contact, risers, _ = self._scan_contacts()
+        return body_contact, risers
+
+    def _scan_contacts(self) -> tuple[bool, int, dict[int, int]]:
+        """One pass over MuJoCo's active contacts: :meth:`contacts`, and each touching
+        wheel's leg with the index of its last contact."""
         contact = self.data.contact  # MuJoCo's active contacts, one array per field
-        geom1, geom2 = contact.geom1, contact.geom2
-        body = (geom1 == self.body_geom) | (geom2 == self.body_geom)
-        toe = (self._leg_of_geom[geom1] >= 0) | (self._leg_of_geom[geom2] >= 0)
-        riser = ~body & toe & (np.abs(contact.frame[:, 2]) < np.cos(RISER_ANGLE))
-        return bool(body.any()), int(riser.sum())
+        geom1, geom2 = contact.geom1.tolist(), contact.geom2.tolist()
+        body_geom, leg_of_geom = self.body_geom, self._leg_of_geom
+        body_contact, risers, touching = False, 0, {}
+        for c, (g1, g2, normal_z) in enumerate(zip(geom1, geom2, contact.frame[:, 2].tolist(), strict=True)):
+            legs = leg_of_geom[g1], leg_of_geom[g2]
+            if g1 == body_geom or g2 == body_geom:
+                body_contact = True
+            elif (legs[0] >= 0 or legs[1] >= 0) and abs(normal_z) < _COS_RISER_ANGLE:
+                risers += 1
+            for leg in legs:
+                if leg >= 0:
+                    touching[leg] = c
+        return body_contact, risers, touching
 
     def ground_under(self, point: np.ndarray) -> float:
         """The top of the highest solid under ``point`` (x, y) [m]: the true ground (the
         course's floor height is what it perceives); 0 off every solid."""
-        offset = point[:2] - self._solid_centers[:, :2]
-        local = np.einsum("sji,sj->si", self._solid_rotations[:, :2, :2], offset)
-        under = np.all(np.abs(local) <= self._solid_halves[:, :2], axis=1)
-        return float(self.solid_tops[under].max(initial=0.0))
+        return float(self.grounds_under(np.asarray(point)[None])[0])
+
+    def grounds_under(self, points: np.ndarray) -> np.ndarray:
+        """:meth:`ground_under` each of ``points`` (n, 2 or more) at once."""
+        offset = points[:, None, :2] - self._solid_centers[:, :2]
+        local = np.einsum("sji,nsj->nsi", self._solid_rotations[:, :2, :2], offset)
+        under = np.all(np.abs(local) <= self._solid_halves[:, :2], axis=2)
+        return np.where(under, self.solid_tops, -np.inf).max(axis=1, initial=0.0)
 
     def body_distance(self) -> float:
         """MuJoCo's signed distance between the body box and the nearest terrain box [m]
         (negative: penetration), up to 1 m."""
-        fromto = np.zeros(6)
-        return min(
-            mujoco.mj_geomDistance(self.model, self.data, self.body_geom, g, 1.0, fromto) for g in self.terrain_geoms
-        )
+        m, d, body, fromto = self.model, self.data, self.body_geom, self._fromto
+        return min([mujoco.mj_geomDistance(m, d, body, g, 1.0, fromto) for g in self.terrain_geoms])
 
-    def wheel_distances(self) -> tuple[float, float]:
+    def wheel_centers(self) -> np.ndarray:
+        """MuJoCo's wheel centres now, (wheel, 3), a copy."""
+        return self.data.xpos[self._wheels]
+
+    def wheel_distances(self, centers: np.ndarray | None = None) -> tuple[float, float] | np.ndarray:
         """(nearest wheel to a solid of the terrain, nearest wheel to a riser) [m] by exact
         sphere–box distance from MuJoCo's wheel centres: the gap, or minus the depth.
         A riser is where the normal from the solid's nearest point to the wheel's centre
         (or, for a centre inside, the face it is least deep under) is more than
-        :data:`RISER_ANGLE` from vertical, as :meth:`contacts` reads MuJoCo's normals."""
-        centers = self.data.xpos[self.wheels]  # (wheel, 3)
+        :data:`RISER_ANGLE` from vertical, as :meth:`contacts` reads MuJoCo's normals.
+
+        With ``centers`` (…, wheel, 3) of :meth:`wheel_centers`, the same for each set of
+        centres at once, as an array (…, 2)."""
+        if centers is None:
+            return tuple(self.wheel_distances(self.wheel_centers()).tolist())
         rotations, halves = self._solid_rotations, self._solid_halves
-        # Each wheel centre in each solid's frame: (wheel, solid, 3).
-        local = np.einsum("sji,wsj->wsi", rotations, centers[:, None, :] - self._solid_centers)
+        # Each wheel centre in each solid's frame: (…, wheel, solid, 3).
+        local = np.einsum("sji,...wsj->...wsi", rotations, centers[..., None, :] - self._solid_centers)
         outward = local - np.clip(local, -halves, halves)
-        outside = outward.any(axis=2)
-        depth = halves - np.abs(local)
-        least = depth.argmin(axis=2)
-        inside_distance = -np.take_along_axis(depth, least[..., None], axis=2)[..., 0]
-        distance = np.where(outside, np.linalg.norm(outward, axis=2), inside_distance) - t3.TOE_RADIUS
-        # Outside: the normal is the offset from the nearest point; inside: the face's axis.
-        normal = np.where(outside[..., None], outward, np.eye(3)[least])
-        vertical = np.einsum("sj,wsj->ws", rotations[:, 2, :], normal)
-        riser = np.abs(vertical) < np.cos(RISER_ANGLE) * np.linalg.norm(normal, axis=2)
-        return float(distance.min()), float(distance[riser].min(initial=np.inf))
+        # Outside: the gap from the nearest point, and the normal the offset from it.
+        gap = np.linalg.norm(outward, axis=-1)
+        distance, normal, normal_length = gap - t3.TOE_RADIUS, outward, gap
+        inside = ~outward.any(axis=-1)
+        if inside.any():  # a centre inside: minus the depth under the nearest face, its axis
+            depth = halves - np.abs(local)
+            least = depth.argmin(axis=-1)
+            inside_distance = -np.take_along_axis(depth, least[..., None], axis=-1)[..., 0]
+            distance = np.where(inside, inside_distance - t3.TOE_RADIUS, distance)
+            normal = np.where(inside[..., None], np.eye(3)[least], outward)
+            normal_length = np.where(inside, 1.0, gap)  # a unit axis's norm
+        vertical = np.einsum("sj,...wsj->...ws", rotations[:, 2, :], normal)
+        riser = np.abs(vertical) < _COS_RISER_ANGLE * normal_length
+        nearest_riser = np.where(riser, distance, np.inf).min(axis=(-2, -1))
+        return np.stack([distance.min(axis=(-2, -1)), nearest_riser], axis=-1)
+
+    def toe_contacts(self, touching: dict[int, int] | None = None) -> tuple[list[int], np.ndarray]:
+        """The legs whose wheels touch the terrain, and per leg a row of its wheel's
+        angular and linear velocity, the contact point and the contact normal at the
+        wheel's last contact in MuJoCo's list, (legs, 12). ``touching``: the legs' contacts
+        as :meth:`_scan_contacts` found them (scanned now when None)."""
+        if touching is None:
+            _, _, touching = self._scan_contacts()
+        d, contact = self.data, self.data.contact
+        legs, contacts = list(touching), list(touching.values())
+        rows = np.empty((len(legs), 12))
+        for row, leg in zip(rows, legs, strict=True):
+            mujoco.mj_objectVelocity(self.model, d, _BODY, self.wheels[leg], row[:6], 0)
+        if legs:
+            rows[:, 6:9] = contact.pos[contacts]
+            rows[:, 9:] = contact.frame[contacts, :3]
+        return legs, rows
 
     def slip(self) -> np.ndarray:
         """Each wheel's slip speed where it touches the terrain [m/s] (NaN in the air):
         the speed of the wheel's material at the contact point."""
-        d, contact = self.data, self.data.contact
         out = np.full(6, np.nan)
-        legs = self._leg_of_geom
-        for c in range(d.ncon):
-            for leg in (legs[contact.geom1[c]], legs[contact.geom2[c]]):
-                if leg < 0:
-                    continue
-                w = self._velocity_of(self.wheels[leg])
-                point = w[3:] + _cross(w[:3], contact.pos[c] - d.xpos[self.wheels[leg]])
-                normal = contact.frame[c, :3]
-                tangential = point - normal * point.dot(normal)
-                out[leg] = float(np.linalg.norm(tangential))
+        legs, rows = self.toe_contacts()
+        out[legs] = slip_speeds(rows, self.data.xpos[self._wheels[legs]])
         return out
+
+
+def slip_speeds(rows: np.ndarray, centers: np.ndarray) -> np.ndarray:
+    """The slip speed for each row of :meth:`PhysicalRobot.toe_contacts` (any number of
+    them at once) and its wheel's centre: the speed of the wheel's material at the contact
+    point, in the contact's tangent plane."""
+    angular, linear, point, normal = rows[:, 0:3], rows[:, 3:6], rows[:, 6:9], rows[:, 9:12]
+    arm = point - centers
+    turning = np.stack(
+        [
+            angular[:, 1] * arm[:, 2] - angular[:, 2] * arm[:, 1],
+            angular[:, 2] * arm[:, 0] - angular[:, 0] * arm[:, 2],
+            angular[:, 0] * arm[:, 1] - angular[:, 1] * arm[:, 0],
+        ],
+        axis=1,
+    )
+    velocity = linear + turning
+    # vecdot takes each row's dot product as ndarray.dot does, and np.linalg.norm too.
+    tangential = velocity - normal * np.vecdot(velocity, normal)[:, None]
+    return np.sqrt(np.vecdot(tangential, tangential))
 
 
 @dataclass
@@ -479,37 +579,36 @@ def anchored(reference: np.ndarray, measured: np.ndarray) -> np.ndarray:
     freely about that axle, so the gait must see and correct its heading."""
     x = np.array(reference, dtype=float)
     x[3] = measured[3]
-    xs, zs = [6, *range(12, 36, 4)], [7, *range(13, 36, 4)]
-    p, q = np.stack([x[xs], x[zs]]), np.stack([measured[xs], measured[zs]])
-    center_p, center_q = p.mean(axis=1, keepdims=True), q.mean(axis=1, keepdims=True)
-    a, b = p - center_p, q - center_q
+    # The points' positions and velocities, (reference and measured, position and
+    # velocity, x and z, point); the positions' centroids (their means).
+    points = np.array([x, measured])[:, _POINT_STATES]
+    centers = np.add.reduce(points[:, 0], axis=2, keepdims=True) / _POINTS
+    (a, b), center_q = points[:, 0] - centers, centers[1]
     # Rotation about +y by d maps (x, z) to (x cos d + z sin d, -x sin d + z cos d).
     d = np.arctan2((a[1] * b[0] - a[0] * b[1]).sum(), (a * b).sum())
-    turn = np.array([[np.cos(d), np.sin(d)], [-np.sin(d), np.cos(d)]])
+    turn = _pitch_turn(d)
     moved = turn @ a + center_q
-    x[xs], x[zs] = moved
+    x[_POINT_POSITIONS] = moved
     x[8] += d
     # Velocities: the same rotation, then the rigid rates (vx, vz, spin about +y) that
     # bring them closest to the measured ones, over the points and the body's pitch
-    # rate; a point at r moves by (spin r_z, -spin r_x) under the spin.
-    vxs, vzs = [9, *range(14, 36, 4)], [10, *range(15, 36, 4)]
-    v = turn @ np.stack([x[vxs], x[vzs]])
-    w = np.stack([measured[vxs], measured[vzs]])
-    r = moved - center_q
-    n = len(xs)
-    rows = np.vstack(
-        [
-            np.column_stack([np.ones(n), np.zeros(n), r[1]]),
-            np.column_stack([np.zeros(n), np.ones(n), -r[0]]),
-            [0.0, 0.0, 1.0],
-        ]
-    )
-    rhs = np.concatenate([w[0] - v[0], w[1] - v[1], [measured[11] - x[11]]])
-    (vx, vz, spin), *_ = np.linalg.lstsq(rows, rhs, rcond=None)
-    vx -= np.clip(vx, -MAX_CATCH_UP, MAX_CATCH_UP)
-    x[vxs], x[vzs] = v[0] + vx + spin * r[1], v[1] + vz - spin * r[0]
+    # rate; a point at r moves by spin (r_z, -r_x) under the spin.
+    v, w = turn @ x[_POINT_VELOCITIES], points[1, 1]
+    spun = (moved - center_q)[::-1] * _Z_DOWN
+    rows = _RIGID_RATES.copy()
+    rows[:-1, 2] = spun.ravel()
+    rhs = np.concatenate(((w - v).ravel(), [measured[11] - x[11]]))
+    vx, vz, spin = np.linalg.lstsq(rows, rhs, rcond=None)[0].tolist()
+    vx -= min(max(vx, -MAX_CATCH_UP), MAX_CATCH_UP)
+    x[_POINT_VELOCITIES] = v + np.array([[vx], [vz]]) + spin * spun
     x[11] += spin
     return x
+
+
+def _pitch_turn(angle: float) -> np.ndarray:
+    """The rotation of (x, z) about +y by ``angle``."""
+    c, s = float(np.cos(angle)), float(np.sin(angle))
+    return np.array([[c, s], [-s, c]])
 
 
 @dataclass(frozen=True)
@@ -542,31 +641,96 @@ class PoseEstimate:
         """``x`` with the robot moved rigidly by ``error``: a pitch about the body centre
         (positions only, as :func:`anchored` turns them), then a shift."""
         out = np.array(x, dtype=float)
-        xs, zs = [6, *range(12, 36, 4)], [7, *range(13, 36, 4)]
-        center = np.array([[x[6]], [x[7]]])
+        center = out[6:8, None]  # the body's (x, z)
         d = error[2]
-        turn = np.array([[np.cos(d), np.sin(d)], [-np.sin(d), np.cos(d)]])
-        moved = turn @ (np.stack([x[xs], x[zs]]) - center) + center
-        out[xs], out[zs] = moved[0] + error[0], moved[1] + error[1]
+        moved = _pitch_turn(d) @ (out[_POINT_POSITIONS] - center) + center
+        out[_POINT_POSITIONS] = moved + error[:2, None]
         out[8] += d
         return out
 
 
 class _MinHByFamily:
     """Per cycle, each family's least h over its applied rows (the layout is fixed, so the
-    rows are grouped by family once)."""
+    rows are grouped by family once). :meth:`keep` reads them each cycle; the least are
+    taken :attr:`CHUNK` cycles at a time, in a few numpy calls rather than a few a cycle."""
+
+    CHUNK = 1024
 
     def __init__(self, filt) -> None:
         self.families = list(dict.fromkeys(family for family, *_ in filt.layout))
         index = {family: i for i, family in enumerate(self.families)}
-        self.family_of_row = np.array([index[family] for family, *_ in filt.layout], dtype=int)
+        family_of_row = np.array([index[family] for family, *_ in filt.layout], dtype=int)
+        # The rows in family order, and where each family's start.
+        self.by_family = np.argsort(family_of_row, kind="stable")
+        self.starts = np.searchsorted(family_of_row[self.by_family], np.arange(len(self.families)))
+        self.least: list[dict[str, float]] = []
+        self._h: list[np.ndarray] = []
+        self._applied: list[bytes] = []
 
-    def __call__(self, filt) -> dict[str, float]:
-        used = np.asarray(filt.applicable, dtype=bool)
-        least = np.full(len(self.families), np.inf)
-        np.minimum.at(least, self.family_of_row[used], filt.lie[used, 0])
-        return {family: float(least[i]) for i, family in enumerate(self.families) if np.isfinite(least[i])}
+    def keep(self, filt, applicable: list[bool]) -> None:
+        """This cycle's rows: ``applicable`` is ``filt.applicable``, read once a cycle by
+        the caller."""
+        self._h.append(filt.lie[:, 0])
+        self._applied.append(bytes(applicable))  # a list of bools, compactly
+        if len(self._h) == self.CHUNK:
+            self.flush()
 
+    def flush(self) -> list[dict[str, float]]:
+        """Every kept cycle's least h per family (the families with an applied row), in
+        :attr:`least`, which it returns."""
+        if self._h:
+            applied = np.frombuffer(b"".join(self._applied), dtype=bool).reshape(len(self._h), -1)
+            h = np.where(applied, np.array(self._h), np.inf)
+            least = np.minimum.reduceat(h[:, self.by_family], self.starts, axis=1).tolist()
+            self.least.extend(
+                {family: value for family, value in zip(self.families, row, strict=True) if math.isfinite(value)}
+                for row in least
+            )
+            self._h, self._applied = [], []
+        return self.least
+
+
+class _RecordedGeometry:
+    """What the record needs of MuJoCo's poses and contacts after each step and nothing
+    else reads (the wheels' distances to the solids, their slip, the body's raise over
+    the ground): kept each cycle, and turned into the record's numbers for all cycles at
+    once after the run. The same numbers, without dozens of small numpy calls a cycle."""
+
+    CHUNK = 4096
+    """Cycles whose wheel distances are computed at once: their arrays' memory bounded."""
+
+    def __init__(self, robot: PhysicalRobot, cycles: int) -> None:
+        self.wheel_centers = np.empty((cycles, len(robot.wheels), 3))
+        self.body_centers = np.empty((cycles, 3))
+        self.touching: list[list[int]] = []
+        self.toe_contacts = [np.empty((0, 12))]
+        self.standard_height = float(t3.world_kinematics(t3.standard_posture())[0][2])
+
+    def keep(self, k: int, robot: PhysicalRobot, touching: dict[int, int]) -> None:
+        """Cycle ``k``'s poses and toe contacts (its record's k-th entries); ``touching``
+        as :meth:`PhysicalRobot.toe_contacts` takes it."""
+        self.wheel_centers[k] = robot.wheel_centers()
+        self.body_centers[k] = robot.data.xpos[robot.body]
+        legs, rows = robot.toe_contacts(touching)
+        self.touching.append(legs)
+        self.toe_contacts.append(rows)
+
+    def fill(self, record: PhysicalRun, robot: PhysicalRobot) -> None:
+        """``record``'s wheel distances, slip and raise over the standard height."""
+        cycles = len(self.touching)
+        for start in range(0, cycles, self.CHUNK):
+            centers = self.wheel_centers[start : min(start + self.CHUNK, cycles)]
+            record.wheel_distance.extend(map(tuple, robot.wheel_distances(centers).tolist()))
+        slip = np.full((cycles, len(robot.wheels)), np.nan)
+        cycle = np.repeat(np.arange(cycles), [len(legs) for legs in self.touching])
+        leg = [leg for legs in self.touching for leg in legs]
+        slip[cycle, leg] = slip_speeds(np.concatenate(self.toe_contacts), self.wheel_centers[cycle, leg])
+        record.slip = list(slip)
+        body = self.body_centers[:cycles]
+        ground = robot.grounds_under(body)
+        on_stairs = (0.0 < ground) & (ground < float(robot.solid_tops.max()) - 1e-6)
+        raise_ = np.where(on_stairs, body[:, 2] - ground - self.standard_height, np.nan)
+        record.raise_over_standard = raise_.tolist()
 
 
 def run(
@@ -616,10 +780,10 @@ def run(
     limit = max_time if max_time is not None else course.time_allowed
     record = PhysicalRun(scenario=scenario, body_cbf=body_cbf, perceived=perception is not None)
     start = np.array(x_ref[0:3])
-    standard_height = float(t3.world_kinematics(t3.standard_posture())[0][2])
-    top = float(robot.solid_tops.max())
+    cycles = int(round(limit / t3.DT))
+    geometry = _RecordedGeometry(robot, cycles)
 
-    for k in range(int(round(limit / t3.DT))):
+    for k in range(cycles):
         t = k * t3.DT
         # The origin moves onto the drive axle a turning swing turns about, and back.
         x_ref, _jump = course.exchange_origin(t, x_ref)
@@ -632,7 +796,8 @@ def run(
             if clear_the_roll:
                 course.set_body_roll(off_model["roll"])
             if perception is not None:
-                travelled = float(np.linalg.norm(truth[0:3] - start))
+                offset = truth[0:3] - start
+                travelled = math.sqrt(offset.dot(offset))  # np.linalg.norm's sum
                 x = perception.estimate(truth, perception.error(travelled, rng))
                 course.perceive(t, x, truth)
             u_ref = course.plan(t, x)
@@ -646,7 +811,7 @@ def run(
         x_ref = x_ref + t3.DT * t3.SYSTEM.xdot(x_ref, out.u)
         robot.command(x_ref)
         robot.step()
-        body_contact, toe_riser = robot.contacts()
+        body_contact, toe_riser, touching = robot._scan_contacts()
         record.t.append(t)
         record.x.append(truth)
         record.x_estimate.append(x)
@@ -654,26 +819,24 @@ def run(
         record.body_contact.append(body_contact)
         record.toe_riser_contacts.append(toe_riser)
         record.body_distance.append(robot.body_distance())
-        record.wheel_distance.append(robot.wheel_distances())
         record.clearance.append(course.clearance(truth))
-        record.slip.append(robot.slip())
         record.off_model.append(off_model)
-        record.min_h.append(min_h_by_family(filt))
+        applicable = filt.applicable
+        min_h_by_family.keep(filt, applicable)
         record.active_rows.append(out.active_rows)
-        record.computed_rows.append(sum(filt.applicable))
+        record.computed_rows.append(sum(applicable))
         record.culled_rows.append(sum(filt.culled))
         record.update_us.append(out.eval_time_us + out.solve_time_us)
         record.cpu_us.append(np.nan if out.cpu_time_us is None else out.cpu_time_us)
         record.nominal_body_height.append(course.nominal_body_height or np.nan)
         record.swinging.append(-1 if course.swinging is None else course.swinging)
-        body = robot.data.xpos[robot.body]
-        ground = robot.ground_under(body)
-        on_stairs = 0.0 < ground < top - 1e-6
-        record.raise_over_standard.append(float(body[2]) - ground - standard_height if on_stairs else np.nan)
+        geometry.keep(k, robot, touching)
         if on_cycle is not None:
             on_cycle(k, robot)
         if course.finished(truth):
             record.finished, record.finish_time = True, t
             break
     record.perception_updates = course.perception_updates
+    record.min_h = min_h_by_family.flush()
+    geometry.fill(record, robot)
     return record
