@@ -227,7 +227,7 @@ def test_output_is_includable_and_headed_by_its_inputs_hash(tmp_path):
                  "pub speed_limit: [SpeedLimitParams; 1],", "pub wall: cbfgen::system::Instances<WallParams>,",
                  "pub rotation: cbfgen::nalgebra::SMatrix<f64, 3, 3>,",
                  "pub center: cbfgen::nalgebra::SVector<f64, 3>,",
-                 "pub const KERNELS: &[cbfgen::system::KernelEntry]", "pub type Filter =",
+                 "cbfgen::kernel_table! {", "pub type Filter =",
                  "pub fn default_settings() -> cbfgen::filter::FilterSettings<NU>",
                  "pub const PX: usize = 0;", "pub const AY: usize = 1;"]:
         assert item in text, item
