@@ -27,58 +27,58 @@
 
 use nalgebra::{SMatrix, SVector};
 
+/// The next `n` numbers of `flat` at `*at`, and `*at` past them.
+fn take<'a>(flat: &'a [f64], at: &mut usize, n: usize) -> &'a [f64] {
+    *at += n;
+    &flat[*at - n..*at]
+}
+
+/// Writes `values` at `*at`, and moves `*at` past them.
+fn put(values: &[f64], flat: &mut [f64], at: &mut usize) {
+    flat[*at..*at + values.len()].copy_from_slice(values);
+    *at += values.len();
+}
+
 /// The argument at `*at`: one number.
 pub fn scalar(flat: &[f64], at: &mut usize) -> f64 {
-    *at += 1;
-    flat[*at - 1]
+    take(flat, at, 1)[0]
 }
 
 /// The argument at `*at`: `N` numbers, as the array a kernel takes by reference.
 pub fn array<'a, const N: usize>(flat: &'a [f64], at: &mut usize) -> &'a [f64; N] {
-    *at += N;
-    flat[*at - N..*at].try_into().expect("a slice of N numbers")
+    take(flat, at, N).try_into().expect("a slice of N numbers")
 }
 
 /// The argument at `*at`: a parameter's vector of `N` numbers.
 pub fn vector<const N: usize>(flat: &[f64], at: &mut usize) -> SVector<f64, N> {
-    *at += N;
-    SVector::from_row_slice(&flat[*at - N..*at])
+    SVector::from_row_slice(take(flat, at, N))
 }
 
 /// The argument at `*at`: a parameter's `R` × `C` matrix, row by row.
 pub fn matrix<const R: usize, const C: usize>(flat: &[f64], at: &mut usize) -> SMatrix<f64, R, C> {
-    *at += R * C;
-    SMatrix::from_row_slice(&flat[*at - R * C..*at])
+    SMatrix::from_row_slice(take(flat, at, R * C))
 }
 
 /// Writes a scalar result at `*at`.
 pub fn put_scalar(value: f64, flat: &mut [f64], at: &mut usize) {
-    flat[*at] = value;
-    *at += 1;
+    put(&[value], flat, at);
 }
 
 /// Writes a vector result at `*at`.
 pub fn put_array<const N: usize>(value: &[f64; N], flat: &mut [f64], at: &mut usize) {
-    flat[*at..*at + N].copy_from_slice(value);
-    *at += N;
+    put(value, flat, at);
 }
 
 /// Writes a matrix result at `*at`, row by row.
 pub fn put_matrix<const R: usize, const C: usize>(value: &[[f64; C]; R], flat: &mut [f64], at: &mut usize) {
-    flat[*at..*at + R * C].copy_from_slice(value.as_flattened());
-    *at += R * C;
+    put(value.as_flattened(), flat, at);
 }
 
 /// Writes a symmetric matrix result at `*at`: its upper triangle, row by row.
 pub fn put_symmetric<const N: usize>(value: &[[f64; N]; N], flat: &mut [f64], at: &mut usize) {
     for (r, row) in value.iter().enumerate() {
-        put_tail(&row[r..], flat, at);
+        put(&row[r..], flat, at);
     }
-}
-
-fn put_tail(values: &[f64], flat: &mut [f64], at: &mut usize) {
-    flat[*at..*at + values.len()].copy_from_slice(values);
-    *at += values.len();
 }
 
 /// `pub const KERNELS: &[KernelEntry]` for the kernels listed, one per line:

@@ -36,12 +36,11 @@ LIBRARY_DOC = """
 The chain and bound kernels (`ssat_chain2`, `ssat_bound`, `_fixed_a` with box A fixed)
 are what a `compose=True` family of any system calls for a default `prim.ssat` row of
 relative degree 2: see `symbolic/codegen/composition.py`."""
-assert LIBRARY == "ssat"  # the module LIBRARY_DOC is appended to
 
 # Kernel libraries that are not systems (the SSAT variants the benches and cross-checks
 # compare, the certified sphere-box clearance): module name -> (doc, kernel builder).
 MODULES: dict[str, tuple[str, Callable[[], list[Kernel]]]] = {
-    "ssat": (ssat.MODULE_DOC + LIBRARY_DOC, lambda: ssat.kernels() + library_kernels()),
+    LIBRARY: (ssat.MODULE_DOC + LIBRARY_DOC, lambda: ssat.kernels() + library_kernels()),  # "ssat"
     "sphere_box": (sphere_box.MODULE_DOC, sphere_box.kernels),
 }
 # Built-in systems: the specs each crate under systems/ generates, as its build.rs names

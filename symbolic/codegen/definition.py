@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -303,6 +304,13 @@ def _static(where: str, e: se.Expr, lets: dict, params: dict, what: str) -> Stat
                     f"not {e}; declare the family without compose=True")
 
 
+def _shared_kernel(jets: Jets, key: tuple, build: Callable[[], Kernel]) -> tuple[Kernel, str | None]:
+    """A chain or bound kernel for ``key`` and the core's module that holds it: the core's
+    (:data:`LIBRARY`) when it ships one, else the system's own, shared by its families."""
+    core = library().get(key)
+    return (core, LIBRARY) if core is not None else (jets.shared(key, build), None)
+
+
 def _recorded_call(where: str, value, recorder: Recorder, what: str):
     """The one primitive call a composed family's ``h`` (or ``lower_bound``) must be."""
     if not (len(recorder.calls) == 1 and value == recorder.calls[0].placeholder):
@@ -354,17 +362,16 @@ def _composed_bound(system: System, family: Family, where: str, row_kernel: str,
     slots = [Slot(jets.value(where, name, entries, k) if name else None, (), pose, half)
              for entries, name, pose, half in _boxes(system, where, k, call, row_kernel)]
     moving = tuple(s.moving for s in slots)
-    key = ("bound", options_key(call), moving)
     if moving not in chains:
-        chains[moving] = library().get(key) or jets.shared(key, functools.partial(
+        chains[moving] = _shared_kernel(jets, ("bound", options_key(call), moving), functools.partial(
             build_bound, where, f"{family.name}_bound{variant_suffix(moving)}", call))
-    plan = BoundPlan(name, chains[moving].name, tuple(slots), tuple(v for _, v in numeric_options(call)),
-                     LIBRARY if key in library() else None)
+    bound, module = chains[moving]
+    plan = BoundPlan(name, bound.name, tuple(slots), tuple(v for _, v in numeric_options(call)), module)
     if unrolled:
         return _lower_bound(system, family, where, row_kernel, index, label, required), plan
     sig = Kernel(name, f"A lower bound on every row's h of one instance of `{row_kernel}` (the spec's "
                        "`lower_bound`): where it is above the family's activation threshold, the rows are not "
-                       f"evaluated. Composed: its boxes' value kernels and the family's `{chains[moving].name}`.")
+                       f"evaluated. Composed: its boxes' value kernels and the family's `{bound.name}`.")
     sig.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
     _declare_params(sig, family)
     sig.output_scalar("bound", se.Integer(0), "never above any row's h of the instance")
@@ -376,8 +383,9 @@ def _composed(system: System, family: Family, where: str, members, required, jet
     assembled and the family's chain kernels (:mod:`symbolic.codegen.composition`)."""
     plans: list[MemberPlan] = []
     built: list[RowKernel] = []
-    chains: dict[tuple[bool, ...], Kernel] = {}
-    bound_chains: dict[tuple[bool, ...], Kernel] = {}
+    # Moving boxes -> (the chain or bound kernel, the core's module that holds it or None).
+    chains: dict[tuple[bool, ...], tuple[Kernel, str | None]] = {}
+    bound_chains: dict[tuple[bool, ...], tuple[Kernel, str | None]] = {}
     bounds: list[Kernel] = []
     first = None
     for member_where, name, index, label in members:
@@ -414,18 +422,18 @@ def _composed(system: System, family: Family, where: str, members, required, jet
         elif options != first:
             raise SpecError(f"{member_where}: compose=True needs every member to call the same primitive with the "
                             f"same options (one chain kernel serves them all): {options} against {first}")
-        key = ("chain", options[0], moving, degree)
         if moving not in chains:
-            chains[moving] = library().get(key) or jets.shared(key, functools.partial(
+            chains[moving] = _shared_kernel(jets, ("chain", options[0], moving, degree), functools.partial(
                 build_chain, where, f"{family.name}_chain{variant_suffix(moving)}", call, moving, degree))
+        chain, module = chains[moving]
         bound_plan = None
         if family.lower_bound is not None:
             bound_where = f"{where}, lower_bound" + (f", member {label!r}" if label else "")
             bound_kernel, bound_plan = _composed_bound(system, family, bound_where, name, index, label, required,
                                                        jets, unrolled, bound_chains)
             bounds.append(bound_kernel)
-        plans.append(MemberPlan(name, chains[moving].name, plan_slots, columns, bound_plan,
-                                tuple(v for _, v in options[1]), LIBRARY if key in library() else None))
+        plans.append(MemberPlan(name, chain.name, plan_slots, columns, bound_plan, tuple(v for _, v in options[1]),
+                                module))
         row_name = rows[0][0]
         if unrolled:
             whole = _member(system, family, member_where, name, index, label, required)
@@ -438,7 +446,7 @@ def _composed(system: System, family: Family, where: str, members, required, jet
         if label is not None:
             doc = f"{doc}\n\nMember `{label}` of the family."
         sig = Kernel(name, doc + "\n\nComposed: its pose kernels and the family's chain kernel "
-                                 f"`{chains[moving].name}`.")
+                                 f"`{chain.name}`.")
         sig.array_input("x", system.state_names, "state, laid out as `STATE_NAMES`")
         _declare_params(sig, family)
         upper = name.upper()
@@ -454,8 +462,7 @@ def _composed(system: System, family: Family, where: str, members, required, jet
                           f"per row: L_g L_f^(r-1) h on the columns `{upper}_INPUT_COLUMNS`")
         built.append(RowKernel(sig, degree, columns, (row_name,), (columns,)))
     # A chain another family built first is that family's to emit.
-    core = set(map(id, library().values()))
-    own = [k for k in (*chains.values(), *bound_chains.values()) if id(k) not in core and jets.first_use(k)]
+    own = [k for k, module in (*chains.values(), *bound_chains.values()) if module is None and jets.first_use(k)]
     return built, tuple(plans), tuple(own), tuple(bounds)
 
 

@@ -19,10 +19,6 @@ from collections.abc import Sequence
 from ....kernel import Kernel
 
 
-def _flat_size(kind: str, dim: int, cols: int) -> int:
-    return {"scalar": 1, "vector": dim, "matrix": dim * cols, "symmetric": dim * (dim + 1) // 2}[kind]
-
-
 def _argument(inp) -> str:
     """An argument as ``kernel_table!`` reads it: ``name: kind[dims]``."""
     if not inp.is_array:
