@@ -691,24 +691,30 @@ _LIBRARY_DEGREE = 2
 _LIBRARY_MOVING = ((True, True), (False, True))
 
 
-def _library_call() -> Recorded:
-    from ..primitives import ssat_value
+def _library_calls() -> tuple[Recorded, Recorded]:
+    """The calls the core's kernels stand for: ``prim.ssat`` (the chains) and
+    ``prim.ssat_lower_bound`` (the bounds) with their default smoothing, as a family
+    records them (the numbers are arguments, so their values do not matter)."""
+    from ..primitives import ssat_lower_bound_value, ssat_value
     from ..smoothing import LSE, XTANH
-    options = dict(alpha=se.Integer(1), alpha_rot=se.Integer(1), smax=LSE, sabs=XTANH, certified=True)
-    return Recorded("ssat", ssat_value, (), options, se.Symbol("library"), ())
+    sharpness = dict(alpha=se.Integer(1), alpha_rot=se.Integer(1))
+    return (Recorded("ssat", ssat_value, (), dict(**sharpness, smax=LSE, sabs=XTANH, certified=True),
+                     se.Symbol("library"), ()),
+            Recorded("ssat_lower_bound", ssat_lower_bound_value, (), dict(**sharpness, sabs=XTANH, certified=True),
+                     se.Symbol("library"), ()))
 
 
 @functools.cache
 def library() -> dict[tuple, Kernel]:
-    """Key (as ``_composed`` keys the chains it shares) -> the core's kernel for it."""
-    call = _library_call()
-    where = "cbfgen, every composed family that calls prim.ssat with its default smoothing"
+    """Key (as ``_composed`` keys the chains and bounds it shares) -> the core's kernel for it."""
+    chain_call, bound_call = _library_calls()
+    where = "cbfgen, every composed family that calls prim.ssat (prim.ssat_lower_bound) with its default smoothing"
     out: dict[tuple, Kernel] = {}
     for moving in _LIBRARY_MOVING:
         suffix = variant_suffix(moving)
-        out[("chain", options_key(call), moving, _LIBRARY_DEGREE)] = build_chain(
-            where, f"ssat_chain{_LIBRARY_DEGREE}{suffix}", call, moving, _LIBRARY_DEGREE)
-        out[("bound", options_key(call), moving)] = build_bound(where, f"ssat_bound{suffix}", call)
+        out[("chain", options_key(chain_call), moving, _LIBRARY_DEGREE)] = build_chain(
+            where, f"ssat_chain{_LIBRARY_DEGREE}{suffix}", chain_call, moving, _LIBRARY_DEGREE)
+        out[("bound", options_key(bound_call), moving)] = build_bound(where, f"ssat_bound{suffix}", bound_call)
     return out
 
 

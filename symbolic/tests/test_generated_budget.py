@@ -16,7 +16,7 @@ member reads too (the Panda-as-spheres' spheres) is computed on that frame's jet
 lines in all, from 425 138. Since then: the dynamics outputs walk their tree at run time
 (``cbfgen::rigid_body``); the default smooth SAT's chain and bound kernels are the core's
 (``generated/ssat.rs``), not each robot's; the ``KERNELS`` tables are one line per kernel
-in the core's ``kernel_table!``: 94 087 lines. Not composed yet: the whole-body models'
+in the core's ``kernel_table!``: 93 318 lines. Not composed yet: the whole-body models'
 feet (ANYmal's foot regions are each alone on their leg's frame, smaller whole).
 """
 
