@@ -33,9 +33,10 @@ from .spec import load
 REGENERATE = "scripts/cbf generate  (or: python -m symbolic.generate)"
 
 LIBRARY_DOC = """
-The chain and bound kernels (`ssat_chain2`, `ssat_bound`, `_fixed_a` with box A fixed)
-are what a `compose=True` family of any system calls for a default `prim.ssat` row of
-relative degree 2: see `symbolic/codegen/composition.py`."""
+The chain kernels (`ssat_chain2`, `_fixed_a` with box A fixed) are what a `compose=True`
+family of any system calls for a default `prim.ssat` row of relative degree 2, the bound
+kernels (`ssat_bound`, `_fixed_a`) for its default `prim.ssat_lower_bound`: see
+`symbolic/codegen/composition.py`."""
 
 # Kernel libraries that are not systems (the SSAT variants the benches and cross-checks
 # compare, the certified sphere-box clearance): module name -> (doc, kernel builder).

@@ -708,13 +708,14 @@ def _library_calls() -> tuple[Recorded, Recorded]:
 def library() -> dict[tuple, Kernel]:
     """Key (as ``_composed`` keys the chains and bounds it shares) -> the core's kernel for it."""
     chain_call, bound_call = _library_calls()
-    where = "cbfgen, every composed family that calls prim.ssat (prim.ssat_lower_bound) with its default smoothing"
+    where = "cbfgen, every composed family that calls prim.{} with its default smoothing"
     out: dict[tuple, Kernel] = {}
     for moving in _LIBRARY_MOVING:
         suffix = variant_suffix(moving)
         out[("chain", options_key(chain_call), moving, _LIBRARY_DEGREE)] = build_chain(
-            where, f"ssat_chain{_LIBRARY_DEGREE}{suffix}", chain_call, moving, _LIBRARY_DEGREE)
-        out[("bound", options_key(bound_call), moving)] = build_bound(where, f"ssat_bound{suffix}", bound_call)
+            where.format("ssat"), f"ssat_chain{_LIBRARY_DEGREE}{suffix}", chain_call, moving, _LIBRARY_DEGREE)
+        out[("bound", options_key(bound_call), moving)] = build_bound(
+            where.format("ssat_lower_bound"), f"ssat_bound{suffix}", bound_call)
     return out
 
 
