@@ -5,7 +5,8 @@
 //! (LSE + x·tanh, evaluate) in the same rounds.
 //!
 //! `cargo bench --bench table_one` (or `scripts/cbf bench --bench table_one`);
-//! `-- --rounds N` for more rounds than the default 201.
+//! `-- --rounds N` for more rounds than the default 201. Run by `cargo test --benches`,
+//! one round, as a check that every query runs.
 
 #[path = "common/table_one.rs"]
 mod table_one;
@@ -21,7 +22,7 @@ fn main() {
         .position(|a| a == "--rounds")
         .and_then(|i| args.get(i + 1))
         .and_then(|n| n.parse().ok())
-        .unwrap_or(201usize);
+        .unwrap_or(cbfgen_testkit::bench_run::repetitions(201));
     let queries = table_one::queries();
     // Warm up: every query a few passes, so caches and branch predictors start alike.
     for (_, _, pass) in &queries {

@@ -109,17 +109,18 @@ fn median_max(times: &mut [Duration]) -> (f64, f64) {
     (micros(times[times.len() / 2]), micros(times[times.len() - 1]))
 }
 
-/// The LIP course walked `RUNS` times per backend: the scenario's own per-step solve
+/// The LIP course walked 20 times (once when checked) per backend: the scenario's own per-step solve
 /// times (wall; preprocessing, value update and solve), pooled; and the multi-layer
 /// example's re-plans timed the same way.
 fn scenario_times() {
-    const RUNS: usize = 20;
-    println!("LIP standard course, {RUNS} walks per backend, MPC solve time per step (wall):");
+    // One walk each when `cargo test --benches` checks that the bench runs.
+    let runs = cbfgen_testkit::bench_run::repetitions(20);
+    println!("LIP standard course, {runs} walks per backend, MPC solve time per step (wall):");
     let mut lip_medians = Vec::new();
     for backend in [Solver::DenseThenOsqp, Solver::Osqp] {
         let scenario = Scenario { solver: lip_settings(backend), ..Scenario::standard() };
         let (mut times, mut inaccurate, mut by_osqp, mut steps) = (Vec::new(), 0, 0, 0);
-        for _ in 0..RUNS {
+        for _ in 0..runs {
             let result = run(&scenario).expect("run");
             assert!(result.reached_goal);
             for s in &result.steps {
@@ -142,12 +143,12 @@ fn scenario_times() {
 
     let config = ScenarioConfig::default();
     let problems = multilayer_problems(&config);
-    println!("Multi-layer example, {} MPC re-plans x {RUNS} (discrete-CBF mode), solve time (wall):", problems.len());
+    println!("Multi-layer example, {} MPC re-plans x {runs} (discrete-CBF mode), solve time (wall):", problems.len());
     let mut medians = Vec::new();
     for backend in [Solver::DenseThenOsqp, Solver::Osqp] {
         let mut times = Vec::new();
         let mut by_osqp = 0;
-        for _ in 0..RUNS {
+        for _ in 0..runs {
             let mut mpc =
                 KinematicMpc::new(multilayer_settings(backend), config.modes()[0], config.barrier).expect("mpc");
             for &(t, x) in &problems {
