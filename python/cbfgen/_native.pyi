@@ -688,6 +688,7 @@ class StoneWalk:
         margin: float = 0.02,
         gamma: float = 5.0,
         threaded: bool = False,
+        barrier: str = "region",
     ) -> None: ...
     def update(self, t: float, x: ArrayLike, feet: ArrayLike, velocities: ArrayLike) -> dict[str, Any]:
         """One 2.5 ms cycle: torques, stance, solved, relaxed, planned, mpc."""

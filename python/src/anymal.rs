@@ -11,7 +11,7 @@ use cbfgen::nalgebra::Matrix3;
 use cbfgen::qp::hierarchy::LevelStatus;
 use cbfgen_anymal::gait::{standing_on_the_ground, Trot};
 use cbfgen_anymal::stones::{SteppingStones, StoneField};
-use cbfgen_anymal::walk::{Controller, LayeredController, WalkMeter, WalkSettings};
+use cbfgen_anymal::walk::{Controller, FootholdBarrier, LayeredController, WalkMeter, WalkSettings};
 use cbfgen_anymal::wbc::{FootReference, WbcReference, WbcSettings, WholeBodyController, FEET};
 use cbfgen_anymal::wbc_generated::{self as gen, Capacity, FootRegionParams, Params, NX};
 
@@ -293,13 +293,24 @@ struct PyStoneWalk {
 impl PyStoneWalk {
     /// ``margin``: how far inside a stone's edge its region ends [m]; ``gamma``: eq. 25's
     /// rate [1/s]; ``threaded``: the MPC in its own thread, posted every cycle (the caller
-    /// then runs in real time), rather than inline every 16th cycle (deterministic).
+    /// then runs in real time), rather than inline every 16th cycle (deterministic);
+    /// ``barrier``: the set eq. 25's CBF keeps a swing foot in, ``"region"`` (its landing
+    /// region) or ``"shrinking"`` (eq. 24's set, shrinking onto the region at touchdown).
     #[new]
-    #[pyo3(signature = (stones, controller = "CBF in QP & MPC", margin = 0.02, gamma = 5.0, threaded = false))]
-    fn new(stones: &PySteppingStones, controller: &str, margin: f64, gamma: f64, threaded: bool) -> PyResult<Self> {
+    #[pyo3(signature = (stones, controller = "CBF in QP & MPC", margin = 0.02, gamma = 5.0, threaded = false, barrier = "region"))]
+    fn new(
+        stones: &PySteppingStones,
+        controller: &str,
+        margin: f64,
+        gamma: f64,
+        threaded: bool,
+        barrier: &str,
+    ) -> PyResult<Self> {
         let names = Controller::ALL.map(Controller::name);
         let controller = Controller::ALL[super::convert::choice("controller", controller, &names)?];
-        let settings = WalkSettings { margin, gamma, threaded, ..WalkSettings::default() };
+        let barrier = [FootholdBarrier::Region, FootholdBarrier::Shrinking]
+            [super::convert::choice("foothold barrier", barrier, &["region", "shrinking"])?];
+        let settings = WalkSettings { margin, gamma, threaded, barrier, ..WalkSettings::default() };
         let stones = &stones.inner;
         Ok(Self {
             layers: LayeredController::new(*stones.trot(), stones.terrain().clone(), controller, &settings)?,

@@ -3,15 +3,16 @@
 //! cbfgen.physics.stepping_stones`.)
 //!
 //! ```text
-//! cargo run --release -p cbfgen-anymal --example stepping_stones -- [fields] [strides] [controller index] [gamma] [threaded]
+//! cargo run --release -p cbfgen-anymal --example stepping_stones -- [fields] [strides] [controller index] [gamma] [threaded] [shrinking]
 //! ```
 //!
 //! Defaults: 5 fields (seeds 0..5), 8 strides each, all four controllers (index 0..4 in
 //! Table II's order for one), eq. 25's γ as `WalkSettings::default()`, the MPC inline
-//! (`threaded`: in its own thread, the walk in real time).
+//! (`threaded`: in its own thread, the walk in real time), eq. 25 on the landing region
+//! (`shrinking`: on eq. 24's shrinking set, `FootholdBarrier::Shrinking`).
 
 use cbfgen_anymal::stones::{SteppingStones, StoneField};
-use cbfgen_anymal::walk::{walk, Controller, WalkSettings};
+use cbfgen_anymal::walk::{walk, Controller, FootholdBarrier, WalkSettings};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -25,7 +26,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if let Some(gamma) = args.get(3) {
         settings.gamma = gamma.parse()?;
     }
-    settings.threaded = args.get(4).is_some_and(|a| a == "threaded");
+    settings.threaded = args.iter().skip(4).any(|a| a == "threaded");
+    if args.iter().skip(4).any(|a| a == "shrinking") {
+        settings.barrier = FootholdBarrier::Shrinking;
+    }
     println!("| controller | seed | steps | missteps | avg misstep [mm] | worst height [mm] | swing [s] | eq. 24 [s] | eq. 25 [s] | MPC failed | solver iterations (mean) | WBC unsolved | fell |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for controller in controllers {

@@ -89,6 +89,14 @@ impl Trot {
         self.swing - (t - (t / self.swing).floor() * self.swing)
     }
 
+    /// Eq. 24's growth of a swing foot's region at `t` and its rate: `(m, m')` with
+    /// `m = margin · (time to touchdown / swing time)`, `margin` at lift-off and zero at
+    /// touchdown, `m' = −margin / swing time`. For the rows and measurements of a swing
+    /// foot (a stance foot's region is not grown).
+    pub fn shrinking_growth(&self, margin: f64, t: f64) -> (f64, f64) {
+        (margin * self.time_to_touchdown(t) / self.swing, -margin / self.swing)
+    }
+
     /// Where the gait puts foot `foot` (`LEGS` order) for the stance it is in at `t`, or,
     /// swinging, for the stance it lands in: under its hip at mid-stance (world).
     pub fn foothold_for(&self, foot: usize, t: f64) -> [f64; 3] {

@@ -131,6 +131,17 @@ pub enum FootholdConstraint {
         /// γ \[1/s\].
         gamma: f64,
     },
+    /// Eq. 25 on eq. 24's shrinking set: `h' + γ h ≥ 0` for `h = d − n · c + m(t)` of each
+    /// side, where a swing foot's region is grown by `m = margin · (time to touchdown /
+    /// swing time)`, shrinking onto the region at touchdown (`m' = −margin / swing time`),
+    /// and a stance foot's is not grown (`m = 0`). A foot lifting off outside its next
+    /// region starts inside the grown one, and is drawn in as the set shrinks.
+    ShrinkingBarrier {
+        /// γ \[1/s\].
+        gamma: f64,
+        /// The growth at lift-off \[m\].
+        margin: f64,
+    },
 }
 
 /// The MPC's weights (the QP's diagonal `Q`, `R`), in SI units (forces per newton).
@@ -377,7 +388,7 @@ fn shape(horizon: usize, footholds: FootholdConstraint) -> OcpShape {
     }
     s.c.fill(false);
     s.d.fill(false);
-    let moving = matches!(footholds, FootholdConstraint::Barrier { .. });
+    let moving = matches!(footholds, FootholdConstraint::Barrier { .. } | FootholdConstraint::ShrinkingBarrier { .. });
     for foot in 0..FEET {
         let (joints, force, rates) =
             (12 + 3 * foot..15 + 3 * foot, 3 * foot..3 * foot + 3, 12 + 3 * foot..15 + 3 * foot);
@@ -430,6 +441,10 @@ impl KinodynamicMpc {
             }
             FootholdConstraint::Barrier { gamma } => {
                 within("foothold CBF rate [1/s]", gamma, 1e-3, 1e3, "[1e-3, 1e3]")?;
+            }
+            FootholdConstraint::ShrinkingBarrier { gamma, margin } => {
+                within("foothold CBF rate [1/s]", gamma, 1e-3, 1e3, "[1e-3, 1e3]")?;
+                within("shrinking foothold margin [m]", margin, 0.0, 10.0, "[0, 10]")?;
             }
             _ => {}
         }
@@ -692,7 +707,7 @@ impl KinodynamicMpc {
                         }
                         FootholdConstraint::StanceOnly => {}
                         FootholdConstraint::Shrinking { margin } => {
-                            let grow = if stance { 0.0 } else { margin * trot.time_to_touchdown(time) / trot.swing };
+                            let grow = if stance { 0.0 } else { trot.shrinking_growth(margin, time).0 };
                             linear_row(row, h, &dh_dx, &none, -grow, INFINITY);
                         }
                         FootholdConstraint::Barrier { gamma } if k < n => {
@@ -705,7 +720,19 @@ impl KinodynamicMpc {
                                 std::array::from_fn(|j| -(0..3).map(|i| n_side[i] * jvu[3 * foot + i][j]).sum::<f64>());
                             linear_row(row, hdot + gamma * h, &cx, &du, 0.0, INFINITY);
                         }
-                        FootholdConstraint::Barrier { .. } => {
+                        FootholdConstraint::ShrinkingBarrier { gamma, margin } if k < n => {
+                            // h_s' + γ h_s = −n · v + m' + γ (h + m) ≥ 0: the growth and
+                            // its rate are constants of the stage, moved to the bound.
+                            let (grow, rate) = if stance { (0.0, 0.0) } else { trot.shrinking_growth(margin, time) };
+                            let hdot = -dot(n_side, &velocities[foot]);
+                            let cx: [f64; NX] = std::array::from_fn(|j| {
+                                -(0..3).map(|i| n_side[i] * jvx[3 * foot + i][j]).sum::<f64>() + gamma * dh_dx[j]
+                            });
+                            let du: [f64; NU] =
+                                std::array::from_fn(|j| -(0..3).map(|i| n_side[i] * jvu[3 * foot + i][j]).sum::<f64>());
+                            linear_row(row, hdot + gamma * h, &cx, &du, -(rate + gamma * grow), INFINITY);
+                        }
+                        FootholdConstraint::Barrier { .. } | FootholdConstraint::ShrinkingBarrier { .. } => {
                             if stance {
                                 linear_row(row, h, &dh_dx, &none, 0.0, INFINITY);
                             }

@@ -56,17 +56,34 @@ impl Controller {
         }
     }
 
-    fn mpc_footholds(self, gamma: f64) -> FootholdConstraint {
-        match self {
-            Self::CbfInQp => FootholdConstraint::Off,
-            Self::Baseline => FootholdConstraint::StanceOnly,
-            Self::CbfInMpc | Self::CbfInBoth => FootholdConstraint::Barrier { gamma },
+    fn mpc_footholds(self, settings: &WalkSettings) -> FootholdConstraint {
+        let gamma = settings.gamma;
+        match (self, settings.barrier) {
+            (Self::CbfInQp, _) => FootholdConstraint::Off,
+            (Self::Baseline, _) => FootholdConstraint::StanceOnly,
+            (Self::CbfInMpc | Self::CbfInBoth, FootholdBarrier::Region) => FootholdConstraint::Barrier { gamma },
+            (Self::CbfInMpc | Self::CbfInBoth, FootholdBarrier::Shrinking) => {
+                FootholdConstraint::ShrinkingBarrier { gamma, margin: settings.shrinking_margin }
+            }
         }
     }
 
     fn whole_body_footholds(self) -> bool {
         matches!(self, Self::CbfInQp | Self::CbfInBoth)
     }
+}
+
+/// The set eq. 25's CBF keeps a swing foot in. The seed lost its equation bodies; its prose
+/// fits both: "the foot placement constraints … posed as a CBF" (the region) after eq. 24's
+/// swing-foot set "that shrinks in time and converges to the desired foot placement region".
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FootholdBarrier {
+    /// The landing region itself, `h = d − n · c`: a foot lifting off outside it starts
+    /// with `h < 0`.
+    Region,
+    /// Eq. 24's set: the region grown by `shrinking_margin · (time to touchdown / swing
+    /// time)`, shrinking onto it at touchdown.
+    Shrinking,
 }
 
 /// The walk's settings.
@@ -93,6 +110,9 @@ pub struct WalkSettings {
     /// Eq. 24's growth of a swing foot's region at lift-off \[m\], for the measurement of
     /// its violation (and the MPC's, were it to use eq. 24).
     pub shrinking_margin: f64,
+    /// The set eq. 25's CBF (in the MPC) keeps swing feet in, and on which its violation
+    /// is measured.
+    pub barrier: FootholdBarrier,
     /// The MPC in its own thread ([`MpcThread`]), posted every cycle, as the seed runs it;
     /// `false`: inline every `cycles_per_plan`-th cycle, deterministic. Threaded walks on
     /// the plant run in real time ([`walk`] paces them to the wall clock).
@@ -121,6 +141,7 @@ impl Default for WalkSettings {
             cycles_per_plan: 16,
             gamma: 5.0,
             shrinking_margin: 0.25,
+            barrier: FootholdBarrier::Region,
             threaded: false,
         }
     }
@@ -164,7 +185,8 @@ pub struct WalkRecord {
     /// Time some swing foot broke eq. 24 (outside its region grown by
     /// `shrinking_margin · time to touchdown / swing time`) \[s\].
     pub violated_24: f64,
-    /// Time some swing foot broke eq. 25 (`ḣ + γ h < 0` on a side) \[s\].
+    /// Time some swing foot broke eq. 25 (`ḣ + γ h < 0` on a side, `h` on the settings'
+    /// [`FootholdBarrier`] set) \[s\].
     pub violated_25: f64,
     /// Each whole-body cycle's time and each foot's smallest barrier value `h` on its
     /// target region (swing: where it lands; stance: where it stands) \[m\].
@@ -246,7 +268,7 @@ impl LayeredController {
     ) -> Result<Self, CbfError> {
         within("whole-body cycles per MPC iteration", settings.cycles_per_plan as f64, 1.0, 1e4, "[1, 1e4]")?;
         within("walk time step [s]", settings.cycle(), 1e-5, 0.1, "[1e-5, 0.1]")?;
-        let mpc_settings = MpcSettings { footholds: controller.mpc_footholds(settings.gamma), ..settings.mpc };
+        let mpc_settings = MpcSettings { footholds: controller.mpc_footholds(settings), ..settings.mpc };
         let sides = if controller.whole_body_footholds() { MAX_SIDES } else { 0 };
         let capacity = Capacity { foot_region: [sides; FEET] };
         let footholds = Footholds::new(terrain, settings.margin)?;
@@ -386,6 +408,7 @@ pub struct WalkMeter {
     stones: SteppingStones,
     gamma: f64,
     shrinking_margin: f64,
+    barrier: FootholdBarrier,
     dt: f64,
     was_stance: [bool; FEET],
     record: WalkRecord,
@@ -398,6 +421,7 @@ impl WalkMeter {
             stones: stones.clone(),
             gamma: settings.gamma,
             shrinking_margin: settings.shrinking_margin,
+            barrier: settings.barrier,
             dt: settings.cycle(),
             was_stance: [true; FEET],
             record: WalkRecord {
@@ -432,7 +456,12 @@ impl WalkMeter {
         let stance = cycle.reference.stance;
         let mut smallest = [f64::INFINITY; FEET];
         let (mut broke_24, mut broke_25) = (false, false);
-        let grow = self.shrinking_margin * trot.time_to_touchdown(t) / trot.swing;
+        let (grow, rate) = trot.shrinking_growth(self.shrinking_margin, t);
+        // Eq. 25's set on a swing foot: its growth and the growth's rate.
+        let (barrier_grow, barrier_rate) = match self.barrier {
+            FootholdBarrier::Region => (0.0, 0.0),
+            FootholdBarrier::Shrinking => (grow, rate),
+        };
         for foot in 0..FEET {
             let r = &cycle.regions[foot];
             for (n, d) in r.sides.iter().take(r.count) {
@@ -440,7 +469,7 @@ impl WalkMeter {
                 smallest[foot] = smallest[foot].min(h);
                 if !stance[foot] {
                     broke_24 |= h + grow < 0.0;
-                    broke_25 |= -dot(n, &velocities[foot]) + self.gamma * h < 0.0;
+                    broke_25 |= -dot(n, &velocities[foot]) + barrier_rate + self.gamma * (h + barrier_grow) < 0.0;
                 }
             }
             if !stance[foot] {
