@@ -263,7 +263,8 @@ class StoneRun:
 
 
 def walk_stones(stones: anymal.SteppingStones, controller: str = "CBF in QP & MPC", *,
-                keep_every: int = 0, threaded: bool = False, barrier: str = "region") -> StoneRun:
+                keep_every: int = 0, threaded: bool = False, gamma: float = 5.0,
+                barrier: str = "region") -> StoneRun:
     """Seed 004's stepping-stone walk (section V) in MuJoCo: ``stones`` as boxes over a
     ground far below, the robot on its starting stones, ``controller`` (one of
     ``cbfgen.anymal.CONTROLLERS``) at 400 Hz until the walk's end. A fall is a body
@@ -274,13 +275,14 @@ def walk_stones(stones: anymal.SteppingStones, controller: str = "CBF in QP & MP
     qpos is kept every ``keep_every`` cycles when positive (for a video). ``threaded`` runs
     the MPC in its own thread and the loop no faster than real time, so that plans are as
     late as the machine makes them; the record's ``behind_real_time_s`` says how far the
-    loop itself fell behind (where it did, the plans were early by as much). ``barrier``:
-    the set eq. 25's CBF keeps a swing foot in (:class:`cbfgen.anymal.StoneWalk`)."""
+    loop itself fell behind (where it did, the plans were early by as much). ``gamma``
+    and ``barrier``: eq. 25's rate and the set its CBF keeps a swing foot in
+    (:class:`cbfgen.anymal.StoneWalk`)."""
     robot = Robot(ground=-STONE_DEPTH, world=stone_geoms(stones.stones))
     x = anymal.standing()
     robot.place(x)
     standing_height = x[2]
-    walk = anymal.StoneWalk(stones, controller, threaded=threaded, barrier=barrier)
+    walk = anymal.StoneWalk(stones, controller, gamma=gamma, threaded=threaded, barrier=barrier)
     run = StoneRun({}, robot.model)
     cycle = TIMESTEP * STEPS_PER_CYCLE
     body_contact = False

@@ -98,6 +98,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-video", action="store_true", help="skip the GIF (needs no OpenGL then)")
     parser.add_argument("--threaded", action="store_true",
                         help="the MPC in its own thread, the walks in real time (default: inline, deterministic)")
+    parser.add_argument("--gamma", type=float, default=5.0,
+                        help="eq. 25's rate [1/s]; default 5 (the shrinking set needs more: 20)")
     parser.add_argument("--barrier", choices=("region", "shrinking"), default="region",
                         help="the set eq. 25's CBF keeps a swing foot in: its landing region (default) or eq. 24's "
                              "set shrinking onto it")
@@ -120,7 +122,7 @@ def main(argv: list[str] | None = None) -> int:
             stones = anymal.SteppingStones(strides=args.strides, seed=seed)
             proposed_first = name == anymal.CONTROLLERS[-1] and seed == 0
             run = walk_stones(stones, name, keep_every=keep if proposed_first else 0, threaded=args.threaded,
-                              barrier=args.barrier)
+                              gamma=args.gamma, barrier=args.barrier)
             record = run.record
             print(f"stepping stones: {name}, field {seed}: {record['steps']} steps, {record['missteps']} missteps, "
                   f"fell {record['fell']}", file=sys.stderr, flush=True)
