@@ -56,6 +56,11 @@ def test_an_unknown_controller_is_refused_by_name():
         anymal.StoneWalk(anymal.SteppingStones(strides=1), "CBF everywhere")
 
 
+def test_an_unknown_foothold_barrier_is_refused_naming_both_sets():
+    with pytest.raises(ValueError, match="region.*shrinking"):
+        anymal.StoneWalk(anymal.SteppingStones(strides=1), barrier="grown")
+
+
 def test_the_proposed_controller_walks_a_short_field_in_mujoco_without_a_misstep():
     pytest.importorskip("mujoco", reason="installed from python/requirements.txt")
     from cbfgen.physics.anymal import walk_stones
