@@ -144,6 +144,18 @@ pub enum FootholdConstraint {
     },
 }
 
+impl FootholdConstraint {
+    /// Eq. 25's rate γ and its set's growth at lift-off, for the two CBF forms: the fixed
+    /// region is the shrinking set with no growth.
+    fn barrier(self) -> Option<(f64, f64)> {
+        match self {
+            Self::Barrier { gamma } => Some((gamma, 0.0)),
+            Self::ShrinkingBarrier { gamma, margin } => Some((gamma, margin)),
+            Self::Off | Self::StanceOnly | Self::Shrinking { .. } => None,
+        }
+    }
+}
+
 /// The MPC's weights (the QP's diagonal `Q`, `R`), in SI units (forces per newton).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MpcWeights {
@@ -388,7 +400,7 @@ fn shape(horizon: usize, footholds: FootholdConstraint) -> OcpShape {
     }
     s.c.fill(false);
     s.d.fill(false);
-    let moving = matches!(footholds, FootholdConstraint::Barrier { .. } | FootholdConstraint::ShrinkingBarrier { .. });
+    let moving = footholds.barrier().is_some();
     for foot in 0..FEET {
         let (joints, force, rates) =
             (12 + 3 * foot..15 + 3 * foot, 3 * foot..3 * foot + 3, 12 + 3 * foot..15 + 3 * foot);
@@ -439,14 +451,12 @@ impl KinodynamicMpc {
             FootholdConstraint::Shrinking { margin } => {
                 within("shrinking foothold margin [m]", margin, 0.0, 10.0, "[0, 10]")?;
             }
-            FootholdConstraint::Barrier { gamma } => {
-                within("foothold CBF rate [1/s]", gamma, 1e-3, 1e3, "[1e-3, 1e3]")?;
-            }
-            FootholdConstraint::ShrinkingBarrier { gamma, margin } => {
+            FootholdConstraint::Barrier { .. } | FootholdConstraint::ShrinkingBarrier { .. } => {
+                let (gamma, margin) = settings.footholds.barrier().unwrap_or_default();
                 within("foothold CBF rate [1/s]", gamma, 1e-3, 1e3, "[1e-3, 1e3]")?;
                 within("shrinking foothold margin [m]", margin, 0.0, 10.0, "[0, 10]")?;
             }
-            _ => {}
+            FootholdConstraint::Off | FootholdConstraint::StanceOnly => {}
         }
         let n = settings.horizon;
         let ocp = Ocp::with_method(shape(n, settings.footholds), settings.solver, settings.method)?;
@@ -710,19 +720,11 @@ impl KinodynamicMpc {
                             let grow = if stance { 0.0 } else { trot.shrinking_growth(margin, time).0 };
                             linear_row(row, h, &dh_dx, &none, -grow, INFINITY);
                         }
-                        FootholdConstraint::Barrier { gamma } if k < n => {
-                            // h' + γ h = −n · v + γ h ≥ 0.
-                            let hdot = -dot(n_side, &velocities[foot]);
-                            let cx: [f64; NX] = std::array::from_fn(|j| {
-                                -(0..3).map(|i| n_side[i] * jvx[3 * foot + i][j]).sum::<f64>() + gamma * dh_dx[j]
-                            });
-                            let du: [f64; NU] =
-                                std::array::from_fn(|j| -(0..3).map(|i| n_side[i] * jvu[3 * foot + i][j]).sum::<f64>());
-                            linear_row(row, hdot + gamma * h, &cx, &du, 0.0, INFINITY);
-                        }
-                        FootholdConstraint::ShrinkingBarrier { gamma, margin } if k < n => {
-                            // h_s' + γ h_s = −n · v + m' + γ (h + m) ≥ 0: the growth and
-                            // its rate are constants of the stage, moved to the bound.
+                        FootholdConstraint::Barrier { .. } | FootholdConstraint::ShrinkingBarrier { .. } if k < n => {
+                            // h_s' + γ h_s = −n · v + m' + γ (h + m) ≥ 0 on a swing foot's set
+                            // grown by m (none on the region itself, nor for a stance foot):
+                            // the growth and its rate are constants of the stage, in the bound.
+                            let (gamma, margin) = s.footholds.barrier().unwrap_or_default();
                             let (grow, rate) = if stance { (0.0, 0.0) } else { trot.shrinking_growth(margin, time) };
                             let hdot = -dot(n_side, &velocities[foot]);
                             let cx: [f64; NX] = std::array::from_fn(|j| {
