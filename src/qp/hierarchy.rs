@@ -24,8 +24,10 @@
 //! with [`DualActiveSet`] (exact, KKT-verified). Then `z* ← z* + Z ξ` and `Z` shrinks to
 //! the null space of `A_k Z` (Householder QR with column pivoting; rank decided at
 //! [`RANK_TOLERANCE`] of the largest pivot), so every later level keeps `A_k z` exactly
-//! and every row above inside its bounds (to [`PIN_ROOM`] of its terms, the rounding of
-//! evaluating it): a lower priority cannot change a higher one's residual. `ε = `[`REGULARISATION`]` · max(1, max diag ZᵀA_kᵀA_kZ)` makes each level's
+//! and every row above inside its bounds, or where the level above left it when that was past
+//! a bound by no more than the tolerance its solve was verified to ([`PIN_ROOM`] of its
+//! terms): a lower priority cannot change a higher one's residual, nor move a row further
+//! past its bound. `ε = `[`REGULARISATION`]` · max(1, max diag ZᵀA_kᵀA_kZ)` makes each level's
 //! minimiser unique (the smallest step among a level's optima); it moves a level's answer
 //! by about `ε` relative, and keeps its cost matrix's condition below `1/ε`, where the
 //! dual active-set solver's KKT check is reliable (at `1e-9` some random hierarchies ended
@@ -76,9 +78,10 @@ pub const REGULARISATION: f64 = 1e-7;
 /// direction is not pinned (module docs).
 pub const RANK_TOLERANCE: f64 = 1e-10;
 
-/// The rows of the levels above are kept to within this much of their bounds, relative to
-/// the size of their terms at `z*` (the rounding of evaluating them there).
-pub const PIN_ROOM: f64 = 1e-12;
+/// A row of a level above that `z*` is past a bound of by no more than this, relative to the
+/// size of its terms at `z*`, is held where `z*` puts it: the primal tolerance the dense
+/// solver verified the level's answer to ([`KKT_TOLERANCE`](super::dual_active_set::KKT_TOLERANCE)).
+pub const PIN_ROOM: f64 = super::dual_active_set::KKT_TOLERANCE;
 
 /// Most steps one level's QP may take (rows added to its active set).
 pub const MAX_STEPS: u32 = 500;
@@ -428,20 +431,37 @@ impl Hierarchy {
                 let out = &mut data.a[r * size..(r + 1) * size];
                 out.fill(0.0);
                 Self::project_row(&self.basis, n, free, d, out);
-                let (mut slack, mut room) = (0.0, 0.0);
-                if kept.is_some() {
-                    // A row above holds at z* (ξ = 0) up to the rounding of D z*: that much
-                    // room keeps a row pinned at its bound from reading as infeasible.
-                    room = PIN_ROOM * (1.0 + d.iter().zip(&self.z).map(|(a, z)| (a * z).abs()).sum::<f64>());
+                let slack = match kept {
+                    Some(kept) if i >= shape.hard => kept[i - shape.hard],
+                    _ => 0.0,
+                };
+                if kept.is_none() && i >= shape.hard {
+                    out[free + i - shape.hard] = -1.0;
                 }
-                if i >= shape.hard {
-                    match kept {
-                        Some(kept) => slack = kept[i - shape.hard],
-                        None => out[free + i - shape.hard] = -1.0,
+                let (mut lower, mut upper) = (lower[i] + slack - shift, upper[i] + slack - shift);
+                if kept.is_some() {
+                    // A row above holds at z* (ξ = 0) up to the tolerance of the solve that
+                    // put z* there: a bound z* is past by no more than that is moved to z*
+                    // (held where it is, never loosened further, so the levels below cannot
+                    // compound it), and a row no free direction moves beyond the rank
+                    // decision's rounding is pinned (its rounding, scaled to a unit row,
+                    // would read as a real constraint).
+                    let terms: f64 = d.iter().zip(&self.z).map(|(a, z)| a.abs() * (1.0 + z.abs())).sum();
+                    let room = PIN_ROOM * terms;
+                    if lower > 0.0 && lower <= room {
+                        lower = 0.0;
+                    }
+                    if upper < 0.0 && upper >= -room {
+                        upper = 0.0;
+                    }
+                    let full = d.iter().map(|v| v * v).sum::<f64>().sqrt();
+                    let moved = out[..free].iter().map(|v| v * v).sum::<f64>().sqrt();
+                    if moved <= RANK_TOLERANCE * full {
+                        out[..free].fill(0.0);
                     }
                 }
-                data.lower[r] = lower[i] + slack - shift - room;
-                data.upper[r] = upper[i] + slack - shift + room;
+                data.lower[r] = lower;
+                data.upper[r] = upper;
                 r += 1;
             }
         }
