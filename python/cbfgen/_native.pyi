@@ -630,8 +630,16 @@ class WholeBodyController:
         swing_gains: tuple[float, float] = (900.0, 60.0),
         integral_gain: float = 0.0,
     ) -> None: ...
-    def set_footholds(self, foot: int, normals: ArrayLike, offsets: ArrayLike) -> None:
-        """Replace a foot's region by the half-spaces ``n . c <= d``."""
+    def set_footholds(
+        self,
+        foot: int,
+        normals: ArrayLike,
+        offsets: ArrayLike,
+        growth: tuple[float, float, float] | None = None,
+        at: float = 0.0,
+    ) -> None:
+        """Replace a foot's region by the half-spaces ``n . c <= d`` (loosened by m(t),
+        given as ``growth = (m, m', m'')`` at time ``at``: seed 004's eq. 24 set)."""
     def update(
         self,
         x: ArrayLike,
@@ -645,12 +653,15 @@ class WholeBodyController:
         foot_accelerations: ArrayLike,
         forces: ArrayLike | None = None,
         dt: float = 2.5e-3,
+        t: float = 0.0,
     ) -> dict[str, Any]:
         """One cycle: torques, accelerations, forces, relaxed, solved, residuals, status."""
 
 class SteppingStones:
-    """Seed 004's stepping stones: square stones under a forward trot's footholds,
-    displaced from a seeded stream; ``stones`` (n, 4): top centre x, y, z, half side."""
+    """Seed 004's stepping stones: square stones along a forward trot, displaced from a
+    seeded stream; ``layout="gait"`` under the trot's footholds (displacements ±10/15/20 mm
+    by default), ``"rows"`` in a row per side ``pitch`` apart, away from the footholds
+    (±30/20/20 mm by default); ``stones`` (n, 4): top centre x, y, z, half side."""
 
     def __init__(
         self,
@@ -659,8 +670,10 @@ class SteppingStones:
         swing: float = 0.3,
         lift: float = 0.1,
         size: float = 0.14,
-        displacement: tuple[float, float, float] = (0.010, 0.015, 0.020),
+        displacement: tuple[float, float, float] | None = None,
         swings_between: int = 7,
+        layout: str = "gait",
+        pitch: float = 0.24,
     ) -> None: ...
     @property
     def stones(self) -> Matrix: ...
@@ -686,9 +699,10 @@ class StoneWalk:
         stones: SteppingStones,
         controller: str = "CBF in QP & MPC",
         margin: float = 0.02,
-        gamma: float = 5.0,
+        gamma: float | None = None,
         threaded: bool = False,
-        barrier: str = "region",
+        barrier: str | None = None,
+        mpc_stage: float | None = None,
     ) -> None: ...
     def update(self, t: float, x: ArrayLike, feet: ArrayLike, velocities: ArrayLike) -> dict[str, Any]:
         """One 2.5 ms cycle: torques, stance, solved, relaxed, planned, mpc."""

@@ -10,7 +10,7 @@ use super::convert::{fixed, matrix, matrix_from_fn, rows, shaped, values, vector
 use cbfgen::nalgebra::Matrix3;
 use cbfgen::qp::hierarchy::LevelStatus;
 use cbfgen_anymal::gait::{standing_on_the_ground, Trot};
-use cbfgen_anymal::stones::{SteppingStones, StoneField};
+use cbfgen_anymal::stones::{SteppingStones, StoneField, StoneLayout};
 use cbfgen_anymal::walk::{Controller, FootholdBarrier, LayeredController, WalkMeter, WalkSettings};
 use cbfgen_anymal::wbc::{FootReference, WbcReference, WbcSettings, WholeBodyController, FEET};
 use cbfgen_anymal::wbc_generated::{self as gen, Capacity, FootRegionParams, Params, NX};
@@ -118,7 +118,18 @@ impl PyWholeBodyController {
 
     /// Replace foot ``foot``'s region (index in ``ANYMAL_LEGS``) by the half-spaces
     /// ``n · c ≤ d``: ``normals`` shape (k, 3), ``offsets`` shape (k,); none clears it.
-    fn set_footholds(&mut self, foot: usize, normals: ArrayIn<'_>, offsets: ArrayIn<'_>) -> PyResult<()> {
+    /// ``growth = (m, m', m'')`` at time ``at`` [s] loosens each to ``n · c ≤ d + m(t)``
+    /// (seed 004's eq. 24 set, shrinking onto the region as a swing ends; set it each
+    /// cycle, with ``at`` the cycle's ``t``); ``None``: the region itself.
+    #[pyo3(signature = (foot, normals, offsets, growth = None, at = 0.0))]
+    fn set_footholds(
+        &mut self,
+        foot: usize,
+        normals: ArrayIn<'_>,
+        offsets: ArrayIn<'_>,
+        growth: Option<(f64, f64, f64)>,
+        at: f64,
+    ) -> PyResult<()> {
         if foot >= FEET {
             return Err(crate::value_error(format!("no foot {foot}: feet are 0..4, {:?}", gen::LEGS)));
         }
@@ -128,10 +139,11 @@ impl PyWholeBodyController {
         if normals.len() != offsets.len() {
             return Err(crate::value_error(format!("{} normals but {} offsets", normals.len(), offsets.len())));
         }
+        let growth = growth.map_or([0.0; 3], |(m, rate, curvature)| [m, rate, curvature]);
         let mut fresh = member.clone();
         fresh.clear();
         for (normal, offset) in normals.into_iter().zip(offsets) {
-            fresh.push(FootRegionParams { normal: normal.into(), offset })?;
+            fresh.push(FootRegionParams { normal: normal.into(), offset, growth: growth.into(), at })?;
         }
         *member = fresh;
         Ok(())
@@ -141,11 +153,11 @@ impl PyWholeBodyController {
     /// reference: ``stance`` (4 bools), the trunk's pose and world twist, each swing foot's
     /// position, velocity and acceleration (shape (4, 3) each, world), and ``forces``
     /// (4, 3) for the stance feet (``None``: the weight shared). ``dt`` [s] since the last
-    /// cycle. Returns a dict: ``torques`` (12,), ``wbc_torques``, ``accelerations`` (18,),
+    /// cycle, ``t`` [s] the time (for shrinking footholds). Returns a dict: ``torques`` (12,), ``wbc_torques``, ``accelerations`` (18,),
     /// ``forces`` (4, 3), ``relaxed`` (4,) (each foot's largest CBF slack), ``solved``,
     /// ``residuals`` (3,) and ``status`` (3,) per priority.
     #[pyo3(signature = (x, stance, trunk_position, trunk_rotation, trunk_velocity, trunk_angular_velocity,
-                        foot_positions, foot_velocities, foot_accelerations, forces = None, dt = 2.5e-3))]
+                        foot_positions, foot_velocities, foot_accelerations, forces = None, dt = 2.5e-3, t = 0.0))]
     #[allow(clippy::too_many_arguments)]
     fn update<'py>(
         &mut self,
@@ -161,6 +173,7 @@ impl PyWholeBodyController {
         foot_accelerations: ArrayIn<'py>,
         forces: Option<ArrayIn<'py>>,
         dt: f64,
+        t: f64,
     ) -> PyResult<Bound<'py, PyDict>> {
         let x = fixed::<NX>("x", &x)?;
         let rotation = shaped("trunk_rotation", &trunk_rotation, &[3, 3])?;
@@ -184,7 +197,7 @@ impl PyWholeBodyController {
             Some(f) => reference.forces = feet_array("forces", &f)?,
             None => reference.share_weight(),
         }
-        let out = self.inner.update(&x, &reference, &self.footholds, dt)?;
+        let out = self.inner.update(t, &x, &reference, &self.footholds, dt)?;
         let dict = PyDict::new(py);
         dict.set_item("torques", vector(py, &out.torques))?;
         dict.set_item("wbc_torques", vector(py, &out.wbc_torques))?;
@@ -203,10 +216,12 @@ impl PyWholeBodyController {
     }
 }
 
-/// Seed 004's stepping stones (``cbfgen_anymal::stones``): square stones under the
-/// footholds of a forward trot, displaced at random from a seeded stream, the trunk
-/// stopping on the last ones. ``stones`` is shape (n, 4): each top's centre x, y, z and
-/// half side [m], the four the robot starts on first.
+/// Seed 004's stepping stones (``cbfgen_anymal::stones``): square stones along a forward
+/// trot, displaced at random from a seeded stream, the trunk stopping on the last ones.
+/// ``layout="gait"`` lays one under each foothold the trot asks for (displacements
+/// ±10/15/20 mm by default); ``"rows"`` lays each side's row ``pitch`` apart, away from
+/// the trot's footholds (±30/20/20 mm by default). ``stones`` is shape (n, 4): each top's
+/// centre x, y, z and half side [m], the four the robot starts on first.
 #[pyclass(name = "SteppingStones", module = "cbfgen.anymal", frozen)]
 struct PySteppingStones {
     inner: SteppingStones,
@@ -216,24 +231,32 @@ struct PySteppingStones {
 impl PySteppingStones {
     #[new]
     #[pyo3(signature = (strides = 8, seed = 0, swing = 0.3, lift = 0.1, size = 0.14,
-                        displacement = (0.010, 0.015, 0.020), swings_between = 7))]
+                        displacement = None, swings_between = 7, layout = "gait", pitch = 0.24))]
+    #[allow(clippy::too_many_arguments)] // Python keywords, each with its default
     fn new(
         strides: usize,
         seed: u64,
         swing: f64,
         lift: f64,
         size: f64,
-        displacement: (f64, f64, f64),
+        displacement: Option<(f64, f64, f64)>,
         swings_between: usize,
+        layout: &str,
+        pitch: f64,
     ) -> PyResult<Self> {
+        let base = match super::convert::choice("stone layout", layout, &["gait", "rows"])? {
+            0 => StoneField::default(),
+            _ => StoneField { layout: StoneLayout::Rows { pitch }, ..StoneField::rows() },
+        };
         let field = StoneField {
             strides,
             swing,
             lift,
             swings_between,
             size,
-            displacement: [displacement.0, displacement.1, displacement.2],
+            displacement: displacement.map_or(base.displacement, |d| [d.0, d.1, d.2]),
             seed,
+            ..base
         };
         Ok(Self { inner: SteppingStones::new(&field)? })
     }
@@ -292,25 +315,42 @@ struct PyStoneWalk {
 #[pymethods]
 impl PyStoneWalk {
     /// ``margin``: how far inside a stone's edge its region ends [m]; ``gamma``: eq. 25's
-    /// rate [1/s]; ``threaded``: the MPC in its own thread, posted every cycle (the caller
-    /// then runs in real time), rather than inline every 16th cycle (deterministic);
-    /// ``barrier``: the set eq. 25's CBF keeps a swing foot in, ``"region"`` (its landing
-    /// region) or ``"shrinking"`` (eq. 24's set, shrinking onto the region at touchdown).
+    /// rate [1/s] (``None``: 30); ``threaded``: the MPC in its own thread, posted every
+    /// cycle (the caller then runs in real time), rather than inline every 16th cycle
+    /// (deterministic); ``barrier``: the set the CBFs (eqs. 25, 26) keep a swing foot in,
+    /// ``"shrinking"`` (eq. 24's set, shrinking onto its landing region at touchdown; the
+    /// default) or ``"region"`` (the landing region itself); ``mpc_stage``: the MPC's
+    /// stage length [s] (``None``: 0.04), its horizon kept at 1 s.
     #[new]
-    #[pyo3(signature = (stones, controller = "CBF in QP & MPC", margin = 0.02, gamma = 5.0, threaded = false, barrier = "region"))]
+    #[pyo3(signature = (stones, controller = "CBF in QP & MPC", margin = 0.02, gamma = None, threaded = false,
+                        barrier = None, mpc_stage = None))]
+    #[allow(clippy::too_many_arguments)] // Python keywords, each with its default
     fn new(
         stones: &PySteppingStones,
         controller: &str,
         margin: f64,
-        gamma: f64,
+        gamma: Option<f64>,
         threaded: bool,
-        barrier: &str,
+        barrier: Option<&str>,
+        mpc_stage: Option<f64>,
     ) -> PyResult<Self> {
         let names = Controller::ALL.map(Controller::name);
         let controller = Controller::ALL[super::convert::choice("controller", controller, &names)?];
-        let barrier = [FootholdBarrier::Region, FootholdBarrier::Shrinking]
-            [super::convert::choice("foothold barrier", barrier, &["region", "shrinking"])?];
-        let settings = WalkSettings { margin, gamma, threaded, barrier, ..WalkSettings::default() };
+        let defaults = WalkSettings::default();
+        let barrier = match barrier {
+            Some(name) => [FootholdBarrier::Region, FootholdBarrier::Shrinking]
+                [super::convert::choice("foothold barrier", name, &["region", "shrinking"])?],
+            None => defaults.barrier,
+        };
+        let mut mpc = defaults.mpc;
+        if let Some(stage) = mpc_stage {
+            cbfgen::error::within("MPC stage [s]", stage, 0.005, 0.5, "[0.005, 0.5]")?;
+            let span = mpc.dt * mpc.horizon as f64;
+            mpc.horizon = (span / stage).round().max(1.0) as usize;
+            mpc.dt = stage;
+        }
+        let settings =
+            WalkSettings { margin, gamma: gamma.unwrap_or(defaults.gamma), threaded, barrier, mpc, ..defaults };
         let stones = &stones.inner;
         Ok(Self {
             layers: LayeredController::new(*stones.trot(), stones.terrain().clone(), controller, &settings)?,
@@ -352,8 +392,8 @@ impl PyStoneWalk {
     }
 
     /// Table II's measurements so far, a dict: ``steps``, ``missteps``,
-    /// ``mean_misstep_m``, ``landings`` (k, 7: time, foot, centre x y z, misstep,
-    /// height above the stone [m]), ``swing_time_s``, ``violated_24_s``,
+    /// ``mean_misstep_m``, ``landings`` (k, 11: time, foot, centre x y z, misstep,
+    /// height above the stone, the planned touchdown x y z and its misstep [m]), ``swing_time_s``, ``violated_24_s``,
     /// ``violated_25_s``, ``barriers`` (cycles, 5: time, each foot's smallest h [m]),
     /// ``mpc_failures``, ``mpc_iterations`` (threaded: of the plans that arrived),
     /// ``mpc_thread_solves`` (threaded: the thread's solves and those without a plan),
@@ -367,12 +407,14 @@ impl PyStoneWalk {
         let l = &r.landings;
         dict.set_item(
             "landings",
-            matrix_from_fn(py, l.len(), 7, |i, j| match j {
+            matrix_from_fn(py, l.len(), 11, |i, j| match j {
                 0 => l[i].time,
                 1 => l[i].foot as f64,
                 2..=4 => l[i].position[j - 2],
                 5 => l[i].misstep,
-                _ => l[i].height,
+                6 => l[i].height,
+                7..=9 => l[i].planned[j - 7],
+                _ => l[i].planned_misstep,
             }),
         )?;
         dict.set_item("swing_time_s", r.swing_time)?;

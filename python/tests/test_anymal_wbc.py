@@ -116,8 +116,9 @@ def test_the_compiled_contact_points_match_pinocchio(truth):
 
 
 def test_the_foothold_rows_are_pinocchios_foot_kinematics(truth):
-    # h = d - n . c, so L_f h = -n . J nu, L_f^2 h = -n . J' nu and L_g L_f h = -n^T J: the
-    # row the whole-body controller adds is the foot's own kinematics, nothing else.
+    # h = d + m(t) - n . c, so L_f h = m' - n . J nu, L_f^2 h = m'' - n . J' nu and
+    # L_g L_f h = -n^T J: the row the whole-body controller adds is the foot's own
+    # kinematics and the growth's Taylor polynomial (m, m', m'' at `at`), nothing else.
     sizes = _sizes("foot_region_lf")
     rng = np.random.default_rng(3703)
     worst = 0.0
@@ -126,17 +127,23 @@ def test_the_foothold_rows_are_pinocchios_foot_kinematics(truth):
         normal = rng.normal(size=3)
         normal /= np.linalg.norm(normal)
         offset = rng.uniform(-1, 1)
+        growth = rng.uniform(-1, 1, size=3)
+        t, at = rng.uniform(0, 10), rng.uniform(0, 10)
+        since = t - at
         feet = truth.contacts(x)
         for leg in range(4):
-            got = cbfgen.call_kernel(SYSTEM, f"foot_region_{LEGS[leg].lower()}", np.concatenate([x, normal, [offset]]))
+            inputs = np.concatenate([x, [t], normal, [offset], growth, [at]])
+            got = cbfgen.call_kernel(SYSTEM, f"foot_region_{LEGS[leg].lower()}", inputs)
             centre, jacobian, drift = feet[leg]
             # The kernel keeps the columns the foot can move: the trunk's six and its leg's
             # three joints, in order; Pinocchio's Jacobian is zero in every other.
             columns = [*range(6), *range(6 + 3 * leg, 9 + 3 * leg)]
             others = np.delete(np.arange(NV), columns)
             assert np.all(jacobian[:, others] == 0.0)
-            want = np.concatenate([[offset - normal @ centre, -normal @ jacobian @ x[24:], -normal @ drift],
-                                   -normal @ jacobian[:, columns]])
+            m = growth[0] + growth[1] * since + growth[2] * since**2 / 2
+            m_dot = growth[1] + growth[2] * since
+            want = np.concatenate([[offset + m - normal @ centre, m_dot - normal @ jacobian @ x[24:],
+                                    growth[2] - normal @ drift], -normal @ jacobian[:, columns]])
             assert got.size == sum(sizes.values()) == want.size
             worst = max(worst, _relative(got, want))
     assert worst <= TOLERANCE, worst

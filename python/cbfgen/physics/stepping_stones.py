@@ -1,9 +1,10 @@
 """``python -m cbfgen.physics.stepping_stones``: seed 004's stepping-stone experiment
-(section V, Table II, Figs. 5-6) in MuJoCo. Each of the four controllers walks the same
-seeded stone fields (:class:`cbfgen.anymal.SteppingStones`); the command writes Table II
-summed over the fields beside the seed's figures, every walk's record, the barrier
-figures of "CBF in MPC" and "CBF in QP & MPC" on the first field, and a GIF of the
-proposed controller's walk on it."""
+(section V, Table II, Figs. 4-6) in MuJoCo. Each of the four controllers walks the same
+seeded stone fields (:class:`cbfgen.anymal.SteppingStones`, under the gait or in rows away
+from it); the command writes Table II summed over the fields beside the seed's figures,
+every walk's record, the barrier figures of "CBF in MPC" and "CBF in QP & MPC" on the
+first field (Figs. 5-6), and a GIF of the proposed controller's walk on it with two
+stills (Fig. 4)."""
 
 from __future__ import annotations
 
@@ -30,7 +31,9 @@ SEED_TABLE = {
 ROWS = [("steps", "steps", "{:d}"), ("missteps", "missteps", "{:d}"),
         ("mean_misstep_mm", "avg. misstep [mm]", "{:.1f}"), ("swing_time_s", "total swing time [s]", "{:.1f}"),
         ("violated_24_s", "time eq. 24 violated [s]", "{:.2f}"),
-        ("violated_25_s", "time eq. 25 violated [s]", "{:.2f}"), ("falls", "fields where it fell", "{:d}")]
+        ("violated_25_s", "time eq. 25 violated [s]", "{:.2f}"), ("falls", "fields where it fell", "{:d}"),
+        ("planned_missteps", "missteps already in the plan", "{:d}"),
+        ("mpc_failures", "MPC iterations without a plan", "{:d}")]
 """Table II's rows: the record's key, the label, the format."""
 
 
@@ -39,7 +42,8 @@ def table(runs: dict[str, list[dict]]) -> dict[str, dict[str, float]]:
     times summed over the fields, the average misstep over all missteps, falls counted."""
     out = {}
     for controller, records in runs.items():
-        missteps = [row[5] for r in records for row in np.asarray(r["landings"]) if row[5] > 0.0]
+        landings = [np.asarray(r["landings"]).reshape(-1, 11) for r in records]
+        missteps = [row[5] for rows in landings for row in rows if row[5] > 0.0]
         out[controller] = {
             "steps": int(sum(r["steps"] for r in records)),
             "missteps": len(missteps),
@@ -48,13 +52,17 @@ def table(runs: dict[str, list[dict]]) -> dict[str, dict[str, float]]:
             "violated_24_s": float(sum(r["violated_24_s"] for r in records)),
             "violated_25_s": float(sum(r["violated_25_s"] for r in records)),
             "falls": int(sum(r["fell"] is not None for r in records)),
+            "planned_missteps": int(sum(int(np.sum(rows[:, 10] > 0.0)) for rows in landings)),
+            "mpc_failures": int(sum(r["mpc_failures"][0] for r in records)),
         }
     return out
 
 
-def markdown(ours: dict[str, dict[str, float]], fields: int) -> str:
+def markdown(ours: dict[str, dict[str, float]], fields: int, layout: str = "gait") -> str:
     names = list(ours)
-    lines = [f"| ({fields} fields, MuJoCo) | " + " | ".join(names) + " |", "|---" * (len(names) + 1) + "|"]
+    where = "under the gait" if layout == "gait" else "in rows"
+    lines = [f"| ({fields} fields {where}, MuJoCo) | " + " | ".join(names) + " |",
+             "|---" * (len(names) + 1) + "|"]
     for key, label, form in ROWS:
         cells = []
         for name in names:
@@ -98,14 +106,24 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-video", action="store_true", help="skip the GIF (needs no OpenGL then)")
     parser.add_argument("--threaded", action="store_true",
                         help="the MPC in its own thread, the walks in real time (default: inline, deterministic)")
-    parser.add_argument("--gamma", type=float, default=5.0,
-                        help="eq. 25's rate [1/s]; default 5 (the shrinking set needs more: 20)")
-    parser.add_argument("--barrier", choices=("region", "shrinking"), default="region",
-                        help="the set eq. 25's CBF keeps a swing foot in: its landing region (default) or eq. 24's "
-                             "set shrinking onto it")
+    parser.add_argument("--gamma", type=float, default=None,
+                        help="eq. 25's rate [1/s]; default 30 (the shrinking set needs at least 20)")
+    parser.add_argument("--barrier", choices=("region", "shrinking"), default=None,
+                        help="the set the CBFs keep a swing foot in: eq. 24's set shrinking onto its landing region "
+                             "(default) or the region itself")
+    parser.add_argument("--layout", choices=("gait", "rows"), default="gait",
+                        help="stones under the trot's footholds (default) or in rows away from them")
+    parser.add_argument("--pitch", type=float, default=0.24, help="the rows' stone spacing [m]; default 0.24")
+    parser.add_argument("--size", type=float, default=0.14, help="the stones' side [m]; default 0.14")
+    parser.add_argument("--mpc-stage", type=float, default=None,
+                        help="the MPC's stage length [s], its horizon kept at 1 s; default 0.04")
+    parser.add_argument("--controllers", default=None,
+                        help="comma-separated indices into Table II's order (0-3); default all four")
     args = parser.parse_args(argv)
     if args.fields < 1 or args.strides < 1:
         parser.error("--fields and --strides must be at least 1")
+    if args.controllers is not None and not all(k in "0123" and k for k in args.controllers.split(",")):
+        parser.error("--controllers takes indices 0-3 separated by commas")
 
     if not args.no_video:
         # Chooses MuJoCo's OpenGL back end, so it comes before anything imports mujoco.
@@ -115,14 +133,17 @@ def main(argv: list[str] | None = None) -> int:
 
     keep = 0 if args.no_video else int(round(FRAME_PERIOD / (TIMESTEP * STEPS_PER_CYCLE)))
     args.out.mkdir(parents=True, exist_ok=True)
-    runs: dict[str, list[dict]] = {name: [] for name in anymal.CONTROLLERS}
+    chosen = anymal.CONTROLLERS if args.controllers is None else [
+        anymal.CONTROLLERS[int(k)] for k in args.controllers.split(",")]
+    runs: dict[str, list[dict]] = {name: [] for name in chosen}
     video = None
-    for name in anymal.CONTROLLERS:
+    for name in chosen:
         for seed in range(args.fields):
-            stones = anymal.SteppingStones(strides=args.strides, seed=seed)
+            stones = anymal.SteppingStones(strides=args.strides, seed=seed, layout=args.layout, pitch=args.pitch,
+                                           size=args.size)
             proposed_first = name == anymal.CONTROLLERS[-1] and seed == 0
             run = walk_stones(stones, name, keep_every=keep if proposed_first else 0, threaded=args.threaded,
-                              gamma=args.gamma, barrier=args.barrier)
+                              gamma=args.gamma, barrier=args.barrier, mpc_stage=args.mpc_stage)
             record = run.record
             print(f"stepping stones: {name}, field {seed}: {record['steps']} steps, {record['missteps']} missteps, "
                   f"fell {record['fell']}", file=sys.stderr, flush=True)
@@ -130,18 +151,22 @@ def main(argv: list[str] | None = None) -> int:
             if proposed_first and not args.no_video:
                 video = run
     ours = table(runs)
-    (args.out / "table2.md").write_text(markdown(ours, args.fields))
+    (args.out / "table2.md").write_text(markdown(ours, args.fields, args.layout))
     serial = {name: [{k: (np.asarray(v).tolist() if isinstance(v, np.ndarray) else v) for k, v in r.items()}
                      for r in records] for name, records in runs.items()}
     (args.out / "runs.json").write_text(json.dumps({"fields": args.fields, "strides": args.strides,
+                                                    "layout": args.layout, "pitch": args.pitch,
                                                     "table": ours, "seed_table": SEED_TABLE, "runs": serial}) + "\n")
-    barrier_figure(runs["CBF in MPC"][0], "CBF in MPC (Fig. 5)", args.out / "fig5_cbf_in_mpc.png")
-    barrier_figure(runs["CBF in QP & MPC"][0], "CBF in QP & MPC (Fig. 6)", args.out / "fig6_cbf_in_qp_and_mpc.png")
-    print(markdown(ours, args.fields))
+    figures = [("CBF in MPC", 5, "fig5_cbf_in_mpc.png"), ("CBF in QP & MPC", 6, "fig6_cbf_in_qp_and_mpc.png")]
+    for name, fig, file in figures:
+        if name in runs:
+            barrier_figure(runs[name][0], f"{name} (Fig. {fig})", args.out / file)
+    print(markdown(ours, args.fields, args.layout))
     if video is not None:
         write_side_by_side_gif(args.out / "proposed.gif",
                                [("CBF in QP & MPC", SimpleNamespace(model=video.model, qpos=video.qpos,
-                                                                    body_contact=video.body_contact))])
+                                                                    body_contact=video.body_contact))],
+                               stills=args.out / "fig4_snapshot.png", still_times=(1.5, 3.0))
     print(f"wrote {args.out}", file=sys.stderr)
     return 0
 

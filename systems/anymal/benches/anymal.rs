@@ -88,7 +88,7 @@ fn whole_body_kernels(c: &mut Criterion) {
     let mut state = standing;
     state[24..].copy_from_slice(&x[24..]); // moving
     group.bench_function("update_trot", |b| {
-        b.iter(|| controller.update(black_box(&state), black_box(&reference), &params, 2.5e-3).unwrap())
+        b.iter(|| controller.update(t, black_box(&state), black_box(&reference), &params, 2.5e-3).unwrap())
     });
     group.finish();
 }

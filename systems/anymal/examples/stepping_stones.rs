@@ -3,13 +3,15 @@
 //! cbfgen.physics.stepping_stones`.)
 //!
 //! ```text
-//! cargo run --release -p cbfgen-anymal --example stepping_stones -- [fields] [strides] [controller index] [gamma] [threaded] [shrinking]
+//! cargo run --release -p cbfgen-anymal --example stepping_stones -- [fields] [strides] [controller index] [gamma] [threaded] [region] [rows]
 //! ```
 //!
 //! Defaults: 5 fields (seeds 0..5), 8 strides each, all four controllers (index 0..4 in
 //! Table II's order for one), eq. 25's γ as `WalkSettings::default()`, the MPC inline
-//! (`threaded`: in its own thread, the walk in real time), eq. 25 on the landing region
-//! (`shrinking`: on eq. 24's shrinking set, `FootholdBarrier::Shrinking`).
+//! (`threaded`: in its own thread, the walk in real time), the CBFs on eq. 24's shrinking
+//! set (`region`: on the landing region itself, `FootholdBarrier::Region`), the stones under
+//! the trot's footholds (`rows`: in rows away from the gait, `StoneField::rows`). A `-` for
+//! the controller index or γ keeps its default.
 
 use cbfgen_anymal::stones::{SteppingStones, StoneField};
 use cbfgen_anymal::walk::{walk, Controller, FootholdBarrier, WalkSettings};
@@ -18,27 +20,28 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let fields: u64 = args.first().map_or(Ok(5), |a| a.parse())?;
     let strides: usize = args.get(1).map_or(Ok(8), |a| a.parse())?;
-    let controllers: Vec<Controller> = match args.get(2) {
+    let controllers: Vec<Controller> = match args.get(2).filter(|a| *a != "-") {
         Some(k) => vec![*Controller::ALL.get(k.parse::<usize>()?).ok_or("controller index 0..4")?],
         None => Controller::ALL.to_vec(),
     };
     let mut settings = WalkSettings::default();
-    if let Some(gamma) = args.get(3) {
+    if let Some(gamma) = args.get(3).filter(|a| *a != "-") {
         settings.gamma = gamma.parse()?;
     }
     settings.threaded = args.iter().skip(4).any(|a| a == "threaded");
-    if args.iter().skip(4).any(|a| a == "shrinking") {
-        settings.barrier = FootholdBarrier::Shrinking;
+    if args.iter().skip(4).any(|a| a == "region") {
+        settings.barrier = FootholdBarrier::Region;
     }
-    println!("| controller | seed | steps | missteps | avg misstep [mm] | worst height [mm] | swing [s] | eq. 24 [s] | eq. 25 [s] | MPC failed | solver iterations (mean) | WBC unsolved | fell |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let layout = if args.iter().skip(4).any(|a| a == "rows") { StoneField::rows() } else { StoneField::default() };
+    println!("| controller | seed | steps | missteps | avg misstep [mm] | worst height [mm] | swing [s] | eq. 24 [s] | eq. 25 [s] | MPC failed | solver iterations (mean) | WBC unsolved | fell | missteps planned |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for controller in controllers {
         for seed in 0..fields {
-            let stones = SteppingStones::new(&StoneField { strides, seed, ..StoneField::default() })?;
+            let stones = SteppingStones::new(&StoneField { strides, seed, ..layout })?;
             let r = walk(&stones, controller, &settings)?;
             let worst_height = r.landings.iter().map(|l| l.height.abs()).fold(0.0, f64::max);
             println!(
-                "| {} | {seed} | {} | {} | {:.1} | {:.1} | {:.2} | {:.2} | {:.2} | {}/{} | {} | {}/{} | {} |",
+                "| {} | {seed} | {} | {} | {:.1} | {:.1} | {:.2} | {:.2} | {:.2} | {}/{} | {} | {}/{} | {} | {} |",
                 controller.name(),
                 r.landings.len(),
                 r.missteps().count(),
@@ -53,6 +56,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 r.wbc_unsolved.0,
                 r.wbc_unsolved.1,
                 r.fell.map_or("no".to_string(), |t| format!("at {t:.2} s")),
+                r.landings.iter().filter(|l| l.planned_misstep > 0.0).count(),
             );
         }
     }

@@ -27,9 +27,10 @@ fn main() -> Result<(), cbfgen::CbfError> {
     let (mut cpu, mut wall) = (Vec::with_capacity(cycles), Vec::with_capacity(cycles));
     let mut unsolved = 0;
     for k in 0..cycles {
-        let reference = gait.reference(k as f64 * CYCLE);
+        let t = k as f64 * CYCLE;
+        let reference = gait.reference(t);
         let clock = Stopwatch::start();
-        let out = controller.update(&x, &reference, &params, CYCLE)?;
+        let out = controller.update(t, &x, &reference, &params, CYCLE)?;
         let (w, c) = clock.elapsed();
         cpu.push(c.as_secs_f64() * 1e6);
         wall.push(w.as_secs_f64() * 1e6);

@@ -20,8 +20,13 @@ sphere's centre its world position, its 3 x 18 world-velocity Jacobian J and J' 
 acceleration when nu' = 0), as Pinocchio's LOCAL_WORLD_ALIGNED frame quantities.
 
 **Family.** ``foot_region``: a foot's sphere centre inside half-spaces n . c <= d given at
-run time (world), relative degree 2 in nu'. With its input columns ``a`` and drift, a row is
-``a . nu' >= -drift``: affine in torques and contact forces through the equations of motion.
+run time (world), grown by m(t) so that a swing foot's set can shrink onto its landing region
+at touchdown (seed 004's eq. 24 set; m = 0: the region itself), relative degree 2 in nu'.
+The growth is given by its value and first two time derivatives at the time ``at`` of the
+cycle (its second-order Taylor polynomial): the rows at ``at`` need no more, and the shape of
+the shrink stays in one place, the runtime's (``cbfgen_anymal::gait::Trot::shrinking_growth``).
+With its input columns ``a`` and drift, a row is ``a . nu' >= -drift``: affine in torques and
+contact forces through the equations of motion.
 """
 
 from __future__ import annotations
@@ -81,14 +86,23 @@ def build() -> System:
 
     def foot_region(prm):
         c = foot_center(prm.index, prm.let)
-        return [("inside", prm.offset - sum((n * e for n, e in zip(prm.normal, c, strict=True)), se.Integer(0)))]
+        since = prm.t - prm.at
+        growth = prm.growth[0] + prm.growth[1] * since + prm.growth[2] * since**2 / 2
+        return [("inside", prm.offset + growth - sum((n * e for n, e in zip(prm.normal, c, strict=True)),
+                                                      se.Integer(0)))]
 
     s.family("foot_region", foot_region,
              params={"normal": ((3,), "half-space normal n, world frame (outward; unit for h in metres)"),
-                     "offset": ((), "half-space offset d [m]: the region is n . c <= d")},
+                     "offset": ((), "half-space offset d [m]: the region is n . c <= d"),
+                     "growth": ((3,), "the half-space's growth m and its first two time derivatives at `at` "
+                                      "[m, m/s, m/s^2] (zeros: the half-space itself)"),
+                     "at": ((), "when the growth is given [s]: the cycle's time")},
              over=[leg.lower() for leg in anymal_robot.LEGS], capacity=anymal_robot.MAX_HALF_SPACES, poles=FOOT_POLES,
-             doc="A foot sphere's centre c inside the half-space n . c <= d: h = d - n . c (metres when |n| = 1). "
-                 "One member per foot; a foothold region is its half-spaces (seed 004, eq. 26).")
+             time=True,
+             doc="A foot sphere's centre c inside the half-space n . c <= d + m(t): h = d + m(t) - n . c (metres "
+                 "when |n| = 1), m from its value and first two derivatives at the cycle's time, m = 0 for the "
+                 "landing region itself. One member per foot; a foothold region "
+                 "is its half-spaces (seed 004, eqs. 24 and 26).")
 
     dynamics = RigidBodyDynamics(anymal_robot.ROBOT, joint_q, base_rotation=rotation)
     # The dynamics number the joints in tree order; the states, leg by leg.

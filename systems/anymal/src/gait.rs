@@ -89,12 +89,20 @@ impl Trot {
         self.swing - (t - (t / self.swing).floor() * self.swing)
     }
 
-    /// Eq. 24's growth of a swing foot's region at `t` and its rate: `(m, m')` with
-    /// `m = margin · (time to touchdown / swing time)`, `margin` at lift-off and zero at
-    /// touchdown, `m' = −margin / swing time`. For the rows and measurements of a swing
-    /// foot (a stance foot's region is not grown).
-    pub fn shrinking_growth(&self, margin: f64, t: f64) -> (f64, f64) {
-        (margin * self.time_to_touchdown(t) / self.swing, -margin / self.swing)
+    /// Eq. 24's growth of a swing foot's region at `t` and its first two time derivatives,
+    /// `[m, m', m'']` with `m = margin · τ / T` for `τ` the time to touchdown and `T` the
+    /// swing time: `margin` at lift-off, zero at touchdown, at the constant rate
+    /// `m' = −margin / T`. For the rows and measurements of a swing foot (a stance foot's
+    /// region is not grown).
+    ///
+    /// Eq. 25 on this set asks a foot lifting off at rest no speed while it is
+    /// `margin / (γ T)` inside the grown set, and a landing foot at rest to be that far
+    /// inside its region (4 cm of a 5 cm region at γ = 20 /s, T = 0.3 s, margin 0.25 m);
+    /// the shapes that shrink slower at touchdown (quadratic in `τ`, or following the
+    /// swing's travel profile) must shrink faster in mid-swing, where the feet lagged the
+    /// set instead: on the rigid plant they broke eq. 25 1.4–3× as long (docs/anymal.md).
+    pub fn shrinking_growth(&self, margin: f64, t: f64) -> [f64; 3] {
+        [margin * self.time_to_touchdown(t) / self.swing, -margin / self.swing, 0.0]
     }
 
     /// Where the gait puts foot `foot` (`LEGS` order) for the stance it is in at `t`, or,
@@ -133,8 +141,8 @@ impl Trot {
             return None;
         }
         // The phase s ∈ [0, 1): out and back on b(s) = (1 − cos 2πs)/2, the move on
-        // g(s) = s − sin(2πs)/2π; both leave and land with zero velocity. Their time
-        // derivatives follow from ds/dt = 1/T.
+        // g(s) (`travel`); both leave and land with zero velocity. Their time derivatives
+        // follow from ds/dt = 1/T.
         let period = self.swing;
         let s = t / period - (t / period).floor();
         let angle = std::f64::consts::TAU * s;
@@ -144,7 +152,7 @@ impl Trot {
             lift_off,
             touchdown: lift_off + period,
             bump: [0.5 * (1.0 - angle.cos()), 0.5 * w * angle.sin(), 0.5 * w * w * angle.cos()],
-            travel: [s - angle.sin() / std::f64::consts::TAU, (1.0 - angle.cos()) / period, w * angle.sin() / period],
+            travel: travel(s, period),
         })
     }
 
@@ -179,6 +187,14 @@ impl Trot {
     }
 }
 
+/// A swing's share of its way at phase `s` ∈ [0, 1] of a swing of `period` \[s\], with its
+/// first two time derivatives: `g(s) = s − sin(2πs)/2π`, which leaves and lands still.
+pub fn travel(s: f64, period: f64) -> [f64; 3] {
+    let angle = std::f64::consts::TAU * s;
+    let w = std::f64::consts::TAU / period;
+    [s - angle.sin() / std::f64::consts::TAU, (1.0 - angle.cos()) / period, w * angle.sin() / period]
+}
+
 /// The SRDF's standing joints with the trunk level at the height where the feet's
 /// spheres touch `z = 0`, at rest, in the [`wbc_generated`](crate::wbc_generated) layout.
 pub fn standing_on_the_ground() -> [f64; NX] {
@@ -205,7 +221,7 @@ pub fn footholds_around(feet: &[[f64; 3]; FEET], half_width: f64) -> Result<Para
     for (member, foot) in params.foot_region.iter_mut().zip(feet) {
         for (normal, offset) in crate::square_sides(*foot, half_width) {
             finite("foot position", offset)?;
-            member.push(FootRegionParams { normal: normal.into(), offset })?;
+            member.push(FootRegionParams { normal: normal.into(), offset, growth: [0.0; 3].into(), at: 0.0 })?;
         }
     }
     Ok(params)

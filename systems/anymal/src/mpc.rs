@@ -118,8 +118,9 @@ pub enum FootholdConstraint {
     Off,
     /// Eq. 23: stance feet inside their region (state-only): Table II's "MPC baseline".
     StanceOnly,
-    /// Eq. 24: swing feet inside their next region grown by `margin · (time to touchdown
-    /// / swing time)` \[m\], shrinking to it at touchdown; stance feet inside theirs.
+    /// Eq. 24: swing feet inside their next region grown by
+    /// [`Trot::shrinking_growth`](crate::gait::Trot::shrinking_growth) (`margin` at
+    /// lift-off), shrinking to it at touchdown; stance feet inside theirs.
     Shrinking {
         /// The growth at lift-off \[m\].
         margin: f64,
@@ -132,10 +133,11 @@ pub enum FootholdConstraint {
         gamma: f64,
     },
     /// Eq. 25 on eq. 24's shrinking set: `h' + γ h ≥ 0` for `h = d − n · c + m(t)` of each
-    /// side, where a swing foot's region is grown by `m = margin · (time to touchdown /
-    /// swing time)`, shrinking onto the region at touchdown (`m' = −margin / swing time`),
-    /// and a stance foot's is not grown (`m = 0`). A foot lifting off outside its next
-    /// region starts inside the grown one, and is drawn in as the set shrinks.
+    /// side, where a swing foot's region is grown by `m`
+    /// ([`Trot::shrinking_growth`](crate::gait::Trot::shrinking_growth), `margin` at
+    /// lift-off), shrinking onto the region at touchdown, and a stance foot's is not grown
+    /// (`m = 0`). A foot lifting off outside its next region starts inside the grown one,
+    /// and is drawn in as the set shrinks.
     ShrinkingBarrier {
         /// γ \[1/s\].
         gamma: f64,
@@ -717,7 +719,7 @@ impl KinodynamicMpc {
                         }
                         FootholdConstraint::StanceOnly => {}
                         FootholdConstraint::Shrinking { margin } => {
-                            let grow = if stance { 0.0 } else { trot.shrinking_growth(margin, time).0 };
+                            let grow = if stance { 0.0 } else { trot.shrinking_growth(margin, time)[0] };
                             linear_row(row, h, &dh_dx, &none, -grow, INFINITY);
                         }
                         FootholdConstraint::Barrier { .. } | FootholdConstraint::ShrinkingBarrier { .. } if k < n => {
@@ -725,7 +727,7 @@ impl KinodynamicMpc {
                             // grown by m (none on the region itself, nor for a stance foot):
                             // the growth and its rate are constants of the stage, in the bound.
                             let (gamma, margin) = s.footholds.barrier().unwrap_or_default();
-                            let (grow, rate) = if stance { (0.0, 0.0) } else { trot.shrinking_growth(margin, time) };
+                            let [grow, rate, _] = if stance { [0.0; 3] } else { trot.shrinking_growth(margin, time) };
                             let hdot = -dot(n_side, &velocities[foot]);
                             let cx: [f64; NX] = std::array::from_fn(|j| {
                                 -(0..3).map(|i| n_side[i] * jvx[3 * foot + i][j]).sum::<f64>() + gamma * dh_dx[j]

@@ -1,6 +1,13 @@
-//! Seed 004's stepping stones (section V): square stones, one under each foothold a
-//! forward trot asks for, displaced at random; the trunk stops when its feet reach the
-//! last stones.
+//! Seed 004's stepping stones (section V): square stones along a forward trot, displaced at
+//! random; the trunk stops when its feet reach the last stones. Two layouts
+//! ([`StoneLayout`]):
+//!
+//! - **Under the gait** (the default): one stone under each foothold the trot asks for.
+//!   The paper's easy case, where the CBF in the whole-body QP alone suffices ("only when
+//!   the stepping-stones are placed close to the nominal gait").
+//! - **Rows**: each side's stones on a fixed pitch that does not match the trot's stride,
+//!   so a nominal foothold falls anywhere between two stones and the planner must move it
+//!   by up to half a gap ([`StoneField::rows`]).
 //!
 //! The trot's speed is chosen so that each hind foot lands on the stones its front foot
 //! used: a front and a hind foot of one side land an odd number of swings apart, so the
@@ -12,8 +19,9 @@
 //!
 //! The seed's text lost its displacement figures; these are assumed (docs/anymal.md):
 //! uniform within ±10 mm along the walk, ±15 mm across, ±20 mm in height, per stone, from a
-//! seeded ChaCha8 stream, so a field is the same on every machine. The four stones the robot
-//! starts on are not displaced (it stands on them at `z = 0`).
+//! seeded ChaCha8 stream, so a field is the same on every machine (the rows: ±30 / ±20 /
+//! ±20 mm). The four stones the robot starts on are not displaced (it stands on them at
+//! `z = 0`).
 //!
 //! ```
 //! use cbfgen_anymal::stones::{SteppingStones, StoneField};
@@ -27,6 +35,10 @@
 //!     let (_, distance) = field.terrain().nearest([goal[0], goal[1], 0.0]).unwrap();
 //!     assert!(distance <= 0.021);
 //! }
+//! // The rows: stones a fixed pitch apart, wherever the trot's footholds fall.
+//! let rows = SteppingStones::new(&StoneField { strides: 4, ..StoneField::rows() })?;
+//! let left: Vec<f64> = rows.stones().iter().filter(|s| s.top[1] > 0.0).map(|s| s.top[0]).collect();
+//! assert!(left.len() > 8);
 //! # Ok::<(), cbfgen::CbfError>(())
 //! ```
 
@@ -61,6 +73,24 @@ pub struct StoneField {
     pub displacement: [f64; 3],
     /// The random stream's seed.
     pub seed: u64,
+    /// Where the stones lie before they are displaced.
+    pub layout: StoneLayout,
+}
+
+/// Where a field's stones lie before their random displacement.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum StoneLayout {
+    /// One stone under each foothold the trot asks for (footholds within [`MERGE`] share
+    /// one).
+    UnderTheGait,
+    /// A row of stones under each side's feet, `pitch` apart along the walk \[m\], laid
+    /// without regard to the trot's footholds. The pitch is rounded so that a side's front
+    /// and hind starting stones are both in its row (to the feet's distance over a whole
+    /// number of pitches).
+    Rows {
+        /// The stones' spacing along the walk \[m\], before rounding.
+        pitch: f64,
+    },
 }
 
 impl Default for StoneField {
@@ -75,7 +105,18 @@ impl Default for StoneField {
             size: 0.14,
             displacement: [0.010, 0.015, 0.020],
             seed: 0,
+            layout: StoneLayout::UnderTheGait,
         }
+    }
+}
+
+impl StoneField {
+    /// The field away from the gait: the default's trot over rows of stones 0.24 m apart
+    /// (the trot's stride is 0.202 m, so its footholds drift by 3.4 cm a stride against the
+    /// stones), displaced by up to ±30 mm along the walk, ±20 mm across and ±20 mm in
+    /// height.
+    pub fn rows() -> Self {
+        Self { layout: StoneLayout::Rows { pitch: 0.24 }, displacement: [0.030, 0.020, 0.020], ..Self::default() }
     }
 }
 
@@ -111,7 +152,8 @@ impl SteppingStones {
     /// # Errors
     /// Strides outside `[1, 1000]`, an even `swings_between` or one outside `[1, 99]`, a
     /// swing time outside `[0.1, 2]` s, a lift outside `[0, 0.5]` m, a size outside
-    /// `[0.02, 2]` m, or a displacement outside `[0, size / 4]`.
+    /// `[0.02, 2]` m, a displacement outside `[0, size / 4]`, or rows whose rounded pitch
+    /// leaves less than 1 cm between displaced stones (or exceeds 1 m).
     pub fn new(field: &StoneField) -> Result<Self, CbfError> {
         within("strides", field.strides as f64, 1.0, 1000.0, "[1, 1000]")?;
         within("swings between a front and a hind landing", field.swings_between as f64, 1.0, 99.0, "[1, 99]")?;
@@ -134,31 +176,17 @@ impl SteppingStones {
         let d = 0.5 * ((home[0][0] - home[2][0]) + (home[1][0] - home[3][0]));
         let speed = d / (field.swings_between as f64 * field.swing);
         let trot = Trot { velocity: [speed, 0.0], duration: 2.0 * field.swing * field.strides as f64, ..standing };
-        // Every foothold, in the order the feet reach them: the stance under way at the
-        // middle of each swing period, until two strides after the trunk stops.
-        let periods = 2 * field.strides + 6;
-        let mut footholds: Vec<([f64; 3], usize)> = Vec::new();
-        for period in 0..periods {
-            for foot in 0..FEET {
-                let p = trot.foothold_for(foot, (period as f64 + 0.5) * field.swing);
-                match footholds.iter_mut().find(|(q, _)| (p[0] - q[0]).hypot(p[1] - q[1]) <= MERGE) {
-                    // A running mean: the stone's centre between the footholds it carries.
-                    Some((q, n)) => {
-                        let m = *n as f64;
-                        *q = std::array::from_fn(|i| (q[i] * m + p[i]) / (m + 1.0));
-                        *n += 1;
-                    }
-                    None => footholds.push((p, 1)),
-                }
-            }
-        }
+        let nominal = match field.layout {
+            StoneLayout::UnderTheGait => under_the_gait(&trot, field.strides),
+            StoneLayout::Rows { pitch } => in_rows(&trot, field, pitch)?,
+        };
         let mut rng = ChaCha8Rng::seed_from_u64(field.seed);
         let mut random = |bound: f64| if bound > 0.0 { rng.random_range(-bound..=bound) } else { 0.0 };
         let half = 0.5 * field.size;
-        let stones: Vec<Stone> = footholds
+        let stones: Vec<Stone> = nominal
             .iter()
             .enumerate()
-            .map(|(k, (p, _))| {
+            .map(|(k, p)| {
                 // The foot sphere's centre is a radius above the surface at its foothold.
                 let surface = p[2] - crate::wbc_generated::FOOT_RADIUS;
                 let shift = if k < FEET { [0.0; 3] } else { field.displacement.map(&mut random) };
@@ -204,4 +232,64 @@ impl SteppingStones {
     pub fn misstep(&self, x: f64, y: f64) -> f64 {
         self.stones.iter().map(|s| s.distance(x, y)).fold(f64::INFINITY, f64::min)
     }
+}
+
+/// Every foothold the trot asks for, in the order the feet reach them (the stance under way
+/// at the middle of each swing period, until two strides after the trunk stops), those
+/// within [`MERGE`] merged into their mean; the four starting footholds first.
+fn under_the_gait(trot: &Trot, strides: usize) -> Vec<[f64; 3]> {
+    let periods = 2 * strides + 6;
+    let mut footholds: Vec<([f64; 3], usize)> = Vec::new();
+    for period in 0..periods {
+        for foot in 0..FEET {
+            let p = trot.foothold_for(foot, (period as f64 + 0.5) * trot.swing);
+            match footholds.iter_mut().find(|(q, _)| (p[0] - q[0]).hypot(p[1] - q[1]) <= MERGE) {
+                // A running mean: the stone's centre between the footholds it carries.
+                Some((q, n)) => {
+                    let m = *n as f64;
+                    *q = std::array::from_fn(|i| (q[i] * m + p[i]) / (m + 1.0));
+                    *n += 1;
+                }
+                None => footholds.push((p, 1)),
+            }
+        }
+    }
+    footholds.into_iter().map(|(p, _)| p).collect()
+}
+
+/// Each side's row of footholds from its hind foot's start, a rounded `pitch` apart, to a
+/// pitch past the last foothold the trot asks of either foot on that side; the four
+/// starting footholds first (in `LEGS` order), then the rest, left row first.
+fn in_rows(trot: &Trot, field: &StoneField, pitch: f64) -> Result<Vec<[f64; 3]>, CbfError> {
+    within("stone pitch [m]", pitch, field.size, 1.0, "[size, 1]")?;
+    let periods = 2 * field.strides + 6;
+    let mut nominal: Vec<[f64; 3]> = trot.home.to_vec();
+    // LEGS order LF RF LH RH: each side's front foot and the hind foot behind it.
+    for (front, hind) in [(0, 2), (1, 3)] {
+        let (f, h) = (trot.home[front], trot.home[hind]);
+        let span = f[0] - h[0];
+        let pitches = (span / pitch).round().max(1.0);
+        let step = span / pitches;
+        let gap = step - field.size - 2.0 * field.displacement[0];
+        if gap < 0.01 {
+            return Err(CbfError::OutOfRange {
+                what: "stone pitch after rounding [m]",
+                value: step,
+                range: "at least size + 2 × displacement along + 1 cm",
+            });
+        }
+        let last = (0..periods)
+            .flat_map(|period| [front, hind].map(|foot| trot.foothold_for(foot, (period as f64 + 0.5) * trot.swing)[0]))
+            .fold(f64::NEG_INFINITY, f64::max);
+        let y = 0.5 * (f[1] + h[1]);
+        let mut k = 1.0;
+        while h[0] + k * step <= last + step {
+            // The front foot's starting stone is already in (undisplaced).
+            if k != pitches {
+                nominal.push([h[0] + k * step, y, h[2]]);
+            }
+            k += 1.0;
+        }
+    }
+    Ok(nominal)
 }

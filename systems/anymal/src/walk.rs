@@ -26,7 +26,7 @@ use crate::plant;
 use crate::stones::SteppingStones;
 use crate::terrain::{Footholds, Terrain};
 use crate::vec3::dot;
-use crate::wbc::{set_foothold, WbcOutput, WbcReference, WbcSettings, WholeBodyController, FEET};
+use crate::wbc::{set_foothold, Growth, WbcOutput, WbcReference, WbcSettings, WholeBodyController, FEET};
 use crate::wbc_generated::{self as gen, Capacity, Params};
 
 /// Table II's four controllers: where the foothold constraints are.
@@ -81,8 +81,9 @@ pub enum FootholdBarrier {
     /// The landing region itself, `h = d − n · c`: a foot lifting off outside it starts
     /// with `h < 0`.
     Region,
-    /// Eq. 24's set: the region grown by `shrinking_margin · (time to touchdown / swing
-    /// time)`, shrinking onto it at touchdown.
+    /// Eq. 24's set: the region grown by `shrinking_margin` at lift-off, shrinking onto it
+    /// at touchdown as the swing's reference travels ([`Trot::shrinking_growth`]), in the
+    /// MPC's CBF (eq. 25) and the whole-body QP's (eq. 26).
     Shrinking,
 }
 
@@ -102,16 +103,19 @@ pub struct WalkSettings {
     /// Whole-body cycles per MPC iteration.
     pub cycles_per_plan: usize,
     /// Eq. 25's rate γ \[1/s\]: the MPC's CBF (where the controller has one) and the
-    /// measurement of its violation. A swing foot lifts off its stone a stride (20 cm)
-    /// behind its next region, where `ḣ + γ h ≥ 0` asks for `γ · 0.15 m/s` at once: at the
-    /// MPC's default 20 /s, 3 m/s, and one MPC iteration in eight found no plan
-    /// (`examples/stepping_stones.rs`); at 5 /s none failed, with no misstep.
+    /// measurement of its violation. On the fixed region a swing foot lifting off its
+    /// stone a stride (20 cm) behind its next region is asked for `γ · 0.15 m/s` at once:
+    /// at 20 /s one MPC iteration in eight found no plan, at 5 /s none. On the shrinking
+    /// set ([`FootholdBarrier::Shrinking`]) a foot at rest is asked to be
+    /// `shrinking_margin / (γ T)` inside it, which needs γ ≥ 20 /s (at 5 /s 17 cm: no
+    /// plan); 30 /s broke eq. 25 for the least time with at most 2 MPC iterations in 150
+    /// without a plan (40 /s: less time, 9 in 150; docs/anymal.md).
     pub gamma: f64,
-    /// Eq. 24's growth of a swing foot's region at lift-off \[m\], for the measurement of
-    /// its violation (and the MPC's, were it to use eq. 24).
+    /// Eq. 24's growth of a swing foot's region at lift-off \[m\]: for its measurement and
+    /// the shrinking set's CBFs.
     pub shrinking_margin: f64,
-    /// The set eq. 25's CBF (in the MPC) keeps swing feet in, and on which its violation
-    /// is measured.
+    /// The set the CBFs (eq. 25 in the MPC, eq. 26 in the whole-body QP) keep swing feet
+    /// in, and on which eq. 25's violation is measured.
     pub barrier: FootholdBarrier,
     /// The MPC in its own thread ([`MpcThread`]), posted every cycle, as the seed runs it;
     /// `false`: inline every `cycles_per_plan`-th cycle, deterministic. Threaded walks on
@@ -127,10 +131,9 @@ impl WalkSettings {
 }
 
 impl Default for WalkSettings {
-    /// A 2 cm margin; the MPC's and controller's defaults; 2 kHz, 400 Hz, 25 Hz; γ = 5 /s;
-    /// eq. 24
-    /// growing the region by 25 cm at lift-off (a stride and a margin: a foot lifting off
-    /// its stone starts inside).
+    /// A 2 cm margin; the MPC's and controller's defaults; 2 kHz, 400 Hz, 25 Hz; the CBFs
+    /// on eq. 24's shrinking set, growing the region by 25 cm at lift-off (a stride and a
+    /// margin: a foot lifting off its stone starts inside); γ = 30 /s.
     fn default() -> Self {
         Self {
             margin: 0.02,
@@ -139,9 +142,9 @@ impl Default for WalkSettings {
             plant_step: 5e-4,
             steps_per_cycle: 5,
             cycles_per_plan: 16,
-            gamma: 5.0,
+            gamma: 30.0,
             shrinking_margin: 0.25,
-            barrier: FootholdBarrier::Region,
+            barrier: FootholdBarrier::Shrinking,
             threaded: false,
         }
     }
@@ -160,6 +163,12 @@ pub struct Landing {
     pub misstep: f64,
     /// The sphere's lowest point above that stone's top \[m\] (negative: in it).
     pub height: f64,
+    /// Where the plan the whole-body controller tracked put the foot at the swing's last
+    /// cycle (the planned touchdown; the gait's own before the first plan) \[m\].
+    pub planned: [f64; 3],
+    /// The planned touchdown's horizontal distance from the nearest stone top \[m\]: a
+    /// misstep the plan itself made (zero when only the execution missed).
+    pub planned_misstep: f64,
 }
 
 /// What a walk did.
@@ -168,7 +177,8 @@ pub struct WalkRecord {
     /// Every landing, in time order.
     pub landings: Vec<Landing>,
     /// When the walk stopped early (the trunk sank below half its standing height above
-    /// the stones, or the plant's contacts became singular), if it did \[s\].
+    /// the stones, the plant's contacts became singular or its state diverged), if it did
+    /// \[s\].
     pub fell: Option<f64>,
     /// How far the trunk went (world x) \[m\].
     pub travelled: f64,
@@ -183,7 +193,7 @@ pub struct WalkRecord {
     /// Total swing time of all feet \[s\].
     pub swing_time: f64,
     /// Time some swing foot broke eq. 24 (outside its region grown by
-    /// `shrinking_margin · time to touchdown / swing time`) \[s\].
+    /// [`Trot::shrinking_growth`] with `shrinking_margin`) \[s\].
     pub violated_24: f64,
     /// Time some swing foot broke eq. 25 (`ḣ + γ h < 0` on a side, `h` on the settings'
     /// [`FootholdBarrier`] set) \[s\].
@@ -345,12 +355,18 @@ impl LayeredController {
         let reference = planned.unwrap_or_else(|| trot.reference(t));
         let regions: [Region; FEET] = std::array::from_fn(|foot| region(foot, t));
         if self.controller.whole_body_footholds() {
+            // Eq. 26 on the set eq. 25 uses: a swing foot's shrinks onto its region.
+            let swinging = Growth { derivatives: trot.shrinking_growth(self.settings.shrinking_margin, t), at: t };
             for (foot, r) in regions.iter().enumerate() {
-                set_foothold(&mut self.wbc_footholds, foot, r)?;
+                let growth = match self.settings.barrier {
+                    FootholdBarrier::Shrinking if !reference.stance[foot] => swinging,
+                    _ => Growth::NONE,
+                };
+                set_foothold(&mut self.wbc_footholds, foot, r, growth)?;
             }
         }
         let dt = self.settings.cycle();
-        let out = self.wbc.update(x, &reference, &self.wbc_footholds, dt)?;
+        let out = self.wbc.update(t, x, &reference, &self.wbc_footholds, dt)?;
         self.cycles += 1;
         Ok(LayeredCycle { out, reference, planned: planned.is_some(), mpc, regions })
     }
@@ -393,7 +409,10 @@ pub fn walk(stones: &SteppingStones, controller: Controller, settings: &WalkSett
             plant::integrate(&mut x, &accelerations.accelerations, settings.plant_step);
         }
         let ground = feet.iter().map(|p| stones.nearest_top(p[0], p[1])).sum::<f64>() / FEET as f64;
-        if singular || x[2] - ground < 0.5 * standing_height {
+        // A state far outside anything a walk reaches (the plant diverging) is a fall too,
+        // not an error: the controller refuses it next cycle.
+        let diverged = x.iter().any(|v| !v.is_finite() || v.abs() > 1e3);
+        if singular || diverged || x[2] - ground < 0.5 * standing_height {
             meter.fell(t);
             break;
         }
@@ -411,6 +430,7 @@ pub struct WalkMeter {
     barrier: FootholdBarrier,
     dt: f64,
     was_stance: [bool; FEET],
+    planned: [[f64; 3]; FEET],
     record: WalkRecord,
 }
 
@@ -424,6 +444,7 @@ impl WalkMeter {
             barrier: settings.barrier,
             dt: settings.cycle(),
             was_stance: [true; FEET],
+            planned: [[0.0; 3]; FEET],
             record: WalkRecord {
                 landings: Vec::new(),
                 fell: None,
@@ -456,7 +477,7 @@ impl WalkMeter {
         let stance = cycle.reference.stance;
         let mut smallest = [f64::INFINITY; FEET];
         let (mut broke_24, mut broke_25) = (false, false);
-        let (grow, rate) = trot.shrinking_growth(self.shrinking_margin, t);
+        let [grow, rate, _] = trot.shrinking_growth(self.shrinking_margin, t);
         // Eq. 25's set on a swing foot: its growth and the growth's rate.
         let (barrier_grow, barrier_rate) = match self.barrier {
             FootholdBarrier::Region => (0.0, 0.0),
@@ -476,14 +497,19 @@ impl WalkMeter {
                 record.swing_time += self.dt;
             }
             if stance[foot] && !self.was_stance[foot] {
-                let p = feet[foot];
+                let (p, q) = (feet[foot], self.planned[foot]);
                 record.landings.push(Landing {
                     time: t,
                     foot,
                     position: p,
                     misstep: self.stones.misstep(p[0], p[1]),
                     height: p[2] - gen::FOOT_RADIUS - self.stones.nearest_top(p[0], p[1]),
+                    planned: q,
+                    planned_misstep: self.stones.misstep(q[0], q[1]),
                 });
+            }
+            if !stance[foot] {
+                self.planned[foot] = cycle.reference.feet[foot].position;
             }
             self.was_stance[foot] = stance[foot];
         }

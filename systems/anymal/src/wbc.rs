@@ -40,7 +40,7 @@
 //! let footholds = Params::new(Capacity { foot_region: [0; 4] })?; // no foothold rows
 //! let mut controller = WholeBodyController::new(footholds.capacity(), WbcSettings::default())?;
 //! let reference = WbcReference::standing([x[0], x[1], x[2]], Matrix3::identity());
-//! let out = controller.update(&x, &reference, &footholds, 2.5e-3)?;
+//! let out = controller.update(0.0, &x, &reference, &footholds, 2.5e-3)?;
 //! assert!(out.solved);
 //! let carried: f64 = out.forces.iter().map(|f| f[2]).sum();
 //! assert!((carried - gen::TOTAL_MASS * 9.81).abs() < 1e-3);
@@ -48,19 +48,39 @@
 //! ```
 
 use cbfgen::error::{finite, CbfError};
-use cbfgen::nalgebra::{Matrix3, Rotation3, Vector3};
+use cbfgen::nalgebra::{Matrix3, Vector3};
 use cbfgen::qp::hierarchy::{Hierarchy, LevelReport, LevelShape, LevelStatus};
 use cbfgen::system::{BarrierSet, Gains};
 
 use crate::mpc::Region;
 use crate::wbc_generated::{self as gen, Barriers, Capacity, FootRegionParams, Params, NU, NX};
 
+/// How far a foot's set is grown beyond its region at one time (seed 004's eq. 24): each
+/// half-space `n · c ≤ d` is loosened to `n · c ≤ d + m(t)`, given by `m` and its first two
+/// time derivatives at `at` (all a cycle's rows at `at` need: the shape of the shrink is
+/// the caller's, [`Trot::shrinking_growth`](crate::gait::Trot::shrinking_growth) for a
+/// trot's swing). [`Growth::NONE`] is the region itself.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Growth {
+    /// `m`, `m'`, `m''` at `at` \[m, m/s, m/s²\].
+    pub derivatives: [f64; 3],
+    /// When \[s\]: the cycle's time.
+    pub at: f64,
+}
+
+impl Growth {
+    /// The region itself: no growth.
+    pub const NONE: Self = Self { derivatives: [0.0; 3], at: 0.0 };
+}
+
 /// Put `region`'s half-spaces into foot `foot`'s slot of `params` (the generated
-/// `foot_region` family's), replacing what was there. Allocation-free.
+/// `foot_region` family's), grown by `growth`, replacing what was there.
+/// Allocation-free.
 ///
 /// # Errors
-/// No foot `foot`, or more sides than the slot's capacity (the slot is then unchanged).
-pub fn set_foothold(params: &mut Params, foot: usize, region: &Region) -> Result<(), CbfError> {
+/// No foot `foot`, more sides than the slot's capacity, or a non-finite growth (the slot
+/// is then unchanged).
+pub fn set_foothold(params: &mut Params, foot: usize, region: &Region, growth: Growth) -> Result<(), CbfError> {
     let member = params.foot_region.get_mut(foot).ok_or(CbfError::OutOfRange {
         what: "foot",
         value: foot as f64,
@@ -70,9 +90,18 @@ pub fn set_foothold(params: &mut Params, foot: usize, region: &Region) -> Result
     if count > member.capacity() {
         return Err(CbfError::TooLarge { what: "foothold region sides", value: count, max: member.capacity() });
     }
+    for v in growth.derivatives {
+        finite("foothold growth", v)?;
+    }
+    finite("foothold growth time [s]", growth.at)?;
     member.clear();
     for &(normal, offset) in &region.sides[..count] {
-        member.push(FootRegionParams { normal: normal.into(), offset })?;
+        member.push(FootRegionParams {
+            normal: normal.into(),
+            offset,
+            growth: growth.derivatives.into(),
+            at: growth.at,
+        })?;
     }
     Ok(())
 }
@@ -283,15 +312,17 @@ impl WholeBodyController {
         &self.settings
     }
 
-    /// One cycle at state `x` (the [`wbc_generated`](crate::wbc_generated) layout) towards
-    /// `reference`, swing feet kept in the half-spaces of `footholds`; `dt` \[s\] is the
+    /// One cycle at time `t` \[s\] and state `x` (the
+    /// [`wbc_generated`](crate::wbc_generated) layout) towards `reference`, swing feet kept
+    /// in the sets of `footholds` (shrinking ones at `t`, [`Shrinking`]); `dt` \[s\] is the
     /// time since the last cycle (for eq. 27's integral).
     ///
     /// # Errors
-    /// A non-finite state, reference or `dt`; foothold parameters of another capacity or
-    /// outside their domains. The controller's state is then unchanged.
+    /// A non-finite time, state, reference or `dt`; foothold parameters of another capacity
+    /// or outside their domains. The controller's state is then unchanged.
     pub fn update(
         &mut self,
+        t: f64,
         x: &[f64; NX],
         reference: &WbcReference,
         footholds: &Params,
@@ -300,12 +331,13 @@ impl WholeBodyController {
         for &v in x {
             finite("state", v)?;
         }
+        finite("time", t)?;
         finite("time step", dt)?;
         check_reference(reference)?;
         if footholds.capacity() != self.capacity {
             return Err(CbfError::CapacityMismatch);
         }
-        self.barriers.evaluate(0.0, x, footholds)?;
+        self.barriers.evaluate(t, x, footholds)?;
         let (mass, bias) = gen::dynamics(x);
         let (positions, jacobians, drifts) = gen::contacts(x);
         let nu = &x[24..42];
@@ -471,7 +503,7 @@ impl WholeBodyController {
             + kp * (Vector3::from(reference.trunk_position) - position)
             + kd * (Vector3::from(reference.trunk_velocity) - velocity);
         let (kr, kw) = s.trunk_orientation_gains;
-        let error = Rotation3::from_matrix_unchecked(reference.trunk_rotation * rotation.transpose()).scaled_axis();
+        let error = rotation_vector(&(reference.trunk_rotation * rotation.transpose()));
         let angular = Vector3::from(reference.trunk_angular_acceleration)
             + kr * error
             + kw * (Vector3::from(reference.trunk_angular_velocity) - omega);
@@ -556,6 +588,31 @@ impl WholeBodyController {
             self.last_stance[foot] = reference.stance[foot];
         }
         self.last_acceleration.copy_from_slice(&out.accelerations[6..]);
+    }
+}
+
+/// The rotation vector (axis times angle) of a rotation matrix `m` (the trunk's orientation
+/// error), the angle from `atan2(|s|, (tr m − 1) / 2)` with `s` the axial vector of
+/// `(m − mᵀ) / 2`: finite for any finite `m`, where `acos((tr m − 1) / 2)` (nalgebra's
+/// `Rotation3::angle`) is NaN once an integrated rotation's rounding puts its trace above 3
+/// (it did, in whole-body cycles on the stepping stones).
+pub fn rotation_vector(m: &Matrix3<f64>) -> Vector3<f64> {
+    let s = 0.5 * Vector3::new(m[(2, 1)] - m[(1, 2)], m[(0, 2)] - m[(2, 0)], m[(1, 0)] - m[(0, 1)]);
+    let sine = s.norm();
+    let cosine = 0.5 * (m.trace() - 1.0);
+    if sine > 1e-9 {
+        s * (sine.atan2(cosine) / sine)
+    } else if cosine > 0.0 {
+        s // a small angle: s is the rotation vector to third order
+    } else {
+        // A half turn, m = 2 a aᵀ − I: the axis from the largest diagonal entry's column.
+        let i = (0..3).fold(0, |b, i| if m[(i, i)] > m[(b, b)] { i } else { b });
+        let ai = (0.5 * (m[(i, i)] + 1.0)).max(0.0).sqrt();
+        if ai == 0.0 {
+            return Vector3::zeros(); // not a rotation: no axis to give
+        }
+        let axis = Vector3::from_fn(|j, _| if j == i { ai } else { 0.25 * (m[(i, j)] + m[(j, i)]) / ai });
+        axis.normalize() * sine.atan2(cosine)
     }
 }
 

@@ -117,13 +117,14 @@ fn the_whole_body_controller_allocates_nothing() {
     let cycles = 2000;
     let (_, rust, c) = alloc_count::counting(|| {
         for k in 0..cycles {
-            let reference = gait.reference(k as f64 * dt);
-            let out = controller.update(&x, &reference, &params, dt).expect("in the domain");
+            let t = k as f64 * dt;
+            let reference = gait.reference(t);
+            let out = controller.update(t, &x, &reference, &params, dt).expect("in the domain");
             solved += usize::from(out.solved);
             if k % 100 == 0 {
                 let mut nan = x;
                 nan[14] = f64::NAN;
-                rejected += usize::from(controller.update(&nan, &reference, &params, dt).is_err());
+                rejected += usize::from(controller.update(t, &nan, &reference, &params, dt).is_err());
             }
             // The model's own motion (the accelerations it planned), enough to move the rows.
             plant::integrate(&mut x, &out.accelerations, dt);

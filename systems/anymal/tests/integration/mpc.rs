@@ -134,7 +134,7 @@ fn landings_and_rows(constraint: FootholdConstraint) -> (f64, f64) {
                     let (positions, _, velocities, _, _) = gen::feet(&states[k], &inputs[k]);
                     let stance = trot.reference(time).stance;
                     for foot in (0..FEET).filter(|&f| !stance[f]) {
-                        let (grow, rate) = trot.shrinking_growth(margin, time);
+                        let [grow, rate, _] = trot.shrinking_growth(margin, time);
                         let r = region(foot, time);
                         for (n, d) in r.sides.iter().take(r.count) {
                             let dot = |a: &[f64; 3]| (0..3).map(|i| n[i] * a[i]).sum::<f64>();
@@ -189,16 +189,18 @@ fn the_shrinking_set_holds_the_foot_at_lift_off_is_the_region_at_touchdown_and_s
             let stood = trot.foothold_for(foot, lift_off - 1e-9);
             let next = footholds.region(&trot, foot, lift_off + 1e-9);
             let h = next.margin(stood);
-            let (grow, _) = trot.shrinking_growth(margin, lift_off + 1e-9);
+            let [grow, ..] = trot.shrinking_growth(margin, lift_off + 1e-9);
             assert!(h < 0.0 && h + grow > 0.0, "period {period}, foot {foot}: h {h}, growth {grow}");
             // At touchdown the set is the region.
-            let (at_touchdown, _) = trot.shrinking_growth(margin, lift_off + trot.swing - 1e-9);
+            let [at_touchdown, ..] = trot.shrinking_growth(margin, lift_off + trot.swing - 1e-9);
             assert!(at_touchdown.abs() < 1e-6 && (grow - margin).abs() < 1e-6, "{at_touchdown} {grow}");
             // Its rate, as the rows take it, is the growth's central difference in time.
             let (mid, delta) = (lift_off + 0.4 * trot.swing, 1e-6);
-            let (_, rate) = trot.shrinking_growth(margin, mid);
-            let fd = (trot.shrinking_growth(margin, mid + delta).0 - trot.shrinking_growth(margin, mid - delta).0)
-                / (2.0 * delta);
+            let [_, rate, curvature] = trot.shrinking_growth(margin, mid);
+            let growth = |t: f64| trot.shrinking_growth(margin, t);
+            let fd = (growth(mid + delta)[0] - growth(mid - delta)[0]) / (2.0 * delta);
+            let fd2 = (growth(mid + delta)[1] - growth(mid - delta)[1]) / (2.0 * delta);
+            assert!((fd2 - curvature).abs() < 1e-6 * margin / trot.swing.powi(2), "{curvature} {fd2}");
             assert!((fd - rate).abs() < 1e-6 * margin / trot.swing, "rate {rate}, difference {fd}");
         }
     }

@@ -31,7 +31,7 @@ fn the_mpc_and_the_whole_body_controller_trot_at_the_commanded_speed() {
             assert!(report.updated, "t = {t:.3}: {report:?}");
         }
         let reference = mpc.whole_body_reference(t, &trot).unwrap();
-        let out = wbc.update(&x, &reference, &no_footholds, dt).unwrap();
+        let out = wbc.update(t, &x, &reference, &no_footholds, dt).unwrap();
         assert!(out.solved, "t = {t:.3}: {:?}", out.levels);
         for _ in 0..STEPS_PER_CYCLE {
             let step = plant::accelerations(&x, &out.torques, reference.stance).expect("regular contacts");

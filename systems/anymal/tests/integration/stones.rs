@@ -1,10 +1,12 @@
 //! The stepping stones: the field against the trot it was laid for (every foothold on a
 //! stone, each hind foot on its front foot's stones, the walk ending on the last ones),
-//! its seeded displacements, its refusals; and seed 004's proposed controller walking a
-//! short field on the rigid-contact plant with no misstep, judged against the stones.
+//! its seeded displacements, its refusals; the rows away from the gait (a fixed pitch the
+//! footholds drift against); and seed 004's proposed controller walking short fields of
+//! both on the rigid-contact plant with no misstep, judged against the stones, where the
+//! MPC baseline missteps away from the gait.
 
-use cbfgen_anymal::stones::{SteppingStones, StoneField};
-use cbfgen_anymal::walk::{walk, Controller, WalkSettings};
+use cbfgen_anymal::stones::{SteppingStones, Stone, StoneField, StoneLayout};
+use cbfgen_anymal::walk::{walk, Controller, FootholdBarrier, WalkRecord, WalkSettings};
 
 const FRONT_OF: [usize; 4] = [0, 1, 0, 1]; // LH behind LF, RH behind RF
 
@@ -105,6 +107,9 @@ fn meaningless_fields_are_refused() {
         StoneField { displacement: [0.05, 0.0, 0.0], ..ok },
         StoneField { displacement: [0.0, f64::INFINITY, 0.0], ..ok },
         StoneField { lift: -0.1, ..ok },
+        StoneField { layout: StoneLayout::Rows { pitch: 0.15 }, ..StoneField::rows() },
+        StoneField { layout: StoneLayout::Rows { pitch: f64::NAN }, ..StoneField::rows() },
+        StoneField { layout: StoneLayout::Rows { pitch: 5.0 }, ..StoneField::rows() },
     ] {
         assert!(SteppingStones::new(&bad).is_err(), "{bad:?} was accepted");
     }
@@ -112,27 +117,118 @@ fn meaningless_fields_are_refused() {
 
 /// Seed 004's proposed controller (CBF in the MPC and in the whole-body QP) over three
 /// strides of displaced stones: every landing on a stone and level with its top, the trunk
-/// where the walk ends, no fall.
+/// where the walk ends, no fall. With the CBFs on the landing region (γ = 5 /s) every
+/// landing is also at least a centimetre inside its stone (the region's margin is 2 cm);
+/// on eq. 24's shrinking set (the default) a foot may land within that margin, by design:
+/// the set lets it reach its region late.
 #[test]
 fn the_proposed_controller_walks_a_short_field_without_a_misstep() {
     let field = field(3, 5);
-    let record = walk(&field, Controller::CbfInBoth, &WalkSettings::default()).unwrap();
-    assert_eq!(record.fell, None);
-    // Three strides and the steps onto the last stones: each foot lands every 2T after
-    // its first swing until the end.
-    assert!(record.landings.len() >= 4 * 3, "{} landings", record.landings.len());
-    for landing in &record.landings {
-        assert_eq!(landing.misstep, 0.0, "{landing:?}");
-        assert!(landing.height.abs() <= 0.01, "{landing:?}");
-        let stone =
-            field.stones().iter().find(|s| s.distance(landing.position[0], landing.position[1]) == 0.0).unwrap();
-        // Inside by at least a centimetre less than the regions' margin asked for.
-        let inside =
-            stone.half - (landing.position[0] - stone.top[0]).abs().max((landing.position[1] - stone.top[1]).abs());
-        assert!(inside >= 0.01, "{landing:?} is {inside} m inside its stone");
+    for (barrier, gamma, least_inside) in
+        [(FootholdBarrier::Region, 5.0, 0.01), (FootholdBarrier::Shrinking, 30.0, 0.0)]
+    {
+        let settings = WalkSettings { barrier, gamma, ..WalkSettings::default() };
+        let record = walk(&field, Controller::CbfInBoth, &settings).unwrap();
+        assert_eq!(record.fell, None);
+        // Three strides and the steps onto the last stones: each foot lands every 2T after
+        // its first swing until the end.
+        assert!(record.landings.len() >= 4 * 3, "{} landings", record.landings.len());
+        for landing in &record.landings {
+            assert_eq!(landing.misstep, 0.0, "{barrier:?}: {landing:?}");
+            assert!(landing.height.abs() <= 0.01, "{barrier:?}: {landing:?}");
+            let stone =
+                field.stones().iter().find(|s| s.distance(landing.position[0], landing.position[1]) == 0.0).unwrap();
+            let inside =
+                stone.half - (landing.position[0] - stone.top[0]).abs().max((landing.position[1] - stone.top[1]).abs());
+            assert!(inside >= least_inside, "{barrier:?}: {landing:?} is {inside} m inside its stone");
+        }
+        let trot = field.trot();
+        let walked = trot.velocity[0] * trot.duration;
+        assert!((record.travelled - walked).abs() <= 0.05, "walked {} of {walked} m", record.travelled);
+        assert!(record.mpc_failures.0 * 10 <= record.mpc_failures.1, "{:?}", record.mpc_failures);
     }
-    let trot = field.trot();
-    let walked = trot.velocity[0] * trot.duration;
-    assert!((record.travelled - walked).abs() <= 0.05, "walked {} of {walked} m", record.travelled);
-    assert!(record.mpc_failures.0 * 10 <= record.mpc_failures.1, "{:?}", record.mpc_failures);
+}
+
+/// The horizontal distance from `(x, y)` to the nearest stone's top square, computed here
+/// from the corners (independent of `Stone::distance`).
+fn off_every_stone(stones: &[Stone], x: f64, y: f64) -> f64 {
+    stones
+        .iter()
+        .map(|s| {
+            let (lo, hi) = ([s.top[0] - s.half, s.top[1] - s.half], [s.top[0] + s.half, s.top[1] + s.half]);
+            let dx = (lo[0] - x).max(x - hi[0]).max(0.0);
+            let dy = (lo[1] - y).max(y - hi[1]).max(0.0);
+            (dx * dx + dy * dy).sqrt()
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+#[test]
+fn the_rows_lie_a_fixed_pitch_apart_wherever_the_trots_footholds_fall() {
+    let field = SteppingStones::new(&StoneField { strides: 20, seed: 2, ..StoneField::rows() }).unwrap();
+    let nominal =
+        SteppingStones::new(&StoneField { strides: 20, seed: 2, displacement: [0.0; 3], ..StoneField::rows() })
+            .unwrap();
+    let trot = *field.trot();
+    // The robot starts on four undisplaced stones under its feet.
+    for (stone, home) in field.stones().iter().zip(trot.home) {
+        assert!((stone.top[0] - home[0]).abs() < 1e-12 && (stone.top[1] - home[1]).abs() < 1e-12);
+    }
+    // Undisplaced, each side's stones are evenly spaced from its hind foot's start, the
+    // spacing the requested 0.24 m rounded so the front foot's start is one of them.
+    for left in [true, false] {
+        let mut xs: Vec<f64> = nominal.stones().iter().filter(|s| (s.top[1] > 0.0) == left).map(|s| s.top[0]).collect();
+        xs.sort_by(f64::total_cmp);
+        let gaps: Vec<f64> = xs.windows(2).map(|w| w[1] - w[0]).collect();
+        let pitch = gaps[0];
+        assert!((pitch - 0.24).abs() < 0.05, "pitch {pitch}");
+        assert!(gaps.iter().all(|g| (g - pitch).abs() < 1e-9), "{gaps:?}");
+        // Displaced, within the bounds.
+        for (s, n) in field.stones().iter().zip(nominal.stones()) {
+            for axis in 0..3 {
+                assert!((s.top[axis] - n.top[axis]).abs() <= StoneField::rows().displacement[axis] + 1e-12);
+            }
+        }
+    }
+    // Away from the gait: many of the trot's footholds are off every stone (the planner
+    // must move them), and every one is within half a gap and a displacement of one.
+    let (mut off, mut all) = (0, 0);
+    for period in 2..40 {
+        for foot in 0..4 {
+            let p = trot.foothold_for(foot, (f64::from(period) + 0.5) * trot.swing);
+            let d = off_every_stone(field.stones(), p[0], p[1]);
+            off += usize::from(d > 0.0);
+            all += 1;
+            assert!(d <= 0.5 * (0.24 + 0.04 - 0.14) + 0.03 + 1e-9, "foothold {p:?} is {d} m from every stone");
+        }
+    }
+    assert!(off * 4 >= all, "only {off} of {all} footholds off the stones");
+}
+
+fn count_missteps(field: &SteppingStones, record: &WalkRecord) -> usize {
+    record.landings.iter().filter(|l| off_every_stone(field.stones(), l.position[0], l.position[1]) > 0.0).count()
+}
+
+/// Away from the gait, on three strides of rows: the proposed controller (eq. 25 in the MPC
+/// and eq. 26 in the whole-body QP, on eq. 24's shrinking set) lands every foot on a stone;
+/// the MPC baseline (stance feet constrained, swing feet not) missteps, and both records'
+/// missteps are what the stones themselves say.
+#[test]
+fn away_from_the_gait_the_proposed_controller_makes_no_misstep_and_the_baseline_does() {
+    let field = SteppingStones::new(&StoneField { strides: 3, seed: 1, ..StoneField::rows() }).unwrap();
+    let settings = WalkSettings { barrier: FootholdBarrier::Shrinking, gamma: 20.0, ..WalkSettings::default() };
+    let proposed = walk(&field, Controller::CbfInBoth, &settings).unwrap();
+    let baseline = walk(&field, Controller::Baseline, &settings).unwrap();
+    assert_eq!(proposed.fell, None);
+    assert!(proposed.landings.len() >= 4 * 3, "{} landings", proposed.landings.len());
+    assert_eq!(count_missteps(&field, &proposed), 0, "{:?}", proposed.missteps().collect::<Vec<_>>());
+    assert_eq!(proposed.missteps().count(), 0);
+    let missed = count_missteps(&field, &baseline);
+    assert_eq!(baseline.missteps().count(), missed);
+    assert!(missed >= 1, "the baseline made no misstep away from the gait");
+    eprintln!(
+        "baseline: {missed} missteps of {} landings, mean {:.1} mm",
+        baseline.landings.len(),
+        1e3 * baseline.mean_misstep()
+    );
 }

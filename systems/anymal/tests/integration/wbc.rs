@@ -9,7 +9,7 @@
 use cbfgen::nalgebra::Matrix3;
 use cbfgen_anymal::gait::{footholds_around, standing_on_the_ground, Trot};
 use cbfgen_anymal::plant;
-use cbfgen_anymal::wbc::{WbcOutput, WbcReference, WbcSettings, WholeBodyController, FEET};
+use cbfgen_anymal::wbc::{rotation_vector, WbcOutput, WbcReference, WbcSettings, WholeBodyController, FEET};
 use cbfgen_anymal::wbc_generated::{self as gen, Capacity, Params, NU, NX};
 
 const SIM_DT: f64 = 0.5e-3;
@@ -64,7 +64,7 @@ fn standing_carries_the_robots_weight_equally_and_holds_still() {
     let settings = WbcSettings::default();
     let mut wbc = WholeBodyController::new(Capacity { foot_region: [0; FEET] }, settings).unwrap();
     let reference = WbcReference::standing([x[0], x[1], x[2]], Matrix3::identity());
-    let out = wbc.update(&x, &reference, &no_footholds(), 2.5e-3).unwrap();
+    let out = wbc.update(0.0, &x, &reference, &no_footholds(), 2.5e-3).unwrap();
     check_priority_0(&x, &out, [true; FEET], &settings, 0);
     // The URDF's total mass times g, carried by the four feet (shared as equally as the
     // moment balance lets: the centre of mass is not midway between the feet), with no net
@@ -92,8 +92,9 @@ fn trot(footholds: bool, reach: f64, seconds: f64) -> (f64, f64) {
     let (mut beyond, mut height) = (f64::NEG_INFINITY, 0.0_f64);
     let dt = SIM_DT * STEPS_PER_CYCLE as f64;
     for cycle in 0..(seconds / dt).round() as usize {
-        let reference = gait.reference(cycle as f64 * dt);
-        let out = wbc.update(&x, &reference, &params, dt).unwrap();
+        let t = cycle as f64 * dt;
+        let reference = gait.reference(t);
+        let out = wbc.update(t, &x, &reference, &params, dt).unwrap();
         check_priority_0(&x, &out, reference.stance, &settings, cycle);
         for _ in 0..STEPS_PER_CYCLE {
             let step = plant::accelerations(&x, &out.torques, reference.stance).expect("regular contacts");
@@ -132,8 +133,9 @@ fn a_trot_at_0_3_m_per_s_follows_the_trunk_reference_and_keeps_priority_0() {
     let seconds = 3.0;
     let mut worst = 0.0_f64;
     for cycle in 0..(seconds / dt).round() as usize {
-        let reference = gait.reference(cycle as f64 * dt);
-        let out = wbc.update(&x, &reference, &no_footholds(), dt).unwrap();
+        let t = cycle as f64 * dt;
+        let reference = gait.reference(t);
+        let out = wbc.update(t, &x, &reference, &no_footholds(), dt).unwrap();
         check_priority_0(&x, &out, reference.stance, &settings, cycle);
         for _ in 0..STEPS_PER_CYCLE {
             let step = plant::accelerations(&x, &out.torques, reference.stance).expect("regular contacts");
@@ -149,4 +151,79 @@ fn a_trot_at_0_3_m_per_s_follows_the_trunk_reference_and_keeps_priority_0() {
     // line: it sways (6.6 cm sideways, measured) and the swing feet land where the
     // reference put them, not where balance would (the MPC's job, issue 38).
     assert!(worst <= 0.08, "the trunk strayed {worst} m from its reference");
+}
+
+/// The trunk's orientation error against nalgebra's logarithm on true rotations (all
+/// angles, half turns included), and finite where rounding has put an integrated rotation's
+/// trace above 3 (nalgebra's `acos` is NaN there).
+#[test]
+fn the_rotation_vector_is_the_logarithm_and_finite_past_a_trace_of_3() {
+    use cbfgen::nalgebra::{Rotation3, Vector3};
+    let mut worst = 0.0_f64;
+    for k in 0..2000 {
+        let t = f64::from(k);
+        let axis = Vector3::new((0.37 * t).sin(), (0.91 * t + 1.0).cos(), (0.13 * t).sin() + 0.2).normalize();
+        let angle = std::f64::consts::PI * f64::from(k % 200) / 199.0 * if k % 2 == 0 { 1.0 } else { -1.0 };
+        let r = Rotation3::from_scaled_axis(axis * angle);
+        let ours = rotation_vector(r.matrix());
+        // The same rotation, by an angle of at most a half turn (at a half turn ±axis are
+        // the same, and nalgebra's own axis is unreliable there), and nalgebra's vector
+        // away from it.
+        let back = Rotation3::from_scaled_axis(ours);
+        let mut error = (back.matrix() - r.matrix()).norm() + (ours.norm() - angle.abs()).abs();
+        if angle.abs() < 3.1 {
+            error += (ours - r.scaled_axis()).norm();
+        }
+        worst = worst.max(error);
+    }
+    assert!(worst < 1e-7, "worst {worst}");
+    let mut grown = Matrix3::identity() * (1.0 + 1e-12);
+    grown[(0, 1)] = 1e-10;
+    assert!(grown.trace() > 3.0 && Rotation3::<f64>::from_matrix_unchecked(grown).angle().is_nan());
+    let v = rotation_vector(&grown);
+    assert!(v.iter().all(|e| e.is_finite()) && v.norm() < 1e-9, "{v:?}");
+}
+
+/// Eq. 26 on eq. 24's shrinking set: the whole-body QP's foothold rows for a swing foot,
+/// given the growth's value and derivatives at the cycle's time, are the region's rows
+/// plus the growth in `h`, its rate in `ḣ` and its curvature in `ḧ`, each against a central
+/// difference of the trot's growth in time (the runtime's single source of the shape).
+#[test]
+fn a_shrinking_sets_rows_carry_the_growth_and_its_time_derivatives() {
+    use cbfgen::system::BarrierSet;
+    use cbfgen_anymal::terrain::Patch;
+    use cbfgen_anymal::wbc::{set_foothold, Growth};
+    use cbfgen_anymal::wbc_generated::Barriers;
+
+    let mut x = standing_on_the_ground();
+    for (i, v) in x[24..].iter_mut().enumerate() {
+        *v = 0.05 * ((i as f64) * 0.7).sin(); // moving, so L_f h is not trivially zero
+    }
+    let trot = Trot::from_standing(0.3, 0.08, [0.3, 0.0]);
+    let home = gen::contacts(&x).0;
+    let region =
+        Patch::rectangle([home[0][0] + 0.2, home[0][1], 0.0], [0.07, 0.07], 0.0).unwrap().region(0.02).unwrap();
+    let capacity = Capacity { foot_region: [4; FEET] };
+    let evaluate = |t: f64, growth: Growth| {
+        let mut params = Params::new(capacity).unwrap();
+        set_foothold(&mut params, 0, &region, growth).unwrap();
+        let mut barriers = Barriers::new(capacity).unwrap();
+        barriers.evaluate(t, &x, &params).unwrap();
+        barriers.rows()[..4].iter().map(|r| r.lie).collect::<Vec<_>>()
+    };
+    let margin = 0.25;
+    for t in [0.31, 0.4, 0.5, 0.58] {
+        let growth = trot.shrinking_growth(margin, t);
+        let fixed = evaluate(t, Growth::NONE);
+        let grown = evaluate(t, Growth { derivatives: growth, at: t });
+        let delta = 1e-5;
+        let rate =
+            (trot.shrinking_growth(margin, t + delta)[0] - trot.shrinking_growth(margin, t - delta)[0]) / (2.0 * delta);
+        for (f, g) in fixed.iter().zip(&grown) {
+            assert!((g[0] - f[0] - growth[0]).abs() < 1e-12, "t {t}: h {} vs {} + {}", g[0], f[0], growth[0]);
+            assert!((g[1] - f[1] - rate).abs() < 1e-6, "t {t}: ḣ {} vs {} + {rate}", g[1], f[1]);
+            assert!((g[2] - f[2] - growth[2]).abs() < 1e-9, "t {t}: ḧ {} vs {}", g[2], f[2]);
+        }
+        assert!(growth[0] > 0.0 && rate < 0.0, "a swing foot's set shrinks: {growth:?}");
+    }
 }
