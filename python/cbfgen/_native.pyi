@@ -703,6 +703,7 @@ class StoneWalk:
         threaded: bool = False,
         barrier: str | None = None,
         mpc_stage: float | None = None,
+        whole_body_barrier: str | None = None,
     ) -> None: ...
     def update(self, t: float, x: ArrayLike, feet: ArrayLike, velocities: ArrayLike) -> dict[str, Any]:
         """One 2.5 ms cycle: torques, stance, solved, relaxed, planned, mpc."""

@@ -319,11 +319,12 @@ impl PyStoneWalk {
     /// cycle (the caller then runs in real time), rather than inline every 16th cycle
     /// (deterministic); ``barrier``: the set the CBFs (eqs. 25, 26) keep a swing foot in,
     /// ``"shrinking"`` (eq. 24's set, shrinking onto its landing region at touchdown; the
-    /// default) or ``"region"`` (the landing region itself); ``mpc_stage``: the MPC's
-    /// stage length [s] (``None``: 0.04), its horizon kept at 1 s.
+    /// default) or ``"region"`` (the landing region itself); ``whole_body_barrier``: the
+    /// set of eq. 26's CBF in the whole-body QP (``None``: ``"region"``); ``mpc_stage``:
+    /// the MPC's stage length [s] (``None``: 0.04), its horizon kept at 1 s.
     #[new]
     #[pyo3(signature = (stones, controller = "CBF in QP & MPC", margin = 0.02, gamma = None, threaded = false,
-                        barrier = None, mpc_stage = None))]
+                        barrier = None, mpc_stage = None, whole_body_barrier = None))]
     #[allow(clippy::too_many_arguments)] // Python keywords, each with its default
     fn new(
         stones: &PySteppingStones,
@@ -333,15 +334,20 @@ impl PyStoneWalk {
         threaded: bool,
         barrier: Option<&str>,
         mpc_stage: Option<f64>,
+        whole_body_barrier: Option<&str>,
     ) -> PyResult<Self> {
         let names = Controller::ALL.map(Controller::name);
         let controller = Controller::ALL[super::convert::choice("controller", controller, &names)?];
         let defaults = WalkSettings::default();
-        let barrier = match barrier {
-            Some(name) => [FootholdBarrier::Region, FootholdBarrier::Shrinking]
-                [super::convert::choice("foothold barrier", name, &["region", "shrinking"])?],
-            None => defaults.barrier,
+        let set = |name: Option<&str>, default: FootholdBarrier| -> PyResult<FootholdBarrier> {
+            Ok(match name {
+                Some(name) => [FootholdBarrier::Region, FootholdBarrier::Shrinking]
+                    [super::convert::choice("foothold barrier", name, &["region", "shrinking"])?],
+                None => default,
+            })
         };
+        let barrier = set(barrier, defaults.barrier)?;
+        let whole_body_barrier = set(whole_body_barrier, defaults.whole_body_barrier)?;
         let mut mpc = defaults.mpc;
         if let Some(stage) = mpc_stage {
             cbfgen::error::within("MPC stage [s]", stage, 0.005, 0.5, "[0.005, 0.5]")?;
@@ -349,8 +355,15 @@ impl PyStoneWalk {
             mpc.horizon = (span / stage).round().max(1.0) as usize;
             mpc.dt = stage;
         }
-        let settings =
-            WalkSettings { margin, gamma: gamma.unwrap_or(defaults.gamma), threaded, barrier, mpc, ..defaults };
+        let settings = WalkSettings {
+            margin,
+            gamma: gamma.unwrap_or(defaults.gamma),
+            threaded,
+            barrier,
+            whole_body_barrier,
+            mpc,
+            ..defaults
+        };
         let stones = &stones.inner;
         Ok(Self {
             layers: LayeredController::new(*stones.trot(), stones.terrain().clone(), controller, &settings)?,

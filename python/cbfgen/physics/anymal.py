@@ -264,7 +264,8 @@ class StoneRun:
 
 def walk_stones(stones: anymal.SteppingStones, controller: str = "CBF in QP & MPC", *,
                 keep_every: int = 0, threaded: bool = False, gamma: float | None = None,
-                barrier: str | None = None, mpc_stage: float | None = None) -> StoneRun:
+                barrier: str | None = None, mpc_stage: float | None = None,
+                whole_body_barrier: str | None = None) -> StoneRun:
     """Seed 004's stepping-stone walk (section V) in MuJoCo: ``stones`` as boxes over a
     ground far below, the robot on its starting stones, ``controller`` (one of
     ``cbfgen.anymal.CONTROLLERS``) at 400 Hz until the walk's end. A fall is a body
@@ -277,13 +278,14 @@ def walk_stones(stones: anymal.SteppingStones, controller: str = "CBF in QP & MP
     late as the machine makes them; the record's ``behind_real_time_s`` says how far the
     loop itself fell behind (where it did, the plans were early by as much). ``gamma``
     and ``barrier``: eq. 25's rate and the set the CBFs keep a swing foot in
-    (:class:`cbfgen.anymal.StoneWalk`; ``None``: its defaults), ``mpc_stage`` the MPC's
-    stage length [s]."""
+    (:class:`cbfgen.anymal.StoneWalk`; ``None``: its defaults), ``whole_body_barrier`` the
+    set of the whole-body QP's, ``mpc_stage`` the MPC's stage length [s]."""
     robot = Robot(ground=-STONE_DEPTH, world=stone_geoms(stones.stones))
     x = anymal.standing()
     robot.place(x)
     standing_height = x[2]
-    walk = anymal.StoneWalk(stones, controller, gamma=gamma, threaded=threaded, barrier=barrier, mpc_stage=mpc_stage)
+    walk = anymal.StoneWalk(stones, controller, gamma=gamma, threaded=threaded, barrier=barrier, mpc_stage=mpc_stage,
+                            whole_body_barrier=whole_body_barrier)
     run = StoneRun({}, robot.model)
     cycle = TIMESTEP * STEPS_PER_CYCLE
     body_contact = False

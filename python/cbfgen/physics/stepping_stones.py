@@ -109,8 +109,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--gamma", type=float, default=None,
                         help="eq. 25's rate [1/s]; default 30 (the shrinking set needs at least 20)")
     parser.add_argument("--barrier", choices=("region", "shrinking"), default=None,
-                        help="the set the CBFs keep a swing foot in: eq. 24's set shrinking onto its landing region "
-                             "(default) or the region itself")
+                        help="the set eq. 25's CBF (the MPC's) keeps a swing foot in: eq. 24's set shrinking onto its "
+                             "landing region (default) or the region itself")
+    parser.add_argument("--whole-body-barrier", choices=("region", "shrinking"), default=None,
+                        help="the set of eq. 26's CBF (the whole-body QP's): the region (default) or eq. 24's set")
     parser.add_argument("--layout", choices=("gait", "rows"), default="gait",
                         help="stones under the trot's footholds (default) or in rows away from them")
     parser.add_argument("--pitch", type=float, default=0.24, help="the rows' stone spacing [m]; default 0.24")
@@ -143,7 +145,8 @@ def main(argv: list[str] | None = None) -> int:
                                            size=args.size)
             proposed_first = name == anymal.CONTROLLERS[-1] and seed == 0
             run = walk_stones(stones, name, keep_every=keep if proposed_first else 0, threaded=args.threaded,
-                              gamma=args.gamma, barrier=args.barrier, mpc_stage=args.mpc_stage)
+                              gamma=args.gamma, barrier=args.barrier, mpc_stage=args.mpc_stage,
+                              whole_body_barrier=args.whole_body_barrier)
             record = run.record
             print(f"stepping stones: {name}, field {seed}: {record['steps']} steps, {record['missteps']} missteps, "
                   f"fell {record['fell']}", file=sys.stderr, flush=True)
