@@ -11,7 +11,7 @@ use cbfgen::nalgebra::Matrix3;
 use cbfgen::qp::hierarchy::LevelStatus;
 use cbfgen_anymal::gait::{standing_on_the_ground, Trot};
 use cbfgen_anymal::stones::{SteppingStones, StoneField, StoneLayout};
-use cbfgen_anymal::walk::{Controller, FootholdBarrier, LayeredController, WalkMeter, WalkSettings};
+use cbfgen_anymal::walk::{Controller, FootholdBarrier, LayeredController, WalkMeter, WalkSettings, WholeBodyBarrier};
 use cbfgen_anymal::wbc::{FootReference, WbcReference, WbcSettings, WholeBodyController, FEET};
 use cbfgen_anymal::wbc_generated::{self as gen, Capacity, FootRegionParams, Params, NX};
 
@@ -320,7 +320,8 @@ impl PyStoneWalk {
     /// (deterministic); ``barrier``: the set the CBFs (eqs. 25, 26) keep a swing foot in,
     /// ``"shrinking"`` (eq. 24's set, shrinking onto its landing region at touchdown; the
     /// default) or ``"region"`` (the landing region itself); ``whole_body_barrier``: the
-    /// set of eq. 26's CBF in the whole-body QP (``None``: ``"region"``); ``mpc_stage``:
+    /// set of eq. 26's CBF in the whole-body QP, ``"extent"`` (the shrinking set as it
+    /// stands each cycle; the default), ``"region"`` or ``"shrinking"``; ``mpc_stage``:
     /// the MPC's stage length [s] (``None``: 0.04), its horizon kept at 1 s.
     #[new]
     #[pyo3(signature = (stones, controller = "CBF in QP & MPC", margin = 0.02, gamma = None, threaded = false,
@@ -339,15 +340,16 @@ impl PyStoneWalk {
         let names = Controller::ALL.map(Controller::name);
         let controller = Controller::ALL[super::convert::choice("controller", controller, &names)?];
         let defaults = WalkSettings::default();
-        let set = |name: Option<&str>, default: FootholdBarrier| -> PyResult<FootholdBarrier> {
-            Ok(match name {
-                Some(name) => [FootholdBarrier::Region, FootholdBarrier::Shrinking]
-                    [super::convert::choice("foothold barrier", name, &["region", "shrinking"])?],
-                None => default,
-            })
+        let barrier = match barrier {
+            Some(name) => [FootholdBarrier::Region, FootholdBarrier::Shrinking]
+                [super::convert::choice("foothold barrier", name, &["region", "shrinking"])?],
+            None => defaults.barrier,
         };
-        let barrier = set(barrier, defaults.barrier)?;
-        let whole_body_barrier = set(whole_body_barrier, defaults.whole_body_barrier)?;
+        let whole_body_barrier = match whole_body_barrier {
+            Some(name) => [WholeBodyBarrier::Region, WholeBodyBarrier::ShrinkingExtent, WholeBodyBarrier::Shrinking]
+                [super::convert::choice("whole-body barrier", name, &["region", "extent", "shrinking"])?],
+            None => defaults.whole_body_barrier,
+        };
         let mut mpc = defaults.mpc;
         if let Some(stage) = mpc_stage {
             cbfgen::error::within("MPC stage [s]", stage, 0.005, 0.5, "[0.005, 0.5]")?;

@@ -111,8 +111,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--barrier", choices=("region", "shrinking"), default=None,
                         help="the set eq. 25's CBF (the MPC's) keeps a swing foot in: eq. 24's set shrinking onto its "
                              "landing region (default) or the region itself")
-    parser.add_argument("--whole-body-barrier", choices=("region", "shrinking"), default=None,
-                        help="the set of eq. 26's CBF (the whole-body QP's): the region (default) or eq. 24's set")
+    parser.add_argument("--whole-body-barrier", choices=("extent", "region", "shrinking"), default=None,
+                        help="the set of eq. 26's CBF (the whole-body QP's): eq. 24's set as it stands each cycle "
+                             "(default), the region, or eq. 24's set with its shrinking in the rows")
     parser.add_argument("--layout", choices=("gait", "rows"), default="gait",
                         help="stones under the trot's footholds (default) or in rows away from them")
     parser.add_argument("--pitch", type=float, default=0.24, help="the rows' stone spacing [m]; default 0.24")

@@ -7,8 +7,8 @@
 //! or more beside the 400 Hz controller).
 //!
 //! Courses: by default 10 s of a 0.3 m/s trot on flat ground (250 iterations); with
-//! `stones`, the trot of stepping-stone field 0 (4 strides) with its foothold CBFs
-//! (γ = 5 /s, as in the stepping-stone walks).
+//! `stones`, the trot of stepping-stone field 0 (4 strides) with the proposed controller's
+//! foothold CBFs (eq. 25 on the shrinking set, γ = 30 /s, as in the stepping-stone walks).
 //!
 //! ```sh
 //! cargo run --release -p cbfgen-anymal --example mpc_latency [stones]
@@ -16,10 +16,10 @@
 
 use cbfgen::cpu_time::{median_p99_max, Stopwatch};
 use cbfgen_anymal::gait::Trot;
-use cbfgen_anymal::mpc::{integrate, standing, FootholdConstraint, KinodynamicMpc, MpcSettings, Region};
+use cbfgen_anymal::mpc::{integrate, standing, KinodynamicMpc, MpcSettings, Region};
 use cbfgen_anymal::stones::{SteppingStones, StoneField};
 use cbfgen_anymal::terrain::Footholds;
-use cbfgen_anymal::walk::WalkSettings;
+use cbfgen_anymal::walk::{Controller, WalkSettings};
 
 const STEP: f64 = 2.5e-3;
 const STEPS_PER_ITERATION: usize = 16;
@@ -30,7 +30,7 @@ fn main() -> Result<(), cbfgen::CbfError> {
     let stones = SteppingStones::new(&StoneField { strides: 4, ..StoneField::default() })?;
     let footholds = Footholds::new(stones.terrain().clone(), walk.margin)?;
     let (trot, settings, iterations) = if on_stones {
-        let footholds = FootholdConstraint::Barrier { gamma: walk.gamma };
+        let footholds = Controller::CbfInBoth.mpc_footholds(&walk);
         let iterations = (stones.end() / (STEPS_PER_ITERATION as f64 * STEP)) as usize;
         (*stones.trot(), MpcSettings { footholds, ..walk.mpc }, iterations)
     } else {

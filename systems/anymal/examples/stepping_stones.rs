@@ -3,19 +3,19 @@
 //! cbfgen.physics.stepping_stones`.)
 //!
 //! ```text
-//! cargo run --release -p cbfgen-anymal --example stepping_stones -- [fields] [strides] [controller index] [gamma] [threaded] [region] [wbc-shrinking] [rows]
+//! cargo run --release -p cbfgen-anymal --example stepping_stones -- [fields] [strides] [controller index] [gamma] [threaded] [region] [wbc-region|wbc-shrinking] [rows]
 //! ```
 //!
 //! Defaults: 5 fields (seeds 0..5), 8 strides each, all four controllers (index 0..4 in
 //! Table II's order for one), eq. 25's γ as `WalkSettings::default()`, the MPC inline
 //! (`threaded`: in its own thread, the walk in real time), eq. 25 on eq. 24's shrinking
-//! set (`region`: on the landing region itself, `FootholdBarrier::Region`), eq. 26 on the
-//! region (`wbc-shrinking`: on the shrinking set), the stones under
+//! set (`region`: on the landing region itself, `FootholdBarrier::Region`), eq. 26 on that
+//! set's extent each cycle (`wbc-region`, `wbc-shrinking`: `WholeBodyBarrier`), the stones under
 //! the trot's footholds (`rows`: in rows away from the gait, `StoneField::rows`). A `-` for
 //! the controller index or γ keeps its default.
 
 use cbfgen_anymal::stones::{SteppingStones, StoneField};
-use cbfgen_anymal::walk::{walk, Controller, FootholdBarrier, WalkSettings};
+use cbfgen_anymal::walk::{walk, Controller, FootholdBarrier, WalkSettings, WholeBodyBarrier};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -33,8 +33,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if args.iter().skip(4).any(|a| a == "region") {
         settings.barrier = FootholdBarrier::Region;
     }
+    if args.iter().skip(4).any(|a| a == "wbc-region") {
+        settings.whole_body_barrier = WholeBodyBarrier::Region;
+    }
     if args.iter().skip(4).any(|a| a == "wbc-shrinking") {
-        settings.whole_body_barrier = FootholdBarrier::Shrinking;
+        settings.whole_body_barrier = WholeBodyBarrier::Shrinking;
     }
     let layout = if args.iter().skip(4).any(|a| a == "rows") { StoneField::rows() } else { StoneField::default() };
     println!("| controller | seed | steps | missteps | avg misstep [mm] | worst height [mm] | swing [s] | eq. 24 [s] | eq. 25 [s] | MPC failed | solver iterations (mean) | WBC unsolved | fell | missteps planned |");

@@ -56,7 +56,8 @@ impl Controller {
         }
     }
 
-    fn mpc_footholds(self, settings: &WalkSettings) -> FootholdConstraint {
+    /// The MPC's foothold constraint under `settings` (eq. 25 on its set, with its γ).
+    pub fn mpc_footholds(self, settings: &WalkSettings) -> FootholdConstraint {
         let gamma = settings.gamma;
         match (self, settings.barrier) {
             (Self::CbfInQp, _) => FootholdConstraint::Off,
@@ -83,6 +84,26 @@ pub enum FootholdBarrier {
     Region,
     /// Eq. 24's set: the region grown by `shrinking_margin` at lift-off, shrinking onto it
     /// at touchdown ([`Trot::shrinking_growth`]).
+    Shrinking,
+}
+
+/// The set eq. 26's CBF (in the whole-body QP) keeps a swing foot in. Measured in MuJoCo
+/// (docs/anymal.md): on the region or the shrinking set as a time-varying CBF the proposed
+/// controller fell on the long fields; on the set's extent it walked both with no misstep.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum WholeBodyBarrier {
+    /// The landing region: a foot lifting off outside it (15–25 cm on the stones) makes
+    /// the rows ask an acceleration no foot has, and at priority 0 they take it from the
+    /// trunk.
+    Region,
+    /// Eq. 24's set as it stands each cycle: its growth, not its shrinking, enters the
+    /// rows (`h = d + m(t) − n · c` with `ṁ` taken as 0). The MPC's eq. 25 shrinks it over
+    /// the swing; the whole-body QP keeps each foot within its current extent, and the
+    /// row is the region's at touchdown.
+    ShrinkingExtent,
+    /// Eq. 24's set as a time-varying CBF (`ṁ`, `m̈` in the rows). Its rows (relative
+    /// degree 2, poles at 10 /s) ask a foot at rest near touchdown to be
+    /// `20 · margin / (100 T)` = 17 cm inside a 5 cm region.
     Shrinking,
 }
 
@@ -116,12 +137,8 @@ pub struct WalkSettings {
     /// The set eq. 25's CBF (in the MPC) keeps swing feet in, and on which its violation
     /// is measured.
     pub barrier: FootholdBarrier,
-    /// The set eq. 26's CBF (in the whole-body QP) keeps swing feet in. On the shrinking
-    /// set its rows (relative degree 2, poles at 10 /s) ask a foot at rest near touchdown
-    /// to be `20 · margin / (100 T)` = 17 cm inside a 5 cm region: in MuJoCo the proposed
-    /// controller then missed 7 of 172 landings and fell on a field, against none on the
-    /// region (docs/anymal.md).
-    pub whole_body_barrier: FootholdBarrier,
+    /// The set eq. 26's CBF (in the whole-body QP) keeps swing feet in.
+    pub whole_body_barrier: WholeBodyBarrier,
     /// The MPC in its own thread ([`MpcThread`]), posted every cycle, as the seed runs it;
     /// `false`: inline every `cycles_per_plan`-th cycle, deterministic. Threaded walks on
     /// the plant run in real time ([`walk`] paces them to the wall clock).
@@ -138,8 +155,8 @@ impl WalkSettings {
 impl Default for WalkSettings {
     /// A 2 cm margin; the MPC's and controller's defaults; 2 kHz, 400 Hz, 25 Hz; eq. 25 on
     /// eq. 24's shrinking set, growing the region by 25 cm at lift-off (a stride and a
-    /// margin: a foot lifting off its stone starts inside), γ = 30 /s; eq. 26 on the
-    /// region.
+    /// margin: a foot lifting off its stone starts inside), γ = 30 /s; eq. 26 on that set's
+    /// extent each cycle.
     fn default() -> Self {
         Self {
             margin: 0.02,
@@ -151,7 +168,7 @@ impl Default for WalkSettings {
             gamma: 30.0,
             shrinking_margin: 0.25,
             barrier: FootholdBarrier::Shrinking,
-            whole_body_barrier: FootholdBarrier::Region,
+            whole_body_barrier: WholeBodyBarrier::ShrinkingExtent,
             threaded: false,
         }
     }
@@ -363,12 +380,14 @@ impl LayeredController {
         let regions: [Region; FEET] = std::array::from_fn(|foot| region(foot, t));
         if self.controller.whole_body_footholds() {
             // Eq. 26 on its set: a swing foot's shrinking one closes onto its region.
-            let swinging = Growth { derivatives: trot.shrinking_growth(self.settings.shrinking_margin, t), at: t };
+            let [m, rate, curvature] = trot.shrinking_growth(self.settings.shrinking_margin, t);
+            let swinging = match self.settings.whole_body_barrier {
+                WholeBodyBarrier::Region => Growth::NONE,
+                WholeBodyBarrier::ShrinkingExtent => Growth { derivatives: [m, 0.0, 0.0], at: t },
+                WholeBodyBarrier::Shrinking => Growth { derivatives: [m, rate, curvature], at: t },
+            };
             for (foot, r) in regions.iter().enumerate() {
-                let growth = match self.settings.whole_body_barrier {
-                    FootholdBarrier::Shrinking if !reference.stance[foot] => swinging,
-                    _ => Growth::NONE,
-                };
+                let growth = if reference.stance[foot] { Growth::NONE } else { swinging };
                 set_foothold(&mut self.wbc_footholds, foot, r, growth)?;
             }
         }
