@@ -10,8 +10,10 @@
 //! `stones`, the trot of stepping-stone field 0 (4 strides) with the proposed controller's
 //! foothold CBFs (eq. 25 on the shrinking set, γ = 30 /s, as in the stepping-stone walks).
 //!
+//! `stage=S` sets the MPC's stage length to `S` seconds, its horizon kept at 1 s.
+//!
 //! ```sh
-//! cargo run --release -p cbfgen-anymal --example mpc_latency [stones]
+//! cargo run --release -p cbfgen-anymal --example mpc_latency [stones] [stage=0.02]
 //! ```
 
 use cbfgen::cpu_time::{median_p99_max, Stopwatch};
@@ -29,13 +31,18 @@ fn main() -> Result<(), cbfgen::CbfError> {
     let walk = WalkSettings::default();
     let stones = SteppingStones::new(&StoneField { strides: 4, ..StoneField::default() })?;
     let footholds = Footholds::new(stones.terrain().clone(), walk.margin)?;
-    let (trot, settings, iterations) = if on_stones {
+    let (trot, mut settings, iterations) = if on_stones {
         let footholds = Controller::CbfInBoth.mpc_footholds(&walk);
         let iterations = (stones.end() / (STEPS_PER_ITERATION as f64 * STEP)) as usize;
         (*stones.trot(), MpcSettings { footholds, ..walk.mpc }, iterations)
     } else {
         (Trot::from_standing(0.3, 0.08, [0.3, 0.0]), MpcSettings::default(), 250)
     };
+    if let Some(stage) = std::env::args().find_map(|a| a.strip_prefix("stage=").and_then(|s| s.parse::<f64>().ok())) {
+        let span = settings.dt * settings.horizon as f64;
+        settings.horizon = (span / stage).round() as usize;
+        settings.dt = stage;
+    }
     let region = |foot: usize, time: f64| if on_stones { footholds.region(&trot, foot, time) } else { Region::GROUND };
     let course = if on_stones { "stepping stones, field 0, 4 strides" } else { "flat trot, 10 s" };
     println!("kino-dynamic MPC, {course}, {iterations} iterations each");

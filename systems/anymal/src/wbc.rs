@@ -314,7 +314,7 @@ impl WholeBodyController {
 
     /// One cycle at time `t` \[s\] and state `x` (the
     /// [`wbc_generated`](crate::wbc_generated) layout) towards `reference`, swing feet kept
-    /// in the sets of `footholds` (shrinking ones at `t`, [`Shrinking`]); `dt` \[s\] is the
+    /// in the sets of `footholds` (grown ones at `t`, [`Growth`]); `dt` \[s\] is the
     /// time since the last cycle (for eq. 27's integral).
     ///
     /// # Errors
