@@ -35,10 +35,12 @@
 //!     let (_, distance) = field.terrain().nearest([goal[0], goal[1], 0.0]).unwrap();
 //!     assert!(distance <= 0.021);
 //! }
-//! // The rows: stones a fixed pitch apart, wherever the trot's footholds fall.
-//! let rows = SteppingStones::new(&StoneField { strides: 4, ..StoneField::rows() })?;
-//! let left: Vec<f64> = rows.stones().iter().filter(|s| s.top[1] > 0.0).map(|s| s.top[0]).collect();
-//! assert!(left.len() > 8);
+//! // The rows: stones a fixed pitch apart (here undisplaced), wherever the trot's
+//! // footholds fall.
+//! let rows = SteppingStones::new(&StoneField { strides: 4, displacement: [0.0; 3], ..StoneField::rows() })?;
+//! let mut left: Vec<f64> = rows.stones().iter().filter(|s| s.top[1] > 0.0).map(|s| s.top[0]).collect();
+//! left.sort_by(f64::total_cmp);
+//! assert!(left.len() >= 6 && left.windows(3).all(|w| ((w[2] - w[1]) - (w[1] - w[0])).abs() < 1e-9));
 //! # Ok::<(), cbfgen::CbfError>(())
 //! ```
 
