@@ -410,6 +410,7 @@ impl PyStoneWalk {
     /// ``mean_misstep_m``, ``landings`` (k, 11: time, foot, centre x y z, misstep,
     /// height above the stone, the planned touchdown x y z and its misstep [m]), ``swing_time_s``, ``violated_24_s``,
     /// ``violated_25_s``, ``barriers`` (cycles, 5: time, each foot's smallest h [m]),
+    /// ``barriers_24`` (cycles, 4: the same on eq. 24's shrinking set),
     /// ``mpc_failures``, ``mpc_iterations`` (threaded: of the plans that arrived),
     /// ``mpc_thread_solves`` (threaded: the thread's solves and those without a plan),
     /// ``wbc_unsolved``, ``fell`` (time or ``None``).
@@ -437,6 +438,8 @@ impl PyStoneWalk {
         dict.set_item("violated_25_s", r.violated_25)?;
         let b = &r.barriers;
         dict.set_item("barriers", matrix_from_fn(py, b.len(), 5, |i, j| if j == 0 { b[i].0 } else { b[i].1[j - 1] }))?;
+        let s = &r.shrinking_barriers;
+        dict.set_item("barriers_24", matrix_from_fn(py, s.len(), 4, |i, j| s[i][j]))?;
         dict.set_item("mpc_failures", r.mpc_failures)?;
         dict.set_item("mpc_thread_solves", self.layers.thread_solves())?;
         dict.set_item("mpc_iterations", r.mpc_solver_iterations)?;

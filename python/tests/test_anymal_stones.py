@@ -95,6 +95,12 @@ def test_the_proposed_controller_walks_a_short_field_in_mujoco_without_a_misstep
         # MuJoCo's soft contact lets a sphere sink a little into the stone it lands on.
         assert abs(height) <= 0.01, (time, foot, height)
     assert record["travelled_m"] == pytest.approx(field.distance, abs=0.05)
+    # Eq. 24's barrier values: the region's, raised on swing feet (never lowered), most of
+    # the swing time by a growth of up to 25 cm.
+    barriers, shrinking = np.asarray(record["barriers"]), np.asarray(record["barriers_24"])
+    assert shrinking.shape == (len(barriers), 4)
+    raised = shrinking - barriers[:, 1:]
+    assert np.all(raised >= 0.0) and np.all(raised <= 0.25 + 1e-12) and np.mean(raised > 0.0) > 0.3
 
 
 def test_the_table_command_runs_a_chosen_controller_on_rows_and_refuses_bad_choices(tmp_path):

@@ -83,16 +83,20 @@ def barrier_figure(record: dict, title: str, path: Path) -> None:
     from .. import anymal
 
     barriers = np.asarray(record["barriers"])
+    shrinking = np.asarray(record["barriers_24"]).reshape(-1, 4)
     fig, axes = plt.subplots(4, 1, figsize=(8, 7), sharex=True)
     for foot, ax in enumerate(axes):
         h = np.where(np.isfinite(barriers[:, 1 + foot]), barriers[:, 1 + foot], np.nan)
-        ax.plot(barriers[:, 0], 1e3 * h, lw=1)
+        h24 = np.where(np.isfinite(shrinking[:, foot]), shrinking[:, foot], np.nan)
+        ax.plot(barriers[:, 0], 1e3 * h, lw=0.8, color="0.6", label="on the landing region")
+        ax.plot(barriers[:, 0], 1e3 * h24, lw=1, label="on eq. 24's shrinking set")
         ax.axhline(0.0, color="r", lw=0.8)
         ax.set_ylabel(f"{anymal.LEGS[foot]} h [mm]")
         ax.set_ylim(-200, 80)
+    axes[0].legend(loc="lower right", fontsize=7)
     axes[-1].set_xlabel("t [s]")
-    fig.suptitle(f"{title}: each foot's smallest barrier value on its target region\n"
-                 "(swing: where it lands, so negative at lift-off; stance: where it stands)")
+    fig.suptitle(f"{title}: each foot's smallest barrier value\n"
+                 "(swing: on where it lands, the set closing onto it at touchdown; stance: where it stands)")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)

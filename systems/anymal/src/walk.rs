@@ -225,6 +225,9 @@ pub struct WalkRecord {
     /// Each whole-body cycle's time and each foot's smallest barrier value `h` on its
     /// target region (swing: where it lands; stance: where it stands) \[m\].
     pub barriers: Vec<(f64, [f64; FEET])>,
+    /// The same cycles' smallest `h` on eq. 24's set: a swing foot's region grown by
+    /// [`Trot::shrinking_growth`], a stance foot's as in `barriers` \[m\].
+    pub shrinking_barriers: Vec<[f64; FEET]>,
 }
 
 impl WalkRecord {
@@ -483,6 +486,7 @@ impl WalkMeter {
                 violated_24: 0.0,
                 violated_25: 0.0,
                 barriers: Vec::new(),
+                shrinking_barriers: Vec::new(),
             },
         }
     }
@@ -542,6 +546,9 @@ impl WalkMeter {
         record.violated_24 += if broke_24 { self.dt } else { 0.0 };
         record.violated_25 += if broke_25 { self.dt } else { 0.0 };
         record.barriers.push((t, smallest));
+        record
+            .shrinking_barriers
+            .push(std::array::from_fn(|foot| smallest[foot] + if stance[foot] { 0.0 } else { grow }));
     }
 
     /// Mark a fall at `t` (the first one counts).

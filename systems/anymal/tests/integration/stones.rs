@@ -220,6 +220,21 @@ fn away_from_the_gait_the_proposed_controller_makes_no_misstep_and_the_baseline_
     assert!(proposed.landings.len() >= 4 * 3, "{} landings", proposed.landings.len());
     assert_eq!(count_missteps(&field, &proposed), 0, "{:?}", proposed.missteps().collect::<Vec<_>>());
     assert_eq!(proposed.missteps().count(), 0);
+    // Eq. 24's barrier values are the region's, raised on swing feet by the growth
+    // 0.25 m · (time to touchdown) / T, computed here.
+    let swing = field.trot().swing;
+    let mut raised_cycles = 0;
+    assert_eq!(proposed.barriers.len(), proposed.shrinking_barriers.len());
+    for ((t, h), h24) in proposed.barriers.iter().zip(&proposed.shrinking_barriers) {
+        let growth = settings.shrinking_margin * (swing - t.rem_euclid(swing)) / swing;
+        for foot in 0..4 {
+            let raised = h24[foot] - h[foot];
+            assert!(raised == 0.0 || (raised - growth).abs() < 1e-9, "t {t}, foot {foot}: {raised} vs {growth}");
+            raised_cycles += usize::from(raised > 0.0);
+        }
+    }
+    // Two feet swing at a time after the first still period.
+    assert!(raised_cycles * 3 >= proposed.barriers.len(), "{raised_cycles} of {}", proposed.barriers.len());
     let missed = count_missteps(&field, &baseline);
     assert_eq!(baseline.missteps().count(), missed);
     assert!(missed >= 1, "the baseline made no misstep away from the gait");
