@@ -153,7 +153,8 @@ impl PyWholeBodyController {
     /// reference: ``stance`` (4 bools), the trunk's pose and world twist, each swing foot's
     /// position, velocity and acceleration (shape (4, 3) each, world), and ``forces``
     /// (4, 3) for the stance feet (``None``: the weight shared). ``dt`` [s] since the last
-    /// cycle, ``t`` [s] the time (for shrinking footholds). Returns a dict: ``torques`` (12,), ``wbc_torques``, ``accelerations`` (18,),
+    /// cycle, ``t`` [s] the time (for grown footholds). Returns a dict: ``torques`` (12,),
+    /// ``wbc_torques``, ``accelerations`` (18,),
     /// ``forces`` (4, 3), ``relaxed`` (4,) (each foot's largest CBF slack), ``solved``,
     /// ``residuals`` (3,) and ``status`` (3,) per priority.
     #[pyo3(signature = (x, stance, trunk_position, trunk_rotation, trunk_velocity, trunk_angular_velocity,
@@ -317,9 +318,10 @@ impl PyStoneWalk {
     /// ``margin``: how far inside a stone's edge its region ends [m]; ``gamma``: eq. 25's
     /// rate [1/s] (``None``: 30); ``threaded``: the MPC in its own thread, posted every
     /// cycle (the caller then runs in real time), rather than inline every 16th cycle
-    /// (deterministic); ``barrier``: the set the CBFs (eqs. 25, 26) keep a swing foot in,
-    /// ``"shrinking"`` (eq. 24's set, shrinking onto its landing region at touchdown; the
-    /// default) or ``"region"`` (the landing region itself); ``whole_body_barrier``: the
+    /// (deterministic); ``barrier``: the set eq. 25's CBF (the MPC's) keeps a swing foot
+    /// in, and on which its violation is measured: ``"shrinking"`` (eq. 24's set, shrinking
+    /// onto its landing region at touchdown; the default) or ``"region"`` (the landing
+    /// region itself); ``whole_body_barrier``: the
     /// set of eq. 26's CBF in the whole-body QP, ``"extent"`` (the shrinking set as it
     /// stands each cycle; the default), ``"region"`` or ``"shrinking"``; ``mpc_stage``:
     /// the MPC's stage length [s] (``None``: 0.04), its horizon kept at 1 s.
@@ -350,13 +352,10 @@ impl PyStoneWalk {
                 [super::convert::choice("whole-body barrier", name, &["region", "extent", "shrinking"])?],
             None => defaults.whole_body_barrier,
         };
-        let mut mpc = defaults.mpc;
-        if let Some(stage) = mpc_stage {
-            cbfgen::error::within("MPC stage [s]", stage, 0.005, 0.5, "[0.005, 0.5]")?;
-            let span = mpc.dt * mpc.horizon as f64;
-            mpc.horizon = (span / stage).round().max(1.0) as usize;
-            mpc.dt = stage;
-        }
+        let mpc = match mpc_stage {
+            Some(stage) => defaults.mpc.with_stage(stage)?,
+            None => defaults.mpc,
+        };
         let settings = WalkSettings {
             margin,
             gamma: gamma.unwrap_or(defaults.gamma),
@@ -408,7 +407,8 @@ impl PyStoneWalk {
 
     /// Table II's measurements so far, a dict: ``steps``, ``missteps``,
     /// ``mean_misstep_m``, ``landings`` (k, 11: time, foot, centre x y z, misstep,
-    /// height above the stone, the planned touchdown x y z and its misstep [m]), ``swing_time_s``, ``violated_24_s``,
+    /// height above the stone, the planned touchdown x y z and its misstep [m]),
+    /// ``swing_time_s``, ``violated_24_s``,
     /// ``violated_25_s``, ``barriers`` (cycles, 5: time, each foot's smallest h [m]),
     /// ``barriers_24`` (cycles, 4: the same on eq. 24's shrinking set),
     /// ``mpc_failures``, ``mpc_iterations`` (threaded: of the plans that arrived),

@@ -121,5 +121,6 @@ def test_the_table_command_runs_a_chosen_controller_on_rows_and_refuses_bad_choi
     table = (out / "table2.md").read_text()
     assert "in rows" in table and f"| missteps | {record['missteps']} (1) |" in table
     assert (out / "fig6_cbf_in_qp_and_mpc.png").exists() and not (out / "fig5_cbf_in_mpc.png").exists()
-    with pytest.raises(SystemExit):
-        stepping_stones.main(["--controllers", "4", "--no-video", "--out", str(out)])
+    for bad in ("4", "12", "0,,1", "x"):
+        with pytest.raises(SystemExit):
+            stepping_stones.main(["--controllers", bad, "--no-video", "--out", str(out)])

@@ -277,9 +277,9 @@ def walk_stones(stones: anymal.SteppingStones, controller: str = "CBF in QP & MP
     the MPC in its own thread and the loop no faster than real time, so that plans are as
     late as the machine makes them; the record's ``behind_real_time_s`` says how far the
     loop itself fell behind (where it did, the plans were early by as much). ``gamma``
-    and ``barrier``: eq. 25's rate and the set the CBFs keep a swing foot in
-    (:class:`cbfgen.anymal.StoneWalk`; ``None``: its defaults), ``whole_body_barrier`` the
-    set of the whole-body QP's, ``mpc_stage`` the MPC's stage length [s]."""
+    and ``barrier``: eq. 25's rate and the set its CBF (the MPC's) keeps a swing foot in,
+    ``whole_body_barrier`` the set of eq. 26's (the whole-body QP's), ``mpc_stage`` the
+    MPC's stage length [s] (:class:`cbfgen.anymal.StoneWalk`; ``None``: its defaults)."""
     robot = Robot(ground=-STONE_DEPTH, world=stone_geoms(stones.stones))
     x = anymal.standing()
     robot.place(x)

@@ -102,6 +102,17 @@ def barrier_figure(record: dict, title: str, path: Path) -> None:
     plt.close(fig)
 
 
+def _indices(text: str) -> list[int]:
+    """``--controllers``: indices into Table II's four controllers, e.g. ``0,3``."""
+    try:
+        indices = [int(k) for k in text.split(",")]
+    except ValueError:
+        indices = []
+    if not indices or any(k not in range(4) for k in indices):
+        raise argparse.ArgumentTypeError(f"{text!r}: indices 0-3 separated by commas")
+    return indices
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m cbfgen.physics.stepping_stones", description=__doc__)
     parser.add_argument("--fields", type=int, default=5, help="stone fields (seeds 0..N-1); default 5")
@@ -124,13 +135,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--size", type=float, default=0.14, help="the stones' side [m]; default 0.14")
     parser.add_argument("--mpc-stage", type=float, default=None,
                         help="the MPC's stage length [s], its horizon kept at 1 s; default 0.04")
-    parser.add_argument("--controllers", default=None,
+    parser.add_argument("--controllers", type=_indices, default=None,
                         help="comma-separated indices into Table II's order (0-3); default all four")
     args = parser.parse_args(argv)
     if args.fields < 1 or args.strides < 1:
         parser.error("--fields and --strides must be at least 1")
-    if args.controllers is not None and not all(k in "0123" and k for k in args.controllers.split(",")):
-        parser.error("--controllers takes indices 0-3 separated by commas")
 
     if not args.no_video:
         # Chooses MuJoCo's OpenGL back end, so it comes before anything imports mujoco.
@@ -140,8 +149,7 @@ def main(argv: list[str] | None = None) -> int:
 
     keep = 0 if args.no_video else int(round(FRAME_PERIOD / (TIMESTEP * STEPS_PER_CYCLE)))
     args.out.mkdir(parents=True, exist_ok=True)
-    chosen = anymal.CONTROLLERS if args.controllers is None else [
-        anymal.CONTROLLERS[int(k)] for k in args.controllers.split(",")]
+    chosen = anymal.CONTROLLERS if args.controllers is None else [anymal.CONTROLLERS[k] for k in args.controllers]
     runs: dict[str, list[dict]] = {name: [] for name in chosen}
     video = None
     for name in chosen:

@@ -39,9 +39,7 @@ fn main() -> Result<(), cbfgen::CbfError> {
         (Trot::from_standing(0.3, 0.08, [0.3, 0.0]), MpcSettings::default(), 250)
     };
     if let Some(stage) = std::env::args().find_map(|a| a.strip_prefix("stage=").and_then(|s| s.parse::<f64>().ok())) {
-        let span = settings.dt * settings.horizon as f64;
-        settings.horizon = (span / stage).round() as usize;
-        settings.dt = stage;
+        settings = settings.with_stage(stage)?;
     }
     let region = |foot: usize, time: f64| if on_stones { footholds.region(&trot, foot, time) } else { Region::GROUND };
     let course = if on_stones { "stepping stones, field 0, 4 strides" } else { "flat trot, 10 s" };

@@ -189,7 +189,7 @@ impl Trot {
 
 /// A swing's share of its way at phase `s` ∈ [0, 1] of a swing of `period` \[s\], with its
 /// first two time derivatives: `g(s) = s − sin(2πs)/2π`, which leaves and lands still.
-pub fn travel(s: f64, period: f64) -> [f64; 3] {
+fn travel(s: f64, period: f64) -> [f64; 3] {
     let angle = std::f64::consts::TAU * s;
     let w = std::f64::consts::TAU / period;
     [s - angle.sin() / std::f64::consts::TAU, (1.0 - angle.cos()) / period, w * angle.sin() / period]

@@ -251,6 +251,17 @@ impl MpcSettings {
     pub fn with_admm(self) -> Self {
         Self { method: OcpMethod::Admm, solver: Self::ADMM, ..self }
     }
+
+    /// These settings with stages `stage` seconds long and as many as keep the horizon's
+    /// span (rounded to whole stages, at least one).
+    ///
+    /// # Errors
+    /// A stage outside `[0.005, 0.5]` s.
+    pub fn with_stage(self, stage: f64) -> Result<Self, CbfError> {
+        within("MPC stage [s]", stage, 0.005, 0.5, "[0.005, 0.5]")?;
+        let span = self.dt * self.horizon as f64;
+        Ok(Self { horizon: (span / stage).round().max(1.0) as usize, dt: stage, ..self })
+    }
 }
 
 /// What one iteration did.

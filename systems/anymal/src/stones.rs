@@ -240,23 +240,28 @@ impl SteppingStones {
 /// at the middle of each swing period, until two strides after the trunk stops), those
 /// within [`MERGE`] merged into their mean; the four starting footholds first.
 fn under_the_gait(trot: &Trot, strides: usize) -> Vec<[f64; 3]> {
-    let periods = 2 * strides + 6;
     let mut footholds: Vec<([f64; 3], usize)> = Vec::new();
-    for period in 0..periods {
-        for foot in 0..FEET {
-            let p = trot.foothold_for(foot, (period as f64 + 0.5) * trot.swing);
-            match footholds.iter_mut().find(|(q, _)| (p[0] - q[0]).hypot(p[1] - q[1]) <= MERGE) {
-                // A running mean: the stone's centre between the footholds it carries.
-                Some((q, n)) => {
-                    let m = *n as f64;
-                    *q = std::array::from_fn(|i| (q[i] * m + p[i]) / (m + 1.0));
-                    *n += 1;
-                }
-                None => footholds.push((p, 1)),
+    for (_, p) in asked_footholds(trot, strides) {
+        match footholds.iter_mut().find(|(q, _)| (p[0] - q[0]).hypot(p[1] - q[1]) <= MERGE) {
+            // A running mean: the stone's centre between the footholds it carries.
+            Some((q, n)) => {
+                let m = *n as f64;
+                *q = std::array::from_fn(|i| (q[i] * m + p[i]) / (m + 1.0));
+                *n += 1;
             }
+            None => footholds.push((p, 1)),
         }
     }
     footholds.into_iter().map(|(p, _)| p).collect()
+}
+
+/// Each foot and the foothold the trot asks of it, in the order the feet reach them: the
+/// stance under way at the middle of each swing period, until two strides after the trunk
+/// stops.
+fn asked_footholds(trot: &Trot, strides: usize) -> impl Iterator<Item = (usize, [f64; 3])> + '_ {
+    (0..2 * strides + 6).flat_map(move |period| {
+        (0..FEET).map(move |foot| (foot, trot.foothold_for(foot, (period as f64 + 0.5) * trot.swing)))
+    })
 }
 
 /// Each side's row of footholds from its hind foot's start, a rounded `pitch` apart, to a
@@ -264,14 +269,13 @@ fn under_the_gait(trot: &Trot, strides: usize) -> Vec<[f64; 3]> {
 /// starting footholds first (in `LEGS` order), then the rest, left row first.
 fn in_rows(trot: &Trot, field: &StoneField, pitch: f64) -> Result<Vec<[f64; 3]>, CbfError> {
     within("stone pitch [m]", pitch, field.size, 1.0, "[size, 1]")?;
-    let periods = 2 * field.strides + 6;
     let mut nominal: Vec<[f64; 3]> = trot.home.to_vec();
     // LEGS order LF RF LH RH: each side's front foot and the hind foot behind it.
     for (front, hind) in [(0, 2), (1, 3)] {
         let (f, h) = (trot.home[front], trot.home[hind]);
         let span = f[0] - h[0];
-        let pitches = (span / pitch).round().max(1.0);
-        let step = span / pitches;
+        let pitches = (span / pitch).round().max(1.0) as usize;
+        let step = span / pitches as f64;
         let gap = step - field.size - 2.0 * field.displacement[0];
         if gap < 0.01 {
             return Err(CbfError::OutOfRange {
@@ -280,18 +284,15 @@ fn in_rows(trot: &Trot, field: &StoneField, pitch: f64) -> Result<Vec<[f64; 3]>,
                 range: "at least size + 2 × displacement along + 1 cm",
             });
         }
-        let last = (0..periods)
-            .flat_map(|period| [front, hind].map(|foot| trot.foothold_for(foot, (period as f64 + 0.5) * trot.swing)[0]))
+        let last = asked_footholds(trot, field.strides)
+            .filter(|(foot, _)| *foot == front || *foot == hind)
+            .map(|(_, p)| p[0])
             .fold(f64::NEG_INFINITY, f64::max);
         let y = 0.5 * (f[1] + h[1]);
-        let mut k = 1.0;
-        while h[0] + k * step <= last + step {
-            // The front foot's starting stone is already in (undisplaced).
-            if k != pitches {
-                nominal.push([h[0] + k * step, y, h[2]]);
-            }
-            k += 1.0;
-        }
+        // To a pitch past the last foothold; the front foot's starting stone (the
+        // `pitches`-th) is already in, undisplaced.
+        let count = ((last - h[0]) / step).floor() as usize + 1;
+        nominal.extend((1..=count).filter(|&k| k != pitches).map(|k| [h[0] + k as f64 * step, y, h[2]]));
     }
     Ok(nominal)
 }
