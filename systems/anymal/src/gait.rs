@@ -90,19 +90,22 @@ impl Trot {
     }
 
     /// Eq. 24's growth of a swing foot's region at `t` and its first two time derivatives,
-    /// `[m, m', m'']` with `m = margin · τ / T` for `τ` the time to touchdown and `T` the
-    /// swing time: `margin` at lift-off, zero at touchdown, at the constant rate
-    /// `m' = −margin / T`. For the rows and measurements of a swing foot (a stance foot's
-    /// region is not grown).
+    /// `[m, m', m'']`, shrinking with the swing's travel: `m = margin · (1 − g(s))` for `s`
+    /// the swing's phase and `g` its share of the way ([`Swing::travel`]): `margin` at
+    /// lift-off, zero at touchdown, still at both. For the rows and measurements of a swing
+    /// foot (a stance foot's region is not grown).
     ///
-    /// Eq. 25 on this set asks a foot lifting off at rest no speed while it is
-    /// `margin / (γ T)` inside the grown set, and a landing foot at rest to be that far
-    /// inside its region (4 cm of a 5 cm region at γ = 20 /s, T = 0.3 s, margin 0.25 m);
-    /// the shapes that shrink slower at touchdown (quadratic in `τ`, or following the
-    /// swing's travel profile) must shrink faster in mid-swing, where the feet lagged the
-    /// set instead: on the rigid plant they broke eq. 25 1.4–3× as long (docs/anymal.md).
+    /// The MPC aims a swing foot along the gait's curve, which moves by `g`
+    /// ([`MpcWeights::swing_joints`](crate::mpc::MpcWeights::swing_joints)), so a foot on
+    /// its aim keeps its margin to this set all through the swing. A linear shrink
+    /// (`margin · τ / T`) runs ahead of the aim while `g(s) < s`, in the first half: the
+    /// rows then fought the aim and the plans rolled the trunk to meet both (on the rigid
+    /// plant "CBF in MPC" diverged on both long fields), and at touchdown it asked a foot
+    /// at rest to be `margin / (γ T)` inside its region (docs/anymal.md).
     pub fn shrinking_growth(&self, margin: f64, t: f64) -> [f64; 3] {
-        [margin * self.time_to_touchdown(t) / self.swing, -margin / self.swing, 0.0]
+        let s = 1.0 - self.time_to_touchdown(t) / self.swing;
+        let [g, dg, ddg] = travel(s, self.swing);
+        [margin * (1.0 - g), -margin * dg, -margin * ddg]
     }
 
     /// Where the gait puts foot `foot` (`LEGS` order) for the stance it is in at `t`, or,

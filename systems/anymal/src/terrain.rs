@@ -186,15 +186,26 @@ impl Patch {
                 range: "below the patch's inradius",
             });
         }
-        Ok(Region { sides, count, normal: self.normal, surface: dot(&self.normal, &self.vertices[0]) })
+        Ok(Region {
+            sides,
+            count,
+            normal: self.normal,
+            surface: dot(&self.normal, &self.vertices[0]),
+            centre: Some(self.centroid()),
+        })
     }
 
     /// The radius of the largest circle inside the patch (a lower bound from its
     /// centroid, exact for a rectangle) \[m\].
     fn inradius(&self) -> f64 {
-        let n = self.vertices.len() as f64;
-        let centroid: [f64; 3] = std::array::from_fn(|i| self.vertices.iter().map(|v| v[i]).sum::<f64>() / n);
+        let centroid = self.centroid();
         self.edges().map(|(e, d)| d - dot(&e, &centroid)).fold(f64::INFINITY, f64::min)
+    }
+
+    /// The mean of the vertices.
+    fn centroid(&self) -> [f64; 3] {
+        let n = self.vertices.len() as f64;
+        std::array::from_fn(|i| self.vertices.iter().map(|v| v[i]).sum::<f64>() / n)
     }
 }
 

@@ -88,8 +88,10 @@ pub enum FootholdBarrier {
 }
 
 /// The set eq. 26's CBF (in the whole-body QP) keeps a swing foot in. Measured in MuJoCo
-/// (docs/anymal.md): on the region or the shrinking set as a time-varying CBF the proposed
-/// controller fell on the long fields; on the set's extent it walked both with no misstep.
+/// (docs/anymal.md): on the set's extent the proposed controller broke eq. 25 for the least
+/// time (on the region 3.6×, as a time-varying CBF 8× as long, with a misstep); before
+/// the MPC aimed its swing feet at their regions it fell on the long fields with the other
+/// two.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum WholeBodyBarrier {
     /// The landing region: a foot lifting off outside it (15–25 cm on the stones) makes
@@ -102,8 +104,9 @@ pub enum WholeBodyBarrier {
     /// row is the region's at touchdown.
     ShrinkingExtent,
     /// Eq. 24's set as a time-varying CBF (`ṁ`, `m̈` in the rows). Its rows (relative
-    /// degree 2, poles at 10 /s) ask a foot at rest near touchdown to be
-    /// `20 · margin / (100 T)` = 17 cm inside a 5 cm region.
+    /// degree 2, poles at 10 /s) take the set's shrinking twice: a foot at rest is asked
+    /// to be `−(m̈ + 20 ṁ) / 100 − m` inside its region, up to 23 cm (in a 5 cm region)
+    /// just before mid-swing.
     Shrinking,
 }
 
@@ -126,10 +129,12 @@ pub struct WalkSettings {
     /// measurement of its violation. On the fixed region a swing foot lifting off its
     /// stone a stride (20 cm) behind its next region is asked for `γ · 0.15 m/s` at once:
     /// at 20 /s one MPC iteration in eight found no plan, at 5 /s none. On the shrinking
-    /// set ([`FootholdBarrier::Shrinking`]) a foot at rest is asked to be
-    /// `shrinking_margin / (γ T)` inside it, which needs γ ≥ 20 /s (at 5 /s 17 cm: no
-    /// plan); 30 /s broke eq. 25 for the least time with at most 2 MPC iterations in 150
-    /// without a plan (40 /s: less time, 9 in 150; docs/anymal.md).
+    /// set ([`FootholdBarrier::Shrinking`]) a swing foot at rest in its region is asked
+    /// to be up to `max_s shrinking_margin · (g'(s)/γ − 1 + g(s))` inside it (the set
+    /// shrinks fastest in mid-swing): 7.7 cm at 10 /s, more than the stones' 5 cm
+    /// half-width (no MPC iteration found a plan), 1.9 cm at 20 /s, 0.7 cm at 30 /s. A
+    /// larger γ also loosens the measurement itself, so 30 /s, chosen before, stays
+    /// (docs/anymal.md has 20 and 40).
     pub gamma: f64,
     /// Eq. 24's growth of a swing foot's region at lift-off \[m\]: for its measurement and
     /// the shrinking set's CBFs.

@@ -9,8 +9,12 @@
 // Index loops mirror the formulas.
 #![allow(clippy::needless_range_loop)]
 
+use cbfgen_anymal::gait::standing_on_the_ground;
 use cbfgen_anymal::gait::Trot;
-use cbfgen_anymal::mpc::{integrate, standing, FootholdConstraint, KinodynamicMpc, MpcSettings, Region, FEET};
+use cbfgen_anymal::mpc::{
+    aimed_joints, integrate, standing, state_from_whole_body, FootholdConstraint, KinodynamicMpc, MpcSettings,
+    MpcWeights, Region, FEET,
+};
 use cbfgen_anymal::mpc_generated as gen;
 use cbfgen_anymal::terrain::{Footholds, Patch, Terrain};
 
@@ -105,19 +109,19 @@ fn shifted_squares(trot: &Trot, half: f64, shift: f64) -> Footholds {
 
 /// Where each foot lands, at each touchdown: the worst margin inside its region [m].
 fn worst_landing(constraint: FootholdConstraint) -> f64 {
-    landings_and_rows(constraint).0
+    landings_and_rows(MpcSettings { footholds: constraint, ..MpcSettings::default() }).0
 }
 
 /// [`worst_landing`], and the most negative `h' + γ h` of eq. 25 on the shrinking set (for
 /// `ShrinkingBarrier`; +inf otherwise) on every plan's swing feet, recomputed from the
 /// plan's states and inputs through the nonlinear kernels and the gait's growth, stage by
 /// stage up to `ROW_STAGES`.
-fn landings_and_rows(constraint: FootholdConstraint) -> (f64, f64) {
+fn landings_and_rows(settings: MpcSettings) -> (f64, f64) {
     const ROW_STAGES: usize = 5;
+    let constraint = settings.footholds;
     let mut x = standing();
     let trot = Trot::from_standing(0.3, 0.08, [0.3, 0.0]);
     let footholds = shifted_squares(&trot, 0.03, 0.05);
-    let settings = MpcSettings { footholds: constraint, ..MpcSettings::default() };
     let mut mpc = KinodynamicMpc::new(settings).unwrap();
     let region = |foot: usize, t: f64| footholds.region(&trot, foot, t);
     let per_solve = (MPC_PERIOD / SIM_DT).round() as usize;
@@ -207,16 +211,85 @@ fn the_shrinking_set_holds_the_foot_at_lift_off_is_the_region_at_touchdown_and_s
 }
 
 #[test]
-fn eq_25_on_the_shrinking_set_steers_the_feet_later_than_on_the_region_and_the_plans_meet_its_rows() {
-    let (landing, row) = landings_and_rows(FootholdConstraint::ShrinkingBarrier { gamma: 20.0, margin: 0.25 });
-    eprintln!("eq. 25 on the shrinking set: worst landing margin {landing:.4} m, worst h' + γh {row:.4} m/s");
-    // Measured 2026-12-06: −14 mm, against +1.7 mm for eq. 25 on the region itself. The
-    // set lets the foot stay outside its region until the last 40 ms stage, and the
-    // executed foot misses what the last nodes plan. Evidence for issue 61, not a target.
+fn eq_25_on_the_shrinking_set_lands_the_feet_inside_and_the_plans_meet_its_rows() {
+    let shrinking = FootholdConstraint::ShrinkingBarrier { gamma: 20.0, margin: 0.25 };
+    let (landing, row) = landings_and_rows(MpcSettings { footholds: shrinking, ..MpcSettings::default() });
     let region = worst_landing(FootholdConstraint::Barrier { gamma: 20.0 });
-    let off = worst_landing(FootholdConstraint::Off);
-    assert!(landing > off && landing < region, "shrinking {landing}, region {region}, no rows {off}");
+    eprintln!("eq. 25 on the shrinking set: worst landing margin {landing:.4} m (on the region {region:.4} m), worst h' + γh {row:.4} m/s");
+    // Measured 2026-12-07: 10 mm inside (on the region 0.9 mm). Before the swing legs
+    // were aimed at their regions' centres and the set shrank with the swing's travel
+    // (issue 61), it let a foot stay outside until the last 40 ms stage, and it landed
+    // 14 mm outside.
+    assert!(landing > 0.005, "a foot landed {landing} m inside (negative: outside) its region");
     // Each plan meets its linearised rows; on the nonlinear kernels within the
     // linearisation's error.
     assert!(row >= -0.05, "a plan's swing foot broke h' + γh >= 0 by {row} m/s");
+}
+
+#[test]
+fn a_flat_region_is_aimed_at_the_centre_of_the_largest_circle_it_holds() {
+    let close = |a: [f64; 3], b: [f64; 3]| (0..3).all(|i| (a[i] - b[i]).abs() < 1e-12);
+    // A 0.4 m × 0.1 m rectangle from x = −0.1: its centre.
+    let rectangle = Region::flat(&[
+        ([1.0, 0.0, 0.0], 0.3),
+        ([-1.0, 0.0, 0.0], 0.1),
+        ([0.0, 1.0, 0.0], 0.05),
+        ([0.0, -1.0, 0.0], 0.05),
+    ])
+    .unwrap();
+    assert!(close(rectangle.centre.unwrap(), [0.1, 0.0, 0.0]), "{:?}", rectangle.centre);
+    // The right triangle of legs 4 (x) and 3 (y): its incircle has radius (3 + 4 − 5) / 2
+    // = 1 and centre (1, 1); the hypotenuse's normal is not normalised.
+    let triangle = Region::flat(&[([-1.0, 0.0, 0.0], 0.0), ([0.0, -1.0, 0.0], 0.0), ([3.0, 4.0, 0.0], 12.0)]).unwrap();
+    assert!(close(triangle.centre.unwrap(), [1.0, 1.0, 0.0]), "{:?}", triangle.centre);
+    // A strip (two sides) and the open ground have no centre.
+    assert_eq!(Region::flat(&[([1.0, 0.0, 0.0], 0.1), ([-1.0, 0.0, 0.0], 0.1)]).unwrap().centre, None);
+    assert_eq!(Region::GROUND.centre, None);
+}
+
+#[test]
+fn aimed_joints_put_the_feet_where_the_whole_body_model_puts_them() {
+    use cbfgen_anymal::wbc_generated as wbc_gen;
+    let standing_body = standing_on_the_ground();
+    let x = state_from_whole_body(&standing_body);
+    // Aims the whole-body model's kinematics reaches: each joint moved by up to 0.2 rad.
+    let mut moved = standing_body;
+    for j in 0..12 {
+        moved[12 + j] += 0.2 * (1.7 * j as f64 + 0.3).sin();
+    }
+    let mut aims = wbc_gen::contacts(&moved).0.map(Some);
+    // The first foot aimed 2 m away: out of reach, it keeps standing; the second not aimed.
+    aims[0] = aims[0].map(|[x, y, z]| [x + 2.0, y, z]);
+    let second = aims[1].take().unwrap();
+    let joints = aimed_joints(&x, &aims);
+    let mut solved = standing_body;
+    solved[12..24].copy_from_slice(&joints);
+    let feet = wbc_gen::contacts(&solved).0;
+    for foot in 2..FEET {
+        let aim = aims[foot].unwrap();
+        let miss = (0..3).map(|i| (feet[foot][i] - aim[i]).powi(2)).sum::<f64>().sqrt();
+        assert!(miss < 2e-5, "foot {foot} is {miss} m from its aim");
+    }
+    assert_eq!(joints[..6], standing_body[12..18], "the unreachable or unaimed legs moved");
+    // Aimed, the second leg reaches its aim too.
+    aims[1] = Some(second);
+    let mut solved = standing_body;
+    solved[12..24].copy_from_slice(&aimed_joints(&x, &aims));
+    let miss = (0..3).map(|i| (wbc_gen::contacts(&solved).0[1][i] - second[i]).powi(2)).sum::<f64>().sqrt();
+    assert!(miss < 2e-5, "foot 1 is {miss} m from its aim");
+}
+
+#[test]
+fn swing_legs_drawn_to_their_aims_land_the_feet_deep_in_their_regions() {
+    // Squares of 3 cm half-width 5 cm to the side of the gait's footholds: aimed at their
+    // centres, the feet land well inside; with the swing legs weighted as the stance legs
+    // (drawn to standing), the rows alone hold them, nearer the edge.
+    let shrinking = FootholdConstraint::ShrinkingBarrier { gamma: 20.0, margin: 0.25 };
+    let aimed = landings_and_rows(MpcSettings { footholds: shrinking, ..MpcSettings::default() }).0;
+    let weights = MpcWeights { swing_joints: MpcWeights::default().joints, ..MpcWeights::default() };
+    let loose = landings_and_rows(MpcSettings { footholds: shrinking, weights, ..MpcSettings::default() }).0;
+    eprintln!("worst landing margin: aimed {aimed:.4} m, not aimed {loose:.4} m");
+    // Measured 2026-12-07: 10 mm inside, against 3 mm not aimed.
+    assert!(aimed > 0.007, "aimed at a 3 cm square's centre, a foot landed {aimed} m inside");
+    assert!(aimed > loose + 0.004, "aimed {aimed} m, not aimed {loose} m");
 }

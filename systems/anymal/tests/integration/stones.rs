@@ -221,12 +221,15 @@ fn away_from_the_gait_the_proposed_controller_makes_no_misstep_and_the_baseline_
     assert_eq!(count_missteps(&field, &proposed), 0, "{:?}", proposed.missteps().collect::<Vec<_>>());
     assert_eq!(proposed.missteps().count(), 0);
     // Eq. 24's barrier values are the region's, raised on swing feet by the growth
-    // 0.25 m · (time to touchdown) / T, computed here.
+    // 0.25 m · (1 − g(s)) with g(s) = s − sin(2πs)/2π the swing's travel at its phase s,
+    // computed here.
     let swing = field.trot().swing;
     let mut raised_cycles = 0;
     assert_eq!(proposed.barriers.len(), proposed.shrinking_barriers.len());
     for ((t, h), h24) in proposed.barriers.iter().zip(&proposed.shrinking_barriers) {
-        let growth = settings.shrinking_margin * (swing - t.rem_euclid(swing)) / swing;
+        let phase = t.rem_euclid(swing) / swing;
+        let travelled = phase - (std::f64::consts::TAU * phase).sin() / std::f64::consts::TAU;
+        let growth = settings.shrinking_margin * (1.0 - travelled);
         for foot in 0..4 {
             let raised = h24[foot] - h[foot];
             assert!(raised == 0.0 || (raised - growth).abs() < 1e-9, "t {t}, foot {foot}: {raised} vs {growth}");
