@@ -32,7 +32,8 @@ pub struct SolverSettings {
     /// up, 1 ..= [`SolverSettings::MAX_ITERATIONS`] (the drops on the way are bounded by
     /// the inputs and not counted). Under [`Solver::DenseThenOsqp`] OSQP then runs; under
     /// [`Solver::Dense`] the point reached is handed back, flagged, and the next cycle's
-    /// solve continues from it.
+    /// first stage continues from it (the cascade of relaxations starts from nothing at
+    /// every cycle: see [`crate::qp::lexicographic`]).
     pub dense_max_steps: u32,
     /// OSQP's absolute tolerance, in the scaled problem's units (\[m/s²\] for an input of
     /// weight 1); within [`SolverSettings::MIN_TOLERANCE`] ..=

@@ -243,3 +243,10 @@ pub fn check_answer<const NU: usize>(
     }
     Ok(relaxed)
 }
+
+/// How far `other` is from `reference`, in units of the inputs' scale
+/// `1 + max_j |reference_j|`: the largest difference of one input.
+pub fn gap_in_scale<const NU: usize>(reference: &[f64; NU], other: &[f64; NU]) -> f64 {
+    let scale = 1.0 + reference.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    (0..NU).map(|j| (reference[j] - other[j]).abs()).fold(0.0, f64::max) / scale
+}

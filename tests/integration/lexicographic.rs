@@ -8,7 +8,7 @@ use cbfgen_testkit::boxes as common;
 use cbfgen_testkit::lexicographic_reference;
 
 use cbfgen::qp::lexicographic::{Cause, LexicographicSolver, Limit, Outcome, TieredRow};
-use lexicographic_reference::check_answer;
+use lexicographic_reference::{check_answer, gap_in_scale};
 use rand::Rng;
 
 const STEPS: u32 = 200;
@@ -260,4 +260,61 @@ fn bad_data_is_an_error_or_non_finite_and_never_a_panic() {
     assert_eq!(outcome, Outcome::NonFinite);
     assert!(LexicographicSolver::<1>::new(1, &[0.0], &[-1.0], &[1.0]).is_err());
     assert!(LexicographicSolver::<1>::new(1, &[1.0], &[1.0], &[-1.0]).is_err());
+}
+
+/// `inst`'s rows and activity flags padded with inactive rows to `capacity`.
+fn padded<const NU: usize>(inst: &Instance<NU>, capacity: usize) -> (Vec<TieredRow<NU>>, Vec<bool>) {
+    let mut rows = inst.rows.clone();
+    let mut active = inst.active.clone();
+    rows.resize(capacity, row([0.0; NU], 1.0, 0));
+    active.resize(capacity, false);
+    (rows, active)
+}
+
+/// Solves `count` random instances fresh and after a history of 1–4 other random
+/// problems over the same box (each solver's warm starts then name other rows): both
+/// verified answers must be the same input to 1e-10 of the inputs' scale, and so every
+/// row's violation the same.
+fn run_history<const NU: usize>(seed: u64, count: usize) -> (usize, usize, Vec<String>) {
+    const CAPACITY: usize = 32;
+    let mut rng = common::rng(seed);
+    let (mut compared, mut relaxed, mut failures) = (0, 0, Vec::new());
+    for case in 0..count {
+        let inst = random_instance::<NU>(&mut rng);
+        let (rows, active) = padded(&inst, CAPACITY);
+        let mut fresh = LexicographicSolver::new(CAPACITY, &inst.weights, &inst.lo, &inst.hi).expect("box");
+        if fresh.solve(&inst.u_ref, &rows, &active, STEPS).expect("data") != Outcome::Verified {
+            continue;
+        }
+        let mut used = LexicographicSolver::new(CAPACITY, &inst.weights, &inst.lo, &inst.hi).expect("box");
+        for _ in 0..rng.random_range(1..=4) {
+            let other = random_instance::<NU>(&mut rng);
+            let (other_rows, other_active) = padded(&other, CAPACITY);
+            used.solve(&other.u_ref, &other_rows, &other_active, STEPS).expect("data");
+        }
+        if used.solve(&inst.u_ref, &rows, &active, STEPS).expect("data") != Outcome::Verified {
+            continue;
+        }
+        compared += 1;
+        relaxed += usize::from(fresh.elastic_stages() > 0);
+        let gap = gap_in_scale(fresh.u(), used.u());
+        if gap > 1e-10 {
+            failures.push(format!("case {case}: after a history {gap:.3e} of the input scale from the fresh answer"));
+        }
+    }
+    (compared, relaxed, failures)
+}
+
+#[test]
+fn the_answer_does_not_depend_on_what_the_solver_solved_before() {
+    for (nu, (compared, relaxed, failures)) in [(3, run_history::<3>(11, 1500)), (17, run_history::<17>(12, 400))] {
+        println!("NU = {nu}: {compared} compared, {relaxed} relaxed, {} failures", failures.len());
+        assert!(relaxed * 5 > compared, "the instances must exercise the elastic stages ({relaxed} of {compared})");
+        assert!(
+            failures.is_empty(),
+            "NU = {nu}: {} failures, e.g. {:?}",
+            failures.len(),
+            &failures[..failures.len().min(5)]
+        );
+    }
 }

@@ -5,6 +5,7 @@
 //! Run one file's tests with `cargo test --release --test integration <module>::`.
 
 mod dual_active_set;
+mod ecbf_qp;
 mod generated_is_current;
 mod hierarchy;
 mod lanes;
