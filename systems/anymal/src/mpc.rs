@@ -110,10 +110,10 @@ impl Region {
         Ok(region)
     }
 
-    /// Where a foot standing on this region is aimed: its sphere's centre `height` above
-    /// the region's [`centre`](Self::centre), or above `nominal` on the surface without one
-    /// (a swing's start on open ground).
-    fn aim(&self, nominal: [f64; 3], height: f64) -> [f64; 3] {
+    /// How far a foot the gait stands at `nominal` (a foot sphere's centre over `z = 0`)
+    /// is moved to stand on this region: to above its [`centre`](Self::centre), or without
+    /// one only onto its surface (a swing's start on open ground), at the same height.
+    fn shift(&self, nominal: [f64; 3]) -> [f64; 3] {
         let on_surface = match self.centre {
             Some(c) => c,
             None => {
@@ -121,7 +121,7 @@ impl Region {
                 std::array::from_fn(|i| nominal[i] + off * self.normal[i])
             }
         };
-        std::array::from_fn(|i| on_surface[i] + height * self.normal[i])
+        std::array::from_fn(|i| on_surface[i] + nominal[2] * self.normal[i] - nominal[i])
     }
 
     /// `min_j (d_j − n_j · c)`: how far inside its region a foot centre `c` is (negative
@@ -621,6 +621,7 @@ impl KinodynamicMpc {
         // foothold row on it is a constant of the measured state: satisfied, or a QP with
         // no solution. Those rows are left out.
         let mut first_stance: [bool; FEET] = trot.reference(t).stance;
+        let aiming = s.footholds.guides_swings();
         for k in 0..=n {
             let time = t + k as f64 * dt;
             let xk = self.guess_x[k];
@@ -632,7 +633,7 @@ impl KinodynamicMpc {
             let mut stage = self.ocp.stage_mut(k);
             // Cost: around the gait's trunk (the centre of mass at the commanded height
             // above the feet's surfaces: the gait's is above z = 0), level, at the
-            // commanded velocity; the joints standing; the weight shared.
+            // commanded velocity; the joints standing or aimed (below); the weight shared.
             let w = s.weights;
             let ground = regions.iter().map(|r| r.surface).sum::<f64>() / FEET as f64;
             let com = [
@@ -648,7 +649,7 @@ impl KinodynamicMpc {
                 2 => yaw,
                 3..=5 => com[i - 3],
                 9..=11 => v_trunk[i - 9],
-                12.. => gen::STANDING_JOINTS[i - 12],
+                // The joints' target is set below, aimed or standing.
                 _ => 0.0,
             });
             let weights: [f64; NX] = std::array::from_fn(|i| match i {
@@ -664,18 +665,17 @@ impl KinodynamicMpc {
             // the gait's curve, moved from the last foothold's aim to the next's); other
             // legs to standing.
             let aims: [Option<[f64; 3]>; FEET] = std::array::from_fn(|foot| {
-                regions[foot].centre.filter(|_| s.footholds.guides_swings())?;
-                let shift = |r: &Region, at: f64| {
-                    let nominal = trot.foothold_for(foot, at);
-                    let aim = r.aim(nominal, nominal[2]);
-                    (aim, std::array::from_fn::<f64, 3, _>(|i| aim[i] - nominal[i]))
+                if !aiming || regions[foot].centre.is_none() {
+                    return None;
+                }
+                let nominal = trot.foothold_for(foot, time);
+                let to = regions[foot].shift(nominal);
+                let Some(swing) = trot.swing_at(foot, time) else {
+                    return Some(std::array::from_fn(|i| nominal[i] + to[i]));
                 };
-                let (here, to) = shift(&regions[foot], time);
-                let Some(swing) = trot.swing_at(foot, time) else { return Some(here) };
                 let before = swing.lift_off - 0.5 * trot.swing;
-                let (_, from) = shift(&region(foot, before), before);
-                let g = swing.travel[0];
-                let curve = reference.feet[foot].position;
+                let from = region(foot, before).shift(trot.foothold_for(foot, before));
+                let (g, curve) = (swing.travel[0], reference.feet[foot].position);
                 Some(std::array::from_fn(|i| curve[i] + (1.0 - g) * from[i] + g * to[i]))
             });
             stage.x_ref[12..].copy_from_slice(&aimed_joints(&target, &aims));
