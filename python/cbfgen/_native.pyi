@@ -600,6 +600,8 @@ ANYMAL_JOINT_NAMES: list[str]
 ANYMAL_TOTAL_MASS: float
 ANYMAL_FOOT_RADIUS: float
 ANYMAL_CONTROLLERS: list[str]
+ANYMAL_FOOTHOLD_BARRIERS: list[str]
+ANYMAL_WHOLE_BODY_BARRIERS: list[str]
 
 def anymal_standing() -> Vector:
     """The SRDF's standing joints, the trunk level at the height where the feet touch

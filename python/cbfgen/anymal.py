@@ -25,9 +25,11 @@ from __future__ import annotations
 from ._native import (
     ANYMAL_CONTROLLERS,
     ANYMAL_FOOT_RADIUS,
+    ANYMAL_FOOTHOLD_BARRIERS,
     ANYMAL_JOINT_NAMES,
     ANYMAL_LEGS,
     ANYMAL_TOTAL_MASS,
+    ANYMAL_WHOLE_BODY_BARRIERS,
     SteppingStones,
     StoneWalk,
     System,
@@ -45,11 +47,16 @@ TOTAL_MASS: float = ANYMAL_TOTAL_MASS
 FOOT_RADIUS: float = ANYMAL_FOOT_RADIUS
 CONTROLLERS: list[str] = ANYMAL_CONTROLLERS
 """Seed 004's Table II controllers, by where the foothold constraints are."""
+FOOTHOLD_BARRIERS: list[str] = ANYMAL_FOOTHOLD_BARRIERS
+"""The sets eq. 25's CBF (the MPC's) can keep a swing foot in: ``StoneWalk(barrier=)``."""
+WHOLE_BODY_BARRIERS: list[str] = ANYMAL_WHOLE_BODY_BARRIERS
+"""The sets eq. 26's CBF (the whole-body QP's) can keep it in: ``StoneWalk(whole_body_barrier=)``."""
 standing = anymal_standing
 trot = anymal_trot
 
 __all__ = [
     "CONTROLLERS",
+    "FOOTHOLD_BARRIERS",
     "FOOT_RADIUS",
     "JOINT_NAMES",
     "LEGS",
@@ -58,6 +65,7 @@ __all__ = [
     "SteppingStones",
     "StoneWalk",
     "TOTAL_MASS",
+    "WHOLE_BODY_BARRIERS",
     "WholeBodyController",
     "standing",
     "trot",

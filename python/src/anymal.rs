@@ -26,6 +26,8 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PySteppingStones>()?;
     m.add_class::<PyStoneWalk>()?;
     m.add("ANYMAL_CONTROLLERS", Controller::ALL.map(Controller::name).to_vec())?;
+    m.add("ANYMAL_FOOTHOLD_BARRIERS", FootholdBarrier::ALL.map(FootholdBarrier::name).to_vec())?;
+    m.add("ANYMAL_WHOLE_BODY_BARRIERS", WholeBodyBarrier::ALL.map(WholeBodyBarrier::name).to_vec())?;
     Ok(())
 }
 
@@ -342,16 +344,20 @@ impl PyStoneWalk {
         let names = Controller::ALL.map(Controller::name);
         let controller = Controller::ALL[super::convert::choice("controller", controller, &names)?];
         let defaults = WalkSettings::default();
-        let barrier = match barrier {
-            Some(name) => [FootholdBarrier::Region, FootholdBarrier::Shrinking]
-                [super::convert::choice("foothold barrier", name, &["region", "shrinking"])?],
-            None => defaults.barrier,
-        };
-        let whole_body_barrier = match whole_body_barrier {
-            Some(name) => [WholeBodyBarrier::Region, WholeBodyBarrier::ShrinkingExtent, WholeBodyBarrier::Shrinking]
-                [super::convert::choice("whole-body barrier", name, &["region", "extent", "shrinking"])?],
-            None => defaults.whole_body_barrier,
-        };
+        let barrier = super::convert::named(
+            "foothold barrier",
+            barrier,
+            FootholdBarrier::ALL,
+            FootholdBarrier::name,
+            defaults.barrier,
+        )?;
+        let whole_body_barrier = super::convert::named(
+            "whole-body barrier",
+            whole_body_barrier,
+            WholeBodyBarrier::ALL,
+            WholeBodyBarrier::name,
+            defaults.whole_body_barrier,
+        )?;
         let mpc = match mpc_stage {
             Some(stage) => defaults.mpc.with_stage(stage)?,
             None => defaults.mpc,

@@ -157,3 +157,18 @@ pub fn choice(what: &str, name: &str, names: &[&str]) -> PyResult<usize> {
         .position(|n| *n == name)
         .ok_or_else(|| crate::value_error(format!("unknown {what} '{name}': expected one of {names:?}")))
 }
+
+/// The one of `all` named `name` (by `name_of`), or `default` for `None`; an unknown name is
+/// a `ValueError` listing the names.
+pub fn named<T: Copy, const N: usize>(
+    what: &str,
+    name: Option<&str>,
+    all: [T; N],
+    name_of: fn(T) -> &'static str,
+    default: T,
+) -> PyResult<T> {
+    match name {
+        Some(name) => Ok(all[choice(what, name, &all.map(name_of))?]),
+        None => Ok(default),
+    }
+}

@@ -104,16 +104,21 @@ def barrier_figure(record: dict, title: str, path: Path) -> None:
 
 def _indices(text: str) -> list[int]:
     """``--controllers``: indices into Table II's four controllers, e.g. ``0,3``."""
+    from .. import anymal
+
+    count = len(anymal.CONTROLLERS)
     try:
         indices = [int(k) for k in text.split(",")]
     except ValueError:
         indices = []
-    if not indices or any(k not in range(4) for k in indices):
-        raise argparse.ArgumentTypeError(f"{text!r}: indices 0-3 separated by commas")
+    if not indices or any(k not in range(count) for k in indices):
+        raise argparse.ArgumentTypeError(f"{text!r}: indices 0-{count - 1} separated by commas")
     return indices
 
 
 def main(argv: list[str] | None = None) -> int:
+    from .. import anymal
+
     parser = argparse.ArgumentParser(prog="python -m cbfgen.physics.stepping_stones", description=__doc__)
     parser.add_argument("--fields", type=int, default=5, help="stone fields (seeds 0..N-1); default 5")
     parser.add_argument("--strides", type=int, default=8, help="strides per field; default 8")
@@ -123,10 +128,10 @@ def main(argv: list[str] | None = None) -> int:
                         help="the MPC in its own thread, the walks in real time (default: inline, deterministic)")
     parser.add_argument("--gamma", type=float, default=None,
                         help="eq. 25's rate [1/s]; default 30 (the shrinking set needs at least 20)")
-    parser.add_argument("--barrier", choices=("region", "shrinking"), default=None,
+    parser.add_argument("--barrier", choices=anymal.FOOTHOLD_BARRIERS, default=None,
                         help="the set eq. 25's CBF (the MPC's) keeps a swing foot in: eq. 24's set shrinking onto its "
                              "landing region (default) or the region itself")
-    parser.add_argument("--whole-body-barrier", choices=("extent", "region", "shrinking"), default=None,
+    parser.add_argument("--whole-body-barrier", choices=anymal.WHOLE_BODY_BARRIERS, default=None,
                         help="the set of eq. 26's CBF (the whole-body QP's): eq. 24's set as it stands each cycle "
                              "(default), the region, or eq. 24's set with its shrinking in the rows")
     parser.add_argument("--layout", choices=("gait", "rows"), default="gait",
@@ -144,7 +149,6 @@ def main(argv: list[str] | None = None) -> int:
     if not args.no_video:
         # Chooses MuJoCo's OpenGL back end, so it comes before anything imports mujoco.
         from .render import FRAME_PERIOD, write_side_by_side_gif
-    from .. import anymal
     from .anymal import STEPS_PER_CYCLE, TIMESTEP, walk_stones
 
     keep = 0 if args.no_video else int(round(FRAME_PERIOD / (TIMESTEP * STEPS_PER_CYCLE)))

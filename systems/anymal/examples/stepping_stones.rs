@@ -3,7 +3,7 @@
 //! cbfgen.physics.stepping_stones`.)
 //!
 //! ```text
-//! cargo run --release -p cbfgen-anymal --example stepping_stones -- [fields] [strides] [controller index] [gamma] [threaded] [region] [wbc-region|wbc-shrinking] [rows]
+//! cargo run --release -p cbfgen-anymal --example stepping_stones -- [fields] [strides] [controller index] [gamma] [threaded] [region|shrinking] [wbc-region|wbc-extent|wbc-shrinking] [rows]
 //! ```
 //!
 //! Defaults: 5 fields (seeds 0..5), 8 strides each, all four controllers (index 0..4 in
@@ -29,17 +29,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if let Some(gamma) = args.get(3).filter(|a| *a != "-") {
         settings.gamma = gamma.parse()?;
     }
-    settings.threaded = args.iter().skip(4).any(|a| a == "threaded");
-    if args.iter().skip(4).any(|a| a == "region") {
-        settings.barrier = FootholdBarrier::Region;
+    let flags = &args[args.len().min(4)..];
+    settings.threaded = flags.iter().any(|a| a == "threaded");
+    if let Some(barrier) = FootholdBarrier::ALL.into_iter().find(|b| flags.iter().any(|a| a == b.name())) {
+        settings.barrier = barrier;
     }
-    if args.iter().skip(4).any(|a| a == "wbc-region") {
-        settings.whole_body_barrier = WholeBodyBarrier::Region;
+    let whole_body = |b: &WholeBodyBarrier| flags.iter().any(|a| a.strip_prefix("wbc-") == Some(b.name()));
+    if let Some(barrier) = WholeBodyBarrier::ALL.into_iter().find(whole_body) {
+        settings.whole_body_barrier = barrier;
     }
-    if args.iter().skip(4).any(|a| a == "wbc-shrinking") {
-        settings.whole_body_barrier = WholeBodyBarrier::Shrinking;
-    }
-    let layout = if args.iter().skip(4).any(|a| a == "rows") { StoneField::rows() } else { StoneField::default() };
+    let layout = if flags.iter().any(|a| a == "rows") { StoneField::rows() } else { StoneField::default() };
     println!("| controller | seed | steps | missteps | avg misstep [mm] | worst height [mm] | swing [s] | eq. 24 [s] | eq. 25 [s] | MPC failed | solver iterations (mean) | WBC unsolved | fell | missteps planned |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for controller in controllers {

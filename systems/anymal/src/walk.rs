@@ -87,6 +87,19 @@ pub enum FootholdBarrier {
     Shrinking,
 }
 
+impl FootholdBarrier {
+    /// Every reading, in [`FootholdBarrier::name`] order.
+    pub const ALL: [Self; 2] = [Self::Region, Self::Shrinking];
+
+    /// The reading's name, as Python and the command lines take it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Region => "region",
+            Self::Shrinking => "shrinking",
+        }
+    }
+}
+
 /// The set eq. 26's CBF (in the whole-body QP) keeps a swing foot in. Measured in MuJoCo
 /// (docs/anymal.md): on the set's extent the proposed controller broke eq. 25 for the least
 /// time (on the region 3.6×, as a time-varying CBF 8× as long, with a misstep); before
@@ -108,6 +121,20 @@ pub enum WholeBodyBarrier {
     /// to be `−(m̈ + 20 ṁ) / 100 − m` inside its region, up to 23 cm (in a 5 cm region)
     /// just before mid-swing.
     Shrinking,
+}
+
+impl WholeBodyBarrier {
+    /// Every reading, in [`WholeBodyBarrier::name`] order.
+    pub const ALL: [Self; 3] = [Self::Region, Self::ShrinkingExtent, Self::Shrinking];
+
+    /// The reading's name, as Python and the command lines take it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Region => "region",
+            Self::ShrinkingExtent => "extent",
+            Self::Shrinking => "shrinking",
+        }
+    }
 }
 
 /// The walk's settings.
