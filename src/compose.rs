@@ -6,22 +6,27 @@
 //! derivatives in the poses). The chain rule's input part, L_g L_f^(r-1) h =
 //! ∇φ · L_g L_f^(r-1) y, is the contraction below (`symbolic/codegen/composition.py`
 //! derives the rest).
+//!
+//! Generic over the [`Scalar`] like the kernels they join: `f64` in the filter, intervals
+//! in the sampled-data certificate.
+
+use crate::scalar::Scalar;
 
 /// Adds `Σ_i grad[i] · lg[i][j]` to `out[at[j]]` for every input column `j` of one pose
 /// kernel: `grad` is the chain kernel's gradient in that pose, `lg` the pose kernel's
 /// L_g L_f^(r-1) y and `at` where its columns sit among the row's. An `at` entry past
 /// `out` is skipped (generated code never has one).
 #[inline]
-pub fn accumulate_columns<const N: usize, const J: usize, const C: usize>(
-    grad: &[f64; N],
-    lg: &[[f64; J]; N],
+pub fn accumulate_columns<S: Scalar, const N: usize, const J: usize, const C: usize>(
+    grad: &[S; N],
+    lg: &[[S; J]; N],
     at: &[usize; J],
-    out: &mut [f64; C],
+    out: &mut [S; C],
 ) {
-    for (g, row) in grad.iter().zip(lg) {
-        for (&column, v) in at.iter().zip(row) {
+    for (&g, row) in grad.iter().zip(lg) {
+        for (&column, &v) in at.iter().zip(row) {
             if let Some(o) = out.get_mut(column) {
-                *o += g * v;
+                *o = *o + g * v;
             }
         }
     }
@@ -31,13 +36,9 @@ pub fn accumulate_columns<const N: usize, const J: usize, const C: usize>(
 /// next node along the kinematic tree reads them. `N` must be `R * C` (checked when it
 /// compiles).
 #[inline]
-pub fn flatten<const R: usize, const C: usize, const N: usize>(m: &[[f64; C]; R]) -> [f64; N] {
+pub fn flatten<T: Copy, const R: usize, const C: usize, const N: usize>(m: &[[T; C]; R]) -> [T; N] {
     const { assert!(R * C == N, "flatten: N must be R * C") };
-    let mut out = [0.0; N];
-    for (o, v) in out.iter_mut().zip(m.iter().flatten()) {
-        *o = *v;
-    }
-    out
+    std::array::from_fn(|k| m[k / C][k % C])
 }
 
 /// Where a body sits in a frame it is fixed in: generated as one named constant per body,
@@ -54,9 +55,10 @@ pub struct Placement {
 /// (centre, then rotation row by row): (p + R offset, R axes). Linear in y, so a jet's
 /// derivatives and input columns are carried by the same map.
 #[inline]
-pub fn place_pose(frame: &[f64; 12], placement: &Placement) -> [f64; 12] {
+pub fn place_pose<S: Scalar>(frame: &[S; 12], placement: &Placement) -> [S; 12] {
     let Placement { offset, axes } = placement;
-    let mut out = [0.0; 12];
+    let (offset, axes) = (offset.map(S::from), axes.map(S::from));
+    let mut out = frame.to_owned();
     for i in 0..3 {
         let row = &frame[3 + 3 * i..6 + 3 * i];
         out[i] = frame[i] + row[0] * offset[0] + row[1] * offset[1] + row[2] * offset[2];
@@ -71,17 +73,16 @@ pub fn place_pose(frame: &[f64; 12], placement: &Placement) -> [f64; 12] {
 /// 12 per derivative) and its input columns (12 rows of `C`), each carried to the body.
 #[inline]
 #[allow(clippy::type_complexity)]
-pub fn place_jet<const L: usize, const C: usize>(
-    frame: &([f64; 12], [f64; L], [[f64; C]; 12]),
+pub fn place_jet<S: Scalar, const L: usize, const C: usize>(
+    frame: &([S; 12], [S; L], [[S; C]; 12]),
     placement: &Placement,
-) -> ([f64; 12], [f64; L], [[f64; C]; 12]) {
-    let mut rates = [0.0; L];
+) -> ([S; 12], [S; L], [[S; C]; 12]) {
+    let mut rates = frame.1;
     for (out, block) in rates.chunks_exact_mut(12).zip(frame.1.chunks_exact(12)) {
-        let mut y = [0.0; 12];
-        y.copy_from_slice(block);
+        let y: [S; 12] = std::array::from_fn(|i| block[i]);
         out.copy_from_slice(&place_pose(&y, placement));
     }
-    let mut lg = [[0.0; C]; 12];
+    let mut lg = frame.2;
     for c in 0..C {
         let column = place_pose(&std::array::from_fn(|i| frame.2[i][c]), placement);
         for (row, v) in lg.iter_mut().zip(column) {
@@ -115,7 +116,7 @@ mod tests {
     #[test]
     fn flattens_row_by_row() {
         let m = [[1.0, 2.0], [3.0, 4.0], [5.0, 6.0]];
-        assert_eq!(flatten::<3, 2, 6>(&m), [1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
+        assert_eq!(flatten::<_, 3, 2, 6>(&m), [1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
     }
 
     #[test]

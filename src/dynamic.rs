@@ -73,6 +73,11 @@ pub trait GeneratedSystem<const NX: usize, const NU: usize>: ControlAffine<NX, N
     const FAMILIES: &'static [FamilyInfo];
     /// Its kernels behind the uniform signature (the module's `KERNELS`).
     const KERNELS: &'static [KernelEntry];
+    /// The dynamics (`drift`, `input_matrix`) and every barrier member's kernel on
+    /// intervals, members in family order (`IntervalKernel::NONE` for a member without an
+    /// interval form): what certifies rows between the samples
+    /// ([`crate::filter::between_samples`]). Empty: nothing can be certified.
+    const INTERVAL_KERNELS: &'static [crate::filter::between_samples::IntervalKernel] = &[];
     /// How many instances each capacity family has room for.
     type Capacity: FlatCapacity;
     /// Every family's run-time instances.
@@ -523,6 +528,8 @@ pub struct DynSettings {
     /// Skip rows whose lower bound is above their activation threshold
     /// ([`FilterSettings::cull_far_rows`]).
     pub cull_far_rows: bool,
+    /// Certify each answer between the samples ([`FilterSettings::sampled_data`]).
+    pub sampled_data: Option<crate::filter::SampledData>,
 }
 
 impl<const NU: usize> From<FilterSettings<NU>> for DynSettings {
@@ -535,6 +542,7 @@ impl<const NU: usize> From<FilterSettings<NU>> for DynSettings {
             solver: s.solver,
             measure_cpu_time: s.measure_cpu_time,
             cull_far_rows: s.cull_far_rows,
+            sampled_data: s.sampled_data,
         }
     }
 }
@@ -555,6 +563,7 @@ impl<const NU: usize> TryFrom<&DynSettings> for FilterSettings<NU> {
             solver: s.solver,
             measure_cpu_time: s.measure_cpu_time,
             cull_far_rows: s.cull_far_rows,
+            sampled_data: s.sampled_data.clone(),
         })
     }
 }

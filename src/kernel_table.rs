@@ -25,57 +25,57 @@
 //! assert_eq!(out, [3.0, 6.0, 3.0, 0.0, 3.0]);
 //! ```
 
-use nalgebra::{SMatrix, SVector};
+use nalgebra::{SMatrix, SVector, Scalar};
 
 /// The next `n` numbers of `flat` at `*at`, and `*at` past them.
-fn take<'a>(flat: &'a [f64], at: &mut usize, n: usize) -> &'a [f64] {
+fn take<'a, T>(flat: &'a [T], at: &mut usize, n: usize) -> &'a [T] {
     *at += n;
     &flat[*at - n..*at]
 }
 
 /// Writes `values` at `*at`, and moves `*at` past them.
-fn put(values: &[f64], flat: &mut [f64], at: &mut usize) {
+fn put<T: Copy>(values: &[T], flat: &mut [T], at: &mut usize) {
     flat[*at..*at + values.len()].copy_from_slice(values);
     *at += values.len();
 }
 
 /// The argument at `*at`: one number.
-pub fn scalar(flat: &[f64], at: &mut usize) -> f64 {
+pub fn scalar<T: Copy>(flat: &[T], at: &mut usize) -> T {
     take(flat, at, 1)[0]
 }
 
 /// The argument at `*at`: `N` numbers, as the array a kernel takes by reference.
-pub fn array<'a, const N: usize>(flat: &'a [f64], at: &mut usize) -> &'a [f64; N] {
+pub fn array<'a, T, const N: usize>(flat: &'a [T], at: &mut usize) -> &'a [T; N] {
     take(flat, at, N).try_into().expect("a slice of N numbers")
 }
 
 /// The argument at `*at`: a parameter's vector of `N` numbers.
-pub fn vector<const N: usize>(flat: &[f64], at: &mut usize) -> SVector<f64, N> {
+pub fn vector<T: Scalar, const N: usize>(flat: &[T], at: &mut usize) -> SVector<T, N> {
     SVector::from_row_slice(take(flat, at, N))
 }
 
 /// The argument at `*at`: a parameter's `R` × `C` matrix, row by row.
-pub fn matrix<const R: usize, const C: usize>(flat: &[f64], at: &mut usize) -> SMatrix<f64, R, C> {
+pub fn matrix<T: Scalar, const R: usize, const C: usize>(flat: &[T], at: &mut usize) -> SMatrix<T, R, C> {
     SMatrix::from_row_slice(take(flat, at, R * C))
 }
 
 /// Writes a scalar result at `*at`.
-pub fn put_scalar(value: f64, flat: &mut [f64], at: &mut usize) {
+pub fn put_scalar<T: Copy>(value: T, flat: &mut [T], at: &mut usize) {
     put(&[value], flat, at);
 }
 
 /// Writes a vector result at `*at`.
-pub fn put_array<const N: usize>(value: &[f64; N], flat: &mut [f64], at: &mut usize) {
+pub fn put_array<T: Copy, const N: usize>(value: &[T; N], flat: &mut [T], at: &mut usize) {
     put(value, flat, at);
 }
 
 /// Writes a matrix result at `*at`, row by row.
-pub fn put_matrix<const R: usize, const C: usize>(value: &[[f64; C]; R], flat: &mut [f64], at: &mut usize) {
+pub fn put_matrix<T: Copy, const R: usize, const C: usize>(value: &[[T; C]; R], flat: &mut [T], at: &mut usize) {
     put(value.as_flattened(), flat, at);
 }
 
 /// Writes a symmetric matrix result at `*at`: its upper triangle, row by row.
-pub fn put_symmetric<const N: usize>(value: &[[f64; N]; N], flat: &mut [f64], at: &mut usize) {
+pub fn put_symmetric<T: Copy, const N: usize>(value: &[[T; N]; N], flat: &mut [T], at: &mut usize) {
     for (r, row) in value.iter().enumerate() {
         put(&row[r..], flat, at);
     }
@@ -115,10 +115,10 @@ macro_rules! kernel_table {
     (@len matrix [$r:literal, $c:literal]) => { $r * $c };
     (@len symmetric [$n:literal]) => { $n * ($n + 1) / 2 };
     (@read scalar [] $flat:ident $at:ident) => { $crate::kernel_table::scalar($flat, &mut $at) };
-    (@read array [$n:literal] $flat:ident $at:ident) => { $crate::kernel_table::array::<$n>($flat, &mut $at) };
-    (@read vector [$n:literal] $flat:ident $at:ident) => { &$crate::kernel_table::vector::<$n>($flat, &mut $at) };
+    (@read array [$n:literal] $flat:ident $at:ident) => { $crate::kernel_table::array::<_, $n>($flat, &mut $at) };
+    (@read vector [$n:literal] $flat:ident $at:ident) => { &$crate::kernel_table::vector::<_, $n>($flat, &mut $at) };
     (@read matrix [$r:literal, $c:literal] $flat:ident $at:ident) => {
-        &$crate::kernel_table::matrix::<$r, $c>($flat, &mut $at)
+        &$crate::kernel_table::matrix::<_, $r, $c>($flat, &mut $at)
     };
     (@write $value:ident $flat:ident $at:ident; $out:ident : $okind:ident [$($odim:literal),*]) => {
         $crate::kernel_table!(@put $okind $value $flat $at)
@@ -133,4 +133,45 @@ macro_rules! kernel_table {
     (@put symmetric $value:ident $flat:ident $at:ident) => {
         $crate::kernel_table::put_symmetric(&$value, $flat, &mut $at)
     };
+}
+
+/// One [`IntervalKernel`](crate::filter::between_samples::IntervalKernel): a generated
+/// kernel run on intervals behind the flat signature, in [`kernel_table!`]'s syntax, with
+/// the input columns of its `lg_lf` output in brackets after the name (none for the
+/// dynamics). What generated modules list in `INTERVAL_KERNELS`.
+///
+/// ```
+/// use cbfgen::interval::Interval;
+/// use cbfgen::scalar::Scalar;
+///
+/// fn wall<S: Scalar>(x: &[S; 2]) -> ([[S; 3]; 1], [[S; 1]; 1]) {
+///     ([[S::from(1.0) - x[0], -x[1], S::from(0.0)]], [[S::from(-1.0)]])
+/// }
+/// const COLUMNS: [usize; 1] = [0];
+/// let kernel = cbfgen::interval_kernel!(wall[COLUMNS](x: array[2]) -> (lie: matrix[1, 3], lg_lf: matrix[1, 1]));
+/// let mut out = [Interval::point(0.0); 4];
+/// (kernel.call.unwrap())(&[Interval::new(0.5, 0.6), Interval::point(0.2)], &mut out);
+/// assert!(out[0].contains(0.45) && out[3].contains(-1.0));
+/// ```
+#[macro_export]
+macro_rules! interval_kernel {
+    ($name:ident $([$columns:path])? ($($arg:ident : $akind:ident [$($adim:literal),*]),*)
+        -> ($($out:ident : $okind:ident [$($odim:literal),*]),+)) => {
+        $crate::filter::between_samples::IntervalKernel {
+            name: stringify!($name),
+            inputs: &[$((stringify!($arg), $crate::kernel_table!(@len $akind [$($adim),*]))),*],
+            outputs: &[$((stringify!($out), $crate::kernel_table!(@len $okind [$($odim),*]))),+],
+            columns: $crate::interval_kernel!(@columns $($columns)?),
+            call: Some(|input: &[$crate::interval::Interval], output: &mut [$crate::interval::Interval]| {
+                let mut at = 0;
+                let result = $name::<$crate::interval::Interval>(
+                    $($crate::kernel_table!(@read $akind [$($adim),*] input at)),*
+                );
+                let mut at = 0;
+                $crate::kernel_table!(@write result output at; $($out : $okind [$($odim),*]),+);
+            }),
+        }
+    };
+    (@columns) => { &[] };
+    (@columns $columns:path) => { &$columns };
 }

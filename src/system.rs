@@ -14,6 +14,7 @@
 
 use crate::error::{within, CbfError};
 
+use crate::interval::Interval;
 pub use crate::limits::{MAX_INSTANCES, MAX_RELATIVE_DEGREE, PARAM_LIMIT, STATE_LIMIT, TIME_LIMIT};
 
 /// One evaluated ECBF row.
@@ -312,6 +313,37 @@ impl Gains {
             _ => lie[4] + k[3] * lie[3] + k[2] * lie[2] + k[1] * lie[1] + k[0] * lie[0],
         }
     }
+
+    /// [`Gains::bound`] over enclosures of `lie`: an interval holding every value `b`
+    /// takes where each `L_f^i h` lies in `lie[i]`, each operation rounded outward. An
+    /// extended class-K function is increasing (the generator checks it), so it is
+    /// evaluated at the ends of `ψ`'s enclosure, each moved 16 steps outward for its own
+    /// rounding.
+    pub fn bound_enclosure(&self, lie: &[Interval; MAX_RELATIVE_DEGREE + 1]) -> Interval {
+        if let Some((c, last, alpha)) = &self.extended {
+            let (mut psi, mut psi_dot) = (Interval::point(0.0), Interval::point(0.0));
+            for i in (0..self.degree).rev() {
+                psi = psi + Interval::point(c[i]) * lie[i];
+                psi_dot = psi_dot + Interval::point(c[i]) * lie[i + 1];
+            }
+            if !psi.is_finite() {
+                return Interval::ENTIRE;
+            }
+            let steps = |mut v: f64, up: bool| {
+                for _ in 0..16 {
+                    v = if up { v.next_up() } else { v.next_down() };
+                }
+                v
+            };
+            let alpha_psi = Interval::new(steps(alpha.eval(psi.lo), false), steps(alpha.eval(psi.hi), true));
+            return psi_dot + Interval::point(*last) * alpha_psi;
+        }
+        let mut b = lie[self.degree];
+        for i in (0..self.degree).rev() {
+            b = b + Interval::point(self.k[i]) * lie[i];
+        }
+        b
+    }
 }
 
 /// One family's ECBF tuning: its poles, priority and activation threshold.
@@ -497,6 +529,30 @@ pub trait BarrierSet<const NU: usize> {
     /// sets without bounds ignore it.
     fn cull_above(&mut self, thresholds: &[f64]) {
         let _ = thresholds;
+    }
+
+    /// Enclose the rows flagged in `wanted` over every state the plant reaches in
+    /// `window` from `x`, into `out` (other rows left as they are): what certifies them
+    /// between the samples ([`crate::filter::between_samples`]). Must not allocate.
+    /// Generated barrier sets run their kernels on intervals
+    /// ([`enclose_generated`](crate::filter::between_samples::enclose_generated)); the
+    /// default cannot.
+    ///
+    /// # Errors
+    /// [`NotEnclosed`](crate::filter::between_samples::NotEnclosed): no interval form for
+    /// a wanted row, or reachable states that could not be enclosed.
+    fn enclose(
+        &self,
+        window: &crate::filter::between_samples::Window<NU>,
+        x: &Self::State,
+        params: &Self::Params,
+        wanted: &[bool],
+        out: &mut [crate::filter::between_samples::RowEnclosure<NU>],
+    ) -> Result<(), crate::filter::between_samples::NotEnclosed> {
+        let _ = (window, x, params, out);
+        Err(crate::filter::between_samples::NotEnclosed::NoIntervalForm {
+            row: wanted.iter().position(|&w| w).unwrap_or(0),
+        })
     }
 
     /// Whether the system has an objective (a spec's `s.objective(P=…, q=…)`): the filter

@@ -129,6 +129,7 @@
 //! # Ok::<(), cbfgen::CbfError>(())
 //! ```
 
+pub mod between_samples;
 mod qp;
 mod settings;
 pub mod verdict;
@@ -136,14 +137,17 @@ pub mod verdict;
 use std::time::{Duration, Instant};
 
 pub use crate::qp::{Backend, QpStatus, Solver, SolverSettings};
+pub use between_samples::{BetweenSamples, SampledData};
 pub use qp::{EcbfQp, RowSpec};
 pub use settings::{domain, FilterSettings};
 pub use verdict::{Cause, FamilyRelaxation, Limit, RelaxedRow, Safety, Verdict};
 
 use crate::cpu_time::thread_cpu_time;
 use crate::error::CbfError;
+use crate::interval::Interval;
 use crate::qp::metric::InputMetric;
-use crate::system::{BarrierSet, FamilyKind, Objective, Row};
+use crate::system::{BarrierSet, FamilyKind, Gains, Objective, Row};
+use between_samples::{NotEnclosed, RowEnclosure, Why, Window};
 
 /// Where this cycle's input came from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -217,6 +221,10 @@ pub struct Output<U> {
     /// the worst when convergence gave way to safety or to the input limits. Never part
     /// of [`Output::safety`].
     pub convergence: Safety,
+    /// Whether the rows met at the returned input are certified to hold until the next
+    /// sample ([`between_samples`]): [`BetweenSamples::Off`] unless
+    /// [`FilterSettings::sampled_data`] asks for it.
+    pub between_samples: BetweenSamples,
     /// Fallback cycles in a row, this one included (0 when `source` is `Qp`).
     pub consecutive_fallbacks: u32,
     /// Time in row evaluation and activation.
@@ -249,6 +257,7 @@ impl<U> Output<U> {
             active_rows: 0,
             safety: Safety::UNASSESSED,
             convergence: Safety::UNASSESSED,
+            between_samples: BetweenSamples::Off,
             consecutive_fallbacks: 0,
             eval_time: Duration::ZERO,
             solve_time: Duration::ZERO,
@@ -272,6 +281,7 @@ impl<U> Output<U> {
             active_rows: self.active_rows,
             safety: self.safety,
             convergence: self.convergence,
+            between_samples: self.between_samples,
             consecutive_fallbacks: self.consecutive_fallbacks,
             eval_time: self.eval_time,
             solve_time: self.solve_time,
@@ -298,6 +308,21 @@ pub struct EcbfFilter<B: BarrierSet<NU>, const NU: usize> {
     /// The system's objective, when it has one ([`BarrierSet::has_objective`]): this
     /// cycle's `P(x)`, `q(x)`.
     cost: Option<Objective<NU>>,
+    /// Per family: its ECBF gains (the certificate's enclosure of each row's bound).
+    gains: Vec<Gains>,
+    /// Per family: certified between the samples (not exempt, not Lyapunov).
+    certified_family: Vec<bool>,
+    /// Per row: the sampled-data margin of this update's last solve.
+    margins: Vec<f64>,
+    /// Per row: what the last certificate found missing (0 when certified or not checked).
+    deficits: Vec<f64>,
+    /// Per row: whether the certificate encloses it this round.
+    wanted: Vec<bool>,
+    /// Per row: the enclosures of the last certificate.
+    enclosures: Vec<RowEnclosure<NU>>,
+    /// The input the last successful update returned (what the plant is holding now),
+    /// for a certificate with an input delay.
+    applied: Option<[f64; NU]>,
 }
 
 impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
@@ -344,6 +369,15 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
         let activation = barriers.layout().iter().map(|s| settings.families[s.family].activation).collect();
         let rows = barriers.layout().len();
         let families = barriers.families().len();
+        let certified_family = barriers
+            .families()
+            .iter()
+            .enumerate()
+            .map(|(k, f)| {
+                f.kind == FamilyKind::Barrier
+                    && settings.sampled_data.as_ref().is_some_and(|sd| !sd.exempt.contains(&k))
+            })
+            .collect();
         Ok(Self {
             barriers,
             settings,
@@ -354,6 +388,13 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
             last_safe: None,
             output: FilterOutput::before_any_update([0.0; NU]),
             cost,
+            gains,
+            certified_family,
+            margins: vec![0.0; rows],
+            deficits: vec![0.0; rows],
+            wanted: vec![false; rows],
+            enclosures: vec![RowEnclosure::ZERO; rows],
+            applied: None,
         })
     }
 
@@ -389,6 +430,9 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
         u_ref: &[f64; NU],
         params: &B::Params,
     ) -> Result<&FilterOutput<NU>, CbfError> {
+        // What the plant holds now, for a certificate with an input delay: unknown after an
+        // update that returned an error (the caller chose what to apply).
+        let before = self.applied.take();
         settings::validate_nominal(u_ref)?;
         let cpu_start = if self.settings.measure_cpu_time { thread_cpu_time() } else { None };
         let start = Instant::now();
@@ -411,40 +455,43 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
             active_rows += usize::from(*on);
         }
         let evaluated = Instant::now();
-        let solved = self.qp.solve(&centre, self.barriers.rows(), &self.active);
+        self.output.eval_time = evaluated - start;
+        self.margins.fill(0.0);
+        self.deficits.fill(0.0);
+        self.solve_round(&centre, u_ref, active_rows);
+        let mut between = BetweenSamples::Off;
+        if let Some(sampled) = &self.settings.sampled_data {
+            let max_rounds = sampled.max_rounds;
+            let mut rounds = 1;
+            between = loop {
+                if self.output.source != InputSource::Qp {
+                    break self.uncertified(Why::NotSolved);
+                }
+                match self.certify(t, x, params, before) {
+                    Err(why) => break self.uncertified(why),
+                    Ok(0) => break BetweenSamples::Certified { rounds },
+                    Ok(_) if rounds >= max_rounds => break self.uncertified(Why::Deficit),
+                    Ok(_) => {
+                        // Each row short of its certificate asks that much more at the
+                        // sample (and a twentieth for the input moving with it).
+                        for (m, d) in self.margins.iter_mut().zip(&self.deficits) {
+                            *m += 1.05 * d;
+                        }
+                        rounds += 1;
+                        self.solve_round(&centre, u_ref, active_rows);
+                    }
+                }
+            };
+        }
         let out = &mut self.output;
-        out.eval_time = evaluated - start;
-        out.active_rows = active_rows;
-        let ok = solved.is_ok();
-        out.iterations = if ok { self.qp.iterations() } else { 0 };
-        out.polished = ok && self.qp.polished();
-        out.backend = if ok { self.qp.backend() } else { None };
-        out.dense_steps = if ok { self.qp.dense_steps() } else { 0 };
-        out.dense_fallback = ok && self.qp.dense_fallback();
-        out.elastic_stages = if ok { self.qp.elastic_stages() } else { 0 };
-        (out.status, out.nonfinite_row) = match solved {
-            Ok(status) => (Some(status), None),
-            Err(CbfError::NonFiniteRow { row }) => (None, Some(row)),
-            // `u_ref`, `x` and the row count were checked above, so nothing else reaches here.
-            Err(_) => (Some(QpStatus::SolverFault), None),
-        };
-        (out.u, out.source) = match out.status {
-            Some(QpStatus::Solved) if self.qp.verified() => (*self.qp.u(), InputSource::Qp),
-            Some(QpStatus::MaxIterations | QpStatus::TimeLimit) => (*self.qp.u(), InputSource::Unconverged),
-            _ => match self.last_safe {
-                Some(u) => (u, InputSource::LastSafe),
-                None => (*u_ref, InputSource::NominalClipped),
-            },
-        };
-        // The dense solve meets the box only to its tolerance, ADMM to its own; the caller
-        // gets it exactly.
-        clip(&mut out.u, &self.settings.input_min, &self.settings.input_max);
+        out.between_samples = between;
         if out.source == InputSource::Qp {
             out.consecutive_fallbacks = 0;
             self.last_safe = Some(out.u);
         } else {
             out.consecutive_fallbacks = out.consecutive_fallbacks.saturating_add(1);
         }
+        self.applied = Some(out.u);
         // The verdict, measured at the input returned.
         self.relaxation.fill(FamilyRelaxation::default());
         if out.nonfinite_row.is_some() {
@@ -479,6 +526,127 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
         out.solve_time = evaluated.elapsed();
         out.cpu_time = cpu_start.and_then(|a| Some(thread_cpu_time()?.saturating_sub(a)));
         Ok(&self.output)
+    }
+
+    /// One QP solve of this cycle's active rows with the current margins: the output's
+    /// solve fields, its input (clipped to the box) and source.
+    fn solve_round(&mut self, centre: &[f64; NU], u_ref: &[f64; NU], active_rows: usize) {
+        self.qp.set_margins(&self.margins);
+        let solved = self.qp.solve(centre, self.barriers.rows(), &self.active);
+        let out = &mut self.output;
+        out.active_rows = active_rows;
+        let ok = solved.is_ok();
+        out.iterations = if ok { self.qp.iterations() } else { 0 };
+        out.polished = ok && self.qp.polished();
+        out.backend = if ok { self.qp.backend() } else { None };
+        out.dense_steps = if ok { self.qp.dense_steps() } else { 0 };
+        out.dense_fallback = ok && self.qp.dense_fallback();
+        out.elastic_stages = if ok { self.qp.elastic_stages() } else { 0 };
+        (out.status, out.nonfinite_row) = match solved {
+            Ok(status) => (Some(status), None),
+            Err(CbfError::NonFiniteRow { row }) => (None, Some(row)),
+            // `u_ref`, `x` and the row count were checked above, so nothing else reaches here.
+            Err(_) => (Some(QpStatus::SolverFault), None),
+        };
+        (out.u, out.source) = match out.status {
+            Some(QpStatus::Solved) if self.qp.verified() => (*self.qp.u(), InputSource::Qp),
+            Some(QpStatus::MaxIterations | QpStatus::TimeLimit) => (*self.qp.u(), InputSource::Unconverged),
+            _ => match self.last_safe {
+                Some(u) => (u, InputSource::LastSafe),
+                None => (*u_ref, InputSource::NominalClipped),
+            },
+        };
+        // The dense solve meets the box only to its tolerance, ADMM to its own; the caller
+        // gets it exactly.
+        clip(&mut out.u, &self.settings.input_min, &self.settings.input_max);
+    }
+
+    /// Enclose every active barrier row met at the output's input over the period it is
+    /// held ([`between_samples`]), and write each row's deficit (how far its enclosure of
+    /// `ψ = a·u + b` reaches below 0). Returns how many rows fall short.
+    fn certify(&mut self, t: f64, x: &B::State, params: &B::Params, before: Option<[f64; NU]>) -> Result<usize, Why> {
+        let Some(sampled) = &self.settings.sampled_data else { return Ok(0) };
+        let u = self.output.u;
+        self.qp.assess(&u);
+        for (i, l) in self.barriers.layout().iter().enumerate() {
+            self.wanted[i] = self.active[i] && self.certified_family[l.family] && self.qp.relaxed()[i].is_none();
+        }
+        if !self.wanted.contains(&true) {
+            return Ok(0); // nothing to certify (and nothing to enclose)
+        }
+        let before = sampled.input_delay.then(|| match before {
+            Some(u) => u.map(Interval::point),
+            // Before any input was returned the plant may hold anything in the box.
+            None => core::array::from_fn(|j| Interval::new(self.settings.input_min[j], self.settings.input_max[j])),
+        });
+        let window = Window { t, period: sampled.period, before, u };
+        match self.barriers.enclose(&window, x, params, &self.wanted, &mut self.enclosures) {
+            Ok(()) => {}
+            Err(NotEnclosed::NoIntervalForm { .. }) => return Err(Why::NoIntervalForm),
+            Err(NotEnclosed::Flow) => return Err(Why::Flow),
+        }
+        let mut short = 0;
+        for (i, l) in self.barriers.layout().iter().enumerate() {
+            self.deficits[i] = 0.0;
+            if !self.wanted[i] {
+                continue;
+            }
+            let e = &self.enclosures[i];
+            let mut psi = self.gains[l.family].bound_enclosure(&e.lie);
+            for (lg, &uj) in e.lg.iter().zip(&u) {
+                psi = psi + *lg * Interval::point(uj);
+            }
+            // Short by no more than the verdict's own rounding allowance at the sample
+            // (`MET_TOLERANCE` of the row's size): met between the samples as the row is
+            // met at them.
+            let row = &self.barriers.rows()[i];
+            let size = row
+                .lg
+                .iter()
+                .zip(&u)
+                .fold(self.gains[l.family].bound(&row.lie).abs(), |s, (a, uj)| s + a.abs() * (1.0 + uj.abs()));
+            if psi.lo >= -verdict::MET_TOLERANCE * size {
+                continue;
+            }
+            if !psi.lo.is_finite() {
+                self.deficits[i] = f64::INFINITY;
+                return Err(Why::Flow);
+            }
+            self.deficits[i] = -psi.lo;
+            short += 1;
+        }
+        Ok(short)
+    }
+
+    /// The certificate's report when it fails for `why`: the rows still short (all the
+    /// rows it wanted when it could not enclose them), and the largest deficit.
+    fn uncertified(&self, why: Why) -> BetweenSamples {
+        let worst = self
+            .deficits
+            .iter()
+            .enumerate()
+            .filter(|(_, d)| **d > 0.0)
+            .max_by(|a, b| a.1.total_cmp(b.1))
+            .map(|(i, &d)| (i, d));
+        let rows = match why {
+            Why::Deficit => self.deficits.iter().filter(|d| **d > 0.0).count(),
+            Why::NotSolved => 0,
+            Why::NoIntervalForm | Why::Flow => self.wanted.iter().filter(|w| **w).count(),
+        };
+        BetweenSamples::Uncertified { rows, worst, why }
+    }
+
+    /// Per row: the sampled-data margin the last update's final solve asked of it at the
+    /// sample (`a·u + b ≥ margin`; 0 without [`FilterSettings::sampled_data`], and for rows
+    /// the certificate did not need to raise).
+    pub fn margins(&self) -> &[f64] {
+        &self.margins
+    }
+
+    /// Per row: by how much the last certificate found the row's `ψ` could fall below 0
+    /// between the samples at the returned input (0 for rows certified or not checked).
+    pub fn deficits(&self) -> &[f64] {
+        &self.deficits
     }
 
     /// The last update's result.

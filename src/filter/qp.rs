@@ -72,6 +72,9 @@ pub struct EcbfQp<const NU: usize> {
     /// and which take part.
     tiered: Vec<TieredRow<NU>>,
     active: Vec<bool>,
+    /// Per row: asked of it beyond the ECBF bound, `a·u + b ≥ margin` (the sampled-data
+    /// certificate's; 0 otherwise).
+    margins: Vec<f64>,
     dense: LexicographicSolver<NU>,
     /// OSQP's suggested face, for the dense solve started from it.
     osqp_face: Vec<ActiveRow>,
@@ -225,6 +228,7 @@ impl<const NU: usize> EcbfQp<NU> {
             u: [0.0; NU],
             verified: false,
             delta: vec![0.0; m],
+            margins: vec![0.0; m],
             relative: vec![0.0; m],
             relaxed: vec![None; m],
             status: QpStatus::Solved,
@@ -282,6 +286,16 @@ impl<const NU: usize> EcbfQp<NU> {
         }
     }
 
+    /// From the next [`EcbfQp::solve`] on, row `i` asks `a·u + b ≥ margins[i]`: the
+    /// sampled-data certificate's margins ([`crate::filter::between_samples`]), in the rows'
+    /// units. A slice of another length, or a margin that is negative or not finite, is
+    /// ignored (the rows keep the margins they had): the filter never gives one.
+    pub fn set_margins(&mut self, margins: &[f64]) {
+        if margins.len() == self.rows && margins.iter().all(|m| m.is_finite() && *m >= 0.0) {
+            self.margins.copy_from_slice(margins);
+        }
+    }
+
     /// Number of ECBF rows.
     pub fn rows(&self) -> usize {
         self.rows
@@ -325,7 +339,7 @@ impl<const NU: usize> EcbfQp<NU> {
             self.active[i] = on;
             if on {
                 self.tiered[i].a = r.lg;
-                self.tiered[i].b = self.gains[i].bound(&r.lie);
+                self.tiered[i].b = self.gains[i].bound(&r.lie) - self.margins[i];
             }
         }
         (self.backend, self.dense_steps, self.elastic_stages, self.dense_fallback, self.polished, self.iterations) =

@@ -1,6 +1,7 @@
 //! What the ECBF filter can be tuned with: poles, priority and activation per family,
 //! input weights and limits, and the OSQP settings. Defaults come from the system's spec.
 
+use super::between_samples::SampledData;
 use crate::error::CbfError;
 use crate::qp::SolverSettings;
 use crate::system::{FamilyInfo, FamilyKind, FamilyParams};
@@ -41,6 +42,11 @@ pub struct FilterSettings<const NU: usize> {
     ///
     /// [`BarrierSet::cull_above`]: crate::system::BarrierSet::cull_above
     pub cull_far_rows: bool,
+    /// Certify each answer between the samples ([`SampledData`]): rows enclosed over the
+    /// period the input is held, and margins raised where the enclosure reaches below 0.
+    /// `None` (the default): the rows are met at the samples only
+    /// ([`crate::filter::between_samples`]).
+    pub sampled_data: Option<SampledData>,
 }
 
 impl<const NU: usize> FilterSettings<NU> {
@@ -55,6 +61,7 @@ impl<const NU: usize> FilterSettings<NU> {
             solver: SolverSettings::default(),
             measure_cpu_time: false,
             cull_far_rows: true,
+            sampled_data: None,
         }
     }
 
@@ -80,7 +87,8 @@ impl<const NU: usize> FilterSettings<NU> {
     /// Another number of families than `families`, a family with another number of
     /// poles than its relative degree, a pole, weight, input limit or solver setting
     /// outside its documented range ([`domain`], [`SolverSettings::validate`]), a NaN
-    /// activation, or `input_min > input_max`.
+    /// activation, `input_min > input_max`, or sampled-data settings outside their
+    /// domain ([`SampledData::validate`]).
     pub fn validate(&self, families: &[FamilyInfo]) -> Result<(), CbfError> {
         if self.families.len() != families.len() {
             return Err(CbfError::LengthMismatch {
@@ -114,6 +122,9 @@ impl<const NU: usize> FilterSettings<NU> {
             }
         }
         validate_inputs(&self.input_weights, &self.input_min, &self.input_max)?;
+        if let Some(sampled) = &self.sampled_data {
+            sampled.validate(families.len())?;
+        }
         self.solver.validate()
     }
 }

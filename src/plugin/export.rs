@@ -377,6 +377,8 @@ unsafe extern "C" fn filter_new(
             solver: solver(&c.solver),
             measure_cpu_time: c.measure_cpu_time,
             cull_far_rows: c.cull_far_rows,
+            // ABI 2 does not carry the certificate's settings; the loader refuses them.
+            sampled_data: None,
         };
         Ok(boxed(s.filter(unsafe { slice(counts, n) }, &settings)?))
     })

@@ -289,6 +289,7 @@ impl PluginSystem {
             solver: solver(&c.solver),
             measure_cpu_time: c.measure_cpu_time,
             cull_far_rows: c.cull_far_rows,
+            sampled_data: None,
         }
     }
 
@@ -413,6 +414,14 @@ impl DynSystem for PluginSystem {
         Self::check_len("input_weights", self.nu, settings.input_weights.len())?;
         Self::check_len("input_min", self.nu, settings.input_min.len())?;
         Self::check_len("input_max", self.nu, settings.input_max.len())?;
+        if settings.sampled_data.is_some() {
+            // Refused, not dropped: a filter built without the certificate it was asked for
+            // would report safety between the samples it never checked.
+            return Err(CbfError::Unsupported {
+                operation: "sampled-data certificate (not in plugin ABI 2)",
+                kind: "plugin",
+            });
+        }
         let mut families: Vec<FamilyParamsC> = settings.families.iter().map(family_params_c).collect();
         let mut inputs = [settings.input_weights.clone(), settings.input_min.clone(), settings.input_max.clone()];
         let c = SettingsC {

@@ -16,7 +16,11 @@ member reads too (the Panda-as-spheres' spheres) is computed on that frame's jet
 lines in all, from 425 138. Since then: the dynamics outputs walk their tree at run time
 (``cbfgen::rigid_body``); the default smooth SAT's chain and bound kernels are the core's
 (``generated/ssat.rs``), not each robot's; the ``KERNELS`` tables are one line per kernel
-in the core's ``kernel_table!``: 93 318 lines. Not composed yet: the whole-body models'
+in the core's ``kernel_table!``: 93 318 lines. Then every kernel became generic over the
+core's ``Scalar`` (issue 62: the sampled-data certificate runs the same straight line on
+intervals), its constants lifted as ``S::from(..)``: the same code, longer lines that rustfmt
+wraps, and each module lists its kernels on intervals (``INTERVAL_KERNELS``): 99 788
+lines. Not composed yet: the whole-body models'
 feet (ANYmal's foot regions are each alone on their leg's frame, smaller whole).
 """
 
@@ -30,15 +34,15 @@ BUDGET = {
     "generated/ssat.rs": 14_300,
     "generated/sphere_box.rs": 260,
     "generated/mod.rs": 20,
-    "systems/anymal/generated/anymal.rs": 22_400,
-    "systems/anymal_dynamics/generated/anymal_mpc.rs": 11_700,
-    "systems/anymal_dynamics/generated/anymal_wbc.rs": 11_100,
-    "systems/double_integrator/generated/double_integrator.rs": 500,
+    "systems/anymal/generated/anymal.rs": 24_000,
+    "systems/anymal_dynamics/generated/anymal_mpc.rs": 13_400,
+    "systems/anymal_dynamics/generated/anymal_wbc.rs": 12_400,
+    "systems/double_integrator/generated/double_integrator.rs": 540,
     "systems/panda/generated/panda.rs": 8_800,
     "systems/panda_spheres/generated/panda_spheres.rs": 17_500,
-    "systems/tachyon3/generated/tachyon3.rs": 10_100,
+    "systems/tachyon3/generated/tachyon3.rs": 11_000,
 }
-TOTAL = 96_000
+TOTAL = 100_000
 
 
 def generated_files() -> list[str]:

@@ -39,12 +39,23 @@ def test_float_literals_round_trip():
         assert "." in text or "e" in text  # a float literal, never an integer one
 
 
+# The core's scalar trait, for kernels compiled alone by rustc, over libm stand-ins for the
+# runtime's lanes.
+SCALAR_MODULE = (
+    f'#[path = "{REPO_ROOT / "src" / "scalar.rs"}"] pub mod scalar;\n'
+    "pub mod lanes { pub fn tanh<const N: usize>(v: [f64; N]) -> [f64; N] { v.map(f64::tanh) } "
+    "pub fn exp<const N: usize>(v: [f64; N]) -> [f64; N] { v.map(f64::exp) } "
+    "pub fn ln<const N: usize>(v: [f64; N]) -> [f64; N] { v.map(f64::ln) } "
+    "pub fn tanh1(v: f64) -> f64 { v.tanh() } pub fn exp1(v: f64) -> f64 { v.exp() } "
+    "pub fn ln1(v: f64) -> f64 { v.ln() } }\n")
+
+
 def test_integer_powers_become_products():
     x, y = se.symbols("x y")
     p = RustPrinter({x: "x", y: "y"})
-    assert p(x ** 2) == "x * x"
+    assert p(x ** 2) == "x.sqr()"
     assert "powf" not in p(x ** 8) and "powi" not in p(x ** 8)
-    assert p(x ** -1) == "1.0 / x"
+    assert p(x ** -1) == "S::from(1.0) / x"
     assert p(se.sqrt(x)) == "x.sqrt()"
     assert "powf" not in p((x + y) ** 5)
 
@@ -55,10 +66,11 @@ def test_kernel_signature_and_unpacking():
     s = k.scalar_input("s", "a scalar")
     k.output_vector("out", [se.tanh(s * v[0]) * v[1] ** 3, se.log(v[1] ** 2 + 1) / (v[0] - 3)], "outputs")
     text = emit_kernel(k, "cbfgen")
-    assert "pub fn probe(v: &[f64; 2], s: f64) -> [f64; 2] {" in text
+    # Generic over the scalar: f64 for the filter, intervals for the sampled-data certificate.
+    assert "pub fn probe<S: cbfgen::scalar::Scalar>(v: &[S; 2], s: S) -> [S; 2] {" in text
     assert "let v_x = v[0];" in text and "let v_y = v[1];" in text
     # Lone transcendental calls take the runtime's bounded one-argument forms, not libm's.
-    assert "cbfgen::lanes::tanh1(" in text and "cbfgen::lanes::ln1(" in text
+    assert "S::tanh_lane(" in text and "S::ln_lane(" in text
     assert ".tanh()" not in text and ".ln()" not in text and "powf" not in text
 
 
@@ -81,8 +93,8 @@ def test_independent_transcendental_calls_are_batched_by_depth():
             assert r.free_symbols <= defined, step
         defined |= set(step.symbols or (step.symbol,))
     text = emit_kernel(k, "crate")
-    assert text.count("crate::lanes::tanh([") == 1 and text.count("crate::lanes::exp([") == 1
-    assert text.count("crate::lanes::ln1(") == 1
+    assert text.count("S::tanh_lanes([") == 1 and text.count("S::exp_lanes([") == 1
+    assert text.count("S::ln_lane(") == 1
 
 
 def test_doc_text_escapes_brackets_outside_code_spans_only():
@@ -95,14 +107,14 @@ def test_doc_text_escapes_brackets_outside_code_spans_only():
 
 
 def test_a_literal_temporary_compiles(tmp_path):
-    # sin and cos of one constant angle share a CSE temporary printed as a bare literal; Rust cannot
-    # call .sin() on an unsuffixed float, so the emitter must type it.
+    # sin and cos of one constant angle share a CSE temporary printed as a constant; it must be
+    # the kernel's scalar for `.sin()` to resolve.
     k = Kernel("literal", "A kernel with a constant angle.")
     v = k.array_input("v", "xy", "a vector")
     angle = se.RealDouble(0.25) * se.pi  # stays symbolic until printed
     k.output_vector("out", [se.sin(angle) * v[0] + se.cos(angle) * v[1], se.cos(angle) * v[0]], "outputs")
     source = tmp_path / "literal.rs"
-    source.write_text(emit_kernel(k, "crate"))
+    source.write_text(SCALAR_MODULE + emit_kernel(k, "crate"))
     done = subprocess.run(["rustc", "--edition", "2021", "--crate-type", "lib", "--emit", "metadata",
                            "-o", str(tmp_path / "literal.rmeta"), str(source)], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
@@ -176,12 +188,8 @@ def test_a_kernel_cut_in_two_keeps_every_step_and_every_bit(tmp_path):
     assert sorted(tanh_batches) == [1, 2], "the mixed tanh batch is split: two on the state side, one not"
     assert len(cut.state_steps) + len(cut.instance_steps) == len(code.steps) + 1
 
-    lanes = ("pub mod lanes { pub fn tanh<const N: usize>(v: [f64; N]) -> [f64; N] { v.map(f64::tanh) } "
-             "pub fn exp<const N: usize>(v: [f64; N]) -> [f64; N] { v.map(f64::exp) } "
-             "pub fn tanh1(v: f64) -> f64 { v.tanh() } pub fn exp1(v: f64) -> f64 { v.exp() } "
-             "pub fn ln1(v: f64) -> f64 { v.ln() } }")
     program = "\n".join([
-        lanes, emit_split_kernel(build("probe"), "crate", ["x"]), emit_kernel(build("whole"), "crate"),
+        SCALAR_MODULE, emit_split_kernel(build("probe"), "crate", ["x"]), emit_kernel(build("whole"), "crate"),
         "fn main() { let mut s = 1u64; let mut r = || { s = s.wrapping_mul(6364136223846793005).wrapping_add(1); "
         "((s >> 11) as f64 / (1u64 << 53) as f64) * 4.0 - 2.0 };",
         "  for _ in 0..1000 { let x = [r(), r()]; let c = [r(), r()];",

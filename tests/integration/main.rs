@@ -4,6 +4,7 @@
 //! their own (each installs a counting global allocator and runs without the harness).
 //! Run one file's tests with `cargo test --release --test integration <module>::`.
 
+mod between_samples;
 mod dual_active_set;
 mod ecbf_qp;
 mod generated_is_current;

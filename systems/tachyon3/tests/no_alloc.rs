@@ -232,11 +232,24 @@ fn every_filter_update_path_allocates_nothing() {
         SidePath { filter, feed, tally }
     });
 
+    // The sampled-data certificate: every row's kernel on intervals, the flow enclosed,
+    // the QP solved again with margins, all on the stack.
+    let sampled = FilterSettings {
+        sampled_data: Some(cbfgen::filter::SampledData::every_family(1e-3)),
+        ..catalog::default_settings()
+    };
+    let mut certified = EcbfFilter::with_capacity(capacity, sampled).expect("certified filter");
+    let mut certificates = 0;
+
     let (mut sources, mut dense) = ([0usize; InputSource::ALL.len()], 0);
     let ((), rust, c) = alloc_count::counting(|| {
         for cycle in 0..CYCLES {
             if cycle % SIDE_PATH_EVERY == SIDE_PATH_EVERY / 2 {
                 side_paths.iter_mut().for_each(|path| path.run(&scene));
+                let drive = &scene.drive;
+                if let Ok(out) = certified.update(&drive.x, &drive.nominal_input(), &drive.env) {
+                    certificates += usize::from(out.between_samples != cbfgen::filter::BetweenSamples::Off);
+                }
             }
             let drive = &mut scene.drive;
             let out = match filter.update(&drive.x, &drive.nominal_input(), &drive.env) {
@@ -259,6 +272,7 @@ fn every_filter_update_path_allocates_nothing() {
         path.tally.print(36);
     }
     assert_eq!((rust, c), (0, 0), "allocations during {CYCLES} drive cycles and their side paths: Rust {rust}, C {c}");
+    assert_eq!(certificates, CYCLES / SIDE_PATH_EVERY, "every certified update assessed between the samples");
     assert_eq!(sources.iter().sum::<usize>(), CYCLES, "a drive update failed");
     assert!(
         sources[InputSource::Qp as usize] > CYCLES - 100 && dense > CYCLES - 100,

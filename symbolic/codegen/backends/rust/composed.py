@@ -11,7 +11,24 @@ from collections.abc import Sequence
 
 from ....kernel import Kernel
 from ...composition import SLOTS, BoundPlan, FramePlan, MemberPlan, PosePlan, Static
-from .emitter import _doc_lines, float_literal, input_element, input_type, kernel_signature, rustdoc_text
+from .emitter import (
+    SCALAR,
+    _doc_lines,
+    constant,
+    float_literal,
+    generic,
+    input_element,
+    input_type,
+    kernel_signature,
+    rustdoc_text,
+)
+
+S = SCALAR
+
+
+def _jet(degree: int, columns: int) -> str:
+    """A pose's jet on the kernels' scalar: the pose, its drift derivatives, its input part."""
+    return f"([{S}; 12], [{S}; {12 * degree}], [[{S}; {columns}]; 12])"
 
 
 def _fixed_array(kernel: Kernel):
@@ -20,7 +37,7 @@ def _fixed_array(kernel: Kernel):
     inputs = {inp.name: inp for inp in kernel.inputs}
 
     def array(values: Sequence[Static]) -> str:
-        return "&[" + ", ".join(input_element(inputs[v[0]], v[1]) if isinstance(v, tuple) else float_literal(v)
+        return "&[" + ", ".join(input_element(inputs[v[0]], v[1]) if isinstance(v, tuple) else constant(v)
                                 for v in values) + "]"
     return array
 
@@ -38,19 +55,20 @@ def emit_composed_member(kernel: Kernel, plan: MemberPlan, degree: int, with_par
     for s, slot in zip(SLOTS, plan.slots, strict=True):
         chain_args += [f"&pose_{s}.0", f"&pose_{s}.1"] if slot.moving else [array(slot.pose)]
     chain_args += [array(slot.half) for slot in plan.slots]
-    chain_args += [float_literal(v) for v in plan.options]
+    chain_args += [constant(v) for v in plan.options]
     grads = ", ".join(f"grad_{s}" for s, _ in moving)
-    args, ret = kernel_signature(kernel, runtime_crate)
+    args, ret = kernel_signature(kernel, runtime_crate, S)
     params = [inp for inp in kernel.inputs if inp.name != "x"]
-    param_args = "".join(f", {p.name}: {input_type(p, runtime_crate)}" for p in params)
-    jet_types = {s: f"([f64; 12], [f64; {12 * degree}], [[f64; {len(slot.at)}]; 12])" for s, slot in moving}
+    param_args = "".join(f", {p.name}: {input_type(p, runtime_crate, S)}" for p in params)
+    jet_types = {s: _jet(degree, len(slot.at)) for s, slot in moving}
     poses = ", ".join(f"pose_{s}: &{jet_types[s]}" for s, _ in moving)
     from_poses = [
         f"/// [`{kernel.name}`] from its boxes' pose kernels ({', '.join(f'[`{slot.jet}`]' for _, slot in moving)}) "
         "at the state: what the filter calls, each pose computed once per cycle for every row that reads it.",
-        *attributes, "#[inline]", f"pub fn {kernel.name}_from_poses({poses}{param_args}) -> {ret} {{",
+        *attributes, "#[inline]",
+        f"pub fn {kernel.name}_from_poses{generic(runtime_crate)}({poses}{param_args}) -> {ret} {{",
         f"    let (lie, {grads}) = {_chain_path(plan, runtime_crate)}({', '.join(chain_args)});",
-        f"    let mut lg_lf = [0.0; {len(plan.columns)}];",
+        f"    let mut lg_lf = [{constant(0.0)}; {len(plan.columns)}];",
         *(f"    {runtime_crate}::compose::accumulate_columns(&grad_{s}, &pose_{s}.2, "
           f"&[{', '.join(map(str, slot.at))}], &mut lg_lf);" for s, slot in moving),
         "    ([lie], [lg_lf])", "}"]
@@ -67,25 +85,26 @@ def _entry_points(kernel: Kernel, jets: Sequence[tuple[str, str]], ret: str, wit
     """``<kernel>(x, params...)`` over ``<kernel>_from_poses`` with the poses ``jets`` (name,
     Rust type) evaluated afresh; with parameters also the ``_state`` / ``_instance`` split
     every family with parameters has (the poses once per cycle, the rest per instance)."""
-    args, _ = kernel_signature(kernel, runtime_crate)
+    args, _ = kernel_signature(kernel, runtime_crate, S)
     params = [inp for inp in kernel.inputs if inp.name != "x"]
-    param_args = "".join(f", {p.name}: {input_type(p, runtime_crate)}" for p in params)
+    param_args = "".join(f", {p.name}: {input_type(p, runtime_crate, S)}" for p in params)
     param_names = "".join(f", {p.name}" for p in params)
     head = [*_doc_lines(kernel), *attributes, "#[inline]"]
+    g = generic(runtime_crate)
     if not with_params:
-        return [*head, f"pub fn {kernel.name}({args}) -> {ret} {{",
+        return [*head, f"pub fn {kernel.name}{g}({args}) -> {ret} {{",
                 f"    {kernel.name}{assembled}({', '.join(f'&{jet}(x)' for jet, _ in jets)}{param_names})", "}"]
     state_type = "(" + ", ".join(t for _, t in jets) + ",)"
     n_x = len(next(inp for inp in kernel.inputs if inp.name == "x").symbols)
     return [f"/// The poses [`{kernel.name}`] reads: computed once per cycle for every instance, and handed to "
             f"[`{kernel.name}_instance`].", *attributes, "#[inline]",
-            f"pub fn {kernel.name}_state(x: &[f64; {n_x}]) -> {state_type} {{",
+            f"pub fn {kernel.name}_state{g}(x: &[{S}; {n_x}]) -> {state_type} {{",
             "    (" + "".join(f"{jet}(x), " for jet, _ in jets) + ")", "}",
             f"/// One instance of [`{kernel.name}`], from [`{kernel.name}_state`]'s poses.", *attributes,
-            "#[inline]", f"pub fn {kernel.name}_instance(state_part: &{state_type}{param_args}) -> {ret} {{",
+            "#[inline]", f"pub fn {kernel.name}_instance{g}(state_part: &{state_type}{param_args}) -> {ret} {{",
             f"    {kernel.name}{assembled}(" + ", ".join(f"&state_part.{n}" for n in range(len(jets)))
             + f"{param_names})", "}",
-            *head, f"pub fn {kernel.name}({args}) -> {ret} {{",
+            *head, f"pub fn {kernel.name}{g}({args}) -> {ret} {{",
             f"    {kernel.name}_instance(&{kernel.name}_state(x){param_names})", "}"]
 
 
@@ -96,34 +115,34 @@ def emit_composed_bound(kernel: Kernel, plan: BoundPlan, with_params: bool, runt
     array = _fixed_array(kernel)
     moving = [(s, slot) for s, slot in zip(SLOTS, plan.slots, strict=True) if slot.moving]
     params = [inp for inp in kernel.inputs if inp.name != "x"]
-    param_args = "".join(f", {p.name}: {input_type(p, runtime_crate)}" for p in params)
+    param_args = "".join(f", {p.name}: {input_type(p, runtime_crate, S)}" for p in params)
     chain_args = [f"pose_{s}" if slot.moving else array(slot.pose) for s, slot in zip(SLOTS, plan.slots, strict=True)]
     chain_args += [array(slot.half) for slot in plan.slots]
-    chain_args += [float_literal(v) for v in plan.options]
-    poses = ", ".join(f"pose_{s}: &[f64; 12]" for s, _ in moving)
+    chain_args += [constant(v) for v in plan.options]
+    poses = ", ".join(f"pose_{s}: &[{S}; 12]" for s, _ in moving)
     from_poses = [f"/// [`{kernel.name}`] from its boxes' poses "
                   f"({', '.join(f'[`{slot.jet}`]' for _, slot in moving)}) at the state.", *attributes, "#[inline]",
-                  f"pub fn {kernel.name}_from_poses({poses}{param_args}) -> f64 {{",
+                  f"pub fn {kernel.name}_from_poses{generic(runtime_crate)}({poses}{param_args}) -> {S} {{",
                   f"    {_chain_path(plan, runtime_crate)}({', '.join(chain_args)})", "}"]
-    jets = [(slot.jet, "[f64; 12]") for _, slot in moving]
-    return "\n".join(from_poses + _entry_points(kernel, jets, "f64", with_params, runtime_crate, attributes)) + "\n"
+    jets = [(slot.jet, f"[{S}; 12]") for _, slot in moving]
+    return "\n".join(from_poses + _entry_points(kernel, jets, S, with_params, runtime_crate, attributes)) + "\n"
 
 
 def emit_framed_member(kernel: Kernel, plan: FramePlan, runtime_crate: str, attributes: Sequence[str] = ()) -> str:
     """A member whose rows read one frame: ``<member>_from_frame`` (its kernel on the frame's
     jet, what the filter calls with the jet computed once per cycle for every row on that
     frame) and the entry points every family with parameters has."""
-    args, ret = kernel_signature(kernel, runtime_crate)
+    args, ret = kernel_signature(kernel, runtime_crate, S)
     params = [inp for inp in kernel.inputs if inp.name != "x"]
-    param_args = "".join(f", {p.name}: {input_type(p, runtime_crate)}" for p in params)
+    param_args = "".join(f", {p.name}: {input_type(p, runtime_crate, S)}" for p in params)
     param_names = "".join(f", {p.name}" for p in params)
     if plan.degree:
-        jet_type = f"([f64; 12], [f64; {12 * plan.degree}], [[f64; {plan.columns}]; 12])"
+        jet_type = _jet(plan.degree, plan.columns)
         call = (f"{plan.on_frame}(&frame.0, &frame.1, &{runtime_crate}::compose::flatten(&frame.2)"
                 f"{param_names})")
         what = "its frame's jet"
     else:
-        jet_type = "[f64; 12]"
+        jet_type = f"[{S}; 12]"
         call = f"{plan.on_frame}(frame{param_names})"
         what = "its frame's pose"
     consts: list[str] = []
@@ -131,7 +150,9 @@ def emit_framed_member(kernel: Kernel, plan: FramePlan, runtime_crate: str, attr
         consts += [f"/// {rustdoc_text(c.doc)}", f"pub const {c.name}: {c.rust_type} = {c.value};"]
     from_frame = [f"/// [`{kernel.name}`] from {what} ([`{plan.frame}`]): what the filter calls, the frame computed "
                   "once per cycle for every row on it.", *attributes, "#[inline]",
-                  f"pub fn {kernel.name}_from_frame(frame: &{jet_type}{param_args}) -> {ret} {{", f"    {call}", "}"]
+                  f"pub fn {kernel.name}_from_frame{generic(runtime_crate)}"
+                  f"(frame: &{jet_type}{param_args}) -> {ret} {{",
+                  f"    {call}", "}"]
     return "\n".join(consts + from_frame + _entry_points(kernel, [(plan.frame, jet_type)], ret, True, runtime_crate,
                                                            attributes, assembled="_from_frame")) + "\n"
 
@@ -170,13 +191,13 @@ def emit_pose_function(plan: PosePlan, n_x: int, runtime_crate: str, attributes:
     steps = ", ".join(f"[`{step}`]" for step in plan.steps)
     placed = f"&{placement_name(plan)}" if plan.placement is not None else ""
     if plan.value:
-        ret = "[f64; 12]"
+        ret = f"[{S}; 12]"
         calls = [f"    let pose = {plan.steps[0]}(x);",
                  *(f"    let pose = {step}(x, &pose);" for step in plan.steps[1:]),
                  f"    {runtime_crate}::compose::place_pose(&pose, {placed})" if placed else "    pose"]
         what = "The pose of a box, value only (what lower bounds read): centre, then rotation row by row"
     else:
-        ret = f"([f64; 12], [f64; {12 * plan.degree}], [[f64; {plan.columns}]; 12])"
+        ret = _jet(plan.degree, plan.columns)
         calls = [f"    let jet = {plan.steps[0]}(x);",
                  *(f"    let jet = {step}(x, &jet.0, &jet.1, &{runtime_crate}::compose::flatten(&jet.2));"
                    for step in plan.steps[1:]),
@@ -185,7 +206,7 @@ def emit_pose_function(plan: PosePlan, n_x: int, runtime_crate: str, attributes:
                 "derivatives L_f y ... L_f^r y and the input part L_g L_f^(r-1) y (one row per pose entry)")
     how = f"along the kinematic tree: {steps}" + (", then the box placed in the last frame" if placed else "")
     return "\n".join([f"/// {what}; {how}.", *attributes, "#[inline]",
-                      f"pub fn {plan.name}(x: &[f64; {n_x}]) -> {ret} {{", *calls, "}"]) + "\n"
+                      f"pub fn {plan.name}{generic(runtime_crate)}(x: &[{S}; {n_x}]) -> {ret} {{", *calls, "}"]) + "\n"
 
 
 def emit_pose_cache(nodes: Sequence[tuple[Kernel, str | None]], plans: Sequence[PosePlan], n_x: int,

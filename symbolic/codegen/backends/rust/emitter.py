@@ -2,10 +2,13 @@
 
 The statements and their order come from the language-neutral
 :func:`~symbolic.codegen.straight_line.straight_line`; this module prints them
-(:class:`RustPrinter` for expressions): plain f64 arithmetic, no loops, no heap, integer
-powers as products, ``sqrt`` for half powers, and ``exp``/``tanh``/``ln`` through the
-runtime's ``lanes`` module (batched where the straight line batches them, its one-argument
-forms otherwise), whose error bounds the certificates count.
+(:class:`RustPrinter` for expressions): arithmetic on any ``cbfgen::scalar::Scalar`` ``S``
+(the filter's ``f64``, the sampled-data certificate's intervals), no loops, no heap,
+constants as ``S::from(..)``, integer powers as products, ``sqrt`` for half powers, and
+``exp``/``tanh``/``ln`` through the runtime's ``lanes`` (``S::exp_lanes`` and friends:
+batched where the straight line batches them, their one-argument forms otherwise), whose
+error bounds the certificates count. On ``f64`` every call is the ``f64`` function it
+names, so the machine code is that of a kernel written for ``f64``.
 """
 
 from __future__ import annotations
@@ -68,8 +71,18 @@ def _is_number(e: se.Expr) -> bool:
     return isinstance(e, (se.Integer, se.Rational, se.RealDouble))
 
 
+# The generic scalar every emitted kernel computes in (`cbfgen::scalar::Scalar`).
+SCALAR = "S"
+
+
+def constant(value: float) -> str:
+    """A constant in a kernel's body: the f64 literal lifted into the kernel's scalar."""
+    return f"{SCALAR}::from({float_literal(value)})"
+
+
 class RustPrinter:
-    """Prints SymEngine expressions as Rust f64 expressions over named locals."""
+    """Prints SymEngine expressions as Rust expressions on the scalar ``S`` over named
+    locals."""
 
     def __init__(self, names: dict[se.Symbol, str]):
         self.names = names
@@ -90,7 +103,7 @@ class RustPrinter:
         if _is_number(e) or not e.free_symbols:
             # Numbers, and constant subexpressions such as ln(15), become one literal.
             v = _number(e) if _is_number(e) else float(e.n(53))
-            return (float_literal(v), _ATOM) if v >= 0 else (float_literal(v), _UNARY)
+            return constant(v), _ATOM
         if isinstance(e, se.Add):
             return self._add(e)
         if isinstance(e, se.Mul):
@@ -134,7 +147,7 @@ class RustPrinter:
         coeff = abs(coeff)
         factors = [self._at(f, _UNARY) for f in num]
         if coeff != 1.0 or not factors:
-            factors.insert(0, float_literal(coeff))
+            factors.insert(0, constant(coeff))
         text = " * ".join(factors)
         if den:
             denominator = (self._at(den[0], _ATOM) if len(den) == 1
@@ -150,7 +163,7 @@ class RustPrinter:
         if isinstance(exp, se.Integer):
             n = int(exp)
             if n < 0:
-                return f"1.0 / {self._at(se.Pow(base, -n), _ATOM)}", _MUL
+                return f"{constant(1.0)} / {self._at(se.Pow(base, -n), _ATOM)}", _MUL
             return self._integer_power(base, n)
         if isinstance(exp, se.Rational) and int(exp.q) == 2:
             n = int(exp.p)
@@ -158,22 +171,25 @@ class RustPrinter:
             if n == 1:
                 return root, _ATOM
             if n == -1:
-                return f"1.0 / {root}", _MUL
+                return f"{constant(1.0)} / {root}", _MUL
             rest = self._integer_power(base, (abs(n) - 1) // 2)[0]
             text = f"({rest} * {root})"
-            return (text, _ATOM) if n > 0 else (f"1.0 / {text}", _MUL)
+            return (text, _ATOM) if n > 0 else (f"{constant(1.0)} / {text}", _MUL)
         return f"{self._at(base, _ATOM)}.powf({self(exp)})", _ATOM
 
     def _integer_power(self, base: se.Expr, n: int) -> tuple[str, int]:
         """b^n by repeated squaring; a compound base is bound once in a block."""
         if n == 0:
-            return "1.0", _ATOM
+            return constant(1.0), _ATOM
         if n == 1:
             return self._p(base)
         b = self._at(base, _ATOM)
         simple = isinstance(base, se.Symbol)
-        if n in (2, 3) and simple:
-            return " * ".join([b] * n), _MUL
+        # Squares as `sqr()`: `x * x` on f64, the square's true range on intervals.
+        if n == 2 and simple:
+            return f"{b}.sqr()", _ATOM
+        if n == 3 and simple:
+            return f"{b}.sqr() * {b}", _MUL
         steps = [f"let pw = {self(base)};"] if not simple else []
         name = b if simple else "pw"
         factors, square, k = [], name, 1
@@ -183,7 +199,7 @@ class RustPrinter:
             n >>= 1
             if n:
                 k *= 2
-                steps.append(f"let pw{k} = {square} * {square};")
+                steps.append(f"let pw{k} = {square}.sqr();")
                 square = f"pw{k}"
         if not steps:
             return " * ".join(factors), _MUL
@@ -204,21 +220,22 @@ def _is_negative(term: se.Expr) -> bool:
 
 
 # --------------------------------------------------------------------- kernels
-def _rust_type(kind: str, dim: int, cols: int) -> str:
-    return {"scalar": "f64", "vector": f"[f64; {dim}]",
-            "symmetric": f"[[f64; {dim}]; {dim}]", "matrix": f"[[f64; {cols}]; {dim}]"}[kind]
+def _rust_type(kind: str, dim: int, cols: int, scalar: str = "f64") -> str:
+    t = scalar
+    return {"scalar": t, "vector": f"[{t}; {dim}]",
+            "symmetric": f"[[{t}; {dim}]; {dim}]", "matrix": f"[[{t}; {cols}]; {dim}]"}[kind]
 
 
-def input_type(inp: Input, runtime_crate: str) -> str:
+def input_type(inp: Input, runtime_crate: str, scalar: str = "f64") -> str:
     """An argument's Rust type: ``f64``, ``&[f64; n]`` (the state), or a parameter's
     nalgebra vector or matrix, the type the generated ``Params`` hold it in — one
     representation of a rotation (row `i`, column `j` is `R[(i, j)]`) wherever a user
-    meets it."""
+    meets it. ``scalar`` is the number type (``S`` in a generic kernel)."""
     if not inp.is_array:
-        return "f64"
+        return scalar
     if inp.shape is None:
-        return f"&[f64; {len(inp.symbols)}]"
-    return f"&{runtime_crate}::nalgebra::{nalgebra_type(inp)}<f64, {', '.join(map(str, inp.shape))}>"
+        return f"&[{scalar}; {len(inp.symbols)}]"
+    return f"&{runtime_crate}::nalgebra::{nalgebra_type(inp)}<{scalar}, {', '.join(map(str, inp.shape))}>"
 
 
 def nalgebra_type(inp: Input) -> str:
@@ -233,15 +250,21 @@ def input_element(inp: Input, k: int) -> str:
     return f"{inp.name}[{k}]"
 
 
-def kernel_signature(kernel: Kernel, runtime_crate: str) -> tuple[str, str]:
-    """(argument list, return type) of the kernel's Rust function."""
-    args = ", ".join(f"{inp.name}: {input_type(inp, runtime_crate)}" for inp in kernel.inputs)
-    types = [_rust_type(o.kind, o.dim, o.cols) for o in kernel.outputs]
+def kernel_signature(kernel: Kernel, runtime_crate: str, scalar: str = "f64") -> tuple[str, str]:
+    """(argument list, return type) of the kernel's Rust function on ``scalar`` (``f64``:
+    the filter's instance; ``S``: the generic function)."""
+    args = ", ".join(f"{inp.name}: {input_type(inp, runtime_crate, scalar)}" for inp in kernel.inputs)
+    types = [_rust_type(o.kind, o.dim, o.cols, scalar) for o in kernel.outputs]
     return args, types[0] if len(types) == 1 else "(" + ", ".join(types) + ")"
 
 
+def generic(runtime_crate: str) -> str:
+    """The generic parameter list of an emitted kernel."""
+    return f"<{SCALAR}: {runtime_crate}::scalar::Scalar>"
+
+
 def kernel_fn_type(kernel: Kernel, runtime_crate: str) -> str:
-    """The kernel's Rust function-pointer type, e.g. ``fn(&[f64; 4]) -> [f64; 4]``."""
+    """The kernel's Rust function-pointer type on ``f64``, e.g. ``fn(&[f64; 4]) -> [f64; 4]``."""
     args = ", ".join(input_type(i, runtime_crate) for i in kernel.inputs)
     return f"fn({args}) -> {kernel_signature(kernel, runtime_crate)[1]}"
 
@@ -274,24 +297,23 @@ def _local_names(kernel: Kernel, code: StraightLine) -> dict[se.Symbol, str]:
     return names
 
 
-# The runtime's `lanes` functions, by SymEngine's name.
+# The scalar's `lanes` functions, by SymEngine's name.
 _LANES = {"exp": "exp", "tanh": "tanh", "log": "ln"}
 
 
-def _lanes_statement(p: RustPrinter, names: dict[se.Symbol, str], step, runtime_crate: str) -> str:
+def _lanes_statement(p: RustPrinter, names: dict[se.Symbol, str], step) -> str:
     """One batched call: an array in, an array out; a lone call takes the one-argument form."""
-    f = f"{runtime_crate}::lanes::{_LANES[step.function]}"
+    f = f"{SCALAR}::{_LANES[step.function]}"
     if len(step.symbols) == 1:
-        return f"    let {names[step.symbol]} = {f}1({p(step.rhs[0])});"
+        return f"    let {names[step.symbol]} = {f}_lane({p(step.rhs[0])});"
     targets = ", ".join(names[s] for s in step.symbols)
-    return f"    let [{targets}] = {f}([{', '.join(p(a) for a in step.rhs)}]);"
+    return f"    let [{targets}] = {f}_lanes([{', '.join(p(a) for a in step.rhs)}]);"
 
 
 def _value(p: RustPrinter, kind: str, rhs: Sequence[se.Expr]) -> str:
     if kind == "max":
-        # f64::max for the first pair fixes the type even when it starts with a literal.
         return p(rhs[0]) if len(rhs) == 1 else (
-            f"f64::max({p(rhs[0])}, {p(rhs[1])})" + "".join(f".max({p(r)})" for r in rhs[2:]))
+            f"{SCALAR}::max({p(rhs[0])}, {p(rhs[1])})" + "".join(f".max({p(r)})" for r in rhs[2:]))
     return p(rhs[0])
 
 
@@ -300,10 +322,7 @@ def _is_constant(step) -> bool:
 
 
 def _statement(p: RustPrinter, name: str, step) -> str:
-    # A constant temporary (pi/4, printed as a literal) needs its type spelled out, or
-    # `t.sin()` on an unsuffixed float literal does not compile.
-    typed = ": f64" if _is_constant(step) else ""
-    return f"    let {name}{typed} = {_value(p, step.kind, step.rhs)};"
+    return f"    let {name} = {_value(p, step.kind, step.rhs)};"
 
 
 def _results(kernel: Kernel, parts_of: Sequence[str], lines: list[str]) -> str:
@@ -356,7 +375,7 @@ def _levels(steps: Sequence) -> list[list]:
     return out
 
 
-def _body(p: RustPrinter, names: dict[se.Symbol, str], steps: Sequence, runtime_crate: str) -> list[str]:
+def _body(p: RustPrinter, names: dict[se.Symbol, str], steps: Sequence) -> list[str]:
     """The steps as `let` statements, one per dependency level: `let (a, b, ..) = (.., ..);`
     binds a level's temporaries together. Every `let` opens a scope nested in the last, and
     rustc recurses once per scope when it writes debug info, so a kernel's depth is its
@@ -367,7 +386,7 @@ def _body(p: RustPrinter, names: dict[se.Symbol, str], steps: Sequence, runtime_
         together = [s for s in level if s.kind != "lanes" and not _is_constant(s)]
         for step in level:
             if step.kind == "lanes":
-                lines.append(_lanes_statement(p, names, step, runtime_crate))
+                lines.append(_lanes_statement(p, names, step))
             elif _is_constant(step) or len(together) == 1:
                 lines.append(_statement(p, names[step.symbol], step))
         if len(together) > 1:
@@ -399,28 +418,30 @@ def emit_split_kernel(kernel: Kernel, runtime_crate: str, per_cycle: Sequence[st
                 for n, sym in enumerate(inp.symbols) if sym in used]
 
     def params(inputs) -> str:
-        return ", ".join(f"{i.name}: {input_type(i, runtime_crate)}" for i in inputs)
+        return ", ".join(f"{i.name}: {input_type(i, runtime_crate, SCALAR)}" for i in inputs)
 
-    _, ret = kernel_signature(kernel, runtime_crate)
+    _, ret = kernel_signature(kernel, runtime_crate, SCALAR)
+    g = generic(runtime_crate)
     state_fn = [f"/// The part of [`{kernel.name}`] that reads only {', '.join(f'`{i.name}`' for i in cycle_inputs)}: "
                 f"computed once per cycle for every instance, and handed to [`{kernel.name}_instance`].",
-                *attributes, "#[inline]", f"pub fn {kernel.name}_state({params(cycle_inputs)}) -> [f64; {k}] {{"]
+                *attributes, "#[inline]",
+                f"pub fn {kernel.name}_state{g}({params(cycle_inputs)}) -> [{SCALAR}; {k}] {{"]
     state_fn += unpack(cycle_inputs, cut.state_inputs_used)
-    state_fn += _body(p, names, cut.state_steps, runtime_crate)
+    state_fn += _body(p, names, cut.state_steps)
     state_fn += [f"    [{', '.join(names[s] for s in cut.interface)}]", "}"]
     instance_fn = [f"/// One instance of [`{kernel.name}`], from [`{kernel.name}_state`]'s values at the state.",
                    *attributes, "#[inline]",
-                   f"pub fn {kernel.name}_instance(state_part: &[f64; {k}]"
+                   f"pub fn {kernel.name}_instance{g}(state_part: &[{SCALAR}; {k}]"
                    + "".join(f", {a}" for a in [params(instance_inputs)] if a) + f") -> {ret} {{"]
     instance_fn += [f"    let {names[s]} = state_part[{n}];" for n, s in enumerate(cut.interface)]
     instance_fn += unpack(instance_inputs, cut.instance_inputs_used)
-    instance_fn += _body(p, names, cut.instance_steps, runtime_crate)
+    instance_fn += _body(p, names, cut.instance_steps)
     instance_fn += [f"    {_results(kernel, [p(e) for e in cut.outputs], instance_fn)}", "}"]
-    args, _ = kernel_signature(kernel, runtime_crate)
+    args, _ = kernel_signature(kernel, runtime_crate, SCALAR)
     call_state = ", ".join(i.name for i in cycle_inputs)
     call_rest = "".join(f", {i.name}" for i in instance_inputs)
     wrapper = _doc_lines(kernel) + list(attributes) + [
-        "#[inline]", f"pub fn {kernel.name}({args}) -> {ret} {{",
+        "#[inline]", f"pub fn {kernel.name}{g}({args}) -> {ret} {{",
         f"    {kernel.name}_instance(&{kernel.name}_state({call_state}){call_rest})", "}"]
     consts: list[str] = []
     for c in kernel.constants:
@@ -438,14 +459,15 @@ def emit_kernel(kernel: Kernel, runtime_crate: str, attributes: Sequence[str] = 
     _check_size(kernel, code)
     names = _local_names(kernel, code)
     p = RustPrinter(names)
-    args, ret = kernel_signature(kernel, runtime_crate)
-    lines = _doc_lines(kernel) + list(attributes) + [inline, f"pub fn {kernel.name}({args}) -> {ret} {{"]
+    args, ret = kernel_signature(kernel, runtime_crate, SCALAR)
+    lines = _doc_lines(kernel) + list(attributes) + [
+        inline, f"pub fn {kernel.name}{generic(runtime_crate)}({args}) -> {ret} {{"]
     # Scalar inputs are already locals under their own name; arrays are unpacked.
     for inp in filter(lambda i: i.is_array, kernel.inputs):
         for k, sym in enumerate(inp.symbols):
             if sym in code.used_inputs:
                 lines.append(f"    let {names[sym]} = {input_element(inp, k)};")
-    lines += _body(p, names, code.steps, runtime_crate)
+    lines += _body(p, names, code.steps)
     body = _results(kernel, [p(e) for e in code.outputs], lines)
     lines += [f"    {body}", "}"]
     consts: list[str] = []

@@ -19,7 +19,7 @@ from collections.abc import Sequence
 from ....kernel import Kernel
 
 
-def _argument(inp) -> str:
+def kernel_argument(inp) -> str:
     """An argument as ``kernel_table!`` reads it: ``name: kind[dims]``."""
     if not inp.is_array:
         return f"{inp.name}: scalar[]"
@@ -28,7 +28,7 @@ def _argument(inp) -> str:
     return f"{inp.name}: {'vector' if len(inp.shape) == 1 else 'matrix'}[{', '.join(map(str, inp.shape))}]"
 
 
-def _result(out) -> str:
+def kernel_result(out) -> str:
     """A result as ``kernel_table!`` writes it: ``name: kind[dims]``."""
     dims = {"scalar": "", "vector": f"{out.dim}", "symmetric": f"{out.dim}", "matrix": f"{out.dim}, {out.cols}"}
     kind = "array" if out.kind == "vector" else out.kind
@@ -41,8 +41,8 @@ def emit_kernel_table(kernels: Sequence[Kernel], runtime_crate: str, what: str) 
     names = [k.name for k in kernels]
     if len(set(names)) != len(names):
         raise ValueError(f"{what}: kernel names repeat: {names}")
-    lines = [f"    {k.name}({', '.join(map(_argument, k.inputs))}) -> ({', '.join(map(_result, k.outputs))});"
-             for k in kernels]
+    lines = [f"    {k.name}({', '.join(map(kernel_argument, k.inputs))}) -> "
+             f"({', '.join(map(kernel_result, k.outputs))});" for k in kernels]
     return "\n".join([
         f"{runtime_crate}::kernel_table! {{",
         f"    /// Every kernel of {what} behind one uniform signature, in module order: inputs and",

@@ -35,7 +35,7 @@ from .composed import (
     emit_pose_function,
 )
 from .emitter import emit_kernel, emit_split_kernel, float_literal, kernel_fn_type, rustdoc_text
-from .kernel_table import emit_kernel_table
+from .kernel_table import emit_kernel_table, kernel_argument, kernel_result
 from .rigid_body import emit_rigid_body_output
 
 KERNEL_ALLOWS = ("#[allow(clippy::all, clippy::pedantic, clippy::nursery, unused_parens, unused_variables, "
@@ -508,6 +508,35 @@ def _emit_system_type(out: list[str], d: SystemDefinition, rt: str) -> None:
         w("")
 
 
+def _f64_only(d: SystemDefinition) -> set[str]:
+    """The kernels emitted for ``f64`` only: rigid-body outputs, which walk their tree in
+    the core's ``f64`` code. Every other kernel (composed and framed members, pose
+    functions among them) is generic over the core's ``Scalar``."""
+    return {name for name, _, _ in d.rigid_bodies}
+
+
+def _emit_interval_kernels(out: list[str], d: SystemDefinition, rt: str) -> None:
+    """``INTERVAL_KERNELS``: the dynamics and every family's members on intervals, in the
+    order the core's ``enclose_generated`` indexes them (``IntervalKernel::NONE`` for a
+    kernel without an interval form)."""
+    f64_only = _f64_only(d)
+    by_name = {k.name: k for k in d.kernels()}
+    none = f"{rt}::filter::between_samples::IntervalKernel::NONE"
+
+    def entry(name: str, columns: str) -> str:
+        k = by_name.get(name)
+        if k is None or name in f64_only:
+            return f"    {none},"
+        return (f"    {rt}::interval_kernel!({k.name}{columns}({', '.join(map(kernel_argument, k.inputs))}) -> "
+                f"({', '.join(map(kernel_result, k.outputs))})),")
+
+    lines = [entry("drift", ""), entry("input_matrix", "")]
+    lines += [entry(k.name, f"[{k.name.upper()}_INPUT_COLUMNS]") for f in d.families for k in f.kernels]
+    out += ["/// The dynamics and every family's members on intervals, members in family order: what",
+            f"/// certifies the rows between the samples (`{rt}::filter::between_samples`).",
+            f"pub const INTERVAL_KERNELS: &[{rt}::filter::between_samples::IntervalKernel] = &[", *lines, "];", ""]
+
+
 def _emit_kernels(out: list[str], d: SystemDefinition, rt: str) -> None:
     """Every kernel, each family's row columns and an indexed family's member tables."""
     w = out.append
@@ -885,6 +914,12 @@ def _emit_barriers(out: list[str], d: SystemDefinition, rt: str) -> None:
     w("        debug_assert_eq!(i, self.rows.len());")
     w("        Ok(())")
     w("    }")
+    w("")
+    bs = f"{rt}::filter::between_samples"
+    w(f"    fn enclose(&self, window: &{bs}::Window<NU>, x: &[f64; NX], params: &Params, wanted: &[bool], "
+      f"out: &mut [{bs}::RowEnclosure<NU>]) -> Result<(), {bs}::NotEnclosed> {{")
+    w(f"        {bs}::enclose_generated::<{camel(d.name)}, NX, NU>(&self.layout, window, x, params, wanted, out)")
+    w("    }")
     w("}")
     w("")
 
@@ -911,6 +946,7 @@ def _emit_filter_and_system(out: list[str], d: SystemDefinition, rt: str) -> Non
     w("    const DOC: &'static str = DOC;")
     w(f"    const FAMILIES: &'static [{rt}::system::FamilyInfo] = &FAMILIES;")
     w(f"    const KERNELS: &'static [{rt}::system::KernelEntry] = KERNELS;")
+    w(f"    const INTERVAL_KERNELS: &'static [{rt}::filter::between_samples::IntervalKernel] = INTERVAL_KERNELS;")
     w("    type Capacity = Capacity;")
     w("    type Params = Params;")
     w("    type Barriers = Barriers;")
@@ -943,4 +979,5 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
                  _emit_family_table, _emit_capacity, _emit_params, _emit_barriers, _emit_filter_and_system):
         emit(out, d, rt)
     out.append(emit_kernel_table(d.kernels(), rt, f"`{d.name}`"))
+    _emit_interval_kernels(out, d, rt)
     return "\n".join(out) + "\n"

@@ -152,6 +152,7 @@ fn settings() -> impl Strategy<Value = FilterSettings<NU>> {
             solver,
             measure_cpu_time: false,
             cull_far_rows: true,
+            sampled_data: None,
         },
     )
 }

@@ -1,0 +1,119 @@
+//! The sampled-data certificate's contract through the filter, on a barrier set written by
+//! hand (which has no interval form): it says so instead of certifying, leaves the answer
+//! as it is, and its settings have a documented domain.
+
+use cbfgen::filter::between_samples::{enclose_flow, Why, MAX_ROUNDS};
+use cbfgen::filter::{BetweenSamples, EcbfFilter, FilterSettings, InputSource, SampledData};
+use cbfgen::interval::Interval;
+use cbfgen::system::{BarrierSet, ClassK, FamilyInfo, FamilyKind, FamilyParams, InstanceKind, Poles, Row, RowLayout};
+
+/// A cart behind a wall at `p = 1`: `h = 1 − p`, relative degree 2 in the acceleration.
+struct Wall([Row<1>; 1]);
+
+const FAMILIES: [FamilyInfo; 1] = [FamilyInfo {
+    name: "wall",
+    kind: FamilyKind::Barrier,
+    relative_degree: 2,
+    row_names: &["wall"],
+    members: &[],
+    instances: InstanceKind::Fixed,
+    count: 1,
+    params: &[],
+    defaults: FamilyParams {
+        poles: Poles::from_array([10.0, 10.0]),
+        priority: 0,
+        activation: f64::INFINITY,
+        class_k: ClassK::LINEAR,
+    },
+}];
+const LAYOUT: [RowLayout; 1] = [RowLayout { family: 0, member: 0, instance: 0, row: 0, columns: &[0] }];
+
+impl BarrierSet<1> for Wall {
+    type State = [f64; 2];
+    type Params = ();
+    fn families(&self) -> &[FamilyInfo] {
+        &FAMILIES
+    }
+    fn layout(&self) -> &[RowLayout] {
+        &LAYOUT
+    }
+    fn rows(&self) -> &[Row<1>] {
+        &self.0
+    }
+    fn evaluate(&mut self, _t: f64, x: &[f64; 2], _: &()) -> Result<(), cbfgen::CbfError> {
+        self.0[0].store(&[1.0 - x[0], -x[1], 0.0], &[-1.0], &[0]);
+        Ok(())
+    }
+}
+
+fn filter(sampled: Option<SampledData>) -> EcbfFilter<Wall, 1> {
+    let mut settings = FilterSettings::defaults(&FAMILIES, [-5.0], [5.0]);
+    settings.sampled_data = sampled;
+    EcbfFilter::new(Wall([Row::ZERO]), settings).unwrap()
+}
+
+#[test]
+fn a_barrier_set_without_an_interval_form_is_reported_not_certified_and_its_answer_kept() {
+    let mut plain = filter(None);
+    let mut asked = filter(Some(SampledData::every_family(1e-3)));
+    for x in [[0.9, 0.5], [0.5, 0.0], [0.99, 0.2]] {
+        let off = *plain.update(&x, &[3.0], &()).unwrap();
+        let on = *asked.update(&x, &[3.0], &()).unwrap();
+        assert_eq!(off.between_samples, BetweenSamples::Off);
+        assert_eq!(on.source, InputSource::Qp);
+        // One solve, no margin: the same bits as without the certificate.
+        assert_eq!(on.u[0].to_bits(), off.u[0].to_bits(), "at {x:?}");
+        assert_eq!(asked.margins(), &[0.0]);
+        match on.between_samples {
+            BetweenSamples::Uncertified { rows: 1, worst: None, why: Why::NoIntervalForm } => {}
+            other => panic!("at {x:?}: {other:?}"),
+        }
+    }
+}
+
+#[test]
+fn an_exempt_family_is_not_asked_for_and_the_update_is_certified() {
+    let sampled = SampledData { exempt: vec![0], ..SampledData::every_family(1e-3) };
+    let out = *filter(Some(sampled)).update(&[0.9, 0.5], &[3.0], &()).unwrap();
+    assert_eq!(out.between_samples, BetweenSamples::Certified { rounds: 1 });
+}
+
+#[test]
+fn sampled_data_settings_outside_their_domain_are_typed_errors() {
+    let bad = [
+        SampledData::every_family(0.0),
+        SampledData::every_family(f64::NAN),
+        SampledData::every_family(2.0),
+        SampledData { max_rounds: 0, ..SampledData::every_family(1e-3) },
+        SampledData { max_rounds: MAX_ROUNDS + 1, ..SampledData::every_family(1e-3) },
+        SampledData { exempt: vec![1], ..SampledData::every_family(1e-3) },
+    ];
+    for sampled in bad {
+        let mut settings = FilterSettings::defaults(&FAMILIES, [-5.0], [5.0]);
+        settings.sampled_data = Some(sampled.clone());
+        assert!(EcbfFilter::new(Wall([Row::ZERO]), settings).is_err(), "{sampled:?} accepted");
+    }
+}
+
+#[test]
+fn the_flow_enclosure_holds_a_pendulum_and_gives_up_on_a_blow_up() {
+    // θ'' = −sin θ from (θ, ω) = (1, 0) for 0.5 s: the enclosure holds the solution (RK4 at
+    // 1e-4 s, far finer than the box) at every step.
+    let b = enclose_flow(&[Interval::point(1.0), Interval::point(0.0)], 0.5, |x| {
+        use cbfgen::scalar::Scalar;
+        Some([x[1], -x[0].sin()])
+    })
+    .expect("a pendulum's half second is enclosed");
+    let f = |y: [f64; 2]| [y[1], -y[0].sin()];
+    let (mut y, h) = ([1.0, 0.0], 1e-4);
+    for _ in 0..5000 {
+        let k1 = f(y);
+        let k2 = f([y[0] + 0.5 * h * k1[0], y[1] + 0.5 * h * k1[1]]);
+        let k3 = f([y[0] + 0.5 * h * k2[0], y[1] + 0.5 * h * k2[1]]);
+        let k4 = f([y[0] + h * k3[0], y[1] + h * k3[1]]);
+        y = std::array::from_fn(|i| y[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]));
+        assert!(b[0].contains(y[0]) && b[1].contains(y[1]), "{y:?} outside {b:?}");
+    }
+    // ẋ = x² from 1 leaves every box before t = 1 (it blows up there): no enclosure.
+    assert!(enclose_flow(&[Interval::point(1.0)], 1.5, |x| Some([x[0] * x[0]])).is_none());
+}
