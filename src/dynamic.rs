@@ -597,6 +597,9 @@ pub trait DynFilter: DynRows + Send {
     fn relaxed(&self) -> &[Option<Cause>];
     /// Per family: the last update's relaxations (see [`EcbfFilter::relaxation`]).
     fn relaxation(&self) -> &[FamilyRelaxation];
+    /// Per row: the sampled-data margin of the last update (see
+    /// [`EcbfFilter::margins`]); all 0 without the certificate.
+    fn margins(&self) -> &[f64];
     /// The settings the filter was built with.
     fn settings(&self) -> DynSettings;
 }
@@ -884,6 +887,9 @@ impl<S: GeneratedSystem<NX, NU>, const NX: usize, const NU: usize> DynFilter for
     }
     fn relaxation(&self) -> &[FamilyRelaxation] {
         self.0.relaxation()
+    }
+    fn margins(&self) -> &[f64] {
+        self.0.margins()
     }
     fn settings(&self) -> DynSettings {
         self.0.settings().clone().into()

@@ -258,6 +258,12 @@ class FilterOutput:
     @property
     def relaxed_rows(self) -> int: ...
     @property
+    def between_samples(self) -> Literal["off", "certified", "uncertified"]:
+        """With sample_period set: whether every active row met at u keeps its ECBF
+        condition over the whole period the input is held (see uncertified_why)."""
+    @property
+    def uncertified_why(self) -> Literal["deficit", "no_interval_form", "flow", "not_solved"] | None: ...
+    @property
     def convergence(self) -> Literal["met", "relaxed", "unassessed"]:
         """The Lyapunov families' verdict (never part of verdict): every decrease
         V' + rate V <= 0 holds at u (or there is none), or some gave way (in relaxed)."""
@@ -296,7 +302,10 @@ class EcbfFilter:
     tune OSQP; measure_cpu_time=True reads the thread's CPU clock around each update
     (off by default: each reading is a system call); cull_far_rows=False evaluates every
     row every cycle (by default rows whose lower bound is above their activation threshold
-    are skipped: the same input, less work)."""
+    are skipped: the same input, less work). sample_period [s] certifies each answer for
+    the period it is held (the output's between_samples, margins per row), with
+    input_delay, certify_rounds (solves per update, 1-16) and certify_exempt (family
+    names)."""
 
     def __init__(
         self,
@@ -318,6 +327,10 @@ class EcbfFilter:
         time_limit_us: float | None = None,
         measure_cpu_time: bool | None = None,
         cull_far_rows: bool | None = None,
+        sample_period: float | None = None,
+        input_delay: bool | None = None,
+        certify_rounds: int | None = None,
+        certify_exempt: Sequence[str] | None = None,
     ) -> None: ...
     @property
     def system(self) -> str: ...
@@ -347,6 +360,10 @@ class EcbfFilter:
     @property
     def slack(self) -> Vector:
         """Per row at the last returned input: by how much it is missed (0 when met)."""
+    @property
+    def margins(self) -> Vector:
+        """Per row: the margin the last update asked of it at the sample to certify the
+        period (all 0 without sample_period)."""
     @property
     def family_settings(self) -> dict[str, tuple[list[float], int, float]]:
         """Per family: (poles, priority, activation) in use."""

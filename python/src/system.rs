@@ -15,7 +15,7 @@ use pyo3::types::{PyDict, PyList, PyTuple};
 use super::convert::{choice, matrix_from_fn, shaped, vector, Array1Out, Array2Out, ArrayIn};
 use cbfgen::dynamic::{self, CapacityCount, DynFilter, DynParams, DynRows, DynSystem, FamilyStore};
 use cbfgen::error::{within, CbfError};
-use cbfgen::filter::{Cause, FamilyRelaxation, Limit, Output, Solver, SolverSettings};
+use cbfgen::filter::{BetweenSamples, Cause, FamilyRelaxation, Limit, Output, SampledData, Solver, SolverSettings};
 use cbfgen::param_domain::Domain;
 use cbfgen::system::{FamilyInfo, Poles};
 
@@ -800,6 +800,25 @@ impl PyFilterOutput {
         self.out.safety.relaxed_rows
     }
 
+    /// Between the samples (with ``sample_period`` set): "certified" (every active row met
+    /// at ``u`` keeps its ECBF condition over the whole period the input is held), "uncertified"
+    /// (see ``uncertified_why``) or "off".
+    #[getter]
+    fn between_samples(&self) -> &'static str {
+        self.out.between_samples.name()
+    }
+
+    /// Why the update is not certified between the samples: "deficit" (margins fell short),
+    /// "no_interval_form", "flow" (the reachable states could not be enclosed) or
+    /// "not_solved" (the input is not the QP's answer); None when certified or off.
+    #[getter]
+    fn uncertified_why(&self) -> Option<&'static str> {
+        match self.out.between_samples {
+            BetweenSamples::Uncertified { why, .. } => Some(why.name()),
+            _ => None,
+        }
+    }
+
     /// The Lyapunov families' verdict, as ``verdict`` is the barriers': "met" (every
     /// decrease ``V' + rate V <= 0`` holds at ``u``, or there is none), "relaxed"
     /// (convergence gave way to safety or to the input limits; the rows are in
@@ -893,6 +912,10 @@ fn time_limit(us: f64) -> Result<Duration, CbfError> {
 fn settings(system: &dyn DynSystem, kw: Option<&Bound<'_, PyDict>>) -> PyResult<dynamic::DynSettings> {
     let mut s = system.default_settings();
     let nu = system.nu();
+    // The certificate first, so that its other keywords may come in any order.
+    if let Some(period) = kw.map(|d| d.get_item("sample_period")).transpose()?.flatten().filter(|v| !v.is_none()) {
+        s.sampled_data = Some(SampledData::every_family(period.extract()?));
+    }
     for (key, value) in kw.into_iter().flat_map(|d| d.iter()) {
         let key: String = key.extract()?;
         if value.is_none() {
@@ -925,11 +948,29 @@ fn settings(system: &dyn DynSystem, kw: Option<&Bound<'_, PyDict>>) -> PyResult<
             "time_limit_us" => s.solver.time_limit = Some(time_limit(value.extract()?)?),
             "measure_cpu_time" => s.measure_cpu_time = value.extract()?,
             "cull_far_rows" => s.cull_far_rows = value.extract()?,
+            "sample_period" => {} // read first, below the defaults
+            "input_delay" | "certify_rounds" | "certify_exempt" => {
+                let Some(sampled) = &mut s.sampled_data else {
+                    return Err(value_error(format!("{key} needs sample_period (the certificate between samples)")));
+                };
+                match key.as_str() {
+                    "input_delay" => sampled.input_delay = value.extract()?,
+                    "certify_rounds" => sampled.max_rounds = value.extract()?,
+                    _ => {
+                        sampled.exempt = value
+                            .extract::<Vec<String>>()?
+                            .iter()
+                            .map(|name| family_of(system.families(), name).map(|(i, _)| i))
+                            .collect::<PyResult<_>>()?
+                    }
+                }
+            }
             other => {
                 return Err(crate::value_error(format!(
                     "unknown setting '{other}': expected activation, priority, poles, input_weights, \
                      input_min, input_max, backend, dense_max_steps, eps_abs, eps_rel, max_iter, polish, \
-                     time_limit_us, measure_cpu_time or cull_far_rows"
+                     time_limit_us, measure_cpu_time, cull_far_rows, sample_period, input_delay, \
+                     certify_rounds or certify_exempt"
                 )))
             }
         }
@@ -948,8 +989,11 @@ fn settings(system: &dyn DynSystem, kw: Option<&Bound<'_, PyDict>>) -> PyResult<
 /// ``measure_cpu_time=True`` reads the thread's CPU clock around each update (off by
 /// default: a system call per reading); ``cull_far_rows=False`` evaluates every row every
 /// cycle (by default rows whose spec-declared lower bound is above their activation
-/// threshold are skipped: the same input, less work). See the Rust docs of ``cbfgen::filter`` for the
-/// failure policy.
+/// threshold are skipped: the same input, less work). ``sample_period`` (seconds) certifies
+/// each answer for the period it is held (``between_samples`` on the output, ``margins``
+/// per row), with ``input_delay``, ``certify_rounds`` (solves per update, 1–16) and
+/// ``certify_exempt`` (family names). See the Rust docs of ``cbfgen::filter`` for the
+/// failure policy and ``cbfgen::filter::between_samples`` for the certificate.
 #[pyclass(name = "EcbfFilter", module = "cbfgen")]
 pub struct PyEcbfFilter {
     system: &'static dyn DynSystem,
@@ -1083,6 +1127,13 @@ impl PyEcbfFilter {
     #[getter]
     fn slack<'py>(&self, py: Python<'py>) -> PyResult<Array1Out<'py>> {
         Ok(vector(py, self.lock()?.delta()))
+    }
+
+    /// Per row: the margin the last update asked of it at the sample to certify the period
+    /// (``a·u + b >= margin``, in the row's units; all 0 without ``sample_period``).
+    #[getter]
+    fn margins<'py>(&self, py: Python<'py>) -> PyResult<Array1Out<'py>> {
+        Ok(vector(py, self.lock()?.margins()))
     }
 
     /// Per family name: the ``poles``, ``priority`` and ``activation`` in use.

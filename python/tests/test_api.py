@@ -273,6 +273,40 @@ def test_double_integrator_closed_loop_through_the_generic_classes():
     assert -1e-3 < lowest < 0.05  # it went to the boundary and stayed on the safe side
 
 
+def test_the_certificate_between_samples_keeps_the_held_input_above_the_boundary():
+    # The boundary 0.1 sin(20 t), pressed onto at -100 m/s^2, each input held 1 ms and the
+    # exact solution checked at 100 instants per period (computed here): without
+    # `sample_period` the position dips below the boundary between samples; with it every
+    # update is certified, the margins are reported per row, and it never does.
+    system = cbfgen.System("double_integrator")
+    params = system.params()
+    params.set("sine_barrier", {"amplitude": 0.1, "omega": 20.0, "offset": 0.0})
+
+    def least_h(**settings):
+        safety = system.filter(input_min=[-1000.0], input_max=[1000.0], **settings)
+        x, dt, lowest, states = np.array([0.2, 0.0]), 1e-3, np.inf, set()
+        for k in range(1500):
+            t = k * dt
+            out = safety.update(x, [-100.0], params, t)
+            assert out.source == "qp" and out.verdict == "met"
+            states.add((out.between_samples, out.uncertified_why))
+            tau = dt * np.arange(1, 101) / 100
+            q = x[0] + x[1] * tau + 0.5 * out.u[0] * tau**2
+            lowest = min(lowest, float(np.min(q - 0.1 * np.sin(20.0 * (t + tau)))))
+            x = np.array([x[0] + x[1] * dt + 0.5 * out.u[0] * dt**2, x[1] + out.u[0] * dt])
+        return lowest, states, safety.margins
+
+    lowest, states, margins = least_h()
+    assert lowest < -1e-4 and states == {("off", None)} and np.all(margins == 0.0)
+    lowest, states, margins = least_h(certify_rounds=8, sample_period=1e-3)
+    assert lowest >= 0.0 and states == {("certified", None)}
+    assert margins.shape == (1,) and margins[0] >= 0.0
+    with pytest.raises(ValueError, match="needs sample_period"):
+        system.filter(input_delay=True)
+    with pytest.raises(cbfgen.CbfError, match="sampled-data period"):
+        system.filter(sample_period=0.0)
+
+
 def test_rows_agree_with_the_kernel_table_and_the_filter():
     # System.rows (the generated barrier set), the filter's rows and the uniform kernel
     # table (the same kernels reached through a second, flat door) at one state.

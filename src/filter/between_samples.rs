@@ -127,6 +127,16 @@ impl BetweenSamples {
     pub fn is_certified(&self) -> bool {
         matches!(self, BetweenSamples::Certified { .. })
     }
+
+    /// Snake-case name of the outcome, as shown in Python: "off", "certified" or
+    /// "uncertified".
+    pub const fn name(&self) -> &'static str {
+        match self {
+            BetweenSamples::Off => "off",
+            BetweenSamples::Certified { .. } => "certified",
+            BetweenSamples::Uncertified { .. } => "uncertified",
+        }
+    }
 }
 
 /// Why an update is not certified between the samples.
@@ -145,6 +155,18 @@ pub enum Why {
     /// The input is not the QP's verified answer (a fallback or an unconverged
     /// iterate): there was nothing to certify.
     NotSolved,
+}
+
+impl Why {
+    /// Snake-case name, as shown in Python.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Why::Deficit => "deficit",
+            Why::NoIntervalForm => "no_interval_form",
+            Why::Flow => "flow",
+            Why::NotSolved => "not_solved",
+        }
+    }
 }
 
 /// One row enclosed over a window: `h, L_f h, …, L_f^r h` and `L_g L_f^{r−1} h` (on every

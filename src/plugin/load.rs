@@ -446,6 +446,7 @@ impl DynSystem for PluginSystem {
             u: vec![0.0; self.nu],
             active: vec![false; rows],
             delta: vec![0.0; rows],
+            margins: vec![0.0; rows],
             relative: vec![0.0; rows],
             causes: vec![CauseC::default(); rows],
             relaxed: vec![None; rows],
@@ -680,6 +681,8 @@ struct PluginFilter {
     causes: Vec<CauseC>,
     relaxed: Vec<Option<Cause>>,
     relaxation: Vec<FamilyRelaxation>,
+    /// All 0: a plugin's filter never certifies between the samples (not in ABI 2).
+    margins: Vec<f64>,
     output: Output<()>,
 }
 
@@ -797,6 +800,9 @@ impl DynFilter for PluginFilter {
     }
     fn relaxation(&self) -> &[FamilyRelaxation] {
         &self.relaxation
+    }
+    fn margins(&self) -> &[f64] {
+        &self.margins
     }
     fn settings(&self) -> DynSettings {
         // SAFETY: a live filter handle; buffers sized from the description.

@@ -277,7 +277,7 @@ def test_composed_and_unrolled_rows_agree_on_a_small_arm():
     assert [k.name for k in definition.jets] == ["pose_upper", "pose_lower"]
     assert family.kernels[0].outputs[0].exprs[0] != 0  # the unrolled row, not a signature
     text = emit_system(define(arm(pair, compose=True)), "cbfgen")
-    assert "pub fn pair(" in text and "accumulate_columns(&grad_a" in text and "accumulate_columns(&grad_b" in text
+    assert "pub fn pair<S: " in text and "accumulate_columns(&grad_a" in text and "accumulate_columns(&grad_b" in text
     assert "cbfgen::generated::ssat::ssat_chain2(" in text and "fn pair_chain" not in text
 
 
@@ -295,4 +295,4 @@ def test_a_smoothing_the_core_does_not_ship_gets_the_systems_own_chain_with_the_
     assert [i.name for i in family.chains[0].inputs][-2:] == ["alpha", "alpha_rot"]
     assert [(p.library, p.options) for p in family.composed] == [(None, (50.0, 20.0))]
     text = emit_system(define(arm(pair, compose=True)), "cbfgen")
-    assert "pub fn pair_chain(" in text and "pair_chain(&pose_a.0, &pose_a.1, &pose_b.0, &pose_b.1, &[" in text
+    assert "pub fn pair_chain<S: " in text and "pair_chain(&pose_a.0, &pose_a.1, &pose_b.0, &pose_b.1, &[" in text
