@@ -18,6 +18,11 @@
 //!   `(−∞, +∞)`; and every operation maps `ENTIRE` to `ENTIRE` (`sin(ENTIRE)` is `ENTIRE`,
 //!   not `[-1, 1]`), so an undefined value is never laundered into a finite-looking bound.
 //!   A caller reads `ENTIRE` as "cannot certify".
+//! * **Calls, not inlined code.** No operation is `#[inline]`: a system crate instantiates
+//!   every barrier kernel on intervals, and inlining each operation's outward rounding into
+//!   those long straight lines made the Panda's one-number edit take 96 s to rebuild
+//!   instead of 7.6 s (and the certificate ran slower, 293 µs a Tachyon 3 update instead
+//!   of 151 µs).
 //! * **Enclosures are wider than the true range, never narrower.** Each operation sees its
 //!   operands as independent (the *dependency problem*): `x * x` on `[-1, 2]` gives
 //!   `[-2, 4]`, not `[0, 4]`, and `x - x` is not `0`. That costs tightness, not
@@ -94,20 +99,17 @@ impl Interval {
     pub const ENTIRE: Interval = Interval { lo: f64::NEG_INFINITY, hi: f64::INFINITY };
 
     /// `[lo, hi]`. Debug builds assert `lo <= hi`; a NaN end gives [`Interval::ENTIRE`].
-    #[inline]
     pub fn new(lo: f64, hi: f64) -> Self {
         debug_assert!(lo.is_nan() || hi.is_nan() || lo <= hi, "Interval::new: lo {lo} > hi {hi}");
         finish(lo, hi)
     }
 
     /// `[x, x]`: an exactly known value (NaN gives [`Interval::ENTIRE`]).
-    #[inline]
     pub fn point(x: f64) -> Self {
         finish(x, x)
     }
 
     /// The smallest interval holding both `a` and `b` ([`Interval::ENTIRE`] if either is).
-    #[inline]
     pub fn hull(a: Self, b: Self) -> Self {
         if a.unknown() || b.unknown() {
             return Self::ENTIRE;
@@ -116,14 +118,12 @@ impl Interval {
     }
 
     /// The smallest interval holding `self` and `other`: [`Interval::hull`] as a method.
-    #[inline]
     pub fn union(self, other: Self) -> Self {
         Self::hull(self, other)
     }
 
     /// `hi − lo`, rounded up (so never less than the true width); `0` for a point, `+∞`
     /// when unbounded, NaN for a NaN end.
-    #[inline]
     pub fn width(self) -> f64 {
         add_up(self.hi, -self.lo)
     }
@@ -131,7 +131,6 @@ impl Interval {
     /// A point of the interval near its centre: `(lo + hi)/2` when both ends are finite,
     /// `0` for [`Interval::ENTIRE`], `±f64::MAX` when unbounded on one side only; NaN for a
     /// NaN end.
-    #[inline]
     pub fn mid(self) -> f64 {
         match (self.lo == f64::NEG_INFINITY, self.hi == f64::INFINITY) {
             (true, true) => 0.0,
@@ -144,32 +143,27 @@ impl Interval {
     }
 
     /// Whether `x` lies in `[lo, hi]` (false for NaN).
-    #[inline]
     pub fn contains(self, x: f64) -> bool {
         (self.lo..=self.hi).contains(&x)
     }
 
     /// Whether both ends are finite.
-    #[inline]
     pub fn is_finite(self) -> bool {
         self.lo.is_finite() && self.hi.is_finite()
     }
 
     /// Whether this is [`Interval::ENTIRE`] (nothing known) or has a NaN end (also nothing
     /// known: every operation turns it into `ENTIRE`).
-    #[inline]
     pub fn is_entire(self) -> bool {
         self.unknown()
     }
 
     /// `ENTIRE` or a NaN end: what every operation maps to `ENTIRE`.
-    #[inline]
     fn unknown(self) -> bool {
         (self.lo == f64::NEG_INFINITY && self.hi == f64::INFINITY) || self.lo.is_nan() || self.hi.is_nan()
     }
 
     /// `f` increasing on the whole interval, within `ulps` steps at each end.
-    #[inline]
     fn increasing(self, f: fn(f64) -> f64, ulps: u32) -> Self {
         if self.unknown() {
             return Self::ENTIRE;
@@ -179,7 +173,6 @@ impl Interval {
 }
 
 /// `[lo, hi]`, or [`Interval::ENTIRE`] if either end is NaN.
-#[inline]
 fn finish(lo: f64, hi: f64) -> Interval {
     if lo.is_nan() || hi.is_nan() {
         Interval::ENTIRE
@@ -189,7 +182,6 @@ fn finish(lo: f64, hi: f64) -> Interval {
 }
 
 /// `x` moved `n` steps toward `−∞` (NaN stays NaN, `−∞` stays `−∞`).
-#[inline]
 fn down(mut x: f64, n: u32) -> f64 {
     for _ in 0..n {
         x = x.next_down();
@@ -198,7 +190,6 @@ fn down(mut x: f64, n: u32) -> f64 {
 }
 
 /// `x` moved `n` steps toward `+∞`.
-#[inline]
 fn up(mut x: f64, n: u32) -> f64 {
     for _ in 0..n {
         x = x.next_up();
@@ -207,7 +198,6 @@ fn up(mut x: f64, n: u32) -> f64 {
 }
 
 /// `max(x, m)`, but NaN stays NaN (`f64::max` would drop it).
-#[inline]
 fn at_least(x: f64, m: f64) -> f64 {
     if x < m {
         m
@@ -217,7 +207,6 @@ fn at_least(x: f64, m: f64) -> f64 {
 }
 
 /// `min(x, m)`, but NaN stays NaN.
-#[inline]
 fn at_most(x: f64, m: f64) -> f64 {
     if x > m {
         m
@@ -227,7 +216,6 @@ fn at_most(x: f64, m: f64) -> f64 {
 }
 
 /// The smaller of two, NaN if either is.
-#[inline]
 fn min_nan(a: f64, b: f64) -> f64 {
     if a.is_nan() || b.is_nan() {
         f64::NAN
@@ -237,7 +225,6 @@ fn min_nan(a: f64, b: f64) -> f64 {
 }
 
 /// The larger of two, NaN if either is.
-#[inline]
 fn max_nan(a: f64, b: f64) -> f64 {
     if a.is_nan() || b.is_nan() {
         f64::NAN
@@ -247,7 +234,6 @@ fn max_nan(a: f64, b: f64) -> f64 {
 }
 
 /// Whether `[a, b]` is at least `w` wide (or its width is NaN: both ends the same infinity).
-#[inline]
 fn wider_than(a: f64, b: f64, w: f64) -> bool {
     let width = b - a;
     width >= w || width.is_nan()
@@ -255,7 +241,6 @@ fn wider_than(a: f64, b: f64, w: f64) -> bool {
 
 /// The rounding error of `s = x + y` (finite): `x + y = s + e` exactly (Knuth's TwoSum,
 /// exact in round-to-nearest without overflow).
-#[inline]
 fn two_sum_err(x: f64, y: f64, s: f64) -> f64 {
     let y_part = s - x;
     let x_part = s - y_part;
@@ -264,7 +249,6 @@ fn two_sum_err(x: f64, y: f64, s: f64) -> f64 {
 
 /// The largest f64 `≤ x + y` (exact directed rounding; `+∞` from an overflow becomes
 /// `f64::MAX`).
-#[inline]
 fn add_down(x: f64, y: f64) -> f64 {
     let s = x + y;
     if !s.is_finite() {
@@ -279,7 +263,6 @@ fn add_down(x: f64, y: f64) -> f64 {
 }
 
 /// The smallest f64 `≥ x + y`.
-#[inline]
 fn add_up(x: f64, y: f64) -> f64 {
     let s = x + y;
     if !s.is_finite() {
@@ -294,7 +277,6 @@ fn add_up(x: f64, y: f64) -> f64 {
 
 /// A lower bound of the exact `x · y`; `0 · ±∞ = 0` (IEEE 1788: an infinite end is a bound,
 /// not a member, so a zero factor makes the product exactly 0).
-#[inline]
 fn mul_down(x: f64, y: f64) -> f64 {
     if x == 0.0 || y == 0.0 {
         0.0
@@ -304,7 +286,6 @@ fn mul_down(x: f64, y: f64) -> f64 {
 }
 
 /// An upper bound of the exact `x · y`; `0 · ±∞ = 0`.
-#[inline]
 fn mul_up(x: f64, y: f64) -> f64 {
     if x == 0.0 || y == 0.0 {
         0.0
@@ -314,7 +295,6 @@ fn mul_up(x: f64, y: f64) -> f64 {
 }
 
 /// A lower bound of the exact `x / y`, for `y ≠ 0` (`±∞/±∞` is NaN).
-#[inline]
 fn div_down(x: f64, y: f64) -> f64 {
     if x == 0.0 {
         0.0
@@ -324,7 +304,6 @@ fn div_down(x: f64, y: f64) -> f64 {
 }
 
 /// An upper bound of the exact `x / y`, for `y ≠ 0`.
-#[inline]
 fn div_up(x: f64, y: f64) -> f64 {
     if x == 0.0 {
         0.0
@@ -337,7 +316,6 @@ fn div_up(x: f64, y: f64) -> f64 {
 /// it does, and possibly when an end is within about `10⁻¹²` (relative) of such a point.
 /// The arithmetic below errs by a few `10⁻¹⁶` relative to `|t| + 1` (the rounding of
 /// `offset`, `period`, the subtraction and the division), far inside the margin `eps`.
-#[inline]
 fn may_hold_periodic(a: f64, b: f64, offset: f64, period: f64) -> bool {
     let ta = (a - offset) / period;
     let tb = (b - offset) / period;
@@ -353,7 +331,6 @@ const PI_UP: f64 = f64::from_bits(PI.to_bits() + 1);
 
 impl From<f64> for Interval {
     /// [`Interval::point`]: `[x, x]`, or [`Interval::ENTIRE`] for NaN.
-    #[inline]
     fn from(x: f64) -> Self {
         Self::point(x)
     }
@@ -372,7 +349,6 @@ impl fmt::Display for Interval {
 impl Neg for Interval {
     type Output = Self;
     /// `[-hi, -lo]`, exact.
-    #[inline]
     fn neg(self) -> Self {
         if self.unknown() {
             return Self::ENTIRE;
@@ -384,7 +360,6 @@ impl Neg for Interval {
 impl Add for Interval {
     type Output = Self;
     /// `[lo + lo', hi + hi']`, rounded outward.
-    #[inline]
     fn add(self, rhs: Self) -> Self {
         if self.unknown() || rhs.unknown() {
             return Self::ENTIRE;
@@ -396,7 +371,6 @@ impl Add for Interval {
 impl Sub for Interval {
     type Output = Self;
     /// `[lo − hi', hi − lo']`, rounded outward.
-    #[inline]
     fn sub(self, rhs: Self) -> Self {
         if self.unknown() || rhs.unknown() {
             return Self::ENTIRE;
@@ -408,7 +382,6 @@ impl Sub for Interval {
 impl Mul for Interval {
     type Output = Self;
     /// The extremes of the four end products, rounded outward; `0 · ±∞ = 0`.
-    #[inline]
     fn mul(self, rhs: Self) -> Self {
         if self.unknown() || rhs.unknown() {
             return Self::ENTIRE;
@@ -425,7 +398,6 @@ impl Div for Interval {
     /// [`Interval::ENTIRE`] when the divisor holds 0 (the quotient is undefined there);
     /// otherwise the extremes of the four end quotients, rounded outward (`ENTIRE` if one
     /// is `±∞/±∞`).
-    #[inline]
     fn div(self, rhs: Self) -> Self {
         if self.unknown() || rhs.unknown() || rhs.contains(0.0) {
             return Self::ENTIRE;
@@ -455,7 +427,6 @@ impl Div for Interval {
 /// | `max` | `[max(lo, lo'), max(hi, hi')]` | — |
 /// | `exp_lane`, `tanh_lane`, `ln_lane` (and `_lanes`) | [`crate::lanes`] at the ends, their stated bounds out | `ln`: `lo ≤ 0` |
 impl Scalar for Interval {
-    #[inline]
     fn sqr(self) -> Self {
         let a = self.abs();
         if a.unknown() {
@@ -464,7 +435,6 @@ impl Scalar for Interval {
         finish(mul_down(a.lo, a.lo), mul_up(a.hi, a.hi))
     }
 
-    #[inline]
     fn sqrt(self) -> Self {
         if self.unknown() || self.lo < 0.0 {
             return Self::ENTIRE;
@@ -472,7 +442,6 @@ impl Scalar for Interval {
         finish(at_least(self.lo.sqrt().next_down(), 0.0), self.hi.sqrt().next_up())
     }
 
-    #[inline]
     fn exp(self) -> Self {
         let r = self.increasing(f64::exp, LIBM_ULPS);
         if r.unknown() {
@@ -481,7 +450,6 @@ impl Scalar for Interval {
         Interval { lo: at_least(r.lo, 0.0), hi: r.hi }
     }
 
-    #[inline]
     fn ln(self) -> Self {
         if self.unknown() || self.lo <= 0.0 {
             return Self::ENTIRE;
@@ -489,7 +457,6 @@ impl Scalar for Interval {
         self.increasing(f64::ln, LIBM_ULPS)
     }
 
-    #[inline]
     fn abs(self) -> Self {
         if self.unknown() {
             Self::ENTIRE
@@ -502,7 +469,6 @@ impl Scalar for Interval {
         }
     }
 
-    #[inline]
     fn sin(self) -> Self {
         if self.unknown() {
             return Self::ENTIRE;
@@ -518,7 +484,6 @@ impl Scalar for Interval {
         finish(at_least(lo, -1.0), at_most(hi, 1.0))
     }
 
-    #[inline]
     fn cos(self) -> Self {
         if self.unknown() {
             return Self::ENTIRE;
@@ -533,7 +498,6 @@ impl Scalar for Interval {
         finish(at_least(lo, -1.0), at_most(hi, 1.0))
     }
 
-    #[inline]
     fn tan(self) -> Self {
         if self.unknown() {
             return Self::ENTIRE;
@@ -545,7 +509,6 @@ impl Scalar for Interval {
         self.increasing(f64::tan, LIBM_ULPS)
     }
 
-    #[inline]
     fn asin(self) -> Self {
         if self.unknown() || self.lo < -1.0 || self.hi > 1.0 {
             return Self::ENTIRE;
@@ -553,7 +516,6 @@ impl Scalar for Interval {
         self.increasing(f64::asin, LIBM_ULPS)
     }
 
-    #[inline]
     fn acos(self) -> Self {
         if self.unknown() || self.lo < -1.0 || self.hi > 1.0 {
             return Self::ENTIRE;
@@ -561,12 +523,10 @@ impl Scalar for Interval {
         finish(at_least(down(self.hi.acos(), LIBM_ULPS), 0.0), up(self.lo.acos(), LIBM_ULPS))
     }
 
-    #[inline]
     fn atan(self) -> Self {
         self.increasing(f64::atan, LIBM_ULPS)
     }
 
-    #[inline]
     fn atan2(self, x: Self) -> Self {
         let y = self;
         if y.unknown() || x.unknown() {
@@ -585,12 +545,10 @@ impl Scalar for Interval {
         finish(at_least(down(lo, LIBM_ULPS), -PI_UP), at_most(up(hi, LIBM_ULPS), PI_UP))
     }
 
-    #[inline]
     fn sinh(self) -> Self {
         self.increasing(f64::sinh, LIBM_ULPS)
     }
 
-    #[inline]
     fn cosh(self) -> Self {
         if self.unknown() {
             return Self::ENTIRE;
@@ -606,7 +564,6 @@ impl Scalar for Interval {
         finish(at_least(down(lo, LIBM_ULPS), 1.0), up(hi, LIBM_ULPS))
     }
 
-    #[inline]
     fn tanh(self) -> Self {
         let r = self.increasing(f64::tanh, LIBM_ULPS);
         if r.unknown() {
@@ -615,7 +572,6 @@ impl Scalar for Interval {
         Interval { lo: at_least(r.lo, -1.0), hi: at_most(r.hi, 1.0) }
     }
 
-    #[inline]
     fn powf(self, e: Self) -> Self {
         let x = self;
         if x.unknown() || e.unknown() || x.lo < 0.0 || (x.lo == 0.0 && e.lo <= 0.0) {
@@ -629,7 +585,6 @@ impl Scalar for Interval {
         finish(at_least(down(lo, LIBM_ULPS), 0.0), up(hi, LIBM_ULPS))
     }
 
-    #[inline]
     fn max(self, other: Self) -> Self {
         if self.unknown() || other.unknown() {
             return Self::ENTIRE;
@@ -637,21 +592,18 @@ impl Scalar for Interval {
         Interval { lo: self.lo.max(other.lo), hi: self.hi.max(other.hi) }
     }
 
-    #[inline]
     fn exp_lanes<const N: usize>(x: [Self; N]) -> [Self; N] {
         let lo = crate::lanes::exp(x.map(|v| v.lo));
         let hi = crate::lanes::exp(x.map(|v| v.hi));
         core::array::from_fn(|i| exp_lane_from(x[i], lo[i], hi[i]))
     }
 
-    #[inline]
     fn tanh_lanes<const N: usize>(x: [Self; N]) -> [Self; N] {
         let lo = crate::lanes::tanh(x.map(|v| v.lo));
         let hi = crate::lanes::tanh(x.map(|v| v.hi));
         core::array::from_fn(|i| tanh_lane_from(x[i], lo[i], hi[i]))
     }
 
-    #[inline]
     fn ln_lanes<const N: usize>(x: [Self; N]) -> [Self; N] {
         // ln of the ends that are out of the domain is NaN or −∞, discarded below.
         let lo = crate::lanes::ln(x.map(|v| v.lo));
@@ -659,24 +611,20 @@ impl Scalar for Interval {
         core::array::from_fn(|i| ln_lane_from(x[i], lo[i], hi[i]))
     }
 
-    #[inline]
     fn exp_lane(self) -> Self {
         exp_lane_from(self, crate::lanes::exp1(self.lo), crate::lanes::exp1(self.hi))
     }
 
-    #[inline]
     fn tanh_lane(self) -> Self {
         tanh_lane_from(self, crate::lanes::tanh1(self.lo), crate::lanes::tanh1(self.hi))
     }
 
-    #[inline]
     fn ln_lane(self) -> Self {
         ln_lane_from(self, crate::lanes::ln1(self.lo), crate::lanes::ln1(self.hi))
     }
 }
 
 /// `exp` of `x` from [`crate::lanes`]' values at its ends (increasing).
-#[inline]
 fn exp_lane_from(x: Interval, at_lo: f64, at_hi: f64) -> Interval {
     if x.unknown() {
         return Interval::ENTIRE;
@@ -685,7 +633,6 @@ fn exp_lane_from(x: Interval, at_lo: f64, at_hi: f64) -> Interval {
 }
 
 /// `tanh` of `x` from [`crate::lanes`]' values at its ends (increasing).
-#[inline]
 fn tanh_lane_from(x: Interval, at_lo: f64, at_hi: f64) -> Interval {
     if x.unknown() {
         return Interval::ENTIRE;
@@ -695,7 +642,6 @@ fn tanh_lane_from(x: Interval, at_lo: f64, at_hi: f64) -> Interval {
 
 /// `ln` of `x` from [`crate::lanes`]' values at its ends (increasing; `ENTIRE` for
 /// `lo ≤ 0`).
-#[inline]
 fn ln_lane_from(x: Interval, at_lo: f64, at_hi: f64) -> Interval {
     if x.unknown() || x.lo <= 0.0 {
         return Interval::ENTIRE;
