@@ -35,7 +35,9 @@
 //!   take no part and are not certified; nor are rows the QP relaxed (the safety
 //!   verdict already reports them), Lyapunov rows, or rows of families in
 //!   [`SampledData::exempt`];
-//! * a family without an interval form (composed pair rows, for now) cannot be certified:
+//! * a barrier set without an interval form (one written by hand; the joint-torque wrapper
+//!   [`JointTorque`](crate::torque::JointTorque), whose rigid-body dynamics are `f64` only)
+//!   cannot be certified:
 //!   the update says so ([`Why::NoIntervalForm`]) instead of claiming it.
 //!
 //! Every update reports what it achieved in [`Output::between_samples`](super::Output)
@@ -145,8 +147,8 @@ pub enum Why {
     /// The margins still left a deficit after [`SampledData::max_rounds`] solves (or the
     /// raised margins made the rows conflict, and the QP relaxed them).
     Deficit,
-    /// A row's family has no interval form (a composed row, or a hand-written barrier
-    /// set).
+    /// A row has no interval form (a hand-written barrier set, or rows through the
+    /// joint-torque wrapper).
     NoIntervalForm,
     /// The reachable states could not be enclosed: the flow leaves every box the
     /// iteration tried within the period (a state or input far too fast for `Δt`), or an

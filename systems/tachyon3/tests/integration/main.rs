@@ -5,6 +5,7 @@
 //! Run one file's tests with `cargo test --release --test integration <module>::`.
 
 mod animation;
+mod between_samples;
 mod campaign;
 mod campaign_shards;
 mod constraints;
