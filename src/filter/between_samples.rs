@@ -213,6 +213,9 @@ pub enum NotEnclosed {
     },
     /// The flow could not be enclosed (see [`Why::Flow`]).
     Flow,
+    /// `wanted` or `out` of another length than the rows (a caller's bug; the filter
+    /// never passes one).
+    LengthMismatch,
 }
 
 /// A kernel on intervals behind the flat signature: inputs in, outputs out.
@@ -343,7 +346,8 @@ fn field<const NX: usize, const NU: usize>(
 ///
 /// # Errors
 /// [`NotEnclosed::Flow`] when the reachable states could not be enclosed;
-/// [`NotEnclosed::NoIntervalForm`] for the first wanted row whose member has none.
+/// [`NotEnclosed::NoIntervalForm`] for the first wanted row whose member has none;
+/// [`NotEnclosed::LengthMismatch`] for `wanted` or `out` of another length than `layout`.
 pub fn enclose_generated<G: GeneratedSystem<NX, NU>, const NX: usize, const NU: usize>(
     layout: &[RowLayout],
     window: &Window<NU>,
@@ -353,6 +357,9 @@ pub fn enclose_generated<G: GeneratedSystem<NX, NU>, const NX: usize, const NU: 
     out: &mut [RowEnclosure<NU>],
 ) -> Result<(), NotEnclosed> {
     use crate::dynamic::FlatParams;
+    if wanted.len() != layout.len() || out.len() != layout.len() {
+        return Err(NotEnclosed::LengthMismatch);
+    }
     let kernels = G::INTERVAL_KERNELS;
     if kernels.len() < 2 || kernels[0].name != "drift" || kernels[1].name != "input_matrix" {
         return Err(NotEnclosed::NoIntervalForm { row: wanted.iter().position(|&w| w).unwrap_or(0) });

@@ -582,7 +582,9 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
         let window = Window { t, period: sampled.period, before, u };
         match self.barriers.enclose(&window, x, params, &self.wanted, &mut self.enclosures) {
             Ok(()) => {}
-            Err(NotEnclosed::NoIntervalForm { .. }) => return Err(Why::NoIntervalForm),
+            // The filter's vectors are the rows' length: a mismatch is a barrier set that
+            // cannot enclose its own rows.
+            Err(NotEnclosed::NoIntervalForm { .. } | NotEnclosed::LengthMismatch) => return Err(Why::NoIntervalForm),
             Err(NotEnclosed::Flow) => return Err(Why::Flow),
         }
         let mut short = 0;

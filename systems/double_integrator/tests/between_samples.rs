@@ -170,6 +170,18 @@ fn the_enclosure_holds_every_value_the_row_takes_over_the_period() {
 }
 
 #[test]
+fn enclosing_into_slices_of_another_length_is_a_typed_error() {
+    use cbfgen::filter::between_samples::NotEnclosed;
+    let barriers = Barriers::new(Capacity {}).unwrap();
+    let window = Window { t: 0.0, period: PERIOD, before: None, u: [0.0] };
+    let mut e = [RowEnclosure::ZERO; 2];
+    for (wanted, out) in [(&[true, true][..], 1), (&[][..], 1), (&[true][..], 2), (&[true][..], 0)] {
+        let got = barriers.enclose(&window, &[0.2, 0.0], &params(5.0), wanted, &mut e[..out]);
+        assert_eq!(got, Err(NotEnclosed::LengthMismatch), "{} wanted, {out} out", wanted.len());
+    }
+}
+
+#[test]
 fn an_update_the_margins_could_not_certify_says_so() {
     // Pressed onto the boundary with one solve allowed: the row is tight at the sample, the
     // boundary moves within the period, and nothing may raise the margin — the update
