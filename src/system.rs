@@ -17,6 +17,25 @@ use crate::error::{within, CbfError};
 use crate::interval::Interval;
 pub use crate::limits::{MAX_INSTANCES, MAX_RELATIVE_DEGREE, PARAM_LIMIT, STATE_LIMIT, TIME_LIMIT};
 
+/// One classic RK4 step of `ẋ = f(x)` over `h` (a held input lives in `f`): the plant
+/// between two samples in simulations and tests, never the control path. `f` may fail
+/// (a singular mass matrix); its first error is returned.
+///
+/// # Errors
+/// `f`'s, at any of the four stages.
+pub fn rk4_step<const N: usize, E>(
+    f: impl Fn(&[f64; N]) -> Result<[f64; N], E>,
+    x: &[f64; N],
+    h: f64,
+) -> Result<[f64; N], E> {
+    let add = |a: &[f64; N], k: &[f64; N], s: f64| -> [f64; N] { std::array::from_fn(|i| a[i] + s * k[i]) };
+    let k1 = f(x)?;
+    let k2 = f(&add(x, &k1, h / 2.0))?;
+    let k3 = f(&add(x, &k2, h / 2.0))?;
+    let k4 = f(&add(x, &k3, h))?;
+    Ok(std::array::from_fn(|i| x[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])))
+}
+
 /// One evaluated ECBF row.
 ///
 /// The row enforces `L_f^r h + Σ_{i<r} k_i L_f^i h + L_g L_f^{r−1} h · u ≥ 0`, with the

@@ -276,12 +276,7 @@ pub fn step_rigid_body<const NX: usize, const NU: usize>(
         let qdd = rigid_body_acceleration(dynamics, x, tau)?;
         Ok(std::array::from_fn(|i| if i < NU { x[NU + i] } else { qdd[i - NU] }))
     };
-    let add = |x: &[f64; NX], k: &[f64; NX], h: f64| -> [f64; NX] { std::array::from_fn(|i| x[i] + h * k[i]) };
-    let k1 = f(x)?;
-    let k2 = f(&add(x, &k1, dt / 2.0))?;
-    let k3 = f(&add(x, &k2, dt / 2.0))?;
-    let k4 = f(&add(x, &k3, dt))?;
-    Ok(std::array::from_fn(|i| x[i] + dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])))
+    crate::system::rk4_step(f, x, dt)
 }
 
 #[cfg(test)]

@@ -602,12 +602,7 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
             // (`MET_TOLERANCE` of the row's size): met between the samples as the row is
             // met at them.
             let row = &self.barriers.rows()[i];
-            let size = row
-                .lg
-                .iter()
-                .zip(&u)
-                .fold(self.gains[l.family].bound(&row.lie).abs(), |s, (a, uj)| s + a.abs() * (1.0 + uj.abs()));
-            if psi.lo >= -verdict::MET_TOLERANCE * size {
+            if psi.lo >= -qp::met_allowance(&row.lg, self.gains[l.family].bound(&row.lie), &u) {
                 continue;
             }
             if !psi.lo.is_finite() {

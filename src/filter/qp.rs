@@ -53,6 +53,13 @@ pub struct RowSpec<'a> {
 /// (and the padding of a relaxation by it) is never reported as a relaxation.
 pub const MET_TOLERANCE: f64 = 1e-8;
 
+/// How far below 0 a row `a·u + b` may read at `u` and still count as met:
+/// [`MET_TOLERANCE`]` · (|b| + Σ_j |a_j| (1 + |u_j|))`, rounding and nothing more. The
+/// verdict's measure, and the sampled-data certificate's.
+pub(crate) fn met_allowance<const NU: usize>(a: &[f64; NU], b: f64, u: &[f64; NU]) -> f64 {
+    MET_TOLERANCE * a.iter().zip(u).fold(b.abs(), |s, (aj, uj)| s + aj.abs() * (1.0 + uj.abs()))
+}
+
 /// The QP, its solvers, and the last answer and its assessment.
 pub struct EcbfQp<const NU: usize> {
     rows: usize,
@@ -426,15 +433,14 @@ impl<const NU: usize> EcbfQp<NU> {
                 continue;
             }
             let row = &self.tiered[i];
-            let (mut value, mut terms, mut size) = (row.b, row.b.abs(), row.b.abs());
+            let (mut value, mut terms) = (row.b, row.b.abs());
             for j in 0..NU {
                 value += row.a[j] * u[j];
                 terms += (row.a[j] * u[j]).abs();
-                size += row.a[j].abs() * (1.0 + u[j].abs());
             }
             let slack = (-value).max(0.0);
             self.delta[i] = slack;
-            if slack > MET_TOLERANCE * size {
+            if slack > met_allowance(&row.a, row.b, u) {
                 self.relative[i] = if terms > 0.0 { slack / terms } else { f64::INFINITY };
                 let cause = self.dense.causes()[i];
                 self.relaxed[i] = Some(match cause {

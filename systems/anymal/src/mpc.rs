@@ -958,13 +958,9 @@ pub fn standing() -> [f64; NX] {
 /// One RK4 step of `h` seconds of the MPC's own model under input `u` (forces in newtons,
 /// trunk frame): the plant its plans are exact for.
 pub fn integrate(x: &[f64; NX], u: &[f64; NU], h: f64) -> [f64; NX] {
-    let f = |x: &[f64; NX]| gen::flow(x, u).0;
-    let step = |a: &[f64; NX], k: &[f64; NX], s: f64| -> [f64; NX] { std::array::from_fn(|i| a[i] + s * k[i]) };
-    let k1 = f(x);
-    let k2 = f(&step(x, &k1, h / 2.0));
-    let k3 = f(&step(x, &k2, h / 2.0));
-    let k4 = f(&step(x, &k3, h));
-    std::array::from_fn(|i| x[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]))
+    let f = |x: &[f64; NX]| Ok::<_, std::convert::Infallible>(gen::flow(x, u).0);
+    let Ok(next) = cbfgen::system::rk4_step(f, x, h);
+    next
 }
 
 /// The joints that put the feet's centres at `aims` (world) with the trunk at `x`'s pose:

@@ -18,14 +18,9 @@ use cbfgen_tachyon3::model::{xdot, State, NU};
 use cbfgen_tachyon3::sim::gait::GaitParams;
 use cbfgen_tachyon3::sim::{Course, Scenario, DT};
 
-/// One RK4 step of `ẋ = f(x) + g(x) u` with `u` held.
 fn rk4(x: &State, u: &[f64; NU], h: f64) -> State {
-    let add = |a: &State, k: &State, s: f64| -> State { std::array::from_fn(|i| a[i] + s * k[i]) };
-    let k1 = xdot(x, u);
-    let k2 = xdot(&add(x, &k1, 0.5 * h), u);
-    let k3 = xdot(&add(x, &k2, 0.5 * h), u);
-    let k4 = xdot(&add(x, &k3, h), u);
-    std::array::from_fn(|i| x[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]))
+    let Ok(next) = cbfgen::system::rk4_step(|y| Ok::<_, std::convert::Infallible>(xdot(y, u)), x, h);
+    next
 }
 
 struct Run {
