@@ -41,6 +41,8 @@
 //! assert!((bias[0] - m * g * l * q[0].sin()).abs() < 1e-12);
 //! ```
 
+use crate::scalar::Scalar;
+
 /// How a body moves relative to its parent.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Joint {
@@ -122,12 +124,18 @@ pub struct Tree<'a> {
     pub gravity: [f64; 3],
 }
 
-type Vec3 = [f64; 3];
+type Vec3<S> = [S; 3];
 /// (angular, linear) for a motion; (moment, force) for a force.
-type Spatial = (Vec3, Vec3);
+type Spatial<S> = (Vec3<S>, Vec3<S>);
+/// (rotation row by row, origin): a body's frame in its parent's.
+type Placement<S> = ([S; 9], Vec3<S>);
 
 /// The most bodies a tree may have: the algorithms keep per-body values on the stack.
 pub const MAX_BODIES: usize = 64;
+
+fn zero<S: Scalar>() -> S {
+    S::from(0.0)
+}
 
 impl Tree<'_> {
     /// Why the tree cannot be walked: a parent not before its child, an index past `q`
@@ -186,15 +194,19 @@ impl Tree<'_> {
 
     /// The joint-space mass matrix M(q), `N` × `N` in velocity order; `q` holds the
     /// joints' coordinates. A tree with a [`defect`](Self::defect) gives NaN throughout.
-    pub fn mass_matrix<const N: usize>(&self, q: &[f64]) -> [[f64; N]; N] {
-        let mut m = [[0.0; N]; N];
+    ///
+    /// On any [`Scalar`]: on `f64` the matrix at `q`; on
+    /// [`Interval`](crate::interval::Interval)s an enclosure of every matrix over the box
+    /// `q` (what certifies a torque-controlled robot between the samples).
+    pub fn mass_matrix<S: Scalar, const N: usize>(&self, q: &[S]) -> [[S; N]; N] {
+        let mut m = [[zero::<S>(); N]; N];
         let n = self.bodies.len();
         if self.defect(q.len(), N).is_some() {
-            return [[f64::NAN; N]; N];
+            return [[S::from(f64::NAN); N]; N];
         }
-        let mut placement = [([0.0; 9], [0.0; 3]); MAX_BODIES];
+        let mut placement = [([zero::<S>(); 9], [zero::<S>(); 3]); MAX_BODIES];
         // Composite inertias, each as a 6 × 6 matrix on (ω, v) at its body's origin.
-        let mut composite = [[[0.0; 6]; 6]; MAX_BODIES];
+        let mut composite = [[[zero::<S>(); 6]; 6]; MAX_BODIES];
         for i in 0..n {
             placement[i] = self.placement(i, q);
             composite[i] = spatial_inertia(&self.bodies[i]);
@@ -205,16 +217,16 @@ impl Tree<'_> {
             let parent = &mut composite[self.bodies[i].parent];
             for (row, add) in parent.iter_mut().zip(&carried) {
                 for (a, b) in row.iter_mut().zip(add) {
-                    *a += b;
+                    *a = *a + *b;
                 }
             }
         }
         for (i, (body, inertia)) in self.bodies.iter().zip(&composite).enumerate().skip(1) {
-            let Some((s, column)) = subspace(&body.joint) else { continue };
+            let Some((s, column)) = subspace::<S>(&body.joint) else { continue };
             // F = I_c S, carried up the tree; M[j][i] = S_j · F at every moving ancestor.
-            let mut force = [0.0; 6];
+            let mut force = [zero::<S>(); 6];
             for (f, row) in force.iter_mut().zip(inertia) {
-                *f = row.iter().zip(&s).map(|(a, b)| a * b).sum();
+                *f = dot6(row, &s);
             }
             m[column][column] = dot6(&s, &force);
             let mut j = i;
@@ -222,7 +234,7 @@ impl Tree<'_> {
                 let (r, p) = &placement[j];
                 force = force_to_parent(&force, r, p);
                 j = self.bodies[j].parent;
-                if let Some((s_j, row)) = subspace(&self.bodies[j].joint) {
+                if let Some((s_j, row)) = subspace::<S>(&self.bodies[j].joint) {
                     m[row][column] = dot6(&s_j, &force);
                     m[column][row] = m[row][column];
                 }
@@ -251,33 +263,35 @@ impl Tree<'_> {
 
     /// C(q, v) v + g(q): the generalized forces at zero acceleration. `base_rotation` is
     /// a floating root's orientation in the world (its axes as columns, row by row), which
-    /// gravity is seen through; a fixed root ignores it (None is the identity).
-    pub fn bias<const N: usize>(&self, q: &[f64], base_rotation: Option<&[f64; 9]>, v: &[f64; N]) -> [f64; N] {
-        self.inverse_dynamics(q, base_rotation, v, &[0.0; N])
+    /// gravity is seen through; a fixed root ignores it (None is the identity). On any
+    /// [`Scalar`], as [`Tree::mass_matrix`].
+    pub fn bias<S: Scalar, const N: usize>(&self, q: &[S], base_rotation: Option<&[S; 9]>, v: &[S; N]) -> [S; N] {
+        self.inverse_dynamics(q, base_rotation, v, &[zero::<S>(); N])
     }
 
     /// The generalized forces τ = M(q) a + C(q, v) v + g(q) (the recursive Newton–Euler
     /// algorithm). A tree with a [`defect`](Self::defect) gives NaN throughout.
-    pub fn inverse_dynamics<const N: usize>(
+    pub fn inverse_dynamics<S: Scalar, const N: usize>(
         &self,
-        q: &[f64],
-        base_rotation: Option<&[f64; 9]>,
-        v: &[f64; N],
-        a: &[f64; N],
-    ) -> [f64; N] {
+        q: &[S],
+        base_rotation: Option<&[S; 9]>,
+        v: &[S; N],
+        a: &[S; N],
+    ) -> [S; N] {
         let n = self.bodies.len();
         if self.defect(q.len(), N).is_some() {
-            return [f64::NAN; N];
+            return [S::from(f64::NAN); N];
         }
-        let lift = self.gravity.map(|g| -g);
-        let mut velocity = [([0.0; 3], [0.0; 3]); MAX_BODIES];
-        let mut acceleration = [([0.0; 3], [0.0; 3]); MAX_BODIES];
-        let mut force = [([0.0; 3], [0.0; 3]); MAX_BODIES];
-        let mut placement = [([0.0; 9], [0.0; 3]); MAX_BODIES];
+        let lift = self.gravity.map(|g| S::from(-g));
+        let z = zero::<S>();
+        let mut velocity = [([z; 3], [z; 3]); MAX_BODIES];
+        let mut acceleration = [([z; 3], [z; 3]); MAX_BODIES];
+        let mut force = [([z; 3], [z; 3]); MAX_BODIES];
+        let mut placement = [([z; 9], [z; 3]); MAX_BODIES];
         match self.root {
-            Root::Fixed => acceleration[0] = ([0.0; 3], lift),
+            Root::Fixed => acceleration[0] = ([z; 3], lift),
             Root::Floating => {
-                let identity = Body::ROOT.rotation;
+                let identity = Body::ROOT.rotation.map(S::from);
                 let r = base_rotation.unwrap_or(&identity);
                 velocity[0] = ([v[3], v[4], v[5]], [v[0], v[1], v[2]]);
                 acceleration[0] = ([a[3], a[4], a[5]], add(&[a[0], a[1], a[2]], &transpose_times(r, &lift)));
@@ -292,7 +306,7 @@ impl Tree<'_> {
             let mut v_c = transpose_times(r, &add(&lin, &cross(&w, p)));
             let mut dw_c = transpose_times(r, &dw);
             let mut dv_c = transpose_times(r, &add(&dlin, &cross(&dw, p)));
-            if let Some((s, k)) = subspace(&self.bodies[i].joint) {
+            if let Some((s, k)) = subspace::<S>(&self.bodies[i].joint) {
                 let (s_w, s_v) = ([s[0], s[1], s[2]], [s[3], s[4], s[5]]);
                 let (jw, jv) = (scale(v[k], &s_w), scale(v[k], &s_v));
                 w_c = add(&w_c, &jw);
@@ -305,10 +319,10 @@ impl Tree<'_> {
             acceleration[i] = (dw_c, dv_c);
             force[i] = body_force(&self.bodies[i], &velocity[i], &acceleration[i]);
         }
-        let mut tau = [0.0; N];
+        let mut tau = [z; N];
         for i in (1..n).rev() {
             let (moment, f) = force[i];
-            if let Some((s, k)) = subspace(&self.bodies[i].joint) {
+            if let Some((s, k)) = subspace::<S>(&self.bodies[i].joint) {
                 tau[k] = dot6(&s, &[moment[0], moment[1], moment[2], f[0], f[1], f[2]]);
             }
             let (r, p) = &placement[i];
@@ -327,15 +341,16 @@ impl Tree<'_> {
     }
 
     /// Body `i`'s frame in its parent's at `q`: (rotation, origin).
-    fn placement(&self, i: usize, q: &[f64]) -> ([f64; 9], Vec3) {
+    fn placement<S: Scalar>(&self, i: usize, q: &[S]) -> Placement<S> {
         let b = &self.bodies[i];
+        let (rotation, origin) = (b.rotation.map(S::from), b.origin.map(S::from));
         match b.joint {
-            Joint::Fixed => (b.rotation, b.origin),
+            Joint::Fixed => (rotation, origin),
             Joint::Revolute { axis, coordinate, .. } => {
-                (matmul(&b.rotation, &axis_rotation(&axis, q[coordinate])), b.origin)
+                (matmul(&rotation, &axis_rotation(&axis.map(S::from), q[coordinate])), origin)
             }
             Joint::Prismatic { axis, coordinate, .. } => {
-                (b.rotation, add(&b.origin, &times(&b.rotation, &scale(q[coordinate], &axis))))
+                (rotation, add(&origin, &times(&rotation, &scale(q[coordinate], &axis.map(S::from)))))
             }
         }
     }
@@ -353,22 +368,28 @@ const fn all_finite(values: &[f64]) -> bool {
 }
 
 /// The joint's motion per unit rate, (ω; v) in the body's frame, and its velocity index.
-fn subspace(joint: &Joint) -> Option<([f64; 6], usize)> {
+fn subspace<S: Scalar>(joint: &Joint) -> Option<([S; 6], usize)> {
+    let z = zero::<S>();
     match *joint {
         Joint::Fixed => None,
-        Joint::Revolute { axis, velocity, .. } => Some(([axis[0], axis[1], axis[2], 0.0, 0.0, 0.0], velocity)),
-        Joint::Prismatic { axis, velocity, .. } => Some(([0.0, 0.0, 0.0, axis[0], axis[1], axis[2]], velocity)),
+        Joint::Revolute { axis, velocity, .. } => {
+            Some(([S::from(axis[0]), S::from(axis[1]), S::from(axis[2]), z, z, z], velocity))
+        }
+        Joint::Prismatic { axis, velocity, .. } => {
+            Some(([z, z, z, S::from(axis[0]), S::from(axis[1]), S::from(axis[2])], velocity))
+        }
     }
 }
 
 /// I (ω, v) at the body's origin: f = m (v + ω × c), n = I_c ω + c × f.
-fn inertia_times(b: &Body, (w, v): &Spatial) -> Spatial {
-    let f = scale(b.mass, &add(v, &cross(w, &b.com)));
-    (add(&times(&b.inertia, w), &cross(&b.com, &f)), f)
+fn inertia_times<S: Scalar>(b: &Body, (w, v): &Spatial<S>) -> Spatial<S> {
+    let com = b.com.map(S::from);
+    let f = scale(S::from(b.mass), &add(v, &cross(w, &com)));
+    (add(&times(&b.inertia.map(S::from), w), &cross(&com, &f)), f)
 }
 
 /// The force a body's own inertia takes: I a + v ×* (I v).
-fn body_force(b: &Body, motion: &Spatial, rate: &Spatial) -> Spatial {
+fn body_force<S: Scalar>(b: &Body, motion: &Spatial<S>, rate: &Spatial<S>) -> Spatial<S> {
     let (w, v) = motion;
     let (ia_n, ia_f) = inertia_times(b, rate);
     let (iv_n, iv_f) = inertia_times(b, motion);
@@ -377,22 +398,18 @@ fn body_force(b: &Body, motion: &Spatial, rate: &Spatial) -> Spatial {
 
 /// The body's spatial inertia at its origin, on (ω, v): its columns are
 /// [`inertia_times`] of the unit motions.
-fn spatial_inertia(b: &Body) -> [[f64; 6]; 6] {
-    let mut out = [[0.0; 6]; 6];
-    for c in 0..6 {
-        let mut unit = [0.0; 6];
-        unit[c] = 1.0;
+fn spatial_inertia<S: Scalar>(b: &Body) -> [[S; 6]; 6] {
+    let columns: [[S; 6]; 6] = core::array::from_fn(|c| {
+        let unit: [S; 6] = core::array::from_fn(|k| S::from(if k == c { 1.0 } else { 0.0 }));
         let (n, f) = inertia_times(b, &([unit[0], unit[1], unit[2]], [unit[3], unit[4], unit[5]]));
-        for (r, value) in n.iter().chain(&f).enumerate() {
-            out[r][c] = *value;
-        }
-    }
-    out
+        [n[0], n[1], n[2], f[0], f[1], f[2]]
+    });
+    core::array::from_fn(|r| core::array::from_fn(|c| columns[c][r]))
 }
 
 /// A child's force (n, f) at its origin, expressed in its parent's frame at the parent's
 /// origin: f_p = R f, n_p = R n + p × f_p. The transpose of the motion map.
-fn force_to_parent(force: &[f64; 6], r: &[f64; 9], p: &Vec3) -> [f64; 6] {
+fn force_to_parent<S: Scalar>(force: &[S; 6], r: &[S; 9], p: &Vec3<S>) -> [S; 6] {
     let f_p = times(r, &[force[3], force[4], force[5]]);
     let n_p = add(&times(r, &[force[0], force[1], force[2]]), &cross(p, &f_p));
     [n_p[0], n_p[1], n_p[2], f_p[0], f_p[1], f_p[2]]
@@ -400,25 +417,28 @@ fn force_to_parent(force: &[f64; 6], r: &[f64; 9], p: &Vec3) -> [f64; 6] {
 
 /// A child's spatial inertia seen from its parent: Xᵀ I X, with X the motion map from the
 /// parent's frame to the child's (so that the kinetic energy is the same either way).
-fn to_parent_inertia(inertia: &[[f64; 6]; 6], r: &[f64; 9], p: &Vec3) -> [[f64; 6]; 6] {
-    // Columns of I X: I applied to the child's motion for each unit parent motion; then
-    // each column carried up as a force.
-    let mut out = [[0.0; 6]; 6];
+fn to_parent_inertia<S: Scalar>(inertia: &[[S; 6]; 6], r: &[S; 9], p: &Vec3<S>) -> [[S; 6]; 6] {
+    // Column c of I X is I applied to the child's motion for the parent's unit motion
+    // c: a turn about axis k = c (ω = e_k, v = e_k × p) or a slide along k = c − 3, seen
+    // in the child's frame (Rᵀ e_k is R's row k); each column is then carried up as a
+    // force. Written out, without the unit vectors' products (the same numbers on f64,
+    // half the work on intervals).
+    let z = zero::<S>();
+    let mut out = [[z; 6]; 6];
     for c in 0..6 {
-        let mut unit = [0.0; 3];
-        let (w, lin) = if c < 3 {
-            unit[c] = 1.0;
-            (unit, [0.0; 3])
+        let k = c % 3;
+        let row = [r[3 * k], r[3 * k + 1], r[3 * k + 2]];
+        let mut force = [z; 6];
+        if c < 3 {
+            let v_c = transpose_times(r, &unit_cross(k, p));
+            let motion = [row[0], row[1], row[2], v_c[0], v_c[1], v_c[2]];
+            for (f, i_row) in force.iter_mut().zip(inertia) {
+                *f = dot6(i_row, &motion);
+            }
         } else {
-            unit[c - 3] = 1.0;
-            ([0.0; 3], unit)
-        };
-        let w_c = transpose_times(r, &w);
-        let v_c = transpose_times(r, &add(&lin, &cross(&w, p)));
-        let motion = [w_c[0], w_c[1], w_c[2], v_c[0], v_c[1], v_c[2]];
-        let mut force = [0.0; 6];
-        for (f, row) in force.iter_mut().zip(inertia) {
-            *f = dot6(row, &motion);
+            for (f, i_row) in force.iter_mut().zip(inertia) {
+                *f = z + i_row[3] * row[0] + i_row[4] * row[1] + i_row[5] * row[2];
+            }
         }
         for (row, value) in out.iter_mut().zip(force_to_parent(&force, r, p)) {
             row[c] = value;
@@ -427,10 +447,20 @@ fn to_parent_inertia(inertia: &[[f64; 6]; 6], r: &[f64; 9], p: &Vec3) -> [[f64; 
     out
 }
 
+/// `e_k × p`.
+fn unit_cross<S: Scalar>(k: usize, p: &Vec3<S>) -> Vec3<S> {
+    let z = zero::<S>();
+    match k {
+        0 => [z, -p[2], p[1]],
+        1 => [p[2], z, -p[0]],
+        _ => [-p[1], p[0], z],
+    }
+}
+
 /// Rotation by `angle` about the unit `axis` (Rodrigues), row by row.
-fn axis_rotation(axis: &Vec3, angle: f64) -> [f64; 9] {
-    let (s, c) = angle.sin_cos();
-    let t = 1.0 - c;
+fn axis_rotation<S: Scalar>(axis: &Vec3<S>, angle: S) -> [S; 9] {
+    let (s, c) = (angle.sin(), angle.cos());
+    let t = S::from(1.0) - c;
     let [x, y, z] = *axis;
     [
         c + x * x * t,
@@ -445,35 +475,36 @@ fn axis_rotation(axis: &Vec3, angle: f64) -> [f64; 9] {
     ]
 }
 
-fn matmul(a: &[f64; 9], b: &[f64; 9]) -> [f64; 9] {
-    std::array::from_fn(|k| {
+fn matmul<S: Scalar>(a: &[S; 9], b: &[S; 9]) -> [S; 9] {
+    core::array::from_fn(|k| {
         let (i, j) = (k / 3, k % 3);
         a[3 * i] * b[j] + a[3 * i + 1] * b[3 + j] + a[3 * i + 2] * b[6 + j]
     })
 }
 
-fn times(r: &[f64; 9], v: &Vec3) -> Vec3 {
-    std::array::from_fn(|i| r[3 * i] * v[0] + r[3 * i + 1] * v[1] + r[3 * i + 2] * v[2])
+fn times<S: Scalar>(r: &[S; 9], v: &Vec3<S>) -> Vec3<S> {
+    core::array::from_fn(|i| r[3 * i] * v[0] + r[3 * i + 1] * v[1] + r[3 * i + 2] * v[2])
 }
 
-fn transpose_times(r: &[f64; 9], v: &Vec3) -> Vec3 {
-    std::array::from_fn(|i| r[i] * v[0] + r[3 + i] * v[1] + r[6 + i] * v[2])
+fn transpose_times<S: Scalar>(r: &[S; 9], v: &Vec3<S>) -> Vec3<S> {
+    core::array::from_fn(|i| r[i] * v[0] + r[3 + i] * v[1] + r[6 + i] * v[2])
 }
 
-fn cross(a: &Vec3, b: &Vec3) -> Vec3 {
+fn cross<S: Scalar>(a: &Vec3<S>, b: &Vec3<S>) -> Vec3<S> {
     [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 }
 
-fn add(a: &Vec3, b: &Vec3) -> Vec3 {
+fn add<S: Scalar>(a: &Vec3<S>, b: &Vec3<S>) -> Vec3<S> {
     [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
 }
 
-fn scale(k: f64, a: &Vec3) -> Vec3 {
+fn scale<S: Scalar>(k: S, a: &Vec3<S>) -> Vec3<S> {
     [k * a[0], k * a[1], k * a[2]]
 }
 
-fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
+/// `a · b`, summed in order from 0 (as `Iterator::sum` does on `f64`).
+fn dot6<S: Scalar>(a: &[S; 6], b: &[S; 6]) -> S {
+    a.iter().zip(b).fold(zero(), |acc, (x, y)| acc + *x * *y)
 }
 
 #[cfg(test)]
@@ -511,7 +542,7 @@ mod tests {
         assert_eq!(tree.defect(2, 2), None);
         let (q, qd): ([f64; 2], [f64; 2]) = ([0.4, -1.1], [0.8, -0.5]);
         let (c2, s2) = (q[1].cos(), q[1].sin());
-        let m = tree.mass_matrix::<2>(&q);
+        let m = tree.mass_matrix::<f64, 2>(&q);
         let expected = [
             [(m1 + m2) * l1 * l1 + m2 * l2 * l2 + 2.0 * m2 * l1 * l2 * c2, m2 * l2 * l2 + m2 * l1 * l2 * c2],
             [m2 * l2 * l2 + m2 * l1 * l2 * c2, m2 * l2 * l2],
@@ -538,7 +569,7 @@ mod tests {
         let inertia = [0.3, 0.01, -0.02, 0.01, 0.2, 0.03, -0.02, 0.03, 0.25];
         let bodies = [Body { mass, com, inertia, ..Body::ROOT }];
         let tree = Tree { bodies: &bodies, root: Root::Floating, gravity: [0.0, 0.0, -G] };
-        let m = tree.mass_matrix::<6>(&[]);
+        let m = tree.mass_matrix::<f64, 6>(&[]);
         let cc = com.iter().map(|c| c * c).sum::<f64>();
         let skew = [[0.0, -com[2], com[1]], [com[2], 0.0, -com[0]], [-com[1], com[0], 0.0]];
         for i in 0..3 {
@@ -619,7 +650,7 @@ mod tests {
         let tree = Tree { bodies: &bodies, root: Root::Floating, gravity: [0.0; 3] };
         assert_eq!(tree.defect(4, 10), None);
         let q = [0.3, -0.8, 0.12, 1.4];
-        let m = tree.mass_matrix::<10>(&q);
+        let m = tree.mass_matrix::<f64, 10>(&q);
         for j in 0..10 {
             let mut a = [0.0; 10];
             a[j] = 1.0;
@@ -655,12 +686,12 @@ mod tests {
         let tree = Tree { bodies: &good, root: Root::Floating, gravity: [0.0, 0.0, -G] };
         // Too few coordinates or velocities: named, and NaN out.
         assert!(tree.defect(3, 10).is_some() && tree.defect(4, 9).is_some());
-        assert!(tree.mass_matrix::<10>(&[0.0; 3]).iter().flatten().all(|v| v.is_nan()));
-        assert!(tree.bias::<9>(&[0.0; 4], None, &[0.0; 9]).iter().all(|v| v.is_nan()));
+        assert!(tree.mass_matrix::<f64, 10>(&[0.0; 3]).iter().flatten().all(|v| v.is_nan()));
+        assert!(tree.bias::<f64, 9>(&[0.0; 4], None, &[0.0; 9]).iter().all(|v| v.is_nan()));
         // A non-finite state: non-finite out, and the next call is fine.
-        let nan = tree.bias::<10>(&[f64::NAN, 0.0, 0.0, 0.0], None, &[0.0; 10]);
+        let nan = tree.bias::<f64, 10>(&[f64::NAN, 0.0, 0.0, 0.0], None, &[0.0; 10]);
         assert!(nan.iter().any(|v| !v.is_finite()));
-        assert!(tree.bias::<10>(&[0.0; 4], None, &[0.0; 10]).iter().all(|v| v.is_finite()));
+        assert!(tree.bias::<f64, 10>(&[0.0; 4], None, &[0.0; 10]).iter().all(|v| v.is_finite()));
         // A parent after its child, a non-finite inertial, a joint on the root.
         let mut bodies = branching();
         bodies[2].parent = 4;

@@ -574,6 +574,30 @@ pub trait BarrierSet<const NU: usize> {
         })
     }
 
+    /// Enclose the rows flagged in `wanted` over a given box of states `states` and times
+    /// `times`, into `out`: [`BarrierSet::enclose`] without the flow, for a wrapper that
+    /// encloses the plant's flow itself (the [joint-torque map](crate::torque::JointTorque),
+    /// whose plant is not this set's `ẋ = f + g u`). Must not allocate. Generated barrier
+    /// sets run their kernels on intervals
+    /// ([`enclose_rows_generated`](crate::filter::between_samples::enclose_rows_generated));
+    /// the default cannot.
+    ///
+    /// # Errors
+    /// As [`BarrierSet::enclose`].
+    fn enclose_over(
+        &self,
+        states: &[crate::interval::Interval],
+        times: crate::interval::Interval,
+        params: &Self::Params,
+        wanted: &[bool],
+        out: &mut [crate::filter::between_samples::RowEnclosure<NU>],
+    ) -> Result<(), crate::filter::between_samples::NotEnclosed> {
+        let _ = (states, times, params, out);
+        Err(crate::filter::between_samples::NotEnclosed::NoIntervalForm {
+            row: wanted.iter().position(|&w| w).unwrap_or(0),
+        })
+    }
+
     /// Whether the system has an objective (a spec's `s.objective(P=…, q=…)`): the filter
     /// then minimises `½ (u − u_ref)ᵀ P (u − u_ref) + qᵀ u` with [`BarrierSet::objective`]'s
     /// `P` and `q` instead of the input weights'. `false` unless implemented.

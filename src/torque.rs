@@ -21,6 +21,12 @@
 //! The filter's inputs are then torques: give it torque limits, torque weights and a
 //! nominal torque. A row's input columns become every joint (`M⁻¹` couples them).
 //!
+//! Given the same dynamics on intervals ([`JointTorque::with_interval_dynamics`]; a
+//! generated `dynamics` is generic, so `gen::dynamics::<Interval>`), the wrapper also
+//! encloses its rows between the samples for the sampled-data certificate
+//! ([`crate::filter::between_samples`]): the flow of `M(q) q̈ + b(q, q̇) = τ` under the
+//! held torque, with `q̈` enclosed by [`solve_linear`] over each box of states.
+//!
 //! The cart of the [filter's example](crate::filter) again, now of mass 2 kg pushed by a
 //! force `F` against a drag of 3 N (`b = 3`): its acceleration is `(F − 3) / 2`, so the
 //! wall row `−20 v + 100 h − a ≥ 0` becomes `F ≤ 2 (100 h − 20 v) + 3`, which at
@@ -76,6 +82,8 @@
 //! ```
 
 use crate::error::CbfError;
+use crate::filter::between_samples::{enclose_window, NotEnclosed, RowEnclosure, Window};
+use crate::interval::{solve_linear, Interval};
 use crate::system::{BarrierSet, FamilyInfo, Row, RowLayout};
 
 /// The most joints a [`JointTorque`] maps.
@@ -95,12 +103,19 @@ static ALL_COLUMNS: [usize; MAX_JOINTS] = {
 /// `M(q)` (row by row) and `b(q, q̇)` at a state.
 pub type Dynamics<const NX: usize, const NU: usize> = fn(&[f64; NX]) -> ([[f64; NU]; NU], [f64; NU]);
 
+/// [`Dynamics`] over a box of states: enclosures of every `M(q)` and `b(q, q̇)` in it. A
+/// generated `dynamics` is generic: `gen::dynamics::<Interval>` is this form of the same
+/// function.
+pub type IntervalDynamics<const NX: usize, const NU: usize> =
+    fn(&[Interval; NX]) -> ([[Interval; NU]; NU], [Interval; NU]);
+
 /// The rows of `B` (written in joint accelerations) mapped to joint torques each cycle:
 /// see the [module docs](self).
 #[derive(Debug, Clone)]
 pub struct JointTorque<B, const NX: usize, const NU: usize> {
     inner: B,
     dynamics: Dynamics<NX, NU>,
+    interval_dynamics: Option<IntervalDynamics<NX, NU>>,
     layout: Vec<RowLayout>,
     rows: Vec<Row<NU>>,
     mass: [[f64; NU]; NU],
@@ -114,7 +129,21 @@ impl<B: BarrierSet<NU, State = [f64; NX]>, const NX: usize, const NU: usize> Joi
         const { assert!(NU <= MAX_JOINTS, "JointTorque maps at most MAX_JOINTS joints") };
         let layout = inner.layout().iter().map(|l| RowLayout { columns: &ALL_COLUMNS[..NU], ..*l }).collect();
         let rows = inner.rows().to_vec();
-        Self { inner, dynamics, layout, rows, mass: [[0.0; NU]; NU], bias: [0.0; NU] }
+        Self { inner, dynamics, interval_dynamics: None, layout, rows, mass: [[0.0; NU]; NU], bias: [0.0; NU] }
+    }
+
+    /// The same dynamics on intervals (for a generated system, `gen::dynamics::<Interval>`
+    /// beside `gen::dynamics`): what lets the sampled-data certificate
+    /// ([`crate::filter::between_samples`]) enclose the rows in torques. Without it the
+    /// certificate reports [`Why::NoIntervalForm`](crate::filter::between_samples::Why).
+    ///
+    /// The certificate then takes the plant to be `ẋ = [q̇, M(q)⁻¹ (τ − b(q, q̇))]` on
+    /// `x = [q, q̇]` (so `NX = 2 NU`, as [`step_rigid_body`] integrates it) under the held
+    /// torque, and needs the inner rows' own interval form
+    /// ([`BarrierSet::enclose_over`]).
+    pub fn with_interval_dynamics(mut self, dynamics: IntervalDynamics<NX, NU>) -> Self {
+        self.interval_dynamics = Some(dynamics);
+        self
     }
 
     /// The acceleration rows, as last evaluated.
@@ -215,6 +244,49 @@ impl<B: BarrierSet<NU, State = [f64; NX]>, const NX: usize, const NU: usize> Bar
 
     fn cull_above(&mut self, thresholds: &[f64]) {
         self.inner.cull_above(thresholds);
+    }
+
+    /// The flow under the held torque is enclosed with the interval dynamics
+    /// ([`JointTorque::with_interval_dynamics`]): `q̈ ∈ M(B)⁻¹ (τ − b(B))` over a box `B`
+    /// by [`solve_linear`]. The inner rows are enclosed over the reached box in
+    /// accelerations, and each row's `a · q̈` over the box is folded into its
+    /// `L_f^r h` with `L_g L_f^{r−1} h = 0`: the torque is fixed over the window, so `ψ`
+    /// is the same, and enclosing `a · M⁻¹ (τ − b)` at once keeps the cancellation between
+    /// the torque and the bias that enclosing `M⁻¹ a` and `M⁻¹ a · b` apart would lose.
+    fn enclose(
+        &self,
+        window: &Window<NU>,
+        x: &[f64; NX],
+        params: &B::Params,
+        wanted: &[bool],
+        out: &mut [RowEnclosure<NU>],
+    ) -> Result<(), NotEnclosed> {
+        let first = NotEnclosed::NoIntervalForm { row: wanted.iter().position(|&w| w).unwrap_or(0) };
+        let Some(dynamics) = self.interval_dynamics else { return Err(first) };
+        if NX != 2 * NU {
+            return Err(first);
+        }
+        let acceleration = |b: &[Interval; NX], tau: &[Interval; NU]| {
+            let (mass, bias) = dynamics(b);
+            solve_linear(&mass, &core::array::from_fn(|i| tau[i] - bias[i]))
+        };
+        let field = |b: &[Interval; NX], tau: &[Interval; NU]| {
+            let qdd = acceleration(b, tau)?;
+            Some(core::array::from_fn(|i| if i < NU { b[NU + i] } else { qdd[i - NU] }))
+        };
+        // The enclosure's field holds q̈ over the reached states already.
+        let (reach, times) = enclose_window(window, x, field)?;
+        let qdd = &reach.field[NU..];
+        self.inner.enclose_over(&reach.states, times, params, wanted, out)?;
+        let families = self.inner.families();
+        for ((e, &w), l) in out.iter_mut().zip(wanted).zip(self.inner.layout()) {
+            if w {
+                let degree = families[l.family].relative_degree;
+                e.lie[degree] = e.lg.iter().zip(qdd).fold(e.lie[degree], |s, (a, q)| s + *a * *q);
+                e.lg = [Interval::point(0.0); NU];
+            }
+        }
+        Ok(())
     }
 }
 

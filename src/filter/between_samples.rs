@@ -12,13 +12,21 @@
 //! 1. the states the plant can reach while `u` is held, `x(t_k + τ)` for `τ ∈ [0, Δt]`,
 //!    are enclosed in a box `B` ([`enclose_flow`]: a Picard iteration on the interval
 //!    extension of `f(x) + g(x) u`, accepted only when `x_k + [0, Δt]·F(B) ⊆ B`, which
-//!    proves the flow stays in `B`);
+//!    proves the flow stays in `B`; where no such box is found the period is enclosed in
+//!    pieces, each halved as needed, [`enclose_window`]);
 //! 2. every active row's `ψ_i(·, u)` is enclosed over `B` (and the time window), by running
 //!    its generated kernel — the same straight line the filter runs on `f64` — on
 //!    [`Interval`]s, every operation rounded outward;
-//! 3. a row whose enclosure reaches below 0 gets a margin `μ_i` (its deficit): the QP is
-//!    solved again with `a_i·u + b_i ≥ μ_i`, and the new answer is certified afresh, up to
-//!    [`SampledData::max_rounds`] solves.
+//! 3. a row whose enclosure reaches below 0, by its deficit `d_i`, gets a margin: the QP
+//!    is solved again with `a_i·u + b_i ≥ μ_i`, `μ_i` the row's value at the sample (or
+//!    its margin, where it binds) plus `1.05 d_i` (`1.5 d_i` from the third solve on: the
+//!    input moves with the margin and can widen the enclosure with it), and the new
+//!    answer is certified afresh, up to
+//!    [`SampledData::max_rounds`] solves. Where raising the margins made the answer fall
+//!    shorter (a fast input widens the enclosure faster than the margin grows: the
+//!    Panda's wrist), the round that fell least short is solved again and returned,
+//!    reported uncertified ([`Why::Deficit`]): the margins never make the answer worse
+//!    than the plain ECBF's.
 //!
 //! So the margin comes from bounds, never from sampling, and it is as small as the
 //! enclosure allows at the input actually applied (a margin from the input box's worst
@@ -35,10 +43,12 @@
 //!   take no part and are not certified; nor are rows the QP relaxed (the safety
 //!   verdict already reports them), Lyapunov rows, or rows of families in
 //!   [`SampledData::exempt`];
-//! * a barrier set without an interval form (one written by hand; the joint-torque wrapper
-//!   [`JointTorque`](crate::torque::JointTorque), whose rigid-body dynamics are `f64` only)
-//!   cannot be certified:
-//!   the update says so ([`Why::NoIntervalForm`]) instead of claiming it.
+//! * a barrier set without an interval form (one written by hand, or the joint-torque
+//!   wrapper [`JointTorque`](crate::torque::JointTorque) without
+//!   [`with_interval_dynamics`](crate::torque::JointTorque::with_interval_dynamics))
+//!   cannot be certified: the update says so ([`Why::NoIntervalForm`]) instead of
+//!   claiming it. With it, the torque-controlled plant `M(q) q̈ + b(q, q̇) = τ` is
+//!   enclosed through the generated rigid-body dynamics on intervals.
 //!
 //! Every update reports what it achieved in [`Output::between_samples`](super::Output)
 //! ([`BetweenSamples`]), and per row the margin it used
@@ -60,7 +70,8 @@ pub struct SampledData {
     pub input_delay: bool,
     /// Most QP solves per update, the first included (`1..=`[`MAX_ROUNDS`]): each
     /// solve after the first raises the margins of the rows the last one could not
-    /// certify.
+    /// certify. One more solve returns the round that fell least short when a later
+    /// one fell shorter.
     pub max_rounds: u32,
     /// Families (indices into the barrier set's families) whose rows are not certified:
     /// they take part in the QP as usual, with no margin.
@@ -148,7 +159,7 @@ pub enum Why {
     /// raised margins made the rows conflict, and the QP relaxed them).
     Deficit,
     /// A row has no interval form (a hand-written barrier set, or rows through the
-    /// joint-torque wrapper).
+    /// joint-torque wrapper without its interval dynamics).
     NoIntervalForm,
     /// The reachable states could not be enclosed: the flow leaves every box the
     /// iteration tried within the period (a state or input far too fast for `Δt`), or an
@@ -260,15 +271,33 @@ impl IntervalKernel {
 pub const MAX_FLAT: usize = 1024;
 
 /// Picard steps [`enclose_flow`] tries before giving up.
-const MAX_PICARD: usize = 12;
+const MAX_PICARD: usize = 6;
+
+/// How many times [`enclose_window`] halves a piece of the period whose flow could not be
+/// enclosed: the shortest piece is `Δt / 2^MAX_HALVINGS`.
+pub const MAX_HALVINGS: u32 = 6;
+
+/// The reachable states over a time span, enclosed ([`enclose_flow`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Reach<const NX: usize> {
+    /// A box holding every state of every solution over the span.
+    pub states: [Interval; NX],
+    /// `F` over [`Reach::states`]: every velocity along those solutions.
+    pub field: [Interval; NX],
+    /// A box holding every state at the span's end (narrower than
+    /// [`Reach::states`]: `x0 + h·field`).
+    pub end: [Interval; NX],
+}
 
 /// A box holding `x(τ)` for every `τ ∈ [0, h]` of every solution of `ẋ = F(x)` from
-/// `x0`, where `field` is an interval extension of `F` (it encloses `F` over any box it
-/// is given; `None` when it cannot). `None` when no box was found.
+/// any point of `x0`, where `field` is an interval extension of `F` (it encloses `F` over
+/// any box it is given; `None` when it cannot), with `F` over it and the states at `h`.
+/// `None` when no box was found.
 ///
 /// Why it is certified: if `x0 + [0, h]·F(B) ⊆ B`, no solution can leave `B` before `h`
 /// (at the first exit its velocity since `x0` would lie in `F(B)`), and then every
-/// `x(τ) = x0 + ∫F` lies in `x0 + [0, h]·F(B)`, the box returned.
+/// `x(τ) = x0 + ∫F` lies in `x0 + [0, h]·F(B)`, the box returned, and `x(h)` in
+/// `x0 + h·F(B)`.
 ///
 /// ```
 /// use cbfgen::filter::between_samples::enclose_flow;
@@ -277,26 +306,30 @@ const MAX_PICARD: usize = 12;
 /// // A point mass from q = 0, v = 1 under a = −2 for 0.1 s reaches q ∈ [0, 0.09],
 /// // v ∈ [0.8, 1]; the box holds both, a little wider (a step of the iteration's room).
 /// let a = Interval::point(-2.0);
-/// let b = enclose_flow(&[Interval::point(0.0), Interval::point(1.0)], 0.1, |x| Some([x[1], a])).unwrap();
+/// let reach = enclose_flow(&[Interval::point(0.0), Interval::point(1.0)], 0.1, |x| Some([x[1], a])).unwrap();
+/// let b = reach.states;
 /// assert!(b[0].contains(0.0) && b[0].contains(0.09) && b[0].hi < 0.11);
 /// assert!(b[1].contains(0.8) && b[1].contains(1.0) && b[1].width() < 0.25);
+/// assert!(reach.end[1].contains(0.8) && reach.end[1].width() < 0.05);
 /// ```
 pub fn enclose_flow<const NX: usize>(
     x0: &[Interval; NX],
     h: f64,
     field: impl Fn(&[Interval; NX]) -> Option<[Interval; NX]>,
-) -> Option<[Interval; NX]> {
+) -> Option<Reach<NX>> {
     let tau = Interval::new(0.0, h);
-    let step = |b: &[Interval; NX]| -> Option<[Interval; NX]> {
+    let step = |b: &[Interval; NX]| -> Option<([Interval; NX], [Interval; NX])> {
         let f = field(b)?;
         let next: [Interval; NX] = core::array::from_fn(|i| x0[i] + tau * f[i]);
-        next.iter().all(|v| v.is_finite()).then_some(next)
+        next.iter().all(|v| v.is_finite()).then_some((next, f))
     };
-    let mut b = step(x0)?.map(inflate);
+    let mut b = step(x0)?.0.map(inflate);
     for _ in 0..MAX_PICARD {
-        let next = step(&b)?;
+        let (next, f) = step(&b)?;
         if next.iter().zip(&b).all(|(n, b)| b.lo <= n.lo && n.hi <= b.hi) {
-            return Some(next);
+            // F(b) holds F over `next` ⊆ b too.
+            let end = core::array::from_fn(|i| x0[i] + Interval::point(h) * f[i]);
+            return Some(Reach { states: next, field: f, end });
         }
         // Only where the box was too small: inflating a component already large enough
         // would widen the next step of every component that reads it, for ever.
@@ -315,6 +348,69 @@ pub fn enclose_flow<const NX: usize>(
 fn inflate(v: Interval) -> Interval {
     let pad = 0.1 * v.width() + 1e-12 * v.lo.abs().max(v.hi.abs()) + 1e-300;
     Interval::new(v.lo - pad, v.hi + pad)
+}
+
+/// [`enclose_flow`] over `[0, h]` in pieces: where the flow over a piece cannot be
+/// enclosed (a box grows faster than the iteration can catch it: a stiff or fast flow,
+/// or an enclosure of `F` much wider than `F`'s true range), the piece is halved, down to
+/// `h / 2^`[`MAX_HALVINGS`]; each piece starts from the last one's end. Returns the hull
+/// of the pieces: every state over `[0, h]` (`states`), `F` over them (`field`), and the
+/// states at `h` (`end`).
+fn enclose_pieces<const NX: usize>(
+    x0: &[Interval; NX],
+    h: f64,
+    field: impl Fn(&[Interval; NX]) -> Option<[Interval; NX]>,
+) -> Option<Reach<NX>> {
+    // In units of the shortest piece, so that the pieces cover [0, h] exactly; each
+    // piece's length is rounded up (covering a little more is sound).
+    const UNITS: u32 = 1 << MAX_HALVINGS;
+    let unit = h / f64::from(UNITS);
+    let (mut done, mut length, mut start) = (0, UNITS, *x0);
+    let mut hull: Option<Reach<NX>> = None;
+    while done < UNITS {
+        let piece = length.min(UNITS - done);
+        match enclose_flow(&start, (unit * f64::from(piece)).next_up(), &field) {
+            Some(r) => {
+                hull = Some(match hull {
+                    None => r,
+                    Some(a) => Reach {
+                        states: core::array::from_fn(|i| Interval::hull(a.states[i], r.states[i])),
+                        field: core::array::from_fn(|i| Interval::hull(a.field[i], r.field[i])),
+                        end: r.end,
+                    },
+                });
+                start = r.end;
+                done += piece;
+            }
+            None if piece > 1 => length = piece / 2,
+            None => return None,
+        }
+    }
+    hull
+}
+
+/// The states the plant reaches while `window`'s input is held, from `x`, the times they
+/// are reached at, and the dynamics over them: `field(b, u)` encloses the dynamics over
+/// the box `b` under the held inputs `u` (`None` when it cannot). With an input delay,
+/// the states of the second period, reached from every state the first can end in.
+///
+/// # Errors
+/// [`NotEnclosed::Flow`] when the flow could not be enclosed.
+pub fn enclose_window<const NX: usize, const NU: usize>(
+    window: &Window<NU>,
+    x: &[f64; NX],
+    field: impl Fn(&[Interval; NX], &[Interval; NU]) -> Option<[Interval; NX]>,
+) -> Result<(Reach<NX>, Interval), NotEnclosed> {
+    let point = x.map(Interval::point);
+    let u = window.u.map(Interval::point);
+    let (start, periods) = match window.before {
+        None => (point, 1.0),
+        Some(before) => {
+            (enclose_pieces(&point, window.period, |b| field(b, &before)).ok_or(NotEnclosed::Flow)?.end, 2.0)
+        }
+    };
+    let reach = enclose_pieces(&start, window.period, |b| field(b, &u)).ok_or(NotEnclosed::Flow)?;
+    Ok((reach, Interval::point(window.t) + Interval::new(0.0, periods * window.period)))
 }
 
 /// The dynamics' interval extension over a box `b`, inputs `u`: `f(b) + g(b) u` from a
@@ -356,7 +452,6 @@ pub fn enclose_generated<G: GeneratedSystem<NX, NU>, const NX: usize, const NU: 
     wanted: &[bool],
     out: &mut [RowEnclosure<NU>],
 ) -> Result<(), NotEnclosed> {
-    use crate::dynamic::FlatParams;
     if wanted.len() != layout.len() || out.len() != layout.len() {
         return Err(NotEnclosed::LengthMismatch);
     }
@@ -364,23 +459,32 @@ pub fn enclose_generated<G: GeneratedSystem<NX, NU>, const NX: usize, const NU: 
     if kernels.len() < 2 || kernels[0].name != "drift" || kernels[1].name != "input_matrix" {
         return Err(NotEnclosed::NoIntervalForm { row: wanted.iter().position(|&w| w).unwrap_or(0) });
     }
-    // The states and times the certified input is held over.
-    let point = x.map(Interval::point);
-    let u = window.u.map(Interval::point);
-    let (states, times) = match window.before {
-        None => (
-            enclose_flow(&point, window.period, |b| field(kernels, b, &u)).ok_or(NotEnclosed::Flow)?,
-            Interval::point(window.t) + Interval::new(0.0, window.period),
-        ),
-        Some(before) => {
-            let first = enclose_flow(&point, window.period, |b| field(kernels, b, &before)).ok_or(NotEnclosed::Flow)?;
-            (
-                enclose_flow(&first, window.period, |b| field(kernels, b, &u)).ok_or(NotEnclosed::Flow)?,
-                Interval::point(window.t) + Interval::new(0.0, 2.0 * window.period),
-            )
-        }
-    };
+    let (reach, times) = enclose_window(window, x, |b, u| field(kernels, b, u))?;
+    enclose_rows_generated::<G, NX, NU>(layout, &reach.states, times, params, wanted, out)
+}
 
+/// Enclose the rows of a generated system flagged in `wanted` over the box `states` and
+/// the times `times` (given, not reached by the system's own flow), into `out`: what
+/// generated barrier sets' [`BarrierSet::enclose_over`](crate::system::BarrierSet::enclose_over)
+/// calls, for a wrapper that encloses the flow itself (the
+/// [joint-torque map](crate::torque::JointTorque)). Allocation-free.
+///
+/// # Errors
+/// As [`enclose_generated`], and [`NotEnclosed::LengthMismatch`] for `states` of another
+/// length than the state.
+pub fn enclose_rows_generated<G: GeneratedSystem<NX, NU>, const NX: usize, const NU: usize>(
+    layout: &[RowLayout],
+    states: &[Interval],
+    times: Interval,
+    params: &G::Params,
+    wanted: &[bool],
+    out: &mut [RowEnclosure<NU>],
+) -> Result<(), NotEnclosed> {
+    use crate::dynamic::FlatParams;
+    if wanted.len() != layout.len() || out.len() != layout.len() || states.len() != NX {
+        return Err(NotEnclosed::LengthMismatch);
+    }
+    let kernels = G::INTERVAL_KERNELS;
     let families = G::FAMILIES;
     let mut input = [Interval::point(0.0); MAX_FLAT];
     let mut output = [Interval::point(0.0); MAX_FLAT];
@@ -403,7 +507,7 @@ pub fn enclose_generated<G: GeneratedSystem<NX, NU>, const NX: usize, const NU: 
         if inputs > MAX_FLAT || outputs > MAX_FLAT || inputs < NX {
             return Err(no_form);
         }
-        input[..NX].copy_from_slice(&states);
+        input[..NX].copy_from_slice(states);
         let mut at = NX;
         if kernel.inputs.get(1).is_some_and(|a| a.0 == "t") {
             input[at] = times;
@@ -437,4 +541,50 @@ pub fn enclose_generated<G: GeneratedSystem<NX, NU>, const NX: usize, const NU: 
         i += n;
     }
     Ok(())
+}
+
+/// The [`BarrierSet`](crate::system::BarrierSet) methods that enclose a generated
+/// system's rows ([`enclose`](crate::system::BarrierSet::enclose) and
+/// [`enclose_over`](crate::system::BarrierSet::enclose_over)), for the generated barrier
+/// set's `impl` block: `$system` is its [`GeneratedSystem`]. One line in each generated
+/// module instead of both methods written out.
+#[macro_export]
+macro_rules! generated_enclosure {
+    ($system:ty) => {
+        fn enclose(
+            &self,
+            window: &$crate::filter::between_samples::Window<NU>,
+            x: &[f64; NX],
+            params: &Params,
+            wanted: &[bool],
+            out: &mut [$crate::filter::between_samples::RowEnclosure<NU>],
+        ) -> Result<(), $crate::filter::between_samples::NotEnclosed> {
+            $crate::filter::between_samples::enclose_generated::<$system, NX, NU>(
+                &self.layout,
+                window,
+                x,
+                params,
+                wanted,
+                out,
+            )
+        }
+
+        fn enclose_over(
+            &self,
+            states: &[$crate::interval::Interval],
+            times: $crate::interval::Interval,
+            params: &Params,
+            wanted: &[bool],
+            out: &mut [$crate::filter::between_samples::RowEnclosure<NU>],
+        ) -> Result<(), $crate::filter::between_samples::NotEnclosed> {
+            $crate::filter::between_samples::enclose_rows_generated::<$system, NX, NU>(
+                &self.layout,
+                states,
+                times,
+                params,
+                wanted,
+                out,
+            )
+        }
+    };
 }

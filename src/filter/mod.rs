@@ -149,6 +149,15 @@ use crate::qp::metric::InputMetric;
 use crate::system::{BarrierSet, FamilyKind, Gains, Objective, Row};
 use between_samples::{NotEnclosed, RowEnclosure, Why, Window};
 
+/// A row short of its sampled-data certificate by `d` asks `MARGIN_STEP · d` more at the
+/// sample in the next solve (a twentieth for the input moving with the margin), and
+/// `LATER_MARGIN_STEP · d` in the solves after: where one step was not enough, the
+/// input's move widens the enclosure with the margin (on the Panda's wrist a fifth of
+/// the margin comes back as deficit).
+const MARGIN_STEP: f64 = 1.05;
+/// See [`MARGIN_STEP`].
+const LATER_MARGIN_STEP: f64 = 1.5;
+
 /// Where this cycle's input came from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum InputSource {
@@ -314,6 +323,8 @@ pub struct EcbfFilter<B: BarrierSet<NU>, const NU: usize> {
     certified_family: Vec<bool>,
     /// Per row: the sampled-data margin of this update's last solve.
     margins: Vec<f64>,
+    /// Per row: the margins of the round whose answer fell least short so far.
+    best_margins: Vec<f64>,
     /// Per row: what the last certificate found missing (0 when certified or not checked).
     deficits: Vec<f64>,
     /// Per row: whether the certificate encloses it this round.
@@ -391,6 +402,7 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
             gains,
             certified_family,
             margins: vec![0.0; rows],
+            best_margins: vec![0.0; rows],
             deficits: vec![0.0; rows],
             wanted: vec![false; rows],
             enclosures: vec![RowEnclosure::ZERO; rows],
@@ -463,24 +475,65 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
         if let Some(sampled) = &self.settings.sampled_data {
             let max_rounds = sampled.max_rounds;
             let mut rounds = 1;
+            // The least worst deficit so far, and how many rows the first solve relaxed.
+            let (mut best, mut base_relaxed) = (f64::INFINITY, None);
             between = loop {
                 if self.output.source != InputSource::Qp {
                     break self.uncertified(Why::NotSolved);
                 }
-                match self.certify(t, x, params, before) {
-                    Err(why) => break self.uncertified(why),
+                let certified = self.certify(t, x, params, before);
+                let worst = self.deficits.iter().fold(0.0, |m: f64, d| m.max(*d));
+                // Rows the QP gave up at the sample: a margin that makes rows conflict
+                // is worse than the deficit it was meant to cover.
+                let relaxed = self.qp.relaxed().iter().filter(|r| r.is_some()).count();
+                let first_relaxed = *base_relaxed.get_or_insert(relaxed);
+                let last_is_best = match certified {
+                    _ if relaxed > first_relaxed => false,
                     Ok(0) => break BetweenSamples::Certified { rounds },
-                    Ok(_) if rounds >= max_rounds => break self.uncertified(Why::Deficit),
-                    Ok(_) => {
-                        // Each row short of its certificate asks that much more at the
-                        // sample (and a twentieth for the input moving with it).
-                        for (m, d) in self.margins.iter_mut().zip(&self.deficits) {
-                            *m += 1.05 * d;
-                        }
-                        rounds += 1;
+                    Ok(_) => worst < best,
+                    Err(_) => false,
+                };
+                if last_is_best {
+                    best = worst;
+                }
+                if rounds >= max_rounds || !last_is_best {
+                    // Raising the margins made this round fall shorter (or its flow
+                    // could not be enclosed: an input fast enough to widen the
+                    // enclosure faster than the margin grows): the answer that fell
+                    // least short is returned, solved again, and reported as it is.
+                    if !last_is_best && best.is_finite() {
+                        self.margins.copy_from_slice(&self.best_margins);
                         self.solve_round(&centre, u_ref, active_rows);
+                        if self.output.source != InputSource::Qp {
+                            break self.uncertified(Why::NotSolved);
+                        }
+                        if let Err(why) = self.certify(t, x, params, before) {
+                            break self.uncertified(why);
+                        }
+                    }
+                    break match certified {
+                        Err(why) if !best.is_finite() => self.uncertified(why),
+                        _ => self.uncertified(Why::Deficit),
+                    };
+                }
+                self.best_margins.copy_from_slice(&self.margins);
+                // Each row short of its certificate asks more at the sample than it has
+                // now — its margin where the row binds, its value where it does not (a
+                // margin below the row's value changes nothing) — by its deficit and a
+                // little more ([`MARGIN_STEP`]).
+                let u = self.output.u;
+                for (i, l) in self.barriers.layout().iter().enumerate() {
+                    let d = self.deficits[i];
+                    if d > 0.0 {
+                        let row = &self.barriers.rows()[i];
+                        let at_sample =
+                            row.lg.iter().zip(&u).fold(self.gains[l.family].bound(&row.lie), |s, (a, u)| s + a * u);
+                        let step = if rounds == 1 { MARGIN_STEP } else { LATER_MARGIN_STEP };
+                        self.margins[i] = self.margins[i].max(at_sample) + step * d;
                     }
                 }
+                rounds += 1;
+                self.solve_round(&centre, u_ref, active_rows);
             };
         }
         let out = &mut self.output;

@@ -99,18 +99,23 @@ fn sampled_data_settings_outside_their_domain_are_typed_errors() {
 fn the_flow_enclosure_holds_a_pendulum_and_gives_up_on_a_blow_up() {
     // θ'' = −sin θ from (θ, ω) = (1, 0) for 0.5 s: the enclosure holds the solution (RK4 at
     // 1e-4 s, far finer than the box) at every step.
-    let b = enclose_flow(&[Interval::point(1.0), Interval::point(0.0)], 0.5, |x| {
+    let reach = enclose_flow(&[Interval::point(1.0), Interval::point(0.0)], 0.5, |x| {
         use cbfgen::scalar::Scalar;
         Some([x[1], -x[0].sin()])
     })
     .expect("a pendulum's half second is enclosed");
+    let b = reach.states;
     let f = |y: &[f64; 2]| Ok::<_, std::convert::Infallible>([y[1], -y[0].sin()]);
     let mut y = [1.0, 0.0];
     for _ in 0..5000 {
         let Ok(next) = cbfgen::system::rk4_step(f, &y, 1e-4);
         y = next;
         assert!(b[0].contains(y[0]) && b[1].contains(y[1]), "{y:?} outside {b:?}");
+        // Its velocity, (ω, −sin θ), is in the field's enclosure.
+        assert!(reach.field[0].contains(y[1]) && reach.field[1].contains(-y[0].sin()));
     }
+    // And the end state is in the end's enclosure.
+    assert!(reach.end[0].contains(y[0]) && reach.end[1].contains(y[1]), "{y:?} outside {:?}", reach.end);
     // ẋ = x² from 1 leaves every box before t = 1 (it blows up there): no enclosure.
     assert!(enclose_flow(&[Interval::point(1.0)], 1.5, |x| Some([x[0] * x[0]])).is_none());
 }

@@ -13,7 +13,12 @@
 //!   seeded; a draw that touches the arm's start pose is drawn again), a table at
 //!   z = 0.1 m, and a computed-torque PD sweeping the hand low across them;
 //! * [`Simulation`] — the filter on torques at 1 kHz, the plant integrating
-//!   `M(q) q̈ + b(q, q̇) = τ` (RK4 over each period), and each cycle's exact clearances.
+//!   `M(q) q̈ + b(q, q̇) = τ` under each held torque (RK4, [`Scenario::fine_steps`] steps a
+//!   period), and each cycle's least exact clearances over those steps.
+//!
+//! With [`Scenario::certified`] the filter certifies every answer between the samples
+//! ([`cbfgen::filter::between_samples`]): the rows are enclosed over every state the arm
+//! can reach while the torque is held, through the generated `dynamics` on intervals.
 //!
 //! ```
 //! use cbfgen_panda_spheres::{Scenario, Simulation};
@@ -37,6 +42,7 @@ pub mod generated {
 }
 
 use cbfgen::error::{within, CbfError};
+use cbfgen::filter::between_samples::{BetweenSamples, SampledData};
 use cbfgen::filter::{EcbfFilter, FilterSettings, InputSource};
 use cbfgen::torque::JointTorque;
 use generated::{self as gen, Barriers, Capacity, Params, SphereObstacleParams, TableParams, NU, NX};
@@ -94,7 +100,13 @@ pub struct Scenario {
     pub filter: bool,
     /// The filter's settings: the spec's, with torque limits as the input box.
     pub settings: FilterSettings<NU>,
+    /// RK4 steps the plant takes over each period (1 to [`MAX_FINE_STEPS`]), each one's
+    /// clearances measured: 100 finds what happens between the samples.
+    pub fine_steps: usize,
 }
+
+/// The most RK4 steps per period [`Scenario::fine_steps`] takes.
+pub const MAX_FINE_STEPS: usize = 10_000;
 
 /// `n` obstacles drawn as OSCBF draws them, from `seed`; a draw that touches the arm at
 /// [`START`] (or comes within 2 cm of it) is drawn again.
@@ -143,7 +155,22 @@ impl Scenario {
             cruise_speed: 0.8,
             filter: true,
             settings,
+            fine_steps: 1,
         }
+    }
+
+    /// The same with every answer certified between the samples for the 1 ms period
+    /// ([`FilterSettings::sampled_data`]).
+    pub fn certified(mut self) -> Self {
+        self.settings.sampled_data = Some(SampledData::every_family(DT));
+        self
+    }
+
+    /// The same with the plant integrated in `steps` RK4 steps a period, and the
+    /// clearances measured at each.
+    pub fn fine(mut self, steps: usize) -> Self {
+        self.fine_steps = steps;
+        self
     }
 
     /// The same with the nominal torque only clipped to the limits.
@@ -176,7 +203,8 @@ impl Scenario {
     ///
     /// # Errors
     /// More than [`MAX_OBSTACLES`] obstacles, a non-finite or non-positive radius or
-    /// duration, no waypoints, or a gain outside (0, 10⁴].
+    /// duration, no waypoints, a gain outside (0, 10⁴], or fine steps outside
+    /// `1..=`[`MAX_FINE_STEPS`].
     pub fn validate(&self) -> Result<(), CbfError> {
         if self.obstacles.len() > MAX_OBSTACLES {
             return Err(CbfError::TooLarge { what: "obstacle count", value: self.obstacles.len(), max: MAX_OBSTACLES });
@@ -188,17 +216,43 @@ impl Scenario {
         within("kp", self.gains.0, 1e-9, 1e4, "(0, 1e4]")?;
         within("kd", self.gains.1, 1e-9, 1e4, "(0, 1e4]")?;
         within("cruise speed", self.cruise_speed, 1e-9, 100.0, "(0, 100] rad/s")?;
+        if !(1..=MAX_FINE_STEPS).contains(&self.fine_steps) {
+            return Err(CbfError::TooLarge {
+                what: "fine steps per period",
+                value: self.fine_steps,
+                max: MAX_FINE_STEPS,
+            });
+        }
         Ok(())
     }
 }
 
-/// The plant over one period under a held torque ([`cbfgen::torque::step_rigid_body`]
-/// with this system's dynamics).
+/// The plant over `dt` under a held torque ([`cbfgen::torque::step_rigid_body`] with this
+/// system's dynamics: one RK4 step).
 ///
 /// # Errors
 /// A singular mass matrix.
-pub fn step_plant(x: &[f64; NX], tau: &[f64; NU]) -> Result<[f64; NX], CbfError> {
-    cbfgen::torque::step_rigid_body(gen::dynamics, x, tau, DT)
+pub fn step_plant(x: &[f64; NX], tau: &[f64; NU], dt: f64) -> Result<[f64; NX], CbfError> {
+    cbfgen::torque::step_rigid_body(gen::dynamics, x, tau, dt)
+}
+
+/// The least exact clearances at `x`: (arm sphere to obstacle, arm sphere above the
+/// table) \[m\], `+∞` where there is nothing.
+pub fn clearances(x: &[f64; NX], obstacles: &[Obstacle], table: Option<f64>) -> (f64, f64) {
+    let centers = gen::sphere_centers(x);
+    let mut obstacle = f64::INFINITY;
+    for o in obstacles {
+        for (c, r) in centers.iter().zip(gen::SPHERE_RADII) {
+            obstacle = obstacle.min(distance(c, &o.center) - r - o.radius);
+        }
+    }
+    let table = match table {
+        Some(height) => {
+            centers.iter().zip(gen::SPHERE_RADII).map(|(c, r)| c[2] - r - height).fold(f64::INFINITY, f64::min)
+        }
+        None => f64::INFINITY,
+    };
+    (obstacle, table)
 }
 
 /// One control cycle.
@@ -210,10 +264,14 @@ pub struct Sample {
     pub tau: [f64; NU],
     /// Where it came from (`None` without the filter).
     pub source: Option<InputSource>,
-    /// Smallest exact clearance between an arm sphere and an obstacle after the cycle \[m\].
+    /// Smallest exact clearance between an arm sphere and an obstacle over the cycle's
+    /// fine steps \[m\].
     pub obstacle_clearance: f64,
-    /// Smallest exact clearance of an arm sphere above the table after the cycle \[m\].
+    /// Smallest exact clearance of an arm sphere above the table over the cycle's fine
+    /// steps \[m\].
     pub table_clearance: f64,
+    /// What the update certified between the samples (`None` without the filter).
+    pub between_samples: Option<BetweenSamples>,
     /// The filter update's CPU time \[µs\], where the settings ask for it
     /// ([`FilterSettings::measure_cpu_time`]) and the platform has a thread clock.
     pub cpu_us: Option<f64>,
@@ -253,8 +311,9 @@ impl Simulation {
                 member.push(TableParams { height })?;
             }
         }
-        let filter =
-            EcbfFilter::new(TorqueRows::new(Barriers::new(capacity)?, gen::dynamics), scenario.settings.clone())?;
+        let rows = TorqueRows::new(Barriers::new(capacity)?, gen::dynamics)
+            .with_interval_dynamics(gen::dynamics::<cbfgen::interval::Interval>);
+        let filter = EcbfFilter::new(rows, scenario.settings.clone())?;
         let mut x = [0.0; NX];
         x[..NU].copy_from_slice(&START);
         Ok(Self { scenario: scenario.clone(), filter, params, x, cycle: 0 })
@@ -287,29 +346,23 @@ impl Simulation {
     pub fn step(&mut self) -> Result<Sample, CbfError> {
         let t = self.time();
         let tau_ref = self.scenario.nominal(t, &self.x);
-        let (tau, source, cpu_us) = if self.scenario.filter {
+        let (tau, source, cpu_us, between_samples) = if self.scenario.filter {
             let out = self.filter.update(&self.x, &tau_ref, &self.params)?;
-            (out.u, Some(out.source), out.cpu_time.map(|d| d.as_secs_f64() * 1e6))
+            (out.u, Some(out.source), out.cpu_time.map(|d| d.as_secs_f64() * 1e6), Some(out.between_samples))
         } else {
             let s = &self.scenario.settings;
-            (std::array::from_fn(|j| tau_ref[j].clamp(s.input_min[j], s.input_max[j])), None, None)
+            (std::array::from_fn(|j| tau_ref[j].clamp(s.input_min[j], s.input_max[j])), None, None, None)
         };
-        self.x = step_plant(&self.x, &tau)?;
-        self.cycle += 1;
-        let centers = gen::sphere_centers(&self.x);
-        let mut obstacle_clearance = f64::INFINITY;
-        for o in &self.scenario.obstacles {
-            for (c, r) in centers.iter().zip(gen::SPHERE_RADII) {
-                obstacle_clearance = obstacle_clearance.min(distance(c, &o.center) - r - o.radius);
-            }
+        let (mut obstacle_clearance, mut table_clearance) = (f64::INFINITY, f64::INFINITY);
+        let fine = self.scenario.fine_steps;
+        for _ in 0..fine {
+            self.x = step_plant(&self.x, &tau, DT / fine as f64)?;
+            let (obstacle, table) = clearances(&self.x, &self.scenario.obstacles, self.scenario.table);
+            obstacle_clearance = obstacle_clearance.min(obstacle);
+            table_clearance = table_clearance.min(table);
         }
-        let table_clearance = match self.scenario.table {
-            Some(height) => {
-                centers.iter().zip(gen::SPHERE_RADII).map(|(c, r)| c[2] - r - height).fold(f64::INFINITY, f64::min)
-            }
-            None => f64::INFINITY,
-        };
-        Ok(Sample { t, tau, source, obstacle_clearance, table_clearance, cpu_us })
+        self.cycle += 1;
+        Ok(Sample { t, tau, source, obstacle_clearance, table_clearance, cpu_us, between_samples })
     }
 }
 

@@ -9,7 +9,7 @@ from collections.abc import Sequence
 
 from ....dynamics import Tree
 from ....kernel import Kernel
-from .emitter import _doc_lines, float_literal, kernel_signature
+from .emitter import SCALAR, _doc_lines, float_literal, generic, kernel_signature
 
 
 def _array(values: Sequence[float]) -> str:
@@ -41,19 +41,22 @@ def emit_rigid_body_output(kernel: Kernel, tree: Tree, order: Sequence[int], run
            f"root: {rb}::Root::{root}, gravity: {_array(tree.gravity)} }};",
            f"const _: () = assert!({upper}_TREE.defect({nq}, {n}).is_none(), "
            f"\"{kernel.name}: the generated tree cannot be walked\");", ""]
-    args, ret = kernel_signature(kernel, runtime_crate)
+    # Generic like every kernel: on intervals it encloses M and b over a box of states
+    # (what certifies a torque-controlled robot between the samples).
+    args, ret = kernel_signature(kernel, runtime_crate, SCALAR)
     q = ", ".join(f"x[{i}]" for i in tree.coordinate_states)
     v = ", ".join(f"x[{i}]" for i in tree.velocity_states)
     rotation = "None"
     if tree.rotation_states is not None:
         rotation = "Some(&[" + ", ".join(f"x[{i}]" for i in tree.rotation_states) + "])"
-    body = [f"    let q: [f64; {nq}] = [{q}];", f"    let v: [f64; {n}] = [{v}];",
-            f"    let mass: [[f64; {n}]; {n}] = {upper}_TREE.mass_matrix(&q);",
-            f"    let bias: [f64; {n}] = {upper}_TREE.bias(&q, {rotation}, &v);"]
+    body = [f"    let q: [{SCALAR}; {nq}] = [{q}];", f"    let v: [{SCALAR}; {n}] = [{v}];",
+            f"    let mass: [[{SCALAR}; {n}]; {n}] = {upper}_TREE.mass_matrix(&q);",
+            f"    let bias: [{SCALAR}; {n}] = {upper}_TREE.bias(&q, {rotation}, &v);"]
     if tuple(order) == tuple(range(n)):
         body.append("    (mass, bias)")
     else:
         body += [f"    const ORDER: [usize; {n}] = [{', '.join(str(i) for i in order)}];",
                  "    (ORDER.map(|i| ORDER.map(|j| mass[i][j])), ORDER.map(|i| bias[i]))"]
-    out += [*_doc_lines(kernel), *attributes, "#[inline]", f"pub fn {kernel.name}({args}) -> {ret} {{", *body, "}"]
+    signature = f"pub fn {kernel.name}{generic(runtime_crate)}({args}) -> {ret} {{"
+    out += [*_doc_lines(kernel), *attributes, "#[inline]", signature, *body, "}"]
     return "\n".join(out) + "\n"

@@ -508,24 +508,16 @@ def _emit_system_type(out: list[str], d: SystemDefinition, rt: str) -> None:
         w("")
 
 
-def _f64_only(d: SystemDefinition) -> set[str]:
-    """The kernels emitted for ``f64`` only: rigid-body outputs, which walk their tree in
-    the core's ``f64`` code. Every other kernel (composed and framed members, pose
-    functions among them) is generic over the core's ``Scalar``."""
-    return {name for name, _, _ in d.rigid_bodies}
-
-
 def _emit_interval_kernels(out: list[str], d: SystemDefinition, rt: str) -> None:
     """``INTERVAL_KERNELS``: the dynamics and every family's members on intervals, in the
     order the core's ``enclose_generated`` indexes them (``IntervalKernel::NONE`` for a
     kernel without an interval form)."""
-    f64_only = _f64_only(d)
     by_name = {k.name: k for k in d.kernels()}
     none = f"{rt}::filter::between_samples::IntervalKernel::NONE"
 
     def entry(name: str, columns: str) -> str:
         k = by_name.get(name)
-        if k is None or name in f64_only:
+        if k is None:
             return f"    {none},"
         return (f"    {rt}::interval_kernel!({k.name}{columns}({', '.join(map(kernel_argument, k.inputs))}) -> "
                 f"({', '.join(map(kernel_result, k.outputs))})),")
@@ -915,11 +907,8 @@ def _emit_barriers(out: list[str], d: SystemDefinition, rt: str) -> None:
     w("        Ok(())")
     w("    }")
     w("")
-    bs = f"{rt}::filter::between_samples"
-    w(f"    fn enclose(&self, window: &{bs}::Window<NU>, x: &[f64; NX], params: &Params, wanted: &[bool], "
-      f"out: &mut [{bs}::RowEnclosure<NU>]) -> Result<(), {bs}::NotEnclosed> {{")
-    w(f"        {bs}::enclose_generated::<{camel(d.name)}, NX, NU>(&self.layout, window, x, params, wanted, out)")
-    w("    }")
+    # `enclose` and `enclose_over`, on this system's interval kernels.
+    w(f"    {rt}::generated_enclosure!({camel(d.name)});")
     w("}")
     w("")
 
