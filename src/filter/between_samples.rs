@@ -53,6 +53,14 @@
 //! Every update reports what it achieved in [`Output::between_samples`](super::Output)
 //! ([`BetweenSamples`]), and per row the margin it used
 //! ([`EcbfFilter::margins`](super::EcbfFilter::margins)).
+//!
+//! **Stack.** The certificate allocates nothing: its buffers are on the stack. A generated
+//! row's interval inputs and outputs take up to 2 × [`MAX_FLAT`] intervals and its
+//! parameters [`MAX_FLAT`] numbers (40 KiB), the flow's input matrix [`MAX_FLAT`]
+//! intervals (16 KiB); the interval rigid-body dynamics keep per-body composite inertias
+//! and placements for [`MAX_BODIES`](crate::rigid_body::MAX_BODIES) bodies (about
+//! 50 KiB). A thread that runs a certified filter needs about 128 KiB of stack beyond its
+//! own (Rust's spawned threads have 2 MiB, the main thread 8 MiB).
 
 use crate::dynamic::GeneratedSystem;
 use crate::error::CbfError;

@@ -2,7 +2,8 @@
 //! section III example, and the smallest system there is. This crate is all a system
 //! needs: its spec (`spec/double_integrator.py`), a build script calling `cbfgen-build`, and
 //! this file including the generated module (`NX`, `NU`, `Params`, `Barriers`, `Filter`,
-//! `SYSTEM`, …).
+//! `SYSTEM`, …). [`pressed`] is the closed loop the sampled-data certificate's example
+//! and tests share.
 //!
 //! Picked by name at run time, through the core's type-erased layer:
 //!
@@ -26,3 +27,6 @@
 #![allow(missing_docs)]
 
 include!(concat!(env!("CARGO_MANIFEST_DIR"), "/generated/double_integrator.rs"));
+
+#[warn(missing_docs)]
+pub mod pressed;

@@ -5,70 +5,21 @@
 //! certificate's enclosures hold every value the row takes on the way.
 
 use cbfgen::filter::between_samples::{RowEnclosure, Window};
-use cbfgen::filter::{BetweenSamples, InputSource, SampledData};
+use cbfgen::filter::{BetweenSamples, SampledData};
 use cbfgen::interval::Interval;
 use cbfgen::system::BarrierSet;
-use cbfgen_double_integrator::{default_settings, sine_barrier, Barriers, Capacity, Filter, Params, SineBarrierParams};
-
-const PERIOD: f64 = 1e-3;
-const FINE: usize = 100;
-const AMPLITUDE: f64 = 0.1;
+use cbfgen_double_integrator::pressed::{self, PERIOD, UPDATES};
+use cbfgen_double_integrator::{default_settings, sine_barrier, Barriers, Capacity, Filter, Params};
 
 fn params(omega: f64) -> Params {
-    let mut p = Params::new(Capacity {}).unwrap();
-    p.sine_barrier[0] = SineBarrierParams { amplitude: AMPLITUDE, omega, offset: 0.0 };
-    p
+    pressed::params(omega).unwrap()
 }
 
-fn boundary(t: f64, omega: f64) -> f64 {
-    AMPLITUDE * (omega * t).sin()
-}
-
-/// `q, q'` after `tau` seconds of `u` from `x`: the exact solution.
-fn flow(x: [f64; 2], u: f64, tau: f64) -> [f64; 2] {
-    [x[0] + x[1] * tau + 0.5 * u * tau * tau, x[1] + u * tau]
-}
-
-struct Run {
-    /// The least `h` over every fine step.
-    min_h: f64,
-    /// Updates certified, and all updates.
-    certified: usize,
-    updates: usize,
-    /// The largest margin any row was given.
-    max_margin: f64,
-}
-
-/// Three seconds pressed down onto the boundary (nominal −100 m/s², limits ±1000), from
-/// `h = 0.2`, `q' = 0` (inside the ECBF's safe set: `ḣ + 10 h ≥ 0`). With `delay`, the
-/// plant holds the previous update's input during each period (the first: 0).
-fn run(omega: f64, sampled: Option<SampledData>, delay: bool) -> Run {
-    let mut settings = default_settings();
-    settings.input_min = [-1000.0];
-    settings.input_max = [1000.0];
-    settings.sampled_data = sampled;
-    let mut filter = Filter::new(Barriers::new(Capacity {}).unwrap(), settings).unwrap();
-    let p = params(omega);
-    let mut x = [0.2, 0.0];
-    let mut held = 0.0;
-    let mut out = Run { min_h: f64::INFINITY, certified: 0, updates: 0, max_margin: 0.0 };
-    for k in 0..3000 {
-        let t = k as f64 * PERIOD;
-        let o = *filter.update_at(t, &x, &[-100.0], &p).unwrap();
-        assert_eq!(o.source, InputSource::Qp, "at t = {t}");
-        assert!(o.safety.is_met(), "at t = {t}: {:?}", o.safety);
-        out.updates += 1;
-        out.certified += usize::from(o.between_samples.is_certified());
-        out.max_margin = out.max_margin.max(filter.margins()[0]);
-        let u = if delay { std::mem::replace(&mut held, o.u[0]) } else { o.u[0] };
-        for j in 1..=FINE {
-            let tau = PERIOD * j as f64 / FINE as f64;
-            let y = flow(x, u, tau);
-            out.min_h = out.min_h.min(y[0] - boundary(t + tau, omega));
-        }
-        x = flow(x, u, PERIOD);
-    }
-    out
+/// A run of the shared closed loop, every input the QP's and every row met at the sample.
+fn run(omega: f64, sampled: Option<SampledData>, delay: bool) -> pressed::Run {
+    let r = pressed::run(omega, sampled, delay, false).unwrap();
+    assert_eq!(r.not_met, 0, "ω = {omega}: every update's input is the QP's, every row met");
+    r
 }
 
 #[test]
@@ -87,7 +38,7 @@ fn with_the_certificate_h_stays_non_negative_at_every_fine_step() {
     for omega in [5.0, 20.0] {
         let r = run(omega, Some(SampledData::every_family(PERIOD)), false);
         assert!(r.min_h >= 0.0, "ω = {omega}: least h {}", r.min_h);
-        assert_eq!(r.certified, r.updates, "ω = {omega}: every update certified");
+        assert_eq!(r.certified, UPDATES, "ω = {omega}: every update certified");
         assert!(r.max_margin > 0.0, "ω = {omega}: the boundary's motion needs a margin");
         // What it costs: h kept a little further from the boundary, not a different motion.
         assert!(r.min_h < 0.01, "ω = {omega}: least h {} (the filter still presses down)", r.min_h);
@@ -100,7 +51,7 @@ fn with_a_period_of_delay_the_certificate_covers_the_late_input() {
     for omega in [5.0, 20.0] {
         let r = run(omega, Some(sampled.clone()), true);
         assert!(r.min_h >= 0.0, "ω = {omega}: least h {}", r.min_h);
-        assert_eq!(r.certified, r.updates, "ω = {omega}");
+        assert_eq!(r.certified, UPDATES, "ω = {omega}");
     }
 }
 
