@@ -314,23 +314,7 @@ impl Gains {
     ///
     /// With an extended class-K function: `b = ψ̇|_{u=0} + p_r α(ψ)`, `ψ = Σ c_i L_f^i h`.
     pub fn bound(&self, lie: &[f64; MAX_RELATIVE_DEGREE + 1]) -> f64 {
-        if let Some((c, last, alpha)) = &self.extended {
-            let (mut psi, mut psi_dot) = (0.0, 0.0);
-            for i in (0..self.degree).rev() {
-                psi += c[i] * lie[i];
-                psi_dot += c[i] * lie[i + 1];
-            }
-            return psi_dot + last * alpha.eval(psi);
-        }
-        // One arm per degree: straight-line code in the QP's per-row loop (a loop over the
-        // degree costs about 1 % of a Tachyon 3 update), summed in the same order.
-        let k = &self.k;
-        match self.degree {
-            1 => lie[1] + k[0] * lie[0],
-            2 => lie[2] + k[1] * lie[1] + k[0] * lie[0],
-            3 => lie[3] + k[2] * lie[2] + k[1] * lie[1] + k[0] * lie[0],
-            _ => lie[4] + k[3] * lie[3] + k[2] * lie[2] + k[1] * lie[1] + k[0] * lie[0],
-        }
+        self.bound_on(lie, |alpha, psi| alpha.eval(psi))
     }
 
     /// [`Gains::bound`] over enclosures of `lie`: an interval holding every value `b`
@@ -339,12 +323,7 @@ impl Gains {
     /// evaluated at the ends of `ψ`'s enclosure, each moved 16 steps outward for its own
     /// rounding.
     pub fn bound_enclosure(&self, lie: &[Interval; MAX_RELATIVE_DEGREE + 1]) -> Interval {
-        if let Some((c, last, alpha)) = &self.extended {
-            let (mut psi, mut psi_dot) = (Interval::point(0.0), Interval::point(0.0));
-            for i in (0..self.degree).rev() {
-                psi = psi + Interval::point(c[i]) * lie[i];
-                psi_dot = psi_dot + Interval::point(c[i]) * lie[i + 1];
-            }
+        self.bound_on(lie, |alpha, psi: Interval| {
             if !psi.is_finite() {
                 return Interval::ENTIRE;
             }
@@ -354,14 +333,35 @@ impl Gains {
                 }
                 v
             };
-            let alpha_psi = Interval::new(steps(alpha.eval(psi.lo), false), steps(alpha.eval(psi.hi), true));
-            return psi_dot + Interval::point(*last) * alpha_psi;
+            Interval::new(steps(alpha.eval(psi.lo), false), steps(alpha.eval(psi.hi), true))
+        })
+    }
+
+    /// [`Gains::bound`]'s formula on any scalar, with `α(ψ)` given: one formula for the
+    /// filter's `f64` and the certificate's enclosure, summed in the same order.
+    #[inline]
+    fn bound_on<S: crate::scalar::Scalar>(
+        &self,
+        lie: &[S; MAX_RELATIVE_DEGREE + 1],
+        alpha_of: impl Fn(&ClassK, S) -> S,
+    ) -> S {
+        if let Some((c, last, alpha)) = &self.extended {
+            let (mut psi, mut psi_dot) = (S::from(0.0), S::from(0.0));
+            for i in (0..self.degree).rev() {
+                psi = psi + S::from(c[i]) * lie[i];
+                psi_dot = psi_dot + S::from(c[i]) * lie[i + 1];
+            }
+            return psi_dot + S::from(*last) * alpha_of(alpha, psi);
         }
-        let mut b = lie[self.degree];
-        for i in (0..self.degree).rev() {
-            b = b + Interval::point(self.k[i]) * lie[i];
+        // One arm per degree: straight-line code in the QP's per-row loop (a loop over the
+        // degree costs about 1 % of a Tachyon 3 update), summed in the same order.
+        let k = |i: usize| S::from(self.k[i]);
+        match self.degree {
+            1 => lie[1] + k(0) * lie[0],
+            2 => lie[2] + k(1) * lie[1] + k(0) * lie[0],
+            3 => lie[3] + k(2) * lie[2] + k(1) * lie[1] + k(0) * lie[0],
+            _ => lie[4] + k(3) * lie[3] + k(2) * lie[2] + k(1) * lie[1] + k(0) * lie[0],
         }
-        b
     }
 }
 
