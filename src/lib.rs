@@ -35,6 +35,7 @@
 
 pub mod compose;
 pub mod cpu_time;
+pub mod dual;
 pub mod dynamic;
 pub mod error;
 pub mod filter;

@@ -48,7 +48,8 @@
 //!   [`with_interval_dynamics`](crate::torque::JointTorque::with_interval_dynamics))
 //!   cannot be certified: the update says so ([`Why::NoIntervalForm`]) instead of
 //!   claiming it. With it, the torque-controlled plant `M(q) q̈ + b(q, q̇) = τ` is
-//!   enclosed through the generated rigid-body dynamics on intervals.
+//!   enclosed through the generated rigid-body dynamics on intervals, tightened by their
+//!   rates on [`Dual`](crate::dual::Dual) intervals.
 //!
 //! Every update reports what it achieved in [`Output::between_samples`](super::Output)
 //! ([`BetweenSamples`]), and per row the margin it used
@@ -288,6 +289,8 @@ pub const MAX_HALVINGS: u32 = 6;
 /// The reachable states over a time span, enclosed ([`enclose_flow`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Reach<const NX: usize> {
+    /// The states the span starts from.
+    pub start: [Interval; NX],
     /// A box holding every state of every solution over the span.
     pub states: [Interval; NX],
     /// `F` over [`Reach::states`]: every velocity along those solutions.
@@ -337,7 +340,7 @@ pub fn enclose_flow<const NX: usize>(
         if next.iter().zip(&b).all(|(n, b)| b.lo <= n.lo && n.hi <= b.hi) {
             // F(b) holds F over `next` ⊆ b too.
             let end = core::array::from_fn(|i| x0[i] + Interval::point(h) * f[i]);
-            return Some(Reach { states: next, field: f, end });
+            return Some(Reach { start: *x0, states: next, field: f, end });
         }
         // Only where the box was too small: inflating a component already large enough
         // would widen the next step of every component that reads it, for ever.
@@ -382,6 +385,7 @@ fn enclose_pieces<const NX: usize>(
                 hull = Some(match hull {
                     None => r,
                     Some(a) => Reach {
+                        start: a.start,
                         states: core::array::from_fn(|i| Interval::hull(a.states[i], r.states[i])),
                         field: core::array::from_fn(|i| Interval::hull(a.field[i], r.field[i])),
                         end: r.end,

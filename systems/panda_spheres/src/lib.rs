@@ -41,9 +41,11 @@ pub mod generated {
     include!(concat!(env!("CARGO_MANIFEST_DIR"), "/generated/panda_spheres.rs"));
 }
 
+use cbfgen::dual::Dual;
 use cbfgen::error::{within, CbfError};
 use cbfgen::filter::between_samples::{BetweenSamples, SampledData};
 use cbfgen::filter::{EcbfFilter, FilterSettings, InputSource};
+use cbfgen::interval::Interval;
 use cbfgen::torque::JointTorque;
 use generated::{self as gen, Barriers, Capacity, Params, SphereObstacleParams, TableParams, NU, NX};
 use rand::{Rng, SeedableRng};
@@ -312,7 +314,7 @@ impl Simulation {
             }
         }
         let rows = TorqueRows::new(Barriers::new(capacity)?, gen::dynamics)
-            .with_interval_dynamics(gen::dynamics::<cbfgen::interval::Interval>);
+            .with_interval_dynamics(gen::dynamics::<Interval>, gen::dynamics::<Dual<Interval>>);
         let filter = EcbfFilter::new(rows, scenario.settings.clone())?;
         let mut x = [0.0; NX];
         x[..NU].copy_from_slice(&START);

@@ -7,6 +7,7 @@
 //! `cargo run --release -p cbfgen-panda-spheres --example between_samples` prints the
 //! same sweeps with their cost.
 
+use cbfgen::dual::Dual;
 use cbfgen::filter::between_samples::{RowEnclosure, Window};
 use cbfgen::interval::Interval;
 use cbfgen::system::{BarrierSet, Gains};
@@ -105,16 +106,14 @@ fn ten_obstacles() {
     safe_between_the_samples_where_certified(10, true);
 }
 
-// At 25 and 50 obstacles most updates are not certified (the interval rigid-body
-// dynamics are too wide there: docs/filter.md), and the sweep as a whole still dips.
 #[test]
 fn twenty_five_obstacles() {
-    safe_between_the_samples_where_certified(25, false);
+    safe_between_the_samples_where_certified(25, true);
 }
 
 #[test]
 fn fifty_obstacles() {
-    safe_between_the_samples_where_certified(50, false);
+    safe_between_the_samples_where_certified(50, true);
 }
 
 #[test]
@@ -126,7 +125,7 @@ fn every_torque_row_stays_inside_its_enclosure_along_the_held_torque() {
     let scenario = Scenario::with_obstacles(25, 7);
     let params = Simulation::new(&scenario).unwrap().params().clone();
     let mut rows = TorqueRows::new(Barriers::new(params.capacity()).unwrap(), gen::dynamics)
-        .with_interval_dynamics(gen::dynamics::<Interval>);
+        .with_interval_dynamics(gen::dynamics::<Interval>, gen::dynamics::<Dual<Interval>>);
     let gains: Vec<Gains> =
         scenario.settings.families.iter().map(|f| Gains::with_class_k(&f.poles, f.class_k)).collect();
     let layout = rows.layout().to_vec();

@@ -7,7 +7,9 @@
 #[path = "../../../testkit/alloc_count.rs"]
 mod alloc_count;
 
+use cbfgen::dual::Dual;
 use cbfgen::filter::InputSource;
+use cbfgen::interval::Interval;
 use cbfgen_panda_spheres::{step_plant, Scenario, Simulation};
 
 fn main() {
@@ -51,7 +53,10 @@ fn main() {
             cbfgen_panda_spheres::generated::Barriers::new(params.capacity()).unwrap(),
             cbfgen_panda_spheres::generated::dynamics,
         )
-        .with_interval_dynamics(cbfgen_panda_spheres::generated::dynamics::<cbfgen::interval::Interval>),
+        .with_interval_dynamics(
+            cbfgen_panda_spheres::generated::dynamics::<Interval>,
+            cbfgen_panda_spheres::generated::dynamics::<Dual<Interval>>,
+        ),
         scenario.settings.clone(),
     )
     .unwrap();
