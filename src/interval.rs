@@ -158,6 +158,23 @@ impl Interval {
         self.unknown()
     }
 
+    /// `self ∩ other`, for two enclosures of the same values (so the values lie in
+    /// both): the tighter enclosure. `other` where rounding left them apart, or either is
+    /// unknown.
+    ///
+    /// ```
+    /// use cbfgen::interval::Interval;
+    /// assert_eq!(Interval::new(0.0, 2.0).meet(Interval::new(1.0, 3.0)), Interval::new(1.0, 2.0));
+    /// ```
+    pub fn meet(self, other: Self) -> Self {
+        let (lo, hi) = (self.lo.max(other.lo), self.hi.min(other.hi));
+        if lo <= hi && !self.unknown() {
+            Interval { lo, hi }
+        } else {
+            other
+        }
+    }
+
     /// The largest magnitude in the interval, `max(|lo|, |hi|)` (exact); `+∞` when
     /// unbounded, for [`Interval::ENTIRE`] and for a NaN end.
     pub fn mag(self) -> f64 {
@@ -723,8 +740,7 @@ pub fn solve_linear<const N: usize>(a: &[[Interval; N]; N], b: &[Interval; N]) -
     Some(core::array::from_fn(|i| {
         let refined = (0..N).fold(r[i], |s, j| s + e[i][j] * ball);
         // Both hold the error; their overlap does too.
-        let (lo, hi) = (refined.lo.max(-eps), refined.hi.min(eps));
-        Interval::point(x[i]) + if lo <= hi { Interval::new(lo, hi) } else { ball }
+        Interval::point(x[i]) + refined.meet(ball)
     }))
 }
 

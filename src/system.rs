@@ -337,6 +337,21 @@ impl Gains {
         })
     }
 
+    /// The row's ECBF condition at input `u`, `ψ = a·u + b` (met where `≥ 0`).
+    pub fn condition<const NU: usize>(&self, row: &Row<NU>, u: &[f64; NU]) -> f64 {
+        row.lg.iter().zip(u).fold(self.bound(&row.lie), |s, (a, u)| s + a * u)
+    }
+
+    /// [`Gains::condition`] over a row's enclosure at input `u`: every `ψ` the row can
+    /// take where the enclosure holds.
+    pub fn condition_enclosure<const NU: usize>(
+        &self,
+        e: &crate::filter::between_samples::RowEnclosure<NU>,
+        u: &[f64; NU],
+    ) -> Interval {
+        e.lg.iter().zip(u).fold(self.bound_enclosure(&e.lie), |s, (a, u)| s + *a * Interval::point(*u))
+    }
+
     /// [`Gains::bound`]'s formula on any scalar, with `α(ψ)` given: one formula for the
     /// filter's `f64` and the certificate's enclosure, summed in the same order.
     #[inline]

@@ -87,6 +87,7 @@ use crate::dual::Dual;
 use crate::error::CbfError;
 use crate::filter::between_samples::{enclose_window, NotEnclosed, RowEnclosure, Window};
 use crate::interval::{solve_linear, Interval};
+use crate::scalar::Scalar;
 use crate::system::{BarrierSet, FamilyInfo, Row, RowLayout};
 
 /// The most joints a [`JointTorque`] maps.
@@ -151,28 +152,17 @@ fn tighten<const NX: usize, const NU: usize>(
     let rhs: [Interval; NU] = core::array::from_fn(|i| (0..NU).fold(-bias[i].d, |s, j| s - mass[i][j].d * qdd[j]));
     let jerk = solve_linear(&values, &rhs)?;
     let span = Interval::new(0.0, h);
-    let half_square = Interval::new(0.0, 0.5 * h * h).union(Interval::point(0.5) * span * span);
-    let tight: [Interval; NU] = core::array::from_fn(|i| overlap(at_start[i] + span * jerk[i], qdd[i]));
+    let half_square = Interval::point(0.5) * span.sqr();
+    let tight: [Interval; NU] = core::array::from_fn(|i| (at_start[i] + span * jerk[i]).meet(qdd[i]));
     let next: [Interval; NX] = core::array::from_fn(|i| {
         let by_form = if i < NU {
             start[i] + span * start[NU + i] + half_square * tight[i]
         } else {
             start[i] + span * tight[i - NU]
         };
-        overlap(by_form, states[i])
+        by_form.meet(states[i])
     });
     Some((next, tight))
-}
-
-/// `a ∩ b` for two enclosures of the same values (so they meet); `b` if rounding left
-/// them apart.
-fn overlap(a: Interval, b: Interval) -> Interval {
-    let (lo, hi) = (a.lo.max(b.lo), a.hi.min(b.hi));
-    if lo <= hi {
-        Interval::new(lo, hi)
-    } else {
-        b
-    }
 }
 
 /// The rows of `B` (written in joint accelerations) mapped to joint torques each cycle:
@@ -211,6 +201,7 @@ impl<B: BarrierSet<NU, State = [f64; NX]>, const NX: usize, const NU: usize> Joi
     /// the flow, which tightens `q̈`'s enclosure over the period to a first-order form in
     /// time (see [`JointTorque::enclose`](BarrierSet::enclose)).
     pub fn with_interval_dynamics(mut self, dynamics: IntervalDynamics<NX, NU>, rates: RateDynamics<NX, NU>) -> Self {
+        const { assert!(NX == 2 * NU, "the certificate's plant is x = [q, q̇]") };
         self.interval_forms = Some(IntervalForms { dynamics, rates });
         self
     }
@@ -335,11 +326,9 @@ impl<B: BarrierSet<NU, State = [f64; NX]>, const NX: usize, const NU: usize> Bar
         wanted: &[bool],
         out: &mut [RowEnclosure<NU>],
     ) -> Result<(), NotEnclosed> {
-        let first = NotEnclosed::NoIntervalForm { row: wanted.iter().position(|&w| w).unwrap_or(0) };
-        let Some(IntervalForms { dynamics, rates }) = self.interval_forms else { return Err(first) };
-        if NX != 2 * NU {
-            return Err(first);
-        }
+        let Some(IntervalForms { dynamics, rates }) = self.interval_forms else {
+            return Err(NotEnclosed::NoIntervalForm { row: wanted.iter().position(|&w| w).unwrap_or(0) });
+        };
         let acceleration = |b: &[Interval; NX], tau: &[Interval; NU]| {
             let (mass, bias) = dynamics(b);
             solve_linear(&mass, &core::array::from_fn(|i| tau[i] - bias[i]))

@@ -525,9 +525,7 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
                 for (i, l) in self.barriers.layout().iter().enumerate() {
                     let d = self.deficits[i];
                     if d > 0.0 {
-                        let row = &self.barriers.rows()[i];
-                        let at_sample =
-                            row.lg.iter().zip(&u).fold(self.gains[l.family].bound(&row.lie), |s, (a, u)| s + a * u);
+                        let at_sample = self.gains[l.family].condition(&self.barriers.rows()[i], &u);
                         let step = if rounds == 1 { MARGIN_STEP } else { LATER_MARGIN_STEP };
                         self.margins[i] = self.margins[i].max(at_sample) + step * d;
                     }
@@ -646,11 +644,7 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
             if !self.wanted[i] {
                 continue;
             }
-            let e = &self.enclosures[i];
-            let mut psi = self.gains[l.family].bound_enclosure(&e.lie);
-            for (lg, &uj) in e.lg.iter().zip(&u) {
-                psi = psi + *lg * Interval::point(uj);
-            }
+            let psi = self.gains[l.family].condition_enclosure(&self.enclosures[i], &u);
             // Short by no more than the verdict's own rounding allowance at the sample
             // (`MET_TOLERANCE` of the row's size): met between the samples as the row is
             // met at them.

@@ -95,7 +95,7 @@ fn the_enclosure_holds_every_value_the_row_takes_over_the_period() {
         let window = Window { t, period, before: before.map(|b| [Interval::point(b)]), u: [u] };
         let mut e = [RowEnclosure::ZERO];
         barriers.enclose(&window, &x, &p, &[true], &mut e).unwrap_or_else(|err| panic!("case {case}: {err:?}"));
-        let psi = gains.bound_enclosure(&e[0].lie) + e[0].lg[0] * Interval::point(u);
+        let psi = gains.condition_enclosure(&e[0], &[u]);
         // The window: [t, t + Δt] under u, or [t + Δt, t + 2Δt] under u after Δt of `before`.
         let (i, pt) = (Interval::point, Interval::point(period));
         let (start, x0) = match before {

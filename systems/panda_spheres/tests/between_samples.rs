@@ -147,15 +147,8 @@ fn every_torque_row_stays_inside_its_enclosure_along_the_held_torque() {
             continue; // not certified, and said so: nothing claimed to check
         }
         enclosed += 1;
-        let psi: Vec<Interval> = out
-            .iter()
-            .zip(&layout)
-            .map(|(e, l)| {
-                e.lg.iter()
-                    .zip(&tau)
-                    .fold(gains[l.family].bound_enclosure(&e.lie), |s, (a, t)| s + *a * Interval::point(*t))
-            })
-            .collect();
+        let psi: Vec<Interval> =
+            out.iter().zip(&layout).map(|(e, l)| gains[l.family].condition_enclosure(e, &tau)).collect();
         let mut y = x;
         for step in 0..=FINE {
             if step > 0 {
@@ -166,7 +159,7 @@ fn every_torque_row_stays_inside_its_enclosure_along_the_held_torque() {
                 if !wanted[i] {
                     continue;
                 }
-                let value = row.lg.iter().zip(&tau).fold(gains[l.family].bound(&row.lie), |s, (a, t)| s + a * t);
+                let value = gains[l.family].condition(row, &tau);
                 // The f64 row's own rounding, beside the exact value the enclosure holds.
                 let slack = 1e-9 * (1.0 + value.abs());
                 assert!(
