@@ -8,7 +8,7 @@ use cbfgen_tachyon3::latency;
 use cbfgen_tachyon3::model::{self, NU};
 use cbfgen_tachyon3::sim::campaign::{self, CampaignSettings, CourseRanges, Episode};
 use cbfgen_tachyon3::sim::perceived::PerceptionSettings;
-use cbfgen_tachyon3::sim::{self, output, Scenario, SimConfig, SimResult};
+use cbfgen_tachyon3::sim::{self, output, Plant, Scenario, SimConfig, SimResult};
 use clap::{Parser, Subcommand};
 use nalgebra::{Rotation3, Vector3};
 use std::io::Write;
@@ -141,6 +141,8 @@ struct SimulateArgs {
     /// map, what was extracted and side and top views too.
     #[arg(long)]
     perception: bool,
+    #[command(flatten)]
+    between: BetweenArgs,
 }
 
 /// `cbfgen campaign`.
@@ -178,6 +180,29 @@ struct CampaignArgs {
     /// episodes.csv into the campaign's files.
     #[arg(long, value_name = "I/N", value_parser = shard)]
     shard: Option<(usize, usize)>,
+    #[command(flatten)]
+    between: BetweenArgs,
+}
+
+/// How the plant moves between the samples, and whether the filter certifies them
+/// (`campaign` and `simulate`).
+#[derive(clap::Args)]
+struct BetweenArgs {
+    /// Hold each input over its 1 ms period on the continuous model, RK4 at 1 ms / N
+    /// (N from 1 to 1000), and measure every clearance and h at each fine step, between
+    /// the samples too (default: one Euler step per period, measured at the samples).
+    #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = count(1, sim::MAX_FINE_STEPS))]
+    fine: Option<usize>,
+    /// The filter certifies each input between the samples (sampled-data margins,
+    /// every family, the 1 ms period); the report counts the updates certified.
+    #[arg(long)]
+    certify: bool,
+}
+
+impl BetweenArgs {
+    fn plant(&self) -> Plant {
+        self.fine.map_or(Plant::Euler, |fine| Plant::Held { fine })
+    }
 }
 
 /// `--shard I/N`.
@@ -638,16 +663,32 @@ impl LatencyArgs {
 
 impl SimulateArgs {
     fn run(self, stdout: &mut impl Write) -> Result<(), Box<dyn std::error::Error>> {
-        let Self { scenario, no_body_cbf, out, csv_every, no_osqp_reference, episode, seed, ranges, perception } = self;
+        let Self {
+            scenario,
+            no_body_cbf,
+            out,
+            csv_every,
+            no_osqp_reference,
+            episode,
+            seed,
+            ranges,
+            perception,
+            between,
+        } = self;
         output_dir(&out)?;
         let config = |body_cbf: bool| -> Result<SimConfig, cbfgen::CbfError> {
-            Ok(match episode {
+            let mut config = match episode {
                 Some(id) => Episode::draw(seed, id, &ranges.ranges())?.config_with(body_cbf, perception),
                 None => SimConfig {
                     perception: perception.then(PerceptionSettings::default),
                     ..SimConfig::new(scenario.scenario(), body_cbf)
                 },
-            })
+            };
+            config.plant = between.plant();
+            if between.certify {
+                config.filter.sampled_data = Some(cbfgen::filter::SampledData::every_family(sim::DT));
+            }
+            Ok(config)
         };
         if let Some(id) = episode {
             let e = Episode::draw(seed, id, &ranges.ranges())?;
@@ -750,7 +791,7 @@ impl PerceiveArgs {
 
 impl CampaignArgs {
     fn run(self, stdout: &mut impl Write) -> Result<(), Box<dyn std::error::Error>> {
-        let Self { episodes, seed, first_id, no_body_cbf, threads, out, ranges, perception, shard } = self;
+        let Self { episodes, seed, first_id, no_body_cbf, threads, out, ranges, perception, shard, between } = self;
         let out = out.unwrap_or_else(|| match shard {
             Some((index, count)) => format!("out/campaign/shard-{index}-of-{count}").into(),
             None => "out/campaign".into(),
@@ -764,6 +805,8 @@ impl CampaignArgs {
             body_cbf: !no_body_cbf,
             threads,
             perception,
+            plant: between.plant(),
+            certify: between.certify,
         };
         if let Some((index, count)) = shard {
             settings = settings.shard(index, count)?;

@@ -478,17 +478,21 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
             // The least worst deficit so far, and how many rows the first solve relaxed.
             let (mut best, mut base_relaxed) = (f64::INFINITY, None);
             between = loop {
-                if self.output.source != InputSource::Qp {
+                let solved = self.output.source == InputSource::Qp;
+                if !solved && rounds == 1 {
                     break self.uncertified(Why::NotSolved);
                 }
-                let certified = self.certify(t, x, params, before);
+                // A later round whose margins the solve could not meet (its budget, an
+                // infeasibility) is a round that fell shorter: the best round is solved
+                // again below, never the fallback input returned.
+                let certified = if solved { self.certify(t, x, params, before) } else { Err(Why::NotSolved) };
                 let worst = self.deficits.iter().fold(0.0, |m: f64, d| m.max(*d));
                 // Rows the QP gave up at the sample: a margin that makes rows conflict
                 // is worse than the deficit it was meant to cover.
                 let relaxed = self.qp.relaxed().iter().filter(|r| r.is_some()).count();
                 let first_relaxed = *base_relaxed.get_or_insert(relaxed);
                 let last_is_best = match certified {
-                    _ if relaxed > first_relaxed => false,
+                    _ if !solved || relaxed > first_relaxed => false,
                     Ok(0) => break BetweenSamples::Certified { rounds },
                     Ok(_) => worst < best,
                     Err(_) => false,

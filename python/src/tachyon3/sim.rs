@@ -443,9 +443,13 @@ fn course_ranges(ranges: Option<&Bound<'_, PyDict>>) -> PyResult<CourseRanges> {
 /// whose outcome is ``"error"``: no output of the module is NaN); ``errors``, a list of ``(id, message)``; and ``report``, the
 /// printed table as text; and ``csv``, the text of ``episodes.csv`` at full precision
 /// (what :func:`merge_campaign` joins). Rerun one episode with ``simulate(episode=id,
-/// seed=seed)``. With ``perception=True`` every episode runs on perceived terrain.
+/// seed=seed)``. With ``perception=True`` every episode runs on perceived terrain. With
+/// ``fine=N`` each input is held over its 1 ms period on the continuous model (RK4 at
+/// 1 ms / N, N from 1 to 1000) and every clearance and ``min_h`` is the least over each
+/// fine step, between the samples too; ``certify=True`` has the filter certify each
+/// input between the samples, and ``certified_cycles`` counts the updates it certified.
 #[pyfunction]
-#[pyo3(signature = (episodes=200, seed=0, first_id=0, body_cbf=true, threads=None, ranges=None, perception=false))]
+#[pyo3(signature = (episodes=200, seed=0, first_id=0, body_cbf=true, threads=None, ranges=None, perception=false, fine=None, certify=false))]
 #[allow(clippy::too_many_arguments)] // one per keyword argument of the Python function
 fn campaign<'py>(
     py: Python<'py>,
@@ -456,9 +460,21 @@ fn campaign<'py>(
     threads: Option<usize>,
     ranges: Option<&Bound<'py, PyDict>>,
     perception: bool,
+    fine: Option<usize>,
+    certify: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let settings =
-        CampaignSettings { seed, episodes, first_id, ranges: course_ranges(ranges)?, body_cbf, threads, perception };
+    let plant = fine.map_or(sim::Plant::Euler, |fine| sim::Plant::Held { fine });
+    let settings = CampaignSettings {
+        seed,
+        episodes,
+        first_id,
+        ranges: course_ranges(ranges)?,
+        body_cbf,
+        threads,
+        perception,
+        plant,
+        certify,
+    };
     let result = py.detach(|| monte_carlo::run(&settings, |_| {}))?;
     let r = &result.records;
     let episode = |f: &dyn Fn(&Episode) -> f64| -> Vec<f64> { r.iter().map(|x| f(&x.episode)).collect() };
@@ -473,6 +489,7 @@ fn campaign<'py>(
     out.set_item("speed", vector(py, &episode(&|e| e.speed)))?;
     out.set_item("outcome", r.iter().map(|x| x.outcome().name()).collect::<Vec<_>>())?;
     out.set_item("duration", vector(py, &summary(&|s| s.duration)))?;
+    out.set_item("certified_cycles", vector(py, &summary(&|s| s.certified_cycles.unwrap_or(0) as f64)))?;
     out.set_item("min_body_clearance", vector(py, &summary(&|s| s.min_body_clearance())))?;
     out.set_item("min_toe_clearance", vector(py, &summary(&|s| s.min_toe_clearance())))?;
     out.set_item("min_toe_riser_clearance", vector(py, &summary(&|s| s.min_toe_riser_clearance())))?;

@@ -1,5 +1,8 @@
 //! Closed-loop simulation of the Tachyon 3 kinematic model at 1 kHz (paper section V-B):
-//! the nominal gait of [`gait`] → [`EcbfFilter`] → explicit Euler on `ẋ = f(x) + g(x) u`.
+//! the nominal gait of [`gait`] → [`EcbfFilter`] → the plant `ẋ = f(x) + g(x) u`, by
+//! default one explicit Euler step per period (the paper's simulation); with
+//! [`Plant::Held`], the input held over the period on the continuous model and every
+//! clearance and `h` measured at each fine step between the samples.
 //!
 //! Two scenarios: `step` (one 16.5 cm step, the robot starting in its low standard
 //! posture) and `stairs` (five steps, 16.5 cm high and 35 cm deep, as in the hardware
@@ -29,12 +32,54 @@ use crate::terrain::route::Route;
 use crate::terrain::solid::{Contact, TerrainClearance, PENETRATION_TOLERANCE};
 use crate::terrain::{Stairs, Terrain};
 use cbfgen::error::CbfError;
-use cbfgen::filter::{EcbfFilter, FilterSettings, InputSource};
+use cbfgen::filter::{BetweenSamples, EcbfFilter, FilterSettings, InputSource};
+use cbfgen::system::BarrierSet;
 use cbfgen_perception::worker::Perceived;
 use gait::GaitParams;
 
 /// Control period \[s\].
 pub const DT: f64 = 1e-3;
+
+/// Most fine steps per period [`Plant::Held`] accepts (RK4 at `DT / 1000` = 1 µs).
+pub const MAX_FINE_STEPS: usize = 1000;
+
+/// How the plant moves over each control period.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum Plant {
+    /// One explicit Euler step of `DT` per period, the paper's simulation: clearances and
+    /// `h` are measured at the samples only.
+    #[default]
+    Euler,
+    /// The input held for the whole period (zero-order hold) on the continuous model,
+    /// integrated by RK4 at `DT / fine`; each sample's clearances and `h` are the least
+    /// over its sample and the `fine` states after it, so a run's minima hold at every
+    /// fine step, between the samples too. 1 to [`MAX_FINE_STEPS`].
+    Held {
+        /// RK4 steps per period.
+        fine: usize,
+    },
+}
+
+impl Plant {
+    /// Fine steps per period: 0 for [`Plant::Euler`] (measured at the samples only).
+    pub fn fine_steps(self) -> usize {
+        match self {
+            Plant::Euler => 0,
+            Plant::Held { fine } => fine,
+        }
+    }
+
+    /// # Errors
+    /// [`Plant::Held`] with `fine` outside `1..=`[`MAX_FINE_STEPS`].
+    pub fn validate(self) -> Result<(), CbfError> {
+        match self {
+            Plant::Held { fine } if !(1..=MAX_FINE_STEPS).contains(&fine) => {
+                Err(CbfError::OutOfRange { what: "fine steps per period", value: fine as f64, range: "1..=1000" })
+            }
+            _ => Ok(()),
+        }
+    }
+}
 
 /// Longest simulated time \[s\] a run accepts: 6·10⁵ cycles, about 250 MB of samples.
 /// The courses finish in under a minute; the limit only stops a typo from asking for
@@ -173,6 +218,8 @@ pub struct SimConfig {
     /// of the terrain ([`perceived`]); with `None`
     /// (the default), the true terrain.
     pub perception: Option<PerceptionSettings>,
+    /// How the plant moves between the samples, and where safety is measured.
+    pub plant: Plant,
 }
 
 impl SimConfig {
@@ -186,7 +233,16 @@ impl SimConfig {
             filter.family_mut(Family::BodyEdge.index()).activation = f64::NEG_INFINITY;
         }
         let max_time = scenario.time_allowed();
-        Self { scenario, body_cbf, max_time, start_gap: 0.3, gait: GaitParams::default(), filter, perception: None }
+        Self {
+            scenario,
+            body_cbf,
+            max_time,
+            start_gap: 0.3,
+            gait: GaitParams::default(),
+            filter,
+            perception: None,
+            plant: Plant::Euler,
+        }
     }
 }
 
@@ -200,7 +256,8 @@ pub struct Sample {
     /// Minimum `h` over each family's applicable rows, [`Family::index`] order
     /// (`f64::INFINITY` where none applies). A culled row counts with its lower bound,
     /// which is above the family's activation threshold
-    /// ([`Row::culled`](cbfgen::system::Row::culled)).
+    /// ([`Row::culled`](cbfgen::system::Row::culled)). With [`Plant::Held`], the least
+    /// over the sample and every fine step of the period after it.
     pub min_h: [f64; FAMILY_COUNT],
     /// Rows that took part in the QP (applicable and below their family's activation
     /// threshold): the rows applied, Fig. 9's count.
@@ -237,8 +294,12 @@ pub struct Sample {
     /// (a VM stall, preemption) rather than worked.
     pub cpu_us: f64,
     /// Exact clearances of the body and the wheels to the true terrain's solids, with
-    /// where each is nearest.
+    /// where each is nearest: at the sample, or with [`Plant::Held`] the least over the
+    /// sample and every fine step of the period after it.
     pub clearance: TerrainClearance,
+    /// Whether the filter certified this cycle's input between the samples
+    /// ([`FilterSettings::sampled_data`]; [`BetweenSamples::Off`] without it).
+    pub between_samples: BetweenSamples,
     /// Body centre height above the gait's nominal \[m\].
     pub body_raise: f64,
     /// Which tripod swings (-1: none).
@@ -258,6 +319,12 @@ pub struct Summary {
     pub completed: bool,
     /// Time of the last recorded cycle \[s\] (a completed run goes on 1 s past completion).
     pub duration: f64,
+    /// How the plant moved: with [`Plant::Held`] every clearance and `h` below is the
+    /// least over every fine step, between the samples too.
+    pub plant: Plant,
+    /// Cycles whose input the filter certified between the samples; `None` when the
+    /// filter's certificate was off ([`FilterSettings::sampled_data`]).
+    pub certified_cycles: Option<usize>,
     /// Control cycles run (filter updates).
     pub cycles: usize,
     /// The body's closest approach to the solid terrain over the run (its deepest
@@ -400,8 +467,25 @@ pub fn run_observed(
     mut observe: impl FnMut(f64, &EcbfFilter<Catalog, NU>),
 ) -> Result<SimResult, CbfError> {
     cbfgen::error::within("max_time [s]", config.max_time, DT, MAX_SIM_TIME, "[0.001, 600]")?;
+    config.plant.validate()?;
     let mut course = Course::new(config.scenario, config.gait)?;
     let mut filter = EcbfFilter::new(Catalog::new(Course::CAPACITY)?, config.filter.clone())?;
+    // The rows at the fine steps, computed as the filter computes them (culled by the
+    // same thresholds), so a fine step's `h` means what a sample's does.
+    let mut between = match config.plant {
+        Plant::Euler => None,
+        Plant::Held { .. } => {
+            let mut rows = Catalog::new(Course::CAPACITY)?;
+            let thresholds: Vec<f64> = config
+                .filter
+                .families
+                .iter()
+                .map(|p| if config.filter.cull_far_rows { p.activation } else { f64::INFINITY })
+                .collect();
+            rows.cull_above(&thresholds);
+            Some(rows)
+        }
+    };
     let mut x = course.initial_state(config.start_gap);
     let mut perceiver = config.perception.map(|p| Perceiver::new(p, course.perceivable()?)).transpose()?;
     if let Some(perceiver) = &mut perceiver {
@@ -426,17 +510,9 @@ pub fn run_observed(
         observe(t, &filter);
         let clearance = course.clearance(&x)?;
         let mut min_h = [f64::INFINITY; FAMILY_COUNT];
-        let (mut computed_rows, mut culled_rows) = (0, 0);
-        for (row, slot) in filter.rows().iter().zip(filter.barriers().slots()) {
-            if row.active {
-                computed_rows += 1;
-                culled_rows += usize::from(row.culled);
-                let m = &mut min_h[slot.family.index()];
-                *m = m.min(row.h());
-            }
-        }
+        let (computed_rows, culled_rows) = least_h(filter.barriers(), &mut min_h);
         let (body_center, _, _) = gen::world_kinematics(&x);
-        samples.push(Sample {
+        let mut sample = Sample {
             t,
             x,
             min_h,
@@ -453,15 +529,32 @@ pub fn run_observed(
             update_us,
             cpu_us: out.cpu_time.unwrap_or_default().as_secs_f64() * 1e6,
             clearance,
+            between_samples: out.between_samples,
             body_raise: body_center[2] - plan.body_height,
             swinging: course.swinging().map_or(-1, |s| s as i8),
-        });
+        };
         let finished = course.finished(&x);
 
-        let dx = model::xdot(&x, &out.u);
-        for (v, d) in x.iter_mut().zip(dx) {
-            *v += d * DT;
+        match (config.plant, &mut between) {
+            (Plant::Held { fine }, Some(rows)) => {
+                let h = DT / fine as f64;
+                for j in 1..=fine {
+                    let Ok(next) =
+                        cbfgen::system::rk4_step(|y| Ok::<_, std::convert::Infallible>(model::xdot(y, &out.u)), &x, h);
+                    x = next;
+                    BarrierSet::evaluate(rows, t + j as f64 * h, &x, course.environment())?;
+                    least_h(rows, &mut sample.min_h);
+                    sample.clearance = sample.clearance.nearer(course.clearance(&x)?);
+                }
+            }
+            _ => {
+                let dx = model::xdot(&x, &out.u);
+                for (v, d) in x.iter_mut().zip(dx) {
+                    *v += d * DT;
+                }
+            }
         }
+        samples.push(sample);
         if k % 100 == 0 {
             progress(t);
         }
@@ -477,6 +570,21 @@ pub fn run_observed(
     });
     let summary = summarize(config, &samples, completed_at.is_some(), perception.as_ref());
     Ok(SimResult { samples, summary, perception })
+}
+
+/// Fold the applicable rows of `rows` into each family's least `h`; returns how many
+/// rows were computed and how many of those culled (by their lower bound).
+fn least_h(rows: &Catalog, min_h: &mut [f64; FAMILY_COUNT]) -> (usize, usize) {
+    let (mut computed, mut culled) = (0, 0);
+    for (row, slot) in rows.rows().iter().zip(rows.slots()) {
+        if row.active {
+            computed += 1;
+            culled += usize::from(row.culled);
+            let m = &mut min_h[slot.family.index()];
+            *m = m.min(row.h());
+        }
+    }
+    (computed, culled)
 }
 
 /// `[median, p99, max]` (nearest rank) of one timing of the samples \[µs\], zeros when there
@@ -510,6 +618,12 @@ fn summarize(config: &SimConfig, samples: &[Sample], completed: bool, perception
         backend: config.filter.solver.backend,
         completed,
         duration: samples.last().map_or(0.0, |s| s.t),
+        plant: config.plant,
+        certified_cycles: config
+            .filter
+            .sampled_data
+            .is_some()
+            .then(|| samples.iter().filter(|s| matches!(s.between_samples, BetweenSamples::Certified { .. })).count()),
         cycles: samples.len(),
         body_nearest: nearest(samples, |c| Some(c.body)),
         toe_nearest: nearest(samples, |c| Some(c.wheel)),

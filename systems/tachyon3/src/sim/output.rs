@@ -22,7 +22,7 @@ use std::fmt::{self, Write as _};
 use std::io;
 use std::path::{Path, PathBuf};
 
-use super::{Approach, Sample, SimResult, Summary};
+use super::{Approach, Plant, Sample, SimResult, Summary};
 use crate::catalog::Family;
 use crate::generated as gen;
 use crate::model::{BODY_Z, STATE_NAMES};
@@ -327,6 +327,15 @@ impl fmt::Display for Summary {
             self.duration
         )?;
         let approach = |a: Option<Approach>| a.map_or_else(|| "-".into(), |a| format!("{} at {:.2} s", a.contact, a.t));
+        match self.plant {
+            Plant::Euler => writeln!(f, "  plant: one Euler step per 1 ms period, measured at the samples")?,
+            Plant::Held { fine } => {
+                writeln!(f, "  plant: input held, RK4 at 1 ms / {fine}, measured at every fine step")?;
+            }
+        }
+        if let Some(certified) = self.certified_cycles {
+            writeln!(f, "  updates certified between the samples: {certified} of {}", self.cycles)?;
+        }
         writeln!(
             f,
             "  exact clearance to the solid terrain ({}):",

@@ -116,7 +116,7 @@ impl Contact {
     }
 
     /// The nearer of two contacts (the first when equal; NaN distances never win).
-    fn nearer(self, other: Self) -> Self {
+    pub fn nearer(self, other: Self) -> Self {
         if other.distance < self.distance {
             other
         } else {
@@ -137,7 +137,8 @@ impl std::fmt::Display for Contact {
     }
 }
 
-/// The robot's exact clearances to the solid terrain at one state.
+/// The robot's exact clearances to the solid terrain at one state (or the least of
+/// several: [`TerrainClearance::nearer`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TerrainClearance {
     /// The body's nearest (or deepest) solid.
@@ -147,6 +148,21 @@ pub struct TerrainClearance {
     /// The nearest wheel–solid pair whose normal is a riser's (`None`: no wheel has one,
     /// which cannot happen on a terrain with a change of height).
     pub wheel_riser: Option<Contact>,
+}
+
+impl TerrainClearance {
+    /// Part by part, the nearer of two clearances (the least over the states they were
+    /// measured at).
+    pub fn nearer(self, other: Self) -> Self {
+        Self {
+            body: self.body.nearer(other.body),
+            wheel: self.wheel.nearer(other.wheel),
+            wheel_riser: match (self.wheel_riser, other.wheel_riser) {
+                (Some(a), Some(b)) => Some(a.nearer(b)),
+                (a, b) => a.or(b),
+            },
+        }
+    }
 }
 
 /// A terrain's solids, ready to measure the robot against.

@@ -30,7 +30,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
-use super::{Scenario, SimConfig, Summary};
+use super::{Plant, Scenario, SimConfig, Summary};
 use crate::catalog::{Family, FAMILY_COUNT};
 use crate::sim::perceived::PerceptionSettings;
 use crate::terrain::Stairs;
@@ -230,6 +230,13 @@ pub struct CampaignSettings {
     pub threads: Option<usize>,
     /// With `true`, every episode runs on perceived terrain ([`Episode::config_with`]).
     pub perception: bool,
+    /// How the plant moves between the samples ([`Plant::Held`] measures every clearance
+    /// and `h` at each fine step).
+    pub plant: Plant,
+    /// With `true`, the filter certifies each input between the samples
+    /// ([`SampledData::every_family`](cbfgen::filter::SampledData::every_family) at the
+    /// 1 ms period).
+    pub certify: bool,
 }
 
 impl Default for CampaignSettings {
@@ -242,11 +249,23 @@ impl Default for CampaignSettings {
             body_cbf: true,
             threads: None,
             perception: false,
+            plant: Plant::Euler,
+            certify: false,
         }
     }
 }
 
 impl CampaignSettings {
+    /// The simulation set-up of `episode` in this campaign.
+    pub fn config(&self, episode: &Episode) -> SimConfig {
+        let mut config = episode.config_with(self.body_cbf, self.perception);
+        config.plant = self.plant;
+        if self.certify {
+            config.filter.sampled_data = Some(cbfgen::filter::SampledData::every_family(super::DT));
+        }
+        config
+    }
+
     /// Shard `index` of `count` (0-based): the same campaign narrowed to a contiguous block
     /// of its ids, episodes `first_id + ⌊index·episodes/count⌋` up to the next shard's
     /// first. The shards cover every id once, and each episode is drawn from `(seed, id)`
@@ -290,10 +309,11 @@ pub struct Campaign {
 /// [`Outcome::Error`] with its message; the others go on.
 ///
 /// # Errors
-/// Invalid ranges, more than [`MAX_EPISODES`] episodes, zero threads or more than
+/// Invalid ranges or plant, more than [`MAX_EPISODES`] episodes, zero threads or more than
 /// [`MAX_THREADS`], or a thread pool that cannot start.
 pub fn run(settings: &CampaignSettings, progress: impl Fn(usize) + Sync) -> Result<Campaign, CbfError> {
     settings.ranges.validate()?;
+    settings.plant.validate()?;
     if settings.episodes > MAX_EPISODES {
         return Err(CbfError::TooLarge { what: "episodes", value: settings.episodes, max: MAX_EPISODES });
     }
@@ -318,7 +338,7 @@ pub fn run(settings: &CampaignSettings, progress: impl Fn(usize) + Sync) -> Resu
         ids.into_par_iter()
             .map(|id| {
                 let episode = Episode::draw_valid(settings.seed, id, &settings.ranges);
-                let record = run_episode(&episode, settings.body_cbf, settings.perception);
+                let record = run_episode(&episode, settings);
                 progress(done.fetch_add(1, Ordering::Relaxed) + 1);
                 record
             })
@@ -327,10 +347,11 @@ pub fn run(settings: &CampaignSettings, progress: impl Fn(usize) + Sync) -> Resu
     Ok(Campaign { settings: settings.clone(), records })
 }
 
-/// Climb `episode` once (with or without the body SSAT CBF, on true or perceived
-/// terrain), recording its summary or the error (or panic) that ended it.
-pub fn run_episode(episode: &Episode, body_cbf: bool, perception: bool) -> EpisodeRecord {
-    let config = episode.config_with(body_cbf, perception);
+/// Climb `episode` once as `settings` say (with or without the body SSAT CBF, on true or
+/// perceived terrain, the plant, the certificate), recording its summary or the error
+/// (or panic) that ended it.
+pub fn run_episode(episode: &Episode, settings: &CampaignSettings) -> EpisodeRecord {
+    let config = settings.config(episode);
     // A panic is a bug, but one episode's must not cost the other ten thousand.
     let result = match catch_unwind(AssertUnwindSafe(|| super::run(&config, |_| {}))) {
         Ok(Ok(r)) => Ok(r.summary),
@@ -408,6 +429,11 @@ pub struct Report {
     /// order): updates in which the filter reported rows of it relaxed, and the episodes
     /// holding any.
     pub relaxed_cycles: [(usize, usize); FAMILY_COUNT],
+    /// Fine steps per period the clearances and `h` above were measured at (0: at the
+    /// samples only), the most of any episode.
+    pub fine_steps: usize,
+    /// Updates certified between the samples, and updates run with the certificate on.
+    pub certified_cycles: (usize, usize),
 }
 
 impl Campaign {
@@ -449,6 +475,8 @@ impl Report {
             max_wall: None,
             fallback_cycles: 0,
             relaxed_cycles: [(0, 0); FAMILY_COUNT],
+            fine_steps: 0,
+            certified_cycles: (0, 0),
         };
         let lowest = |worst: &mut Worst, id: u64, v: f64| {
             if v.is_finite() && worst.is_none_or(|(_, w)| v < w) {
@@ -506,6 +534,10 @@ impl Report {
             highest(&mut r.max_cpu, id, max_cpu);
             highest(&mut r.max_wall, id, s.wall_us[2]);
             r.fallback_cycles += s.fallback_cycles;
+            r.fine_steps = r.fine_steps.max(s.fine_steps);
+            if let Some(n) = s.certified_cycles {
+                r.certified_cycles = (r.certified_cycles.0 + n, r.certified_cycles.1 + s.cycles);
+            }
             for (total, &n) in r.relaxed_cycles.iter_mut().zip(&s.relaxed_cycles) {
                 *total = (total.0 + n, total.1 + usize::from(n > 0));
             }

@@ -18,6 +18,8 @@
 //! | `median_wall_us`, `p99_wall_us`, `max_wall_us` | filter update, wall time \[µs\] |
 //! | `over_1ms_cpu`, `over_1ms_wall`, `cycles`, `fallback_cycles` | update counts |
 //! | `relaxed_<family>` | updates in which the filter reported rows of that family relaxed |
+//! | `fine_steps` | 0: clearances and `h` measured at the samples (the Euler plant); N: the input held over each period, RK4 at 1 ms / N, every clearance and `h` the least over every fine step ([`Plant::Held`](crate::sim::Plant::Held)) |
+//! | `certified_cycles` | updates the filter certified between the samples (empty: certificate off) |
 //! | `error` | the error message, quoted |
 //!
 //! Numbers are written at full precision (the shortest text that reads back to the same
@@ -162,6 +164,20 @@ impl fmt::Display for Report {
         let n = self.episodes;
         writeln!(f, "| episodes | {n} |")?;
         writeln!(f, "|---|---|")?;
+        match self.fine_steps {
+            0 => writeln!(f, "| clearances and h measured | at the samples (Euler plant) |")?,
+            fine => {
+                writeln!(f, "| clearances and h measured | at every fine step, RK4 at 1 ms / {fine}, input held |")?
+            }
+        }
+        if self.certified_cycles.1 > 0 {
+            let (certified, of) = self.certified_cycles;
+            writeln!(
+                f,
+                "| updates certified between the samples | {certified} of {of} ({:.2} %) |",
+                pct(certified, of)
+            )?;
+        }
         writeln!(f, "| finished | {} ({:.2} %) |", self.finished, pct(self.finished, n))?;
         writeln!(f, "| not finished | {} ({:.2} %) |", self.not_finished.len(), pct(self.not_finished.len(), n))?;
         writeln!(f, "| errors | {} |", self.errors.len())?;

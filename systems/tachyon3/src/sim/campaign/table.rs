@@ -74,6 +74,11 @@ pub struct RowSummary {
     pub fallback_cycles: usize,
     /// Per family: updates with rows of it relaxed.
     pub relaxed_cycles: [usize; FAMILY_COUNT],
+    /// Fine steps per period at which clearances and `h` were measured (0: at the
+    /// samples only, the Euler plant; see [`Plant`](crate::sim::Plant)).
+    pub fine_steps: usize,
+    /// Updates certified between the samples; `None` with the certificate off.
+    pub certified_cycles: Option<usize>,
 }
 
 impl RowSummary {
@@ -135,6 +140,8 @@ impl EpisodeRow {
             cycles: s.cycles,
             fallback_cycles: s.fallback_cycles,
             relaxed_cycles: s.relaxed_cycles,
+            fine_steps: s.plant.fine_steps(),
+            certified_cycles: s.certified_cycles,
         });
         Self {
             id: e.id,
@@ -182,7 +189,7 @@ pub fn header() -> Vec<String> {
     columns.extend(Family::ALL.iter().map(|f| format!("min_h_{}", f.name())));
     columns.extend(TIMING_COLUMNS.iter().chain(&["cycles", "fallback_cycles"]).map(|c| c.to_string()));
     columns.extend(Family::ALL.iter().map(|f| format!("relaxed_{}", f.name())));
-    columns.push("error".into());
+    columns.extend(["fine_steps", "certified_cycles", "error"].map(String::from));
     columns
 }
 
@@ -245,10 +252,11 @@ pub fn csv(rows: &[EpisodeRow]) -> String {
                     let _ = write!(out, ",{}", number(*v));
                 }
                 let counts = [s.over_1ms_cpu, s.over_1ms_wall, s.cycles, s.fallback_cycles];
-                for n in counts.iter().chain(&s.relaxed_cycles) {
+                for n in counts.iter().chain(&s.relaxed_cycles).chain(&[s.fine_steps]) {
                     let _ = write!(out, ",{n}");
                 }
-                out.push_str(",\n");
+                let certified = s.certified_cycles.map_or(String::new(), |n| n.to_string());
+                let _ = writeln!(out, ",{certified},");
             }
             Err(message) => {
                 out.push_str(&",".repeat(header().len() - 9));
@@ -323,7 +331,7 @@ pub fn parse(text: &str) -> Result<Vec<EpisodeRow>, CbfError> {
     let riser_at = [column("min_toe_riser_clearance")?, column("toe_riser_nearest")?];
     let h_at = column(&format!("min_h_{}", Family::ALL[0].name()))?;
     let relaxed_at = column(&format!("relaxed_{}", Family::ALL[0].name()))?;
-    let error_at = column("error")?;
+    let [fine_at, certified_at, error_at] = [column("fine_steps")?, column("certified_cycles")?, column("error")?];
     let mut rows = Vec::new();
     for (k, line) in lines.enumerate().filter(|(_, l)| !l.is_empty()) {
         let at = k + 2;
@@ -368,6 +376,8 @@ pub fn parse(text: &str) -> Result<Vec<EpisodeRow>, CbfError> {
                 cycles: count(cycles_at)?,
                 fallback_cycles: count(fallback_at)?,
                 relaxed_cycles: array(|j| count(relaxed_at + j))?,
+                fine_steps: count(fine_at)?,
+                certified_cycles: if f[certified_at].is_empty() { None } else { Some(count(certified_at)?) },
             })
         };
         rows.push(EpisodeRow {
