@@ -82,7 +82,12 @@ pub fn put_symmetric<T: Copy, const N: usize>(value: &[[T; N]; N], flat: &mut [T
 }
 
 /// `pub const KERNELS: &[KernelEntry]` for the kernels listed, one per line:
-/// `name(arg: kind[dims], ...) -> (result: kind[dims], ...);`. An argument is `scalar[]`,
+/// `name(arg: kind[dims], ...) -> (result: kind[dims], ...) ops [8 counts];`, the `ops`
+/// part optional: the operations one call performs ([`OpCount::new`](crate::ops::OpCount::new)'s
+/// order), which the generator states for each kernel it prints as one straight line.
+/// With counts it also writes `run_counted_kernels`, which calls each counted kernel on
+/// [`Counted`](crate::ops::Counted) numbers for [`crate::ops::check_stated`] (generic, so
+/// it is compiled only where a test calls it). An argument is `scalar[]`,
 /// `array[N]` (a `&[f64; N]`), `vector[N]` or `matrix[R, C]` (a parameter's `&SVector` or
 /// `&SMatrix`); a result is `scalar[]`, `array[N]`, `matrix[R, C]` or `symmetric[N]` (an
 /// `[[f64; N]; N]` listed by its upper triangle). A kernel with one result returns it
@@ -91,13 +96,14 @@ pub fn put_symmetric<T: Copy, const N: usize>(value: &[[T; N]; N], flat: &mut [T
 #[macro_export]
 macro_rules! kernel_table {
     ($(#[$meta:meta])* $($name:ident ($($arg:ident : $akind:ident [$($adim:literal),*]),*)
-        -> ($($out:ident : $okind:ident [$($odim:literal),*]),+);)*) => {
+        -> ($($out:ident : $okind:ident [$($odim:literal),*]),+) $(ops [$($op:literal),*])?;)*) => {
         $(#[$meta])*
         pub const KERNELS: &[$crate::system::KernelEntry] = &[$(
             $crate::system::KernelEntry {
                 name: stringify!($name),
                 inputs: &[$((stringify!($arg), $crate::kernel_table!(@len $akind [$($adim),*]))),*],
                 outputs: &[$((stringify!($out), $crate::kernel_table!(@len $okind [$($odim),*]))),+],
+                ops: $crate::kernel_table!(@ops $([$($op),*])?),
                 call: |input: &[f64], output: &mut [f64]| {
                     let mut at = 0;
                     let result = $name($($crate::kernel_table!(@read $akind [$($adim),*] input at)),*);
@@ -108,7 +114,31 @@ macro_rules! kernel_table {
                 },
             }
         ),*];
+
+        /// Call every kernel of `KERNELS` whose operations are stated on the numbers `input`
+        /// (each reads its arguments from the start of it), handing `each` the kernel's
+        /// name and stated count with the call: for `cbfgen::ops::check_stated`.
+        /// Generic over the number, so it is compiled only where a test runs it.
+        #[allow(dead_code, unused_variables)]
+        pub fn run_counted_kernels<S: $crate::scalar::Scalar>(
+            input: &[S],
+            each: &mut dyn FnMut($crate::ops::StatedKernel, &dyn Fn()),
+        ) {
+            $($crate::kernel_table!(@counted each input $name ($($akind [$($adim),*]),*) $([$($op),*])?);)*
+        }
     };
+    (@counted $each:ident $input:ident $name:ident ($($akind:ident [$($adim:literal),*]),*)) => {};
+    (@counted $each:ident $input:ident $name:ident ($($akind:ident [$($adim:literal),*]),*) [$($op:literal),*]) => {
+        $each(
+            $crate::ops::StatedKernel { name: stringify!($name), stated: $crate::ops::OpCount::new([$($op),*]) },
+            &|| {
+                let mut at = 0;
+                let _ = $name::<S>($($crate::kernel_table!(@read $akind [$($adim),*] $input at)),*);
+            },
+        );
+    };
+    (@ops) => { None };
+    (@ops [$($op:literal),*]) => { Some($crate::ops::OpCount::new([$($op),*])) };
     (@len scalar []) => { 1 };
     (@len array [$n:literal]) => { $n };
     (@len vector [$n:literal]) => { $n };

@@ -21,6 +21,8 @@
 //! * [`lanes`] — `exp`, `tanh` and `ln` of many arguments at once in SIMD lanes, with
 //!   stated error bounds: what generated kernels call.
 //! * [`cpu_time`] — the thread CPU clock an update reads beside wall time when asked to.
+//! * [`ops`] — the operations each generated kernel performs, stated by the generator and
+//!   checked by running it on a counting number.
 //!
 //! Geometry every system can build barriers from:
 //!
@@ -44,6 +46,7 @@ pub mod interval;
 pub mod kernel_table;
 pub mod lanes;
 pub mod limits;
+pub mod ops;
 pub mod param_domain;
 pub mod plugin;
 pub mod qp;

@@ -760,6 +760,10 @@ pub struct KernelEntry {
     /// Outputs in return order: name and number of scalars, flattened as the symbolic
     /// stage lists them (matrices row by row, symmetric matrices by upper triangle).
     pub outputs: &'static [(&'static str, usize)],
+    /// The operations one call performs, as the generator stated them for a kernel it
+    /// printed as one straight line (`None` for kernels assembled from others, and for
+    /// tables written by hand): see [`crate::ops`].
+    pub ops: Option<crate::ops::OpCount>,
     /// Call with every input flattened in order into one slice and receive every output
     /// flattened likewise; lengths must equal the sums of `inputs` and `outputs` (the
     /// call panics otherwise: a tool's bug, never a control-path one).

@@ -118,8 +118,9 @@ def render(repo_root: Path = REPO_ROOT) -> dict[str, str]:
     mod_lines = [_header(digest), "//! Kernels emitted by the symbolic stage.\n"]
     for name, (doc, build) in MODULES.items():
         items = build()
-        body = "\n".join(emit_kernel(item, "crate") for item in items)
-        body += "\n" + emit_kernel_table(items, "crate", f"`{name}`")
+        ops: dict[str, list[int]] = {}
+        body = "\n".join(emit_kernel(item, "crate", ops=ops) for item in items)
+        body += "\n" + emit_kernel_table(items, "crate", f"`{name}`", ops)
         module_doc = "".join(f"//! {rustdoc_text(line)}".rstrip() + "\n" for line in doc.strip().splitlines())
         lint = ("#![allow(clippy::all, clippy::pedantic, unused_parens, unused_variables)]\n"
                 "#![allow(clippy::excessive_precision, clippy::too_many_arguments)]\n")

@@ -13,6 +13,7 @@ mod lanes;
 mod lexicographic;
 mod lp_boxes;
 mod ocp;
+mod op_counts;
 mod outside_crate;
 mod sat_vs_parry;
 mod ssat;

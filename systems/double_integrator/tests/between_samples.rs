@@ -150,3 +150,12 @@ fn an_update_the_margins_could_not_certify_says_so() {
         other => panic!("expected the one row uncertified: {other:?}"),
     }
 }
+
+#[test]
+fn every_kernel_performs_the_operations_its_table_states() {
+    // The certificate's kernels are the filter's: their cost, counted by running them on
+    // numbers that count (cbfgen::ops::Counted), is what the generator stated.
+    let checked = cbfgen::ops::check_stated(cbfgen_double_integrator::run_counted_kernels::<cbfgen::ops::Counted>)
+        .unwrap_or_else(|m| panic!("{m:#?}"));
+    assert_eq!(checked, cbfgen_double_integrator::KERNELS.len());
+}

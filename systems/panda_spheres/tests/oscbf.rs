@@ -98,3 +98,13 @@ fn bad_scenarios_are_typed_errors() {
     s.duration = f64::INFINITY;
     assert!(Simulation::new(&s).is_err(), "an infinite duration");
 }
+
+#[test]
+fn every_straight_line_kernel_performs_the_operations_its_table_states() {
+    // Run on numbers that count (cbfgen::ops::Counted), against the generator's count; the
+    // members assembled on a frame's jet and the walked dynamics state none.
+    let checked = cbfgen::ops::check_stated(gen::run_counted_kernels::<cbfgen::ops::Counted>)
+        .unwrap_or_else(|m| panic!("{m:#?}"));
+    assert_eq!(checked, gen::KERNELS.iter().filter(|k| k.ops.is_some()).count());
+    assert!(checked >= 90, "{checked} kernels counted");
+}

@@ -24,6 +24,23 @@ from ...straight_line import StraightLine, split, straight_line
 
 _ADD, _MUL, _UNARY, _ATOM = 1, 2, 3, 4
 
+
+class OpCount:
+    """The operations a printed kernel performs once, by kind, in the order of the core's
+    ``cbfgen::ops::OpCount``: the printer counts each operation it writes, so the count is
+    the text's (the core's ``Counted`` scalar checks it by running the compiled kernel)."""
+
+    KINDS = ("add", "neg", "mul", "div", "sqrt", "elementary", "lanes", "compare")
+
+    def __init__(self):
+        self.counts = dict.fromkeys(self.KINDS, 0)
+
+    def tally(self, kind: str, n: int = 1) -> None:
+        self.counts[kind] += n
+
+    def as_list(self) -> list[int]:
+        return [self.counts[k] for k in self.KINDS]
+
 _METHODS = {
     "tanh": "tanh", "sinh": "sinh", "cosh": "cosh", "sin": "sin", "cos": "cos",
     "tan": "tan", "asin": "asin", "acos": "acos", "atan": "atan", "log": "ln",
@@ -86,6 +103,7 @@ class RustPrinter:
 
     def __init__(self, names: dict[se.Symbol, str]):
         self.names = names
+        self.ops = OpCount()
 
     def __call__(self, e: se.Expr) -> str:
         return self._p(e)[0]
@@ -112,9 +130,11 @@ class RustPrinter:
             return self._pow(e.args[0], e.args[1])
         fname = type(e).__name__
         if fname in _METHODS:
+            self.ops.tally("compare" if fname == "Abs" else "elementary")
             return f"{self._at(e.args[0], _ATOM)}.{_METHODS[fname]}()", _ATOM
         if fname == "atan2":
             y, x = e.args
+            self.ops.tally("elementary")
             return f"{self._at(y, _ATOM)}.atan2({self(x)})", _ATOM
         raise ValueError(f"cannot emit '{fname}' ({e}) as Rust")
 
@@ -130,6 +150,7 @@ class RustPrinter:
                 parts.append(" - " + self._at(negated, _MUL))
             else:
                 parts.append(" + " + self._at(term, _MUL if _is_negative(term) else _ADD))
+        self.ops.tally("add", len(terms) - 1)
         return "".join(parts), _ADD
 
     def _mul(self, e: se.Expr) -> tuple[str, int]:
@@ -149,32 +170,44 @@ class RustPrinter:
         if coeff != 1.0 or not factors:
             factors.insert(0, constant(coeff))
         text = " * ".join(factors)
+        self.ops.tally("mul", len(factors) - 1)
         if den:
             denominator = (self._at(den[0], _ATOM) if len(den) == 1
                            else "(" + " * ".join(self._at(f, _UNARY) for f in den) + ")")
             text = f"{text} / {denominator}"
+            self.ops.tally("div")
+            self.ops.tally("mul", len(den) - 1)
         if negative:
+            self.ops.tally("neg")
             return "-" + (text if (len(factors) == 1 and not den) else f"({text})"), _UNARY
         return text, (_ATOM if len(factors) == 1 and not den and num else _MUL)
 
     def _pow(self, base: se.Expr, exp: se.Expr) -> tuple[str, int]:
         if base == se.E:
+            self.ops.tally("elementary")
             return f"{self._at(exp, _ATOM)}.exp()", _ATOM
         if isinstance(exp, se.Integer):
             n = int(exp)
             if n < 0:
+                self.ops.tally("div")
                 return f"{constant(1.0)} / {self._at(se.Pow(base, -n), _ATOM)}", _MUL
             return self._integer_power(base, n)
         if isinstance(exp, se.Rational) and int(exp.q) == 2:
             n = int(exp.p)
+            self.ops.tally("sqrt")
             root = f"{self._at(base, _ATOM)}.sqrt()"
             if n == 1:
                 return root, _ATOM
             if n == -1:
+                self.ops.tally("div")
                 return f"{constant(1.0)} / {root}", _MUL
             rest = self._integer_power(base, (abs(n) - 1) // 2)[0]
             text = f"({rest} * {root})"
+            self.ops.tally("mul")
+            if n < 0:
+                self.ops.tally("div")
             return (text, _ATOM) if n > 0 else (f"{constant(1.0)} / {text}", _MUL)
+        self.ops.tally("elementary")
         return f"{self._at(base, _ATOM)}.powf({self(exp)})", _ATOM
 
     def _integer_power(self, base: se.Expr, n: int) -> tuple[str, int]:
@@ -183,16 +216,18 @@ class RustPrinter:
             return constant(1.0), _ATOM
         if n == 1:
             return self._p(base)
-        b = self._at(base, _ATOM)
         simple = isinstance(base, se.Symbol)
+        # A compound base is printed once, bound in the block below (a symbol costs nothing).
+        b = self._at(base, _ATOM) if simple else "pw"
         # Squares as `sqr()`: `x * x` on f64, the square's true range on intervals.
         if n == 2 and simple:
+            self.ops.tally("mul")
             return f"{b}.sqr()", _ATOM
         if n == 3 and simple:
+            self.ops.tally("mul", 2)
             return f"{b}.sqr() * {b}", _MUL
         steps = [f"let pw = {self(base)};"] if not simple else []
-        name = b if simple else "pw"
-        factors, square, k = [], name, 1
+        factors, square, k = [], b, 1
         while n:
             if n & 1:
                 factors.append(square)
@@ -200,7 +235,9 @@ class RustPrinter:
             if n:
                 k *= 2
                 steps.append(f"let pw{k} = {square}.sqr();")
+                self.ops.tally("mul")
                 square = f"pw{k}"
+        self.ops.tally("mul", len(factors) - 1)
         if not steps:
             return " * ".join(factors), _MUL
         return "{ " + " ".join(steps) + " " + " * ".join(factors) + " }", _ATOM
@@ -304,6 +341,7 @@ _LANES = {"exp": "exp", "tanh": "tanh", "log": "ln"}
 def _lanes_statement(p: RustPrinter, names: dict[se.Symbol, str], step) -> str:
     """One batched call: an array in, an array out; a lone call takes the one-argument form."""
     f = f"{SCALAR}::{_LANES[step.function]}"
+    p.ops.tally("lanes", len(step.rhs))
     if len(step.symbols) == 1:
         return f"    let {names[step.symbol]} = {f}_lane({p(step.rhs[0])});"
     targets = ", ".join(names[s] for s in step.symbols)
@@ -312,6 +350,7 @@ def _lanes_statement(p: RustPrinter, names: dict[se.Symbol, str], step) -> str:
 
 def _value(p: RustPrinter, kind: str, rhs: Sequence[se.Expr]) -> str:
     if kind == "max":
+        p.ops.tally("compare", len(rhs) - 1)
         return p(rhs[0]) if len(rhs) == 1 else (
             f"{SCALAR}::max({p(rhs[0])}, {p(rhs[1])})" + "".join(f".max({p(r)})" for r in rhs[2:]))
     return p(rhs[0])
@@ -397,7 +436,7 @@ def _body(p: RustPrinter, names: dict[se.Symbol, str], steps: Sequence) -> list[
 
 
 def emit_split_kernel(kernel: Kernel, runtime_crate: str, per_cycle: Sequence[str],
-                      attributes: Sequence[str] = ()) -> str:
+                      attributes: Sequence[str] = (), ops: dict[str, list[int]] | None = None) -> str:
     """A kernel of a family evaluated at many instances per state, as three functions:
     ``<name>_state`` (the inputs named in ``per_cycle``: the state, the time) computes once
     per cycle everything that does not depend on an instance and returns the values the
@@ -443,6 +482,8 @@ def emit_split_kernel(kernel: Kernel, runtime_crate: str, per_cycle: Sequence[st
     wrapper = _doc_lines(kernel) + list(attributes) + [
         "#[inline]", f"pub fn {kernel.name}{g}({args}) -> {ret} {{",
         f"    {kernel.name}_instance(&{kernel.name}_state({call_state}){call_rest})", "}"]
+    if ops is not None:
+        ops[kernel.name] = p.ops.as_list()
     consts: list[str] = []
     for c in kernel.constants:
         consts.append(f"/// {rustdoc_text(c.doc)}")
@@ -450,11 +491,13 @@ def emit_split_kernel(kernel: Kernel, runtime_crate: str, per_cycle: Sequence[st
     return "\n".join(consts + state_fn + instance_fn + wrapper) + "\n"
 
 
-def emit_kernel(kernel: Kernel, runtime_crate: str, attributes: Sequence[str] = (), inline: str = "#[inline]") -> str:
+def emit_kernel(kernel: Kernel, runtime_crate: str, attributes: Sequence[str] = (), inline: str = "#[inline]",
+                ops: dict[str, list[int]] | None = None) -> str:
     """The Rust text of one kernel: constants, then the function. ``runtime_crate`` is the
     path of cbfgen's core where the kernel is compiled (``crate`` inside it, ``cbfgen``
     elsewhere); ``attributes`` (outer attributes such as ``#[allow(...)]``) go on the
-    function, before its ``#[inline]``."""
+    function, before its ``#[inline]``. ``ops``, when given, receives the operations the
+    function performs under its name (:class:`OpCount` order)."""
     code = straight_line(kernel)
     _check_size(kernel, code)
     names = _local_names(kernel, code)
@@ -470,6 +513,8 @@ def emit_kernel(kernel: Kernel, runtime_crate: str, attributes: Sequence[str] = 
     lines += _body(p, names, code.steps)
     body = _results(kernel, [p(e) for e in code.outputs], lines)
     lines += [f"    {body}", "}"]
+    if ops is not None:
+        ops[kernel.name] = p.ops.as_list()
     consts: list[str] = []
     for c in kernel.constants:
         consts.append(f"/// {rustdoc_text(c.doc)}")

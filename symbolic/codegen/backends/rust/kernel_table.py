@@ -35,14 +35,22 @@ def kernel_result(out) -> str:
     return f"{out.name}: {kind}[{dims[out.kind]}]"
 
 
-def emit_kernel_table(kernels: Sequence[Kernel], runtime_crate: str, what: str) -> str:
+def emit_kernel_table(kernels: Sequence[Kernel], runtime_crate: str, what: str,
+                      ops: dict[str, list[int]] | None = None) -> str:
     """``KERNELS`` for ``kernels``: one line per kernel in ``kernel_table!`` (src/kernel_table.rs),
-    which writes the entries and their flat wrappers. ``what`` names the module in the doc."""
+    which writes the entries and their flat wrappers. ``what`` names the module in the doc;
+    ``ops`` holds the operation counts of the kernels printed as one straight line, which
+    their lines state (``ops [add, neg, mul, div, sqrt, elementary, lanes, compare]``)."""
     names = [k.name for k in kernels]
     if len(set(names)) != len(names):
         raise ValueError(f"{what}: kernel names repeat: {names}")
+    ops = ops or {}
+
+    def stated(k: Kernel) -> str:
+        return f" ops [{', '.join(map(str, ops[k.name]))}]" if k.name in ops else ""
+
     lines = [f"    {k.name}({', '.join(map(kernel_argument, k.inputs))}) -> "
-             f"({', '.join(map(kernel_result, k.outputs))});" for k in kernels]
+             f"({', '.join(map(kernel_result, k.outputs))}){stated(k)};" for k in kernels]
     return "\n".join([
         f"{runtime_crate}::kernel_table! {{",
         f"    /// Every kernel of {what} behind one uniform signature, in module order: inputs and",

@@ -529,8 +529,9 @@ def _emit_interval_kernels(out: list[str], d: SystemDefinition, rt: str) -> None
             f"pub const INTERVAL_KERNELS: &[{rt}::filter::between_samples::IntervalKernel] = &[", *lines, "];", ""]
 
 
-def _emit_kernels(out: list[str], d: SystemDefinition, rt: str) -> None:
-    """Every kernel, each family's row columns and an indexed family's member tables."""
+def _emit_kernels(out: list[str], d: SystemDefinition, rt: str, ops: dict[str, list[int]]) -> None:
+    """Every kernel, each family's row columns and an indexed family's member tables; the
+    operations of each kernel printed as one straight line go into ``ops``."""
     w = out.append
     # A family with parameters evaluates each member's kernel at many instances per state:
     # its kernels (rows and bound) are emitted cut in two, the state's part shared.
@@ -558,13 +559,13 @@ def _emit_kernels(out: list[str], d: SystemDefinition, rt: str) -> None:
             f, bound = composed_bounds[k.name]
             w(emit_composed_bound(k, bound, bool(f.params), rt, attributes=[KERNEL_ALLOWS]))
         elif k.name in split_kernels:
-            w(emit_split_kernel(k, rt, split_kernels[k.name], attributes=[KERNEL_ALLOWS]))
+            w(emit_split_kernel(k, rt, split_kernels[k.name], attributes=[KERNEL_ALLOWS], ops=ops))
         elif k.name in shared:
             # Compiled once and called: inlined, every member would repeat the chain, and
             # every path down the tree every joint above it.
-            w(emit_kernel(k, rt, attributes=[KERNEL_ALLOWS], inline="#[inline(never)]"))
+            w(emit_kernel(k, rt, attributes=[KERNEL_ALLOWS], inline="#[inline(never)]", ops=ops))
         else:
-            w(emit_kernel(k, rt, attributes=[KERNEL_ALLOWS]))
+            w(emit_kernel(k, rt, attributes=[KERNEL_ALLOWS], ops=ops))
     w(emit_placements(d.poses, rt, attributes=[KERNEL_ALLOWS]))
     for plan in d.poses:
         w(emit_pose_function(plan, len(d.state_names), rt, attributes=[KERNEL_ALLOWS]))
@@ -964,9 +965,13 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
     emitter per item, in the module's order."""
     _reserve_names(d)
     out: list[str] = []
-    for emit in (_emit_description, _emit_system_type, _emit_kernels, _emit_parameter_structs,
-                 _emit_family_table, _emit_capacity, _emit_params, _emit_barriers, _emit_filter_and_system):
+    ops: dict[str, list[int]] = {}
+    _emit_description(out, d, rt)
+    _emit_system_type(out, d, rt)
+    _emit_kernels(out, d, rt, ops)
+    for emit in (_emit_parameter_structs, _emit_family_table, _emit_capacity, _emit_params, _emit_barriers,
+                 _emit_filter_and_system):
         emit(out, d, rt)
-    out.append(emit_kernel_table(d.kernels(), rt, f"`{d.name}`"))
+    out.append(emit_kernel_table(d.kernels(), rt, f"`{d.name}`", ops))
     _emit_interval_kernels(out, d, rt)
     return "\n".join(out) + "\n"

@@ -227,3 +227,16 @@ fn a_shrinking_sets_rows_carry_the_growth_and_its_time_derivatives() {
         assert!(growth[0] > 0.0 && rate < 0.0, "a swing foot's set shrinks: {growth:?}");
     }
 }
+
+#[test]
+fn every_straight_line_kernel_of_the_three_models_performs_the_operations_its_table_states() {
+    // Run on numbers that count (cbfgen::ops::Counted), against the generator's count.
+    use cbfgen::ops::{check_stated, Counted};
+    let report = |m| panic!("{m:#?}");
+    let checked = [
+        check_stated(cbfgen_anymal::generated::run_counted_kernels::<Counted>).unwrap_or_else(report),
+        check_stated(cbfgen_anymal::wbc_generated::run_counted_kernels::<Counted>).unwrap_or_else(report),
+        check_stated(cbfgen_anymal::mpc_generated::run_counted_kernels::<Counted>).unwrap_or_else(report),
+    ];
+    assert!(checked[0] >= 30 && checked[1] >= 8 && checked[2] >= 10, "{checked:?} kernels counted");
+}

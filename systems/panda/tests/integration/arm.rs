@@ -560,3 +560,13 @@ fn the_generated_dynamics_are_symmetric_positive_definite_and_passive() {
     }
     assert!(worst <= 1e-8, "q̇ᵀ C q̇ differs from ½ q̇ᵀ Ṁ q̇ by {worst:e} of its scale");
 }
+
+#[test]
+fn every_straight_line_kernel_performs_the_operations_its_table_states() {
+    // Run on numbers that count (cbfgen::ops::Counted), against the generator's count; the
+    // kernels assembled from others (the walked dynamics) state none.
+    let checked = cbfgen::ops::check_stated(gen::run_counted_kernels::<cbfgen::ops::Counted>)
+        .unwrap_or_else(|m| panic!("{m:#?}"));
+    assert_eq!(checked, gen::KERNELS.iter().filter(|k| k.ops.is_some()).count());
+    assert!(checked >= 20, "{checked} kernels counted");
+}

@@ -430,3 +430,12 @@ fn a_body_clearance_out_of_its_domain_is_refused_and_changes_nothing() {
     env.set_body_clearance(0.0).unwrap();
     assert_eq!(env.edges()[0].half, eh, "0 restores the true cuboid");
 }
+
+#[test]
+fn every_kernel_performs_the_operations_its_table_states() {
+    // Counted by running each kernel on numbers that count (cbfgen::ops::Counted), against
+    // the count the generator printed with it; every Tachyon 3 kernel is one straight line.
+    let checked = cbfgen::ops::check_stated(gen::run_counted_kernels::<cbfgen::ops::Counted>)
+        .unwrap_or_else(|m| panic!("{m:#?}"));
+    assert_eq!(checked, gen::KERNELS.len());
+}
