@@ -30,6 +30,8 @@ struct Run {
     least_wheel: f64,
     cycles: usize,
     certified: usize,
+    /// Certified updates by the QP solves they took: 1, 2, 3, 4 or more.
+    solves: [usize; 4],
     finished: bool,
     cpu_us: Vec<f64>,
 }
@@ -51,6 +53,7 @@ fn run(scenario: Scenario, seconds: f64, fine: usize, certify: bool) -> Result<R
         least_wheel: f64::INFINITY,
         cycles: 0,
         certified: 0,
+        solves: [0; 4],
         finished: false,
         cpu_us: Vec::new(),
     };
@@ -61,6 +64,9 @@ fn run(scenario: Scenario, seconds: f64, fine: usize, certify: bool) -> Result<R
         let plan = course.plan(t, &x)?;
         let out = *filter.update(&x, &plan.u_ref, course.environment())?;
         r.certified += usize::from(matches!(out.between_samples, BetweenSamples::Certified { .. }));
+        if let BetweenSamples::Certified { rounds } = out.between_samples {
+            r.solves[(rounds as usize).clamp(1, 4) - 1] += 1;
+        }
         r.cpu_us.extend(out.cpu_time.map(|d| d.as_secs_f64() * 1e6));
         for ((w, &on), relaxed) in watched.iter_mut().zip(filter.active()).zip(filter.relaxed()) {
             *w = on && relaxed.is_none();
@@ -108,6 +114,8 @@ fn main() -> Result<(), cbfgen::CbfError> {
     println!("{:<14} {:>13.3} mm {:>13.3} mm", "wheel, exact", off.least_wheel * 1e3, on.least_wheel * 1e3);
     println!("{:<14} {:>16} {:>16}", "finished", off.finished, on.finished);
     println!("{:<14} {:>16} {:>10}/{}", "certified", "-", on.certified, on.cycles);
+    let [one, two, three, more] = on.solves;
+    println!("{:<14} {:>16} {one} in 1 solve, {two} in 2, {three} in 3, {more} in 4 or more", "certified", "-");
     let [m0, p0, _] = median_p99_max(&mut off.cpu_us);
     let [m1, p1, _] = median_p99_max(&mut on.cpu_us);
     println!("{:<14} {:>9.1} / {:>4.0} {:>9.1} / {:>4.0}  (CPU µs per update, median / p99)", "update", m0, p0, m1, p1);
