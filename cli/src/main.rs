@@ -201,7 +201,7 @@ struct BetweenArgs {
 
 impl BetweenArgs {
     fn plant(&self) -> Plant {
-        self.fine.map_or(Plant::Euler, |fine| Plant::Held { fine })
+        Plant::from_fine_steps(self.fine)
     }
 }
 
@@ -677,18 +677,14 @@ impl SimulateArgs {
         } = self;
         output_dir(&out)?;
         let config = |body_cbf: bool| -> Result<SimConfig, cbfgen::CbfError> {
-            let mut config = match episode {
+            let config = match episode {
                 Some(id) => Episode::draw(seed, id, &ranges.ranges())?.config_with(body_cbf, perception),
                 None => SimConfig {
                     perception: perception.then(PerceptionSettings::default),
                     ..SimConfig::new(scenario.scenario(), body_cbf)
                 },
             };
-            config.plant = between.plant();
-            if between.certify {
-                config.filter.sampled_data = Some(cbfgen::filter::SampledData::every_family(sim::DT));
-            }
-            Ok(config)
+            Ok(config.between_samples(between.plant(), between.certify))
         };
         if let Some(id) = episode {
             let e = Episode::draw(seed, id, &ranges.ranges())?;

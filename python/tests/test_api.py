@@ -89,6 +89,20 @@ def test_a_campaign_episode_reruns_alone_with_the_same_outcome():
         t3.campaign(episodes=1, ranges={"height": [0.1, 0.2]})
 
 
+def test_the_held_input_plant_and_the_certificate_run_from_python():
+    # Each input held over its period (RK4 at 1 ms / 10), the certificate on: the summary
+    # counts the updates it certified (None with it off); a campaign says where it measured.
+    held = t3.simulate("step", max_time=0.3, fine=10, certify=True)["summary"]
+    assert 0 < held["certified_cycles"] <= 300
+    assert t3.simulate("step", max_time=0.3)["summary"]["certified_cycles"] is None
+    run = t3.campaign(episodes=1, seed=5, ranges={"steps": [1, 1], "rise": [0.05, 0.1]}, threads=1, fine=5)
+    assert run["errors"] == [] and "at every fine step, RK4 at 1 ms / 5" in run["report"]
+    with pytest.raises(cbfgen.CbfError, match="fine steps per period"):
+        t3.simulate("step", max_time=0.1, fine=0)
+    with pytest.raises(cbfgen.CbfError, match="fine steps per period"):
+        t3.campaign(episodes=1, fine=1001)
+
+
 def test_perceived_terrain_runs_from_python_and_hides_the_truth():
     # Every named course is offered; a perceived run differs from the true-terrain one
     # (the filter saw other edges) and counts its 1 Hz updates.

@@ -316,9 +316,12 @@ fn box_out<'py>(py: Python<'py>, b: &cbfgen::geometry::OrientedBox) -> BoxOut<'p
 /// With ``episode`` (and ``seed``, ``ranges`` as given to :func:`campaign`), the course is
 /// that campaign episode's instead of ``scenario``. With ``perception=True`` the gait and
 /// filter see only what a LiDAR on the body perceives (``summary["perception_updates"]``
-/// counts the 1 Hz updates). The GIL is released while it runs.
+/// counts the 1 Hz updates). With ``fine=N`` each input is held over its period on the
+/// continuous model (RK4 at 1 ms / N) and every clearance and ``min_h`` is the least over
+/// the cycle's fine steps; ``certify=True`` has the filter certify each input between the
+/// samples (``summary["certified_cycles"]``). The GIL is released while it runs.
 #[pyfunction]
-#[pyo3(signature = (scenario="stairs", body_cbf=true, max_time=None, episode=None, seed=0, ranges=None, perception=false))]
+#[pyo3(signature = (scenario="stairs", body_cbf=true, max_time=None, episode=None, seed=0, ranges=None, perception=false, fine=None, certify=false))]
 #[allow(clippy::too_many_arguments)] // one per keyword argument of the Python function
 fn simulate<'py>(
     py: Python<'py>,
@@ -329,14 +332,18 @@ fn simulate<'py>(
     seed: u64,
     ranges: Option<&Bound<'py, PyDict>>,
     perception: bool,
+    fine: Option<usize>,
+    certify: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let plant = sim::Plant::from_fine_steps(fine);
     let mut config = match episode {
         Some(id) => Episode::draw(seed, id, &course_ranges(ranges)?)?.config_with(body_cbf, perception),
         None => SimConfig {
             perception: perception.then(PerceptionSettings::default),
             ..SimConfig::new(self::scenario(scenario)?, body_cbf)
         },
-    };
+    }
+    .between_samples(plant, certify);
     if let Some(t) = max_time {
         config.max_time = cbfgen::error::positive("max_time", t)?;
     }
@@ -369,6 +376,7 @@ fn simulate<'py>(
     summary.set_item("body_cbf", m.body_cbf)?;
     summary.set_item("completed", m.completed)?;
     summary.set_item("duration", m.duration)?;
+    summary.set_item("certified_cycles", m.certified_cycles)?;
     summary.set_item("min_body_clearance", m.min_body_clearance())?;
     summary.set_item("min_toe_clearance", m.min_toe_clearance())?;
     summary.set_item("min_toe_riser_clearance", m.min_toe_riser_clearance())?;
@@ -463,7 +471,7 @@ fn campaign<'py>(
     fine: Option<usize>,
     certify: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let plant = fine.map_or(sim::Plant::Euler, |fine| sim::Plant::Held { fine });
+    let plant = sim::Plant::from_fine_steps(fine);
     let settings = CampaignSettings {
         seed,
         episodes,

@@ -61,6 +61,12 @@ pub enum Plant {
 }
 
 impl Plant {
+    /// `Held { fine }` for `Some(fine)`, [`Plant::Euler`] for `None` (how the command line
+    /// and Python give it).
+    pub fn from_fine_steps(fine: Option<usize>) -> Self {
+        fine.map_or(Plant::Euler, |fine| Plant::Held { fine })
+    }
+
     /// Fine steps per period: 0 for [`Plant::Euler`] (measured at the samples only).
     pub fn fine_steps(self) -> usize {
         match self {
@@ -243,6 +249,18 @@ impl SimConfig {
             perception: None,
             plant: Plant::Euler,
         }
+    }
+
+    /// The same run on `plant`, with the filter certifying each input between the
+    /// samples when `certify` is set
+    /// ([`SampledData::every_family`](cbfgen::filter::SampledData::every_family) at the
+    /// period [`DT`]).
+    pub fn between_samples(mut self, plant: Plant, certify: bool) -> Self {
+        self.plant = plant;
+        if certify {
+            self.filter.sampled_data = Some(cbfgen::filter::SampledData::every_family(DT));
+        }
+        self
     }
 }
 

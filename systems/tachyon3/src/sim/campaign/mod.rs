@@ -258,12 +258,7 @@ impl Default for CampaignSettings {
 impl CampaignSettings {
     /// The simulation set-up of `episode` in this campaign.
     pub fn config(&self, episode: &Episode) -> SimConfig {
-        let mut config = episode.config_with(self.body_cbf, self.perception);
-        config.plant = self.plant;
-        if self.certify {
-            config.filter.sampled_data = Some(cbfgen::filter::SampledData::every_family(super::DT));
-        }
-        config
+        episode.config_with(self.body_cbf, self.perception).between_samples(self.plant, self.certify)
     }
 
     /// Shard `index` of `count` (0-based): the same campaign narrowed to a contiguous block
