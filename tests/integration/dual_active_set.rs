@@ -566,3 +566,35 @@ fn random_qps_agree_with_clarabel_and_pass_an_independent_kkt_check() {
     assert!(infeasible >= cases / 8 && kinds.equality >= cases && kinds.duplicate >= 2 * cases, "{kinds:?}");
     assert!(kinds.zero >= cases && kinds.scaled >= 2 * cases, "{kinds:?}");
 }
+
+#[test]
+fn no_solve_works_more_than_its_stated_worst_case() {
+    // Random problems (feasible and infeasible, equality, duplicate, zero and badly scaled
+    // rows), cold and from random warm starts, with budgets from 1 row to plenty: the work
+    // each solve counted as it ran never passes the worst case stated for its size and
+    // budget. The largest share of it any solve used is printed: how loose the bound is.
+    let mut kinds = Kinds::default();
+    let mut rng = ChaCha8Rng::seed_from_u64(62);
+    let (mut solves, mut tightest) = (0, 0.0f64);
+    for case in 0..1500 {
+        let qp = random_qp(&mut rng, case % 5 == 4, &mut kinds);
+        let mut s = qp.solver();
+        for budget in [1, 2, 5, 1000] {
+            for start in 0..3 {
+                let hint = random_hint(&mut rng, qp.m(), 0.4);
+                let warm = match start {
+                    0 => WarmStart::Cold,
+                    1 => WarmStart::Previous,
+                    _ => WarmStart::Given(&hint),
+                };
+                s.solve(warm, budget);
+                let bound = DualActiveSet::worst_case_work(qp.n, qp.m(), budget);
+                assert!(s.work() > 0 && s.work() <= bound, "case {case}, budget {budget}: {} > {bound}", s.work());
+                tightest = tightest.max(s.work() as f64 / bound as f64);
+                solves += 1;
+            }
+        }
+    }
+    assert!(kinds.equality > 0 && kinds.infeasible > 0 && kinds.zero > 0, "{kinds:?}");
+    println!("{solves} solves; the most work any took: {:.1} % of its worst case", 100.0 * tightest);
+}
