@@ -14,14 +14,9 @@ use cbfgen::cpu_time::median_p99_max;
 use cbfgen::filter::{BetweenSamples, EcbfFilter, SampledData};
 use cbfgen::system::BarrierSet;
 use cbfgen_tachyon3::catalog::{self, Catalog, Family, FAMILY_COUNT};
-use cbfgen_tachyon3::model::{xdot, State, NU};
+use cbfgen_tachyon3::model::held_step;
 use cbfgen_tachyon3::sim::gait::GaitParams;
 use cbfgen_tachyon3::sim::{Course, Scenario, DT};
-
-fn rk4(x: &State, u: &[f64; NU], h: f64) -> State {
-    let Ok(next) = cbfgen::system::rk4_step(|y| Ok::<_, std::convert::Infallible>(xdot(y, u)), x, h);
-    next
-}
 
 struct Run {
     /// Per family: the least h, between the samples, of the rows that took part and were met.
@@ -73,7 +68,7 @@ fn run(scenario: Scenario, seconds: f64, fine: usize, certify: bool) -> Result<R
         }
         let h = DT / fine as f64;
         for j in 1..=fine {
-            x = rk4(&x, &out.u, h);
+            x = held_step(&x, &out.u, h);
             BarrierSet::evaluate(&mut checker, t + j as f64 * h, &x, course.environment())?;
             for ((row, &w), &f) in checker.rows().iter().zip(&watched).zip(&family) {
                 if w {

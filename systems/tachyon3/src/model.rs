@@ -42,6 +42,13 @@ const _: () = assert!(
 /// the exact clearance checks accept every state the filter does.
 pub use cbfgen::system::STATE_LIMIT;
 
+/// The state `h` seconds on with input `u` held, one RK4 step of `ẋ = f(x) + g(x) u`: the
+/// continuous plant between two samples, in fine steps.
+pub fn held_step(x: &State, u: &[f64; NU], h: f64) -> State {
+    let Ok(next) = cbfgen::system::rk4_step(|y| Ok::<_, std::convert::Infallible>(xdot(y, u)), x, h);
+    next
+}
+
 /// `Ok(())` when every entry is finite with `|x_i| ≤` [`STATE_LIMIT`]
 /// ([`system::validate_state`](cbfgen::system::validate_state) on the model's state).
 ///

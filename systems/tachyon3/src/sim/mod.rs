@@ -553,19 +553,19 @@ pub fn run_observed(
         };
         let finished = course.finished(&x);
 
-        match (config.plant, &mut between) {
-            (Plant::Held { fine }, Some(rows)) => {
+        match &mut between {
+            // Set up exactly when the plant is held (above).
+            Some(rows) => {
+                let fine = config.plant.fine_steps();
                 let h = DT / fine as f64;
                 for j in 1..=fine {
-                    let Ok(next) =
-                        cbfgen::system::rk4_step(|y| Ok::<_, std::convert::Infallible>(model::xdot(y, &out.u)), &x, h);
-                    x = next;
+                    x = model::held_step(&x, &out.u, h);
                     BarrierSet::evaluate(rows, t + j as f64 * h, &x, course.environment())?;
                     least_h(rows, &mut sample.min_h);
                     sample.clearance = sample.clearance.nearer(course.clearance(&x)?);
                 }
             }
-            _ => {
+            None => {
                 let dx = model::xdot(&x, &out.u);
                 for (v, d) in x.iter_mut().zip(dx) {
                     *v += d * DT;

@@ -8,13 +8,8 @@ use cbfgen::interval::Interval;
 use cbfgen::system::BarrierSet;
 use cbfgen_tachyon3::approach::Approach;
 use cbfgen_tachyon3::catalog::{Capacity, Catalog};
-use cbfgen_tachyon3::model::{xdot, State, INPUT_LIMITS, NU};
+use cbfgen_tachyon3::model::{held_step, INPUT_LIMITS, NU};
 use cbfgen_tachyon3::terrain::Stairs;
-
-fn rk4(x: &State, u: &[f64; NU], h: f64) -> State {
-    let Ok(next) = cbfgen::system::rk4_step(|y| Ok::<_, std::convert::Infallible>(xdot(y, u)), x, h);
-    next
-}
 
 #[test]
 fn every_row_on_intervals_holds_its_f64_values_along_the_held_input() {
@@ -43,7 +38,7 @@ fn every_row_on_intervals_holds_its_f64_values_along_the_held_input() {
             enclosing.enclose(&window, &x, &drive.env, &wanted, &mut e).unwrap();
             let mut y = x;
             for j in 1..=fine {
-                y = rk4(&y, &u, period / fine as f64);
+                y = held_step(&y, &u, period / fine as f64);
                 BarrierSet::evaluate(&mut checking, t + period * j as f64 / fine as f64, &y, &drive.env).unwrap();
                 for (i, (row, enc)) in checking.rows().iter().zip(&e).enumerate() {
                     if !wanted[i] {
