@@ -248,9 +248,12 @@ def test_with_the_filter_the_physical_robot_climbs_the_hardware_stairs_without_b
     # What the run reports of its wheels against the solid stairs (its own exact
     # sphere-box geometry on MuJoCo's wheel centres) is what MuJoCo's distances say.
     np.testing.assert_allclose(record.arrays()["wheel_distance"][:, 0], wheels.nearest, atol=1e-6)
-    # The filter's own cost is read from its thread's CPU clock every cycle, beside the wall time.
+    # The filter's own cost is read from its thread's CPU clock every cycle, beside the wall
+    # time. A reading of zero is possible (a VM's thread clock that stood still over a short
+    # update, or stepped back across cores and was clamped), but not as the rule.
     cpu = record.arrays()["cpu_us"]
-    assert cpu.shape == record.arrays()["update_us"].shape and np.all(np.isfinite(cpu)) and np.all(cpu > 0.0)
+    assert cpu.shape == record.arrays()["update_us"].shape and np.all(np.isfinite(cpu)) and np.all(cpu >= 0.0)
+    assert np.mean(cpu > 0.0) > 0.99, f"{np.sum(cpu == 0.0)} of {cpu.size} cycles read no CPU time"
     assert summary["median_filter_cpu_us"] < 1000.0, summary
 
 

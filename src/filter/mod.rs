@@ -244,7 +244,9 @@ pub struct Output<U> {
     /// time `eval_time + solve_time`: a gap between the two is the thread waiting (a VM
     /// stall, preemption), not work. `None` unless
     /// [`FilterSettings::measure_cpu_time`] asks for it, or where the platform has no
-    /// thread clock ([`crate::cpu_time`]).
+    /// thread clock ([`crate::cpu_time`]). It can read zero on a short update: on some
+    /// virtual machines the thread clock does not advance over a few microseconds, or
+    /// steps back when the thread moves between cores (a step back is clamped to zero).
     pub cpu_time: Option<Duration>,
 }
 
