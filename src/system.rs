@@ -555,6 +555,23 @@ pub trait BarrierSet<const NU: usize> {
     /// capacity. Rows are left as they were.
     fn evaluate(&mut self, t: f64, x: &Self::State, params: &Self::Params) -> Result<(), CbfError>;
 
+    /// An upper bound on the operations one [`BarrierSet::evaluate`] performs in the
+    /// generated kernels it calls (every family, every instance slot up to the parameters'
+    /// capacity, culling ignored); `None` where a kernel it calls states no count.
+    ///
+    /// A generated barrier set sums its kernels' stated counts ([`crate::ops`]) over the
+    /// calls `evaluate` makes with every slot filled and nothing culled: a family's
+    /// kernel without parameters (and its lower bound) once, and for a family with
+    /// parameters each member's state part once and its instance part once per slot. That
+    /// is what it performs then, in a release build (a debug build also evaluates each
+    /// culled row, to check its bound); emptier slots and culled rows only do less. The
+    /// count is of the kernels' floating-point operations, not of storing the rows or
+    /// checking the parameters. `None` (the default) for a hand-written set and for one
+    /// with a composed, framed or rigid-body kernel, which states no count.
+    fn evaluation_ops(&self) -> Option<crate::ops::OpCount> {
+        None
+    }
+
     /// From now on, skip the rows of an instance of family `k` whose family's lower bound
     /// on `h` (declared in the spec, `lower_bound=`) exceeds `thresholds[k]`: they are
     /// stored with [`Row::cull`] instead of evaluated. The filter passes each family's

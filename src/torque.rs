@@ -302,6 +302,14 @@ impl<B: BarrierSet<NU, State = [f64; NX]>, const NX: usize, const NU: usize> Bar
         Ok(())
     }
 
+    /// `None`: besides the inner rows, each evaluation calls the dynamics (a function
+    /// given at construction, which states no count: a generated `dynamics` walks its
+    /// tree at run time), factors `M`, inverts it and maps every row, none of which the
+    /// inner count holds.
+    fn evaluation_ops(&self) -> Option<crate::ops::OpCount> {
+        None
+    }
+
     fn cull_above(&mut self, thresholds: &[f64]) {
         self.inner.cull_above(thresholds);
     }

@@ -205,3 +205,24 @@ def test_a_kernel_cut_in_two_keeps_every_step_and_every_bit(tmp_path):
     assert built.returncode == 0, built.stderr
     ran = subprocess.run([str(tmp_path / "split")], capture_output=True, text=True)
     assert ran.returncode == 0 and "same bits" in ran.stdout, ran.stderr
+
+
+def test_evaluation_ops_sums_the_stated_counts_of_the_calls_evaluate_makes():
+    # `evaluation_ops` states what `evaluate` performs in its kernels with every slot filled:
+    # a fixed family's (speed_limit, one instance) whole kernel once, a capacity family's
+    # (wall) state part once and instance part per slot, their sum the kernel's own stated
+    # count. (The Rust tests of Tachyon 3 and the double integrator count them as they run.)
+    import re
+
+    from symbolic.codegen.generate import render
+
+    _, text = render(REPO_ROOT / "symbolic" / "tests" / "specs" / "planar_robot.py")
+    stated = {m[1]: [int(v) for v in m[2].split(",")]
+              for m in re.finditer(r"^    (\w+)\(.*\) ops \[([\d, ]+)\];$", text, re.MULTILINE)}
+    method = text[text.index("fn evaluation_ops"):text.index("fn evaluate(")]
+    counts = [[int(v) for v in m.split(",")] for m in re.findall(r"\[([\d, ]+)\]", method)]
+    assert len(counts) == 3 and "c.wall," in method, method
+    fixed, wall_state, wall_instance = counts
+    assert fixed == stated["speed_limit"]
+    assert [a + b for a, b in zip(wall_state, wall_instance, strict=True)] == stated["wall"]
+    assert sum(wall_instance) > 0

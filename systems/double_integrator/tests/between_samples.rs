@@ -159,3 +159,32 @@ fn every_kernel_performs_the_operations_its_table_states() {
         .unwrap_or_else(|m| panic!("{m:#?}"));
     assert_eq!(checked, cbfgen_double_integrator::KERNELS.len());
 }
+
+#[test]
+fn evaluation_ops_is_what_evaluate_performs_in_its_kernels() {
+    // The operations of the kernels evaluate calls, counted as they run on numbers that
+    // count (cbfgen::ops::Counted) with evaluate's own time, state and parameters: the
+    // state's part once, the instance's part once per instance the layout has. Each row
+    // they compute is the one evaluate stored, so the calls are evaluate's.
+    use cbfgen::ops::{Counted, OpCount};
+    use cbfgen_double_integrator::{family, sine_barrier_instance, sine_barrier_state, SINE_BARRIER_ROW_NAMES};
+    let mut barriers = Barriers::new(Capacity {}).unwrap();
+    let stated = barriers.evaluation_ops().expect("the sine barrier states its count");
+    let instances = barriers.layout().iter().filter(|l| l.family == family::SINE_BARRIER && l.row == 0).count();
+    assert_eq!(instances * SINE_BARRIER_ROW_NAMES.len(), barriers.layout().len());
+    for (t, x, omega) in [(0.3, [0.2, -2.0], 20.0), (1.7, [-0.4, 0.5], 5.0)] {
+        let p = params(omega);
+        barriers.evaluate(t, &x, &p).unwrap();
+        let (part, mut counted) = Counted::measure(|| sine_barrier_state(&x.map(Counted), Counted(t)));
+        for (row, q) in barriers.rows().iter().zip(&p.sine_barrier[..instances]) {
+            let ((lie, lg), ops) = Counted::measure(|| {
+                sine_barrier_instance(&part, Counted(q.amplitude), Counted(q.omega), Counted(q.offset))
+            });
+            counted = counted + ops;
+            assert_eq!(row.lie[..3], lie[0].map(|v| v.0));
+            assert_eq!(row.lg, lg[0].map(|v| v.0));
+        }
+        assert_eq!(stated, counted, "stated {stated}, counted {counted}");
+        assert_ne!(counted, OpCount::ZERO);
+    }
+}

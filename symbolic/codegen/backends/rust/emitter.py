@@ -442,7 +442,8 @@ def emit_split_kernel(kernel: Kernel, runtime_crate: str, per_cycle: Sequence[st
     per cycle everything that does not depend on an instance and returns the values the
     rest reads; ``<name>_instance`` takes those and one instance's parameters; ``<name>``
     is the two in a row, with the kernel's own signature. The steps, and so the bits of
-    every result, are the one-function kernel's."""
+    every result, are the one-function kernel's. ``ops``, when given, receives the
+    operations of ``<name>`` and of its two parts under their function names."""
     code = straight_line(kernel)
     _check_size(kernel, code)
     names = _local_names(kernel, code)
@@ -468,6 +469,7 @@ def emit_split_kernel(kernel: Kernel, runtime_crate: str, per_cycle: Sequence[st
     state_fn += unpack(cycle_inputs, cut.state_inputs_used)
     state_fn += _body(p, names, cut.state_steps)
     state_fn += [f"    [{', '.join(names[s] for s in cut.interface)}]", "}"]
+    state_ops = p.ops.as_list()
     instance_fn = [f"/// One instance of [`{kernel.name}`], from [`{kernel.name}_state`]'s values at the state.",
                    *attributes, "#[inline]",
                    f"pub fn {kernel.name}_instance{g}(state_part: &[{SCALAR}; {k}]"
@@ -483,7 +485,11 @@ def emit_split_kernel(kernel: Kernel, runtime_crate: str, per_cycle: Sequence[st
         "#[inline]", f"pub fn {kernel.name}{g}({args}) -> {ret} {{",
         f"    {kernel.name}_instance(&{kernel.name}_state({call_state}){call_rest})", "}"]
     if ops is not None:
+        # The kernel's count (what its table line states) and its two parts' (what a barrier
+        # set's `evaluate` calls: the state's once per cycle, the instance's per instance).
         ops[kernel.name] = p.ops.as_list()
+        ops[f"{kernel.name}_state"] = state_ops
+        ops[f"{kernel.name}_instance"] = [a - b for a, b in zip(ops[kernel.name], state_ops, strict=True)]
     consts: list[str] = []
     for c in kernel.constants:
         consts.append(f"/// {rustdoc_text(c.doc)}")

@@ -364,6 +364,63 @@ def _evaluate_family(w, f: FamilyDefinition) -> None:
             w("        i += n;")
 
 
+def _evaluation_ops(d: SystemDefinition, ops: dict[str, list[int]]) -> tuple[list[int], list] | str:
+    """The operations of the kernel calls ``evaluate`` makes (as :func:`_evaluate_family`
+    writes them) with every instance present and nothing culled: ``(fixed, slots)``, the
+    calls whose number the spec fixes summed in ``fixed`` and, per capacity member,
+    ``(state part, instance part, its capacity in Rust)`` (the state part once when the
+    member has a slot, the instance part per slot); or the name of a called function whose
+    operations are not stated."""
+    fixed: list[int] = [0] * 8
+    slots: list[tuple[list[int], list[int], str]] = []
+
+    def total(names: list[str]) -> list[int] | None:
+        if any(n not in ops for n in names):
+            return None
+        return [sum(c) for c in zip(*(ops[n] for n in names), strict=True)]
+
+    for f in d.families:
+        for m, k in enumerate(f.kernels):
+            if f.composed:
+                return f"{k.name}_from_poses"
+            if f.framed and f.framed[m]:
+                return f"{k.name}_from_frame"
+            kernels = [k.name, *([f.bounds[m].name] if f.bounds else [])]
+            if not f.params:
+                # One call of each per cycle.
+                calls = total(kernels)
+                if calls is None:
+                    return next(n for n in kernels if n not in ops)
+                fixed = [a + b for a, b in zip(fixed, calls, strict=True)]
+                continue
+            state, instance = total([f"{n}_state" for n in kernels]), total([f"{n}_instance" for n in kernels])
+            if state is None or instance is None:
+                return next(f"{n}_{part}" for n in kernels for part in ("state", "instance")
+                            if f"{n}_{part}" not in ops)
+            if f.capacity:
+                slots.append((state, instance, f"c.{f.name}[{m}]" if f.indexed else f"c.{f.name}"))
+            elif f.count:
+                fixed = [a + b + f.count * c for a, b, c in zip(fixed, state, instance, strict=True)]
+    return fixed, slots
+
+
+def _emit_evaluation_ops(w, d: SystemDefinition, rt: str, ops: dict[str, list[int]]) -> None:
+    """``evaluation_ops``: :func:`_evaluation_ops` as the method states it."""
+    found = _evaluation_ops(d, ops)
+    w(f"    fn evaluation_ops(&self) -> Option<{rt}::ops::OpCount> {{")
+    if isinstance(found, str):
+        w(f"        None // `{found}` states no count")
+    else:
+        fixed, slots = found
+        text = f"{rt}::ops::OpCount::new({fixed})"
+        if slots:
+            w("        let c = &self.capacity;")
+            text += ".plus_slots(&[" + ", ".join(f"({s}, {i}, {cap})" for s, i, cap in slots) + "])"
+        w(f"        Some({text})")
+    w("    }")
+    w("")
+
+
 class _Names:
     """Every item name the module defines, so a clash is an error here, not in rustc."""
 
@@ -800,8 +857,9 @@ def _emit_params(out: list[str], d: SystemDefinition, rt: str) -> None:
     w("")
 
 
-def _emit_barriers(out: list[str], d: SystemDefinition, rt: str) -> None:
-    """`Barriers`: the row layout for a capacity and the `BarrierSet` that evaluates it."""
+def _emit_barriers(out: list[str], d: SystemDefinition, rt: str, ops: dict[str, list[int]]) -> None:
+    """`Barriers`: the row layout for a capacity and the `BarrierSet` that evaluates it
+    (``ops``: the kernels' operations, for `evaluation_ops`)."""
     w = out.append
     w("/// The rows of every family, laid out once for a [`Capacity`] and evaluated each cycle")
     w("/// into preallocated storage. Row order: families in spec order; within a family,")
@@ -872,6 +930,7 @@ def _emit_barriers(out: list[str], d: SystemDefinition, rt: str) -> None:
     w("        &self.rows")
     w("    }")
     w("")
+    _emit_evaluation_ops(w, d, rt, ops)
     if culls:
         w("    fn cull_above(&mut self, thresholds: &[f64]) {")
         w("        for (cull, &threshold) in self.cull_above.iter_mut().zip(thresholds) {")
@@ -969,9 +1028,10 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
     _emit_description(out, d, rt)
     _emit_system_type(out, d, rt)
     _emit_kernels(out, d, rt, ops)
-    for emit in (_emit_parameter_structs, _emit_family_table, _emit_capacity, _emit_params, _emit_barriers,
-                 _emit_filter_and_system):
+    for emit in (_emit_parameter_structs, _emit_family_table, _emit_capacity, _emit_params):
         emit(out, d, rt)
+    _emit_barriers(out, d, rt, ops)
+    _emit_filter_and_system(out, d, rt)
     out.append(emit_kernel_table(d.kernels(), rt, f"`{d.name}`", ops))
     _emit_interval_kernels(out, d, rt)
     return "\n".join(out) + "\n"

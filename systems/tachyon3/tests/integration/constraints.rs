@@ -1,6 +1,8 @@
 //! The generated constraint rows against numerical Lie derivatives and hand-built cases.
 
 use crate::tachyon3_state;
+use cbfgen::ops::{Counted, OpCount};
+use cbfgen::system::BarrierSet;
 use cbfgen_testkit::boxes as common;
 
 use cbfgen_tachyon3::catalog::{Capacity, Catalog, EdgeCuboid, Environment, Family, HalfPlane, StabilityBound};
@@ -438,4 +440,271 @@ fn every_kernel_performs_the_operations_its_table_states() {
     let checked = cbfgen::ops::check_stated(gen::run_counted_kernels::<cbfgen::ops::Counted>)
         .unwrap_or_else(|m| panic!("{m:#?}"));
     assert_eq!(checked, gen::KERNELS.len());
+}
+
+/// A kernel's rows on counting numbers, as `evaluate` stores them (`[h, L_f h]` of the
+/// pull's relative degree 1 followed by a zero).
+fn counted_rows<const L: usize, const R: usize, const C: usize>(
+    out: ([[Counted; L]; R], [[Counted; C]; R]),
+    columns: &[usize],
+) -> Rows {
+    let lie = out.0.map(|r| std::array::from_fn(|i| r.get(i).map_or(0.0, |v| v.0)));
+    rows_of((lie, out.1.map(|r| r.map(|v| v.0))), columns)
+}
+
+/// The rows of an instance culled at `bound`, as [`cbfgen::system::Row::cull`] stores them.
+fn culled_rows(bound: Counted, n: usize) -> Rows {
+    vec![([bound.0, 0.0, 0.0], [0.0; NU]); n]
+}
+
+/// One member of a family as `evaluate` runs it: the state part once, when an instance
+/// first needs it, and the instance part once per instance. Its rows, in order, and the
+/// operations performed on the way, counted as they ran.
+fn run_member<K, P>(instances: &[P], state: impl Fn() -> K, instance: impl Fn(&K, &P) -> Rows) -> (Rows, OpCount) {
+    if instances.is_empty() {
+        return (Vec::new(), OpCount::ZERO);
+    }
+    let (part, mut ops) = Counted::measure(state);
+    let mut rows = Vec::new();
+    for p in instances {
+        let (r, n) = Counted::measure(|| instance(&part, p));
+        rows.extend(r);
+        ops = ops + n;
+    }
+    (rows, ops)
+}
+
+/// [`run_member`] for member `$m` of a family of one member per leg, given each leg's state
+/// part, instance part and input columns in leg order: `$args` are the instance part's
+/// arguments, in terms of the state part `$s` and one instance's parameters `$p`.
+macro_rules! leg_member {
+    ($m:expr, $instances:expr, $x:expr, |$s:ident, $p:ident| $args:tt,
+     [$(($state:path, $instance:path, $columns:expr)),+ $(,)?]) => {{
+        let mut out = None;
+        let runs = [$((&|| run_member($instances, || $state($x), |$s, $p| counted_rows($instance $args, &$columns)))
+            as &dyn Fn() -> (Rows, OpCount)),+];
+        for (k, run) in runs.into_iter().enumerate() {
+            if k == $m {
+                out = Some(run());
+            }
+        }
+        out.expect("a leg")
+    }};
+}
+
+/// Every slot of `capacity` filled with valid parameters.
+fn filled_environment(capacity: Capacity, r: &mut impl Rng) -> Environment {
+    let mut env = Environment::new(capacity).unwrap();
+    for _ in 0..capacity.body_edge {
+        let (c, rot, h) = random_edge(r);
+        env.push_edge(EdgeCuboid { center: c, rotation: rot, half: h }).unwrap();
+    }
+    for leg in 0..6 {
+        let planes: Vec<_> = (0..capacity.foothold[leg])
+            .map(|_| {
+                let a: f64 = r.random_range(-3.2..3.2);
+                HalfPlane::new([a.cos(), a.sin()], r.random_range(-1.0..1.0)).unwrap()
+            })
+            .collect();
+        env.set_foothold(leg, &planes).unwrap();
+        let (b0, b1) = (r.random_range(-0.5..0.5), r.random_range(-0.5..0.5));
+        env.stability[leg] = [Some(StabilityBound { a: 1.0, b: b0 }), Some(StabilityBound { a: -1.0, b: b1 })];
+        let a: f64 = r.random_range(-3.2..3.2);
+        let target = Vector2::new(r.random_range(-1.0..1.0), r.random_range(-1.0..1.0));
+        env.foothold_pull[leg] = [Some(FootholdPullParams { target, direction: Vector2::new(a.cos(), a.sin()) })];
+    }
+    env.set_floors(std::array::from_fn(|_| r.random_range(-0.2..0.2)));
+    env
+}
+
+/// Evaluate `catalog` at `x` with `env` (culling every instance it can when `cull`), and
+/// run on counting numbers every kernel `evaluate` calls, as it calls them: per family and
+/// member, as many instances as the catalog's layout has, with the environment's
+/// parameters. Returns the rows the counting run computed, in row order, and the
+/// operations it performed.
+fn count_evaluation(catalog: &mut Catalog, x: &State, env: &Environment, cull: bool) -> (Rows, OpCount) {
+    use gen::family::*;
+    let thresholds = [if cull { f64::NEG_INFINITY } else { f64::INFINITY }; gen::FAMILIES.len()];
+    BarrierSet::cull_above(catalog, &thresholds);
+    catalog.evaluate(x, env).unwrap();
+    let xc = x.map(Counted);
+    let layout = catalog.layout();
+    // The instances `evaluate` runs for a member: as many as the layout has, from `all`.
+    fn slots<P>(layout: &[cbfgen::system::RowLayout], family: usize, member: usize, all: Vec<P>) -> Vec<P> {
+        let n = layout.iter().filter(|l| l.family == family && l.member == member && l.row == 0).count();
+        assert!(all.len() >= n, "family {family} member {member}: {n} slots, {} instances", all.len());
+        all.into_iter().take(n).collect()
+    }
+    let (mut rows, mut ops) = (Vec::new(), OpCount::ZERO);
+    let mut add = |(r, n): (Rows, OpCount)| {
+        rows.extend(r);
+        ops = ops + n;
+    };
+    // No parameters: one call per member (a state part of nothing, the kernel per instance).
+    for m in 0..6 {
+        add(leg_member!(
+            m,
+            &slots(layout, JOINT_LIMITS, m, vec![()]),
+            &xc,
+            |_s, _p| (&xc),
+            [
+                (no_state_part, gen::joint_limits_lf, gen::JOINT_LIMITS_LF_INPUT_COLUMNS),
+                (no_state_part, gen::joint_limits_mf, gen::JOINT_LIMITS_MF_INPUT_COLUMNS),
+                (no_state_part, gen::joint_limits_rf, gen::JOINT_LIMITS_RF_INPUT_COLUMNS),
+                (no_state_part, gen::joint_limits_lr, gen::JOINT_LIMITS_LR_INPUT_COLUMNS),
+                (no_state_part, gen::joint_limits_mr, gen::JOINT_LIMITS_MR_INPUT_COLUMNS),
+                (no_state_part, gen::joint_limits_rr, gen::JOINT_LIMITS_RR_INPUT_COLUMNS),
+            ]
+        ));
+    }
+    for m in 0..6 {
+        add(leg_member!(
+            m,
+            &slots(layout, FOOT_HEIGHT, m, env.foot_height[m].to_vec()),
+            &xc,
+            |s, p| (s, Counted(p.floor_z)),
+            [
+                (gen::foot_height_lf_state, gen::foot_height_lf_instance, gen::FOOT_HEIGHT_LF_INPUT_COLUMNS),
+                (gen::foot_height_mf_state, gen::foot_height_mf_instance, gen::FOOT_HEIGHT_MF_INPUT_COLUMNS),
+                (gen::foot_height_rf_state, gen::foot_height_rf_instance, gen::FOOT_HEIGHT_RF_INPUT_COLUMNS),
+                (gen::foot_height_lr_state, gen::foot_height_lr_instance, gen::FOOT_HEIGHT_LR_INPUT_COLUMNS),
+                (gen::foot_height_mr_state, gen::foot_height_mr_instance, gen::FOOT_HEIGHT_MR_INPUT_COLUMNS),
+                (gen::foot_height_rr_state, gen::foot_height_rr_instance, gen::FOOT_HEIGHT_RR_INPUT_COLUMNS),
+            ]
+        ));
+    }
+    for m in 0..6 {
+        let bounds = slots(layout, STABILITY, m, env.stability[m].iter().map(|p| p.unwrap()).collect());
+        add(leg_member!(
+            m,
+            &bounds,
+            &xc,
+            |s, p| (s, Counted(p.a), Counted(p.b)),
+            [
+                (gen::stability_lf_state, gen::stability_lf_instance, gen::STABILITY_LF_INPUT_COLUMNS),
+                (gen::stability_mf_state, gen::stability_mf_instance, gen::STABILITY_MF_INPUT_COLUMNS),
+                (gen::stability_rf_state, gen::stability_rf_instance, gen::STABILITY_RF_INPUT_COLUMNS),
+                (gen::stability_lr_state, gen::stability_lr_instance, gen::STABILITY_LR_INPUT_COLUMNS),
+                (gen::stability_mr_state, gen::stability_mr_instance, gen::STABILITY_MR_INPUT_COLUMNS),
+                (gen::stability_rr_state, gen::stability_rr_instance, gen::STABILITY_RR_INPUT_COLUMNS),
+            ]
+        ));
+    }
+    // The edges: the lower bound first, then (not culled) the rows.
+    let edges =
+        |p: (&Vector3<f64>, &Matrix3<f64>, &Vector3<f64>)| (p.0.map(Counted), p.1.map(Counted), p.2.map(Counted));
+    let body = slots(
+        layout,
+        BODY_EDGE,
+        0,
+        env.body_edge.as_slice().iter().map(|p| edges((&p.center, &p.rotation, &p.half))).collect(),
+    );
+    add(run_member(
+        &body,
+        || (gen::body_edge_lower_bound_state(&xc), (!cull).then(|| gen::body_edge_state(&xc))),
+        |(b, s), (c, rot, h)| {
+            let bound = gen::body_edge_lower_bound_instance(b, c, rot, h);
+            match s {
+                Some(s) => counted_rows(gen::body_edge_instance(s, c, rot, h), &gen::BODY_EDGE_INPUT_COLUMNS),
+                None => culled_rows(bound, gen::BODY_EDGE_ROW_NAMES.len()),
+            }
+        },
+    ));
+    let toe = slots(
+        layout,
+        TOE_EDGE,
+        0,
+        env.toe_edge.as_slice().iter().map(|p| edges((&p.center, &p.rotation, &p.half))).collect(),
+    );
+    add(run_member(
+        &toe,
+        || (gen::toe_edge_lower_bound_state(&xc), (!cull).then(|| gen::toe_edge_state(&xc))),
+        |(b, s), (c, rot, h)| {
+            let bound = gen::toe_edge_lower_bound_instance(b, c, rot, h);
+            match s {
+                Some(s) => counted_rows(gen::toe_edge_instance(s, c, rot, h), &gen::TOE_EDGE_INPUT_COLUMNS),
+                None => culled_rows(bound, gen::TOE_EDGE_ROW_NAMES.len()),
+            }
+        },
+    ));
+    for m in 0..6 {
+        let planes = slots(layout, FOOTHOLD, m, env.foothold[m].as_slice().to_vec());
+        add(leg_member!(
+            m,
+            &planes,
+            &xc,
+            |s, p| (s, &p.normal.map(Counted), Counted(p.offset)),
+            [
+                (gen::foothold_lf_state, gen::foothold_lf_instance, gen::FOOTHOLD_LF_INPUT_COLUMNS),
+                (gen::foothold_mf_state, gen::foothold_mf_instance, gen::FOOTHOLD_MF_INPUT_COLUMNS),
+                (gen::foothold_rf_state, gen::foothold_rf_instance, gen::FOOTHOLD_RF_INPUT_COLUMNS),
+                (gen::foothold_lr_state, gen::foothold_lr_instance, gen::FOOTHOLD_LR_INPUT_COLUMNS),
+                (gen::foothold_mr_state, gen::foothold_mr_instance, gen::FOOTHOLD_MR_INPUT_COLUMNS),
+                (gen::foothold_rr_state, gen::foothold_rr_instance, gen::FOOTHOLD_RR_INPUT_COLUMNS),
+            ]
+        ));
+    }
+    for m in 0..6 {
+        let pulls = slots(layout, FOOTHOLD_PULL, m, env.foothold_pull[m].iter().map(|p| p.unwrap()).collect());
+        add(leg_member!(
+            m,
+            &pulls,
+            &xc,
+            |s, p| (s, &p.target.map(Counted), &p.direction.map(Counted)),
+            [
+                (gen::foothold_pull_lf_state, gen::foothold_pull_lf_instance, gen::FOOTHOLD_PULL_LF_INPUT_COLUMNS),
+                (gen::foothold_pull_mf_state, gen::foothold_pull_mf_instance, gen::FOOTHOLD_PULL_MF_INPUT_COLUMNS),
+                (gen::foothold_pull_rf_state, gen::foothold_pull_rf_instance, gen::FOOTHOLD_PULL_RF_INPUT_COLUMNS),
+                (gen::foothold_pull_lr_state, gen::foothold_pull_lr_instance, gen::FOOTHOLD_PULL_LR_INPUT_COLUMNS),
+                (gen::foothold_pull_mr_state, gen::foothold_pull_mr_instance, gen::FOOTHOLD_PULL_MR_INPUT_COLUMNS),
+                (gen::foothold_pull_rr_state, gen::foothold_pull_rr_instance, gen::FOOTHOLD_PULL_RR_INPUT_COLUMNS),
+            ]
+        ));
+    }
+    (rows, ops)
+}
+
+/// The state part of a kernel without one.
+fn no_state_part<T>(_: T) {}
+
+/// Whether every field of `bound` is at least `done`'s.
+fn covers(bound: OpCount, done: OpCount) -> bool {
+    bound.to_array().iter().zip(done.to_array()).all(|(b, d)| *b >= d)
+}
+
+#[test]
+fn evaluation_ops_is_what_evaluate_performs_in_its_kernels_with_every_slot_filled() {
+    // The operations the kernels evaluate calls perform, counted as they run (on
+    // cbfgen::ops::Counted, with the state and parameters evaluate was given), summed over
+    // the calls it makes: the count of calls from the catalog's layout, and every row the
+    // counting run computes the one evaluate stored (so the calls are evaluate's own).
+    let mut r = rng(63);
+    let small = Capacity::edges(3, [2, 0, 1, 0, 4, 1]); // two legs without a foothold slot
+    for capacity in [Capacity::PAPER_WORST_CASE, small, Capacity::edges(0, [0; 6])] {
+        let mut catalog = Catalog::new(capacity).unwrap();
+        let stated = catalog.evaluation_ops().expect("every Tachyon 3 kernel states its count");
+        for _ in 0..3 {
+            let (x, env) = (random_state(&mut r), filled_environment(capacity, &mut r));
+            for cull in [false, true] {
+                let (rows, counted) = count_evaluation(&mut catalog, &x, &env, cull);
+                assert_eq!(rows.len(), catalog.rows().len(), "{capacity:?}");
+                for (k, (row, (lie, lg))) in catalog.rows().iter().zip(&rows).enumerate() {
+                    let family = catalog.layout()[k].family;
+                    let edge = family == gen::family::BODY_EDGE || family == gen::family::TOE_EDGE;
+                    assert!(row.active && row.culled == (cull && edge), "{capacity:?} cull {cull}: row {k}");
+                    assert_eq!((&row.lie[..3], &row.lg), (&lie[..], lg), "{capacity:?} cull {cull}: row {k}");
+                }
+                if cull {
+                    // Every edge culled: less than the bound, which ignores culling.
+                    let edges = catalog.rows().iter().filter(|row| row.culled).count();
+                    assert_eq!(edges, 7 * capacity.body_edge, "{capacity:?}");
+                    assert!(covers(stated, counted), "{capacity:?}: stated {stated}, counted {counted}");
+                    assert!(edges == 0 || counted.total() < stated.total(), "{capacity:?}: {counted}");
+                } else {
+                    assert_eq!(stated, counted, "{capacity:?}: stated {stated}, counted {counted}");
+                }
+            }
+        }
+        println!("{capacity:?}: {stated}");
+    }
 }
