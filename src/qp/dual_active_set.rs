@@ -179,6 +179,9 @@ pub enum DenseStatus {
     /// The step budget ran out; [`DualActiveSet::solution`] is the finite iterate reached,
     /// optimal for a subset of the rows but not feasible for all.
     MaxSteps,
+    /// The work budget ran out ([`DualActiveSet::solve_within`]); the iterate is as
+    /// `MaxSteps` leaves it.
+    MaxWork,
     /// The method ended, but its answer failed the KKT check or its infeasibility
     /// certificate failed its check (rounding on a nearly degenerate problem); the
     /// solution is the finite point reached, or zeros.
@@ -195,7 +198,7 @@ impl DenseStatus {
         match self {
             DenseStatus::Solved => QpStatus::Solved,
             DenseStatus::Infeasible => QpStatus::PrimalInfeasible,
-            DenseStatus::MaxSteps | DenseStatus::Unverified => QpStatus::MaxIterations,
+            DenseStatus::MaxSteps | DenseStatus::MaxWork | DenseStatus::Unverified => QpStatus::MaxIterations,
             DenseStatus::NonFiniteData => QpStatus::NonFinite,
         }
     }
@@ -510,6 +513,32 @@ impl DualActiveSet {
             + verify
     }
 
+    /// The most work a solve can do past a work budget it checks
+    /// ([`DualActiveSet::solve_within`]): the set-up and seeding it does before its first
+    /// check, the one addition (with every drop on its way, at most one per active row) and
+    /// the pass of drops and search after the last check, and the final verification. A
+    /// solve of `vars` variables and at most `rows` rows within `max_work` therefore never
+    /// works more than `max_work + work_overshoot(vars, rows)`.
+    pub fn work_overshoot(vars: usize, rows: usize) -> u64 {
+        let (n, m) = (vars as u64, rows as u64);
+        let prepare = n + m * (4 * n + 2);
+        let project = n + n * n;
+        let push = (n + 1) * n + n + 1;
+        let drop = n * (3 * n + 1);
+        let optimum = 3 * n * n + 2 * n;
+        let negative = 2 * n;
+        let violated = m * (n + 1);
+        let inner = 3 * n * n + 6 * n;
+        let certificate = n * n + 6 * n;
+        let verify = 2 * n + m * (n + 1) + n * (2 * n + 1);
+        let seeding = (m + n) * project + n * push;
+        // An addition: up to n partial steps, each dropping a row, then the full step.
+        let addition = (n + 1) * inner + n * drop + push + certificate + n;
+        // The pass after it: its drops back to dual feasibility, and the search.
+        let pass = (n + 1) * (optimum + negative) + n * drop + violated;
+        prepare + seeding + pass + addition + pass + verify
+    }
+
     /// Rows the last solve added to the active set: what `max_steps` bounds.
     pub fn rows_added(&self) -> u32 {
         self.added
@@ -523,10 +552,19 @@ impl DualActiveSet {
     /// Solve the QP in its current data from `start`, adding at most `max_steps` rows to
     /// the active set (module docs). Does not allocate.
     pub fn solve(&mut self, start: WarmStart<'_>, max_steps: u32) -> DenseStatus {
+        self.solve_within(start, max_steps, u64::MAX)
+    }
+
+    /// [`DualActiveSet::solve`] that also stops, [`DenseStatus::MaxWork`], once its work
+    /// ([`DualActiveSet::work`]) has reached `max_work`. The budget is checked where the
+    /// step budget is, before each addition, so the iterate it stops at is dual feasible
+    /// and a warm start from it goes on; the most a solve does past it is
+    /// [`DualActiveSet::work_overshoot`]. Does not allocate.
+    pub fn solve_within(&mut self, start: WarmStart<'_>, max_steps: u32, max_work: u64) -> DenseStatus {
         self.steps = 0;
         self.added = 0;
         self.work = 0;
-        self.status = self.run(start, max_steps);
+        self.status = self.run(start, max_steps, max_work);
         if !self.x.iter().all(|v| v.is_finite()) {
             self.x.fill(0.0);
             if self.status != DenseStatus::NonFiniteData {
@@ -544,7 +582,7 @@ impl DualActiveSet {
         self.status
     }
 
-    fn run(&mut self, start: WarmStart<'_>, max_steps: u32) -> DenseStatus {
+    fn run(&mut self, start: WarmStart<'_>, max_steps: u32, max_work: u64) -> DenseStatus {
         if let Some(status) = self.prepare_rows() {
             self.x.fill(0.0);
             self.active.clear();
@@ -599,6 +637,9 @@ impl DualActiveSet {
             // the active set reached is dual feasible and a warm start from it goes on.
             if self.added >= max_steps {
                 return DenseStatus::MaxSteps;
+            }
+            if self.work >= max_work {
+                return DenseStatus::MaxWork;
             }
             match self.add(p) {
                 AddOutcome::Added => {}

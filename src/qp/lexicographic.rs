@@ -233,6 +233,9 @@ struct PackedStage {
     warm: WarmStarts,
     translated: Vec<ActiveRow>,
     reached: Vec<ActiveRow>,
+    /// Whether this stage has solved since [`LexicographicSolver::solve`] began (its point
+    /// is this problem's, not a former one's).
+    ran: bool,
 }
 
 const NONE: usize = usize::MAX;
@@ -250,6 +253,7 @@ impl PackedStage {
             warm: WarmStarts::new(slots, n),
             translated: Vec::with_capacity(n),
             reached: Vec::with_capacity(n),
+            ran: false,
         })
     }
 
@@ -276,8 +280,9 @@ impl PackedStage {
         self.packed_of[row] = p;
     }
 
-    /// Solve the rows packed, warm-started from `slot`.
-    fn solve(&mut self, slot: usize, max_steps: u32) -> DenseStatus {
+    /// Solve the rows packed, warm-started from `slot`, within `max_work` (> 0); adds the
+    /// work done to `*spent`.
+    fn solve(&mut self, slot: usize, max_steps: u32, max_work: u64, spent: &mut u64) -> DenseStatus {
         let count = self.count;
         self.qp.set_rows_in_use(self.head + count);
         self.translated.clear();
@@ -287,12 +292,16 @@ impl PackedStage {
                 self.translated.push(ActiveRow { row: packed, side });
             }
         }
-        let mut status = self.qp.solve(WarmStart::Given(&self.translated), max_steps);
-        if status == DenseStatus::Unverified && !self.translated.is_empty() {
+        self.ran = true;
+        let mut status = self.qp.solve_within(WarmStart::Given(&self.translated), max_steps, max_work);
+        *spent += self.qp.work();
+        let left = max_work.saturating_sub(self.qp.work());
+        if status == DenseStatus::Unverified && !self.translated.is_empty() && left > 0 {
             // A warm start of nearly dependent rows can leave a point whose check drowns
             // in the rounding of their factorisation; from nothing, the method adds rows
             // only as they are needed.
-            status = self.qp.solve(WarmStart::Cold, max_steps);
+            status = self.qp.solve_within(WarmStart::Cold, max_steps, left);
+            *spent += self.qp.work();
         }
         if status != DenseStatus::NonFiniteData {
             self.reached.clear();
@@ -355,6 +364,10 @@ pub struct LexicographicSolver<const NU: usize> {
     steps: u32,
     elastic_stages: u32,
     outcome: Outcome,
+    /// The work budget of one solve, and the work the current one has done (dense-solver
+    /// trips, [`DualActiveSet::work`]).
+    max_work: u64,
+    work: u64,
 }
 
 impl<const NU: usize> LexicographicSolver<NU> {
@@ -404,6 +417,8 @@ impl<const NU: usize> LexicographicSolver<NU> {
             steps: 0,
             elastic_stages: 0,
             outcome: Outcome::Verified,
+            max_work: u64::MAX,
+            work: 0,
         };
         solver.write_box();
         let data = solver.elastic.qp.data_mut();
@@ -446,6 +461,27 @@ impl<const NU: usize> LexicographicSolver<NU> {
         self.rows
     }
 
+    /// Bound each later solve's work, summed over all its stages, by `max_work` dense-solver
+    /// trips (at least 1; no bound at first). A stage starts only while work is left, and
+    /// each gets what is left as its own budget ([`DualActiveSet::solve_within`]); a solve
+    /// that runs out ends [`Outcome::StepLimit`] with stage H's point, as a step budget
+    /// does.
+    pub fn set_max_work(&mut self, max_work: u64) {
+        self.max_work = max_work.max(1);
+    }
+
+    /// The last solve's work over all its stages, in dense-solver trips.
+    pub fn work(&self) -> u64 {
+        self.work
+    }
+
+    /// The most work one solve can do under a work budget of `max_work`: the budget, and
+    /// what the stage that spends it can do past it ([`DualActiveSet::work_overshoot`] of
+    /// the larger stage, E, at full capacity).
+    pub fn worst_case_work(&self, max_work: u64) -> u64 {
+        max_work.max(1).saturating_add(DualActiveSet::work_overshoot(NU + 1, self.elastic.head + self.rows))
+    }
+
     /// Solve for nominal input `u_ref` and `rows`; only rows with `active[i]` take part.
     /// Each stage may add up to `max_steps` rows to its active set. Allocation-free.
     ///
@@ -473,6 +509,9 @@ impl<const NU: usize> LexicographicSolver<NU> {
         }
         self.steps = 0;
         self.elastic_stages = 0;
+        self.work = 0;
+        self.hard.ran = false;
+        self.elastic.ran = false;
         self.outcome = self.run(u_ref, rows, active, max_steps);
         Ok(self.outcome)
     }
@@ -480,7 +519,7 @@ impl<const NU: usize> LexicographicSolver<NU> {
     fn run(&mut self, u_ref: &[f64; NU], rows: &[TieredRow<NU>], active: &[bool], max_steps: u32) -> Outcome {
         self.pad = 0.0;
         let outcome = self.cascade(u_ref, rows, active, max_steps);
-        if outcome != Outcome::StepLimit || self.elastic_stages == 0 {
+        if outcome != Outcome::StepLimit || self.elastic_stages == 0 || self.work >= self.max_work {
             return outcome;
         }
         // A tier settled at exactly its least violation can leave the next stage
@@ -544,8 +583,12 @@ impl<const NU: usize> LexicographicSolver<NU> {
         self.u = self.inputs(self.hard.qp.solution());
     }
 
-    /// Stage E's point as `u` (a stage that did not finish).
+    /// Stage E's point as `u` (a stage that did not finish), or stage H's where stage E
+    /// has not run in this solve (its budget was spent first).
     fn take_elastic_point(&mut self) -> Outcome {
+        if !self.elastic.ran {
+            return self.reached();
+        }
         self.u = self.inputs(self.elastic.qp.solution());
         Outcome::StepLimit
     }
@@ -597,7 +640,10 @@ impl<const NU: usize> LexicographicSolver<NU> {
                 self.hard.push(i, &a, 0.0, -row.b - self.relaxation[i]);
             }
         }
-        let status = self.hard.solve(slot, max_steps);
+        if self.work >= self.max_work {
+            return DenseStatus::MaxWork;
+        }
+        let status = self.hard.solve(slot, max_steps, self.max_work - self.work, &mut self.work);
         self.steps += self.hard.qp.steps();
         status
     }
@@ -735,7 +781,10 @@ impl<const NU: usize> LexicographicSolver<NU> {
             data.q[j] = -scaled_centre[j];
         }
         data.q[NU] = penalty * scale;
-        let status = self.elastic.solve(usize::from(tier), max_steps);
+        if self.work >= self.max_work {
+            return DenseStatus::MaxWork;
+        }
+        let status = self.elastic.solve(usize::from(tier), max_steps, self.max_work - self.work, &mut self.work);
         self.steps += self.elastic.qp.steps();
         status
     }

@@ -598,3 +598,55 @@ fn no_solve_works_more_than_its_stated_worst_case() {
     assert!(kinds.equality > 0 && kinds.infeasible > 0 && kinds.zero > 0, "{kinds:?}");
     println!("{solves} solves; the most work any took: {:.1} % of its worst case", 100.0 * tightest);
 }
+
+#[test]
+fn a_work_budget_stops_a_solve_within_its_stated_overshoot_and_a_warm_start_goes_on() {
+    // Random problems under random work budgets: a solve stopped for work has reached its
+    // budget, no solve passes its budget by more than the stated overshoot, and solving
+    // again from where a budgeted solve stopped reaches the unbudgeted solve's answer.
+    let mut kinds = Kinds::default();
+    let mut rng = ChaCha8Rng::seed_from_u64(63);
+    let (mut stopped, mut largest_share) = (0, 0.0f64);
+    for case in 0..1500 {
+        let qp = random_qp(&mut rng, case % 5 == 4, &mut kinds);
+        let mut free = qp.solver();
+        let status = free.solve(WarmStart::Cold, 1000);
+        let (unbudgeted, full_work) = (free.solution().to_vec(), free.work());
+        let overshoot = DualActiveSet::work_overshoot(qp.n, qp.m());
+        let mut s = qp.solver();
+        let max_work = rng.random_range(1..=full_work.max(1));
+        let mut budgeted = s.solve_within(WarmStart::Cold, 1000, max_work);
+        assert!(s.work() <= max_work + overshoot, "case {case}: {} > {max_work} + {overshoot}", s.work());
+        largest_share = largest_share.max((s.work().saturating_sub(max_work)) as f64 / overshoot as f64);
+        if budgeted == DenseStatus::MaxWork {
+            stopped += 1;
+            assert!(s.work() >= max_work, "case {case}: stopped at {} before its budget {max_work}", s.work());
+            assert!(s.solution().iter().all(|v| v.is_finite()));
+            // Solved again from where each stopped (a budget below one pass of the set-up
+            // and search makes no progress, so a solve that added nothing gets twice the
+            // budget), the budgeted solves end where the unbudgeted one did.
+            let mut budget = max_work;
+            for _ in 0..200 {
+                let reached = s.active_set().to_vec();
+                budgeted = s.solve_within(WarmStart::Given(&reached), 1000, budget);
+                if budgeted != DenseStatus::MaxWork {
+                    break;
+                }
+                if s.rows_added() == 0 {
+                    budget *= 2;
+                }
+            }
+        }
+        assert_eq!(budgeted, status, "case {case}");
+        if status == DenseStatus::Solved {
+            for (a, b) in s.solution().iter().zip(&unbudgeted) {
+                assert!((a - b).abs() <= 1e-7 * (1.0 + b.abs()), "case {case}: {a} against {b}");
+            }
+        }
+    }
+    assert!(stopped > 300 && kinds.infeasible > 0, "{stopped} stopped; {kinds:?}");
+    println!(
+        "{stopped} solves stopped for work; the most past its budget: {:.1} % of the overshoot",
+        100.0 * largest_share
+    );
+}
