@@ -386,6 +386,10 @@ struct SolverArgs {
     /// Most steps of the dense solve, 1 to 10000.
     #[arg(long, allow_hyphen_values = true, value_parser = count(1, SolverSettings::MAX_ITERATIONS))]
     dense_max_steps: Option<u32>,
+    /// Most work of one dense solve, in inner-loop trips, 1 to 1e10 (default 1e7): what
+    /// bounds an update's worst case (printed by `latency`).
+    #[arg(long, allow_hyphen_values = true, value_parser = count(1, SolverSettings::MAX_WORK))]
+    dense_max_work: Option<u64>,
     /// Absolute tolerance, in [1e-12, 1e3].
     #[arg(long, allow_hyphen_values = true,
           value_parser = number(SolverSettings::MIN_TOLERANCE, SolverSettings::MAX_TOLERANCE, Closed))]
@@ -421,6 +425,7 @@ impl SolverArgs {
             };
         }
         o.dense_max_steps = self.dense_max_steps.unwrap_or(o.dense_max_steps);
+        o.dense_max_work = self.dense_max_work.unwrap_or(o.dense_max_work);
         o.eps_abs = self.eps_abs.unwrap_or(o.eps_abs);
         o.eps_rel = self.eps_rel.unwrap_or(o.eps_rel);
         o.rho = self.rho.unwrap_or(o.rho);
@@ -803,11 +808,18 @@ impl CampaignArgs {
             perception,
             plant: between.plant(),
             certify: between.certify,
+            time_bound_us: None,
         };
         if let Some((index, count)) = shard {
             settings = settings.shard(index, count)?;
             let last = settings.first_id + settings.episodes as u64 - 1;
             writeln!(stdout, "shard {index}/{count}: episodes {} to {last}", settings.first_id)?;
+        }
+        // Measured before the episodes start, on a quiet machine.
+        settings = settings.with_time_bound()?;
+        match settings.time_bound_us {
+            Some(us) => writeln!(stdout, "worst case per update on this machine: {us:.1} µs of CPU time")?,
+            None => writeln!(stdout, "worst case per update: not stated in time (the certificate's enclosures)")?,
         }
         let episodes = settings.episodes;
         let bar = indicatif::ProgressBar::new(episodes as u64);

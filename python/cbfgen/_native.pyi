@@ -70,11 +70,18 @@ class FamilyInfo(TypedDict):
 class SolverSettings(TypedDict):
     backend: Backend
     dense_max_steps: int
+    dense_max_work: int
     eps_abs: float
     eps_rel: float
     max_iter: int
     polish: bool
     time_limit_us: float | None
+
+class UpdateWork(TypedDict):
+    qp_solves: int
+    dense_trips: int
+    """The dense solver's inner-loop trips over every solve."""
+    osqp_iterations: int
 
 class CbfError(ValueError):
     """An error reported by cbfgen's Rust core (bad value, capacity, solver set-up...)."""
@@ -283,6 +290,9 @@ class FilterOutput:
     @property
     def consecutive_fallbacks(self) -> int: ...
     @property
+    def work(self) -> UpdateWork:
+        """The work this update did, counted as it ran."""
+    @property
     def eval_time_us(self) -> float: ...
     @property
     def solve_time_us(self) -> float: ...
@@ -298,7 +308,8 @@ class EcbfFilter:
     defaults: activation, priority and poles map family names to values;
     input_weights, input_min, input_max have nu values; backend picks the solver (one of
     SOLVERS, else ValueError) and dense_max_steps bounds the dense solve (1 ..=
-    MAX_ITERATIONS, else CbfError); eps_abs, eps_rel, max_iter, polish and time_limit_us
+    MAX_ITERATIONS, else CbfError), dense_max_work its work in inner-loop trips (1 ..=
+    1e10; 2e6 by default); eps_abs, eps_rel, max_iter, polish and time_limit_us
     tune OSQP; measure_cpu_time=True reads the thread's CPU clock around each update
     (off by default: each reading is a system call); cull_far_rows=False evaluates every
     row every cycle (by default rows whose lower bound is above their activation threshold
@@ -320,6 +331,7 @@ class EcbfFilter:
         input_max: ArrayLike | None = None,
         backend: Backend | None = None,
         dense_max_steps: int | None = None,
+        dense_max_work: int | None = None,
         eps_abs: float | None = None,
         eps_rel: float | None = None,
         max_iter: int | None = None,

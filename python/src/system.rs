@@ -786,6 +786,18 @@ impl PyFilterOutput {
         self.out.consecutive_fallbacks
     }
 
+    /// The work this update did, counted as it ran: a dict of ``qp_solves``,
+    /// ``dense_trips`` (the dense solver's inner-loop trips) and ``osqp_iterations``.
+    #[getter]
+    fn work<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let w = self.out.work;
+        let d = PyDict::new(py);
+        d.set_item("qp_solves", w.qp_solves)?;
+        d.set_item("dense_trips", w.dense_trips)?;
+        d.set_item("osqp_iterations", w.osqp_iterations)?;
+        Ok(d)
+    }
+
     /// The safety verdict, measured at ``u`` whatever its source: "met" (every active
     /// barrier row holds), "relaxed" (see ``relaxed``) or "unassessed" (an active row was
     /// not finite). Lyapunov rows never count here: see ``convergence``.
@@ -941,6 +953,7 @@ fn settings(system: &dyn DynSystem, kw: Option<&Bound<'_, PyDict>>) -> PyResult<
                 s.solver.backend = Solver::ALL[choice("backend", &value.extract::<String>()?, &names)?];
             }
             "dense_max_steps" => s.solver.dense_max_steps = value.extract()?,
+            "dense_max_work" => s.solver.dense_max_work = value.extract()?,
             "eps_abs" => s.solver.eps_abs = value.extract()?,
             "eps_rel" => s.solver.eps_rel = value.extract()?,
             "max_iter" => s.solver.max_iter = value.extract()?,
@@ -968,7 +981,7 @@ fn settings(system: &dyn DynSystem, kw: Option<&Bound<'_, PyDict>>) -> PyResult<
             other => {
                 return Err(crate::value_error(format!(
                     "unknown setting '{other}': expected activation, priority, poles, input_weights, \
-                     input_min, input_max, backend, dense_max_steps, eps_abs, eps_rel, max_iter, polish, \
+                     input_min, input_max, backend, dense_max_steps, dense_max_work, eps_abs, eps_rel, max_iter, polish, \
                      time_limit_us, measure_cpu_time, cull_far_rows, sample_period, input_delay, \
                      certify_rounds or certify_exempt"
                 )))
@@ -984,7 +997,8 @@ fn settings(system: &dyn DynSystem, kw: Option<&Bound<'_, PyDict>>) -> PyResult<
 /// spec's defaults: ``activation``, ``priority`` and ``poles`` map family names to
 /// values; ``input_weights``, ``input_min``, ``input_max`` have nu values; ``backend``
 /// picks the solver (one of ``SOLVERS``: "dense", "osqp", "dense_then_osqp"), and
-/// ``dense_max_steps`` bounds the dense solve's steps (1 ..= ``MAX_ITERATIONS``);
+/// ``dense_max_steps`` bounds the dense solve's steps (1 ..= ``MAX_ITERATIONS``) and
+/// ``dense_max_work`` its work in inner-loop trips (1 ..= 10¹⁰; 2·10⁶ by default);
 /// ``eps_abs``, ``eps_rel``, ``max_iter``, ``polish`` and ``time_limit_us`` tune OSQP;
 /// ``measure_cpu_time=True`` reads the thread's CPU clock around each update (off by
 /// default: a system call per reading); ``cull_far_rows=False`` evaluates every row every
@@ -1150,7 +1164,7 @@ impl PyEcbfFilter {
             .collect())
     }
 
-    /// The solver settings in use: ``backend``, ``dense_max_steps``, ``eps_abs``,
+    /// The solver settings in use: ``backend``, ``dense_max_steps``, ``dense_max_work``, ``eps_abs``,
     /// ``eps_rel``, ``max_iter``, ``polish`` and ``time_limit_us`` (None: no limit), as the
     /// keywords of the same names set them.
     #[getter]
@@ -1159,6 +1173,7 @@ impl PyEcbfFilter {
         let d = PyDict::new(py);
         d.set_item("backend", s.backend.name())?;
         d.set_item("dense_max_steps", s.dense_max_steps)?;
+        d.set_item("dense_max_work", s.dense_max_work)?;
         d.set_item("eps_abs", s.eps_abs)?;
         d.set_item("eps_rel", s.eps_rel)?;
         d.set_item("max_iter", s.max_iter)?;

@@ -130,9 +130,11 @@
 //! ```
 
 pub mod between_samples;
+pub mod calibrate;
 mod qp;
 mod settings;
 pub mod verdict;
+pub mod work;
 
 use std::time::{Duration, Instant};
 
@@ -141,12 +143,13 @@ pub use between_samples::{BetweenSamples, SampledData};
 pub use qp::{EcbfQp, RowSpec};
 pub use settings::{domain, FilterSettings};
 pub use verdict::{Cause, FamilyRelaxation, Limit, RelaxedRow, Safety, Verdict};
+pub use work::{BoundCheck, Calibration, Work, WorstCase};
 
 use crate::cpu_time::thread_cpu_time;
 use crate::error::CbfError;
 use crate::interval::Interval;
 use crate::qp::metric::InputMetric;
-use crate::system::{BarrierSet, FamilyKind, Gains, Objective, Row};
+use crate::system::{BarrierSet, FamilyKind, Gains, Objective, Row, RowLayout};
 use between_samples::{NotEnclosed, RowEnclosure, Why, Window};
 
 /// A row short of its sampled-data certificate by `d` asks `MARGIN_STEP · d` more at the
@@ -236,6 +239,9 @@ pub struct Output<U> {
     pub between_samples: BetweenSamples,
     /// Fallback cycles in a row, this one included (0 when `source` is `Qp`).
     pub consecutive_fallbacks: u32,
+    /// The work this update did, counted as it ran, over every solve: never above
+    /// [`EcbfFilter::worst_case`] ([`work`]).
+    pub work: Work,
     /// Time in row evaluation and activation.
     pub eval_time: Duration,
     /// Time in the QP update and solve, and the verdict's assessment.
@@ -270,6 +276,7 @@ impl<U> Output<U> {
             convergence: Safety::UNASSESSED,
             between_samples: BetweenSamples::Off,
             consecutive_fallbacks: 0,
+            work: Work { qp_solves: 0, dense_trips: 0, osqp_iterations: 0 },
             eval_time: Duration::ZERO,
             solve_time: Duration::ZERO,
             cpu_time: None,
@@ -294,6 +301,7 @@ impl<U> Output<U> {
             convergence: self.convergence,
             between_samples: self.between_samples,
             consecutive_fallbacks: self.consecutive_fallbacks,
+            work: self.work,
             eval_time: self.eval_time,
             solve_time: self.solve_time,
             cpu_time: self.cpu_time,
@@ -349,22 +357,9 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
     pub fn new(mut barriers: B, settings: FilterSettings<NU>) -> Result<Self, CbfError> {
         settings.validate(barriers.families())?;
         // Off means off, even for barriers a caller set thresholds on before.
-        let thresholds: Vec<f64> = settings
-            .families
-            .iter()
-            .map(|p| if settings.cull_far_rows { p.activation } else { f64::INFINITY })
-            .collect();
-        barriers.cull_above(&thresholds);
+        barriers.cull_above(&cull_thresholds(&settings));
         let gains: Vec<_> = settings.families.iter().map(|p| p.gains()).collect();
-        let specs: Vec<RowSpec<'_>> = barriers
-            .layout()
-            .iter()
-            .map(|s| RowSpec {
-                columns: s.columns,
-                gains: gains[s.family],
-                priority: settings.families[s.family].priority,
-            })
-            .collect();
+        let specs = row_specs(barriers.layout(), &settings);
         let cost = barriers.has_objective().then(Objective::default);
         let qp = if cost.is_some() {
             // The objective is the cost: weights beside it would be a second, silent one.
@@ -472,6 +467,7 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
         self.output.eval_time = evaluated - start;
         self.margins.fill(0.0);
         self.deficits.fill(0.0);
+        self.output.work = Work::default();
         self.solve_round(&centre, u_ref, active_rows);
         let mut between = BetweenSamples::Off;
         if let Some(sampled) = &self.settings.sampled_data {
@@ -591,6 +587,12 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
         self.qp.set_margins(&self.margins);
         let solved = self.qp.solve(centre, self.barriers.rows(), &self.active);
         let out = &mut self.output;
+        if solved.is_ok() {
+            let work = &mut out.work;
+            work.qp_solves += 1;
+            work.dense_trips = work.dense_trips.saturating_add(self.qp.dense_work());
+            work.osqp_iterations = work.osqp_iterations.saturating_add(self.qp.iterations());
+        }
         out.active_rows = active_rows;
         let ok = solved.is_ok();
         out.iterations = if ok { self.qp.iterations() } else { 0 };
@@ -713,6 +715,46 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
         u
     }
 
+    /// The most one update can do with this filter's rows and settings, whatever the
+    /// state, the rows and the history ([`work`]): every [`Output::work`] is within it.
+    pub fn worst_case(&self) -> WorstCase {
+        let per_solve = self.qp.worst_case();
+        // The first solve, each later round's, and the best round solved again.
+        let (qp_solves, enclosures) = match &self.settings.sampled_data {
+            None => (1, 0),
+            Some(sampled) => (sampled.max_rounds.saturating_add(1), sampled.max_rounds.saturating_add(1)),
+        };
+        WorstCase {
+            qp_solves,
+            dense_trips: per_solve.dense_trips.saturating_mul(u64::from(qp_solves)),
+            osqp_iterations: per_solve.osqp_iterations.saturating_mul(qp_solves),
+            row_ops: self.barriers.evaluation_ops(),
+            enclosures,
+        }
+    }
+
+    /// This machine's rates for this filter's work ([`calibrate`]): its size and solver
+    /// settings, and its own row evaluation at `t`, `x`, `params` with nothing culled (the
+    /// evaluation [`WorstCase::row_ops`] states). Takes a second or so; not for the
+    /// control path (it allocates). The filter's rows are left evaluated at `x`.
+    ///
+    /// # Errors
+    /// As [`calibrate::osqp_iteration_ns`].
+    pub fn calibrate(&mut self, t: f64, x: &B::State, params: &B::Params) -> Result<work::Calibration, CbfError> {
+        let families = self.barriers.families().len();
+        self.barriers.cull_above(&vec![f64::INFINITY; families]);
+        let specs = row_specs(self.barriers.layout(), &self.settings);
+        let (solver, ops) = (self.settings.solver, self.barriers.evaluation_ops());
+        let barriers = &mut self.barriers;
+        let measured = work::Calibration::measure::<NU>(&specs, &solver, ops, || {
+            // A state the filter rejects is timed as far as it ran; the caller's own
+            // updates report it.
+            let _ = barriers.evaluate(t, x, params);
+        });
+        self.barriers.cull_above(&cull_thresholds(&self.settings));
+        measured
+    }
+
     /// The barrier set: its families, row layout and the rows as last evaluated.
     pub fn barriers(&self) -> &B {
         &self.barriers
@@ -769,6 +811,22 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
     pub fn qp(&self) -> &EcbfQp<NU> {
         &self.qp
     }
+}
+
+/// Each row's description for the QP: its input columns, its family's gains and priority.
+fn row_specs<const NU: usize>(layout: &[RowLayout], settings: &FilterSettings<NU>) -> Vec<RowSpec<'static>> {
+    layout
+        .iter()
+        .map(|s| {
+            let family = &settings.families[s.family];
+            RowSpec { columns: s.columns, gains: family.gains(), priority: family.priority }
+        })
+        .collect()
+}
+
+/// Each family's culling threshold: its activation, or `+∞` (none) when culling is off.
+fn cull_thresholds<const NU: usize>(settings: &FilterSettings<NU>) -> Vec<f64> {
+    settings.families.iter().map(|p| if settings.cull_far_rows { p.activation } else { f64::INFINITY }).collect()
 }
 
 fn clip<const NU: usize>(u: &mut [f64; NU], lo: &[f64; NU], hi: &[f64; NU]) {

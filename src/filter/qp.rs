@@ -60,6 +60,15 @@ pub(crate) fn met_allowance<const NU: usize>(a: &[f64; NU], b: f64, u: &[f64; NU
     MET_TOLERANCE * a.iter().zip(u).fold(b.abs(), |s, (aj, uj)| s + aj.abs() * (1.0 + uj.abs()))
 }
 
+/// The most work one QP solve can take ([`EcbfQp::worst_case`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct SolveWorstCase {
+    /// Dense-solver trips.
+    pub dense_trips: u64,
+    /// OSQP iterations.
+    pub osqp_iterations: u32,
+}
+
 /// The QP, its solvers, and the last answer and its assessment.
 pub struct EcbfQp<const NU: usize> {
     rows: usize,
@@ -89,6 +98,8 @@ pub struct EcbfQp<const NU: usize> {
     u_ref: [f64; NU],
     backend: Option<Backend>,
     dense_steps: u32,
+    /// Dense-solver trips of the last solve, over both its dense solves.
+    dense_work: u64,
     elastic_stages: u32,
     dense_fallback: bool,
     input_weights: [f64; NU],
@@ -217,11 +228,16 @@ impl<const NU: usize> EcbfQp<NU> {
             row_entries,
             tiered: rows.iter().map(|r| TieredRow { tier: r.priority, ..empty }).collect(),
             active: vec![false; m],
-            dense: LexicographicSolver::new(m, input_weights, input_min, input_max)?,
+            dense: {
+                let mut dense = LexicographicSolver::new(m, input_weights, input_min, input_max)?;
+                dense.set_max_work(settings.dense_max_work);
+                dense
+            },
             osqp_face: Vec::with_capacity(NU),
             u_ref: [0.0; NU],
             backend: None,
             dense_steps: 0,
+            dense_work: 0,
             elastic_stages: 0,
             dense_fallback: false,
             input_weights: *input_weights,
@@ -351,6 +367,7 @@ impl<const NU: usize> EcbfQp<NU> {
         }
         (self.backend, self.dense_steps, self.elastic_stages, self.dense_fallback, self.polished, self.iterations) =
             (None, 0, 0, false, false, 0);
+        self.dense_work = 0;
         self.verified = false;
         let max_steps = self.settings.dense_max_steps;
 
@@ -399,6 +416,7 @@ impl<const NU: usize> EcbfQp<NU> {
         // solver's own checks cannot fail; if they ever did, the answer is "no answer".
         let outcome = self.dense.solve(u_ref, &self.tiered, &self.active, max_steps).unwrap_or(Outcome::NonFinite);
         self.dense_steps = self.dense.steps();
+        self.dense_work += self.dense.work();
         self.elastic_stages = self.dense.elastic_stages();
         outcome
     }
@@ -557,6 +575,29 @@ impl<const NU: usize> EcbfQp<NU> {
     /// run).
     pub fn dense_steps(&self) -> u32 {
         self.dense_steps
+    }
+
+    /// Dense-solver trips of the last solve ([`crate::qp::dual_active_set::DualActiveSet::work`]),
+    /// over both its dense solves (the first, and the one from OSQP's face); 0 when none ran.
+    pub fn dense_work(&self) -> u64 {
+        self.dense_work
+    }
+
+    /// The most one [`EcbfQp::solve`] can do with these settings: its dense solves (the
+    /// first, and the polish from OSQP's face when OSQP may run), each within
+    /// [`SolverSettings::dense_max_work`] and what a stage may do past it, and OSQP's
+    /// iterations.
+    pub fn worst_case(&self) -> SolveWorstCase {
+        let s = &self.settings;
+        let dense_solves = match s.backend {
+            Solver::Dense => 1,
+            Solver::DenseThenOsqp => 1 + u64::from(s.polish),
+            Solver::Osqp => u64::from(s.polish),
+        };
+        SolveWorstCase {
+            dense_trips: dense_solves.saturating_mul(self.dense.worst_case_work(s.dense_max_work)),
+            osqp_iterations: if s.backend == Solver::Dense { 0 } else { s.max_iter },
+        }
     }
 
     /// Elastic (least-violation) stages of the last dense solve: 0 when every row fitted.

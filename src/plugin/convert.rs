@@ -104,6 +104,7 @@ pub(super) fn solver_c(s: &SolverSettings) -> SolverC {
     SolverC {
         backend: code(&SOLVERS, &s.backend),
         dense_max_steps: s.dense_max_steps,
+        dense_max_work: s.dense_max_work,
         eps_abs: s.eps_abs,
         eps_rel: s.eps_rel,
         max_iter: s.max_iter,
@@ -123,6 +124,7 @@ pub(super) fn solver(s: &SolverC) -> SolverSettings {
     SolverSettings {
         backend: decode(&SOLVERS, i64::from(s.backend)).unwrap_or_default(),
         dense_max_steps: s.dense_max_steps,
+        dense_max_work: s.dense_max_work,
         eps_abs: s.eps_abs,
         eps_rel: s.eps_rel,
         max_iter: s.max_iter,

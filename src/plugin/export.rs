@@ -434,6 +434,7 @@ unsafe extern "C" fn filter_report(filter: Handle, out: *mut ReportC) {
     r.safety = safety_c(&o.safety);
     r.convergence = safety_c(&o.convergence);
     r.consecutive_fallbacks = o.consecutive_fallbacks;
+    r.work = o.work;
     r.eval_time_ns = o.eval_time.as_nanos() as u64;
     r.solve_time_ns = o.solve_time.as_nanos() as u64;
     r.cpu_time_ns = o.cpu_time.map_or(-1, |d| d.as_nanos() as i64);

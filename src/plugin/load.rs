@@ -719,6 +719,7 @@ impl PluginFilter {
             safety: Default::default(),
             convergence: Default::default(),
             consecutive_fallbacks: 0,
+            work: Default::default(),
             eval_time_ns: 0,
             solve_time_ns: 0,
             cpu_time_ns: -1,
@@ -742,6 +743,7 @@ impl PluginFilter {
         o.safety = safety(&r.safety);
         o.convergence = safety(&r.convergence);
         o.consecutive_fallbacks = r.consecutive_fallbacks;
+        o.work = r.work;
         o.eval_time = Duration::from_nanos(r.eval_time_ns);
         o.solve_time = Duration::from_nanos(r.solve_time_ns);
         o.cpu_time = u64::try_from(r.cpu_time_ns).ok().map(Duration::from_nanos);

@@ -35,8 +35,9 @@ use crate::system::MAX_RELATIVE_DEGREE;
 
 /// The version of [`PluginV1`]'s layout and meaning; a loader refuses any other.
 /// Version 2 added the kernel table ([`DescriptionC::kernels`], [`PluginV1::kernel_call`]);
-/// the table keeps the name it was born with.
-pub const ABI_VERSION: u32 = 2;
+/// version 3 the dense solve's work budget ([`SolverC::dense_max_work`]) and each update's
+/// counted work ([`ReportC::work`]). The table keeps the name it was born with.
+pub const ABI_VERSION: u32 = 3;
 
 /// The symbol a plugin exports: `extern "C" fn() -> *const PluginV1`.
 pub const ENTRY_POINT: &str = "cbfgen_plugin_v1";
@@ -223,6 +224,7 @@ pub struct DescriptionC {
 pub struct SolverC {
     pub backend: u8,
     pub dense_max_steps: u32,
+    pub dense_max_work: u64,
     pub eps_abs: f64,
     pub eps_rel: f64,
     pub max_iter: u32,
@@ -337,6 +339,7 @@ pub struct ReportC {
     pub safety: SafetyC,
     pub convergence: SafetyC,
     pub consecutive_fallbacks: u32,
+    pub work: crate::filter::Work,
     pub eval_time_ns: u64,
     pub solve_time_ns: u64,
     pub cpu_time_ns: i64,

@@ -35,6 +35,18 @@ pub struct SolverSettings {
     /// first stage continues from it (the cascade of relaxations starts from nothing at
     /// every cycle: see [`crate::qp::lexicographic`]).
     pub dense_max_steps: u32,
+    /// Most work one dense solve may do over all its stages, in dense-solver trips
+    /// ([`DualActiveSet::work`](super::dual_active_set::DualActiveSet::work): one
+    /// multiply–add or a few flops on one entry), 1 ..= [`SolverSettings::MAX_WORK`]. A
+    /// solve that spends it ends as one out of steps does (its point flagged, never called
+    /// verified). With it the solve's work has a stated bound
+    /// ([`LexicographicSolver::worst_case_work`](super::lexicographic::LexicographicSolver::worst_case_work)).
+    /// The default, 10⁷ (about 10 ms here), cuts no answer short: the most a random
+    /// problem of 18 inputs and 60 rows in three conflicting tiers took was 8.1·10⁶ (48
+    /// least-violation stages), while Tachyon 3's updates take at most 3·10⁴. A controller
+    /// that must finish within its period sets it lower and counts the flagged cycles
+    /// (docs/filter.md, "The worst case").
+    pub dense_max_work: u64,
     /// OSQP's absolute tolerance, in the scaled problem's units (\[m/s²\] for an input of
     /// weight 1); within [`SolverSettings::MIN_TOLERANCE`] ..=
     /// [`SolverSettings::MAX_TOLERANCE`].
@@ -82,6 +94,7 @@ impl SolverSettings {
     pub const DEFAULT: Self = Self {
         backend: Solver::DenseThenOsqp,
         dense_max_steps: 100,
+        dense_max_work: 10_000_000,
         eps_abs: 1e-3,
         eps_rel: 1e-4,
         max_iter: 200,
@@ -96,6 +109,8 @@ impl SolverSettings {
         scaling: 0,
     };
 
+    /// Most work one dense solve may be given: 10¹⁰ trips, seconds of it.
+    pub const MAX_WORK: u64 = 10_000_000_000;
     /// Most ADMM iterations one solve may take. With the time limit it bounds an update:
     /// 10⁴ iterations of the 269-row QP take tens of milliseconds, never hours.
     pub const MAX_ITERATIONS: u32 = 10_000;
@@ -141,6 +156,16 @@ impl SolverSettings {
             if v > Self::MAX_ITERATIONS {
                 return Err(CbfError::TooLarge { what, value: v as usize, max: Self::MAX_ITERATIONS as usize });
             }
+        }
+        if self.dense_max_work == 0 {
+            return Err(CbfError::NotPositive { what: "dense_max_work", value: 0.0 });
+        }
+        if self.dense_max_work > Self::MAX_WORK {
+            return Err(CbfError::TooLarge {
+                what: "dense_max_work",
+                value: usize::try_from(self.dense_max_work).unwrap_or(usize::MAX),
+                max: Self::MAX_WORK as usize,
+            });
         }
         if self.scaling > Self::MAX_SCALING {
             return Err(CbfError::TooLarge {

@@ -7,7 +7,7 @@
 
 use cbfgen::filter::{EcbfQp, RowSpec};
 use cbfgen::qp::lexicographic::TieredRow;
-use cbfgen::qp::{Solver, SolverSettings};
+use cbfgen::qp::{QpStatus, Solver, SolverSettings};
 use cbfgen::system::{Gains, Row, MAX_RELATIVE_DEGREE};
 use cbfgen_testkit::boxes as common;
 use cbfgen_testkit::lexicographic_reference::{check_answer, gap_in_scale};
@@ -25,6 +25,7 @@ fn settings(rng: &mut impl Rng) -> SolverSettings {
     SolverSettings {
         backend: Solver::ALL[rng.random_range(0..Solver::ALL.len())],
         dense_max_steps: if rng.random_bool(0.5) { rng.random_range(1..4) } else { rng.random_range(4..200) },
+        dense_max_work: SolverSettings::DEFAULT.dense_max_work,
         eps_abs: range(rng, tolerance),
         eps_rel: range(rng, tolerance),
         max_iter: rng.random_range(1..400),
@@ -131,5 +132,56 @@ fn a_verified_answer_does_not_depend_on_what_the_qp_solved_before() {
             failures.len(),
             &failures[..failures.len().min(3)]
         );
+    }
+}
+
+/// Under a work budget, whatever its size: no solve's counted work passes the QP's stated
+/// worst case, a solve that verifies gives the answer an unbudgeted one gives, and a
+/// budget too small to finish leaves the answer flagged (never called verified).
+fn budgeted<const NU: usize>(seed: u64, count: usize, rows_per_problem: usize) -> (usize, usize) {
+    let mut rng = common::rng(seed);
+    let gains = Gains::new(&[1.0]).expect("gains");
+    let all: Vec<usize> = (0..NU).collect();
+    let (mut cut, mut finished) = (0, 0);
+    for case in 0..count {
+        let specs: Vec<RowSpec> =
+            (0..rows_per_problem).map(|_| RowSpec { columns: &all, gains, priority: rng.random_range(0..3) }).collect();
+        let weights = [1.0; NU];
+        let lo = [-2.0; NU];
+        let hi = [2.0; NU];
+        let (problem, u_ref) = rows(&mut rng, rows_per_problem, &lo, &hi);
+        let free_settings = SolverSettings { backend: Solver::Dense, ..SolverSettings::DEFAULT };
+        let mut free = EcbfQp::new(&specs, &weights, &lo, &hi, free_settings).expect("valid settings");
+        solve(&mut free, &problem, &u_ref);
+        let backend = Solver::ALL[rng.random_range(0..Solver::ALL.len())];
+        // From a fifth of what the unbudgeted solve took to twice it.
+        let max_work = ((free.dense_work() as f64 * rng.random_range(0.2..2.0)) as u64).max(1);
+        let s = SolverSettings { backend, dense_max_work: max_work, ..SolverSettings::DEFAULT };
+        let mut qp = EcbfQp::new(&specs, &weights, &lo, &hi, s).expect("valid settings");
+        solve(&mut qp, &problem, &u_ref);
+        let bound = qp.worst_case();
+        assert!(qp.dense_work() <= bound.dense_trips, "case {case}: {} > {}", qp.dense_work(), bound.dense_trips);
+        assert!(qp.iterations() <= bound.osqp_iterations, "case {case}");
+        if qp.verified() {
+            finished += 1;
+            if free.verified() {
+                let gap = gap_in_scale(free.u(), qp.u());
+                assert!(gap <= 1e-9, "case {case}: {gap:.3e} of the input scale from the unbudgeted answer");
+            }
+        } else {
+            cut += 1;
+            assert_ne!(qp.status(), QpStatus::Solved, "case {case}: an answer not verified reported solved");
+        }
+    }
+    (cut, finished)
+}
+
+#[test]
+fn a_work_budget_bounds_every_solve_and_never_changes_a_verified_answer() {
+    for (shape, (cut, finished)) in
+        [("3 inputs, 12 rows", budgeted::<3>(64, 1500, 12)), ("18 inputs, 60 rows", budgeted::<18>(65, 600, 60))]
+    {
+        println!("{shape}: {cut} cut short by their budget, {finished} verified within it");
+        assert!(cut > 50 && finished > 50, "{shape}: {cut} cut, {finished} finished");
     }
 }

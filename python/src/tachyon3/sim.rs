@@ -482,6 +482,7 @@ fn campaign<'py>(
         perception,
         plant,
         certify,
+        time_bound_us: None,
     };
     let result = py.detach(|| monte_carlo::run(&settings, |_| {}))?;
     let r = &result.records;

@@ -580,7 +580,11 @@ impl LipMpc {
         data.q.copy_from_slice(&self.q);
         data.lower.copy_from_slice(&self.lower);
         data.upper.copy_from_slice(&self.upper);
-        let status = dense.solve(WarmStart::Given(&self.warm), self.settings.dense_max_steps);
+        let status = dense.solve_within(
+            WarmStart::Given(&self.warm),
+            self.settings.dense_max_steps,
+            self.settings.dense_max_work,
+        );
         self.dense_steps = dense.steps();
         self.dense_status = Some(status);
         if status == DenseStatus::Solved {

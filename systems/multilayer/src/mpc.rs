@@ -382,10 +382,14 @@ impl KinematicMpc {
             // The same bound the sparse form's row k gets, with the fixed part moved over.
             *lower = self.lower[self.barrier_row + r] - (1.0 - keep) * c;
         }
-        let status = dense.solve(WarmStart::Given(&self.warm), s.solver.dense_max_steps);
+        let status =
+            dense.solve_within(WarmStart::Given(&self.warm), s.solver.dense_max_steps, s.solver.dense_max_work);
         self.dense_steps = dense.steps();
         self.dense_status = Some(status);
-        if matches!(status, DenseStatus::Solved | DenseStatus::MaxSteps | DenseStatus::Unverified) {
+        if matches!(
+            status,
+            DenseStatus::Solved | DenseStatus::MaxSteps | DenseStatus::MaxWork | DenseStatus::Unverified
+        ) {
             let w = dense.solution();
             self.z[0] = x[0];
             self.z[n + 1] = x[1];

@@ -21,7 +21,7 @@ use nalgebra::{Matrix3, Rotation3, Vector3};
 
 use crate::generated::{self as gen, Barriers, Capacity, ObstacleParams, Params, NU, NX};
 use cbfgen::error::{finite, positive, within, CbfError};
-use cbfgen::filter::{EcbfFilter, FilterSettings, InputSource};
+use cbfgen::filter::{BoundCheck, EcbfFilter, FilterSettings, InputSource};
 use cbfgen::geometry::OrientedBox;
 use cbfgen::sat;
 use cbfgen::system::BarrierSet;
@@ -251,6 +251,8 @@ pub struct Simulation {
     params: Params,
     x: State,
     cycle: usize,
+    /// The filter's stated worst case per update beside what its updates did.
+    bound: BoundCheck,
 }
 
 impl Simulation {
@@ -271,11 +273,12 @@ impl Simulation {
                 link.push(obstacle)?;
             }
         }
-        let filter = EcbfFilter::new(Barriers::new(capacity)?, scenario.settings.clone())?;
+        let mut filter = EcbfFilter::new(Barriers::new(capacity)?, scenario.settings.clone())?;
         let mut x = [0.0; NX];
         x[..JOINTS].copy_from_slice(&scenario.start);
         let unfiltered = Barriers::new(capacity)?;
-        Ok(Self { scenario: scenario.clone(), filter, unfiltered, params, x, cycle: 0 })
+        let bound = BoundCheck::new(filter.worst_case(), filter.calibrate(0.0, &x, &params)?);
+        Ok(Self { scenario: scenario.clone(), filter, unfiltered, params, x, cycle: 0, bound })
     }
 
     /// The current state `[q, q̇]`.
@@ -291,6 +294,12 @@ impl Simulation {
     /// The filter (its rows, active set and slacks are those of the last step).
     pub fn filter(&self) -> &EcbfFilter<Barriers, NU> {
         &self.filter
+    }
+
+    /// The filter's stated worst case per update (calibrated on this machine when the
+    /// simulation was built) beside the most its updates so far took.
+    pub fn bound(&self) -> &BoundCheck {
+        &self.bound
     }
 
     /// The obstacle parameters the filter sees.
@@ -309,6 +318,7 @@ impl Simulation {
         let u_ref = self.scenario.nominal(t, &x);
         let (u, source, cpu_time, wall_time) = if self.scenario.filter {
             let out = self.filter.update(&x, &u_ref, &self.params)?;
+            self.bound.record(out);
             (out.u, Some(out.source), out.cpu_time.unwrap_or_default(), out.eval_time + out.solve_time)
         } else {
             // The rows are still evaluated, for the figures' h.
@@ -375,6 +385,9 @@ pub struct Summary {
     pub over_1ms_cpu: usize,
     /// Cycles whose input was not the QP's optimum.
     pub not_qp: usize,
+    /// The filter's stated worst case per update beside the most an update took; `None`
+    /// without the filter.
+    pub bound: Option<BoundCheck>,
 }
 
 impl Summary {
@@ -406,7 +419,8 @@ pub fn run(scenario: &Scenario) -> Result<Run, CbfError> {
     for _ in 0..cycles {
         samples.push(sim.step()?);
     }
-    let summary = summarize(scenario, &samples);
+    let mut summary = summarize(scenario, &samples);
+    summary.bound = scenario.filter.then(|| *sim.bound());
     Ok(Run { scenario: scenario.clone(), samples, summary })
 }
 
@@ -444,6 +458,7 @@ fn summarize(scenario: &Scenario, samples: &[Sample]) -> Summary {
         wall_us: micros(|s| s.wall_time),
         over_1ms_cpu: samples.iter().filter(|s| s.cpu_time > Duration::from_millis(1)).count(),
         not_qp: samples.iter().filter(|s| s.source.is_some_and(|src| src != InputSource::Qp)).count(),
+        bound: None,
     }
 }
 
@@ -484,6 +499,11 @@ impl std::fmt::Display for Run {
                 "  filter update, wall: median {:.1} µs, p99 {:.1} µs, max {:.1} µs; inputs not from the QP: {}",
                 s.wall_us[0], s.wall_us[1], s.wall_us[2], s.not_qp
             )?;
+        }
+        if let Some(bound) = &s.bound {
+            for line in bound.to_string().lines() {
+                writeln!(f, "  {line}")?;
+            }
         }
         Ok(())
     }

@@ -44,7 +44,7 @@ pub mod generated {
 use cbfgen::dual::Dual;
 use cbfgen::error::{within, CbfError};
 use cbfgen::filter::between_samples::{BetweenSamples, SampledData};
-use cbfgen::filter::{EcbfFilter, FilterSettings, InputSource};
+use cbfgen::filter::{Calibration, EcbfFilter, FilterSettings, InputSource, Work};
 use cbfgen::interval::Interval;
 use cbfgen::torque::JointTorque;
 use generated::{self as gen, Barriers, Capacity, Params, SphereObstacleParams, TableParams, NU, NX};
@@ -277,6 +277,8 @@ pub struct Sample {
     /// The filter update's CPU time \[µs\], where the settings ask for it
     /// ([`FilterSettings::measure_cpu_time`]) and the platform has a thread clock.
     pub cpu_us: Option<f64>,
+    /// The filter update's work, counted as it ran (`None` without the filter).
+    pub work: Option<Work>,
 }
 
 /// A closed loop in progress.
@@ -326,6 +328,15 @@ impl Simulation {
         &self.filter
     }
 
+    /// This machine's rates for the filter's work, measured now at the current state
+    /// ([`EcbfFilter::calibrate`]).
+    ///
+    /// # Errors
+    /// As [`EcbfFilter::calibrate`].
+    pub fn calibrate(&mut self) -> Result<Calibration, CbfError> {
+        self.filter.calibrate(self.time(), &self.x, &self.params)
+    }
+
     /// The obstacle and table parameters the filter sees.
     pub fn params(&self) -> &Params {
         &self.params
@@ -348,12 +359,13 @@ impl Simulation {
     pub fn step(&mut self) -> Result<Sample, CbfError> {
         let t = self.time();
         let tau_ref = self.scenario.nominal(t, &self.x);
-        let (tau, source, cpu_us, between_samples) = if self.scenario.filter {
+        let (tau, source, cpu_us, between_samples, work) = if self.scenario.filter {
             let out = self.filter.update(&self.x, &tau_ref, &self.params)?;
-            (out.u, Some(out.source), out.cpu_time.map(|d| d.as_secs_f64() * 1e6), Some(out.between_samples))
+            let cpu_us = out.cpu_time.map(|d| d.as_secs_f64() * 1e6);
+            (out.u, Some(out.source), cpu_us, Some(out.between_samples), Some(out.work))
         } else {
             let s = &self.scenario.settings;
-            (std::array::from_fn(|j| tau_ref[j].clamp(s.input_min[j], s.input_max[j])), None, None, None)
+            (std::array::from_fn(|j| tau_ref[j].clamp(s.input_min[j], s.input_max[j])), None, None, None, None)
         };
         let (mut obstacle_clearance, mut table_clearance) = (f64::INFINITY, f64::INFINITY);
         let fine = self.scenario.fine_steps;
@@ -364,7 +376,7 @@ impl Simulation {
             table_clearance = table_clearance.min(table);
         }
         self.cycle += 1;
-        Ok(Sample { t, tau, source, obstacle_clearance, table_clearance, cpu_us, between_samples })
+        Ok(Sample { t, tau, source, obstacle_clearance, table_clearance, cpu_us, between_samples, work })
     }
 }
 

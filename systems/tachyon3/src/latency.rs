@@ -14,7 +14,7 @@ use crate::catalog::{Capacity, Catalog};
 use crate::model::NU;
 use crate::terrain::Stairs;
 use cbfgen::error::CbfError;
-use cbfgen::filter::{EcbfFilter, FilterSettings, InputSource, Solver};
+use cbfgen::filter::{BoundCheck, EcbfFilter, FilterSettings, InputSource, Solver};
 
 /// Control period \[s\].
 pub const DT: f64 = 1e-3;
@@ -111,6 +111,9 @@ pub struct LatencyReport {
     /// Gap from the robot's foremost point to the first riser at the end \[m\] (negative
     /// past it).
     pub final_gap: f64,
+    /// The filter's stated worst case per update, in counts and (calibrated on this
+    /// machine before the run) in time, beside the most any update took.
+    pub bound: BoundCheck,
 }
 
 /// Most updates one [`run`] times: it keeps about 100 bytes per update for its
@@ -137,6 +140,8 @@ pub fn run(cycles: usize, speed: f64, start_gap: f64, settings: FilterSettings<N
     let mut filter = EcbfFilter::new(Catalog::new(capacity)?, settings)?;
     let mut drive = Approach::new(capacity, stairs, start_gap, speed)?;
     let start_x = drive.x[0];
+    let calibration = filter.calibrate(0.0, &drive.x, &drive.env)?;
+    let mut bound = BoundCheck::new(filter.worst_case(), calibration);
     let mut cycle_times = Vec::with_capacity(cycles);
     let (mut eval, mut solve) = (Vec::with_capacity(cycles), Vec::with_capacity(cycles));
     let mut iterations = Vec::with_capacity(cycles);
@@ -161,6 +166,7 @@ pub fn run(cycles: usize, speed: f64, start_gap: f64, settings: FilterSettings<N
         relaxed += usize::from(!out.safety.is_met());
         conflicting += usize::from(out.elastic_stages > 0);
         steps.push(out.dense_steps);
+        bound.record(&out);
         drive.advance(&out.u, DT);
     }
     iterations.sort_unstable();
@@ -198,6 +204,7 @@ pub fn run(cycles: usize, speed: f64, start_gap: f64, settings: FilterSettings<N
         },
         travel: drive.x[0] - start_x,
         final_gap: stairs.start_x - front,
+        bound,
     })
 }
 
@@ -237,11 +244,12 @@ impl fmt::Display for LatencyReport {
             "cycles whose rows did not all fit the input box: {}; cycles not reported safe (rows relaxed): {}",
             self.conflicting, self.relaxed
         )?;
-        write!(
+        writeln!(
             f,
             "travel {:.3} m; the robot's front stopped {:.3} m before the first riser",
             self.travel, self.final_gap
-        )
+        )?;
+        write!(f, "{}", self.bound)
     }
 }
 
@@ -286,6 +294,27 @@ mod tests {
         }
         let text = r.to_string();
         assert!(text.contains("whole update, thread CPU") && text.contains("> 1 ms"), "{text}");
+    }
+
+    #[test]
+    fn under_a_tight_work_budget_no_update_works_beyond_its_stated_worst_case_and_cut_cycles_are_flagged() {
+        // Driven into the first riser, the rows change their active set now and then. With
+        // the smallest budget, a solve that must add a row stops before it: those updates
+        // hand back a flagged input, and no update works past the worst case stated.
+        let mut settings = crate::catalog::default_settings();
+        settings.solver.dense_max_work = 1;
+        let tight = run(2000, 0.5, 0.0, settings).expect("harness");
+        let plenty = run(2000, 0.5, 0.0, crate::catalog::default_settings()).expect("harness");
+        for r in [&tight, &plenty] {
+            assert_eq!((r.bound.updates, r.bound.beyond_counts), (2000, 0), "{r}");
+            assert!(r.bound.most.dense_trips > 0 && r.bound.most.qp_solves == 1, "{r}");
+        }
+        assert_eq!(plenty.fallbacks, 0, "{plenty}");
+        assert!(tight.fallbacks > 0, "{tight}");
+        // The stated worst case follows the budget.
+        let (tight_us, plenty_us) = (tight.bound.micros(), plenty.bound.micros());
+        assert!(tight.bound.worst_case.dense_trips < plenty.bound.worst_case.dense_trips, "{tight}");
+        assert!(tight_us.zip(plenty_us).is_some_and(|(t, p)| t.is_finite() && t < p), "{tight}");
     }
 
     #[test]

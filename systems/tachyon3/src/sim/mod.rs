@@ -32,7 +32,7 @@ use crate::terrain::route::Route;
 use crate::terrain::solid::{Contact, TerrainClearance, PENETRATION_TOLERANCE};
 use crate::terrain::{Stairs, Terrain};
 use cbfgen::error::CbfError;
-use cbfgen::filter::{BetweenSamples, EcbfFilter, FilterSettings, InputSource};
+use cbfgen::filter::{BetweenSamples, EcbfFilter, FilterSettings, InputSource, Work, WorstCase};
 use cbfgen::system::BarrierSet;
 use cbfgen_perception::worker::Perceived;
 use gait::GaitParams;
@@ -226,6 +226,10 @@ pub struct SimConfig {
     pub perception: Option<PerceptionSettings>,
     /// How the plant moves between the samples, and where safety is measured.
     pub plant: Plant,
+    /// The filter's worst case per update in CPU time on this machine \[µs\]
+    /// ([`time_bound_us`]), against which each update is counted
+    /// ([`Summary::over_time_bound`]); `None`: not counted.
+    pub time_bound_us: Option<f64>,
 }
 
 impl SimConfig {
@@ -248,6 +252,7 @@ impl SimConfig {
             filter,
             perception: None,
             plant: Plant::Euler,
+            time_bound_us: None,
         }
     }
 
@@ -311,6 +316,9 @@ pub struct Sample {
     /// standard configuration) \[µs\]; 0 where it is off or the platform has no thread clock. Well below `update_us` means the thread waited
     /// (a VM stall, preemption) rather than worked.
     pub cpu_us: f64,
+    /// The filter update's work, counted as it ran
+    /// ([`FilterOutput::work`](cbfgen::filter::FilterOutput::work)).
+    pub work: Work,
     /// Exact clearances of the body and the wheels to the true terrain's solids, with
     /// where each is nearest: at the sample, or with [`Plant::Held`] the least over the
     /// sample and every fine step of the period after it.
@@ -382,6 +390,17 @@ pub struct Summary {
     /// Cycles whose input was not a QP optimum ([`InputSource::Qp`]): unconverged iterates and
     /// fallbacks.
     pub fallback_cycles: usize,
+    /// The most one update of this run's filter can do, stated from its size and settings
+    /// ([`EcbfFilter::worst_case`]).
+    pub worst_case: WorstCase,
+    /// The most each count of [`Sample::work`] reached over the run (each its own maximum).
+    pub max_work: Work,
+    /// Updates whose counted work went beyond [`Summary::worst_case`]: 0, or the bound is
+    /// wrong.
+    pub over_worst_case: usize,
+    /// Updates whose CPU time went beyond [`SimConfig::time_bound_us`] (0 without one):
+    /// on a quiet machine, none.
+    pub over_time_bound: usize,
     /// Per family ([`Family::index`] order): cycles in which the filter reported rows of it
     /// relaxed (missed at the applied input, beyond the solver's rounding).
     pub relaxed_cycles: [usize; FAMILY_COUNT],
@@ -546,6 +565,7 @@ pub fn run_observed(
             solve_us: out.solve_time.as_secs_f64() * 1e6,
             update_us,
             cpu_us: out.cpu_time.unwrap_or_default().as_secs_f64() * 1e6,
+            work: out.work,
             clearance,
             between_samples: out.between_samples,
             body_raise: body_center[2] - plan.body_height,
@@ -586,8 +606,25 @@ pub fn run_observed(
         let (updates, last) = p.finish();
         PerceptionRun { updates, last }
     });
-    let summary = summarize(config, &samples, completed_at.is_some(), perception.as_ref());
+    let worst_case = filter.worst_case();
+    let summary = summarize(config, &samples, completed_at.is_some(), perception.as_ref(), worst_case);
     Ok(SimResult { samples, summary, perception })
+}
+
+/// The worst case of one update of `config`'s filter in CPU time on this machine \[µs\]:
+/// its stated counts ([`EcbfFilter::worst_case`]) at the rates
+/// [`EcbfFilter::calibrate`] measures now, on the filter a run of `config` builds, with
+/// its rows at the latency harness's start (the robot before the hardware stairs).
+/// `None` where the worst case states no time (the certificate's enclosures). Takes about
+/// a tenth of a second.
+///
+/// # Errors
+/// The filter's or the course's construction.
+pub fn time_bound_us(config: &SimConfig) -> Result<Option<f64>, CbfError> {
+    let mut filter = EcbfFilter::new(Catalog::new(Course::CAPACITY)?, config.filter.clone())?;
+    let drive = crate::approach::Approach::new(Course::CAPACITY, Stairs::HARDWARE, 0.6, 0.3)?;
+    let calibration = filter.calibrate(0.0, &drive.x, &drive.env)?;
+    Ok(filter.worst_case().micros(&calibration))
 }
 
 /// Fold the applicable rows of `rows` into each family's least `h`; returns how many
@@ -619,7 +656,13 @@ fn nearest(samples: &[Sample], contact: fn(&TerrainClearance) -> Option<Contact>
         .min_by(|a, b| a.contact.distance.total_cmp(&b.contact.distance))
 }
 
-fn summarize(config: &SimConfig, samples: &[Sample], completed: bool, perception: Option<&PerceptionRun>) -> Summary {
+fn summarize(
+    config: &SimConfig,
+    samples: &[Sample],
+    completed: bool,
+    perception: Option<&PerceptionRun>,
+    worst_case: WorstCase,
+) -> Summary {
     let [median_update_us, p99_update_us, max_update_us] = percentiles(samples, |s| s.update_us);
     let [median_cpu_us, p99_cpu_us, max_cpu_us] = percentiles(samples, |s| s.cpu_us);
     let period_us = crate::latency::PERIOD.as_micros() as f64;
@@ -661,6 +704,10 @@ fn summarize(config: &SimConfig, samples: &[Sample], completed: bool, perception
         over_period_wall: over(|s| s.update_us),
         over_period_cpu: over(|s| s.cpu_us),
         fallback_cycles: samples.iter().filter(|s| s.source != InputSource::Qp).count(),
+        worst_case,
+        max_work: samples.iter().fold(Work::default(), |m, s| m.most(s.work)),
+        over_worst_case: samples.iter().filter(|s| !worst_case.covers(&s.work)).count(),
+        over_time_bound: config.time_bound_us.map_or(0, |bound| samples.iter().filter(|s| s.cpu_us > bound).count()),
         relaxed_cycles: std::array::from_fn(|f| samples.iter().filter(|s| s.relaxed_rows[f] > 0).count()),
         perception: perception.map(|p| {
             let [median_ms, _, max_ms] = cbfgen::cpu_time::median_p99_max(

@@ -368,6 +368,19 @@ impl fmt::Display for Summary {
             "  filter update, thread CPU: median {:.1} µs, p99 {:.1} µs, max {:.1} µs; cycles over 1 ms: {}",
             self.median_cpu_us, self.p99_cpu_us, self.max_cpu_us, self.over_period_cpu
         )?;
+        let (w, most) = (&self.worst_case, &self.max_work);
+        writeln!(
+            f,
+            "  filter update, work (most in a cycle / stated worst case): {} / {} QP solves, {} / {} dense-solver trips, {} / {} OSQP iterations; cycles beyond it: {} in counts, {} in CPU time",
+            most.qp_solves,
+            w.qp_solves,
+            most.dense_trips,
+            w.dense_trips,
+            most.osqp_iterations,
+            w.osqp_iterations,
+            self.over_worst_case,
+            self.over_time_bound
+        )?;
         write!(f, "  cycles not solved to tolerance: {}", self.fallback_cycles)?;
         write!(f, "\n  cycles with rows relaxed (the filter's verdict), per family:")?;
         for family in Family::ALL {

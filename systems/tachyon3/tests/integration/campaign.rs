@@ -72,6 +72,9 @@ fn two_hundred_random_staircases_are_climbed_safely() {
     assert_eq!(report.finished, 200);
     assert_eq!(report.riser_contacts, (0, 0), "{report}");
     assert!(report.cycles > 200 * 10_000, "{report}");
+    // No update's work, counted as it ran, went beyond the worst case its filter states.
+    assert_eq!(report.beyond_worst_case, (0, 0), "{report}");
+    assert!(report.max_dense_trips.is_some_and(|(_, trips)| trips > 0), "{report}");
 
     // The hard cases again, measured in the test: every rise of 17.5 cm or more (where a
     // wheel used to go into the riser below a 5 cm nosing cuboid) and the three episodes
@@ -283,6 +286,10 @@ fn tall_staircases_held_between_the_samples_stay_out_of_the_terrain_at_every_fin
         let joint = s.min_h[Family::JointLimits.index()];
         assert!(joint >= -1e-9, "episode {id}: joint-limit h {joint:e} between the samples");
         assert_eq!(s.relaxed_cycles[Family::JointLimits.index()], 0, "episode {id}");
+        // The certificate's rounds solve again; no update went beyond the worst case
+        // stated for them, and some needed more than one solve.
+        assert_eq!(s.over_worst_case, 0, "episode {id}");
+        assert!(s.max_work.qp_solves > 1 && s.max_work.qp_solves <= s.worst_case.qp_solves, "episode {id}");
     }
     // The CSV keeps the plant and the certificate's count, and reads back the same (as
     // text: the riser column keeps no time, a NaN).

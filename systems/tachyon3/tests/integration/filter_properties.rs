@@ -100,16 +100,21 @@ fn solver_settings() -> impl Strategy<Value = SolverSettings> {
             prop::bool::weighted(0.8),
             prop_oneof![3 => Just(0u32), 1 => 1u32..=SolverSettings::MAX_SCALING],
         ),
-        (prop::sample::select(Solver::ALL.to_vec()), prop_oneof![1 => 1u32..4, 3 => 4u32..200]),
+        (
+            prop::sample::select(Solver::ALL.to_vec()),
+            prop_oneof![1 => 1u32..4, 3 => 4u32..200],
+            prop_oneof![3 => Just(SolverSettings::DEFAULT.dense_max_work), 1 => 1u64..100_000],
+        ),
     )
         .prop_map(
             |(
                 (eps_abs, eps_rel, max_iter, rho, sigma),
                 (alpha, adaptive_rho, adaptive_rho_interval, check_termination, time_limit, polish, scaling),
-                (backend, dense_max_steps),
+                (backend, dense_max_steps, dense_max_work),
             )| SolverSettings {
                 backend,
                 dense_max_steps,
+                dense_max_work,
                 eps_abs,
                 eps_rel,
                 max_iter,

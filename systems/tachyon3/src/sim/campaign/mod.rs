@@ -237,6 +237,10 @@ pub struct CampaignSettings {
     /// ([`SampledData::every_family`](cbfgen::filter::SampledData::every_family) at the
     /// 1 ms period).
     pub certify: bool,
+    /// The filter's worst case per update in CPU time on this machine \[µs\]
+    /// ([`time_bound_us`](crate::sim::time_bound_us), measured once for the campaign):
+    /// each episode counts its updates beyond it. `None`: not counted.
+    pub time_bound_us: Option<f64>,
 }
 
 impl Default for CampaignSettings {
@@ -251,6 +255,7 @@ impl Default for CampaignSettings {
             perception: false,
             plant: Plant::Euler,
             certify: false,
+            time_bound_us: None,
         }
     }
 }
@@ -258,7 +263,21 @@ impl Default for CampaignSettings {
 impl CampaignSettings {
     /// The simulation set-up of `episode` in this campaign.
     pub fn config(&self, episode: &Episode) -> SimConfig {
-        episode.config_with(self.body_cbf, self.perception).between_samples(self.plant, self.certify)
+        let config = episode.config_with(self.body_cbf, self.perception).between_samples(self.plant, self.certify);
+        SimConfig { time_bound_us: self.time_bound_us, ..config }
+    }
+
+    /// The same campaign counting each update against the filter's worst case in CPU
+    /// time, measured now on this machine ([`time_bound_us`](crate::sim::time_bound_us) of
+    /// its first episode's filter; every episode's filter has the same rows and settings).
+    /// Unchanged where the worst case states no time (the certificate's enclosures).
+    ///
+    /// # Errors
+    /// The first episode's course or filter.
+    pub fn with_time_bound(self) -> Result<Self, CbfError> {
+        let first = Episode::draw(self.seed, self.first_id, &self.ranges)?;
+        let time_bound_us = crate::sim::time_bound_us(&self.config(&first))?;
+        Ok(Self { time_bound_us, ..self })
     }
 
     /// Shard `index` of `count` (0-based): the same campaign narrowed to a contiguous block
@@ -429,6 +448,14 @@ pub struct Report {
     pub fine_steps: usize,
     /// Updates certified between the samples, and updates run with the certificate on.
     pub certified_cycles: (usize, usize),
+    /// The most dense-solver trips any update took, and its episode.
+    pub max_dense_trips: Option<(u64, u64)>,
+    /// Updates whose counted work went beyond the filter's stated worst case, and the
+    /// episodes holding any: (0, 0), or the bound is wrong.
+    pub beyond_worst_case: (usize, usize),
+    /// Updates whose CPU time went beyond the worst case in time
+    /// ([`CampaignSettings::time_bound_us`]), and the episodes holding any.
+    pub beyond_time_bound: (usize, usize),
 }
 
 impl Campaign {
@@ -472,6 +499,9 @@ impl Report {
             relaxed_cycles: [(0, 0); FAMILY_COUNT],
             fine_steps: 0,
             certified_cycles: (0, 0),
+            max_dense_trips: None,
+            beyond_worst_case: (0, 0),
+            beyond_time_bound: (0, 0),
         };
         let lowest = |worst: &mut Worst, id: u64, v: f64| {
             if v.is_finite() && worst.is_none_or(|(_, w)| v < w) {
@@ -529,6 +559,13 @@ impl Report {
             highest(&mut r.max_cpu, id, max_cpu);
             highest(&mut r.max_wall, id, s.wall_us[2]);
             r.fallback_cycles += s.fallback_cycles;
+            if r.max_dense_trips.is_none_or(|(_, most)| s.max_dense_trips > most) {
+                r.max_dense_trips = Some((id, s.max_dense_trips));
+            }
+            r.beyond_worst_case.0 += s.beyond_worst_case;
+            r.beyond_worst_case.1 += usize::from(s.beyond_worst_case > 0);
+            r.beyond_time_bound.0 += s.beyond_time_bound;
+            r.beyond_time_bound.1 += usize::from(s.beyond_time_bound > 0);
             r.fine_steps = r.fine_steps.max(s.fine_steps);
             if let Some(n) = s.certified_cycles {
                 r.certified_cycles = (r.certified_cycles.0 + n, r.certified_cycles.1 + s.cycles);

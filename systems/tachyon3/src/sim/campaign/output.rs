@@ -20,6 +20,9 @@
 //! | `relaxed_<family>` | updates in which the filter reported rows of that family relaxed |
 //! | `fine_steps` | 0: clearances and `h` measured at the samples (the Euler plant); N: the input held over each period, RK4 at 1 ms / N, every clearance and `h` the least over every fine step ([`Plant::Held`](crate::sim::Plant::Held)) |
 //! | `certified_cycles` | updates the filter certified between the samples (empty: certificate off) |
+//! | `max_dense_trips` | the most dense-solver trips an update took ([`Work`](cbfgen::filter::Work)) |
+//! | `beyond_worst_case` | updates whose counted work went beyond the filter's stated worst case ([`EcbfFilter::worst_case`](cbfgen::filter::EcbfFilter::worst_case)): 0, or the bound is wrong |
+//! | `beyond_time_bound` | updates whose CPU time went beyond the worst case in time on this machine (0 when not measured) |
 //! | `error` | the error message, quoted |
 //!
 //! Numbers are written at full precision (the shortest text that reads back to the same
@@ -208,6 +211,18 @@ impl fmt::Display for Report {
             f,
             "| updates over 1 ms, wall | {} of {} in {} episodes |",
             self.over_period_wall.0, self.cycles, self.over_period_wall.1
+        )?;
+        let trips = self.max_dense_trips.map_or_else(|| "-".to_string(), |(id, n)| format!("{n} (episode {id})"));
+        writeln!(f, "| most dense-solver trips in an update | {trips} |")?;
+        writeln!(
+            f,
+            "| updates beyond the stated worst case, counts | {} in {} episodes |",
+            self.beyond_worst_case.0, self.beyond_worst_case.1
+        )?;
+        writeln!(
+            f,
+            "| updates beyond the worst case in CPU time (when measured) | {} in {} episodes |",
+            self.beyond_time_bound.0, self.beyond_time_bound.1
         )?;
         writeln!(f, "| updates not solved to tolerance | {} |", self.fallback_cycles)?;
         write!(f, "| updates with rows relaxed (the filter's verdict), per family |")?;

@@ -79,6 +79,12 @@ pub struct RowSummary {
     pub fine_steps: usize,
     /// Updates certified between the samples; `None` with the certificate off.
     pub certified_cycles: Option<usize>,
+    /// The most dense-solver trips an update took.
+    pub max_dense_trips: u64,
+    /// Updates whose counted work went beyond the filter's stated worst case.
+    pub beyond_worst_case: usize,
+    /// Updates whose CPU time went beyond the campaign's time bound (0 without one).
+    pub beyond_time_bound: usize,
 }
 
 impl RowSummary {
@@ -137,6 +143,9 @@ impl EpisodeRow {
             wall_us: [s.median_update_us, s.p99_update_us, s.max_update_us],
             over_1ms_cpu: s.over_period_cpu,
             over_1ms_wall: s.over_period_wall,
+            beyond_time_bound: s.over_time_bound,
+            max_dense_trips: s.max_work.dense_trips,
+            beyond_worst_case: s.over_worst_case,
             cycles: s.cycles,
             fallback_cycles: s.fallback_cycles,
             relaxed_cycles: s.relaxed_cycles,
@@ -189,13 +198,14 @@ pub fn header() -> Vec<String> {
     columns.extend(Family::ALL.iter().map(|f| format!("min_h_{}", f.name())));
     columns.extend(TIMING_COLUMNS.iter().chain(&["cycles", "fallback_cycles"]).map(|c| c.to_string()));
     columns.extend(Family::ALL.iter().map(|f| format!("relaxed_{}", f.name())));
-    columns.extend(["fine_steps", "certified_cycles", "error"].map(String::from));
+    columns
+        .extend(["fine_steps", "certified_cycles", "max_dense_trips", "beyond_worst_case", "error"].map(String::from));
     columns
 }
 
 /// Columns that depend on the machine and the moment (timings), not on the episode:
 /// two runs of the same episodes agree on every other column.
-pub const TIMING_COLUMNS: [&str; 8] = [
+pub const TIMING_COLUMNS: [&str; 9] = [
     "median_cpu_us",
     "p99_cpu_us",
     "max_cpu_us",
@@ -204,6 +214,7 @@ pub const TIMING_COLUMNS: [&str; 8] = [
     "max_wall_us",
     "over_1ms_cpu",
     "over_1ms_wall",
+    "beyond_time_bound",
 ];
 
 /// A number as the CSV writes it: the shortest text that reads back to the same `f64`,
@@ -251,12 +262,12 @@ pub fn csv(rows: &[EpisodeRow]) -> String {
                 for v in s.cpu_us.iter().chain(&s.wall_us) {
                     let _ = write!(out, ",{}", number(*v));
                 }
-                let counts = [s.over_1ms_cpu, s.over_1ms_wall, s.cycles, s.fallback_cycles];
+                let counts = [s.over_1ms_cpu, s.over_1ms_wall, s.beyond_time_bound, s.cycles, s.fallback_cycles];
                 for n in counts.iter().chain(&s.relaxed_cycles).chain(&[s.fine_steps]) {
                     let _ = write!(out, ",{n}");
                 }
                 let certified = s.certified_cycles.map_or(String::new(), |n| n.to_string());
-                let _ = writeln!(out, ",{certified},");
+                let _ = writeln!(out, ",{certified},{},{},", s.max_dense_trips, s.beyond_worst_case);
             }
             Err(message) => {
                 out.push_str(&",".repeat(header().len() - 9));
@@ -332,6 +343,8 @@ pub fn parse(text: &str) -> Result<Vec<EpisodeRow>, CbfError> {
     let h_at = column(&format!("min_h_{}", Family::ALL[0].name()))?;
     let relaxed_at = column(&format!("relaxed_{}", Family::ALL[0].name()))?;
     let [fine_at, certified_at, error_at] = [column("fine_steps")?, column("certified_cycles")?, column("error")?];
+    let [trips_at, beyond_at, beyond_time_at] =
+        [column("max_dense_trips")?, column("beyond_worst_case")?, column("beyond_time_bound")?];
     let mut rows = Vec::new();
     for (k, line) in lines.enumerate().filter(|(_, l)| !l.is_empty()) {
         let at = k + 2;
@@ -378,6 +391,9 @@ pub fn parse(text: &str) -> Result<Vec<EpisodeRow>, CbfError> {
                 relaxed_cycles: array(|j| count(relaxed_at + j))?,
                 fine_steps: count(fine_at)?,
                 certified_cycles: if f[certified_at].is_empty() { None } else { Some(count(certified_at)?) },
+                max_dense_trips: whole(trips_at)?,
+                beyond_worst_case: count(beyond_at)?,
+                beyond_time_bound: count(beyond_time_at)?,
             })
         };
         rows.push(EpisodeRow {
