@@ -236,6 +236,53 @@ impl Constraint {
     }
 }
 
+/// The most work (trips) each primitive of a solve of `n` variables and at most `m` rows
+/// in use counts, with every loop at its longest (`q ≤ n` active rows): what
+/// [`DualActiveSet::worst_case_work`] and [`DualActiveSet::work_overshoot`] add up. Each is
+/// the largest increment the primitive adds to [`DualActiveSet::work`].
+struct Primitives {
+    /// Checking and normalising the rows.
+    prepare: u64,
+    /// The equality rows' and the warm start's seeding projections and pushes.
+    seeding: u64,
+    /// Pushing one row onto the factorisation.
+    push: u64,
+    /// Dropping one row from it.
+    drop: u64,
+    /// The equality-constrained optimum of the active set.
+    optimum: u64,
+    /// The search for the most negative multiplier.
+    negative: u64,
+    /// The search for the most violated row.
+    violated: u64,
+    /// One step inside an addition.
+    inner: u64,
+    /// Checking an infeasibility certificate.
+    certificate: u64,
+    /// The final KKT check.
+    verify: u64,
+}
+
+impl Primitives {
+    fn of(vars: usize, rows: usize) -> Self {
+        let (n, m) = (vars as u64, rows as u64);
+        let project = n + n * n;
+        let push = (n + 1) * n + n + 1;
+        Self {
+            prepare: n + m * (4 * n + 2),
+            seeding: (m + n) * project + n * push,
+            push,
+            drop: n * (3 * n + 1),
+            optimum: 3 * n * n + 2 * n,
+            negative: 2 * n,
+            violated: m * (n + 1),
+            inner: 3 * n * n + 6 * n,
+            certificate: n * n + 6 * n,
+            verify: 2 * n + m * (n + 1) + n * (2 * n + 1),
+        }
+    }
+}
+
 /// What ended the inner loop that adds one violated row.
 enum AddOutcome {
     Added,
@@ -491,26 +538,16 @@ impl DualActiveSet {
     /// * at most `3·max_steps + vars + 1 + rows` steps inside the additions (each ends in
     ///   an addition, a drop, or the end of its addition).
     pub fn worst_case_work(vars: usize, rows: usize, max_steps: u32) -> u64 {
+        let w = Primitives::of(vars, rows);
         let (n, m, s) = (vars as u64, rows as u64, u64::from(max_steps));
-        let prepare = n + m * (4 * n + 2);
-        let project = n + n * n;
-        let push = (n + 1) * n + n + 1;
-        let drop = n * (3 * n + 1);
-        let optimum = 3 * n * n + 2 * n;
-        let negative = 2 * n;
-        let violated = m * (n + 1);
-        let inner = 3 * n * n + 6 * n;
-        let certificate = n * n + 6 * n;
-        let verify = 2 * n + m * (n + 1) + n * (2 * n + 1);
-        let seeding = (m + n) * project + n * push;
         let (outer, drops, steps) = (s + 1 + m, n + s, 3 * s + n + 1 + m);
-        prepare
-            + seeding
-            + outer * (optimum + negative + violated + certificate)
-            + drops * (drop + optimum + negative)
-            + steps * inner
-            + s * push
-            + verify
+        w.prepare
+            + w.seeding
+            + outer * (w.optimum + w.negative + w.violated + w.certificate)
+            + drops * (w.drop + w.optimum + w.negative)
+            + steps * w.inner
+            + s * w.push
+            + w.verify
     }
 
     /// The most work a solve can do past a work budget it checks
@@ -520,23 +557,13 @@ impl DualActiveSet {
     /// solve of `vars` variables and at most `rows` rows within `max_work` therefore never
     /// works more than `max_work + work_overshoot(vars, rows)`.
     pub fn work_overshoot(vars: usize, rows: usize) -> u64 {
-        let (n, m) = (vars as u64, rows as u64);
-        let prepare = n + m * (4 * n + 2);
-        let project = n + n * n;
-        let push = (n + 1) * n + n + 1;
-        let drop = n * (3 * n + 1);
-        let optimum = 3 * n * n + 2 * n;
-        let negative = 2 * n;
-        let violated = m * (n + 1);
-        let inner = 3 * n * n + 6 * n;
-        let certificate = n * n + 6 * n;
-        let verify = 2 * n + m * (n + 1) + n * (2 * n + 1);
-        let seeding = (m + n) * project + n * push;
+        let w = Primitives::of(vars, rows);
+        let n = vars as u64;
         // An addition: up to n partial steps, each dropping a row, then the full step.
-        let addition = (n + 1) * inner + n * drop + push + certificate + n;
+        let addition = (n + 1) * w.inner + n * w.drop + w.push + w.certificate + n;
         // The pass after it: its drops back to dual feasibility, and the search.
-        let pass = (n + 1) * (optimum + negative) + n * drop + violated;
-        prepare + seeding + pass + addition + pass + verify
+        let pass = (n + 1) * (w.optimum + w.negative) + n * w.drop + w.violated;
+        w.prepare + w.seeding + pass + addition + pass + w.verify
     }
 
     /// Rows the last solve added to the active set: what `max_steps` bounds.

@@ -5,7 +5,7 @@
 //! by `examples/between_samples.rs` and `tests/between_samples.rs`.
 
 use crate::{default_settings, Barriers, Capacity, Filter, Params, SineBarrierParams};
-use cbfgen::filter::{BetweenSamples, InputSource, SampledData};
+use cbfgen::filter::{BetweenSamples, BoundCheck, InputSource, SampledData};
 
 /// The control period \[s\].
 pub const PERIOD: f64 = 1e-3;
@@ -47,6 +47,9 @@ pub struct Run {
     pub not_met: usize,
     /// Each update's CPU time \[µs\], where the settings measured it.
     pub cpu_us: Vec<f64>,
+    /// The filter's stated worst case per update (calibrated on this machine before the
+    /// run) beside the most an update took.
+    pub bound: Option<BoundCheck>,
 }
 
 /// One 3 s run at `omega`, the certificate as `sampled` says; with `delay`, the plant
@@ -67,10 +70,12 @@ pub fn run(
     let mut filter = Filter::new(Barriers::new(Capacity {})?, settings)?;
     let p = params(omega)?;
     let (mut x, mut held) = ([0.2, 0.0], 0.0);
+    let mut bound = BoundCheck::new(filter.worst_case(), filter.calibrate(0.0, &x, &p)?);
     let mut out = Run { min_h: f64::INFINITY, ..Run::default() };
     for k in 0..UPDATES {
         let t = k as f64 * PERIOD;
         let o = *filter.update_at(t, &x, &[-100.0], &p)?;
+        bound.record(&o);
         out.not_met += usize::from(o.source != InputSource::Qp || !o.safety.is_met());
         if let BetweenSamples::Certified { rounds } = o.between_samples {
             out.certified += 1;
@@ -85,5 +90,6 @@ pub fn run(
         }
         x = flow(x, u, PERIOD);
     }
+    out.bound = Some(bound);
     Ok(out)
 }
