@@ -10,13 +10,13 @@
 
 use super::qp::{EcbfQp, RowSpec};
 use super::work::Calibration;
-use crate::cpu_time::thread_cpu_time;
+use crate::cpu_time::Stopwatch;
 use crate::error::CbfError;
 use crate::ops::OpCount;
 use crate::qp::dual_active_set::{DualActiveSet, WarmStart};
 use crate::qp::{Solver, SolverSettings};
 use crate::system::Row;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// Runs of each problem; the quickest counts.
 const REPEATS: usize = 3;
@@ -36,26 +36,19 @@ impl Numbers {
     }
 }
 
-/// The thread's CPU time where it has one (the machine's stalls are not the work), else
-/// the wall's.
-fn now() -> (Option<Duration>, Instant) {
-    (thread_cpu_time(), Instant::now())
-}
-
-fn since((cpu, wall): (Option<Duration>, Instant)) -> Duration {
-    match (cpu, thread_cpu_time()) {
-        (Some(a), Some(b)) => b.saturating_sub(a),
-        _ => wall.elapsed(),
-    }
-}
-
-/// The quickest of [`REPEATS`] runs of `run`.
+/// The quickest of [`REPEATS`] runs of `run`, on the thread's CPU clock (the machine's
+/// stalls are not the work), or the wall's where that reads nothing (no thread clock).
 fn quickest(mut run: impl FnMut()) -> Duration {
     (0..REPEATS)
         .map(|_| {
-            let start = now();
+            let watch = Stopwatch::start();
             run();
-            since(start)
+            let (wall, cpu) = watch.elapsed();
+            if cpu.is_zero() {
+                wall
+            } else {
+                cpu
+            }
         })
         .min()
         .unwrap_or_default()

@@ -276,7 +276,7 @@ impl<U> Output<U> {
             convergence: Safety::UNASSESSED,
             between_samples: BetweenSamples::Off,
             consecutive_fallbacks: 0,
-            work: Work { qp_solves: 0, dense_trips: 0, osqp_iterations: 0 },
+            work: Work::default(),
             eval_time: Duration::ZERO,
             solve_time: Duration::ZERO,
             cpu_time: None,

@@ -595,7 +595,7 @@ impl<const NU: usize> EcbfQp<NU> {
             Solver::Osqp => u64::from(s.polish),
         };
         SolveWorstCase {
-            dense_trips: dense_solves.saturating_mul(self.dense.worst_case_work(s.dense_max_work)),
+            dense_trips: dense_solves.saturating_mul(self.dense.worst_case_work()),
             osqp_iterations: if s.backend == Solver::Dense { 0 } else { s.max_iter },
         }
     }

@@ -475,11 +475,11 @@ impl<const NU: usize> LexicographicSolver<NU> {
         self.work
     }
 
-    /// The most work one solve can do under a work budget of `max_work`: the budget, and
-    /// what the stage that spends it can do past it ([`DualActiveSet::work_overshoot`] of
-    /// the larger stage, E, at full capacity).
-    pub fn worst_case_work(&self, max_work: u64) -> u64 {
-        max_work.max(1).saturating_add(DualActiveSet::work_overshoot(NU + 1, self.elastic.head + self.rows))
+    /// The most work one solve can do under its work budget ([`Self::set_max_work`]): the
+    /// budget, and what the stage that spends it can do past it
+    /// ([`DualActiveSet::work_overshoot`] of the larger stage, E, at full capacity).
+    pub fn worst_case_work(&self) -> u64 {
+        self.max_work.saturating_add(DualActiveSet::work_overshoot(NU + 1, self.elastic.head + self.rows))
     }
 
     /// Solve for nominal input `u_ref` and `rows`; only rows with `active[i]` take part.
