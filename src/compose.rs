@@ -10,6 +10,7 @@
 //! Generic over the [`Scalar`] like the kernels they join: `f64` in the filter, intervals
 //! in the sampled-data certificate.
 
+use crate::ops::OpCount;
 use crate::scalar::Scalar;
 
 /// Adds `Σ_i grad[i] · lg[i][j]` to `out[at[j]]` for every input column `j` of one pose
@@ -30,6 +31,13 @@ pub fn accumulate_columns<S: Scalar, const N: usize, const J: usize, const C: us
             }
         }
     }
+}
+
+/// What one [`accumulate_columns`] performs: a multiply-add per gradient entry (`n`) and
+/// input column (`columns`). Generated `evaluation_ops` add it to a composed row's chain.
+pub const fn accumulate_columns_ops(n: usize, columns: usize) -> OpCount {
+    let pairs = (n * columns) as u64;
+    OpCount { add: pairs, mul: pairs, ..OpCount::ZERO }
 }
 
 /// The rows of `m` one after the other: a frame's input columns as the kernel of the
@@ -69,6 +77,18 @@ pub fn place_pose<S: Scalar>(frame: &[S; 12], placement: &Placement) -> [S; 12] 
     out
 }
 
+/// What one [`place_pose`] performs: for each of the 3 centre entries 3 multiply-adds,
+/// for each of the 9 rotation entries a 3-term dot product (the placement's numbers are
+/// constants, free).
+pub const PLACE_POSE_OPS: OpCount = OpCount { add: 3 * 3 + 9 * 2, mul: 3 * 3 + 9 * 3, ..OpCount::ZERO };
+
+/// What one [`place_jet`] performs on a jet of `rates` drift-derivative entries (12 per
+/// derivative) and `columns` input columns: [`place_pose`] on the pose, on each derivative
+/// block and on each column.
+pub const fn place_jet_ops(rates: usize, columns: usize) -> OpCount {
+    PLACE_POSE_OPS.times((1 + rates / 12 + columns) as u64)
+}
+
 /// [`place_pose`] for a whole jet: the frame's pose, its drift derivatives (`L` entries,
 /// 12 per derivative) and its input columns (12 rows of `C`), each carried to the body.
 #[inline]
@@ -94,7 +114,11 @@ pub fn place_jet<S: Scalar, const L: usize, const C: usize>(
 
 #[cfg(test)]
 mod tests {
-    use super::{accumulate_columns, flatten, place_jet, place_pose, Placement};
+    use super::{
+        accumulate_columns, accumulate_columns_ops, flatten, place_jet, place_jet_ops, place_pose, Placement,
+        PLACE_POSE_OPS,
+    };
+    use crate::ops::Counted;
 
     #[test]
     fn places_a_body_by_hand() {
@@ -127,5 +151,21 @@ mod tests {
         let mut out = [10.0, 0.0, 0.0];
         accumulate_columns(&grad, &lg, &[2, 0], &mut out);
         assert_eq!(out, [10.0 + 6.0 + 2.0 + 4.0, 0.0, 2.0 - 4.0 + 3.0]);
+    }
+
+    #[test]
+    fn the_stated_operations_are_what_the_functions_perform() {
+        // Run on numbers that count, against the constants the generated evaluation_ops sum.
+        let placement = Placement { offset: [0.1, -0.2, 0.3], axes: [0.0, 1.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 1.0] };
+        let frame: [Counted; 12] = std::array::from_fn(|i| Counted(0.1 * i as f64));
+        let (_, pose) = Counted::measure(|| place_pose(&frame, &placement));
+        assert_eq!(pose, PLACE_POSE_OPS);
+        let jet = (frame, [Counted(0.5); 36], [[Counted(-1.0); 4]; 12]);
+        let (_, placed) = Counted::measure(|| place_jet::<_, 36, 4>(&jet, &placement));
+        assert_eq!(placed, place_jet_ops(36, 4));
+        let (grad, lg) = ([Counted(2.0); 12], [[Counted(3.0); 5]; 12]);
+        let mut out = [Counted(0.0); 7];
+        let ((), accumulated) = Counted::measure(|| accumulate_columns(&grad, &lg, &[6, 0, 2, 3, 1], &mut out));
+        assert_eq!(accumulated, accumulate_columns_ops(12, 5));
     }
 }

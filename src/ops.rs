@@ -101,13 +101,13 @@ impl OpCount {
     /// when the member has a slot, the `instance` part once per slot (saturating). What a
     /// generated [`BarrierSet::evaluation_ops`](crate::system::BarrierSet::evaluation_ops)
     /// sums its run-time capacities with.
-    pub const fn plus_slots(self, members: &[([u64; 8], [u64; 8], usize)]) -> Self {
+    pub const fn plus_slots(self, members: &[(Self, Self, usize)]) -> Self {
         let mut sum = self;
         let mut k = 0;
         while k < members.len() {
             let (state, instance, slots) = members[k];
             if slots > 0 {
-                sum = sum.plus(Self::new(state)).plus(Self::new(instance).times(slots as u64));
+                sum = sum.plus(state).plus(instance.times(slots as u64));
             }
             k += 1;
         }
@@ -324,12 +324,17 @@ mod tests {
     #[test]
     fn slots_add_the_state_part_once_per_filled_member_and_the_instance_part_per_slot() {
         let (base, state, instance) = ([1, 0, 0, 0, 0, 0, 0, 2], [3, 1, 4, 1, 5, 9, 2, 6], [2, 7, 1, 8, 2, 8, 1, 8]);
-        let sum = OpCount::new(base).plus_slots(&[(state, instance, 3), (state, instance, 0), (instance, state, 1)]);
+        let (s, i) = (OpCount::new(state), OpCount::new(instance));
+        let sum = OpCount::new(base).plus_slots(&[(s, i, 3), (s, i, 0), (i, s, 1)]);
         let by_hand: [u64; 8] = core::array::from_fn(|k| base[k] + state[k] + 3 * instance[k] + instance[k] + state[k]);
         assert_eq!(sum, OpCount::new(by_hand));
         assert_eq!(OpCount::new(base).plus_slots(&[]), OpCount::new(base));
         let huge = OpCount::new([u64::MAX / 2; 8]);
-        assert_eq!(huge.plus_slots(&[([0; 8], [1; 8], usize::MAX)]), OpCount::new([u64::MAX; 8]), "saturates");
+        assert_eq!(
+            huge.plus_slots(&[(OpCount::ZERO, OpCount::new([1; 8]), usize::MAX)]),
+            OpCount::new([u64::MAX; 8]),
+            "saturates"
+        );
     }
 
     #[test]

@@ -562,12 +562,13 @@ pub trait BarrierSet<const NU: usize> {
     /// A generated barrier set sums its kernels' stated counts ([`crate::ops`]) over the
     /// calls `evaluate` makes with every slot filled and nothing culled: a family's
     /// kernel without parameters (and its lower bound) once, and for a family with
-    /// parameters each member's state part once and its instance part once per slot. That
-    /// is what it performs then, in a release build (a debug build also evaluates each
-    /// culled row, to check its bound); emptier slots and culled rows only do less. The
-    /// count is of the kernels' floating-point operations, not of storing the rows or
-    /// checking the parameters. `None` (the default) for a hand-written set and for one
-    /// with a composed, framed or rigid-body kernel, which states no count.
+    /// parameters each member's state part once and its instance part once per slot; a
+    /// composed or framed member per instance from its poses, and the poses once per cycle
+    /// (each node of the tree and each placed box, as the cycle's pose cache computes
+    /// them). That is what it performs then, in a release build (a debug build also
+    /// evaluates each culled row, to check its bound); emptier slots and culled rows only
+    /// do less. The count is of the kernels' floating-point operations, not of storing the
+    /// rows or checking the parameters. `None` (the default) for a hand-written set.
     fn evaluation_ops(&self) -> Option<crate::ops::OpCount> {
         None
     }

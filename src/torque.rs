@@ -29,6 +29,11 @@
 //! held torque, with `q̈` enclosed by [`solve_linear`] over each box of states and
 //! tightened by a first-order form in time.
 //!
+//! Given the dynamics' operation count ([`JointTorque::with_dynamics_ops`]; a generated
+//! system's `gen::dynamics_ops()`), the wrapper states its evaluation's count too (the
+//! inner rows', the dynamics', and [`torque_map_ops`]), so that the filter's worst case
+//! per update has a time.
+//!
 //! The cart of the [filter's example](crate::filter) again, now of mass 2 kg pushed by a
 //! force `F` against a drag of 3 N (`b = 3`): its acceleration is `(F − 3) / 2`, so the
 //! wall row `−20 v + 100 h − a ≥ 0` becomes `F ≤ 2 (100 h − 20 v) + 3`, which at
@@ -87,6 +92,7 @@ use crate::dual::Dual;
 use crate::error::CbfError;
 use crate::filter::between_samples::{enclose_window, NotEnclosed, RowEnclosure, Window};
 use crate::interval::{solve_linear, Interval};
+use crate::ops::OpCount;
 use crate::scalar::Scalar;
 use crate::system::{BarrierSet, FamilyInfo, Row, RowLayout};
 
@@ -172,6 +178,7 @@ pub struct JointTorque<B, const NX: usize, const NU: usize> {
     inner: B,
     dynamics: Dynamics<NX, NU>,
     interval_forms: Option<IntervalForms<NX, NU>>,
+    dynamics_ops: Option<OpCount>,
     layout: Vec<RowLayout>,
     rows: Vec<Row<NU>>,
     mass: [[f64; NU]; NU],
@@ -185,7 +192,16 @@ impl<B: BarrierSet<NU, State = [f64; NX]>, const NX: usize, const NU: usize> Joi
         const { assert!(NU <= MAX_JOINTS, "JointTorque maps at most MAX_JOINTS joints") };
         let layout = inner.layout().iter().map(|l| RowLayout { columns: &ALL_COLUMNS[..NU], ..*l }).collect();
         let rows = inner.rows().to_vec();
-        Self { inner, dynamics, interval_forms: None, layout, rows, mass: [[0.0; NU]; NU], bias: [0.0; NU] }
+        Self {
+            inner,
+            dynamics,
+            interval_forms: None,
+            dynamics_ops: None,
+            layout,
+            rows,
+            mass: [[0.0; NU]; NU],
+            bias: [0.0; NU],
+        }
     }
 
     /// The same dynamics on intervals and on dual intervals (for a generated system,
@@ -206,6 +222,15 @@ impl<B: BarrierSet<NU, State = [f64; NX]>, const NX: usize, const NU: usize> Joi
         self
     }
 
+    /// What one call of the dynamics performs (for a generated system, `gen::dynamics_ops()`):
+    /// with it, and the inner rows' own count, [`evaluation_ops`](BarrierSet::evaluation_ops)
+    /// states each cycle's work, so that the filter's
+    /// [`worst_case`](crate::filter::EcbfFilter::worst_case) has a time.
+    pub fn with_dynamics_ops(mut self, ops: OpCount) -> Self {
+        self.dynamics_ops = Some(ops);
+        self
+    }
+
     /// The acceleration rows, as last evaluated.
     pub fn inner(&self) -> &B {
         &self.inner
@@ -217,33 +242,91 @@ impl<B: BarrierSet<NU, State = [f64; NX]>, const NX: usize, const NU: usize> Joi
     }
 }
 
+/// `Σ_k a_k b_k` from `−0.0`, as `f64`'s `sum` adds (one multiplication and one addition
+/// per term).
+fn dot<S: Scalar>(terms: impl Iterator<Item = (S, S)>) -> S {
+    terms.fold(S::from(-0.0), |sum, (a, b)| sum + a * b)
+}
+
 /// `M = L Lᵀ` in place (lower triangle), or the first pivot that is not positive.
-fn cholesky<const N: usize>(m: &mut [[f64; N]; N]) -> Result<(), f64> {
+fn cholesky<S: Scalar + PartialOrd, const N: usize>(m: &mut [[S; N]; N]) -> Result<(), S> {
     for j in 0..N {
-        let pivot = m[j][j] - (0..j).map(|k| m[j][k] * m[j][k]).sum::<f64>();
-        // NaN fails `is_finite`.
-        if !pivot.is_finite() || pivot <= 0.0 {
+        let pivot = m[j][j] - dot((0..j).map(|k| (m[j][k], m[j][k])));
+        // Positive and finite; NaN fails both.
+        if !(pivot > S::from(0.0) && pivot < S::from(f64::INFINITY)) {
             return Err(pivot);
         }
         let d = pivot.sqrt();
         m[j][j] = d;
         for i in j + 1..N {
-            m[i][j] = (m[i][j] - (0..j).map(|k| m[i][k] * m[j][k]).sum::<f64>()) / d;
+            m[i][j] = (m[i][j] - dot((0..j).map(|k| (m[i][k], m[j][k])))) / d;
         }
     }
     Ok(())
 }
 
 /// `x = (L Lᵀ)⁻¹ v` with `L` from [`cholesky`].
-fn solve<const N: usize>(l: &[[f64; N]; N], v: &[f64; N]) -> [f64; N] {
+fn solve<S: Scalar, const N: usize>(l: &[[S; N]; N], v: &[S; N]) -> [S; N] {
     let mut y = *v;
     for i in 0..N {
-        y[i] = (y[i] - (0..i).map(|k| l[i][k] * y[k]).sum::<f64>()) / l[i][i];
+        y[i] = (y[i] - dot((0..i).map(|k| (l[i][k], y[k])))) / l[i][i];
     }
     for i in (0..N).rev() {
-        y[i] = (y[i] - (i + 1..N).map(|k| l[k][i] * y[k]).sum::<f64>()) / l[i][i];
+        y[i] = (y[i] - dot((i + 1..N).map(|k| (l[k][i], y[k])))) / l[i][i];
     }
     y
+}
+
+/// `M⁻¹` from `M`'s Cholesky factor (N solves), or `M`'s first pivot that is not positive.
+/// Once per cycle, then one dense N × N product per row ([`to_torques`]): no division and
+/// no dependent chain per row, where two triangular solves per row had both.
+fn inverse_mass<S: Scalar + PartialOrd, const N: usize>(mass: &[[S; N]; N]) -> Result<[[S; N]; N], S> {
+    let mut factor = *mass;
+    cholesky(&mut factor)?;
+    let mut inverse = [[S::from(0.0); N]; N];
+    for j in 0..N {
+        let unit: [S; N] = core::array::from_fn(|i| S::from(if i == j { 1.0 } else { 0.0 }));
+        for (row, value) in inverse.iter_mut().zip(solve(&factor, &unit)) {
+            row[j] = value;
+        }
+    }
+    Ok(inverse)
+}
+
+/// A row in accelerations (`lg`, the input part) in torques: `lg M⁻¹` and the drift's
+/// change `−lg M⁻¹ b`.
+fn to_torques<S: Scalar, const N: usize>(inverse: &[[S; N]; N], bias: &[S; N], lg: &[S; N]) -> ([S; N], S) {
+    let mapped: [S; N] = core::array::from_fn(|i| dot(inverse[i].iter().copied().zip(lg.iter().copied())));
+    (mapped, -dot(mapped.iter().copied().zip(bias.iter().copied())))
+}
+
+/// What [`JointTorque`] performs each cycle besides the inner rows and the dynamics, with
+/// `n` joints and `rows` rows: `M`'s Cholesky factor, its inverse (n solves), and each row
+/// mapped (a product with `M⁻¹`; a culled or inactive row is not). Checked against the functions
+/// run on counting numbers.
+pub const fn torque_map_ops(n: usize, rows: usize) -> OpCount {
+    let (n64, r64) = (n as u64, rows as u64);
+    // Cholesky: Σ_j (j + 1 adds, j muls, 1 sqrt) + Σ_{i>j} (j + 1 adds, j muls, 1 div).
+    let pairs = n64 * n64.saturating_sub(1) / 2; // Σ_j j, and the entries below the diagonal
+    let below = {
+        // Σ_j (n − 1 − j) · j
+        let mut sum = 0;
+        let mut j = 0;
+        while j < n64 {
+            sum += (n64 - 1 - j) * j;
+            j += 1;
+        }
+        sum
+    };
+    let cholesky =
+        OpCount { add: pairs + n64 + below + pairs, mul: pairs + below, sqrt: n64, div: pairs, ..OpCount::ZERO };
+    // One solve: each pass Σ_i (i + 1 adds, i muls, 1 div).
+    let solve = OpCount { add: 2 * (pairs + n64), mul: 2 * pairs, div: 2 * n64, ..OpCount::ZERO };
+    // One row: n dot products of n terms, one of n terms for the bias, its negation.
+    let row = OpCount { add: n64 * n64 + n64, mul: n64 * n64 + n64, neg: 1, ..OpCount::ZERO };
+    // The row's drift entry takes the change: one addition.
+    let row = row.plus(OpCount { add: 1, ..OpCount::ZERO });
+    cholesky.plus(solve.times(n64)).plus(row.times(r64))
 }
 
 impl<B: BarrierSet<NU, State = [f64; NX]>, const NX: usize, const NU: usize> BarrierSet<NU> for JointTorque<B, NX, NU> {
@@ -271,19 +354,8 @@ impl<B: BarrierSet<NU, State = [f64; NX]>, const NX: usize, const NU: usize> Bar
         if let Some(&b) = bias.iter().find(|b| !b.is_finite()) {
             return Err(CbfError::NonFinite { what: "bias force b(q, q̇)", value: b });
         }
-        let mut factor = mass;
-        cholesky(&mut factor).map_err(|pivot| CbfError::NotPositive { what: "mass matrix pivot", value: pivot })?;
-        // M⁻¹ once (N solves), then one dense N × N product per row: no division and no
-        // dependent chain per row, where two triangular solves per row had both.
-        let mut inverse = [[0.0; NU]; NU];
-        for j in 0..NU {
-            let mut unit = [0.0; NU];
-            unit[j] = 1.0;
-            let column = solve(&factor, &unit);
-            for (row, value) in inverse.iter_mut().zip(column) {
-                row[j] = value;
-            }
-        }
+        let inverse =
+            inverse_mass(&mass).map_err(|pivot| CbfError::NotPositive { what: "mass matrix pivot", value: pivot })?;
         self.inner.evaluate(t, x, params)?;
         let families = self.inner.families();
         for ((out, row), at) in self.rows.iter_mut().zip(self.inner.rows()).zip(self.inner.layout()) {
@@ -292,9 +364,8 @@ impl<B: BarrierSet<NU, State = [f64; NX]>, const NX: usize, const NU: usize> Bar
                 continue;
             }
             let degree = families[at.family].relative_degree;
-            let mapped: [f64; NU] =
-                std::array::from_fn(|i| inverse[i].iter().zip(&row.lg).map(|(m, g)| m * g).sum::<f64>());
-            out.lie[degree] -= mapped.iter().zip(&bias).map(|(a, b)| a * b).sum::<f64>();
+            let (mapped, change) = to_torques(&inverse, &bias, &row.lg);
+            out.lie[degree] += change;
             out.lg = mapped;
         }
         self.mass = mass;
@@ -302,12 +373,11 @@ impl<B: BarrierSet<NU, State = [f64; NX]>, const NX: usize, const NU: usize> Bar
         Ok(())
     }
 
-    /// `None`: besides the inner rows, each evaluation calls the dynamics (a function
-    /// given at construction, which states no count: a generated `dynamics` walks its
-    /// tree at run time), factors `M`, inverts it and maps every row, none of which the
-    /// inner count holds.
-    fn evaluation_ops(&self) -> Option<crate::ops::OpCount> {
-        None
+    /// The inner rows' count, the dynamics' ([`with_dynamics_ops`](Self::with_dynamics_ops))
+    /// and the map to torques ([`torque_map_ops`], every row mapped); `None` without
+    /// either of the first two.
+    fn evaluation_ops(&self) -> Option<OpCount> {
+        Some(self.inner.evaluation_ops()? + self.dynamics_ops? + torque_map_ops(NU, self.rows.len()))
     }
 
     fn cull_above(&mut self, thresholds: &[f64]) {
@@ -467,5 +537,34 @@ mod tests {
         let want = q0 * (9.81f64 / 0.5).sqrt().cos();
         assert!((x[0] - want).abs() < 1e-7 * q0, "{} vs {want}", x[0]);
         assert!(rigid_body_acceleration(|_: &[f64; 2]| ([[0.0]], [0.0]), &[0.0, 0.0], &[1.0]).is_err());
+    }
+
+    #[test]
+    fn the_stated_map_to_torques_is_what_its_functions_perform() {
+        // M⁻¹ and the rows' map, run on numbers that count, against torque_map_ops.
+        use crate::ops::Counted;
+        fn counted<const N: usize>(rows: usize) -> OpCount {
+            // A diagonally dominant M, so every pivot is positive.
+            let mass: [[Counted; N]; N] =
+                core::array::from_fn(|i| core::array::from_fn(|j| Counted(if i == j { N as f64 + 1.0 } else { 0.5 })));
+            let bias: [Counted; N] = core::array::from_fn(|i| Counted(i as f64 - 1.0));
+            let lg: [Counted; N] = core::array::from_fn(|i| Counted(0.25 * i as f64));
+            Counted::measure(|| {
+                let inverse = inverse_mass(&mass).unwrap();
+                for _ in 0..rows {
+                    let (_, change) = to_torques(&inverse, &bias, &lg);
+                    let _ = Counted(1.0) + change; // the row's drift entry takes it
+                }
+            })
+            .1
+        }
+        assert_eq!(counted::<1>(0), torque_map_ops(1, 0));
+        assert_eq!(counted::<2>(3), torque_map_ops(2, 3));
+        assert_eq!(counted::<3>(1), torque_map_ops(3, 1));
+        assert_eq!(counted::<7>(40), torque_map_ops(7, 40));
+        // By hand, n = 2 without rows: the factor (l11: 1 add, 1 sqrt; l21: 1 add, 1 div;
+        // l22: 2 adds, 1 mul, 1 sqrt) and two solves of 6 adds, 2 muls and 4 divs each.
+        let two = torque_map_ops(2, 0);
+        assert_eq!((two.sqrt, two.div, two.mul, two.add), (2, 1 + 8, 1 + 4, 4 + 12));
     }
 }

@@ -68,7 +68,8 @@ pub struct WorstCase {
     /// OSQP iterations over every solve.
     pub osqp_iterations: u32,
     /// Operations of one row evaluation, as the generated kernels state them; `None` where
-    /// a kernel states no count (framed, composed and rigid-body kernels).
+    /// the barrier set states none ([`BarrierSet::evaluation_ops`](crate::system::BarrierSet::evaluation_ops):
+    /// a hand-written set, rows in torques without their dynamics' count).
     pub row_ops: Option<OpCount>,
     /// Enclosures of the rows over a period (the certificate's; 0 without it). Their work
     /// is interval arithmetic on the same kernels, not yet stated: a bound in time is

@@ -6,7 +6,7 @@
 //! condition holds in continuous time; the torque held over each 1 ms period lets a
 //! sphere pressed onto the table dip by micrometres). Then each run's stated worst case
 //! per update beside the most an update took (docs/filter.md, "The worst case of an
-//! update"): in counts; not in time, as the rigid-body dynamics state no operation count.
+//! update"), in counts and in CPU time; no update may pass it.
 //!
 //! ```sh
 //! cargo run --release -p cbfgen-panda-spheres --example latency
@@ -49,20 +49,24 @@ fn main() -> Result<(), cbfgen::CbfError> {
             );
             assert!(clearance >= -1e-3, "N = {n} ({label}): an arm sphere entered an obstacle or the table");
             assert_eq!(bound.beyond_counts, 0, "N = {n} ({label}): an update beyond its stated worst case");
+            assert_eq!(bound.beyond_time, 0, "N = {n} ({label}): an update beyond its stated worst case in time");
             bounds.push((n, label, bound));
         }
     }
     println!("\nworst case per update, stated / most measured:");
     println!(
-        "{:>3} {:>9} | {:>21} | {:>21} | {:>19}",
-        "N", "rows in", "dense-solver trips", "OSQP iterations", "in time"
+        "{:>3} {:>9} | {:>21} | {:>15} | {:>9} | {:>21} | ns per trip",
+        "N", "rows in", "dense-solver trips", "OSQP iterations", "row ops", "CPU time [µs]"
     );
     for (n, label, b) in bounds {
         let (w, m) = (b.worst_case, b.most);
         let trips = format!("{} / {}", w.dense_trips, m.dense_trips);
         let osqp = format!("{} / {}", w.osqp_iterations, m.osqp_iterations);
-        let time = b.micros().map_or_else(|| "not stated".to_string(), |us| format!("{us:.0} µs"));
-        println!("{n:>3} {label:>9} | {trips:>21} | {osqp:>21} | {time:>19}");
+        let rows = w.row_ops.map_or_else(|| "-".to_string(), |o| o.total().to_string());
+        let most_us = b.max_cpu.as_secs_f64() * 1e6;
+        let time = b.micros().map_or_else(|| "not stated".to_string(), |us| format!("{us:.0} / {most_us:.0}"));
+        let per_trip = b.calibration.ns_per_dense_trip;
+        println!("{n:>3} {label:>9} | {trips:>21} | {osqp:>15} | {rows:>9} | {time:>21} | {per_trip:.2}");
     }
     Ok(())
 }

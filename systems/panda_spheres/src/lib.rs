@@ -316,7 +316,8 @@ impl Simulation {
             }
         }
         let rows = TorqueRows::new(Barriers::new(capacity)?, gen::dynamics)
-            .with_interval_dynamics(gen::dynamics::<Interval>, gen::dynamics::<Dual<Interval>>);
+            .with_interval_dynamics(gen::dynamics::<Interval>, gen::dynamics::<Dual<Interval>>)
+            .with_dynamics_ops(gen::dynamics_ops());
         let filter = EcbfFilter::new(rows, scenario.settings.clone())?;
         let mut x = [0.0; NX];
         x[..NU].copy_from_slice(&START);

@@ -102,9 +102,160 @@ fn bad_scenarios_are_typed_errors() {
 #[test]
 fn every_straight_line_kernel_performs_the_operations_its_table_states() {
     // Run on numbers that count (cbfgen::ops::Counted), against the generator's count; the
-    // members assembled on a frame's jet and the walked dynamics state none.
+    // members assembled on a frame's jet and the walked dynamics state none in the table
+    // (evaluation_ops counts them: the test below).
     let checked = cbfgen::ops::check_stated(gen::run_counted_kernels::<cbfgen::ops::Counted>)
         .unwrap_or_else(|m| panic!("{m:#?}"));
     assert_eq!(checked, gen::KERNELS.iter().filter(|k| k.ops.is_some()).count());
     assert!(checked >= 90, "{checked} kernels counted");
+}
+
+#[test]
+fn evaluation_ops_is_what_evaluate_performs_in_its_kernels_and_frames_with_every_slot_filled() {
+    // evaluate's calls replayed on numbers that count (cbfgen::ops::Counted): each node of
+    // the kinematic tree once (its jet and its value), each sphere computed on its link's
+    // frame (or, alone on its link, from the state), its lower bound first. Every row the
+    // replay computes is the one evaluate stored, bit for bit, so the calls are evaluate's
+    // own; with every slot filled and nothing culled, the stated count is exact. The rows in
+    // torques add the dynamics (counted once: the walk does not branch on the numbers, which
+    // random states check) and the map to torques (checked in the core).
+    use cbfgen::compose::flatten;
+    use cbfgen::ops::Counted;
+    use cbfgen::system::Row;
+    use cbfgen_panda_spheres::generated::{Capacity, Params, SphereObstacleParams, TableParams, NU};
+    use cbfgen_panda_spheres::TorqueRows;
+
+    const TABLE: f64 = -0.05;
+    fn row<const L: usize, const C: usize>(lie: &[Counted; L], lg: &[Counted; C], columns: &[usize; C]) -> Row<NU> {
+        let mut row = Row::ZERO;
+        row.store(&lie.map(|v| v.0), &lg.map(|v| v.0), columns);
+        row
+    }
+    let mut r = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(62);
+    for n in [1, 4] {
+        let obstacles: Vec<SphereObstacleParams> = random_obstacles(n, 7)
+            .iter()
+            .map(|o| SphereObstacleParams { center: o.center.into(), radius: o.radius })
+            .collect();
+        let capacity = Capacity { sphere_obstacle: [n; 20], table: [1; 18] };
+        let mut params = Params::new(capacity).unwrap();
+        for member in &mut params.sphere_obstacle {
+            for o in &obstacles {
+                member.push(*o).unwrap();
+            }
+        }
+        for member in &mut params.table {
+            member.push(TableParams { height: TABLE }).unwrap();
+        }
+        let mut barriers = Barriers::new(capacity).unwrap();
+        let stated = barriers.evaluation_ops().expect("every sphere kernel states its count");
+        let x: [f64; NX] = std::array::from_fn(|i| {
+            let q = rand::Rng::random_range(&mut r, -1.0..1.0);
+            if i < NU {
+                q
+            } else {
+                2.0 * q
+            }
+        });
+        barriers.evaluate(0.0, &x, &params).unwrap();
+        let (replayed, count) = Counted::measure(|| {
+            let xc = x.map(Counted);
+            let mut out: Vec<Row<NU>> = Vec::new();
+            let j1 = gen::frame_panda_link1(&xc);
+            let j2 = gen::frame_panda_link2(&xc, &j1.0, &j1.1, &flatten(&j1.2));
+            let j3 = gen::frame_panda_link3(&xc, &j2.0, &j2.1, &flatten(&j2.2));
+            let j4 = gen::frame_panda_link4(&xc, &j3.0, &j3.1, &flatten(&j3.2));
+            let j5 = gen::frame_panda_link5(&xc, &j4.0, &j4.1, &flatten(&j4.2));
+            let j6 = gen::frame_panda_link6(&xc, &j5.0, &j5.1, &flatten(&j5.2));
+            let j7 = gen::frame_panda_link7(&xc, &j6.0, &j6.1, &flatten(&j6.2));
+            let v1 = gen::frame_panda_link1_value(&xc);
+            let v2 = gen::frame_panda_link2_value(&xc, &v1);
+            let v3 = gen::frame_panda_link3_value(&xc, &v2);
+            let v4 = gen::frame_panda_link4_value(&xc, &v3);
+            let v5 = gen::frame_panda_link5_value(&xc, &v4);
+            let v6 = gen::frame_panda_link6_value(&xc, &v5);
+            let v7 = gen::frame_panda_link7_value(&xc, &v6);
+            let _ = (&j1, &v1);
+            // A member on its link's frame: bound and row per instance.
+            macro_rules! framed {
+                ($m:ident, $bound:ident, $rows:ident, $jet:ident, $value:ident, $columns:expr, for $p:ident in $each:expr, $($arg:expr),*) => {
+                    for $p in $each {
+                        let _ = gen::$bound(&$value, $($arg),*);
+                        let (lie, lg) = gen::$rows(&$jet, $($arg),*);
+                        out.push(row(&lie[0], &lg[0], &$columns));
+                    }
+                };
+            }
+            // A member alone on its link: its state parts once, then per instance.
+            macro_rules! split {
+                ($m:ident, $bound_state:ident, $bound:ident, $state:ident, $rows:ident, $columns:expr, for $p:ident in $each:expr, $($arg:expr),*) => {
+                    let (bound_part, state_part) = (gen::$bound_state(&xc), gen::$state(&xc));
+                    for $p in $each {
+                        let _ = gen::$bound(&bound_part, $($arg),*);
+                        let (lie, lg) = gen::$rows(&state_part, $($arg),*);
+                        out.push(row(&lie[0], &lg[0], &$columns));
+                    }
+                };
+            }
+            split!(sphere_obstacle_link1_1, sphere_obstacle_link1_1_lower_bound_state, sphere_obstacle_link1_1_lower_bound_instance, sphere_obstacle_link1_1_state, sphere_obstacle_link1_1_instance, gen::SPHERE_OBSTACLE_LINK1_1_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
+            framed!(sphere_obstacle_link2_2, sphere_obstacle_link2_2_lower_bound_from_frame, sphere_obstacle_link2_2_from_frame, j2, v2, gen::SPHERE_OBSTACLE_LINK2_2_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
+            framed!(sphere_obstacle_link2_3, sphere_obstacle_link2_3_lower_bound_from_frame, sphere_obstacle_link2_3_from_frame, j2, v2, gen::SPHERE_OBSTACLE_LINK2_3_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
+            framed!(sphere_obstacle_link3_4, sphere_obstacle_link3_4_lower_bound_from_frame, sphere_obstacle_link3_4_from_frame, j3, v3, gen::SPHERE_OBSTACLE_LINK3_4_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
+            framed!(sphere_obstacle_link3_5, sphere_obstacle_link3_5_lower_bound_from_frame, sphere_obstacle_link3_5_from_frame, j3, v3, gen::SPHERE_OBSTACLE_LINK3_5_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
+            framed!(sphere_obstacle_link4_6, sphere_obstacle_link4_6_lower_bound_from_frame, sphere_obstacle_link4_6_from_frame, j4, v4, gen::SPHERE_OBSTACLE_LINK4_6_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
+            framed!(sphere_obstacle_link4_7, sphere_obstacle_link4_7_lower_bound_from_frame, sphere_obstacle_link4_7_from_frame, j4, v4, gen::SPHERE_OBSTACLE_LINK4_7_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
+            framed!(sphere_obstacle_link5_8, sphere_obstacle_link5_8_lower_bound_from_frame, sphere_obstacle_link5_8_from_frame, j5, v5, gen::SPHERE_OBSTACLE_LINK5_8_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
+            framed!(sphere_obstacle_link5_9, sphere_obstacle_link5_9_lower_bound_from_frame, sphere_obstacle_link5_9_from_frame, j5, v5, gen::SPHERE_OBSTACLE_LINK5_9_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
+            framed!(sphere_obstacle_link5_10, sphere_obstacle_link5_10_lower_bound_from_frame, sphere_obstacle_link5_10_from_frame, j5, v5, gen::SPHERE_OBSTACLE_LINK5_10_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
+            framed!(sphere_obstacle_link5_11, sphere_obstacle_link5_11_lower_bound_from_frame, sphere_obstacle_link5_11_from_frame, j5, v5, gen::SPHERE_OBSTACLE_LINK5_11_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
+            framed!(sphere_obstacle_link5_12, sphere_obstacle_link5_12_lower_bound_from_frame, sphere_obstacle_link5_12_from_frame, j5, v5, gen::SPHERE_OBSTACLE_LINK5_12_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
+            framed!(sphere_obstacle_link6_13, sphere_obstacle_link6_13_lower_bound_from_frame, sphere_obstacle_link6_13_from_frame, j6, v6, gen::SPHERE_OBSTACLE_LINK6_13_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
+            framed!(sphere_obstacle_link6_14, sphere_obstacle_link6_14_lower_bound_from_frame, sphere_obstacle_link6_14_from_frame, j6, v6, gen::SPHERE_OBSTACLE_LINK6_14_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
+            framed!(sphere_obstacle_link7_15, sphere_obstacle_link7_15_lower_bound_from_frame, sphere_obstacle_link7_15_from_frame, j7, v7, gen::SPHERE_OBSTACLE_LINK7_15_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
+            framed!(sphere_obstacle_link7_16, sphere_obstacle_link7_16_lower_bound_from_frame, sphere_obstacle_link7_16_from_frame, j7, v7, gen::SPHERE_OBSTACLE_LINK7_16_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
+            framed!(sphere_obstacle_link7_17, sphere_obstacle_link7_17_lower_bound_from_frame, sphere_obstacle_link7_17_from_frame, j7, v7, gen::SPHERE_OBSTACLE_LINK7_17_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
+            framed!(sphere_obstacle_link7_18, sphere_obstacle_link7_18_lower_bound_from_frame, sphere_obstacle_link7_18_from_frame, j7, v7, gen::SPHERE_OBSTACLE_LINK7_18_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
+            framed!(sphere_obstacle_link7_19, sphere_obstacle_link7_19_lower_bound_from_frame, sphere_obstacle_link7_19_from_frame, j7, v7, gen::SPHERE_OBSTACLE_LINK7_19_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
+            framed!(sphere_obstacle_link7_20, sphere_obstacle_link7_20_lower_bound_from_frame, sphere_obstacle_link7_20_from_frame, j7, v7, gen::SPHERE_OBSTACLE_LINK7_20_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
+            split!(table_link2_3, table_link2_3_lower_bound_state, table_link2_3_lower_bound_instance, table_link2_3_state, table_link2_3_instance, gen::TABLE_LINK2_3_INPUT_COLUMNS, for height in [TABLE], Counted(height));
+            framed!(table_link3_4, table_link3_4_lower_bound_from_frame, table_link3_4_from_frame, j3, v3, gen::TABLE_LINK3_4_INPUT_COLUMNS, for height in [TABLE], Counted(height));
+            framed!(table_link3_5, table_link3_5_lower_bound_from_frame, table_link3_5_from_frame, j3, v3, gen::TABLE_LINK3_5_INPUT_COLUMNS, for height in [TABLE], Counted(height));
+            framed!(table_link4_6, table_link4_6_lower_bound_from_frame, table_link4_6_from_frame, j4, v4, gen::TABLE_LINK4_6_INPUT_COLUMNS, for height in [TABLE], Counted(height));
+            framed!(table_link4_7, table_link4_7_lower_bound_from_frame, table_link4_7_from_frame, j4, v4, gen::TABLE_LINK4_7_INPUT_COLUMNS, for height in [TABLE], Counted(height));
+            framed!(table_link5_8, table_link5_8_lower_bound_from_frame, table_link5_8_from_frame, j5, v5, gen::TABLE_LINK5_8_INPUT_COLUMNS, for height in [TABLE], Counted(height));
+            framed!(table_link5_9, table_link5_9_lower_bound_from_frame, table_link5_9_from_frame, j5, v5, gen::TABLE_LINK5_9_INPUT_COLUMNS, for height in [TABLE], Counted(height));
+            framed!(table_link5_10, table_link5_10_lower_bound_from_frame, table_link5_10_from_frame, j5, v5, gen::TABLE_LINK5_10_INPUT_COLUMNS, for height in [TABLE], Counted(height));
+            framed!(table_link5_11, table_link5_11_lower_bound_from_frame, table_link5_11_from_frame, j5, v5, gen::TABLE_LINK5_11_INPUT_COLUMNS, for height in [TABLE], Counted(height));
+            framed!(table_link5_12, table_link5_12_lower_bound_from_frame, table_link5_12_from_frame, j5, v5, gen::TABLE_LINK5_12_INPUT_COLUMNS, for height in [TABLE], Counted(height));
+            framed!(table_link6_13, table_link6_13_lower_bound_from_frame, table_link6_13_from_frame, j6, v6, gen::TABLE_LINK6_13_INPUT_COLUMNS, for height in [TABLE], Counted(height));
+            framed!(table_link6_14, table_link6_14_lower_bound_from_frame, table_link6_14_from_frame, j6, v6, gen::TABLE_LINK6_14_INPUT_COLUMNS, for height in [TABLE], Counted(height));
+            framed!(table_link7_15, table_link7_15_lower_bound_from_frame, table_link7_15_from_frame, j7, v7, gen::TABLE_LINK7_15_INPUT_COLUMNS, for height in [TABLE], Counted(height));
+            framed!(table_link7_16, table_link7_16_lower_bound_from_frame, table_link7_16_from_frame, j7, v7, gen::TABLE_LINK7_16_INPUT_COLUMNS, for height in [TABLE], Counted(height));
+            framed!(table_link7_17, table_link7_17_lower_bound_from_frame, table_link7_17_from_frame, j7, v7, gen::TABLE_LINK7_17_INPUT_COLUMNS, for height in [TABLE], Counted(height));
+            framed!(table_link7_18, table_link7_18_lower_bound_from_frame, table_link7_18_from_frame, j7, v7, gen::TABLE_LINK7_18_INPUT_COLUMNS, for height in [TABLE], Counted(height));
+            framed!(table_link7_19, table_link7_19_lower_bound_from_frame, table_link7_19_from_frame, j7, v7, gen::TABLE_LINK7_19_INPUT_COLUMNS, for height in [TABLE], Counted(height));
+            framed!(table_link7_20, table_link7_20_lower_bound_from_frame, table_link7_20_from_frame, j7, v7, gen::TABLE_LINK7_20_INPUT_COLUMNS, for height in [TABLE], Counted(height));
+            out
+        });
+        let rows = barriers.rows();
+        assert_eq!(replayed.len(), rows.len(), "{n} obstacles");
+        for (k, (row, replayed)) in rows.iter().zip(&replayed).enumerate() {
+            assert!(row.active && !row.culled, "{n} obstacles: row {k}");
+            assert_eq!((row.lie, row.lg), (replayed.lie, replayed.lg), "{n} obstacles: row {k}");
+        }
+        assert_eq!(stated, count, "{n} obstacles: stated {stated}, counted {count}");
+        // In torques: the dynamics' count is the same at every state.
+        let dynamics = gen::dynamics_ops();
+        for _ in 0..20 {
+            let x: [f64; NX] = std::array::from_fn(|_| rand::Rng::random_range(&mut r, -3.0..3.0));
+            assert_eq!(Counted::measure(|| gen::dynamics(&x.map(Counted))).1, dynamics);
+        }
+        assert!(dynamics.total() > 1000, "{dynamics}");
+        let torques = TorqueRows::new(barriers, gen::dynamics);
+        assert_eq!(torques.evaluation_ops(), None, "without the dynamics' count");
+        let torques = torques.with_dynamics_ops(dynamics);
+        let rows = torques.rows().len();
+        assert_eq!(torques.evaluation_ops(), Some(stated + dynamics + cbfgen::torque::torque_map_ops(NU, rows)));
+        println!("{n} obstacle(s) per sphere: rows {stated}; dynamics {dynamics}");
+    }
 }

@@ -179,7 +179,7 @@ def emit_placements(plans: Sequence[PosePlan], runtime_crate: str, attributes: S
         offset = ", ".join(float_literal(v) for v in plan.placement[:3])
         axes = ", ".join(float_literal(v) for v in plan.placement[3:])
         out += [f"/// Where the box of [`{plan.name}`] sits in its frame ([`{plan.steps[-1]}`]).", *attributes,
-                f"const {name}: {runtime_crate}::compose::Placement = {runtime_crate}::compose::Placement {{ "
+                f"pub const {name}: {runtime_crate}::compose::Placement = {runtime_crate}::compose::Placement {{ "
                 f"offset: [{offset}], axes: [{axes}] }};"]
     return "\n".join(out) + "\n" if out else ""
 

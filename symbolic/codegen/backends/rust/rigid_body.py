@@ -59,4 +59,14 @@ def emit_rigid_body_output(kernel: Kernel, tree: Tree, order: Sequence[int], run
                  "    (ORDER.map(|i| ORDER.map(|j| mass[i][j])), ORDER.map(|i| bias[i]))"]
     signature = f"pub fn {kernel.name}{generic(runtime_crate)}({args}) -> {ret} {{"
     out += [*_doc_lines(kernel), *attributes, "#[inline]", signature, *body, "}"]
+    # Its cost, for a worst-case bound: counted, not printed, as the walk is not a straight
+    # line here; it branches on the tree alone, so one call's count is every call's.
+    counted = f"{runtime_crate}::ops::Counted"
+    n_x = len(next(inp for inp in kernel.inputs if inp.name == "x").symbols)
+    out += [f"/// What one call of [`{kernel.name}`] performs: it walks its tree with branches on the tree "
+            "alone, never on the numbers, so one call on numbers that count "
+            f"(`{counted}`) counts every call's. What `{runtime_crate}::torque::JointTorque::with_dynamics_ops` "
+            "takes.",
+            f"pub fn {kernel.name}_ops() -> {runtime_crate}::ops::OpCount {{",
+            f"    {counted}::measure(|| {kernel.name}(&[{counted}(0.0); {n_x}])).1", "}"]
     return "\n".join(out) + "\n"

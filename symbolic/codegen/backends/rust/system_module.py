@@ -22,9 +22,11 @@ module's documentation is the ``DOC`` constant (and the system struct's doc).
 
 from __future__ import annotations
 
+import functools
 import json
 
 from ....spec import Domain, Interval, NonNegative, Positive, Real, Rotation, UnitVector
+from ...composition import library_kernels
 from ...definition import FamilyDefinition, SystemDefinition
 from .composed import (
     emit_composed_bound,
@@ -364,43 +366,147 @@ def _evaluate_family(w, f: FamilyDefinition) -> None:
             w("        i += n;")
 
 
-def _evaluation_ops(d: SystemDefinition, ops: dict[str, list[int]]) -> tuple[list[int], list] | str:
-    """The operations of the kernel calls ``evaluate`` makes (as :func:`_evaluate_family`
-    writes them) with every instance present and nothing culled: ``(fixed, slots)``, the
-    calls whose number the spec fixes summed in ``fixed`` and, per capacity member,
-    ``(state part, instance part, its capacity in Rust)`` (the state part once when the
-    member has a slot, the instance part per slot); or the name of a called function whose
+class _Cost:
+    """An operation count as the generated Rust states it: the numbers this generator
+    counted as it printed kernels (``OpCount`` fields in order), plus calls of the core's
+    hand-written functions, which state their own (``compose::place_jet_ops``), each with
+    how many times it runs."""
+
+    def __init__(self, numbers: list[int] | None = None, terms: dict[str, int] | None = None):
+        self.numbers = list(numbers) if numbers is not None else [0] * 8
+        self.terms = dict(terms or {})
+
+    @staticmethod
+    def call(term: str) -> _Cost:
+        return _Cost(terms={term: 1})
+
+    def __add__(self, other: _Cost | list[int]) -> _Cost:
+        other = other if isinstance(other, _Cost) else _Cost(other)
+        terms = dict(self.terms)
+        for t, k in other.terms.items():
+            terms[t] = terms.get(t, 0) + k
+        return _Cost([a + b for a, b in zip(self.numbers, other.numbers, strict=True)], terms)
+
+    def times(self, n: int) -> _Cost:
+        return _Cost([n * a for a in self.numbers], {t: n * k for t, k in self.terms.items()})
+
+    def rust(self) -> str:
+        """The count as a Rust expression, with ``OpCount`` and the core's functions in scope
+        (:func:`_emit_evaluation_ops` imports them)."""
+        if not self.terms and not any(self.numbers):
+            return "OpCount::ZERO"
+        parts = [f"OpCount::new({self.numbers})"] if any(self.numbers) else []
+        parts += [term + (f".times({k})" if k != 1 else "") for term, k in sorted(self.terms.items())]
+        return " + ".join(parts)
+
+    def functions(self) -> set[str]:
+        """The core's functions (in ``compose``) the count calls."""
+        return {term.split("(")[0] for term in self.terms}
+
+
+@functools.cache
+def _library_ops() -> dict[str, list[int]]:
+    """The operations of the core's shared chain and bound kernels (``generated/ssat.rs``),
+    counted by printing them as that module does: what a composed row that calls one adds."""
+    ops: dict[str, list[int]] = {}
+    for k in library_kernels():
+        emit_kernel(k, "cbfgen", ops=ops)
+    return ops
+
+
+def _pose_cache_ops(d: SystemDefinition, ops: dict[str, list[int]]) -> _Cost | str:
+    """Every entry of the cycle's ``PoseCache`` once (each is computed at most once per
+    cycle): the node kernels' jets and values, and each box placed in its frame; or the
+    name of a node whose operations are not stated."""
+    cost = _Cost()
+    for name, _ in d.nodes:
+        if name not in ops:
+            return name
+        cost += ops[name]
+    for plan in d.poses:
+        if plan.placement is not None:
+            cost += _Cost.call("PLACE_POSE_OPS" if plan.value
+                               else f"place_jet_ops({12 * plan.degree}, {plan.columns})")
+    return cost
+
+
+def _member_ops(f: FamilyDefinition, m: int, ops: dict[str, list[int]]) -> tuple[_Cost, _Cost] | str:
+    """What ``evaluate`` performs for member ``m`` of ``f`` (as :func:`_evaluate_family`
+    writes it, its lower bound included, nothing culled), in its state part (once per
+    cycle when the member has an instance) and its instance part (per instance); poses
+    read from the ``PoseCache`` are counted there. Or the name of a called function whose
     operations are not stated."""
-    fixed: list[int] = [0] * 8
-    slots: list[tuple[list[int], list[int], str]] = []
+    k = f.kernels[m]
 
-    def total(names: list[str]) -> list[int] | None:
-        if any(n not in ops for n in names):
-            return None
-        return [sum(c) for c in zip(*(ops[n] for n in names), strict=True)]
+    def stated(name: str, in_library: bool = False) -> list[int] | str:
+        table = _library_ops() if in_library else ops
+        return table[name] if name in table else name
 
+    if f.composed:
+        plan = f.composed[m]
+        chain = stated(plan.chain, bool(plan.library))
+        if isinstance(chain, str):
+            return chain
+        instance = _Cost(chain)
+        for slot in plan.slots:
+            if slot.moving:
+                instance += _Cost.call(f"accumulate_columns_ops(12, {len(slot.at)})")
+        if f.bounds and plan.bound:
+            bound = stated(plan.bound.chain, bool(plan.bound.library))
+            if isinstance(bound, str):
+                return bound
+            instance += bound
+        return _Cost(), instance
+    framed = f.framed[m] if f.framed else None
+    pieces: list[tuple[str, str | None]] = [(k.name, framed.on_frame if framed else None)]
+    if f.bounds:
+        pieces.append((f.bounds[m].name, framed.bound.on_frame if framed and framed.bound else None))
+    state, instance = _Cost(), _Cost()
+    for name, on_frame in pieces:
+        if on_frame is not None:
+            found = stated(on_frame)
+            if isinstance(found, str):
+                return found
+            instance += found
+        elif f.params:
+            st, inst = stated(f"{name}_state"), stated(f"{name}_instance")
+            for found in (st, inst):
+                if isinstance(found, str):
+                    return found
+            state, instance = state + st, instance + inst
+        else:
+            found = stated(name)
+            if isinstance(found, str):
+                return found
+            instance += found
+    return state, instance
+
+
+def _evaluation_ops(d: SystemDefinition, ops: dict[str, list[int]]) -> tuple[_Cost, list] | str:
+    """The operations ``evaluate`` performs with every instance present and nothing culled:
+    ``(fixed, slots)``, what runs a number of times the spec fixes summed in ``fixed`` (the
+    pose cache's entries included) and, per capacity member, ``(state part, instance part,
+    its capacity in Rust)`` (the state part once when the member has a slot, the instance
+    part per slot); or the name of a called function whose operations are not stated."""
+    fixed = _Cost()
+    slots: list[tuple[_Cost, _Cost, str]] = []
+    if d.pose_names:
+        cache = _pose_cache_ops(d, ops)
+        if isinstance(cache, str):
+            return cache
+        fixed += cache
     for f in d.families:
-        for m, k in enumerate(f.kernels):
-            if f.composed:
-                return f"{k.name}_from_poses"
-            if f.framed and f.framed[m]:
-                return f"{k.name}_from_frame"
-            kernels = [k.name, *([f.bounds[m].name] if f.bounds else [])]
-            if not f.params:
-                # One call of each per cycle.
-                calls = total(kernels)
-                if calls is None:
-                    return next(n for n in kernels if n not in ops)
-                fixed = [a + b for a, b in zip(fixed, calls, strict=True)]
-                continue
-            state, instance = total([f"{n}_state" for n in kernels]), total([f"{n}_instance" for n in kernels])
-            if state is None or instance is None:
-                return next(f"{n}_{part}" for n in kernels for part in ("state", "instance")
-                            if f"{n}_{part}" not in ops)
+        for m in range(len(f.kernels)):
+            found = _member_ops(f, m, ops)
+            if isinstance(found, str):
+                return found
+            state, instance = found
             if f.capacity:
                 slots.append((state, instance, f"c.{f.name}[{m}]" if f.indexed else f"c.{f.name}"))
-            elif f.count:
-                fixed = [a + b + f.count * c for a, b, c in zip(fixed, state, instance, strict=True)]
+            elif f.params:
+                fixed += state + instance.times(f.count)
+            else:
+                fixed += state + instance
     return fixed, slots
 
 
@@ -412,11 +518,32 @@ def _emit_evaluation_ops(w, d: SystemDefinition, rt: str, ops: dict[str, list[in
         w(f"        None // `{found}` states no count")
     else:
         fixed, slots = found
-        text = f"{rt}::ops::OpCount::new({fixed})"
+        used = set().union(*(c.functions() for c in [fixed, *(p for s in slots for p in s[:2])]))
+        w(f"        use {rt}::ops::OpCount;")
+        if used:
+            w(f"        use {rt}::compose::{{{', '.join(sorted(used))}}};")
+        w(f"        let fixed = {fixed.rust()};")
         if slots:
             w("        let c = &self.capacity;")
-            text += ".plus_slots(&[" + ", ".join(f"({s}, {i}, {cap})" for s, i, cap in slots) + "])"
-        w(f"        Some({text})")
+            # A composed family's members share their chain: its count named once.
+            shared: dict[str, list[int]] = {}
+            for _, instance, cap in slots:
+                family = cap.removeprefix("c.").split("[")[0]
+                numbers = [i.numbers for _, i, cp in slots if cp.removeprefix("c.").split("[")[0] == family]
+                if instance.terms and len(numbers) > 1 and all(n == numbers[0] for n in numbers):
+                    shared[family] = numbers[0]
+            for family, numbers in shared.items():
+                w(f"        let {family} = OpCount::new({numbers});")
+
+            def instance_text(instance: _Cost, cap: str) -> str:
+                family = cap.removeprefix("c.").split("[")[0]
+                if family in shared:
+                    return " + ".join([family, _Cost(terms=instance.terms).rust()])
+                return instance.rust()
+            w("        Some(fixed.plus_slots(&[" + ", ".join(
+                f"({st.rust()}, {instance_text(i, cap)}, {cap})" for st, i, cap in slots) + "]))")
+        else:
+            w("        Some(fixed)")
     w("    }")
     w("")
 
@@ -471,6 +598,8 @@ def _reserve_names(d: SystemDefinition) -> None:
                 names.add(u, f"the kernel table of family `{f.name}`")
     for c in d.constants:
         names.add(c.name.upper(), f"constant `{c.name}`")
+    for name, _, _ in d.rigid_bodies:
+        names.add(f"{name}_ops", f"the operations of rigid-body output `{name}`")
 
 
 def _emit_description(out: list[str], d: SystemDefinition, rt: str) -> None:

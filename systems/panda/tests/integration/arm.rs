@@ -570,3 +570,311 @@ fn every_straight_line_kernel_performs_the_operations_its_table_states() {
     assert_eq!(checked, gen::KERNELS.iter().filter(|k| k.ops.is_some()).count());
     assert!(checked >= 20, "{checked} kernels counted");
 }
+
+#[test]
+fn evaluation_ops_is_what_evaluate_performs_in_its_kernels_and_poses_with_every_slot_filled() {
+    // evaluate's calls replayed on numbers that count (cbfgen::ops::Counted): each node of
+    // the kinematic tree once (its jet and its value), each box placed once in its link's
+    // frame, each member's lower bound and chain from those poses, per obstacle slot. Every
+    // row the replay computes is the one evaluate stored, bit for bit, so the calls are
+    // evaluate's own; with every slot filled and nothing culled, the stated count is exact.
+    use cbfgen::compose::{flatten, place_jet, place_pose};
+    use cbfgen::ops::Counted;
+    use cbfgen::system::Row;
+
+    fn counted<const N: usize>(a: &[f64; N]) -> [Counted; N] {
+        a.map(Counted)
+    }
+    // One row as evaluate stores it.
+    fn row<const L: usize, const C: usize>(lie: &[Counted; L], lg: &[Counted; C], columns: &[usize; C]) -> Row<NU> {
+        let mut row = Row::ZERO;
+        row.store(&lie.map(|v| v.0), &lg.map(|v| v.0), columns);
+        row
+    }
+
+    let mut r = rng(62);
+    for slots in [1, 3] {
+        let obstacles: Vec<ObstacleParams> = (0..slots)
+            .map(|_| ObstacleParams {
+                center: Vector3::new(r.random_range(-0.8..0.8), r.random_range(-0.8..0.8), r.random_range(0.0..1.0)),
+                rotation: *random_rotation(&mut r).matrix(),
+                half: Vector3::new(r.random_range(0.02..0.3), r.random_range(0.02..0.3), r.random_range(0.02..0.3)),
+            })
+            .collect();
+        let (mut barriers, params) = barriers_with(&obstacles);
+        let stated = barriers.evaluation_ops().expect("every Panda kernel states its count");
+        let x = random_state(&mut r);
+        let rows = rows_at(&mut barriers, &params, &x);
+        let (replayed, count) = Counted::measure(|| {
+            let xc = counted(&x);
+            let mut out: Vec<Row<NU>> = Vec::new();
+            let (lie, lg) = gen::joint_limits(&xc);
+            out.extend(lie.iter().zip(&lg).map(|(l, g)| row(l, g, &gen::JOINT_LIMITS_INPUT_COLUMNS)));
+            let (lie, lg) = gen::velocity_limits(&xc);
+            out.extend(lie.iter().zip(&lg).map(|(l, g)| row(l, g, &gen::VELOCITY_LIMITS_INPUT_COLUMNS)));
+            // The tree, node by node: jets and values.
+            let j1 = gen::frame_panda_link1(&xc);
+            let j2 = gen::frame_panda_link2(&xc, &j1.0, &j1.1, &flatten(&j1.2));
+            let j3 = gen::frame_panda_link3(&xc, &j2.0, &j2.1, &flatten(&j2.2));
+            let j4 = gen::frame_panda_link4(&xc, &j3.0, &j3.1, &flatten(&j3.2));
+            let j5 = gen::frame_panda_link5(&xc, &j4.0, &j4.1, &flatten(&j4.2));
+            let j6 = gen::frame_panda_link6(&xc, &j5.0, &j5.1, &flatten(&j5.2));
+            let j7 = gen::frame_panda_link7(&xc, &j6.0, &j6.1, &flatten(&j6.2));
+            let v1 = gen::frame_panda_link1_value(&xc);
+            let v2 = gen::frame_panda_link2_value(&xc, &v1);
+            let v3 = gen::frame_panda_link3_value(&xc, &v2);
+            let v4 = gen::frame_panda_link4_value(&xc, &v3);
+            let v5 = gen::frame_panda_link5_value(&xc, &v4);
+            let v6 = gen::frame_panda_link6_value(&xc, &v5);
+            let v7 = gen::frame_panda_link7_value(&xc, &v6);
+            // Each box placed once: its jet and its value.
+            macro_rules! placed {
+                ($jet:ident, $value:ident, $placement:ident) => {
+                    (place_jet(&$jet, &gen::$placement), place_pose(&$value, &gen::$placement))
+                };
+            }
+            let link1 = placed!(j1, v1, LINK1_PLACEMENT);
+            let link2 = placed!(j2, v2, LINK2_PLACEMENT);
+            let link3 = placed!(j3, v3, LINK3_PLACEMENT);
+            let link4 = placed!(j4, v4, LINK4_PLACEMENT);
+            let link5 = placed!(j5, v5, LINK5_PLACEMENT);
+            let link6 = placed!(j6, v6, LINK6_PLACEMENT);
+            let link7 = placed!(j7, v7, LINK7_PLACEMENT);
+            let hand = placed!(j7, v7, HAND_PLACEMENT);
+            let leftfinger = placed!(j7, v7, LEFTFINGER_PLACEMENT);
+            let rightfinger = placed!(j7, v7, RIGHTFINGER_PLACEMENT);
+            // Obstacle rows, member by member, slot by slot: the bound, then the row.
+            macro_rules! obstacle {
+                ($pose:ident, $bound:ident, $member:ident, $columns:ident) => {
+                    for o in &obstacles {
+                        let (c, rot, h) = (o.center.map(Counted), o.rotation.map(Counted), o.half.map(Counted));
+                        let _ = gen::$bound(&$pose.1, &c, &rot, &h);
+                        let (lie, lg) = gen::$member(&$pose.0, &c, &rot, &h);
+                        out.push(row(&lie[0], &lg[0], &gen::$columns));
+                    }
+                };
+            }
+            obstacle!(
+                link1,
+                obstacle_link1_lower_bound_from_poses,
+                obstacle_link1_from_poses,
+                OBSTACLE_LINK1_INPUT_COLUMNS
+            );
+            obstacle!(
+                link2,
+                obstacle_link2_lower_bound_from_poses,
+                obstacle_link2_from_poses,
+                OBSTACLE_LINK2_INPUT_COLUMNS
+            );
+            obstacle!(
+                link3,
+                obstacle_link3_lower_bound_from_poses,
+                obstacle_link3_from_poses,
+                OBSTACLE_LINK3_INPUT_COLUMNS
+            );
+            obstacle!(
+                link4,
+                obstacle_link4_lower_bound_from_poses,
+                obstacle_link4_from_poses,
+                OBSTACLE_LINK4_INPUT_COLUMNS
+            );
+            obstacle!(
+                link5,
+                obstacle_link5_lower_bound_from_poses,
+                obstacle_link5_from_poses,
+                OBSTACLE_LINK5_INPUT_COLUMNS
+            );
+            obstacle!(
+                link6,
+                obstacle_link6_lower_bound_from_poses,
+                obstacle_link6_from_poses,
+                OBSTACLE_LINK6_INPUT_COLUMNS
+            );
+            obstacle!(
+                link7,
+                obstacle_link7_lower_bound_from_poses,
+                obstacle_link7_from_poses,
+                OBSTACLE_LINK7_INPUT_COLUMNS
+            );
+            obstacle!(
+                hand,
+                obstacle_hand_lower_bound_from_poses,
+                obstacle_hand_from_poses,
+                OBSTACLE_HAND_INPUT_COLUMNS
+            );
+            obstacle!(
+                leftfinger,
+                obstacle_leftfinger_lower_bound_from_poses,
+                obstacle_leftfinger_from_poses,
+                OBSTACLE_LEFTFINGER_INPUT_COLUMNS
+            );
+            obstacle!(
+                rightfinger,
+                obstacle_rightfinger_lower_bound_from_poses,
+                obstacle_rightfinger_from_poses,
+                OBSTACLE_RIGHTFINGER_INPUT_COLUMNS
+            );
+            // Self-collision pairs: link 0 is fixed (its box is in the chain as numbers).
+            macro_rules! pair {
+                (link0, $b:ident, $bound:ident, $member:ident, $columns:ident) => {
+                    let _ = gen::$bound(&$b.1);
+                    let (lie, lg) = gen::$member(&$b.0);
+                    out.push(row(&lie[0], &lg[0], &gen::$columns));
+                };
+                ($a:ident, $b:ident, $bound:ident, $member:ident, $columns:ident) => {
+                    let _ = gen::$bound(&$a.1, &$b.1);
+                    let (lie, lg) = gen::$member(&$a.0, &$b.0);
+                    out.push(row(&lie[0], &lg[0], &gen::$columns));
+                };
+            }
+            pair!(
+                link0,
+                link5,
+                self_collision_link0_link5_lower_bound_from_poses,
+                self_collision_link0_link5_from_poses,
+                SELF_COLLISION_LINK0_LINK5_INPUT_COLUMNS
+            );
+            pair!(
+                link0,
+                link6,
+                self_collision_link0_link6_lower_bound_from_poses,
+                self_collision_link0_link6_from_poses,
+                SELF_COLLISION_LINK0_LINK6_INPUT_COLUMNS
+            );
+            pair!(
+                link0,
+                link7,
+                self_collision_link0_link7_lower_bound_from_poses,
+                self_collision_link0_link7_from_poses,
+                SELF_COLLISION_LINK0_LINK7_INPUT_COLUMNS
+            );
+            pair!(
+                link0,
+                hand,
+                self_collision_link0_hand_lower_bound_from_poses,
+                self_collision_link0_hand_from_poses,
+                SELF_COLLISION_LINK0_HAND_INPUT_COLUMNS
+            );
+            pair!(
+                link0,
+                leftfinger,
+                self_collision_link0_leftfinger_lower_bound_from_poses,
+                self_collision_link0_leftfinger_from_poses,
+                SELF_COLLISION_LINK0_LEFTFINGER_INPUT_COLUMNS
+            );
+            pair!(
+                link0,
+                rightfinger,
+                self_collision_link0_rightfinger_lower_bound_from_poses,
+                self_collision_link0_rightfinger_from_poses,
+                SELF_COLLISION_LINK0_RIGHTFINGER_INPUT_COLUMNS
+            );
+            pair!(
+                link1,
+                link5,
+                self_collision_link1_link5_lower_bound_from_poses,
+                self_collision_link1_link5_from_poses,
+                SELF_COLLISION_LINK1_LINK5_INPUT_COLUMNS
+            );
+            pair!(
+                link1,
+                link6,
+                self_collision_link1_link6_lower_bound_from_poses,
+                self_collision_link1_link6_from_poses,
+                SELF_COLLISION_LINK1_LINK6_INPUT_COLUMNS
+            );
+            pair!(
+                link1,
+                link7,
+                self_collision_link1_link7_lower_bound_from_poses,
+                self_collision_link1_link7_from_poses,
+                SELF_COLLISION_LINK1_LINK7_INPUT_COLUMNS
+            );
+            pair!(
+                link1,
+                hand,
+                self_collision_link1_hand_lower_bound_from_poses,
+                self_collision_link1_hand_from_poses,
+                SELF_COLLISION_LINK1_HAND_INPUT_COLUMNS
+            );
+            pair!(
+                link1,
+                leftfinger,
+                self_collision_link1_leftfinger_lower_bound_from_poses,
+                self_collision_link1_leftfinger_from_poses,
+                SELF_COLLISION_LINK1_LEFTFINGER_INPUT_COLUMNS
+            );
+            pair!(
+                link1,
+                rightfinger,
+                self_collision_link1_rightfinger_lower_bound_from_poses,
+                self_collision_link1_rightfinger_from_poses,
+                SELF_COLLISION_LINK1_RIGHTFINGER_INPUT_COLUMNS
+            );
+            pair!(
+                link2,
+                link5,
+                self_collision_link2_link5_lower_bound_from_poses,
+                self_collision_link2_link5_from_poses,
+                SELF_COLLISION_LINK2_LINK5_INPUT_COLUMNS
+            );
+            pair!(
+                link2,
+                link6,
+                self_collision_link2_link6_lower_bound_from_poses,
+                self_collision_link2_link6_from_poses,
+                SELF_COLLISION_LINK2_LINK6_INPUT_COLUMNS
+            );
+            pair!(
+                link2,
+                link7,
+                self_collision_link2_link7_lower_bound_from_poses,
+                self_collision_link2_link7_from_poses,
+                SELF_COLLISION_LINK2_LINK7_INPUT_COLUMNS
+            );
+            pair!(
+                link2,
+                hand,
+                self_collision_link2_hand_lower_bound_from_poses,
+                self_collision_link2_hand_from_poses,
+                SELF_COLLISION_LINK2_HAND_INPUT_COLUMNS
+            );
+            pair!(
+                link2,
+                leftfinger,
+                self_collision_link2_leftfinger_lower_bound_from_poses,
+                self_collision_link2_leftfinger_from_poses,
+                SELF_COLLISION_LINK2_LEFTFINGER_INPUT_COLUMNS
+            );
+            pair!(
+                link2,
+                rightfinger,
+                self_collision_link2_rightfinger_lower_bound_from_poses,
+                self_collision_link2_rightfinger_from_poses,
+                SELF_COLLISION_LINK2_RIGHTFINGER_INPUT_COLUMNS
+            );
+            pair!(
+                link5,
+                leftfinger,
+                self_collision_link5_leftfinger_lower_bound_from_poses,
+                self_collision_link5_leftfinger_from_poses,
+                SELF_COLLISION_LINK5_LEFTFINGER_INPUT_COLUMNS
+            );
+            pair!(
+                link5,
+                rightfinger,
+                self_collision_link5_rightfinger_lower_bound_from_poses,
+                self_collision_link5_rightfinger_from_poses,
+                SELF_COLLISION_LINK5_RIGHTFINGER_INPUT_COLUMNS
+            );
+            out
+        });
+        assert_eq!(replayed.len(), rows.len(), "{slots} slots");
+        for (k, (row, replayed)) in rows.iter().zip(&replayed).enumerate() {
+            assert!(row.active && !row.culled, "{slots} slots: row {k}");
+            assert_eq!((row.lie, row.lg), (replayed.lie, replayed.lg), "{slots} slots: row {k}");
+        }
+        assert_eq!(stated, count, "{slots} slots: stated {stated}, counted {count}");
+        println!("{slots} obstacle(s) per link: {stated}");
+    }
+}
