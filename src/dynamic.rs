@@ -18,7 +18,9 @@ use std::any::Any;
 use std::marker::PhantomData;
 
 use crate::error::CbfError;
-use crate::filter::{Cause, EcbfFilter, FamilyRelaxation, FilterSettings, Output, SolverSettings};
+use crate::filter::{
+    Calibration, Cause, EcbfFilter, FamilyRelaxation, FilterSettings, Output, SolverSettings, WorstCase,
+};
 use crate::param_domain::Domain;
 use crate::system::{
     find_kernel, BarrierSet, ControlAffine, FamilyInfo, FamilyParams, InstanceKind, Instances, KernelEntry,
@@ -602,6 +604,15 @@ pub trait DynFilter: DynRows + Send {
     fn margins(&self) -> &[f64];
     /// The settings the filter was built with.
     fn settings(&self) -> DynSettings;
+    /// The most one update can do (see [`EcbfFilter::worst_case`]).
+    fn worst_case(&self) -> WorstCase;
+    /// This machine's rates for this filter's work, its rows evaluated at `t`, `x`,
+    /// `params` (see [`EcbfFilter::calibrate`]; takes a second or so, allocates).
+    ///
+    /// # Errors
+    /// `x` of another length, parameters of another system, and what
+    /// [`EcbfFilter::calibrate`] refuses.
+    fn calibrate(&mut self, t: f64, x: &[f64], params: &dyn DynParams) -> Result<Calibration, CbfError>;
 }
 
 /// Any generated system: sizes, names, dynamics, and factories for its parameters, rows
@@ -893,6 +904,12 @@ impl<S: GeneratedSystem<NX, NU>, const NX: usize, const NU: usize> DynFilter for
     }
     fn settings(&self) -> DynSettings {
         self.0.settings().clone().into()
+    }
+    fn worst_case(&self) -> WorstCase {
+        self.0.worst_case()
+    }
+    fn calibrate(&mut self, t: f64, x: &[f64], params: &dyn DynParams) -> Result<Calibration, CbfError> {
+        self.0.calibrate(t, state::<NX>(x)?, own::<S, NX, NU>(params)?)
     }
 }
 

@@ -11,7 +11,7 @@
 
 import os
 from collections.abc import Mapping, Sequence
-from typing import Any, Literal, TypedDict
+from typing import Any, Literal, NotRequired, TypedDict
 
 import numpy as np
 import numpy.typing as npt
@@ -82,6 +82,26 @@ class UpdateWork(TypedDict):
     dense_trips: int
     """The dense solver's inner-loop trips over every solve."""
     osqp_iterations: int
+
+class WorstCase(TypedDict):
+    """The most one update can do (``EcbfFilter.worst_case``)."""
+
+    qp_solves: int
+    dense_trips: int
+    osqp_iterations: int
+    row_ops: int | None
+    """One row evaluation's floating-point operations as the kernels state them."""
+    enclosures: int
+    """The certificate's enclosures per update (0 without it)."""
+    cpu_time_us: NotRequired[float | None]
+    """With a calibration: the bound in CPU time on that machine."""
+
+class Calibration(TypedDict):
+    """This machine's slowest rate per unit of work (``EcbfFilter.calibrate``)."""
+
+    ns_per_dense_trip: float
+    ns_per_osqp_iteration: float
+    ns_per_row_op: float
 
 class CbfError(ValueError):
     """An error reported by cbfgen's Rust core (bad value, capacity, solver set-up...)."""
@@ -382,6 +402,11 @@ class EcbfFilter:
     @property
     def solver_settings(self) -> SolverSettings:
         """The solver settings in use, as the keywords of the same names set them."""
+    def worst_case(self, calibration: Calibration | None = None) -> WorstCase:
+        """The most one update can do, from the rows and settings alone; with a
+        calibration also in CPU time (``cpu_time_us``)."""
+    def calibrate(self, x: ArrayLike, params: Params, t: float = 0.0) -> Calibration:
+        """This machine's rates for this filter's work (a second or so)."""
 
 # ---------------------------------------------------------------------- SSAT
 def ssat(

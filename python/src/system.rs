@@ -1182,6 +1182,74 @@ impl PyEcbfFilter {
         Ok(d)
     }
 
+    /// The most one update of this filter can do, from its rows and settings alone (any
+    /// state, rows and history): a dict of ``qp_solves``, ``dense_trips`` and
+    /// ``osqp_iterations`` (each update's ``output.work`` is within them), ``row_ops`` (one
+    /// row evaluation's floating-point operations as the generated kernels state them; None
+    /// where they state none) and ``enclosures`` (the certificate's; 0 without it). Given a
+    /// ``calibration`` (what ``calibrate`` returned), also ``cpu_time_us``: the bound in CPU
+    /// time on that machine, None with enclosures or without ``row_ops``.
+    #[pyo3(signature = (calibration=None))]
+    fn worst_case<'py>(
+        &self,
+        py: Python<'py>,
+        calibration: Option<&Bound<'py, PyDict>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let w = self.lock()?.worst_case();
+        let d = PyDict::new(py);
+        d.set_item("qp_solves", w.qp_solves)?;
+        d.set_item("dense_trips", w.dense_trips)?;
+        d.set_item("osqp_iterations", w.osqp_iterations)?;
+        d.set_item("row_ops", w.row_ops.map(|o| o.total()))?;
+        d.set_item("enclosures", w.enclosures)?;
+        if let Some(c) = calibration {
+            let rate = |key: &str| -> PyResult<f64> {
+                let value: f64 = c
+                    .get_item(key)?
+                    .ok_or_else(|| {
+                        crate::value_error(format!("calibration: no '{key}' (pass what calibrate returned)"))
+                    })?
+                    .extract()?;
+                if value.is_finite() && value >= 0.0 {
+                    Ok(value)
+                } else {
+                    Err(crate::value_error(format!("calibration: '{key}' is {value}, not a finite rate ≥ 0")))
+                }
+            };
+            let c = cbfgen::filter::Calibration {
+                ns_per_dense_trip: rate("ns_per_dense_trip")?,
+                ns_per_osqp_iteration: rate("ns_per_osqp_iteration")?,
+                ns_per_row_op: rate("ns_per_row_op")?,
+            };
+            d.set_item("cpu_time_us", w.micros(&c))?;
+        }
+        Ok(d)
+    }
+
+    /// This machine's rates for this filter's work: ns per dense-solver trip on random QPs
+    /// of its size, per OSQP iteration on its own sparsity, per operation of its own row
+    /// evaluation at ``x`` and ``params`` (nothing culled), each the slowest seen. A dict
+    /// of ``ns_per_dense_trip``, ``ns_per_osqp_iteration`` and ``ns_per_row_op``, for
+    /// ``worst_case(calibration=...)``. Takes a second or so: not for the control loop.
+    #[pyo3(signature = (x, params, t=0.0))]
+    fn calibrate<'py>(
+        &self,
+        py: Python<'py>,
+        x: ArrayIn<'py>,
+        params: PyRef<'py, PyParams>,
+        t: f64,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let x = exact("x", &x, self.system.nx())?;
+        let params = params.inner.as_ref();
+        let c =
+            py.detach(|| -> PyResult<cbfgen::filter::Calibration> { Ok(self.lock()?.calibrate(t, &x, params)?) })?;
+        let d = PyDict::new(py);
+        d.set_item("ns_per_dense_trip", c.ns_per_dense_trip)?;
+        d.set_item("ns_per_osqp_iteration", c.ns_per_osqp_iteration)?;
+        d.set_item("ns_per_row_op", c.ns_per_row_op)?;
+        Ok(d)
+    }
+
     fn __repr__(&self) -> PyResult<String> {
         let f = self.lock()?;
         Ok(format!(

@@ -71,6 +71,45 @@ def test_a_loaded_spec_filters_bit_for_bit_as_the_same_spec_linked_in(environmen
         loaded.filter().update([0.0, 0.0], [0.0], linked.params())
 
 
+def test_a_loaded_filter_states_the_worst_case_the_linked_one_does_and_no_update_passes_it(environment, tmp_path):
+    # The worst case crosses the plugin ABI (filter_worst_case, filter_calibrate): the loaded
+    # spec states what the linked-in one does, field for field, under the same settings;
+    # every update's counted work is within it, and with a calibration it is the counts
+    # times the rates.
+    loaded = cbfgen.load(_spec_copy(tmp_path, DOUBLE), progress=False)
+    linked = cbfgen.System("double_integrator")
+    for settings in ({}, {"dense_max_work": 5000}, {"backend": "dense"}):
+        stated = [system.filter(**settings).worst_case() for system in (loaded, linked)]
+        assert stated[0] == stated[1], settings
+        worst = stated[0]
+        assert worst["row_ops"] == 15  # the sine barrier's kernel, counted in Rust
+        if "dense_max_work" in settings:
+            assert 5000 < worst["dense_trips"] < 10**6
+        params = loaded.params()
+        params.set("sine_barrier", {"amplitude": 0.2, "omega": 2.0, "offset": -0.5})
+        safety, x = loaded.filter(**settings), np.array([0.0, 0.0])
+        for k in range(300):
+            out = safety.update(x, [-5.0], params, k * 1e-3)
+            assert all(out.work[key] <= worst[key] for key in ("qp_solves", "dense_trips", "osqp_iterations"))
+            x = x + 1e-3 * loaded.xdot(x, out.u)
+    safety = loaded.filter()
+    rates = safety.calibrate([0.0, 0.0], params)
+    assert set(rates) == {"ns_per_dense_trip", "ns_per_osqp_iteration", "ns_per_row_op"}
+    assert all(np.isfinite(v) and v > 0 for v in rates.values()), rates
+    timed = safety.worst_case(rates)
+    by_hand = (timed["dense_trips"] * rates["ns_per_dense_trip"] + timed["osqp_iterations"]
+               * rates["ns_per_osqp_iteration"] + timed["row_ops"] * rates["ns_per_row_op"]) * 1e-3
+    assert timed["cpu_time_us"] == pytest.approx(by_hand, rel=1e-12)
+    # With the certificate (linked in: the plugin ABI does not carry it) the enclosures
+    # state no time.
+    certified = linked.filter(sample_period=1e-3).worst_case(rates)
+    assert certified["enclosures"] > 0 and certified["qp_solves"] > 1 and certified["cpu_time_us"] is None
+    with pytest.raises(ValueError, match="ns_per_row_op"):
+        safety.worst_case({"ns_per_dense_trip": 1.0, "ns_per_osqp_iteration": 1.0})
+    with pytest.raises(ValueError, match="not a finite rate"):
+        safety.worst_case({**rates, "ns_per_row_op": float("nan")})
+
+
 def test_a_second_load_hits_the_cache_and_a_changed_spec_rebuilds(environment, tmp_path):
     spec = _spec_copy(tmp_path, CRUISE)
     first = cbfgen.load(spec, progress=False)

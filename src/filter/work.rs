@@ -104,6 +104,7 @@ impl WorstCase {
 /// How fast this machine does each unit of work, measured (the slowest rate seen):
 /// what [`WorstCase::micros`] multiplies the counts by.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[repr(C)] // crosses the plugin ABI as is
 pub struct Calibration {
     /// Nanoseconds per dense-solver trip.
     pub ns_per_dense_trip: f64,

@@ -10,7 +10,7 @@ use std::sync::OnceLock;
 use super::convert::{cause_c, domain_c, family_params, family_params_c, safety_c, solver, solver_c, write_error};
 use super::{
     code, dynamics_op, store_op, DescriptionC, ErrorC, FamilyC, Handle, KernelC, ParamC, PluginV1, ReportC, RowC,
-    RowLayoutC, SettingsC, SlotC, StrC, ABI_VERSION, BACKENDS, INPUT_SOURCES, QP_STATUSES,
+    RowLayoutC, SettingsC, SlotC, StrC, WorstCaseC, ABI_VERSION, BACKENDS, INPUT_SOURCES, QP_STATUSES,
 };
 use crate::dynamic::{CapacityCount, DynBarriers, DynFilter, DynParams, DynRows, DynSettings, DynSystem};
 use crate::error::CbfError;
@@ -65,6 +65,8 @@ static TABLE: PluginV1 = PluginV1 {
     filter_report,
     filter_fallback,
     filter_settings,
+    filter_worst_case,
+    filter_calibrate,
     kernel_call,
 };
 
@@ -377,7 +379,7 @@ unsafe extern "C" fn filter_new(
             solver: solver(&c.solver),
             measure_cpu_time: c.measure_cpu_time,
             cull_far_rows: c.cull_far_rows,
-            // ABI 2 does not carry the certificate's settings; the loader refuses them.
+            // The ABI does not carry the certificate's settings; the loader refuses them.
             sampled_data: None,
         };
         Ok(boxed(s.filter(unsafe { slice(counts, n) }, &settings)?))
@@ -452,6 +454,30 @@ unsafe extern "C" fn filter_fallback(filter: Handle, u_ref: *const f64, out: *mu
 unsafe extern "C" fn filter_settings(filter: Handle, out: *mut SettingsC) {
     // SAFETY: a live filter handle; buffers sized from the description.
     unsafe { write_settings(&object::<dyn DynFilter>(filter).settings(), out) }
+}
+
+unsafe extern "C" fn filter_worst_case(filter: Handle, out: *mut WorstCaseC) {
+    // SAFETY: a live filter handle; `out` one value.
+    unsafe { *out = object::<dyn DynFilter>(filter).worst_case().into() }
+}
+
+unsafe extern "C" fn filter_calibrate(
+    filter: Handle,
+    t: f64,
+    x: *const f64,
+    params: Handle,
+    out: *mut crate::filter::Calibration,
+    err: *mut ErrorC,
+) -> i32 {
+    guarded(err, -1, || {
+        let s = system();
+        // SAFETY: live handles; nx states; `out` one value.
+        let f = unsafe { object::<dyn DynFilter>(filter) };
+        let p = unsafe { object::<dyn DynParams>(params) };
+        let calibration = f.calibrate(t, unsafe { slice(x, s.nx()) }, p.as_ref())?;
+        unsafe { *out = calibration };
+        Ok(0)
+    })
 }
 
 unsafe extern "C" fn kernel_call(

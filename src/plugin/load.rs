@@ -7,13 +7,13 @@ use std::time::Duration;
 use super::convert::{cause, domain, family_params, family_params_c, read_error, safety, solver, solver_c, static_str};
 use super::{
     decode, dynamics_op, store_op, CauseC, ErrorC, FamilyParamsC, Handle, PluginV1, ReportC, RowC, RowLayoutC,
-    SettingsC, SlotC, ABI_VERSION, BACKENDS, ENTRY_POINT, INPUT_SOURCES, QP_STATUSES,
+    SettingsC, SlotC, WorstCaseC, ABI_VERSION, BACKENDS, ENTRY_POINT, INPUT_SOURCES, QP_STATUSES,
 };
 use crate::dynamic::{
     CapacityCount, DynBarriers, DynFilter, DynParams, DynRows, DynSettings, DynSystem, FamilyStore, RowView,
 };
 use crate::error::CbfError;
-use crate::filter::{Cause, FamilyRelaxation, InputSource, Output};
+use crate::filter::{Calibration, Cause, FamilyRelaxation, InputSource, Output, WorstCase};
 use crate::param_domain::Domain;
 use crate::system::{
     find_kernel, ClassK, FamilyInfo, FamilyKind, FamilyParams, InstanceKind, KernelSignature, RowLayout,
@@ -418,7 +418,7 @@ impl DynSystem for PluginSystem {
             // Refused, not dropped: a filter built without the certificate it was asked for
             // would report safety between the samples it never checked.
             return Err(CbfError::Unsupported {
-                operation: "sampled-data certificate (not in plugin ABI 2)",
+                operation: "sampled-data certificate (not in the plugin ABI)",
                 kind: "plugin",
             });
         }
@@ -681,7 +681,7 @@ struct PluginFilter {
     causes: Vec<CauseC>,
     relaxed: Vec<Option<Cause>>,
     relaxation: Vec<FamilyRelaxation>,
-    /// All 0: a plugin's filter never certifies between the samples (not in ABI 2).
+    /// All 0: a plugin's filter never certifies between the samples (not in the ABI).
     margins: Vec<f64>,
     output: Output<()>,
 }
@@ -809,5 +809,21 @@ impl DynFilter for PluginFilter {
     fn settings(&self) -> DynSettings {
         // SAFETY: a live filter handle; buffers sized from the description.
         self.system.settings_from(|c| unsafe { (self.system.table.filter_settings)(self.handle, c) })
+    }
+    fn worst_case(&self) -> WorstCase {
+        let mut out = WorstCaseC::default();
+        // SAFETY: a live filter handle; `out` one value.
+        unsafe { (self.system.table.filter_worst_case)(self.handle, &mut out) };
+        out.into()
+    }
+    fn calibrate(&mut self, t: f64, x: &[f64], params: &dyn DynParams) -> Result<Calibration, CbfError> {
+        PluginSystem::check_len("state", self.system.nx, x.len())?;
+        let p = self.system.own(params)?;
+        let (mut out, mut err) = (Calibration::default(), ErrorC::new());
+        // SAFETY: live handles of this plugin; the state's length checked; `out` one value.
+        let status =
+            unsafe { (self.system.table.filter_calibrate)(self.handle, t, x.as_ptr(), p.handle, &mut out, &mut err) };
+        self.system.call(status.into(), &err)?;
+        Ok(out)
     }
 }

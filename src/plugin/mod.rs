@@ -36,8 +36,10 @@ use crate::system::MAX_RELATIVE_DEGREE;
 /// The version of [`PluginV1`]'s layout and meaning; a loader refuses any other.
 /// Version 2 added the kernel table ([`DescriptionC::kernels`], [`PluginV1::kernel_call`]);
 /// version 3 the dense solve's work budget ([`SolverC::dense_max_work`]) and each update's
-/// counted work ([`ReportC::work`]). The table keeps the name it was born with.
-pub const ABI_VERSION: u32 = 3;
+/// counted work ([`ReportC::work`]); version 4 the filter's stated worst case and this
+/// machine's calibration ([`PluginV1::filter_worst_case`], [`PluginV1::filter_calibrate`]).
+/// The table keeps the name it was born with.
+pub const ABI_VERSION: u32 = 4;
 
 /// The symbol a plugin exports: `extern "C" fn() -> *const PluginV1`.
 pub const ENTRY_POINT: &str = "cbfgen_plugin_v1";
@@ -345,6 +347,45 @@ pub struct ReportC {
     pub cpu_time_ns: i64,
 }
 
+/// A [`WorstCase`](crate::filter::WorstCase): `row_ops` the [`OpCount`](crate::ops::OpCount)'s
+/// fields in order, read only when `row_ops_stated`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default)]
+#[allow(missing_docs)]
+pub struct WorstCaseC {
+    pub qp_solves: u32,
+    pub dense_trips: u64,
+    pub osqp_iterations: u32,
+    pub row_ops_stated: bool,
+    pub row_ops: [u64; 8],
+    pub enclosures: u32,
+}
+
+impl From<crate::filter::WorstCase> for WorstCaseC {
+    fn from(w: crate::filter::WorstCase) -> Self {
+        Self {
+            qp_solves: w.qp_solves,
+            dense_trips: w.dense_trips,
+            osqp_iterations: w.osqp_iterations,
+            row_ops_stated: w.row_ops.is_some(),
+            row_ops: w.row_ops.unwrap_or_default().to_array(),
+            enclosures: w.enclosures,
+        }
+    }
+}
+
+impl From<WorstCaseC> for crate::filter::WorstCase {
+    fn from(w: WorstCaseC) -> Self {
+        Self {
+            qp_solves: w.qp_solves,
+            dense_trips: w.dense_trips,
+            osqp_iterations: w.osqp_iterations,
+            row_ops: w.row_ops_stated.then(|| crate::ops::OpCount::new(w.row_ops)),
+            enclosures: w.enclosures,
+        }
+    }
+}
+
 /// The operations on one family's instances ([`PluginV1::store`]).
 #[allow(missing_docs)]
 pub mod store_op {
@@ -425,6 +466,15 @@ pub struct PluginV1 {
     pub filter_fallback:
         unsafe extern "C" fn(filter: Handle, u_ref: *const f64, out: *mut f64, err: *mut ErrorC) -> i32,
     pub filter_settings: unsafe extern "C" fn(filter: Handle, out: *mut SettingsC),
+    pub filter_worst_case: unsafe extern "C" fn(filter: Handle, out: *mut WorstCaseC),
+    pub filter_calibrate: unsafe extern "C" fn(
+        filter: Handle,
+        t: f64,
+        x: *const f64,
+        params: Handle,
+        out: *mut crate::filter::Calibration,
+        err: *mut ErrorC,
+    ) -> i32,
     /// Kernel `index` of the description's, inputs and outputs flattened (lengths checked).
     pub kernel_call: unsafe extern "C" fn(
         index: usize,
