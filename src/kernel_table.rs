@@ -84,7 +84,10 @@ pub fn put_symmetric<T: Copy, const N: usize>(value: &[[T; N]; N], flat: &mut [T
 /// `pub const KERNELS: &[KernelEntry]` for the kernels listed, one per line:
 /// `name(arg: kind[dims], ...) -> (result: kind[dims], ...) ops [8 counts];`, the `ops`
 /// part optional: the operations one call performs ([`OpCount::new`](crate::ops::OpCount::new)'s
-/// order), which the generator states for each kernel it prints as one straight line.
+/// order), which the generator states for each kernel it prints as one straight line;
+/// or `ops { CONST_EXPR }`, an [`OpCount`](crate::ops::OpCount) built in a constant
+/// expression, for a kernel assembled from others and from the core's functions that state
+/// their own counts (a composed row: its poses, its chain, `compose`'s contraction).
 /// With counts it also writes `run_counted_kernels`, which calls each counted kernel on
 /// [`Counted`](crate::ops::Counted) numbers for [`crate::ops::check_stated`] (generic, so
 /// it is compiled only where a test calls it). An argument is `scalar[]`,
@@ -96,14 +99,14 @@ pub fn put_symmetric<T: Copy, const N: usize>(value: &[[T; N]; N], flat: &mut [T
 #[macro_export]
 macro_rules! kernel_table {
     ($(#[$meta:meta])* $($name:ident ($($arg:ident : $akind:ident [$($adim:literal),*]),*)
-        -> ($($out:ident : $okind:ident [$($odim:literal),*]),+) $(ops [$($op:literal),*])?;)*) => {
+        -> ($($out:ident : $okind:ident [$($odim:literal),*]),+) $(ops $ops:tt)?;)*) => {
         $(#[$meta])*
         pub const KERNELS: &[$crate::system::KernelEntry] = &[$(
             $crate::system::KernelEntry {
                 name: stringify!($name),
                 inputs: &[$((stringify!($arg), $crate::kernel_table!(@len $akind [$($adim),*]))),*],
                 outputs: &[$((stringify!($out), $crate::kernel_table!(@len $okind [$($odim),*]))),+],
-                ops: $crate::kernel_table!(@ops $([$($op),*])?),
+                ops: $crate::kernel_table!(@ops $($ops)?),
                 call: |input: &[f64], output: &mut [f64]| {
                     let mut at = 0;
                     let result = $name($($crate::kernel_table!(@read $akind [$($adim),*] input at)),*);
@@ -124,13 +127,13 @@ macro_rules! kernel_table {
             input: &[S],
             each: &mut dyn FnMut($crate::ops::StatedKernel, &dyn Fn()),
         ) {
-            $($crate::kernel_table!(@counted each input $name ($($akind [$($adim),*]),*) $([$($op),*])?);)*
+            $($crate::kernel_table!(@counted each input $name ($($akind [$($adim),*]),*) $($ops)?);)*
         }
     };
     (@counted $each:ident $input:ident $name:ident ($($akind:ident [$($adim:literal),*]),*)) => {};
-    (@counted $each:ident $input:ident $name:ident ($($akind:ident [$($adim:literal),*]),*) [$($op:literal),*]) => {
+    (@counted $each:ident $input:ident $name:ident ($($akind:ident [$($adim:literal),*]),*) $ops:tt) => {
         $each(
-            $crate::ops::StatedKernel { name: stringify!($name), stated: $crate::ops::OpCount::new([$($op),*]) },
+            $crate::ops::StatedKernel { name: stringify!($name), stated: $crate::kernel_table!(@count $ops) },
             &|| {
                 let mut at = 0;
                 let _ = $name::<S>($($crate::kernel_table!(@read $akind [$($adim),*] $input at)),*);
@@ -138,7 +141,9 @@ macro_rules! kernel_table {
         );
     };
     (@ops) => { None };
-    (@ops [$($op:literal),*]) => { Some($crate::ops::OpCount::new([$($op),*])) };
+    (@ops $ops:tt) => { Some($crate::kernel_table!(@count $ops)) };
+    (@count [$($op:literal),*]) => { $crate::ops::OpCount::new([$($op),*]) };
+    (@count {$sum:expr}) => { $sum };
     (@len scalar []) => { 1 };
     (@len array [$n:literal]) => { $n };
     (@len vector [$n:literal]) => { $n };

@@ -631,6 +631,14 @@ pub trait BarrierSet<const NU: usize> {
         })
     }
 
+    /// An upper bound on the interval operations one [`BarrierSet::enclose`] performs
+    /// with every row wanted: the dynamics' field per evaluation and the rows' kernels
+    /// ([`EnclosureOps`](crate::filter::between_samples::EnclosureOps)); `None` (the
+    /// default) where either states no count, and for a wrapper whose flow is its own.
+    fn enclosure_ops(&self) -> Option<crate::filter::between_samples::EnclosureOps> {
+        None
+    }
+
     /// Whether the system has an objective (a spec's `s.objective(P=…, q=…)`): the filter
     /// then minimises `½ (u − u_ref)ᵀ P (u − u_ref) + qᵀ u` with [`BarrierSet::objective`]'s
     /// `P` and `q` instead of the input weights'. `false` unless implemented.

@@ -819,7 +819,7 @@ impl CampaignArgs {
         settings = settings.with_time_bound()?;
         match settings.time_bound_us {
             Some(us) => writeln!(stdout, "worst case per update on this machine: {us:.1} µs of CPU time")?,
-            None => writeln!(stdout, "worst case per update: not stated in time (the certificate's enclosures)")?,
+            None => writeln!(stdout, "worst case per update: not stated in time (a part states no count)")?,
         }
         let episodes = settings.episodes;
         let bar = indicatif::ProgressBar::new(episodes as u64);

@@ -93,6 +93,8 @@ class WorstCase(TypedDict):
     """One row evaluation's floating-point operations as the kernels state them."""
     enclosures: int
     """The certificate's enclosures per update (0 without it)."""
+    interval_ops: int | None
+    """Their interval operations (0 without the certificate)."""
     cpu_time_us: NotRequired[float | None]
     """With a calibration: the bound in CPU time on that machine."""
 
@@ -102,6 +104,8 @@ class Calibration(TypedDict):
     ns_per_dense_trip: float
     ns_per_osqp_iteration: float
     ns_per_row_op: float
+    ns_per_interval_op: float
+    """0 without ``sample_period``."""
 
 class CbfError(ValueError):
     """An error reported by cbfgen's Rust core (bad value, capacity, solver set-up...)."""

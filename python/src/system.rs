@@ -1186,9 +1186,11 @@ impl PyEcbfFilter {
     /// state, rows and history): a dict of ``qp_solves``, ``dense_trips`` and
     /// ``osqp_iterations`` (each update's ``output.work`` is within them), ``row_ops`` (one
     /// row evaluation's floating-point operations as the generated kernels state them; None
-    /// where they state none) and ``enclosures`` (the certificate's; 0 without it). Given a
-    /// ``calibration`` (what ``calibrate`` returned), also ``cpu_time_us``: the bound in CPU
-    /// time on that machine, None with enclosures or without ``row_ops``.
+    /// where they state none), ``enclosures`` (the certificate's; 0 without it) and
+    /// ``interval_ops`` (their interval operations; 0 without the certificate, None where
+    /// not stated). Given a ``calibration`` (what ``calibrate`` returned), also
+    /// ``cpu_time_us``: the bound in CPU time on that machine, None where a count is not
+    /// stated.
     #[pyo3(signature = (calibration=None))]
     fn worst_case<'py>(
         &self,
@@ -1202,6 +1204,7 @@ impl PyEcbfFilter {
         d.set_item("osqp_iterations", w.osqp_iterations)?;
         d.set_item("row_ops", w.row_ops.map(|o| o.total()))?;
         d.set_item("enclosures", w.enclosures)?;
+        d.set_item("interval_ops", w.interval_ops.map(|o| o.total()))?;
         if let Some(c) = calibration {
             let rate = |key: &str| -> PyResult<f64> {
                 let value: f64 = c
@@ -1220,6 +1223,7 @@ impl PyEcbfFilter {
                 ns_per_dense_trip: rate("ns_per_dense_trip")?,
                 ns_per_osqp_iteration: rate("ns_per_osqp_iteration")?,
                 ns_per_row_op: rate("ns_per_row_op")?,
+                ns_per_interval_op: rate("ns_per_interval_op")?,
             };
             d.set_item("cpu_time_us", w.micros(&c))?;
         }
@@ -1228,8 +1232,10 @@ impl PyEcbfFilter {
 
     /// This machine's rates for this filter's work: ns per dense-solver trip on random QPs
     /// of its size, per OSQP iteration on its own sparsity, per operation of its own row
-    /// evaluation at ``x`` and ``params`` (nothing culled), each the slowest seen. A dict
-    /// of ``ns_per_dense_trip``, ``ns_per_osqp_iteration`` and ``ns_per_row_op``, for
+    /// evaluation at ``x`` and ``params`` (nothing culled), per interval operation of its
+    /// rows enclosed at ``x`` (with ``sample_period``; else 0), each the slowest seen. A dict
+    /// of ``ns_per_dense_trip``, ``ns_per_osqp_iteration``, ``ns_per_row_op`` and
+    /// ``ns_per_interval_op``, for
     /// ``worst_case(calibration=...)``. Takes a second or so: not for the control loop.
     #[pyo3(signature = (x, params, t=0.0))]
     fn calibrate<'py>(
@@ -1247,6 +1253,7 @@ impl PyEcbfFilter {
         d.set_item("ns_per_dense_trip", c.ns_per_dense_trip)?;
         d.set_item("ns_per_osqp_iteration", c.ns_per_osqp_iteration)?;
         d.set_item("ns_per_row_op", c.ns_per_row_op)?;
+        d.set_item("ns_per_interval_op", c.ns_per_interval_op)?;
         Ok(d)
     }
 

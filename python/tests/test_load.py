@@ -94,20 +94,34 @@ def test_a_loaded_filter_states_the_worst_case_the_linked_one_does_and_no_update
             x = x + 1e-3 * loaded.xdot(x, out.u)
     safety = loaded.filter()
     rates = safety.calibrate([0.0, 0.0], params)
-    assert set(rates) == {"ns_per_dense_trip", "ns_per_osqp_iteration", "ns_per_row_op"}
+    assert set(rates) == {"ns_per_dense_trip", "ns_per_osqp_iteration", "ns_per_row_op", "ns_per_interval_op"}
+    assert rates.pop("ns_per_interval_op") == 0.0  # no certificate: no enclosure timed
     assert all(np.isfinite(v) and v > 0 for v in rates.values()), rates
+    rates["ns_per_interval_op"] = 0.0
     timed = safety.worst_case(rates)
     by_hand = (timed["dense_trips"] * rates["ns_per_dense_trip"] + timed["osqp_iterations"]
                * rates["ns_per_osqp_iteration"] + timed["row_ops"] * rates["ns_per_row_op"]) * 1e-3
     assert timed["cpu_time_us"] == pytest.approx(by_hand, rel=1e-12)
+    assert timed["interval_ops"] == 0
     # With the certificate (linked in: the plugin ABI does not carry it) the enclosures
-    # state no time.
-    certified = linked.filter(sample_period=1e-3).worst_case(rates)
-    assert certified["enclosures"] > 0 and certified["qp_solves"] > 1 and certified["cpu_time_us"] is None
+    # state their interval operations; timed only at a rate measured with the certificate.
+    certified = linked.filter(sample_period=1e-3)
+    worst = certified.worst_case(rates)
+    assert worst["enclosures"] > 0 and worst["qp_solves"] > 1 and worst["interval_ops"] > 0
+    assert worst["cpu_time_us"] is None  # the rates above timed no enclosure
+    params = linked.params()
+    params.set("sine_barrier", {"amplitude": 0.2, "omega": 2.0, "offset": -0.5})
+    rates = certified.calibrate([0.0, 0.0], params)
+    assert rates["ns_per_interval_op"] > 0
+    timed = certified.worst_case(rates)
+    by_hand = (timed["dense_trips"] * rates["ns_per_dense_trip"] + timed["osqp_iterations"]
+               * rates["ns_per_osqp_iteration"] + timed["row_ops"] * rates["ns_per_row_op"]
+               + timed["interval_ops"] * rates["ns_per_interval_op"]) * 1e-3
+    assert timed["cpu_time_us"] == pytest.approx(by_hand, rel=1e-12)
     with pytest.raises(ValueError, match="ns_per_row_op"):
-        safety.worst_case({"ns_per_dense_trip": 1.0, "ns_per_osqp_iteration": 1.0})
+        certified.worst_case({"ns_per_dense_trip": 1.0, "ns_per_osqp_iteration": 1.0})
     with pytest.raises(ValueError, match="not a finite rate"):
-        safety.worst_case({**rates, "ns_per_row_op": float("nan")})
+        certified.worst_case({**rates, "ns_per_row_op": float("nan")})
 
 
 def test_a_second_load_hits_the_cache_and_a_changed_spec_rebuilds(environment, tmp_path):

@@ -66,6 +66,7 @@
 use crate::dynamic::GeneratedSystem;
 use crate::error::CbfError;
 use crate::interval::Interval;
+use crate::ops::OpCount;
 use crate::system::{RowLayout, MAX_RELATIVE_DEGREE};
 
 /// Settings of the sampled-data certificate ([module docs](self)).
@@ -285,6 +286,47 @@ const MAX_PICARD: usize = 6;
 /// How many times [`enclose_window`] halves a piece of the period whose flow could not be
 /// enclosed: the shortest piece is `Δt / 2^MAX_HALVINGS`.
 pub const MAX_HALVINGS: u32 = 6;
+
+/// Field evaluations one [`enclose_flow`] makes at most: the first step from `x0` and up
+/// to `MAX_PICARD` more.
+pub const MAX_FIELD_CALLS: u32 = 1 + MAX_PICARD as u32;
+
+/// [`enclose_flow`] calls one window's pieces make at most: each of the period's
+/// `2^MAX_HALVINGS` shortest pieces once, and each halving once (a piece is never longer
+/// than the last one, so there are at most [`MAX_HALVINGS`] halvings).
+pub const MAX_PIECES: u32 = (1 << MAX_HALVINGS) + MAX_HALVINGS;
+
+/// What one [`BarrierSet::enclose`](crate::system::BarrierSet::enclose) of every row
+/// performs at most, in interval operations ([`BarrierSet::enclosure_ops`](crate::system::BarrierSet::enclosure_ops)).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct EnclosureOps {
+    /// One evaluation of the dynamics over a box, `f(B) + g(B) u`.
+    pub field: OpCount,
+    /// The states.
+    pub states: usize,
+    /// Every row's kernel once ([`BarrierSet::enclose_over`](crate::system::BarrierSet::enclose_over)
+    /// of every row).
+    pub rows: OpCount,
+}
+
+impl EnclosureOps {
+    /// The whole enclosure over a window, with or without a delayed input (two periods'
+    /// flows then): every piece's field evaluations ([`MAX_PIECES`] ×
+    /// [`MAX_FIELD_CALLS`]), each step's `x0 + τ·F` and the end's `x0 + h·F`, and the
+    /// rows. The iteration's own bookkeeping per state and step (the finiteness and
+    /// containment tests, the inflation, the hull) is counted generously as 4 additions,
+    /// 2 multiplications and 9 comparisons: operations on the bounds, cheaper than the
+    /// interval operations whose rate they are timed at.
+    pub const fn window(&self, delayed: bool) -> OpCount {
+        let n = self.states as u64;
+        let per_state = OpCount { add: 1 + 4, mul: 1 + 2, compare: 9, ..OpCount::ZERO };
+        let step = self.field.plus(per_state.times(n));
+        let end = OpCount { add: n, mul: n, compare: 4 * n, ..OpCount::ZERO };
+        let flow = step.times(MAX_FIELD_CALLS as u64).plus(end);
+        let flows = if delayed { 2 * MAX_PIECES as u64 } else { MAX_PIECES as u64 };
+        flow.times(flows).plus(self.rows)
+    }
+}
 
 /// The reachable states over a time span, enclosed ([`enclose_flow`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -555,11 +597,35 @@ pub fn enclose_rows_generated<G: GeneratedSystem<NX, NU>, const NX: usize, const
     Ok(())
 }
 
+/// What one [`enclose_generated`] of every row performs at most for a generated system
+/// with rows laid out as `layout`: its `drift` and `input_matrix` and each instance's
+/// member kernel, as their `KERNELS` lines state them. `None` where one states no count.
+pub fn enclosure_ops_generated<G: GeneratedSystem<NX, NU>, const NX: usize, const NU: usize>(
+    layout: &[RowLayout],
+) -> Option<EnclosureOps> {
+    let stated = |name: &str| G::KERNELS.iter().find(|k| k.name == name).and_then(|k| k.ops);
+    let product = OpCount { add: (NX * NU) as u64, mul: (NX * NU) as u64, ..OpCount::ZERO };
+    let field = stated("drift")? + stated("input_matrix")? + product;
+    let (kernels, families) = (G::INTERVAL_KERNELS, G::FAMILIES);
+    let mut rows = OpCount::ZERO;
+    let mut i = 0;
+    while i < layout.len() {
+        let l = layout[i];
+        // INTERVAL_KERNELS: the dynamics, then every family's members in order (as
+        // enclose_rows_generated reads them).
+        let index = 2 + families[..l.family].iter().map(|f| f.members.len().max(1)).sum::<usize>() + l.member;
+        rows = rows + stated(kernels.get(index)?.name)?;
+        i += families[l.family].row_names.len().max(1);
+    }
+    Some(EnclosureOps { field, states: NX, rows })
+}
+
 /// The [`BarrierSet`](crate::system::BarrierSet) methods that enclose a generated
-/// system's rows ([`enclose`](crate::system::BarrierSet::enclose) and
-/// [`enclose_over`](crate::system::BarrierSet::enclose_over)), for the generated barrier
+/// system's rows ([`enclose`](crate::system::BarrierSet::enclose),
+/// [`enclose_over`](crate::system::BarrierSet::enclose_over) and what they cost,
+/// [`enclosure_ops`](crate::system::BarrierSet::enclosure_ops)), for the generated barrier
 /// set's `impl` block: `$system` is its [`GeneratedSystem`]. One line in each generated
-/// module instead of both methods written out.
+/// module instead of the methods written out.
 #[macro_export]
 macro_rules! generated_enclosure {
     ($system:ty) => {
@@ -597,6 +663,10 @@ macro_rules! generated_enclosure {
                 wanted,
                 out,
             )
+        }
+
+        fn enclosure_ops(&self) -> Option<$crate::filter::between_samples::EnclosureOps> {
+            $crate::filter::between_samples::enclosure_ops_generated::<$system, NX, NU>(&self.layout)
         }
     };
 }

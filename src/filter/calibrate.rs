@@ -138,17 +138,18 @@ pub fn osqp_iteration_ns<const NU: usize>(
     Ok(slowest)
 }
 
-/// Nanoseconds per operation of a row evaluation stated to take `ops`: the quickest of a
-/// few runs of `evaluate` over `ops.total()`, the slowest of `runs` such measures.
-pub fn row_op_ns(ops: OpCount, runs: usize, mut evaluate: impl FnMut()) -> f64 {
+/// Nanoseconds per operation of work stated to take `ops` (a row evaluation, an
+/// enclosure of the rows): the quickest of a few runs of `run` over `ops.total()`, the
+/// slowest of `runs` such measures.
+pub fn op_ns(ops: OpCount, runs: usize, mut run: impl FnMut()) -> f64 {
     let total = ops.total().max(1) as f64;
-    (0..runs).map(|_| quickest(&mut evaluate).as_nanos() as f64 / total).fold(0.0, f64::max)
+    (0..runs).map(|_| quickest(&mut run).as_nanos() as f64 / total).fold(0.0, f64::max)
 }
 
 impl Calibration {
     /// This machine's rates for a filter of `NU` inputs, rows laid out as `specs` and
     /// `settings`, with its row evaluation `evaluate` stated to take `row_ops` (no rate for
-    /// it when `None`).
+    /// it when `None`); the interval rate is left 0 (the filter times its enclosures).
     ///
     /// # Errors
     /// As [`osqp_iteration_ns`].
@@ -162,8 +163,8 @@ impl Calibration {
         let ns_per_dense_trip = dense_trip_ns(NU + 1, specs.len() + NU + 1, 200)?;
         let ns_per_osqp_iteration =
             if settings.backend == Solver::Dense { 0.0 } else { osqp_iteration_ns::<NU>(specs, settings, 20)? };
-        let ns_per_row_op = row_ops.map_or(0.0, |ops| row_op_ns(ops, 200, evaluate));
-        Ok(Self { ns_per_dense_trip, ns_per_osqp_iteration, ns_per_row_op })
+        let ns_per_row_op = row_ops.map_or(0.0, |ops| op_ns(ops, 200, evaluate));
+        Ok(Self { ns_per_dense_trip, ns_per_osqp_iteration, ns_per_row_op, ns_per_interval_op: 0.0 })
     }
 }
 

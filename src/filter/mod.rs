@@ -724,33 +724,64 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
             None => (1, 0),
             Some(sampled) => (sampled.max_rounds.saturating_add(1), sampled.max_rounds.saturating_add(1)),
         };
+        // Each enclosure, and each wanted row's condition read from it: the bound's
+        // polynomial (or the extended class-K's two sums) and a·u.
+        let interval_ops = match &self.settings.sampled_data {
+            None => Some(crate::ops::OpCount::ZERO),
+            Some(sampled) => self.barriers.enclosure_ops().map(|e| {
+                let degree = (crate::system::MAX_RELATIVE_DEGREE + 1) as u64;
+                let condition = crate::ops::OpCount {
+                    add: 2 * degree + NU as u64,
+                    mul: 2 * degree + NU as u64,
+                    ..crate::ops::OpCount::ZERO
+                };
+                let rows = self.barriers.layout().len() as u64;
+                (e.window(sampled.input_delay) + condition.times(rows)).times(u64::from(enclosures))
+            }),
+        };
         WorstCase {
             qp_solves,
             dense_trips: per_solve.dense_trips.saturating_mul(u64::from(qp_solves)),
             osqp_iterations: per_solve.osqp_iterations.saturating_mul(qp_solves),
             row_ops: self.barriers.evaluation_ops(),
             enclosures,
+            interval_ops,
         }
     }
 
     /// This machine's rates for this filter's work ([`calibrate`]): its size and solver
-    /// settings, and its own row evaluation at `t`, `x`, `params` with nothing culled (the
-    /// evaluation [`WorstCase::row_ops`] states). Takes a second or so; not for the
+    /// settings, its own row evaluation at `t`, `x`, `params` with nothing culled (the
+    /// evaluation [`WorstCase::row_ops`] states) and, with the certificate, its rows'
+    /// interval kernels at `x` (the rate of [`WorstCase::interval_ops`]). Takes a second or so; not for the
     /// control path (it allocates). The filter's rows are left evaluated at `x`.
     ///
     /// # Errors
     /// As [`calibrate::osqp_iteration_ns`].
-    pub fn calibrate(&mut self, t: f64, x: &B::State, params: &B::Params) -> Result<work::Calibration, CbfError> {
+    pub fn calibrate(&mut self, t: f64, x: &B::State, params: &B::Params) -> Result<work::Calibration, CbfError>
+    where
+        B::State: AsRef<[f64]>,
+    {
         let families = self.barriers.families().len();
         self.barriers.cull_above(&vec![f64::INFINITY; families]);
         let specs = row_specs(self.barriers.layout(), &self.settings);
         let (solver, ops) = (self.settings.solver, self.barriers.evaluation_ops());
         let barriers = &mut self.barriers;
-        let measured = work::Calibration::measure::<NU>(&specs, &solver, ops, || {
+        let mut measured = work::Calibration::measure::<NU>(&specs, &solver, ops, || {
             // A state the filter rejects is timed as far as it ran; the caller's own
             // updates report it.
             let _ = barriers.evaluate(t, x, params);
         });
+        // The certificate's rate: every row enclosed over the state itself (the rows'
+        // interval kernels, each once: the count `enclosure_ops` states for them).
+        if let (Ok(m), Some(_), Some(e)) = (&mut measured, &self.settings.sampled_data, self.barriers.enclosure_ops()) {
+            let states: Vec<Interval> = x.as_ref().iter().map(|&v| Interval::point(v)).collect();
+            let times = Interval::point(t);
+            self.wanted.fill(true);
+            let (barriers, wanted, out) = (&self.barriers, &self.wanted, &mut self.enclosures);
+            m.ns_per_interval_op = calibrate::op_ns(e.rows, 50, || {
+                let _ = barriers.enclose_over(&states, times, params, wanted, out);
+            });
+        }
         self.barriers.cull_above(&cull_thresholds(&self.settings));
         measured
     }

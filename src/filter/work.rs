@@ -23,7 +23,7 @@
 //! let bound = WorstCase { qp_solves: 1, dense_trips: 2_100_000, osqp_iterations: 200, ..WorstCase::default() };
 //! let done = Work { qp_solves: 1, dense_trips: 41_000, osqp_iterations: 0 };
 //! assert!(bound.covers(&done));
-//! let machine = Calibration { ns_per_dense_trip: 0.9, ns_per_osqp_iteration: 4_000.0, ns_per_row_op: 0.5 };
+//! let machine = Calibration { ns_per_dense_trip: 0.9, ns_per_osqp_iteration: 4_000.0, ns_per_row_op: 0.5, ns_per_interval_op: 0.0 };
 //! // Row evaluation states no count here, so there is no bound in time.
 //! assert_eq!(bound.micros(&machine), None);
 //! ```
@@ -71,10 +71,14 @@ pub struct WorstCase {
     /// the barrier set states none ([`BarrierSet::evaluation_ops`](crate::system::BarrierSet::evaluation_ops):
     /// a hand-written set, rows in torques without their dynamics' count).
     pub row_ops: Option<OpCount>,
-    /// Enclosures of the rows over a period (the certificate's; 0 without it). Their work
-    /// is interval arithmetic on the same kernels, not yet stated: a bound in time is
-    /// given only without them.
+    /// Enclosures of the rows over a period (the certificate's; 0 without it).
     pub enclosures: u32,
+    /// Interval operations over every enclosure and the margins read from them (the
+    /// certificate's: [`BarrierSet::enclosure_ops`](crate::system::BarrierSet::enclosure_ops)
+    /// per enclosure, each row's condition on its enclosure); `Some(ZERO)` without the
+    /// certificate, `None` where the barrier set states no enclosure count (rows in
+    /// torques: their flow is enclosed by the joint-torque map, which states none).
+    pub interval_ops: Option<OpCount>,
 }
 
 impl WorstCase {
@@ -88,15 +92,17 @@ impl WorstCase {
 
     /// This bound in microseconds on a machine calibrated as `c`: every part at its most,
     /// times the slowest rate measured for it. `None` when a part has no stated count (row
-    /// evaluation without counts, or enclosures).
+    /// evaluation or enclosures without counts), or enclosures with no interval rate in
+    /// `c` (calibrated without the certificate).
     pub fn micros(&self, c: &Calibration) -> Option<f64> {
-        let ops = self.row_ops?;
-        if self.enclosures > 0 {
+        let (rows, intervals) = (self.row_ops?, self.interval_ops?);
+        if intervals.total() > 0 && c.ns_per_interval_op <= 0.0 {
             return None;
         }
         let ns = self.dense_trips as f64 * c.ns_per_dense_trip
             + f64::from(self.osqp_iterations) * c.ns_per_osqp_iteration
-            + ops.total() as f64 * c.ns_per_row_op;
+            + rows.total() as f64 * c.ns_per_row_op
+            + intervals.total() as f64 * c.ns_per_interval_op;
         Some(ns * 1e-3)
     }
 }
@@ -112,6 +118,9 @@ pub struct Calibration {
     pub ns_per_osqp_iteration: f64,
     /// Nanoseconds per operation of row evaluation.
     pub ns_per_row_op: f64,
+    /// Nanoseconds per interval operation of the certificate's enclosures (0 when not
+    /// measured: no certificate, or no stated count to time it by).
+    pub ns_per_interval_op: f64,
 }
 
 /// A filter's stated worst case beside what its updates did: fed each update's
@@ -184,6 +193,10 @@ impl core::fmt::Display for BoundCheck {
         writeln!(f, "{:<34}{:>16}{:>16}", "OSQP iterations", w.osqp_iterations, m.osqp_iterations)?;
         let ops = w.row_ops.map_or_else(|| "not stated".to_string(), |o| o.total().to_string());
         writeln!(f, "{:<34}{:>16}{:>16}", "row evaluation, operations", ops, "-")?;
+        if w.enclosures > 0 {
+            let ops = w.interval_ops.map_or_else(|| "not stated".to_string(), |o| o.total().to_string());
+            writeln!(f, "{:<34}{:>16}{:>16}", "enclosures, interval operations", ops, "-")?;
+        }
         let c = &self.calibration;
         let time = self.micros().map_or_else(|| "not stated".to_string(), |us| format!("{us:.1}"));
         writeln!(f, "{:<34}{:>16}{:>16.1}", "CPU time [µs]", time, self.max_cpu.as_secs_f64() * 1e6)?;
@@ -194,9 +207,12 @@ impl core::fmt::Display for BoundCheck {
         if w.row_ops.is_some() {
             write!(f, ", {:.3} ns per row operation", c.ns_per_row_op)?;
         }
+        if w.enclosures > 0 && w.interval_ops.is_some() {
+            write!(f, ", {:.3} ns per interval operation", c.ns_per_interval_op)?;
+        }
         writeln!(f)?;
-        if w.enclosures > 0 {
-            writeln!(f, "not stated in time: {} enclosures over the period (interval arithmetic)", w.enclosures)?;
+        if w.enclosures > 0 && w.interval_ops.is_none() {
+            writeln!(f, "not stated in time: {} enclosures whose operations are not stated", w.enclosures)?;
         }
         write!(
             f,

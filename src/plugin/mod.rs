@@ -37,9 +37,10 @@ use crate::system::MAX_RELATIVE_DEGREE;
 /// Version 2 added the kernel table ([`DescriptionC::kernels`], [`PluginV1::kernel_call`]);
 /// version 3 the dense solve's work budget ([`SolverC::dense_max_work`]) and each update's
 /// counted work ([`ReportC::work`]); version 4 the filter's stated worst case and this
-/// machine's calibration ([`PluginV1::filter_worst_case`], [`PluginV1::filter_calibrate`]).
-/// The table keeps the name it was born with.
-pub const ABI_VERSION: u32 = 4;
+/// machine's calibration ([`PluginV1::filter_worst_case`], [`PluginV1::filter_calibrate`]);
+/// version 5 the certificate's interval operations in both ([`WorstCaseC::interval_ops`],
+/// `Calibration::ns_per_interval_op`). The table keeps the name it was born with.
+pub const ABI_VERSION: u32 = 5;
 
 /// The symbol a plugin exports: `extern "C" fn() -> *const PluginV1`.
 pub const ENTRY_POINT: &str = "cbfgen_plugin_v1";
@@ -347,8 +348,8 @@ pub struct ReportC {
     pub cpu_time_ns: i64,
 }
 
-/// A [`WorstCase`](crate::filter::WorstCase): `row_ops` the [`OpCount`](crate::ops::OpCount)'s
-/// fields in order, read only when `row_ops_stated`.
+/// A [`WorstCase`](crate::filter::WorstCase): `row_ops` and `interval_ops` the
+/// [`OpCount`](crate::ops::OpCount)'s fields in order, each read only when its `_stated`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default)]
 #[allow(missing_docs)]
@@ -359,6 +360,8 @@ pub struct WorstCaseC {
     pub row_ops_stated: bool,
     pub row_ops: [u64; 8],
     pub enclosures: u32,
+    pub interval_ops_stated: bool,
+    pub interval_ops: [u64; 8],
 }
 
 impl From<crate::filter::WorstCase> for WorstCaseC {
@@ -370,6 +373,8 @@ impl From<crate::filter::WorstCase> for WorstCaseC {
             row_ops_stated: w.row_ops.is_some(),
             row_ops: w.row_ops.unwrap_or_default().to_array(),
             enclosures: w.enclosures,
+            interval_ops_stated: w.interval_ops.is_some(),
+            interval_ops: w.interval_ops.unwrap_or_default().to_array(),
         }
     }
 }
@@ -382,6 +387,7 @@ impl From<WorstCaseC> for crate::filter::WorstCase {
             osqp_iterations: w.osqp_iterations,
             row_ops: w.row_ops_stated.then(|| crate::ops::OpCount::new(w.row_ops)),
             enclosures: w.enclosures,
+            interval_ops: w.interval_ops_stated.then(|| crate::ops::OpCount::new(w.interval_ops)),
         }
     }
 }

@@ -2,7 +2,9 @@
 //! hand (which has no interval form): it says so instead of certifying, leaves the answer
 //! as it is, and its settings have a documented domain.
 
-use cbfgen::filter::between_samples::{enclose_flow, Why, MAX_ROUNDS};
+use cbfgen::filter::between_samples::{
+    enclose_flow, enclose_window, EnclosureOps, Why, Window, MAX_FIELD_CALLS, MAX_PIECES, MAX_ROUNDS,
+};
 use cbfgen::filter::{BetweenSamples, EcbfFilter, FilterSettings, InputSource, SampledData};
 use cbfgen::interval::Interval;
 use cbfgen::system::{BarrierSet, ClassK, FamilyInfo, FamilyKind, FamilyParams, InstanceKind, Poles, Row, RowLayout};
@@ -118,4 +120,44 @@ fn the_flow_enclosure_holds_a_pendulum_and_gives_up_on_a_blow_up() {
     assert!(reach.end[0].contains(y[0]) && reach.end[1].contains(y[1]), "{y:?} outside {:?}", reach.end);
     // ẋ = x² from 1 leaves every box before t = 1 (it blows up there): no enclosure.
     assert!(enclose_flow(&[Interval::point(1.0)], 1.5, |x| Some([x[0] * x[0]])).is_none());
+}
+
+#[test]
+fn an_enclosure_never_evaluates_the_field_more_often_than_its_stated_bound() {
+    // The worst case of an enclosure counts MAX_PIECES flows of MAX_FIELD_CALLS field
+    // evaluations each (twice with a delayed input). Fields from gentle to too fast for any
+    // piece, held and delayed: the evaluations counted never pass it, and the fast ones
+    // halve the period (more flows than one) or give up.
+    use std::cell::Cell;
+    let mut most = 0;
+    let mut halved = false;
+    for rate in [0.1, 10.0, 300.0, 3e3, 3e4, 3e5, 3e6] {
+        for delayed in [false, true] {
+            let calls = Cell::new(0u32);
+            let window =
+                Window { t: 0.0, period: 1e-3, before: delayed.then_some([Interval::new(-1.0, 1.0)]), u: [0.5] };
+            // q̇ = v, v̇ = rate² (sin q − q) + u: a stiff, non-linear flow at high rates.
+            let field = |b: &[Interval; 2], u: &[Interval; 1]| {
+                use cbfgen::scalar::Scalar;
+                calls.set(calls.get() + 1);
+                let k = Interval::point(rate * rate);
+                Some([b[1] * Interval::point(rate), k * (b[0].sin() - b[0]) + u[0]])
+            };
+            let enclosed = enclose_window(&window, &[0.3, -0.2], field).is_ok();
+            let bound = MAX_PIECES * MAX_FIELD_CALLS * if delayed { 2 } else { 1 };
+            assert!(calls.get() <= bound, "rate {rate}, delayed {delayed}: {} calls, bound {bound}", calls.get());
+            most = most.max(calls.get());
+            halved |= enclosed && calls.get() > (1 + u32::from(delayed)) * MAX_FIELD_CALLS;
+        }
+    }
+    assert!(halved, "no field was fast enough to need more than one piece (most {most} calls)");
+    // The count itself: each flow's calls, per-state steps and end, then the rows.
+    let e = EnclosureOps {
+        field: cbfgen::ops::OpCount { mul: 3, ..Default::default() },
+        states: 2,
+        rows: Default::default(),
+    };
+    let per_flow = u64::from(MAX_FIELD_CALLS) * (3 + 2 * (5 + 3 + 9)) + 2 * (1 + 1 + 4);
+    assert_eq!(e.window(false).total(), u64::from(MAX_PIECES) * per_flow);
+    assert_eq!(e.window(true).total(), 2 * u64::from(MAX_PIECES) * per_flow);
 }

@@ -188,3 +188,30 @@ fn evaluation_ops_is_what_evaluate_performs_in_its_kernels() {
         assert_ne!(counted, OpCount::ZERO);
     }
 }
+
+#[test]
+fn a_certified_update_states_its_enclosures_in_operations_and_in_time() {
+    // The enclosure's count: the field from the drift and input-matrix kernels' stated
+    // counts and the product g·u (2 states × 1 input), the row's from the sine barrier's
+    // stated count (one instance), each checked on counting numbers above. A certified
+    // run's updates never pass the stated worst case in counts, and with the certificate
+    // the bound has a time: every part states its count and the calibration times the
+    // interval kernels.
+    use cbfgen::ops::OpCount;
+    let stated = |name: &str| cbfgen_double_integrator::KERNELS.iter().find(|k| k.name == name).unwrap().ops.unwrap();
+    let barriers = Barriers::new(Capacity {}).unwrap();
+    let e = barriers.enclosure_ops().expect("a generated set states its enclosure");
+    assert_eq!(e.field, stated("drift") + stated("input_matrix") + OpCount { add: 2, mul: 2, ..OpCount::ZERO });
+    assert_eq!((e.states, e.rows), (2, stated("sine_barrier")));
+    for delay in [false, true] {
+        let sampled = SampledData { input_delay: delay, ..SampledData::every_family(PERIOD) };
+        let r = pressed::run(5.0, Some(sampled), delay, true).unwrap();
+        let b = r.bound.expect("the run keeps its bound");
+        let w = b.worst_case;
+        assert_eq!(b.beyond_counts, 0, "{b}");
+        let rounds = u64::from(w.enclosures);
+        assert!(w.interval_ops.unwrap().total() >= rounds * e.window(delay).total(), "{b}");
+        assert!(b.calibration.ns_per_interval_op > 0.0 && b.micros().is_some(), "{b}");
+        println!("delay {delay}:\n{b}");
+    }
+}

@@ -36,18 +36,23 @@ def kernel_result(out) -> str:
 
 
 def emit_kernel_table(kernels: Sequence[Kernel], runtime_crate: str, what: str,
-                      ops: dict[str, list[int]] | None = None) -> str:
+                      ops: dict[str, list[int] | str] | None = None) -> str:
     """``KERNELS`` for ``kernels``: one line per kernel in ``kernel_table!`` (src/kernel_table.rs),
     which writes the entries and their flat wrappers. ``what`` names the module in the doc;
-    ``ops`` holds the operation counts of the kernels printed as one straight line, which
-    their lines state (``ops [add, neg, mul, div, sqrt, elementary, lanes, compare]``)."""
+    ``ops`` holds the operation counts their lines state: of a kernel printed as one
+    straight line, its counts (``ops [add, neg, mul, div, sqrt, elementary, lanes,
+    compare]``); of one assembled from others, a constant Rust expression of its count
+    (``ops { .. }``)."""
     names = [k.name for k in kernels]
     if len(set(names)) != len(names):
         raise ValueError(f"{what}: kernel names repeat: {names}")
     ops = ops or {}
 
     def stated(k: Kernel) -> str:
-        return f" ops [{', '.join(map(str, ops[k.name]))}]" if k.name in ops else ""
+        if k.name not in ops:
+            return ""
+        count = ops[k.name]
+        return f" ops {{{count}}}" if isinstance(count, str) else f" ops [{', '.join(map(str, count))}]"
 
     lines = [f"    {k.name}({', '.join(map(kernel_argument, k.inputs))}) -> "
              f"({', '.join(map(kernel_result, k.outputs))}){stated(k)};" for k in kernels]

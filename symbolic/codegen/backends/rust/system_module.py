@@ -399,6 +399,14 @@ class _Cost:
         parts += [term + (f".times({k})" if k != 1 else "") for term, k in sorted(self.terms.items())]
         return " + ".join(parts)
 
+    def const_rust(self, rt: str) -> str:
+        """The count as a constant Rust expression, every path written out (what a
+        ``kernel_table!`` line's ``ops { .. }`` holds)."""
+        text = f"{rt}::ops::OpCount::new({self.numbers})"
+        for term, k in sorted(self.terms.items()):
+            text += f".plus({rt}::compose::{term}" + (f".times({k})" if k != 1 else "") + ")"
+        return text
+
     def functions(self) -> set[str]:
         """The core's functions (in ``compose``) the count calls."""
         return {term.split("(")[0] for term in self.terms}
@@ -428,6 +436,52 @@ def _pose_cache_ops(d: SystemDefinition, ops: dict[str, list[int]]) -> _Cost | s
             cost += _Cost.call("PLACE_POSE_OPS" if plan.value
                                else f"place_jet_ops({12 * plan.degree}, {plan.columns})")
     return cost
+
+
+def _assembled_ops(d: SystemDefinition, ops: dict[str, list[int]]) -> dict[str, _Cost]:
+    """The counts of the kernels assembled from others, as their ``x`` entry points run
+    them (each pose computed afresh along its path, no cache): a composed member (its
+    poses, its chain, the contraction per pose) and its lower bound (its poses' values,
+    its bound kernel); a member on a frame (the frame's path, its kernel on the frame) and
+    its bound. Those whose parts all state a count."""
+    plans = {plan.name: plan for plan in d.poses}
+
+    def pose(name: str) -> _Cost | None:
+        plan = plans.get(name)
+        if plan is None or any(step not in ops for step in plan.steps):
+            return None
+        cost = sum((_Cost(ops[step]) for step in plan.steps), _Cost())
+        if plan.placement is not None:
+            cost += _Cost.call("PLACE_POSE_OPS" if plan.value else f"place_jet_ops({12 * plan.degree}, {plan.columns})")
+        return cost
+
+    def chain(name: str, in_library: bool) -> _Cost | None:
+        table = _library_ops() if in_library else ops
+        return _Cost(table[name]) if name in table else None
+
+    out: dict[str, _Cost] = {}
+    for f in d.families:
+        for m, k in enumerate(f.kernels):
+            parts: list[tuple[str, list[_Cost | None]]] = []
+            if f.composed:
+                plan = f.composed[m]
+                moving = [slot for slot in plan.slots if slot.moving]
+                row = [pose(slot.jet) for slot in moving] + [chain(plan.chain, bool(plan.library))]
+                row += [_Cost.call(f"accumulate_columns_ops(12, {len(slot.at)})") for slot in moving]
+                parts.append((k.name, row))
+                if plan.bound:
+                    bound = plan.bound
+                    parts.append((bound.kernel, [pose(slot.jet) for slot in bound.slots if slot.moving]
+                                  + [chain(bound.chain, bool(bound.library))]))
+            elif f.framed and f.framed[m]:
+                framed = f.framed[m]
+                for plan in (framed, framed.bound):
+                    if plan:
+                        parts.append((plan.kernel, [pose(plan.frame), chain(plan.on_frame, False)]))
+            for name, costs in parts:
+                if all(c is not None for c in costs):
+                    out[name] = sum(costs, _Cost())
+    return out
 
 
 def _member_ops(f: FamilyDefinition, m: int, ops: dict[str, list[int]]) -> tuple[_Cost, _Cost] | str:
@@ -1161,6 +1215,7 @@ def emit_system(d: SystemDefinition, rt: str) -> str:
         emit(out, d, rt)
     _emit_barriers(out, d, rt, ops)
     _emit_filter_and_system(out, d, rt)
-    out.append(emit_kernel_table(d.kernels(), rt, f"`{d.name}`", ops))
+    assembled = {name: cost.const_rust(rt) for name, cost in _assembled_ops(d, ops).items()}
+    out.append(emit_kernel_table(d.kernels(), rt, f"`{d.name}`", {**ops, **assembled}))
     _emit_interval_kernels(out, d, rt)
     return "\n".join(out) + "\n"

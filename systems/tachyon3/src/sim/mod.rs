@@ -615,8 +615,8 @@ pub fn run_observed(
 /// its stated counts ([`EcbfFilter::worst_case`]) at the rates
 /// [`EcbfFilter::calibrate`] measures now, on the filter a run of `config` builds, with
 /// its rows at the latency harness's start (the robot before the hardware stairs).
-/// `None` where the worst case states no time (the certificate's enclosures). Takes about
-/// a tenth of a second.
+/// `None` where the worst case states no time. Takes about a tenth of a second (more with
+/// the certificate, whose enclosures are timed too).
 ///
 /// # Errors
 /// The filter's or the course's construction.

@@ -270,7 +270,7 @@ impl CampaignSettings {
     /// The same campaign counting each update against the filter's worst case in CPU
     /// time, measured now on this machine ([`time_bound_us`](crate::sim::time_bound_us) of
     /// its first episode's filter; every episode's filter has the same rows and settings).
-    /// Unchanged where the worst case states no time (the certificate's enclosures).
+    /// Unchanged where the worst case states no time.
     ///
     /// # Errors
     /// The first episode's course or filter.
