@@ -119,7 +119,6 @@ fn evaluation_ops_is_what_evaluate_performs_in_its_kernels_and_frames_with_every
     // own; with every slot filled and nothing culled, the stated count is exact. The rows in
     // torques add the dynamics (counted once: the walk does not branch on the numbers, which
     // random states check) and the map to torques (checked in the core).
-    use cbfgen::compose::flatten;
     use cbfgen::ops::Counted;
     use cbfgen::system::Row;
     use cbfgen_panda_spheres::generated::{Capacity, Params, SphereObstacleParams, TableParams, NU};
@@ -161,21 +160,7 @@ fn evaluation_ops_is_what_evaluate_performs_in_its_kernels_and_frames_with_every
         let (replayed, count) = Counted::measure(|| {
             let xc = x.map(Counted);
             let mut out: Vec<Row<NU>> = Vec::new();
-            let j1 = gen::frame_panda_link1(&xc);
-            let j2 = gen::frame_panda_link2(&xc, &j1.0, &j1.1, &flatten(&j1.2));
-            let j3 = gen::frame_panda_link3(&xc, &j2.0, &j2.1, &flatten(&j2.2));
-            let j4 = gen::frame_panda_link4(&xc, &j3.0, &j3.1, &flatten(&j3.2));
-            let j5 = gen::frame_panda_link5(&xc, &j4.0, &j4.1, &flatten(&j4.2));
-            let j6 = gen::frame_panda_link6(&xc, &j5.0, &j5.1, &flatten(&j5.2));
-            let j7 = gen::frame_panda_link7(&xc, &j6.0, &j6.1, &flatten(&j6.2));
-            let v1 = gen::frame_panda_link1_value(&xc);
-            let v2 = gen::frame_panda_link2_value(&xc, &v1);
-            let v3 = gen::frame_panda_link3_value(&xc, &v2);
-            let v4 = gen::frame_panda_link4_value(&xc, &v3);
-            let v5 = gen::frame_panda_link5_value(&xc, &v4);
-            let v6 = gen::frame_panda_link6_value(&xc, &v5);
-            let v7 = gen::frame_panda_link7_value(&xc, &v6);
-            let _ = (&j1, &v1);
+            let ((_, j2, j3, j4, j5, j6, j7), [_, v2, v3, v4, v5, v6, v7]) = cbfgen_testkit::panda_tree!(gen, &xc);
             // A member on its link's frame: bound and row per instance.
             macro_rules! framed {
                 ($m:ident, $bound:ident, $rows:ident, $jet:ident, $value:ident, $columns:expr, for $p:ident in $each:expr, $($arg:expr),*) => {

@@ -578,7 +578,7 @@ fn evaluation_ops_is_what_evaluate_performs_in_its_kernels_and_poses_with_every_
     // frame, each member's lower bound and chain from those poses, per obstacle slot. Every
     // row the replay computes is the one evaluate stored, bit for bit, so the calls are
     // evaluate's own; with every slot filled and nothing culled, the stated count is exact.
-    use cbfgen::compose::{flatten, place_jet, place_pose};
+    use cbfgen::compose::{place_jet, place_pose};
     use cbfgen::ops::Counted;
     use cbfgen::system::Row;
 
@@ -613,20 +613,7 @@ fn evaluation_ops_is_what_evaluate_performs_in_its_kernels_and_poses_with_every_
             let (lie, lg) = gen::velocity_limits(&xc);
             out.extend(lie.iter().zip(&lg).map(|(l, g)| row(l, g, &gen::VELOCITY_LIMITS_INPUT_COLUMNS)));
             // The tree, node by node: jets and values.
-            let j1 = gen::frame_panda_link1(&xc);
-            let j2 = gen::frame_panda_link2(&xc, &j1.0, &j1.1, &flatten(&j1.2));
-            let j3 = gen::frame_panda_link3(&xc, &j2.0, &j2.1, &flatten(&j2.2));
-            let j4 = gen::frame_panda_link4(&xc, &j3.0, &j3.1, &flatten(&j3.2));
-            let j5 = gen::frame_panda_link5(&xc, &j4.0, &j4.1, &flatten(&j4.2));
-            let j6 = gen::frame_panda_link6(&xc, &j5.0, &j5.1, &flatten(&j5.2));
-            let j7 = gen::frame_panda_link7(&xc, &j6.0, &j6.1, &flatten(&j6.2));
-            let v1 = gen::frame_panda_link1_value(&xc);
-            let v2 = gen::frame_panda_link2_value(&xc, &v1);
-            let v3 = gen::frame_panda_link3_value(&xc, &v2);
-            let v4 = gen::frame_panda_link4_value(&xc, &v3);
-            let v5 = gen::frame_panda_link5_value(&xc, &v4);
-            let v6 = gen::frame_panda_link6_value(&xc, &v5);
-            let v7 = gen::frame_panda_link7_value(&xc, &v6);
+            let ((j1, j2, j3, j4, j5, j6, j7), [v1, v2, v3, v4, v5, v6, v7]) = cbfgen_testkit::panda_tree!(gen, &xc);
             // Each box placed once: its jet and its value.
             macro_rules! placed {
                 ($jet:ident, $value:ident, $placement:ident) => {
