@@ -422,6 +422,32 @@ def _library_ops() -> dict[str, list[int]]:
     return ops
 
 
+def _stated(ops: dict[str, list[int]], name: str, in_library: bool = False) -> _Cost | None:
+    """The stated count of kernel ``name``: the system's own (``ops``) or the core's shared
+    chains' (``in_library``); None where none is stated."""
+    table = _library_ops() if in_library else ops
+    return _Cost(table[name]) if name in table else None
+
+
+def _placed(plan) -> _Cost:
+    """Placing a pose plan's box in its frame (``compose::place_jet`` or ``place_pose``)."""
+    if plan.placement is None:
+        return _Cost()
+    return _Cost.call("PLACE_POSE_OPS" if plan.value else f"place_jet_ops({12 * plan.degree}, {plan.columns})")
+
+
+def _composed_row(plan, ops: dict[str, list[int]]) -> _Cost | None:
+    """A composed member's row from its poses: the family's chain and the contraction of
+    its gradient with each moving pose's input columns."""
+    chain = _stated(ops, plan.chain, bool(plan.library))
+    if chain is None:
+        return None
+    for slot in plan.slots:
+        if slot.moving:
+            chain += _Cost.call(f"accumulate_columns_ops(12, {len(slot.at)})")
+    return chain
+
+
 def _pose_cache_ops(d: SystemDefinition, ops: dict[str, list[int]]) -> _Cost | str:
     """Every entry of the cycle's ``PoseCache`` once (each is computed at most once per
     cycle): the node kernels' jets and values, and each box placed in its frame; or the
@@ -432,9 +458,7 @@ def _pose_cache_ops(d: SystemDefinition, ops: dict[str, list[int]]) -> _Cost | s
             return name
         cost += ops[name]
     for plan in d.poses:
-        if plan.placement is not None:
-            cost += _Cost.call("PLACE_POSE_OPS" if plan.value
-                               else f"place_jet_ops({12 * plan.degree}, {plan.columns})")
+        cost += _placed(plan)
     return cost
 
 
@@ -450,14 +474,7 @@ def _assembled_ops(d: SystemDefinition, ops: dict[str, list[int]]) -> dict[str, 
         plan = plans.get(name)
         if plan is None or any(step not in ops for step in plan.steps):
             return None
-        cost = sum((_Cost(ops[step]) for step in plan.steps), _Cost())
-        if plan.placement is not None:
-            cost += _Cost.call("PLACE_POSE_OPS" if plan.value else f"place_jet_ops({12 * plan.degree}, {plan.columns})")
-        return cost
-
-    def chain(name: str, in_library: bool) -> _Cost | None:
-        table = _library_ops() if in_library else ops
-        return _Cost(table[name]) if name in table else None
+        return sum((_Cost(ops[step]) for step in plan.steps), _placed(plan))
 
     out: dict[str, _Cost] = {}
     for f in d.families:
@@ -465,19 +482,17 @@ def _assembled_ops(d: SystemDefinition, ops: dict[str, list[int]]) -> dict[str, 
             parts: list[tuple[str, list[_Cost | None]]] = []
             if f.composed:
                 plan = f.composed[m]
-                moving = [slot for slot in plan.slots if slot.moving]
-                row = [pose(slot.jet) for slot in moving] + [chain(plan.chain, bool(plan.library))]
-                row += [_Cost.call(f"accumulate_columns_ops(12, {len(slot.at)})") for slot in moving]
-                parts.append((k.name, row))
+                parts.append((k.name, [pose(slot.jet) for slot in plan.slots if slot.moving]
+                              + [_composed_row(plan, ops)]))
                 if plan.bound:
                     bound = plan.bound
                     parts.append((bound.kernel, [pose(slot.jet) for slot in bound.slots if slot.moving]
-                                  + [chain(bound.chain, bool(bound.library))]))
+                                  + [_stated(ops, bound.chain, bool(bound.library))]))
             elif f.framed and f.framed[m]:
                 framed = f.framed[m]
                 for plan in (framed, framed.bound):
                     if plan:
-                        parts.append((plan.kernel, [pose(plan.frame), chain(plan.on_frame, False)]))
+                        parts.append((plan.kernel, [pose(plan.frame), _stated(ops, plan.on_frame)]))
             for name, costs in parts:
                 if all(c is not None for c in costs):
                     out[name] = sum(costs, _Cost())
@@ -491,24 +506,15 @@ def _member_ops(f: FamilyDefinition, m: int, ops: dict[str, list[int]]) -> tuple
     read from the ``PoseCache`` are counted there. Or the name of a called function whose
     operations are not stated."""
     k = f.kernels[m]
-
-    def stated(name: str, in_library: bool = False) -> list[int] | str:
-        table = _library_ops() if in_library else ops
-        return table[name] if name in table else name
-
     if f.composed:
         plan = f.composed[m]
-        chain = stated(plan.chain, bool(plan.library))
-        if isinstance(chain, str):
-            return chain
-        instance = _Cost(chain)
-        for slot in plan.slots:
-            if slot.moving:
-                instance += _Cost.call(f"accumulate_columns_ops(12, {len(slot.at)})")
+        instance = _composed_row(plan, ops)
+        if instance is None:
+            return plan.chain
         if f.bounds and plan.bound:
-            bound = stated(plan.bound.chain, bool(plan.bound.library))
-            if isinstance(bound, str):
-                return bound
+            bound = _stated(ops, plan.bound.chain, bool(plan.bound.library))
+            if bound is None:
+                return plan.bound.chain
             instance += bound
         return _Cost(), instance
     framed = f.framed[m] if f.framed else None
@@ -517,33 +523,30 @@ def _member_ops(f: FamilyDefinition, m: int, ops: dict[str, list[int]]) -> tuple
         pieces.append((f.bounds[m].name, framed.bound.on_frame if framed and framed.bound else None))
     state, instance = _Cost(), _Cost()
     for name, on_frame in pieces:
-        if on_frame is not None:
-            found = stated(on_frame)
-            if isinstance(found, str):
-                return found
-            instance += found
-        elif f.params:
-            st, inst = stated(f"{name}_state"), stated(f"{name}_instance")
-            for found in (st, inst):
-                if isinstance(found, str):
-                    return found
-            state, instance = state + st, instance + inst
-        else:
-            found = stated(name)
-            if isinstance(found, str):
-                return found
-            instance += found
+        # On a frame: the kernel on the frame per instance; with parameters: its state part
+        # once, its instance part per instance; else the whole kernel once.
+        parts = ([("", on_frame)] if on_frame is not None else
+                 [("state", f"{name}_state"), ("", f"{name}_instance")] if f.params else [("", name)])
+        for part, kernel in parts:
+            found = _stated(ops, kernel)
+            if found is None:
+                return kernel
+            if part == "state":
+                state += found
+            else:
+                instance += found
     return state, instance
 
 
 def _evaluation_ops(d: SystemDefinition, ops: dict[str, list[int]]) -> tuple[_Cost, list] | str:
     """The operations ``evaluate`` performs with every instance present and nothing culled:
     ``(fixed, slots)``, what runs a number of times the spec fixes summed in ``fixed`` (the
-    pose cache's entries included) and, per capacity member, ``(state part, instance part,
-    its capacity in Rust)`` (the state part once when the member has a slot, the instance
-    part per slot); or the name of a called function whose operations are not stated."""
+    pose cache's entries included) and, per capacity member, ``(family, state part,
+    instance part, its capacity in Rust)`` (the state part once when the member has a
+    slot, the instance part per slot); or the name of a called function whose operations
+    are not stated."""
     fixed = _Cost()
-    slots: list[tuple[_Cost, _Cost, str]] = []
+    slots: list[tuple[str, _Cost, _Cost, str]] = []
     if d.pose_names:
         cache = _pose_cache_ops(d, ops)
         if isinstance(cache, str):
@@ -556,7 +559,7 @@ def _evaluation_ops(d: SystemDefinition, ops: dict[str, list[int]]) -> tuple[_Co
                 return found
             state, instance = found
             if f.capacity:
-                slots.append((state, instance, f"c.{f.name}[{m}]" if f.indexed else f"c.{f.name}"))
+                slots.append((f.name, state, instance, f"c.{f.name}[{m}]" if f.indexed else f"c.{f.name}"))
             elif f.params:
                 fixed += state + instance.times(f.count)
             else:
@@ -572,7 +575,7 @@ def _emit_evaluation_ops(w, d: SystemDefinition, rt: str, ops: dict[str, list[in
         w(f"        None // `{found}` states no count")
     else:
         fixed, slots = found
-        used = set().union(*(c.functions() for c in [fixed, *(p for s in slots for p in s[:2])]))
+        used = set().union(*(c.functions() for c in [fixed, *(p for s in slots for p in s[1:3])]))
         w(f"        use {rt}::ops::OpCount;")
         if used:
             w(f"        use {rt}::compose::{{{', '.join(sorted(used))}}};")
@@ -580,22 +583,21 @@ def _emit_evaluation_ops(w, d: SystemDefinition, rt: str, ops: dict[str, list[in
         if slots:
             w("        let c = &self.capacity;")
             # A composed family's members share their chain: its count named once.
-            shared: dict[str, list[int]] = {}
-            for _, instance, cap in slots:
-                family = cap.removeprefix("c.").split("[")[0]
-                numbers = [i.numbers for _, i, cp in slots if cp.removeprefix("c.").split("[")[0] == family]
-                if instance.terms and len(numbers) > 1 and all(n == numbers[0] for n in numbers):
-                    shared[family] = numbers[0]
+            by_family: dict[str, list[_Cost]] = {}
+            for family, _, instance, _ in slots:
+                by_family.setdefault(family, []).append(instance)
+            shared = {family: costs[0].numbers for family, costs in by_family.items()
+                      if len(costs) > 1 and all(c.terms for c in costs)
+                      and all(c.numbers == costs[0].numbers for c in costs)}
             for family, numbers in shared.items():
                 w(f"        let {family} = OpCount::new({numbers});")
 
-            def instance_text(instance: _Cost, cap: str) -> str:
-                family = cap.removeprefix("c.").split("[")[0]
+            def instance_text(family: str, instance: _Cost) -> str:
                 if family in shared:
-                    return " + ".join([family, _Cost(terms=instance.terms).rust()])
+                    return f"{family} + {_Cost(terms=instance.terms).rust()}"
                 return instance.rust()
             w("        Some(fixed.plus_slots(&[" + ", ".join(
-                f"({st.rust()}, {instance_text(i, cap)}, {cap})" for st, i, cap in slots) + "]))")
+                f"({st.rust()}, {instance_text(family, i)}, {cap})" for family, st, i, cap in slots) + "]))")
         else:
             w("        Some(fixed)")
     w("    }")
