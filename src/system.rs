@@ -352,6 +352,14 @@ impl Gains {
         e.lg.iter().zip(u).fold(self.bound_enclosure(&e.lie), |s, (a, u)| s + *a * Interval::point(*u))
     }
 
+    /// At most the interval operations one [`Gains::condition_enclosure`] performs with
+    /// `nu` inputs: the bound's sums over every derivative (two with an extended
+    /// class-K function, whose `α` is evaluated on the bounds) and `a·u`.
+    pub const fn condition_enclosure_ops(nu: usize) -> crate::ops::OpCount {
+        let terms = 2 * (MAX_RELATIVE_DEGREE + 1) as u64 + nu as u64;
+        crate::ops::OpCount { add: terms, mul: terms, ..crate::ops::OpCount::ZERO }
+    }
+
     /// [`Gains::bound`]'s formula on any scalar, with `α(ψ)` given: one formula for the
     /// filter's `f64` and the certificate's enclosure, summed in the same order.
     #[inline]
@@ -863,6 +871,32 @@ pub fn find_kernel(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_condition_on_an_enclosure_performs_no_more_than_its_stated_operations() {
+        // The bound's formula run on numbers that count (the one formula of the f64 bound
+        // and of its enclosure), with α counted as its two evaluations on the bounds, plus
+        // a·u: within condition_enclosure_ops for linear and extended gains of every degree.
+        use crate::ops::{Counted, OpCount};
+        let cubic = ClassK::extended("s^3", |s| s * s * s);
+        for degree in 1..=MAX_RELATIVE_DEGREE {
+            for gains in [
+                Gains::from_poles(&Poles::repeated(2.0, degree)),
+                Gains::with_class_k(&Poles::repeated(2.0, degree), cubic),
+            ] {
+                let lie = [Counted(0.5); MAX_RELATIVE_DEGREE + 1];
+                let (_, bound) = Counted::measure(|| gains.bound_on(&lie, |_, psi| psi));
+                let nu = 7;
+                let a_u = OpCount { add: nu, mul: nu, ..OpCount::ZERO };
+                let stated = Gains::condition_enclosure_ops(nu as usize);
+                let counted = bound + a_u;
+                assert!(
+                    counted.add <= stated.add && counted.mul <= stated.mul && counted.total() <= stated.total(),
+                    "degree {degree}: counted {counted}, stated {stated}"
+                );
+            }
+        }
+    }
 
     #[test]
     fn the_bound_enclosure_holds_the_bound_at_every_point_of_its_boxes() {

@@ -305,28 +305,18 @@ fn to_torques<S: Scalar, const N: usize>(inverse: &[[S; N]; N], bias: &[S; N], l
 /// mapped (a product with `M⁻¹`; a culled or inactive row is not). Checked against the functions
 /// run on counting numbers.
 pub const fn torque_map_ops(n: usize, rows: usize) -> OpCount {
-    let (n64, r64) = (n as u64, rows as u64);
-    // Cholesky: Σ_j (j + 1 adds, j muls, 1 sqrt) + Σ_{i>j} (j + 1 adds, j muls, 1 div).
-    let pairs = n64 * n64.saturating_sub(1) / 2; // Σ_j j, and the entries below the diagonal
-    let below = {
-        // Σ_j (n − 1 − j) · j
-        let mut sum = 0;
-        let mut j = 0;
-        while j < n64 {
-            sum += (n64 - 1 - j) * j;
-            j += 1;
-        }
-        sum
-    };
-    let cholesky =
-        OpCount { add: pairs + n64 + below + pairs, mul: pairs + below, sqrt: n64, div: pairs, ..OpCount::ZERO };
+    let (n, rows) = (n as u64, rows as u64);
+    // Σ_j j over the n columns, and Σ_j (n − 1 − j) j over the entries below the diagonal.
+    let (pairs, below) = (n * n.saturating_sub(1) / 2, n * n.saturating_sub(1) * n.saturating_sub(2) / 6);
+    // Cholesky: per column j, its pivot (j + 1 adds, j muls, 1 sqrt) and each entry below
+    // it (j + 1 adds, j muls, 1 div).
+    let cholesky = OpCount { add: pairs + n + below + pairs, mul: pairs + below, sqrt: n, div: pairs, ..OpCount::ZERO };
     // One solve: each pass Σ_i (i + 1 adds, i muls, 1 div).
-    let solve = OpCount { add: 2 * (pairs + n64), mul: 2 * pairs, div: 2 * n64, ..OpCount::ZERO };
-    // One row: n dot products of n terms, one of n terms for the bias, its negation.
-    let row = OpCount { add: n64 * n64 + n64, mul: n64 * n64 + n64, neg: 1, ..OpCount::ZERO };
-    // The row's drift entry takes the change: one addition.
-    let row = row.plus(OpCount { add: 1, ..OpCount::ZERO });
-    cholesky.plus(solve.times(n64)).plus(row.times(r64))
+    let solve = OpCount { add: 2 * (pairs + n), mul: 2 * pairs, div: 2 * n, ..OpCount::ZERO };
+    // One row: n dot products of n terms, one of n terms for the bias, its negation, and
+    // the row's drift entry taking the change.
+    let row = OpCount { add: n * n + n + 1, mul: n * n + n, neg: 1, ..OpCount::ZERO };
+    cholesky.plus(solve.times(n)).plus(row.times(rows))
 }
 
 impl<B: BarrierSet<NU, State = [f64; NX]>, const NX: usize, const NU: usize> BarrierSet<NU> for JointTorque<B, NX, NU> {

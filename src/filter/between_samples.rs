@@ -517,6 +517,12 @@ pub fn enclose_generated<G: GeneratedSystem<NX, NU>, const NX: usize, const NU: 
     enclose_rows_generated::<G, NX, NU>(layout, &reach.states, times, params, wanted, out)
 }
 
+/// Where the member of the row at `l` sits in a generated module's `INTERVAL_KERNELS`:
+/// after the dynamics (`drift`, `input_matrix`), every family's members in order.
+fn member_kernel(families: &[crate::system::FamilyInfo], l: &RowLayout) -> usize {
+    2 + families[..l.family].iter().map(|f| f.members.len().max(1)).sum::<usize>() + l.member
+}
+
 /// Enclose the rows of a generated system flagged in `wanted` over the box `states` and
 /// the times `times` (given, not reached by the system's own flow), into `out`: what
 /// generated barrier sets' [`BarrierSet::enclose_over`](crate::system::BarrierSet::enclose_over)
@@ -552,10 +558,8 @@ pub fn enclose_rows_generated<G: GeneratedSystem<NX, NU>, const NX: usize, const
             i += n;
             continue;
         }
-        // INTERVAL_KERNELS: the dynamics, then every family's members in order.
-        let index = 2 + families[..l.family].iter().map(|f| f.members.len().max(1)).sum::<usize>() + l.member;
         let no_form = NotEnclosed::NoIntervalForm { row: i };
-        let kernel = kernels.get(index).ok_or(no_form)?;
+        let kernel = kernels.get(member_kernel(families, &l)).ok_or(no_form)?;
         let call = kernel.call.ok_or(no_form)?;
         let (inputs, outputs) = (kernel.input_len(), kernel.output_len());
         if inputs > MAX_FLAT || outputs > MAX_FLAT || inputs < NX {
@@ -611,10 +615,7 @@ pub fn enclosure_ops_generated<G: GeneratedSystem<NX, NU>, const NX: usize, cons
     let mut i = 0;
     while i < layout.len() {
         let l = layout[i];
-        // INTERVAL_KERNELS: the dynamics, then every family's members in order (as
-        // enclose_rows_generated reads them).
-        let index = 2 + families[..l.family].iter().map(|f| f.members.len().max(1)).sum::<usize>() + l.member;
-        rows = rows + stated(kernels.get(index)?.name)?;
+        rows = rows + stated(kernels.get(member_kernel(families, &l))?.name)?;
         i += families[l.family].row_names.len().max(1);
     }
     Some(EnclosureOps { field, states: NX, rows })

@@ -724,19 +724,12 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
             None => (1, 0),
             Some(sampled) => (sampled.max_rounds.saturating_add(1), sampled.max_rounds.saturating_add(1)),
         };
-        // Each enclosure, and each wanted row's condition read from it: the bound's
-        // polynomial (or the extended class-K's two sums) and a·u.
+        // Each enclosure, and each row's condition read from it.
         let interval_ops = match &self.settings.sampled_data {
             None => Some(crate::ops::OpCount::ZERO),
             Some(sampled) => self.barriers.enclosure_ops().map(|e| {
-                let degree = (crate::system::MAX_RELATIVE_DEGREE + 1) as u64;
-                let condition = crate::ops::OpCount {
-                    add: 2 * degree + NU as u64,
-                    mul: 2 * degree + NU as u64,
-                    ..crate::ops::OpCount::ZERO
-                };
-                let rows = self.barriers.layout().len() as u64;
-                (e.window(sampled.input_delay) + condition.times(rows)).times(u64::from(enclosures))
+                let conditions = Gains::condition_enclosure_ops(NU).times(self.barriers.layout().len() as u64);
+                (e.window(sampled.input_delay) + conditions).times(u64::from(enclosures))
             }),
         };
         WorstCase {
@@ -752,8 +745,9 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
     /// This machine's rates for this filter's work ([`calibrate`]): its size and solver
     /// settings, its own row evaluation at `t`, `x`, `params` with nothing culled (the
     /// evaluation [`WorstCase::row_ops`] states) and, with the certificate, its rows'
-    /// interval kernels at `x` (the rate of [`WorstCase::interval_ops`]). Takes a second or so; not for the
-    /// control path (it allocates). The filter's rows are left evaluated at `x`.
+    /// interval kernels at `x` (the rate of [`WorstCase::interval_ops`]). Takes a second
+    /// or so; not for the control path (it allocates). The filter's rows are left
+    /// evaluated at `x`.
     ///
     /// # Errors
     /// As [`calibrate::osqp_iteration_ns`].

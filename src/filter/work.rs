@@ -23,7 +23,8 @@
 //! let bound = WorstCase { qp_solves: 1, dense_trips: 2_100_000, osqp_iterations: 200, ..WorstCase::default() };
 //! let done = Work { qp_solves: 1, dense_trips: 41_000, osqp_iterations: 0 };
 //! assert!(bound.covers(&done));
-//! let machine = Calibration { ns_per_dense_trip: 0.9, ns_per_osqp_iteration: 4_000.0, ns_per_row_op: 0.5, ns_per_interval_op: 0.0 };
+//! let machine =
+//!     Calibration { ns_per_dense_trip: 0.9, ns_per_osqp_iteration: 4_000.0, ns_per_row_op: 0.5, ..Default::default() };
 //! // Row evaluation states no count here, so there is no bound in time.
 //! assert_eq!(bound.micros(&machine), None);
 //! ```

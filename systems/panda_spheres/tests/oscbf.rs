@@ -161,65 +161,73 @@ fn evaluation_ops_is_what_evaluate_performs_in_its_kernels_and_frames_with_every
             let xc = x.map(Counted);
             let mut out: Vec<Row<NU>> = Vec::new();
             let ((_, j2, j3, j4, j5, j6, j7), [_, v2, v3, v4, v5, v6, v7]) = cbfgen_testkit::panda_tree!(gen, &xc);
-            // A member on its link's frame: bound and row per instance.
-            macro_rules! framed {
-                ($m:ident, $bound:ident, $rows:ident, $jet:ident, $value:ident, $columns:expr, for $p:ident in $each:expr, $($arg:expr),*) => {
+            // Each member, instance by instance: its bound, then its row; on its link's frame
+            // (the jet and value of the tree above), or alone on its link, from its state
+            // parts computed once. (Braces: one member a line.)
+            macro_rules! members {
+                (for $p:pat in $each:expr => $args:tt: $($kind:ident $($rest:ident)*;)*) => {$(
+                    members!(@$kind [$($rest)*] for $p in $each => $args);
+                )*};
+                (@framed [$jet:ident $value:ident $bound:ident $rows:ident $columns:ident]
+                 for $p:pat in $each:expr => ($($arg:expr),*)) => {
                     for $p in $each {
                         let _ = gen::$bound(&$value, $($arg),*);
                         let (lie, lg) = gen::$rows(&$jet, $($arg),*);
-                        out.push(row(&lie[0], &lg[0], &$columns));
+                        out.push(row(&lie[0], &lg[0], &gen::$columns));
                     }
                 };
-            }
-            // A member alone on its link: its state parts once, then per instance.
-            macro_rules! split {
-                ($m:ident, $bound_state:ident, $bound:ident, $state:ident, $rows:ident, $columns:expr, for $p:ident in $each:expr, $($arg:expr),*) => {
+                (@split [$bound_state:ident $bound:ident $state:ident $rows:ident $columns:ident]
+                 for $p:pat in $each:expr => ($($arg:expr),*)) => {
                     let (bound_part, state_part) = (gen::$bound_state(&xc), gen::$state(&xc));
                     for $p in $each {
                         let _ = gen::$bound(&bound_part, $($arg),*);
                         let (lie, lg) = gen::$rows(&state_part, $($arg),*);
-                        out.push(row(&lie[0], &lg[0], &$columns));
+                        out.push(row(&lie[0], &lg[0], &gen::$columns));
                     }
                 };
             }
-            split!(sphere_obstacle_link1_1, sphere_obstacle_link1_1_lower_bound_state, sphere_obstacle_link1_1_lower_bound_instance, sphere_obstacle_link1_1_state, sphere_obstacle_link1_1_instance, gen::SPHERE_OBSTACLE_LINK1_1_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
-            framed!(sphere_obstacle_link2_2, sphere_obstacle_link2_2_lower_bound_from_frame, sphere_obstacle_link2_2_from_frame, j2, v2, gen::SPHERE_OBSTACLE_LINK2_2_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
-            framed!(sphere_obstacle_link2_3, sphere_obstacle_link2_3_lower_bound_from_frame, sphere_obstacle_link2_3_from_frame, j2, v2, gen::SPHERE_OBSTACLE_LINK2_3_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
-            framed!(sphere_obstacle_link3_4, sphere_obstacle_link3_4_lower_bound_from_frame, sphere_obstacle_link3_4_from_frame, j3, v3, gen::SPHERE_OBSTACLE_LINK3_4_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
-            framed!(sphere_obstacle_link3_5, sphere_obstacle_link3_5_lower_bound_from_frame, sphere_obstacle_link3_5_from_frame, j3, v3, gen::SPHERE_OBSTACLE_LINK3_5_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
-            framed!(sphere_obstacle_link4_6, sphere_obstacle_link4_6_lower_bound_from_frame, sphere_obstacle_link4_6_from_frame, j4, v4, gen::SPHERE_OBSTACLE_LINK4_6_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
-            framed!(sphere_obstacle_link4_7, sphere_obstacle_link4_7_lower_bound_from_frame, sphere_obstacle_link4_7_from_frame, j4, v4, gen::SPHERE_OBSTACLE_LINK4_7_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
-            framed!(sphere_obstacle_link5_8, sphere_obstacle_link5_8_lower_bound_from_frame, sphere_obstacle_link5_8_from_frame, j5, v5, gen::SPHERE_OBSTACLE_LINK5_8_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
-            framed!(sphere_obstacle_link5_9, sphere_obstacle_link5_9_lower_bound_from_frame, sphere_obstacle_link5_9_from_frame, j5, v5, gen::SPHERE_OBSTACLE_LINK5_9_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
-            framed!(sphere_obstacle_link5_10, sphere_obstacle_link5_10_lower_bound_from_frame, sphere_obstacle_link5_10_from_frame, j5, v5, gen::SPHERE_OBSTACLE_LINK5_10_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
-            framed!(sphere_obstacle_link5_11, sphere_obstacle_link5_11_lower_bound_from_frame, sphere_obstacle_link5_11_from_frame, j5, v5, gen::SPHERE_OBSTACLE_LINK5_11_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
-            framed!(sphere_obstacle_link5_12, sphere_obstacle_link5_12_lower_bound_from_frame, sphere_obstacle_link5_12_from_frame, j5, v5, gen::SPHERE_OBSTACLE_LINK5_12_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
-            framed!(sphere_obstacle_link6_13, sphere_obstacle_link6_13_lower_bound_from_frame, sphere_obstacle_link6_13_from_frame, j6, v6, gen::SPHERE_OBSTACLE_LINK6_13_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
-            framed!(sphere_obstacle_link6_14, sphere_obstacle_link6_14_lower_bound_from_frame, sphere_obstacle_link6_14_from_frame, j6, v6, gen::SPHERE_OBSTACLE_LINK6_14_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
-            framed!(sphere_obstacle_link7_15, sphere_obstacle_link7_15_lower_bound_from_frame, sphere_obstacle_link7_15_from_frame, j7, v7, gen::SPHERE_OBSTACLE_LINK7_15_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
-            framed!(sphere_obstacle_link7_16, sphere_obstacle_link7_16_lower_bound_from_frame, sphere_obstacle_link7_16_from_frame, j7, v7, gen::SPHERE_OBSTACLE_LINK7_16_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
-            framed!(sphere_obstacle_link7_17, sphere_obstacle_link7_17_lower_bound_from_frame, sphere_obstacle_link7_17_from_frame, j7, v7, gen::SPHERE_OBSTACLE_LINK7_17_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
-            framed!(sphere_obstacle_link7_18, sphere_obstacle_link7_18_lower_bound_from_frame, sphere_obstacle_link7_18_from_frame, j7, v7, gen::SPHERE_OBSTACLE_LINK7_18_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
-            framed!(sphere_obstacle_link7_19, sphere_obstacle_link7_19_lower_bound_from_frame, sphere_obstacle_link7_19_from_frame, j7, v7, gen::SPHERE_OBSTACLE_LINK7_19_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
-            framed!(sphere_obstacle_link7_20, sphere_obstacle_link7_20_lower_bound_from_frame, sphere_obstacle_link7_20_from_frame, j7, v7, gen::SPHERE_OBSTACLE_LINK7_20_INPUT_COLUMNS, for o in &obstacles, &o.center.map(Counted), Counted(o.radius));
-            split!(table_link2_3, table_link2_3_lower_bound_state, table_link2_3_lower_bound_instance, table_link2_3_state, table_link2_3_instance, gen::TABLE_LINK2_3_INPUT_COLUMNS, for height in [TABLE], Counted(height));
-            framed!(table_link3_4, table_link3_4_lower_bound_from_frame, table_link3_4_from_frame, j3, v3, gen::TABLE_LINK3_4_INPUT_COLUMNS, for height in [TABLE], Counted(height));
-            framed!(table_link3_5, table_link3_5_lower_bound_from_frame, table_link3_5_from_frame, j3, v3, gen::TABLE_LINK3_5_INPUT_COLUMNS, for height in [TABLE], Counted(height));
-            framed!(table_link4_6, table_link4_6_lower_bound_from_frame, table_link4_6_from_frame, j4, v4, gen::TABLE_LINK4_6_INPUT_COLUMNS, for height in [TABLE], Counted(height));
-            framed!(table_link4_7, table_link4_7_lower_bound_from_frame, table_link4_7_from_frame, j4, v4, gen::TABLE_LINK4_7_INPUT_COLUMNS, for height in [TABLE], Counted(height));
-            framed!(table_link5_8, table_link5_8_lower_bound_from_frame, table_link5_8_from_frame, j5, v5, gen::TABLE_LINK5_8_INPUT_COLUMNS, for height in [TABLE], Counted(height));
-            framed!(table_link5_9, table_link5_9_lower_bound_from_frame, table_link5_9_from_frame, j5, v5, gen::TABLE_LINK5_9_INPUT_COLUMNS, for height in [TABLE], Counted(height));
-            framed!(table_link5_10, table_link5_10_lower_bound_from_frame, table_link5_10_from_frame, j5, v5, gen::TABLE_LINK5_10_INPUT_COLUMNS, for height in [TABLE], Counted(height));
-            framed!(table_link5_11, table_link5_11_lower_bound_from_frame, table_link5_11_from_frame, j5, v5, gen::TABLE_LINK5_11_INPUT_COLUMNS, for height in [TABLE], Counted(height));
-            framed!(table_link5_12, table_link5_12_lower_bound_from_frame, table_link5_12_from_frame, j5, v5, gen::TABLE_LINK5_12_INPUT_COLUMNS, for height in [TABLE], Counted(height));
-            framed!(table_link6_13, table_link6_13_lower_bound_from_frame, table_link6_13_from_frame, j6, v6, gen::TABLE_LINK6_13_INPUT_COLUMNS, for height in [TABLE], Counted(height));
-            framed!(table_link6_14, table_link6_14_lower_bound_from_frame, table_link6_14_from_frame, j6, v6, gen::TABLE_LINK6_14_INPUT_COLUMNS, for height in [TABLE], Counted(height));
-            framed!(table_link7_15, table_link7_15_lower_bound_from_frame, table_link7_15_from_frame, j7, v7, gen::TABLE_LINK7_15_INPUT_COLUMNS, for height in [TABLE], Counted(height));
-            framed!(table_link7_16, table_link7_16_lower_bound_from_frame, table_link7_16_from_frame, j7, v7, gen::TABLE_LINK7_16_INPUT_COLUMNS, for height in [TABLE], Counted(height));
-            framed!(table_link7_17, table_link7_17_lower_bound_from_frame, table_link7_17_from_frame, j7, v7, gen::TABLE_LINK7_17_INPUT_COLUMNS, for height in [TABLE], Counted(height));
-            framed!(table_link7_18, table_link7_18_lower_bound_from_frame, table_link7_18_from_frame, j7, v7, gen::TABLE_LINK7_18_INPUT_COLUMNS, for height in [TABLE], Counted(height));
-            framed!(table_link7_19, table_link7_19_lower_bound_from_frame, table_link7_19_from_frame, j7, v7, gen::TABLE_LINK7_19_INPUT_COLUMNS, for height in [TABLE], Counted(height));
-            framed!(table_link7_20, table_link7_20_lower_bound_from_frame, table_link7_20_from_frame, j7, v7, gen::TABLE_LINK7_20_INPUT_COLUMNS, for height in [TABLE], Counted(height));
+            members! { for o in &obstacles => (&o.center.map(Counted), Counted(o.radius)):
+                split sphere_obstacle_link1_1_lower_bound_state sphere_obstacle_link1_1_lower_bound_instance sphere_obstacle_link1_1_state sphere_obstacle_link1_1_instance SPHERE_OBSTACLE_LINK1_1_INPUT_COLUMNS;
+                framed j2 v2 sphere_obstacle_link2_2_lower_bound_from_frame sphere_obstacle_link2_2_from_frame SPHERE_OBSTACLE_LINK2_2_INPUT_COLUMNS;
+                framed j2 v2 sphere_obstacle_link2_3_lower_bound_from_frame sphere_obstacle_link2_3_from_frame SPHERE_OBSTACLE_LINK2_3_INPUT_COLUMNS;
+                framed j3 v3 sphere_obstacle_link3_4_lower_bound_from_frame sphere_obstacle_link3_4_from_frame SPHERE_OBSTACLE_LINK3_4_INPUT_COLUMNS;
+                framed j3 v3 sphere_obstacle_link3_5_lower_bound_from_frame sphere_obstacle_link3_5_from_frame SPHERE_OBSTACLE_LINK3_5_INPUT_COLUMNS;
+                framed j4 v4 sphere_obstacle_link4_6_lower_bound_from_frame sphere_obstacle_link4_6_from_frame SPHERE_OBSTACLE_LINK4_6_INPUT_COLUMNS;
+                framed j4 v4 sphere_obstacle_link4_7_lower_bound_from_frame sphere_obstacle_link4_7_from_frame SPHERE_OBSTACLE_LINK4_7_INPUT_COLUMNS;
+                framed j5 v5 sphere_obstacle_link5_8_lower_bound_from_frame sphere_obstacle_link5_8_from_frame SPHERE_OBSTACLE_LINK5_8_INPUT_COLUMNS;
+                framed j5 v5 sphere_obstacle_link5_9_lower_bound_from_frame sphere_obstacle_link5_9_from_frame SPHERE_OBSTACLE_LINK5_9_INPUT_COLUMNS;
+                framed j5 v5 sphere_obstacle_link5_10_lower_bound_from_frame sphere_obstacle_link5_10_from_frame SPHERE_OBSTACLE_LINK5_10_INPUT_COLUMNS;
+                framed j5 v5 sphere_obstacle_link5_11_lower_bound_from_frame sphere_obstacle_link5_11_from_frame SPHERE_OBSTACLE_LINK5_11_INPUT_COLUMNS;
+                framed j5 v5 sphere_obstacle_link5_12_lower_bound_from_frame sphere_obstacle_link5_12_from_frame SPHERE_OBSTACLE_LINK5_12_INPUT_COLUMNS;
+                framed j6 v6 sphere_obstacle_link6_13_lower_bound_from_frame sphere_obstacle_link6_13_from_frame SPHERE_OBSTACLE_LINK6_13_INPUT_COLUMNS;
+                framed j6 v6 sphere_obstacle_link6_14_lower_bound_from_frame sphere_obstacle_link6_14_from_frame SPHERE_OBSTACLE_LINK6_14_INPUT_COLUMNS;
+                framed j7 v7 sphere_obstacle_link7_15_lower_bound_from_frame sphere_obstacle_link7_15_from_frame SPHERE_OBSTACLE_LINK7_15_INPUT_COLUMNS;
+                framed j7 v7 sphere_obstacle_link7_16_lower_bound_from_frame sphere_obstacle_link7_16_from_frame SPHERE_OBSTACLE_LINK7_16_INPUT_COLUMNS;
+                framed j7 v7 sphere_obstacle_link7_17_lower_bound_from_frame sphere_obstacle_link7_17_from_frame SPHERE_OBSTACLE_LINK7_17_INPUT_COLUMNS;
+                framed j7 v7 sphere_obstacle_link7_18_lower_bound_from_frame sphere_obstacle_link7_18_from_frame SPHERE_OBSTACLE_LINK7_18_INPUT_COLUMNS;
+                framed j7 v7 sphere_obstacle_link7_19_lower_bound_from_frame sphere_obstacle_link7_19_from_frame SPHERE_OBSTACLE_LINK7_19_INPUT_COLUMNS;
+                framed j7 v7 sphere_obstacle_link7_20_lower_bound_from_frame sphere_obstacle_link7_20_from_frame SPHERE_OBSTACLE_LINK7_20_INPUT_COLUMNS;
+            }
+            members! { for height in [TABLE] => (Counted(height)):
+                split table_link2_3_lower_bound_state table_link2_3_lower_bound_instance table_link2_3_state table_link2_3_instance TABLE_LINK2_3_INPUT_COLUMNS;
+                framed j3 v3 table_link3_4_lower_bound_from_frame table_link3_4_from_frame TABLE_LINK3_4_INPUT_COLUMNS;
+                framed j3 v3 table_link3_5_lower_bound_from_frame table_link3_5_from_frame TABLE_LINK3_5_INPUT_COLUMNS;
+                framed j4 v4 table_link4_6_lower_bound_from_frame table_link4_6_from_frame TABLE_LINK4_6_INPUT_COLUMNS;
+                framed j4 v4 table_link4_7_lower_bound_from_frame table_link4_7_from_frame TABLE_LINK4_7_INPUT_COLUMNS;
+                framed j5 v5 table_link5_8_lower_bound_from_frame table_link5_8_from_frame TABLE_LINK5_8_INPUT_COLUMNS;
+                framed j5 v5 table_link5_9_lower_bound_from_frame table_link5_9_from_frame TABLE_LINK5_9_INPUT_COLUMNS;
+                framed j5 v5 table_link5_10_lower_bound_from_frame table_link5_10_from_frame TABLE_LINK5_10_INPUT_COLUMNS;
+                framed j5 v5 table_link5_11_lower_bound_from_frame table_link5_11_from_frame TABLE_LINK5_11_INPUT_COLUMNS;
+                framed j5 v5 table_link5_12_lower_bound_from_frame table_link5_12_from_frame TABLE_LINK5_12_INPUT_COLUMNS;
+                framed j6 v6 table_link6_13_lower_bound_from_frame table_link6_13_from_frame TABLE_LINK6_13_INPUT_COLUMNS;
+                framed j6 v6 table_link6_14_lower_bound_from_frame table_link6_14_from_frame TABLE_LINK6_14_INPUT_COLUMNS;
+                framed j7 v7 table_link7_15_lower_bound_from_frame table_link7_15_from_frame TABLE_LINK7_15_INPUT_COLUMNS;
+                framed j7 v7 table_link7_16_lower_bound_from_frame table_link7_16_from_frame TABLE_LINK7_16_INPUT_COLUMNS;
+                framed j7 v7 table_link7_17_lower_bound_from_frame table_link7_17_from_frame TABLE_LINK7_17_INPUT_COLUMNS;
+                framed j7 v7 table_link7_18_lower_bound_from_frame table_link7_18_from_frame TABLE_LINK7_18_INPUT_COLUMNS;
+                framed j7 v7 table_link7_19_lower_bound_from_frame table_link7_19_from_frame TABLE_LINK7_19_INPUT_COLUMNS;
+                framed j7 v7 table_link7_20_lower_bound_from_frame table_link7_20_from_frame TABLE_LINK7_20_INPUT_COLUMNS;
+            }
             out
         });
         let rows = barriers.rows();

@@ -631,76 +631,30 @@ fn evaluation_ops_is_what_evaluate_performs_in_its_kernels_and_poses_with_every_
             let leftfinger = placed!(j7, v7, LEFTFINGER_PLACEMENT);
             let rightfinger = placed!(j7, v7, RIGHTFINGER_PLACEMENT);
             // Obstacle rows, member by member, slot by slot: the bound, then the row.
-            macro_rules! obstacle {
-                ($pose:ident, $bound:ident, $member:ident, $columns:ident) => {
+            // Obstacle rows, member by member, slot by slot: the bound, then the row. (Braces:
+            // one member a line.)
+            macro_rules! obstacles {
+                ($($pose:ident $bound:ident $member:ident $columns:ident;)*) => {$(
                     for o in &obstacles {
                         let (c, rot, h) = (o.center.map(Counted), o.rotation.map(Counted), o.half.map(Counted));
                         let _ = gen::$bound(&$pose.1, &c, &rot, &h);
                         let (lie, lg) = gen::$member(&$pose.0, &c, &rot, &h);
                         out.push(row(&lie[0], &lg[0], &gen::$columns));
                     }
-                };
+                )*};
             }
-            obstacle!(
-                link1,
-                obstacle_link1_lower_bound_from_poses,
-                obstacle_link1_from_poses,
-                OBSTACLE_LINK1_INPUT_COLUMNS
-            );
-            obstacle!(
-                link2,
-                obstacle_link2_lower_bound_from_poses,
-                obstacle_link2_from_poses,
-                OBSTACLE_LINK2_INPUT_COLUMNS
-            );
-            obstacle!(
-                link3,
-                obstacle_link3_lower_bound_from_poses,
-                obstacle_link3_from_poses,
-                OBSTACLE_LINK3_INPUT_COLUMNS
-            );
-            obstacle!(
-                link4,
-                obstacle_link4_lower_bound_from_poses,
-                obstacle_link4_from_poses,
-                OBSTACLE_LINK4_INPUT_COLUMNS
-            );
-            obstacle!(
-                link5,
-                obstacle_link5_lower_bound_from_poses,
-                obstacle_link5_from_poses,
-                OBSTACLE_LINK5_INPUT_COLUMNS
-            );
-            obstacle!(
-                link6,
-                obstacle_link6_lower_bound_from_poses,
-                obstacle_link6_from_poses,
-                OBSTACLE_LINK6_INPUT_COLUMNS
-            );
-            obstacle!(
-                link7,
-                obstacle_link7_lower_bound_from_poses,
-                obstacle_link7_from_poses,
-                OBSTACLE_LINK7_INPUT_COLUMNS
-            );
-            obstacle!(
-                hand,
-                obstacle_hand_lower_bound_from_poses,
-                obstacle_hand_from_poses,
-                OBSTACLE_HAND_INPUT_COLUMNS
-            );
-            obstacle!(
-                leftfinger,
-                obstacle_leftfinger_lower_bound_from_poses,
-                obstacle_leftfinger_from_poses,
-                OBSTACLE_LEFTFINGER_INPUT_COLUMNS
-            );
-            obstacle!(
-                rightfinger,
-                obstacle_rightfinger_lower_bound_from_poses,
-                obstacle_rightfinger_from_poses,
-                OBSTACLE_RIGHTFINGER_INPUT_COLUMNS
-            );
+            obstacles! {
+                link1 obstacle_link1_lower_bound_from_poses obstacle_link1_from_poses OBSTACLE_LINK1_INPUT_COLUMNS;
+                link2 obstacle_link2_lower_bound_from_poses obstacle_link2_from_poses OBSTACLE_LINK2_INPUT_COLUMNS;
+                link3 obstacle_link3_lower_bound_from_poses obstacle_link3_from_poses OBSTACLE_LINK3_INPUT_COLUMNS;
+                link4 obstacle_link4_lower_bound_from_poses obstacle_link4_from_poses OBSTACLE_LINK4_INPUT_COLUMNS;
+                link5 obstacle_link5_lower_bound_from_poses obstacle_link5_from_poses OBSTACLE_LINK5_INPUT_COLUMNS;
+                link6 obstacle_link6_lower_bound_from_poses obstacle_link6_from_poses OBSTACLE_LINK6_INPUT_COLUMNS;
+                link7 obstacle_link7_lower_bound_from_poses obstacle_link7_from_poses OBSTACLE_LINK7_INPUT_COLUMNS;
+                hand obstacle_hand_lower_bound_from_poses obstacle_hand_from_poses OBSTACLE_HAND_INPUT_COLUMNS;
+                leftfinger obstacle_leftfinger_lower_bound_from_poses obstacle_leftfinger_from_poses OBSTACLE_LEFTFINGER_INPUT_COLUMNS;
+                rightfinger obstacle_rightfinger_lower_bound_from_poses obstacle_rightfinger_from_poses OBSTACLE_RIGHTFINGER_INPUT_COLUMNS;
+            }
             // Self-collision pairs: link 0 is fixed (its box is in the chain as numbers).
             macro_rules! pair {
                 (link0, $b:ident, $bound:ident, $member:ident, $columns:ident) => {
@@ -714,146 +668,33 @@ fn evaluation_ops_is_what_evaluate_performs_in_its_kernels_and_poses_with_every_
                     out.push(row(&lie[0], &lg[0], &gen::$columns));
                 };
             }
-            pair!(
-                link0,
-                link5,
-                self_collision_link0_link5_lower_bound_from_poses,
-                self_collision_link0_link5_from_poses,
-                SELF_COLLISION_LINK0_LINK5_INPUT_COLUMNS
-            );
-            pair!(
-                link0,
-                link6,
-                self_collision_link0_link6_lower_bound_from_poses,
-                self_collision_link0_link6_from_poses,
-                SELF_COLLISION_LINK0_LINK6_INPUT_COLUMNS
-            );
-            pair!(
-                link0,
-                link7,
-                self_collision_link0_link7_lower_bound_from_poses,
-                self_collision_link0_link7_from_poses,
-                SELF_COLLISION_LINK0_LINK7_INPUT_COLUMNS
-            );
-            pair!(
-                link0,
-                hand,
-                self_collision_link0_hand_lower_bound_from_poses,
-                self_collision_link0_hand_from_poses,
-                SELF_COLLISION_LINK0_HAND_INPUT_COLUMNS
-            );
-            pair!(
-                link0,
-                leftfinger,
-                self_collision_link0_leftfinger_lower_bound_from_poses,
-                self_collision_link0_leftfinger_from_poses,
-                SELF_COLLISION_LINK0_LEFTFINGER_INPUT_COLUMNS
-            );
-            pair!(
-                link0,
-                rightfinger,
-                self_collision_link0_rightfinger_lower_bound_from_poses,
-                self_collision_link0_rightfinger_from_poses,
-                SELF_COLLISION_LINK0_RIGHTFINGER_INPUT_COLUMNS
-            );
-            pair!(
-                link1,
-                link5,
-                self_collision_link1_link5_lower_bound_from_poses,
-                self_collision_link1_link5_from_poses,
-                SELF_COLLISION_LINK1_LINK5_INPUT_COLUMNS
-            );
-            pair!(
-                link1,
-                link6,
-                self_collision_link1_link6_lower_bound_from_poses,
-                self_collision_link1_link6_from_poses,
-                SELF_COLLISION_LINK1_LINK6_INPUT_COLUMNS
-            );
-            pair!(
-                link1,
-                link7,
-                self_collision_link1_link7_lower_bound_from_poses,
-                self_collision_link1_link7_from_poses,
-                SELF_COLLISION_LINK1_LINK7_INPUT_COLUMNS
-            );
-            pair!(
-                link1,
-                hand,
-                self_collision_link1_hand_lower_bound_from_poses,
-                self_collision_link1_hand_from_poses,
-                SELF_COLLISION_LINK1_HAND_INPUT_COLUMNS
-            );
-            pair!(
-                link1,
-                leftfinger,
-                self_collision_link1_leftfinger_lower_bound_from_poses,
-                self_collision_link1_leftfinger_from_poses,
-                SELF_COLLISION_LINK1_LEFTFINGER_INPUT_COLUMNS
-            );
-            pair!(
-                link1,
-                rightfinger,
-                self_collision_link1_rightfinger_lower_bound_from_poses,
-                self_collision_link1_rightfinger_from_poses,
-                SELF_COLLISION_LINK1_RIGHTFINGER_INPUT_COLUMNS
-            );
-            pair!(
-                link2,
-                link5,
-                self_collision_link2_link5_lower_bound_from_poses,
-                self_collision_link2_link5_from_poses,
-                SELF_COLLISION_LINK2_LINK5_INPUT_COLUMNS
-            );
-            pair!(
-                link2,
-                link6,
-                self_collision_link2_link6_lower_bound_from_poses,
-                self_collision_link2_link6_from_poses,
-                SELF_COLLISION_LINK2_LINK6_INPUT_COLUMNS
-            );
-            pair!(
-                link2,
-                link7,
-                self_collision_link2_link7_lower_bound_from_poses,
-                self_collision_link2_link7_from_poses,
-                SELF_COLLISION_LINK2_LINK7_INPUT_COLUMNS
-            );
-            pair!(
-                link2,
-                hand,
-                self_collision_link2_hand_lower_bound_from_poses,
-                self_collision_link2_hand_from_poses,
-                SELF_COLLISION_LINK2_HAND_INPUT_COLUMNS
-            );
-            pair!(
-                link2,
-                leftfinger,
-                self_collision_link2_leftfinger_lower_bound_from_poses,
-                self_collision_link2_leftfinger_from_poses,
-                SELF_COLLISION_LINK2_LEFTFINGER_INPUT_COLUMNS
-            );
-            pair!(
-                link2,
-                rightfinger,
-                self_collision_link2_rightfinger_lower_bound_from_poses,
-                self_collision_link2_rightfinger_from_poses,
-                SELF_COLLISION_LINK2_RIGHTFINGER_INPUT_COLUMNS
-            );
-            pair!(
-                link5,
-                leftfinger,
-                self_collision_link5_leftfinger_lower_bound_from_poses,
-                self_collision_link5_leftfinger_from_poses,
-                SELF_COLLISION_LINK5_LEFTFINGER_INPUT_COLUMNS
-            );
-            pair!(
-                link5,
-                rightfinger,
-                self_collision_link5_rightfinger_lower_bound_from_poses,
-                self_collision_link5_rightfinger_from_poses,
-                SELF_COLLISION_LINK5_RIGHTFINGER_INPUT_COLUMNS
-            );
+            macro_rules! pairs {
+                ($($a:ident $b:ident $bound:ident $member:ident $columns:ident;)*) => {$(
+                    pair!($a, $b, $bound, $member, $columns);
+                )*};
+            }
+            pairs! {
+                link0 link5 self_collision_link0_link5_lower_bound_from_poses self_collision_link0_link5_from_poses SELF_COLLISION_LINK0_LINK5_INPUT_COLUMNS;
+                link0 link6 self_collision_link0_link6_lower_bound_from_poses self_collision_link0_link6_from_poses SELF_COLLISION_LINK0_LINK6_INPUT_COLUMNS;
+                link0 link7 self_collision_link0_link7_lower_bound_from_poses self_collision_link0_link7_from_poses SELF_COLLISION_LINK0_LINK7_INPUT_COLUMNS;
+                link0 hand self_collision_link0_hand_lower_bound_from_poses self_collision_link0_hand_from_poses SELF_COLLISION_LINK0_HAND_INPUT_COLUMNS;
+                link0 leftfinger self_collision_link0_leftfinger_lower_bound_from_poses self_collision_link0_leftfinger_from_poses SELF_COLLISION_LINK0_LEFTFINGER_INPUT_COLUMNS;
+                link0 rightfinger self_collision_link0_rightfinger_lower_bound_from_poses self_collision_link0_rightfinger_from_poses SELF_COLLISION_LINK0_RIGHTFINGER_INPUT_COLUMNS;
+                link1 link5 self_collision_link1_link5_lower_bound_from_poses self_collision_link1_link5_from_poses SELF_COLLISION_LINK1_LINK5_INPUT_COLUMNS;
+                link1 link6 self_collision_link1_link6_lower_bound_from_poses self_collision_link1_link6_from_poses SELF_COLLISION_LINK1_LINK6_INPUT_COLUMNS;
+                link1 link7 self_collision_link1_link7_lower_bound_from_poses self_collision_link1_link7_from_poses SELF_COLLISION_LINK1_LINK7_INPUT_COLUMNS;
+                link1 hand self_collision_link1_hand_lower_bound_from_poses self_collision_link1_hand_from_poses SELF_COLLISION_LINK1_HAND_INPUT_COLUMNS;
+                link1 leftfinger self_collision_link1_leftfinger_lower_bound_from_poses self_collision_link1_leftfinger_from_poses SELF_COLLISION_LINK1_LEFTFINGER_INPUT_COLUMNS;
+                link1 rightfinger self_collision_link1_rightfinger_lower_bound_from_poses self_collision_link1_rightfinger_from_poses SELF_COLLISION_LINK1_RIGHTFINGER_INPUT_COLUMNS;
+                link2 link5 self_collision_link2_link5_lower_bound_from_poses self_collision_link2_link5_from_poses SELF_COLLISION_LINK2_LINK5_INPUT_COLUMNS;
+                link2 link6 self_collision_link2_link6_lower_bound_from_poses self_collision_link2_link6_from_poses SELF_COLLISION_LINK2_LINK6_INPUT_COLUMNS;
+                link2 link7 self_collision_link2_link7_lower_bound_from_poses self_collision_link2_link7_from_poses SELF_COLLISION_LINK2_LINK7_INPUT_COLUMNS;
+                link2 hand self_collision_link2_hand_lower_bound_from_poses self_collision_link2_hand_from_poses SELF_COLLISION_LINK2_HAND_INPUT_COLUMNS;
+                link2 leftfinger self_collision_link2_leftfinger_lower_bound_from_poses self_collision_link2_leftfinger_from_poses SELF_COLLISION_LINK2_LEFTFINGER_INPUT_COLUMNS;
+                link2 rightfinger self_collision_link2_rightfinger_lower_bound_from_poses self_collision_link2_rightfinger_from_poses SELF_COLLISION_LINK2_RIGHTFINGER_INPUT_COLUMNS;
+                link5 leftfinger self_collision_link5_leftfinger_lower_bound_from_poses self_collision_link5_leftfinger_from_poses SELF_COLLISION_LINK5_LEFTFINGER_INPUT_COLUMNS;
+                link5 rightfinger self_collision_link5_rightfinger_lower_bound_from_poses self_collision_link5_rightfinger_from_poses SELF_COLLISION_LINK5_RIGHTFINGER_INPUT_COLUMNS;
+            }
             out
         });
         assert_eq!(replayed.len(), rows.len(), "{slots} slots");
