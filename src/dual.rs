@@ -21,6 +21,7 @@
 
 use core::ops::{Add, Div, Mul, Neg, Sub};
 
+use crate::ops::OpCount;
 use crate::scalar::Scalar;
 
 /// A value and its derivative along one direction.
@@ -80,6 +81,32 @@ impl<S: Scalar> Neg for Dual<S> {
     fn neg(self) -> Self {
         Dual { v: -self.v, d: -self.d }
     }
+}
+
+/// At most what a straight line that performs `plain` on numbers performs on [`Dual`]
+/// numbers, in operations on the numbers underneath: each operation of `plain` replaced by
+/// its chain rule's, the costliest of its kind (an `add` is 2, a `mul` 3 multiplications
+/// and an addition; an `elementary` call is bounded by `powf`'s 3 calls, 4
+/// multiplications and 2 additions, where `sin` needs 2 calls and 1 multiplication).
+/// Checked against every operation run on dual counting numbers.
+pub const fn dual_ops(plain: OpCount) -> OpCount {
+    const Z: OpCount = OpCount::ZERO;
+    let add = OpCount { add: 2, ..Z };
+    let neg = OpCount { neg: 2, ..Z };
+    let mul = OpCount { add: 1, mul: 3, ..Z };
+    let div = OpCount { add: 1, mul: 1, div: 2, ..Z };
+    let sqrt = OpCount { mul: 1, div: 1, sqrt: 1, ..Z };
+    let elementary = OpCount { add: 2, neg: 1, mul: 4, div: 1, sqrt: 1, elementary: 3, ..Z };
+    let lanes = OpCount { add: 1, mul: 2, div: 1, lanes: 1, ..Z };
+    let compare = OpCount { add: 4, mul: 2, div: 1, compare: 2, ..Z };
+    add.times(plain.add)
+        .plus(neg.times(plain.neg))
+        .plus(mul.times(plain.mul))
+        .plus(div.times(plain.div))
+        .plus(sqrt.times(plain.sqrt))
+        .plus(elementary.times(plain.elementary))
+        .plus(lanes.times(plain.lanes))
+        .plus(compare.times(plain.compare))
 }
 
 /// `f` of every lane, with `slope(x, f(x))` as each lane's derivative factor.
@@ -187,6 +214,58 @@ mod tests {
     use super::Dual;
     use crate::interval::Interval;
     use crate::scalar::Scalar;
+
+    /// Every operation on dual counting numbers performs no more than [`dual_ops`] states
+    /// for it from its count on plain counting numbers, and the sums of ops stay within
+    /// the sum of their bounds.
+    #[test]
+    fn every_operation_stays_within_its_dual_count() {
+        use super::dual_ops;
+        use crate::ops::{Counted, OpCount};
+        type Case = (&'static str, fn(Counted, Counted) -> Counted, fn(Dual<Counted>, Dual<Counted>) -> Dual<Counted>);
+        macro_rules! cases {
+            ($($name:literal: |$a:ident, $b:ident| $e:expr),* $(,)?) => {
+                [$(($name, |$a: Counted, $b: Counted| $e, |$a: Dual<Counted>, $b: Dual<Counted>| $e)),*]
+            };
+        }
+        let cases: [Case; 27] = cases! {
+            "add": |a, b| a + b, "sub": |a, b| a - b, "mul": |a, b| a * b, "div": |a, b| a / b,
+            "neg": |a, _b| -a, "sqr": |a, _b| a.sqr(), "sqrt": |a, _b| a.sqrt(), "exp": |a, _b| a.exp(),
+            "ln": |a, _b| a.ln(), "abs": |a, _b| a.abs(), "sin": |a, _b| a.sin(), "cos": |a, _b| a.cos(),
+            "tan": |a, _b| a.tan(), "asin": |a, _b| a.asin(), "acos": |a, _b| a.acos(),
+            "atan": |a, _b| a.atan(), "atan2": |a, b| a.atan2(b), "sinh": |a, _b| a.sinh(),
+            "cosh": |a, _b| a.cosh(), "tanh": |a, _b| a.tanh(), "powf": |a, b| a.powf(b),
+            "max": |a, b| a.max(b), "exp_lane": |a, _b| a.exp_lane(), "tanh_lane": |a, _b| a.tanh_lane(),
+            "ln_lane": |a, _b| a.ln_lane(), "exp_lanes": |a, b| Scalar::exp_lanes([a, b])[0],
+            "mixed": |a, b| a * b.sin() - a.exp() / (b + a.sqrt()),
+        };
+        let (a, b) = (Counted(0.4), Counted(0.3));
+        // Both arguments moving: the exponent of `powf` too (its costliest branch).
+        let (da, db) = (Dual { v: a, d: Counted(0.7) }, Dual { v: b, d: Counted(-0.2) });
+        let mut total = (OpCount::ZERO, OpCount::ZERO);
+        for (name, plain, dual) in cases {
+            let on_numbers = Counted::measure(|| plain(a, b)).1;
+            let on_duals = Counted::measure(|| dual(da, db)).1;
+            let bound = dual_ops(on_numbers);
+            for (kind, got, most) in [
+                ("add", on_duals.add, bound.add),
+                ("neg", on_duals.neg, bound.neg),
+                ("mul", on_duals.mul, bound.mul),
+                ("div", on_duals.div, bound.div),
+                ("sqrt", on_duals.sqrt, bound.sqrt),
+                ("elementary", on_duals.elementary, bound.elementary),
+                ("lanes", on_duals.lanes, bound.lanes),
+                ("compare", on_duals.compare, bound.compare),
+            ] {
+                assert!(got <= most, "{name}: {got} {kind} on duals, {most} stated ({on_numbers} on numbers)");
+            }
+            total = (total.0 + on_numbers, total.1 + on_duals);
+        }
+        assert!(total.1.total() <= dual_ops(total.0).total());
+        // The common operations are exact: a bound, not a guess.
+        assert_eq!(dual_ops(OpCount { add: 1, ..OpCount::ZERO }), Counted::measure(|| da + db).1);
+        assert_eq!(dual_ops(OpCount { mul: 1, ..OpCount::ZERO }), Counted::measure(|| da * db).1);
+    }
 
     /// Every operation's derivative against a central difference of its value, at
     /// points inside each function's domain.

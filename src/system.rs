@@ -642,7 +642,9 @@ pub trait BarrierSet<const NU: usize> {
     /// An upper bound on the interval operations one [`BarrierSet::enclose`] performs
     /// with every row wanted: the dynamics' field per evaluation and the rows' kernels
     /// ([`EnclosureOps`](crate::filter::between_samples::EnclosureOps)); `None` (the
-    /// default) where either states no count, and for a wrapper whose flow is its own.
+    /// default) where either states no count. A wrapper whose flow is its own (the
+    /// [joint-torque map](crate::torque::JointTorque)) states its own field and its
+    /// refinement of the reached box.
     fn enclosure_ops(&self) -> Option<crate::filter::between_samples::EnclosureOps> {
         None
     }

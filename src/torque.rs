@@ -32,7 +32,8 @@
 //! Given the dynamics' operation count ([`JointTorque::with_dynamics_ops`]; a generated
 //! system's `gen::dynamics_ops()`), the wrapper states its evaluation's count too (the
 //! inner rows', the dynamics', and [`torque_map_ops`]), so that the filter's worst case
-//! per update has a time.
+//! per update has a time; with the interval forms too, its enclosures' count
+//! ([`BarrierSet::enclosure_ops`]), so that a certified update has one.
 //!
 //! The cart of the [filter's example](crate::filter) again, now of mass 2 kg pushed by a
 //! force `F` against a drag of 3 N (`b = 3`): its acceleration is `(F − 3) / 2`, so the
@@ -88,10 +89,10 @@
 //! # Ok::<(), cbfgen::CbfError>(())
 //! ```
 
-use crate::dual::Dual;
+use crate::dual::{dual_ops, Dual};
 use crate::error::CbfError;
-use crate::filter::between_samples::{enclose_window, NotEnclosed, RowEnclosure, Window};
-use crate::interval::{solve_linear, Interval};
+use crate::filter::between_samples::{enclose_window, EnclosureOps, NotEnclosed, RowEnclosure, Window};
+use crate::interval::{solve_linear, solve_linear_ops, Interval};
 use crate::ops::OpCount;
 use crate::scalar::Scalar;
 use crate::system::{BarrierSet, FamilyInfo, Row, RowLayout};
@@ -372,6 +373,33 @@ impl<B: BarrierSet<NU, State = [f64; NX]>, const NX: usize, const NU: usize> Bar
 
     fn cull_above(&mut self, thresholds: &[f64]) {
         self.inner.cull_above(thresholds);
+    }
+
+    /// The flow's field is the interval dynamics ([`with_dynamics_ops`](Self::with_dynamics_ops),
+    /// the same walk on intervals) and a [`solve_linear`]; the refinement one more
+    /// acceleration at the window's start and the first-order passes (the
+    /// dynamics on dual intervals, [`dual_ops`], and a second solve); the rows the inner
+    /// rows' kernels and each row's `a · q̈`. `None` without the interval forms, the
+    /// dynamics' count or the inner rows' count.
+    fn enclosure_ops(&self) -> Option<EnclosureOps> {
+        self.interval_forms?;
+        let (dynamics, inner) = (self.dynamics_ops?, self.inner.enclosure_ops()?);
+        let (n, solve) = (NU as u64, solve_linear_ops(NU));
+        // q̈ = M⁻¹ (τ − b) over a box.
+        let acceleration = dynamics.plus(OpCount { add: n, ..OpCount::ZERO }).plus(solve);
+        // One pass: the right side −ḃ − Ṁ q̈, the jerk's solve, the span's square, then
+        // q̈ and the states by the form, each met with what it tightens.
+        let pass = dual_ops(dynamics)
+            .plus(OpCount { add: n * n, neg: n, mul: n * n, ..OpCount::ZERO })
+            .plus(solve)
+            .plus(OpCount { add: 4 * n, mul: 2 + 4 * n, compare: 3 * n, ..OpCount::ZERO });
+        let fold = OpCount { add: n, mul: n, ..OpCount::ZERO }.times(self.rows.len() as u64);
+        Some(EnclosureOps {
+            field: acceleration,
+            states: NX,
+            refine: acceleration.plus(pass.times(REFINEMENTS as u64)),
+            rows: inner.rows.plus(fold),
+        })
     }
 
     /// The flow under the held torque is enclosed with the interval dynamics

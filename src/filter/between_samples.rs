@@ -304,6 +304,10 @@ pub struct EnclosureOps {
     pub field: OpCount,
     /// The states.
     pub states: usize,
+    /// What a wrapper that encloses the flow itself does with the reached box before the
+    /// rows (the [joint-torque map](crate::torque::JointTorque)'s tightening); zero for a
+    /// generated system.
+    pub refine: OpCount,
     /// Every row's kernel once ([`BarrierSet::enclose_over`](crate::system::BarrierSet::enclose_over)
     /// of every row).
     pub rows: OpCount,
@@ -312,8 +316,8 @@ pub struct EnclosureOps {
 impl EnclosureOps {
     /// The whole enclosure over a window, with or without a delayed input (two periods'
     /// flows then): every piece's field evaluations ([`MAX_PIECES`] ×
-    /// [`MAX_FIELD_CALLS`]), each step's `x0 + τ·F` and the end's `x0 + h·F`, and the
-    /// rows. The iteration's own bookkeeping per state and step (the finiteness and
+    /// [`MAX_FIELD_CALLS`]), each step's `x0 + τ·F` and the end's `x0 + h·F`, the
+    /// refinement and the rows. The iteration's own bookkeeping per state and step (the finiteness and
     /// containment tests, the inflation, the hull) is counted generously as 4 additions,
     /// 2 multiplications and 9 comparisons: operations on the bounds, cheaper than the
     /// interval operations whose rate they are timed at.
@@ -324,7 +328,7 @@ impl EnclosureOps {
         let end = OpCount { add: n, mul: n, compare: 4 * n, ..OpCount::ZERO };
         let flow = step.times(MAX_FIELD_CALLS as u64).plus(end);
         let flows = if delayed { 2 * MAX_PIECES as u64 } else { MAX_PIECES as u64 };
-        flow.times(flows).plus(self.rows)
+        flow.times(flows).plus(self.refine).plus(self.rows)
     }
 }
 
@@ -618,7 +622,7 @@ pub fn enclosure_ops_generated<G: GeneratedSystem<NX, NU>, const NX: usize, cons
         rows = rows + stated(kernels.get(member_kernel(families, &l))?.name)?;
         i += families[l.family].row_names.len().max(1);
     }
-    Some(EnclosureOps { field, states: NX, rows })
+    Some(EnclosureOps { field, states: NX, refine: OpCount::ZERO, rows })
 }
 
 /// The [`BarrierSet`](crate::system::BarrierSet) methods that enclose a generated

@@ -146,6 +146,23 @@ pub fn op_ns(ops: OpCount, runs: usize, mut run: impl FnMut()) -> f64 {
     (0..runs).map(|_| quickest(&mut run).as_nanos() as f64 / total).fold(0.0, f64::max)
 }
 
+/// Nanoseconds per interval operation of [`solve_linear`](crate::interval::solve_linear)
+/// at size `N` (a well-conditioned system of narrow intervals): the rate of an enclosure
+/// whose rows cannot be timed over a box on their own (the
+/// [joint-torque map](crate::torque::JointTorque)'s, whose flow is mostly such solves
+/// and the dynamics' products and sums).
+pub fn interval_solve_ns<const N: usize>(runs: usize) -> f64 {
+    use crate::interval::{solve_linear, solve_linear_ops, Interval};
+    let mut numbers = Numbers(0x6a09_e667_f3bc_c909);
+    let near = |v: f64| Interval::new(v - 1e-6, v + 1e-6);
+    let a: [[Interval; N]; N] =
+        core::array::from_fn(|i| core::array::from_fn(|j| near(if i == j { 4.0 } else { 0.5 * numbers.next() })));
+    let b: [Interval; N] = core::array::from_fn(|_| near(numbers.next()));
+    op_ns(solve_linear_ops(N), runs, || {
+        core::hint::black_box(solve_linear(core::hint::black_box(&a), &b));
+    })
+}
+
 impl Calibration {
     /// This machine's rates for a filter of `NU` inputs, rows laid out as `specs` and
     /// `settings`, with its row evaluation `evaluate` stated to take `row_ops` (no rate for

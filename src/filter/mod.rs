@@ -766,15 +766,21 @@ impl<B: BarrierSet<NU>, const NU: usize> EcbfFilter<B, NU> {
             let _ = barriers.evaluate(t, x, params);
         });
         // The certificate's rate: every row enclosed over the state itself (the rows'
-        // interval kernels, each once: the count `enclosure_ops` states for them).
+        // interval kernels, each once: the count `enclosure_ops` states for them); where
+        // the rows are not enclosed over a box on their own (a wrapper whose flow is its
+        // own), the interval solve at the inputs' size.
         if let (Ok(m), Some(_), Some(e)) = (&mut measured, &self.settings.sampled_data, self.barriers.enclosure_ops()) {
             let states: Vec<Interval> = x.as_ref().iter().map(|&v| Interval::point(v)).collect();
             let times = Interval::point(t);
             self.wanted.fill(true);
             let (barriers, wanted, out) = (&self.barriers, &self.wanted, &mut self.enclosures);
-            m.ns_per_interval_op = calibrate::op_ns(e.rows, 50, || {
-                let _ = barriers.enclose_over(&states, times, params, wanted, out);
-            });
+            m.ns_per_interval_op = if barriers.enclose_over(&states, times, params, wanted, out).is_ok() {
+                calibrate::op_ns(e.rows, 50, || {
+                    let _ = barriers.enclose_over(&states, times, params, wanted, out);
+                })
+            } else {
+                calibrate::interval_solve_ns::<NU>(50)
+            };
         }
         self.barriers.cull_above(&cull_thresholds(&self.settings));
         measured

@@ -155,9 +155,10 @@ fn an_enclosure_never_evaluates_the_field_more_often_than_its_stated_bound() {
     let e = EnclosureOps {
         field: cbfgen::ops::OpCount { mul: 3, ..Default::default() },
         states: 2,
-        rows: Default::default(),
+        refine: cbfgen::ops::OpCount { add: 5, ..Default::default() },
+        rows: cbfgen::ops::OpCount { div: 7, ..Default::default() },
     };
     let per_flow = u64::from(MAX_FIELD_CALLS) * (3 + 2 * (5 + 3 + 9)) + 2 * (1 + 1 + 4);
-    assert_eq!(e.window(false).total(), u64::from(MAX_PIECES) * per_flow);
-    assert_eq!(e.window(true).total(), 2 * u64::from(MAX_PIECES) * per_flow);
+    assert_eq!(e.window(false).total(), u64::from(MAX_PIECES) * per_flow + 5 + 7);
+    assert_eq!(e.window(true).total(), 2 * u64::from(MAX_PIECES) * per_flow + 5 + 7);
 }

@@ -9,12 +9,14 @@
 
 use cbfgen::dual::Dual;
 use cbfgen::filter::between_samples::{RowEnclosure, Window};
+use cbfgen::filter::BoundCheck;
 use cbfgen::interval::Interval;
 use cbfgen::system::{BarrierSet, Gains};
 use cbfgen_panda_spheres::generated::{self as gen, Barriers, NU, NX};
 use cbfgen_panda_spheres::{step_plant, Scenario, Simulation, TorqueRows, DT, START};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use std::time::Duration;
 
 /// RK4 steps per period: Δt / 100.
 const FINE: usize = 100;
@@ -29,6 +31,8 @@ struct Sweep {
     certified_from_safe: usize,
     /// The least clearance over the periods of those updates.
     least_certified_from_safe: f64,
+    /// The filter's stated worst case beside what its updates did.
+    bound: BoundCheck,
 }
 
 /// Whether every active row of the filter's last evaluation is in its ECBF safe set:
@@ -46,10 +50,17 @@ fn sweep(n: usize, certified: bool) -> Sweep {
         scenario = scenario.certified();
     }
     let mut sim = Simulation::new(&scenario).unwrap();
-    let mut out =
-        Sweep { least: f64::INFINITY, certified: 0, certified_from_safe: 0, least_certified_from_safe: f64::INFINITY };
+    let bound = BoundCheck::new(sim.filter().worst_case(), sim.calibrate().unwrap());
+    let mut out = Sweep {
+        least: f64::INFINITY,
+        certified: 0,
+        certified_from_safe: 0,
+        least_certified_from_safe: f64::INFINITY,
+        bound,
+    };
     while sim.time() < scenario.duration - 0.5 * DT {
         let sample = sim.step().unwrap();
+        out.bound.record_work(sample.work.unwrap_or_default(), Duration::ZERO);
         let least = sample.obstacle_clearance.min(sample.table_clearance);
         out.least = out.least.min(least);
         if sample.between_samples.is_some_and(|b| b.is_certified()) {
@@ -73,12 +84,13 @@ fn safe_between_the_samples_where_certified(n: usize, whole_sweep: bool) {
     let on = sweep(n, true);
     eprintln!(
         "N = {n}: least clearance off {:.2} µm, on {:.2} µm; {} of 10 000 updates certified ({} from the safe set, \
-         least clearance over them {:.2} µm)",
+         least clearance over them {:.2} µm); worst case stated {:.0} µs",
         off.least * 1e6,
         on.least * 1e6,
         on.certified,
         on.certified_from_safe,
-        on.least_certified_from_safe * 1e6
+        on.least_certified_from_safe * 1e6,
+        on.bound.micros().unwrap_or(f64::NAN)
     );
     assert!(off.least < 0.0, "N = {n}: the uncertified sweep was expected to dip between the samples: {}", off.least);
     assert!(
@@ -91,6 +103,13 @@ fn safe_between_the_samples_where_certified(n: usize, whole_sweep: bool) {
         "N = {n}: only {} certified periods from the safe set",
         on.certified_from_safe
     );
+    // The certified update states its worst case, in time too (its enclosures counted:
+    // the interval dynamics, their dual form and the interval solves), and no update
+    // passed it in counts.
+    let worst = on.bound.worst_case;
+    assert!(worst.enclosures > 0 && worst.interval_ops.is_some_and(|o| o.total() > 0), "N = {n}: {worst:?}");
+    assert!(on.bound.micros().is_some_and(f64::is_finite), "N = {n}: no time stated\n{}", on.bound);
+    assert_eq!(on.bound.beyond_counts, 0, "N = {n}: an update beyond its stated worst case\n{}", on.bound);
     if whole_sweep {
         assert!(on.least >= 0.0, "N = {n}: a sphere entered an obstacle or the table by {} µm", -on.least * 1e6);
     }

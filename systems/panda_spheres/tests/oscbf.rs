@@ -2,7 +2,9 @@
 //! obstacles and a table, checked by the exact sphere distances of every cycle (from the
 //! generated forward kinematics, itself checked against Pinocchio and SymEngine).
 
+use cbfgen::dual::Dual;
 use cbfgen::filter::InputSource;
+use cbfgen::interval::Interval;
 use cbfgen::system::BarrierSet;
 use cbfgen_panda_spheres::generated::{self as gen, Barriers, NX};
 use cbfgen_panda_spheres::{random_obstacles, run, Scenario, Simulation, SPHERES};
@@ -244,11 +246,30 @@ fn evaluation_ops_is_what_evaluate_performs_in_its_kernels_and_frames_with_every
             assert_eq!(Counted::measure(|| gen::dynamics(&x.map(Counted))).1, dynamics);
         }
         assert!(dynamics.total() > 1000, "{dynamics}");
+        // On dual numbers (the certificate's rates), within what `dual_ops` states, at
+        // random states and rates.
+        let on_duals = cbfgen::dual::dual_ops(dynamics);
+        for _ in 0..5 {
+            let x: [Dual<Counted>; NX] = std::array::from_fn(|_| Dual {
+                v: Counted(rand::Rng::random_range(&mut r, -3.0..3.0)),
+                d: Counted(rand::Rng::random_range(&mut r, -3.0..3.0)),
+            });
+            let counted = Counted::measure(|| gen::dynamics(&x)).1;
+            assert!(counted.total() <= on_duals.total() && counted.mul <= on_duals.mul, "{counted} against {on_duals}");
+        }
         let torques = TorqueRows::new(barriers, gen::dynamics);
         assert_eq!(torques.evaluation_ops(), None, "without the dynamics' count");
         let torques = torques.with_dynamics_ops(dynamics);
         let rows = torques.rows().len();
         assert_eq!(torques.evaluation_ops(), Some(stated + dynamics + cbfgen::torque::torque_map_ops(NU, rows)));
+        // The enclosure's count needs the interval forms too; its field is at least the
+        // interval dynamics and one interval solve.
+        assert_eq!(torques.enclosure_ops(), None, "without the interval forms");
+        let torques = torques.with_interval_dynamics(gen::dynamics::<Interval>, gen::dynamics::<Dual<Interval>>);
+        let enclosure = torques.enclosure_ops().expect("stated with every part");
+        let solve = cbfgen::interval::solve_linear_ops(NU);
+        assert!(enclosure.field.total() > dynamics.total() + solve.total(), "{enclosure:?}");
+        assert!(enclosure.refine.total() > on_duals.total() + 2 * solve.total(), "{enclosure:?}");
         println!("{n} obstacle(s) per sphere: rows {stated}; dynamics {dynamics}");
     }
 }
