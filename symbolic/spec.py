@@ -111,6 +111,22 @@ class SpecError(ValueError):
     origin: tuple[str, int] | None = None
 
 
+# Keywords a spec may still pass from an older release: what replaced each.
+REMOVED_KEYWORDS = {
+    "slack_weight": "priorities replaced slack weights: give the family priority=N instead (0, the default, "
+                    "is met first; a higher tier gives way when rows conflict)",
+}
+
+
+def _refuse_keywords(where: str, given: dict[str, object]) -> None:
+    """A keyword the declaration does not take: what replaced it, if it was removed, else
+    that it is unknown (a SpecError, so the spec's file and line are named)."""
+    for key in given:
+        if key in REMOVED_KEYWORDS:
+            raise SpecError(f"{where}: {key}= was removed; {REMOVED_KEYWORDS[key]}")
+        raise SpecError(f"{where}: no keyword {key}=")
+
+
 def caller_origin() -> tuple[str, int] | None:
     """``(file, line)`` of the innermost caller outside this package: the spec's line that
     declared something."""
@@ -944,7 +960,7 @@ class System:
                defaults: dict[str, object] | None = None,
                class_k: Callable[[se.Symbol], object] | None = None,
                compose: bool = False,
-               doc: str = "") -> None:
+               doc: str = "", **removed: object) -> None:
         """Declare a barrier family h(x, params[, t]) >= 0.
 
         A fixed instance's parameters start *unset*: the filter refuses to run (an error
@@ -1005,6 +1021,7 @@ class System:
         what makes an arm's or a legged robot's collision pairs cheap to regenerate and
         compile. Not for time-varying families.
         """
+        _refuse_keywords(f"family {name!r}", removed)
         where = f"{self.where}, family {name!r}"
         check_identifier(self.where, "family name", name, module_item=True)
         if any(fam.name == name for fam in self.families):
@@ -1088,7 +1105,8 @@ class System:
                  capacity: bool | int = False, optional: bool = False, over: Sequence[str] | None = None,
                  time: bool = False, priority: int = MAX_PRIORITY,
                  defaults: dict[str, object] | None = None,
-                 class_k: Callable[[se.Symbol], object] | None = None, doc: str = "") -> None:
+                 class_k: Callable[[se.Symbol], object] | None = None, doc: str = "",
+                 **removed: object) -> None:
         """Declare a control Lyapunov function V(x, params[, t]) >= 0: its rows ask for
         the decrease V' + rate * V <= 0 (exponential convergence at ``rate`` 1/s), relaxed
         by as little as the rows above it leave room for.
@@ -1101,6 +1119,7 @@ class System:
         :meth:`family`'s; ``class_k`` replaces rate * V by rate * alpha(V) (alpha odd,
         increasing, through 0).
         """
+        _refuse_keywords(f"lyapunov {name!r}", removed)
         where = f"{self.where}, lyapunov {name!r}"
         if not callable(V):
             raise SpecError(f"{where}: V must be a function of the parameters (lambda p: ...)")

@@ -1,7 +1,9 @@
 # Type stubs for the Rust extension module (python/src/). The generic part is re-exported
 # by `cbfgen`, Tachyon 3's own by `cbfgen.tachyon3`. Arrays out are new float64 numpy
-# arrays, always finite: a kernel value that would be NaN or infinite raises CbfError
-# instead, and a diagnostic array of rows (lie, lg_lf) that would hold one is None.
+# arrays, finite: a kernel value that would be NaN or infinite raises CbfError instead,
+# and a diagnostic array of rows (lie, lg_lf) that would hold one is None. The only inf
+# are documented sentinels where nothing applies (simulate's min_h and
+# toe_riser_clearance, Course.clearance's riser entry).
 # "ArrayLike" inputs accept lists, tuples and arrays of booleans, integers or floats, read
 # as float64; complex, string and object arrays raise ValueError. Shapes
 # are exact: a vector of N values is (N,); a matrix parameter is (r, c) or its r*c values
@@ -184,7 +186,8 @@ class System:
         """Parameters with room for capacity ({family: count, or a count per member})."""
     def rows(self, x: ArrayLike, params: Params, t: float = 0.0) -> Rows:
         """Every row at time t, state x and params (laid out for their capacity)."""
-    def filter(self, capacity: Mapping[str, int | Sequence[int]] | None = None, **settings: object) -> EcbfFilter:
+    def filter(self, capacity: Params | Mapping[str, int | Sequence[int]] | None = None,
+               **settings: object) -> EcbfFilter:
         """EcbfFilter(self, capacity, **settings)."""
 
 class Params:
@@ -196,7 +199,8 @@ class Params:
     def system(self) -> str: ...
     @property
     def capacity(self) -> dict[str, int | list[int]]:
-        """Slots of every family with parameters: a count, or a list per member."""
+        """Slots of every capacity family: a count, or a list per member (what params()
+        and filter() take)."""
     def set(self, family: str, values: Values, *, member: Member | None = None, instance: int = 0) -> None:
         """Set a fixed or optional instance, or one already pushed. CbfError (a ValueError)
         for a value outside its parameter's domain (a half extent <= 0, a matrix that is
@@ -328,7 +332,10 @@ class FilterOutput:
         no per-thread clock."""
 
 class EcbfFilter:
-    """The ECBF-QP safety filter of any system. Keyword settings override the spec's
+    """The ECBF-QP safety filter of any system. Its rows are laid out for a capacity:
+    give the Params it will run with (their capacities taken), or {family: count}; with
+    none, the first update's Params give theirs (a later Params of other capacities is a
+    CbfError naming the fix). Keyword settings override the spec's
     defaults: activation, priority and poles map family names to values;
     input_weights, input_min, input_max have nu values; backend picks the solver (one of
     SOLVERS, else ValueError) and dense_max_steps bounds the dense solve (1 ..=
@@ -345,7 +352,7 @@ class EcbfFilter:
     def __init__(
         self,
         system: str | System,
-        capacity: Mapping[str, int | Sequence[int]] | None = None,
+        capacity: Params | Mapping[str, int | Sequence[int]] | None = None,
         *,
         activation: Mapping[str, float] | None = None,
         priority: Mapping[str, int] | None = None,

@@ -73,6 +73,11 @@ impl From<PyErr> for Error {
 impl From<Error> for PyErr {
     fn from(e: Error) -> Self {
         match e {
+            // The one mismatch Python can always avoid: say how.
+            Error::Cbf(e @ cbfgen::CbfError::CapacityMismatch) => CbfError::new_err(format!(
+                "{e}: build the filter from the parameters, system.filter(params) (or with no capacity: it takes \
+                 the first parameters' own)"
+            )),
             Error::Cbf(e) => CbfError::new_err(e.to_string()),
             Error::Py(e) => e,
         }

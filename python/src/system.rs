@@ -17,7 +17,7 @@ use cbfgen::dynamic::{self, CapacityCount, DynFilter, DynParams, DynRows, DynSys
 use cbfgen::error::{within, CbfError};
 use cbfgen::filter::{BetweenSamples, Cause, FamilyRelaxation, Limit, Output, SampledData, Solver, SolverSettings};
 use cbfgen::param_domain::Domain;
-use cbfgen::system::{FamilyInfo, Poles};
+use cbfgen::system::{FamilyInfo, InstanceKind, Poles};
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(systems, m)?)?;
@@ -137,6 +137,38 @@ fn family_of(families: &'static [FamilyInfo], name: &str) -> PyResult<(usize, &'
     Ok((i, &families[i]))
 }
 
+/// A filter's capacity argument: `{family: count}`, or a `Params` whose own capacities
+/// the filter takes (so that the two agree); `None` when absent.
+fn filter_capacity(system: &dyn DynSystem, given: Option<&Bound<'_, PyAny>>) -> PyResult<Option<Vec<CapacityCount>>> {
+    let Some(given) = given.filter(|g| !g.is_none()) else { return Ok(None) };
+    if let Ok(params) = given.cast::<PyParams>() {
+        let params = params.borrow();
+        if params.inner.system() != system.name() {
+            return Err(crate::value_error(format!(
+                "parameters of system {} for a filter of system {}",
+                params.inner.system(),
+                system.name()
+            )));
+        }
+        return Ok(Some(params_capacity(params.inner.as_ref())?));
+    }
+    let counts = given.cast::<PyDict>().map_err(|_| {
+        crate::value_error("capacity: a {family: count} dict, or the Params whose capacities the filter takes")
+    })?;
+    Ok(Some(capacity(system, Some(counts))?))
+}
+
+/// The capacity counts `params` were built with (its capacity families' slots).
+fn params_capacity(params: &dyn DynParams) -> PyResult<Vec<CapacityCount>> {
+    let mut out = Vec::new();
+    for (family, f) in params.families().iter().enumerate().filter(|(_, f)| f.instances == InstanceKind::Capacity) {
+        for member in 0..f.members.len().max(1) {
+            out.push(CapacityCount { family, member, count: params.store(family, member)?.slots() });
+        }
+    }
+    Ok(out)
+}
+
 /// `{family: count}` (an indexed family's count for every member, or a list per member)
 /// as capacity counts.
 fn capacity(system: &dyn DynSystem, counts: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<CapacityCount>> {
@@ -160,6 +192,11 @@ fn capacity(system: &dyn DynSystem, counts: Option<&Bound<'_, PyDict>>) -> PyRes
                 got: per_member.len(),
             }
             .into());
+        }
+        // A fixed or optional family's own count (what `Params.capacity` reports) says
+        // nothing to choose: accepted and skipped.
+        if f.instances != InstanceKind::Capacity && !f.params.is_empty() && per_member.iter().all(|&c| c == f.count) {
+            continue;
         }
         out.extend(per_member.into_iter().enumerate().map(|(member, count)| CapacityCount { family, member, count }));
     }
@@ -346,7 +383,7 @@ impl PySystem {
     #[pyo3(signature = (capacity=None, **settings))]
     fn filter(
         slf: PyRef<'_, Self>,
-        capacity: Option<&Bound<'_, PyDict>>,
+        capacity: Option<&Bound<'_, PyAny>>,
         settings: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<PyEcbfFilter> {
         PyEcbfFilter::build(slf.inner, capacity, settings)
@@ -416,7 +453,9 @@ impl PyParams {
         self.inner.system()
     }
 
-    /// ``{family: slots}`` of every family with parameters: a count, or a list per member.
+    /// ``{family: slots}`` of every family with parameters: a count, or a list per member
+    /// (a fixed or optional family's its count). What ``system.params(capacity=...)``
+    /// and ``system.filter(capacity=...)`` take; ``system.filter(params)`` reads it itself.
     #[getter]
     fn capacity<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
@@ -1014,16 +1053,24 @@ pub struct PyEcbfFilter {
     // OSQP's workspace may move between threads but not be shared; the lock makes the
     // filter usable from any Python thread.
     inner: Mutex<Box<dyn DynFilter>>,
+    /// Built without a capacity and not updated yet: the first update's parameters give
+    /// it theirs.
+    capacity_from_params: std::sync::atomic::AtomicBool,
 }
 
 impl PyEcbfFilter {
     fn build(
         system: &'static dyn DynSystem,
-        capacity: Option<&Bound<'_, PyDict>>,
+        capacity: Option<&Bound<'_, PyAny>>,
         kw: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Self> {
-        let filter = system.filter(&self::capacity(system, capacity)?, &settings(system, kw)?)?;
-        Ok(Self { system, inner: Mutex::new(filter) })
+        let counts = filter_capacity(system, capacity)?;
+        let filter = system.filter(counts.as_deref().unwrap_or_default(), &settings(system, kw)?)?;
+        Ok(Self {
+            system,
+            inner: Mutex::new(filter),
+            capacity_from_params: std::sync::atomic::AtomicBool::new(counts.is_none()),
+        })
     }
 
     fn lock(&self) -> PyResult<MutexGuard<'_, Box<dyn DynFilter>>> {
@@ -1037,7 +1084,7 @@ impl PyEcbfFilter {
     #[pyo3(signature = (system, capacity=None, **settings))]
     fn new(
         system: SystemArg<'_>,
-        capacity: Option<&Bound<'_, PyDict>>,
+        capacity: Option<&Bound<'_, PyAny>>,
         settings: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Self> {
         Self::build(system.get()?, capacity, settings)
@@ -1068,6 +1115,13 @@ impl PyEcbfFilter {
         // up to its iteration or time limit).
         py.detach(|| -> PyResult<PyFilterOutput> {
             let mut f = self.lock()?;
+            // A filter built without a capacity takes the first parameters' (once).
+            if self.capacity_from_params.swap(false, std::sync::atomic::Ordering::Relaxed) {
+                let counts = params_capacity(params)?;
+                if params.system() == self.system.name() && !counts.is_empty() {
+                    *f = self.system.filter(&counts, &f.settings())?;
+                }
+            }
             f.update(t, &x, &u_ref, params)?;
             Ok(PyFilterOutput::of(f.as_ref(), self.system.input_names()))
         })

@@ -69,6 +69,34 @@ def test_executor_shards_write_the_files_of_one_run(tmp_path):
     assert f"--rise {rise!r},{rise!r}" in replay
 
 
+class NumpyMeasures(Scenario):
+    """Measures as a scenario computed with NumPy returns them: NumPy scalars."""
+
+    name = "numpy measures"
+    parameters = {"a": Parameter(-1.0, 1.0), "n": Parameter(0, 9, integer=True)}
+    measures = (Measure("low", fails_below=-0.5), Measure("count", worse="higher", fails_above=5))
+
+    def episode(self, params, seed, episode_id):
+        return {"low": np.float64(params["a"]) / 3, "single": np.float32(0.25), "count": np.int64(params["n"]),
+                "flag": np.bool_(params["a"] > 0), "none": None, "far": np.float64(np.inf)}
+
+
+def test_numbers_of_any_numeric_type_are_written_as_numbers(tmp_path):
+    done = run_campaign(NumpyMeasures(), 4, seed=1)
+    done.write(tmp_path)
+    import csv
+
+    with open(tmp_path / "episodes.csv") as f:
+        written = list(csv.DictReader(f))
+    for row, record in zip(done.rows, written, strict=True):
+        assert float(record["low"]) == float(row["low"])  # full precision, read back exactly
+        assert record["single"] == "0.25" and int(record["count"]) == int(row["count"])
+        assert record["flag"] in ("True", "False") and record["none"] == "" and record["far"] == ""
+    # And they are measured: a NumPy integer is a value, not a missing one.
+    count = NumpyMeasures.measures[1]
+    assert count.badness(np.int64(7)) == -7.0 and count.failed(np.int64(7))
+
+
 def example(name):
     """A class of examples/campaign_floor.py, the user's scenario the docs run."""
     path = os.path.join(os.path.dirname(__file__), "..", "..", "examples", "campaign_floor.py")

@@ -150,13 +150,13 @@ def test_a_warm_load_runs_no_spec_and_a_changed_dependency_runs_it_again(environ
     spec.write_text(text.replace("rate=2.0", "rate=cruise_rates.SPEED_GOAL_RATE"))
     first = cbfgen.load(spec, progress=False)
     runs = []
-    real_spec = cbfgen.plugins._spec
+    real_generate = cbfgen.plugins._generate
 
     def counted(source, path):
         runs.append(path)
-        return real_spec(source, path)
+        return real_generate(source, path)
 
-    monkeypatch.setattr(cbfgen.plugins, "_spec", counted)
+    monkeypatch.setattr(cbfgen.plugins, "_generate", counted)
     again = cbfgen.load(spec, progress=False)
     assert runs == [] and again.families == first.families  # the index found it: the spec did not run
     # The dependency changes, the spec file does not: the spec runs again and builds anew.
@@ -257,3 +257,67 @@ def test_with_no_clone_anywhere_the_embedded_core_builds_the_same_plugin(environ
     loaded = cbfgen.load(spec, progress=False)
     np.testing.assert_array_equal(_closed_loop(loaded), _closed_loop(cbfgen.System("double_integrator")))
     assert cbfgen.plugins.source_dir(spec.parent) == source  # written once
+
+
+MISTAKEN_SPEC = '''from symbolic.spec import System
+
+
+def build() -> System:
+    s = System("mistaken")
+    p, v = s.states(["p", "v"])
+    s.inputs(["u"], limits=[(-1.0, 1.0)])
+    s.dynamics(f=[v, 0], g=[[0], [1]])
+    {family}
+    return s
+'''
+
+
+@pytest.mark.parametrize("family, says", [
+    # Found while differentiating: the generator's own check, before any compile.
+    ('s.family("limit", lambda q: 1 + 0 * p, poles=[5.0, 5.0])', "family 'limit': row 'limit' depends on no state"),
+    # A keyword of an older release, and what replaced it.
+    ('s.family("limit", lambda q: 1 - p, slack_weight=100.0)',
+     "family 'limit': slack_weight= was removed; priorities replaced slack weights: give the family priority=N"),
+])
+def test_a_spec_mistake_is_reported_with_its_file_and_line_before_anything_compiles(environment, tmp_path,
+                                                                                      monkeypatch, family, says):
+    spec = tmp_path / "mistaken.py"
+    spec.write_text(MISTAKEN_SPEC.format(family=family))
+
+    def no_build(*args):
+        raise AssertionError("cbfgen.load compiled a spec the generator refuses")
+
+    monkeypatch.setattr(cbfgen.plugins, "_build", no_build)
+    with pytest.raises(cbfgen.LoadError) as refused:
+        cbfgen.load(spec, progress=False)
+    message = str(refused.value)
+    assert message.startswith(f"cbfgen.load: {spec}:9: ") and says in message, message
+
+
+def test_a_warm_load_reads_no_unchanged_data_file_and_a_changed_one_rebuilds(environment, tmp_path, monkeypatch):
+    # A spec naming a large data file (as a robot's meshes would be), settled on disk.
+    spec = _spec_copy(tmp_path, DOUBLE)
+    spec.write_text(spec.read_text().replace("    return s\n", '    s.depends_on("robot.bin")\n    return s\n', 1))
+    data = spec.parent / "robot.bin"
+    data.write_bytes(bytes(range(256)) * 32768)  # 8 MiB
+    an_hour_ago = data.stat().st_mtime - 3600
+    os.utime(data, (an_hour_ago, an_hour_ago))
+    first = cbfgen.load(spec, progress=False)
+    read = []
+    real_read = Path.read_bytes
+
+    def counted(self):
+        read.append(self)
+        return real_read(self)
+
+    monkeypatch.setattr(Path, "read_bytes", counted)
+    cbfgen.plugins._Digests._open.clear()  # as a new process: the digests from the cache's file
+    assert cbfgen.load(spec, progress=False).families == first.families
+    assert data not in read, "a warm load read the unchanged data file"
+    # The same size, other bytes, another time: read again, and built anew.
+    data.write_bytes(bytes(reversed(range(256))) * 32768)
+    os.utime(data, (an_hour_ago + 60, an_hour_ago + 60))
+    libraries = len(list((environment / "plugins").glob("double_integrator-*/*.so")))
+    cbfgen.load(spec, progress=False)
+    assert data in read
+    assert len(list((environment / "plugins").glob("double_integrator-*/*.so"))) == libraries + 1

@@ -636,6 +636,36 @@ def test_params_of_another_capacity_raise_and_leave_the_filter_usable():
         assert safety.update(x, u_ref, same_size).source == "qp"
 
 
+def test_a_filter_built_from_params_or_from_its_first_params_cannot_disagree_with_them():
+    x, u_ref = t3.standard_posture(), np.zeros(t3.NU)
+    capacity = {**t3.capacity(), "foothold": 15}
+    params = T3.params(capacity)
+    rows = len(T3.rows(x, params))
+    # The capacities a Params reports are ones params() and filter() take (a fixed or
+    # optional family's own count among them), and another count for those is refused.
+    assert {"body_edge", "toe_edge", "foothold", "foot_height"} <= set(params.capacity)
+    assert T3.filter(capacity=params.capacity).row_count == rows
+    assert T3.params(params.capacity).capacity == params.capacity
+    with pytest.raises(cbfgen.CbfError, match="fixed-count"):
+        T3.filter(capacity={"foot_height": 2})
+    # Built from the parameters themselves.
+    from_params = T3.filter(params)
+    assert from_params.row_count == rows and from_params.update(x, u_ref, params).source == "qp"
+    assert cbfgen.EcbfFilter(T3, params).row_count == rows
+    # Built with no capacity: the first update's parameters give theirs, once.
+    first = T3.filter()
+    assert first.update(x, u_ref, params).source == "qp" and first.row_count == rows
+    fixed = "build the filter from the parameters, system.filter\\(params\\)"
+    with pytest.raises(cbfgen.CbfError, match=f"other capacities than the filter: {fixed}"):
+        first.update(x, u_ref, T3.params())
+    assert first.update(x, u_ref, params).source == "qp"
+    # Neither a dict nor Params, or another system's: refused.
+    with pytest.raises(ValueError, match="a {family: count} dict, or the Params"):
+        T3.filter(capacity=5)
+    with pytest.raises(ValueError, match="parameters of system double_integrator for a filter of system tachyon3"):
+        T3.filter(cbfgen.System("double_integrator").params())
+
+
 @pytest.mark.parametrize("name", SYSTEMS)
 def test_rows_check_their_arguments(name):
     system = cbfgen.System(name)

@@ -322,6 +322,12 @@ def test_interval_rows_keep_each_value_between_its_bounds():
      "family 'goal': V' does not depend on the input (relative degree 2)"),
     ("s.lyapunov('goal', lambda q: v**2, rate=1.0, priority=0)",
      "lyapunov 'goal': priority must be an integer in [1, 15]"),
+    # A keyword of an older release: what replaced it; one never known: named.
+    ("s.family('limit', lambda q: 1 - p, slack_weight=100.0)",
+     "family 'limit': slack_weight= was removed; priorities replaced slack weights: give the family priority=N"),
+    ("s.lyapunov('goal', lambda q: v**2, rate=1.0, slack_weight=1.0)",
+     "lyapunov 'goal': slack_weight= was removed; priorities replaced slack weights"),
+    ("s.family('limit', lambda q: 1 - p, pole=[1.0])", "family 'limit': no keyword pole="),
 ])
 def test_class_k_and_lyapunov_mistakes_name_the_family_and_the_line(tmp_path, family, says):
     spec = tmp_path / "oops.py"

@@ -7,6 +7,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import numbers
 import os
 from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
@@ -67,7 +68,7 @@ class Measure:
 
     def badness(self, value: Any) -> float:
         """The value oriented so that smaller is worse; +inf when missing or not finite."""
-        if value is None or not isinstance(value, (int, float)) or not math.isfinite(value):
+        if value is None or not isinstance(value, numbers.Real) or not math.isfinite(value):
             return math.inf
         return float(value) if self.worse == "lower" else -float(value)
 
@@ -172,9 +173,15 @@ class Scenario(ABC):
 
 
 def csv_field(value: Any) -> str:
-    """A CSV field: every float at full precision (it reads back the same), None empty."""
+    """A CSV field: every number as a number whatever its type (NumPy's scalars too),
+    each real at full precision (it reads back the same); None, inf and NaN empty."""
     if value is None:
         return ""
-    if isinstance(value, float):
+    if isinstance(value, bool | np.bool_):
+        return str(bool(value))
+    if isinstance(value, numbers.Integral):
+        return str(int(value))
+    if isinstance(value, numbers.Real):
+        value = float(value)
         return repr(value) if math.isfinite(value) else ""
     return str(value)
