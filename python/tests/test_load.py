@@ -321,3 +321,22 @@ def test_a_warm_load_reads_no_unchanged_data_file_and_a_changed_one_rebuilds(env
     cbfgen.load(spec, progress=False)
     assert data in read
     assert len(list((environment / "plugins").glob("double_integrator-*/*.so"))) == libraries + 1
+
+
+def test_a_loaded_filter_takes_its_parameters_capacities_and_a_mismatch_names_the_fix(environment, tmp_path):
+    robot = cbfgen.load(_spec_copy(tmp_path, REPO_ROOT / "symbolic" / "tests" / "specs" / "planar_robot.py"),
+                        progress=False)
+    def ready(capacity):
+        params = robot.params({"wall": capacity})
+        params.set("speed_limit", {"vmax": 2.0})
+        return params
+
+    params = ready(3)
+    x, u_ref = np.zeros(robot.nx), np.zeros(robot.nu)
+    for safety in (robot.filter(params), robot.filter()):  # from the parameters, or from the first update's
+        safety.update(x, u_ref, params)
+        assert safety.row_count == len(robot.rows(x, params))
+        # Through the plugin too, the mismatch says how to avoid it.
+        with pytest.raises(cbfgen.CbfError, match=r"other capacities than the filter: build the filter from the "
+                                                  r"parameters, system.filter\(params\)"):
+            safety.update(x, u_ref, ready(1))
