@@ -35,14 +35,23 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return generate(args.spec, args.out, args.runtime_crate, args.check)
     except Exception as exc:  # every failure, the spec's own bugs too, is reported with its line
-        origin = spec_origin(exc, args.spec)
         if not isinstance(exc, SpecError):
             traceback.print_exception(exc)  # the whole story, above the one-line summary
-        at = f"{origin[0]}:{origin[1]}: " if origin else ""
-        kind = "" if isinstance(exc, SpecError) else f"{type(exc).__name__}: "
         # The last line is what a build script reports: where, then what.
-        print(f"error: {at}{kind}{exc}", file=sys.stderr)
+        print(f"error: {failure(exc, args.spec)}", file=sys.stderr)
         return 2
+
+
+def failure(exc: BaseException, spec: Path) -> str:
+    """One line for a spec that could not be generated: where (``file:line: ``, when
+    known), then what (a bug's exception type before its message; a SpecError's message
+    alone)."""
+    from .spec import SpecError
+
+    origin = spec_origin(exc, spec)
+    at = f"{origin[0]}:{origin[1]}: " if origin else ""
+    kind = "" if isinstance(exc, SpecError) else f"{type(exc).__name__}: "
+    return f"{at}{kind}{exc}"
 
 
 def spec_origin(exc: BaseException, spec: Path) -> tuple[str, int] | None:

@@ -279,19 +279,15 @@ def _generate(source: Path, spec: Path) -> Generated:
                         "symengine==0.15.0") from None
     sys.path.insert(0, str(source))
     try:
-        from symbolic.__main__ import spec_origin
+        from symbolic.__main__ import failure
         from symbolic.codegen.generate import render_with_warnings
-        from symbolic.spec import SpecError
 
         try:
             file, text, dependencies, warnings = render_with_warnings(spec, "cbfgen")
         except SystemExit as stop:  # the generator's own stop (rustfmt missing or refusing)
             raise LoadError(f"cbfgen.load {spec}: {stop}") from None
         except Exception as exc:  # the spec's mistakes, and its own bugs, with where they are
-            origin = spec_origin(exc, spec)
-            at = f"{origin[0]}:{origin[1]}" if origin else str(spec)
-            kind = "" if isinstance(exc, SpecError) else f"{type(exc).__name__}: "
-            raise LoadError(f"cbfgen.load: {at}: {kind}{exc}") from exc
+            raise LoadError(f"cbfgen.load: {failure(exc, spec)}") from exc
     finally:
         sys.path.remove(str(source))
     return Generated(Path(file).stem, text, list(dependencies), list(warnings))
@@ -332,11 +328,17 @@ cbfgen::export_plugin!(system::SYSTEM);
 """
 
 
-def _build(source: Path, spec: Path, generated: Generated, crate: Path, library: Path, progress: bool) -> None:
+def _cargo() -> str:
+    """cargo's path, or the LoadError naming the fix."""
     cargo = shutil.which("cargo")
     if cargo is None:
         raise LoadError("cbfgen.load builds the spec with Rust, and cargo is not on PATH: install Rust "
                         "(https://rustup.rs)")
+    return cargo
+
+
+def _build(cargo: str, source: Path, spec: Path, generated: Generated, crate: Path, library: Path,
+           progress: bool) -> None:
     name = generated.name
     (crate / "generated").mkdir(parents=True, exist_ok=True)
     (crate / "generated" / f"{name}.rs").write_text(generated.text)
@@ -393,15 +395,13 @@ def load(spec: str | os.PathLike, *, progress: bool = True) -> _native.System:
     entry = _index_entry(source, spec)
     library = _indexed(entry, source, spec)
     if library is None:  # the spec runs only when an input changed or it was never built
-        if shutil.which("cargo") is None:
-            raise LoadError("cbfgen.load builds the spec with Rust, and cargo is not on PATH: install Rust "
-                            "(https://rustup.rs)")
+        cargo = _cargo()
         # Generated here, before any compile: a spec mistake is reported in seconds.
         generated = _generate(source, spec)
         key = _key(source, spec, generated.dependencies)
         folder = cache_dir() / "plugins" / f"{generated.name}-{key}"
         library = folder / f"libcbfgen_plugin_{generated.name}.so"
         if not library.is_file():
-            _build(source, spec, generated, folder, library, progress)
+            _build(cargo, source, spec, generated, folder, library, progress)
         _write_index(entry, key, generated.dependencies, library)
     return _native.load_plugin(library)

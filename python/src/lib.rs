@@ -73,20 +73,12 @@ impl From<PyErr> for Error {
 impl From<Error> for PyErr {
     fn from(e: Error) -> Self {
         match e {
-            Error::Cbf(e) => {
-                // The one mismatch Python can always avoid: say how. A loaded system's core
-                // reports it as its message (the same core: the plugin ABI checks the version).
-                let mismatch = cbfgen::CbfError::CapacityMismatch.to_string();
-                let text = e.to_string();
-                if text == mismatch {
-                    CbfError::new_err(format!(
-                        "{text}: build the filter from the parameters, system.filter(params) (or with no capacity: \
-                         it takes the first parameters' own)"
-                    ))
-                } else {
-                    CbfError::new_err(text)
-                }
-            }
+            // The one mismatch Python can always avoid: say how.
+            Error::Cbf(e @ cbfgen::CbfError::CapacityMismatch) => CbfError::new_err(format!(
+                "{e}: build the filter from the parameters, system.filter(params) (or with no capacity: it takes \
+                 the first parameters' own)"
+            )),
+            Error::Cbf(e) => CbfError::new_err(e.to_string()),
             Error::Py(e) => e,
         }
     }

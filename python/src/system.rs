@@ -158,13 +158,18 @@ fn filter_capacity(system: &dyn DynSystem, given: Option<&Bound<'_, PyAny>>) -> 
     Ok(Some(capacity(system, Some(counts))?))
 }
 
+/// The slots `params` hold for family `family`, one count per member.
+fn member_slots(params: &dyn DynParams, family: usize) -> PyResult<Vec<usize>> {
+    let members = params.families()[family].members.len().max(1);
+    Ok((0..members).map(|m| params.store(family, m).map(|s| s.slots())).collect::<Result<_, _>>()?)
+}
+
 /// The capacity counts `params` were built with (its capacity families' slots).
 fn params_capacity(params: &dyn DynParams) -> PyResult<Vec<CapacityCount>> {
     let mut out = Vec::new();
-    for (family, f) in params.families().iter().enumerate().filter(|(_, f)| f.instances == InstanceKind::Capacity) {
-        for member in 0..f.members.len().max(1) {
-            out.push(CapacityCount { family, member, count: params.store(family, member)?.slots() });
-        }
+    for (family, _) in params.families().iter().enumerate().filter(|(_, f)| f.instances == InstanceKind::Capacity) {
+        let slots = member_slots(params, family)?;
+        out.extend(slots.into_iter().enumerate().map(|(member, count)| CapacityCount { family, member, count }));
     }
     Ok(out)
 }
@@ -460,9 +465,7 @@ impl PyParams {
     fn capacity<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
         for (i, f) in self.inner.families().iter().enumerate().filter(|(_, f)| !f.params.is_empty()) {
-            let slots: Vec<usize> = (0..f.members.len().max(1))
-                .map(|m| self.inner.store(i, m).map(|s| s.slots()))
-                .collect::<Result<_, _>>()?;
+            let slots = member_slots(self.inner.as_ref(), i)?;
             if f.members.is_empty() {
                 d.set_item(f.name, slots[0])?;
             } else {
@@ -1115,10 +1118,12 @@ impl PyEcbfFilter {
         // up to its iteration or time limit).
         py.detach(|| -> PyResult<PyFilterOutput> {
             let mut f = self.lock()?;
-            // A filter built without a capacity takes the first parameters' (once).
-            if self.capacity_from_params.swap(false, std::sync::atomic::Ordering::Relaxed) {
+            // A filter built without a capacity takes its first own parameters' (once).
+            if params.system() == self.system.name()
+                && self.capacity_from_params.swap(false, std::sync::atomic::Ordering::Relaxed)
+            {
                 let counts = params_capacity(params)?;
-                if params.system() == self.system.name() && !counts.is_empty() {
+                if !counts.is_empty() {
                     *f = self.system.filter(&counts, &f.settings())?;
                 }
             }

@@ -27,10 +27,16 @@ pub(super) fn write_error(err: &CbfError, out: *mut ErrorC) {
     out.len = len;
 }
 
-/// The message in `err`.
+/// The message in `err`: the plugin's error as its text, but for the one error without
+/// fields, [`CbfError::CapacityMismatch`], which is itself again (the plugin's core is
+/// this one: the loader checked the version), so callers can tell it and name its fix.
 pub(super) fn read_error(err: &ErrorC) -> CbfError {
     let text = &err.text[..err.len.min(super::ERROR_CAPACITY)];
-    CbfError::Plugin { message: String::from_utf8_lossy(text).into_owned() }
+    let message = String::from_utf8_lossy(text).into_owned();
+    if message == CbfError::CapacityMismatch.to_string() {
+        return CbfError::CapacityMismatch;
+    }
+    CbfError::Plugin { message }
 }
 
 /// A string the plugin keeps for as long as it is loaded.
@@ -243,5 +249,9 @@ mod tests {
             read_error(&err).to_string(),
             CbfError::NotPositive { what: "input weight", value: -1.0 }.to_string()
         );
+        assert!(matches!(read_error(&err), CbfError::Plugin { .. }));
+        // The one error without fields comes back as itself.
+        write_error(&CbfError::CapacityMismatch, &mut err);
+        assert!(matches!(read_error(&err), CbfError::CapacityMismatch));
     }
 }
