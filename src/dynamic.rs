@@ -19,7 +19,7 @@ use std::marker::PhantomData;
 
 use crate::error::CbfError;
 use crate::filter::{
-    Calibration, Cause, EcbfFilter, FamilyRelaxation, FilterSettings, Output, SolverSettings, WorstCase,
+    Calibration, Cause, EcbfFilter, FamilyRelaxation, FilterSettings, Output, SolverSettings, Verdict, WorstCase,
 };
 use crate::param_domain::Domain;
 use crate::system::{
@@ -581,6 +581,11 @@ pub trait DynFilter: DynRows + Send {
     fn update(&mut self, t: f64, x: &[f64], u_ref: &[f64], params: &dyn DynParams) -> Result<(), CbfError>;
     /// The last update's result, its input as a slice.
     fn output(&self) -> Output<&[f64]>;
+    /// The last update's input: `output().u` without assembling the whole output (the C
+    /// interface's per-cycle read).
+    fn input(&self) -> &[f64];
+    /// The last update's safety verdict: `output().safety.verdict`, as cheaply.
+    fn verdict(&self) -> Verdict;
     /// [`EcbfFilter::fallback_input`] into `out`.
     ///
     /// # Errors
@@ -873,6 +878,12 @@ impl<S: GeneratedSystem<NX, NU>, const NX: usize, const NU: usize> DynFilter for
     }
     fn output(&self) -> Output<&[f64]> {
         self.0.output().map_input(|u| u.as_slice())
+    }
+    fn input(&self) -> &[f64] {
+        &self.0.output().u
+    }
+    fn verdict(&self) -> Verdict {
+        self.0.output().safety.verdict
     }
     fn fallback_input(&self, u_ref: &[f64], out: &mut [f64]) -> Result<(), CbfError> {
         let what = "nominal input";

@@ -337,17 +337,25 @@ def _cargo() -> str:
     return cargo
 
 
-def _build(cargo: str, source: Path, spec: Path, generated: Generated, crate: Path, library: Path,
-           progress: bool) -> None:
-    name = generated.name
+def _write_generated(crate: Path, generated: Generated, label: str, progress: bool) -> None:
+    """The spec's module into ``crate/generated/``, its warnings to stderr."""
     (crate / "generated").mkdir(parents=True, exist_ok=True)
-    (crate / "generated" / f"{name}.rs").write_text(generated.text)
+    (crate / "generated" / f"{generated.name}.rs").write_text(generated.text)
     for warning in generated.warnings if progress else []:
-        print(f"cbfgen.load {name}: warning: {warning}", file=sys.stderr)
-    quoted = '"' + str(spec).replace("\\", "\\\\").replace('"', '\\"') + '"'
-    (crate / "Cargo.toml").write_text(MANIFEST.format(name=name, source=source.as_posix()))
-    (crate / "build.rs").write_text(BUILD_RS.format(spec=quoted))
-    (crate / "lib.rs").write_text(LIB_RS.format(name=name, spec=spec.name))
+        print(f"{label} {generated.name}: warning: {warning}", file=sys.stderr)
+
+
+def _quoted(path: Path) -> str:
+    """``path`` as a Rust string literal."""
+    return '"' + str(path).replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def cargo_build(cargo: str, source: Path, crate: Path, label: str, what: str, progress: bool,
+                args: tuple[str, ...] = ("build", "--release")) -> tuple[Path, list[str]]:
+    """Build the crate in ``crate`` against the core in ``source`` (``cargo <args>``), in
+    the target folder every such build shares; returns that folder and cargo's output.
+    ``progress`` prints its stages as ``<label> <what>: ...``; a failed build is a
+    :class:`LoadError` with the compiler's first error."""
     if not (crate / "Cargo.lock").is_file():  # the core's versions, not whatever is newest
         shutil.copy2(source / "Cargo.lock", crate / "Cargo.lock")
     # Shared: the core compiles once for every spec (CARGO_TARGET_DIR, if set, is used as is).
@@ -355,27 +363,38 @@ def _build(cargo: str, source: Path, spec: Path, generated: Generated, crate: Pa
     env = {**os.environ, "CARGO_TARGET_DIR": str(target), "CBFGEN_PYTHON": sys.executable}
     env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env.get('PATH', '')}"  # the venv's cmake
     start = time.monotonic()
-    done = subprocess.Popen([cargo, "build", "--release", "--manifest-path", str(crate / "Cargo.toml")],
+    done = subprocess.Popen([cargo, *args[:1], "--manifest-path", str(crate / "Cargo.toml"), *args[1:]],
                             cwd=crate, env=env, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
     lines = []
     live = progress and sys.stderr.isatty()  # one line redrawn; a log gets the start and the end
     if progress and not live:
-        print(f"cbfgen.load {name}: building {spec} (the first build compiles the core too)", file=sys.stderr)
+        print(f"{label} {what}: building (the first build compiles the core too)", file=sys.stderr)
     assert done.stderr is not None
     for line in done.stderr:
         lines.append(line)
         text = line.strip()
         if live and text.startswith(("Compiling", "Finished")):
-            print(f"\rcbfgen.load {name}: {text[:60]:<60} {time.monotonic() - start:5.0f} s", end="",
+            print(f"\r{label} {what}: {text[:60]:<60} {time.monotonic() - start:5.0f} s", end="",
                   file=sys.stderr, flush=True)
     if live:
         print(file=sys.stderr)
     elif progress:
-        print(f"cbfgen.load {name}: built in {time.monotonic() - start:.0f} s", file=sys.stderr)
+        print(f"{label} {what}: built in {time.monotonic() - start:.0f} s", file=sys.stderr)
     if done.wait() != 0:
         errors = [line.rstrip() for line in lines if line.startswith("error")]
         detail = "".join(lines[-40:])
-        raise LoadError(f"cbfgen.load {spec}: the build failed: {errors[0] if errors else 'see below'}\n{detail}")
+        raise LoadError(f"{label} {what}: the build failed: {errors[0] if errors else 'see below'}\n{detail}")
+    return target, lines
+
+
+def _build(cargo: str, source: Path, spec: Path, generated: Generated, crate: Path, library: Path,
+           progress: bool) -> None:
+    name = generated.name
+    _write_generated(crate, generated, "cbfgen.load", progress)
+    (crate / "Cargo.toml").write_text(MANIFEST.format(name=name, source=source.as_posix()))
+    (crate / "build.rs").write_text(BUILD_RS.format(spec=_quoted(spec)))
+    (crate / "lib.rs").write_text(LIB_RS.format(name=name, spec=spec.name))
+    target, _ = cargo_build(cargo, source, crate, "cbfgen.load", str(spec), progress)
     built = target / "release" / f"libcbfgen_plugin_{name}.so"
     shutil.copy2(built, library.with_suffix(".tmp"))
     os.replace(library.with_suffix(".tmp"), library)  # a loaded library is never overwritten in place

@@ -2,41 +2,38 @@
 
 use std::time::Duration;
 
-use super::{code, decode, CauseC, DomainC, ErrorC, FamilyParamsC, SafetyC, SolverC, StrC, SOLVERS};
+use super::{
+    code, decode, CauseC, DomainC, ErrorC, ErrorCode, FamilyParamsC, SafetyC, SolverC, StrC, SOLVERS, VERDICTS,
+};
 use crate::error::CbfError;
 use crate::filter::{Cause, Limit, RelaxedRow, Safety, Verdict};
 use crate::param_domain::Domain;
 use crate::qp::SolverSettings;
 use crate::system::{ClassK, FamilyParams, Poles, MAX_RELATIVE_DEGREE};
 
-const VERDICTS: [Verdict; 3] = [Verdict::Met, Verdict::Relaxed, Verdict::Unassessed];
-
-/// `err` as the message the other side reads.
-pub(super) fn write_error(err: &CbfError, out: *mut ErrorC) {
-    if out.is_null() {
-        return;
-    }
-    let text = err.to_string();
-    let mut len = text.len().min(super::ERROR_CAPACITY);
-    while !text.is_char_boundary(len) {
+/// An error with `code` and `message` into the other side's buffer (a message longer than
+/// the buffer is cut at a character).
+pub(super) fn write_error(code: ErrorCode, message: &str, out: *mut ErrorC) {
+    // SAFETY: the caller passed a valid, exclusive ErrorC, or null.
+    let Some(out) = (unsafe { out.as_mut() }) else { return };
+    let mut len = message.len().min(super::ERROR_CAPACITY);
+    while !message.is_char_boundary(len) {
         len -= 1;
     }
-    // SAFETY: the caller passed a valid, exclusive ErrorC.
-    let out = unsafe { &mut *out };
-    out.text[..len].copy_from_slice(&text.as_bytes()[..len]);
+    out.text[..len].copy_from_slice(&message.as_bytes()[..len]);
     out.len = len;
+    out.code = code as u32;
 }
 
-/// The message in `err`: the plugin's error as its text, but for the one error without
-/// fields, [`CbfError::CapacityMismatch`], which is itself again (the plugin's core is
-/// this one: the loader checked the version), so callers can tell it and name its fix.
+/// The error in `err`: the plugin's as its message, but for the one error without fields,
+/// [`CbfError::CapacityMismatch`], which is itself again (the plugin's core is this one:
+/// the loader checked the version), so callers can tell it and name its fix.
 pub(super) fn read_error(err: &ErrorC) -> CbfError {
-    let text = &err.text[..err.len.min(super::ERROR_CAPACITY)];
-    let message = String::from_utf8_lossy(text).into_owned();
-    if message == CbfError::CapacityMismatch.to_string() {
+    if err.code == ErrorCode::CapacityMismatch as u32 {
         return CbfError::CapacityMismatch;
     }
-    CbfError::Plugin { message }
+    let text = &err.text[..err.len.min(super::ERROR_CAPACITY)];
+    CbfError::Plugin { message: String::from_utf8_lossy(text).into_owned() }
 }
 
 /// A string the plugin keeps for as long as it is loaded.
@@ -244,14 +241,18 @@ mod tests {
         let unknown = unsafe { family_params(&family_params_c(&p), std::iter::empty()) }.unwrap_err();
         assert!(unknown.to_string().contains("\"s**3\" is not one of this system's"), "{unknown}");
         let mut err = super::super::ErrorC::new();
-        write_error(&CbfError::NotPositive { what: "input weight", value: -1.0 }, &mut err);
-        assert_eq!(
-            read_error(&err).to_string(),
-            CbfError::NotPositive { what: "input weight", value: -1.0 }.to_string()
-        );
+        let negative = CbfError::NotPositive { what: "input weight", value: -1.0 };
+        write_error(ErrorCode::of(&negative), &negative.to_string(), &mut err);
+        assert_eq!(err.code, 2, "the code of NotPositive, as cbfgen.h numbers it");
+        assert_eq!(read_error(&err).to_string(), negative.to_string());
         assert!(matches!(read_error(&err), CbfError::Plugin { .. }));
-        // The one error without fields comes back as itself.
-        write_error(&CbfError::CapacityMismatch, &mut err);
+        // The one error without fields comes back as itself, by its code.
+        write_error(ErrorCode::CapacityMismatch, &CbfError::CapacityMismatch.to_string(), &mut err);
         assert!(matches!(read_error(&err), CbfError::CapacityMismatch));
+        // A message longer than the buffer is cut at a character, never inside one.
+        let long = "é".repeat(super::super::ERROR_CAPACITY);
+        write_error(ErrorCode::Plugin, &long, &mut err);
+        assert_eq!(err.len, super::super::ERROR_CAPACITY);
+        assert!(std::str::from_utf8(&err.text[..err.len]).is_ok());
     }
 }

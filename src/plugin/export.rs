@@ -9,8 +9,8 @@ use std::sync::OnceLock;
 
 use super::convert::{cause_c, domain_c, family_params, family_params_c, safety_c, solver, solver_c, write_error};
 use super::{
-    code, dynamics_op, store_op, DescriptionC, ErrorC, FamilyC, Handle, KernelC, ParamC, PluginV1, ReportC, RowC,
-    RowLayoutC, SettingsC, SlotC, StrC, WorstCaseC, ABI_VERSION, BACKENDS, INPUT_SOURCES, QP_STATUSES,
+    code, dynamics_op, store_op, DescriptionC, ErrorC, ErrorCode, FamilyC, Handle, KernelC, ParamC, PluginV1, ReportC,
+    RowC, RowLayoutC, SettingsC, SlotC, StrC, WorstCaseC, ABI_VERSION, BACKENDS, INPUT_SOURCES, QP_STATUSES, VERDICTS,
 };
 use crate::dynamic::{CapacityCount, DynBarriers, DynFilter, DynParams, DynRows, DynSettings, DynSystem};
 use crate::error::CbfError;
@@ -31,13 +31,30 @@ pub fn export(system: &'static dyn DynSystem) -> &'static PluginV1 {
 }
 
 /// Export a generated system as a plugin: `cbfgen::export_plugin!(SYSTEM);` in a
-/// `cdylib` crate beside `cbfgen::include_system!` (see [`crate::plugin`]).
+/// `cdylib` crate beside `cbfgen::include_system!` (see [`crate::plugin`]). A library for
+/// C and C++ programs uses [`crate::export_c!`] instead.
 #[macro_export]
 macro_rules! export_plugin {
     ($system:expr) => {
         /// The plugin's entry table (cbfgen's plugin ABI, of `cbfgen::plugin::ABI_VERSION`).
         #[unsafe(no_mangle)]
         pub extern "C" fn cbfgen_plugin_v1() -> *const $crate::plugin::PluginV1 {
+            $crate::plugin::export($system)
+        }
+    };
+}
+
+/// Export a generated system to C and C++ (`cbfgen.h`): `cbfgen::export_c!(SYSTEM,
+/// "pvtol");` in a `staticlib`/`cdylib` crate exports `cbfgen_pvtol_plugin_v1`, the
+/// system's entry table, named after the system so that several systems' shared libraries
+/// can be linked into one program. `python -m cbfgen.embed install` writes such a crate.
+#[macro_export]
+macro_rules! export_c {
+    ($system:expr, $name:literal) => {
+        /// The system's entry table (cbfgen's C ABI, `cbfgen.h`, of
+        /// `cbfgen::plugin::ABI_VERSION`).
+        #[unsafe(export_name = concat!("cbfgen_", $name, "_plugin_v1"))]
+        pub extern "C" fn cbfgen_system_plugin_v1() -> *const $crate::plugin::PluginV1 {
             $crate::plugin::export($system)
         }
     };
@@ -70,50 +87,90 @@ static TABLE: PluginV1 = PluginV1 {
     kernel_call,
 };
 
-/// Run `f`, its error (or a panic) into `err`; `fail` is what the call returns then.
-fn guarded<T>(err: *mut ErrorC, fail: T, f: impl FnOnce() -> Result<T, CbfError>) -> T {
-    match catch_unwind(AssertUnwindSafe(f)) {
-        Ok(Ok(v)) => v,
-        Ok(Err(e)) => {
-            write_error(&e, err);
-            fail
-        }
-        Err(_) => {
-            write_error(&CbfError::Plugin { message: format!("{}: the plugin panicked", system().name()) }, err);
-            fail
-        }
+/// Why a call failed: its code and message (a [`CbfError`], or the boundary's own).
+struct Fault {
+    code: ErrorCode,
+    message: String,
+}
+
+impl From<CbfError> for Fault {
+    fn from(e: CbfError) -> Self {
+        Self { code: ErrorCode::of(&e), message: e.to_string() }
     }
+}
+
+/// A null `what` where a handle or buffer was needed.
+fn null(what: &str) -> Fault {
+    Fault { code: ErrorCode::NullPointer, message: format!("{}: {what} is a null pointer", system().name()) }
+}
+
+/// Run `f`, its error (or a panic) into `err`; `fail` is what the call returns then.
+fn guarded<T>(err: *mut ErrorC, fail: T, f: impl FnOnce() -> Result<T, Fault>) -> T {
+    let fault = match catch_unwind(AssertUnwindSafe(f)) {
+        Ok(Ok(v)) => return v,
+        Ok(Err(fault)) => fault,
+        Err(_) => Fault { code: ErrorCode::Panic, message: format!("{}: the plugin panicked", system().name()) },
+    };
+    write_error(fault.code, &fault.message, err);
+    fail
 }
 
 fn boxed<T: ?Sized>(object: Box<T>) -> Handle {
     Box::into_raw(Box::new(object)).cast()
 }
 
+/// The object behind `h`, which names it `what` when it is null.
+///
 /// # Safety
-/// `h` came from [`boxed`] with this `T` and is alive.
-unsafe fn object<'a, T: ?Sized>(h: Handle) -> &'a mut Box<T> {
+/// `h` is null, or came from [`boxed`] with this `T` and is alive.
+unsafe fn object<'a, T: ?Sized>(h: Handle, what: &str) -> Result<&'a mut Box<T>, Fault> {
     // SAFETY: as the caller promises.
-    unsafe { &mut *h.cast::<Box<T>>() }
+    unsafe { h.cast::<Box<T>>().as_mut() }.ok_or_else(|| null(what))
 }
 
+/// `p`'s `n` values, which must be `expected` of them (`what` in the message).
+///
 /// # Safety
-/// `p` points to `n` values (or `n` is 0).
-unsafe fn slice<'a, T>(p: *const T, n: usize) -> &'a [T] {
+/// `p` points to `n` values, or is null.
+unsafe fn slice<'a, T>(p: *const T, n: usize, expected: usize, what: &'static str) -> Result<&'a [T], Fault> {
+    if n != expected {
+        return Err(CbfError::LengthMismatch { what, expected, got: n }.into());
+    }
     if n == 0 {
-        return &[];
+        return Ok(&[]);
+    }
+    if p.is_null() {
+        return Err(null(what));
     }
     // SAFETY: as the caller promises.
-    unsafe { std::slice::from_raw_parts(p, n) }
+    Ok(unsafe { std::slice::from_raw_parts(p, n) })
 }
 
+/// `p`'s `n` writable values, which must be `expected` of them (`what` in the message).
+///
 /// # Safety
-/// `p` points to `n` writable values (or `n` is 0).
-unsafe fn slice_mut<'a, T>(p: *mut T, n: usize) -> &'a mut [T] {
+/// `p` points to `n` writable values, or is null.
+unsafe fn slice_mut<'a, T>(p: *mut T, n: usize, expected: usize, what: &'static str) -> Result<&'a mut [T], Fault> {
+    if n != expected {
+        return Err(CbfError::LengthMismatch { what, expected, got: n }.into());
+    }
     if n == 0 {
-        return &mut [];
+        return Ok(&mut []);
+    }
+    if p.is_null() {
+        return Err(null(what));
     }
     // SAFETY: as the caller promises.
-    unsafe { std::slice::from_raw_parts_mut(p, n) }
+    Ok(unsafe { std::slice::from_raw_parts_mut(p, n) })
+}
+
+/// `p`'s one value to write (`what` in the message when it is null).
+///
+/// # Safety
+/// `p` is null or points to one writable value.
+unsafe fn out_ref<'a, T>(p: *mut T, what: &str) -> Result<&'a mut T, Fault> {
+    // SAFETY: as the caller promises.
+    unsafe { p.as_mut() }.ok_or_else(|| null(what))
 }
 
 struct Description(DescriptionC);
@@ -204,34 +261,56 @@ unsafe extern "C" fn describe() -> *const DescriptionC {
     &d.0
 }
 
-unsafe extern "C" fn dynamics(op: u32, x: *const f64, u: *const f64, out: *mut f64, err: *mut ErrorC) -> i32 {
+unsafe extern "C" fn dynamics(
+    op: u32,
+    x: *const f64,
+    n_x: usize,
+    u: *const f64,
+    n_u: usize,
+    out: *mut f64,
+    n_out: usize,
+    err: *mut ErrorC,
+) -> i32 {
     guarded(err, -1, || {
         let s = system();
         let (nx, nu) = (s.nx(), s.nu());
-        // SAFETY: the loader passes nx states, nu inputs and room for what `op` writes.
-        let x = unsafe { slice(x, nx) };
+        // SAFETY (every slice): the caller's buffers hold the lengths it passed.
+        let x = unsafe { slice(x, n_x, nx, "state") }?;
         match op {
-            dynamics_op::DRIFT => s.drift(x, unsafe { slice_mut(out, nx) })?,
-            dynamics_op::INPUT_MATRIX => s.input_matrix(x, unsafe { slice_mut(out, nx * nu) })?,
-            _ => s.xdot(x, unsafe { slice(u, nu) }, unsafe { slice_mut(out, nx) })?,
+            dynamics_op::DRIFT => s.drift(x, unsafe { slice_mut(out, n_out, nx, "drift output") }?)?,
+            dynamics_op::INPUT_MATRIX => {
+                s.input_matrix(x, unsafe { slice_mut(out, n_out, nx * nu, "input matrix output") }?)?
+            }
+            dynamics_op::XDOT => {
+                let u = unsafe { slice(u, n_u, nu, "input") }?;
+                s.xdot(x, u, unsafe { slice_mut(out, n_out, nx, "xdot output") }?)?
+            }
+            _ => return Err(CbfError::NoSuchIndex { what: "dynamics operation", index: op as usize, len: 3 }.into()),
         }
         Ok(0)
     })
 }
 
 unsafe extern "C" fn params_new(counts: *const CapacityCount, n: usize, err: *mut ErrorC) -> Handle {
-    // SAFETY: `n` counts.
-    guarded(err, ptr::null_mut(), || Ok(boxed(system().params(unsafe { slice(counts, n) })?)))
+    guarded(err, ptr::null_mut(), || {
+        // SAFETY: `n` counts.
+        let counts = unsafe { slice(counts, n, n, "capacity counts") }?;
+        Ok(boxed(system().params(counts)?))
+    })
 }
 
-unsafe extern "C" fn params_clone(params: Handle) -> Handle {
-    // SAFETY: a live parameters handle.
-    boxed(unsafe { object::<dyn DynParams>(params) }.clone_box())
+unsafe extern "C" fn params_clone(params: Handle, err: *mut ErrorC) -> Handle {
+    guarded(err, ptr::null_mut(), || {
+        // SAFETY: a live parameters handle, or null.
+        Ok(boxed(unsafe { object::<dyn DynParams>(params, "parameters handle") }?.clone_box()))
+    })
 }
 
 unsafe extern "C" fn params_free(params: Handle) {
-    // SAFETY: a live parameters handle, freed once.
-    drop(unsafe { Box::from_raw(params.cast::<Box<dyn DynParams>>()) });
+    if !params.is_null() {
+        // SAFETY: a live parameters handle, freed once.
+        drop(unsafe { Box::from_raw(params.cast::<Box<dyn DynParams>>()) });
+    }
 }
 
 unsafe extern "C" fn store(
@@ -246,13 +325,13 @@ unsafe extern "C" fn store(
     err: *mut ErrorC,
 ) -> i64 {
     guarded(err, -1, || {
-        // SAFETY: a live parameters handle; `values` holds `len` numbers.
-        let p = unsafe { object::<dyn DynParams>(params) };
-        let values = unsafe { slice_mut(values, len) };
+        // SAFETY: a live parameters handle or null; `values` holds `len` numbers or is null.
+        let p = unsafe { object::<dyn DynParams>(params, "parameters handle") }?;
+        let values = unsafe { slice_mut(values, len, len, "values") }?;
         Ok(match op {
             store_op::SET => p.set(family, member, instance, values).map(|()| 0)?,
             store_op::PUSH => p.push(family, member, values).map(|()| 0)?,
-            _ => {
+            store_op::EXISTS..=store_op::SET_ENABLED => {
                 let store = p.store_mut(family, member)?;
                 match op {
                     store_op::EXISTS => 0,
@@ -265,94 +344,103 @@ unsafe extern "C" fn store(
                     _ => store.set_enabled(flag).map(|()| 0)?,
                 }
             }
+            _ => return Err(CbfError::NoSuchIndex { what: "store operation", index: op as usize, len: 10 }.into()),
         })
     })
 }
 
 unsafe extern "C" fn barriers_new(params: Handle, err: *mut ErrorC) -> Handle {
-    // SAFETY: a live parameters handle.
     guarded(err, ptr::null_mut(), || {
-        Ok(boxed(system().barriers_for(unsafe { object::<dyn DynParams>(params) }.as_ref())?))
+        // SAFETY: a live parameters handle or null.
+        let p = unsafe { object::<dyn DynParams>(params, "parameters handle") }?;
+        Ok(boxed(system().barriers_for(p.as_ref())?))
     })
 }
 
 unsafe extern "C" fn barriers_free(barriers: Handle) {
-    // SAFETY: a live barrier handle, freed once.
-    drop(unsafe { Box::from_raw(barriers.cast::<Box<dyn DynBarriers>>()) });
+    if !barriers.is_null() {
+        // SAFETY: a live barrier handle, freed once.
+        drop(unsafe { Box::from_raw(barriers.cast::<Box<dyn DynBarriers>>()) });
+    }
 }
 
 unsafe extern "C" fn barriers_evaluate(
     barriers: Handle,
     t: f64,
     x: *const f64,
+    n_x: usize,
     params: Handle,
     err: *mut ErrorC,
 ) -> i32 {
     guarded(err, -1, || {
-        // SAFETY: live handles; nx states.
-        let b = unsafe { object::<dyn DynBarriers>(barriers) };
-        let p = unsafe { object::<dyn DynParams>(params) };
-        b.evaluate(t, unsafe { slice(x, system().nx()) }, p.as_ref()).map(|()| 0)
+        // SAFETY: live handles or null; `x` holds `n_x` states.
+        let b = unsafe { object::<dyn DynBarriers>(barriers, "barriers handle") }?;
+        let p = unsafe { object::<dyn DynParams>(params, "parameters handle") }?;
+        let x = unsafe { slice(x, n_x, system().nx(), "state") }?;
+        Ok(b.evaluate(t, x, p.as_ref()).map(|()| 0)?)
     })
 }
 
 /// # Safety
-/// A live barrier (`filter` false) or filter handle.
-unsafe fn rows_of<'a>(rows: Handle, filter: bool) -> &'a dyn DynRows {
+/// A live barrier (`filter` false) or filter handle, or null.
+unsafe fn rows_of<'a>(rows: Handle, filter: bool) -> Option<&'a dyn DynRows> {
     // SAFETY: as the caller promises.
     unsafe {
         if filter {
-            &**object::<'a, dyn DynFilter>(rows)
+            object::<dyn DynFilter>(rows, "").ok().map(|f| &**f as &dyn DynRows)
         } else {
-            &**object::<'a, dyn DynBarriers>(rows)
+            object::<dyn DynBarriers>(rows, "").ok().map(|b| &**b as &dyn DynRows)
         }
     }
 }
 
 unsafe extern "C" fn rows_len(rows: Handle, filter: bool) -> usize {
-    // SAFETY: a live handle of that kind.
-    unsafe { rows_of(rows, filter) }.layout().len()
+    // SAFETY: a live handle of that kind, or null.
+    unsafe { rows_of(rows, filter) }.map_or(0, |r| r.layout().len())
 }
 
 unsafe extern "C" fn layout(rows: Handle, filter: bool, i: usize, out: *mut RowLayoutC) -> bool {
-    // SAFETY: a live handle of that kind; `out` writable.
-    let Some(l) = unsafe { rows_of(rows, filter) }.layout().get(i) else { return false };
+    // SAFETY: a live handle of that kind or null; `out` writable or null.
+    let (Some(rows), Some(out)) = (unsafe { rows_of(rows, filter) }, unsafe { out.as_mut() }) else { return false };
+    let Some(l) = rows.layout().get(i) else { return false };
     let (family, member, instance, row) = (l.family, l.member, l.instance, l.row);
-    unsafe {
-        *out = RowLayoutC { family, member, instance, row, columns: l.columns.as_ptr(), n_columns: l.columns.len() }
-    };
+    *out = RowLayoutC { family, member, instance, row, columns: l.columns.as_ptr(), n_columns: l.columns.len() };
     true
 }
 
 unsafe extern "C" fn row(rows: Handle, filter: bool, i: usize, out: *mut RowC) -> bool {
-    // SAFETY: a live handle of that kind; `out` writable.
-    let Some(r) = unsafe { rows_of(rows, filter) }.row(i) else { return false };
-    unsafe { *out = RowC { lie: r.lie, lg: r.lg.as_ptr(), active: r.active, culled: r.culled } };
+    // SAFETY: a live handle of that kind or null; `out` writable or null.
+    let (Some(rows), Some(out)) = (unsafe { rows_of(rows, filter) }, unsafe { out.as_mut() }) else { return false };
+    let Some(r) = rows.row(i) else { return false };
+    *out = RowC { lie: r.lie.as_ptr(), lg: r.lg.as_ptr(), active: r.active, culled: r.culled };
     true
 }
 
 /// `s` into the caller's buffers.
 ///
 /// # Safety
-/// `out`'s buffers hold one entry per family and per input.
-unsafe fn write_settings(s: &DynSettings, out: *mut SettingsC) {
+/// `out` is null or a valid `SettingsC` whose buffers hold the lengths it states.
+unsafe fn write_settings(s: &DynSettings, out: *mut SettingsC) -> Result<i32, Fault> {
     // SAFETY: as the caller promises.
-    let out = unsafe { &mut *out };
-    for (o, p) in unsafe { slice_mut(out.families, s.families.len()) }.iter_mut().zip(&s.families) {
+    let out = unsafe { out.as_mut() }.ok_or_else(|| null("settings"))?;
+    let (n_families, nu) = (s.families.len(), s.input_weights.len());
+    let families = unsafe { slice_mut(out.families, out.n_families, n_families, "settings' families") }?;
+    for (o, p) in families.iter_mut().zip(&s.families) {
         *o = family_params_c(p);
     }
-    let nu = s.input_weights.len();
-    unsafe { slice_mut(out.input_weights, nu) }.copy_from_slice(&s.input_weights);
-    unsafe { slice_mut(out.input_min, nu) }.copy_from_slice(&s.input_min);
-    unsafe { slice_mut(out.input_max, nu) }.copy_from_slice(&s.input_max);
+    unsafe { slice_mut(out.input_weights, out.n_inputs, nu, "settings' input weights") }?
+        .copy_from_slice(&s.input_weights);
+    unsafe { slice_mut(out.input_min, out.n_inputs, nu, "settings' input minima") }?.copy_from_slice(&s.input_min);
+    unsafe { slice_mut(out.input_max, out.n_inputs, nu, "settings' input maxima") }?.copy_from_slice(&s.input_max);
     out.solver = solver_c(&s.solver);
     out.measure_cpu_time = s.measure_cpu_time;
     out.cull_far_rows = s.cull_far_rows;
+    Ok(0)
 }
 
-unsafe extern "C" fn default_settings(out: *mut SettingsC) {
-    // SAFETY: the loader sized the buffers from the description.
-    unsafe { write_settings(&system().default_settings(), out) }
+unsafe extern "C" fn default_settings(out: *mut SettingsC, err: *mut ErrorC) -> i32 {
+    // SAFETY: the caller's settings, checked.
+    guarded(err, -1, || unsafe { write_settings(&system().default_settings(), out) })
 }
 
 unsafe extern "C" fn filter_new(
@@ -363,119 +451,155 @@ unsafe extern "C" fn filter_new(
 ) -> Handle {
     guarded(err, ptr::null_mut(), || {
         let s = system();
-        // SAFETY: the loader's buffers, sized from the description.
-        let c = unsafe { &*settings };
+        let nu = s.nu();
+        // SAFETY: the caller's settings and counts, their lengths checked.
+        let c = unsafe { settings.as_ref() }.ok_or_else(|| null("settings"))?;
         let known = || s.families().iter().map(|f| f.defaults.class_k);
-        let families = unsafe { slice(c.families, s.families().len()) }
+        let families = unsafe { slice(c.families, c.n_families, s.families().len(), "settings' families") }?
             .iter()
             .map(|p| unsafe { family_params(p, known()) })
             .collect::<Result<Vec<_>, _>>()?;
-        let nu = s.nu();
         let settings = DynSettings {
             families,
-            input_weights: unsafe { slice(c.input_weights, nu) }.to_vec(),
-            input_min: unsafe { slice(c.input_min, nu) }.to_vec(),
-            input_max: unsafe { slice(c.input_max, nu) }.to_vec(),
+            input_weights: unsafe { slice(c.input_weights, c.n_inputs, nu, "settings' input weights") }?.to_vec(),
+            input_min: unsafe { slice(c.input_min, c.n_inputs, nu, "settings' input minima") }?.to_vec(),
+            input_max: unsafe { slice(c.input_max, c.n_inputs, nu, "settings' input maxima") }?.to_vec(),
             solver: solver(&c.solver),
             measure_cpu_time: c.measure_cpu_time,
             cull_far_rows: c.cull_far_rows,
             // The ABI does not carry the certificate's settings; the loader refuses them.
             sampled_data: None,
         };
-        Ok(boxed(s.filter(unsafe { slice(counts, n) }, &settings)?))
+        let counts = unsafe { slice(counts, n, n, "capacity counts") }?;
+        Ok(boxed(s.filter(counts, &settings)?))
     })
 }
 
 unsafe extern "C" fn filter_free(filter: Handle) {
-    // SAFETY: a live filter handle, freed once.
-    drop(unsafe { Box::from_raw(filter.cast::<Box<dyn DynFilter>>()) });
+    if !filter.is_null() {
+        // SAFETY: a live filter handle, freed once.
+        drop(unsafe { Box::from_raw(filter.cast::<Box<dyn DynFilter>>()) });
+    }
 }
 
 unsafe extern "C" fn filter_update(
     filter: Handle,
     t: f64,
     x: *const f64,
+    n_x: usize,
     u_ref: *const f64,
+    n_u: usize,
     params: Handle,
+    u: *mut f64,
+    n_u_out: usize,
     err: *mut ErrorC,
 ) -> i32 {
     guarded(err, -1, || {
-        let s = system();
-        // SAFETY: live handles; nx states and nu inputs.
-        let f = unsafe { object::<dyn DynFilter>(filter) };
-        let p = unsafe { object::<dyn DynParams>(params) };
-        f.update(t, unsafe { slice(x, s.nx()) }, unsafe { slice(u_ref, s.nu()) }, p.as_ref()).map(|()| 0)
+        // SAFETY: live handles or null; the buffers hold the lengths passed. The filter
+        // checks the lengths against the system's (this is the per-cycle call: nothing
+        // else is looked up here).
+        let f = unsafe { object::<dyn DynFilter>(filter, "filter handle") }?;
+        let p = unsafe { object::<dyn DynParams>(params, "parameters handle") }?;
+        let x = unsafe { slice(x, n_x, n_x, "state") }?;
+        let u_ref = unsafe { slice(u_ref, n_u, n_u, "nominal input") }?;
+        // Checked before the update, so a refused call leaves the filter as it was.
+        let u = unsafe { slice_mut(u, n_u_out, f.input().len(), "input output") }?;
+        f.update(t, x, u_ref, p.as_ref())?;
+        u.copy_from_slice(f.input());
+        Ok(code(&VERDICTS, &f.verdict()).into())
     })
 }
 
-unsafe extern "C" fn filter_report(filter: Handle, out: *mut ReportC) {
-    // SAFETY: a live filter handle; the report's buffers sized for its rows, families, inputs.
-    let f = unsafe { object::<dyn DynFilter>(filter) };
-    let r = unsafe { &mut *out };
-    let o = f.output();
-    let rows = f.layout().len();
-    unsafe { slice_mut(r.u, o.u.len()) }.copy_from_slice(o.u);
-    unsafe { slice_mut(r.active, rows) }.copy_from_slice(f.active());
-    unsafe { slice_mut(r.delta, rows) }.copy_from_slice(f.delta());
-    unsafe { slice_mut(r.relative, rows) }.copy_from_slice(f.relative_slack());
-    for (c, cause) in unsafe { slice_mut(r.causes, rows) }.iter_mut().zip(f.relaxed()) {
-        *c = cause_c(*cause);
-    }
-    let relaxation = f.relaxation();
-    unsafe { slice_mut(r.relaxation, relaxation.len()) }.copy_from_slice(relaxation);
-    r.source = code(&INPUT_SOURCES, &o.source);
-    r.status = o.status.map_or(-1, |s| code(&QP_STATUSES, &s) as i8);
-    r.backend = o.backend.map_or(-1, |b| code(&BACKENDS, &b) as i8);
-    r.dense_steps = o.dense_steps;
-    r.dense_fallback = o.dense_fallback;
-    r.elastic_stages = o.elastic_stages;
-    r.nonfinite_row = o.nonfinite_row.map_or(-1, |i| i as i64);
-    r.iterations = o.iterations;
-    r.polished = o.polished;
-    r.active_rows = o.active_rows;
-    r.safety = safety_c(&o.safety);
-    r.convergence = safety_c(&o.convergence);
-    r.consecutive_fallbacks = o.consecutive_fallbacks;
-    r.work = o.work;
-    r.eval_time_ns = o.eval_time.as_nanos() as u64;
-    r.solve_time_ns = o.solve_time.as_nanos() as u64;
-    r.cpu_time_ns = o.cpu_time.map_or(-1, |d| d.as_nanos() as i64);
+unsafe extern "C" fn filter_report(filter: Handle, out: *mut ReportC, err: *mut ErrorC) -> i32 {
+    guarded(err, -1, || {
+        // SAFETY: a live filter handle or null; the report's buffers hold the lengths it states.
+        let f = unsafe { object::<dyn DynFilter>(filter, "filter handle") }?;
+        let r = unsafe { out.as_mut() }.ok_or_else(|| null("report"))?;
+        let o = f.output();
+        let rows = f.layout().len();
+        let relaxation = f.relaxation();
+        unsafe { slice_mut(r.u, r.n_u, o.u.len(), "report's input") }?.copy_from_slice(o.u);
+        unsafe { slice_mut(r.active, r.n_rows, rows, "report's active rows") }?.copy_from_slice(f.active());
+        unsafe { slice_mut(r.delta, r.n_rows, rows, "report's slacks") }?.copy_from_slice(f.delta());
+        unsafe { slice_mut(r.relative, r.n_rows, rows, "report's relative slacks") }?
+            .copy_from_slice(f.relative_slack());
+        for (c, cause) in unsafe { slice_mut(r.causes, r.n_rows, rows, "report's causes") }?.iter_mut().zip(f.relaxed())
+        {
+            *c = cause_c(*cause);
+        }
+        unsafe { slice_mut(r.relaxation, r.n_families, relaxation.len(), "report's relaxations") }?
+            .copy_from_slice(relaxation);
+        r.source = code(&INPUT_SOURCES, &o.source);
+        r.status = o.status.map_or(-1, |s| code(&QP_STATUSES, &s) as i8);
+        r.backend = o.backend.map_or(-1, |b| code(&BACKENDS, &b) as i8);
+        r.dense_steps = o.dense_steps;
+        r.dense_fallback = o.dense_fallback;
+        r.elastic_stages = o.elastic_stages;
+        r.nonfinite_row = o.nonfinite_row.map_or(-1, |i| i as i64);
+        r.iterations = o.iterations;
+        r.polished = o.polished;
+        r.active_rows = o.active_rows;
+        r.safety = safety_c(&o.safety);
+        r.convergence = safety_c(&o.convergence);
+        r.consecutive_fallbacks = o.consecutive_fallbacks;
+        r.work = o.work;
+        r.eval_time_ns = o.eval_time.as_nanos() as u64;
+        r.solve_time_ns = o.solve_time.as_nanos() as u64;
+        r.cpu_time_ns = o.cpu_time.map_or(-1, |d| d.as_nanos() as i64);
+        Ok(0)
+    })
 }
 
-unsafe extern "C" fn filter_fallback(filter: Handle, u_ref: *const f64, out: *mut f64, err: *mut ErrorC) -> i32 {
+unsafe extern "C" fn filter_fallback(
+    filter: Handle,
+    u_ref: *const f64,
+    n_u: usize,
+    out: *mut f64,
+    n_out: usize,
+    err: *mut ErrorC,
+) -> i32 {
     guarded(err, -1, || {
         let nu = system().nu();
-        // SAFETY: a live filter handle; nu inputs each way.
-        let f = unsafe { object::<dyn DynFilter>(filter) };
-        f.fallback_input(unsafe { slice(u_ref, nu) }, unsafe { slice_mut(out, nu) }).map(|()| 0)
+        // SAFETY: a live filter handle or null; the buffers hold the lengths passed.
+        let f = unsafe { object::<dyn DynFilter>(filter, "filter handle") }?;
+        let u_ref = unsafe { slice(u_ref, n_u, nu, "nominal input") }?;
+        Ok(f.fallback_input(u_ref, unsafe { slice_mut(out, n_out, nu, "fallback output") }?).map(|()| 0)?)
     })
 }
 
-unsafe extern "C" fn filter_settings(filter: Handle, out: *mut SettingsC) {
-    // SAFETY: a live filter handle; buffers sized from the description.
-    unsafe { write_settings(&object::<dyn DynFilter>(filter).settings(), out) }
+unsafe extern "C" fn filter_settings(filter: Handle, out: *mut SettingsC, err: *mut ErrorC) -> i32 {
+    guarded(err, -1, || {
+        // SAFETY: a live filter handle or null; the caller's settings, checked.
+        let f = unsafe { object::<dyn DynFilter>(filter, "filter handle") }?;
+        unsafe { write_settings(&f.settings(), out) }
+    })
 }
 
-unsafe extern "C" fn filter_worst_case(filter: Handle, out: *mut WorstCaseC) {
-    // SAFETY: a live filter handle; `out` one value.
-    unsafe { *out = object::<dyn DynFilter>(filter).worst_case().into() }
+unsafe extern "C" fn filter_worst_case(filter: Handle, out: *mut WorstCaseC, err: *mut ErrorC) -> i32 {
+    guarded(err, -1, || {
+        // SAFETY: a live filter handle or null; `out` one value or null.
+        let f = unsafe { object::<dyn DynFilter>(filter, "filter handle") }?;
+        *unsafe { out_ref(out, "worst case") }? = f.worst_case().into();
+        Ok(0)
+    })
 }
 
 unsafe extern "C" fn filter_calibrate(
     filter: Handle,
     t: f64,
     x: *const f64,
+    n_x: usize,
     params: Handle,
     out: *mut crate::filter::Calibration,
     err: *mut ErrorC,
 ) -> i32 {
     guarded(err, -1, || {
-        let s = system();
-        // SAFETY: live handles; nx states; `out` one value.
-        let f = unsafe { object::<dyn DynFilter>(filter) };
-        let p = unsafe { object::<dyn DynParams>(params) };
-        let calibration = f.calibrate(t, unsafe { slice(x, s.nx()) }, p.as_ref())?;
-        unsafe { *out = calibration };
+        // SAFETY: live handles or null; `x` holds `n_x` states; `out` one value or null.
+        let f = unsafe { object::<dyn DynFilter>(filter, "filter handle") }?;
+        let p = unsafe { object::<dyn DynParams>(params, "parameters handle") }?;
+        let x = unsafe { slice(x, n_x, system().nx(), "state") }?;
+        let out = unsafe { out_ref(out, "calibration") }?;
+        *out = f.calibrate(t, x, p.as_ref())?;
         Ok(0)
     })
 }
@@ -491,11 +615,11 @@ unsafe extern "C" fn kernel_call(
     guarded(err, -1, || {
         let s = system();
         let kernels = s.kernels();
-        let kernel = kernels.get(index).ok_or_else(|| CbfError::Plugin {
-            message: format!("{}: no kernel {index} (it has {})", s.name(), kernels.len()),
-        })?;
-        // SAFETY: the loader passes its slices' pointers and lengths (checked again here).
-        s.call_kernel(kernel.name, unsafe { slice(inputs, n_inputs) }, unsafe { slice_mut(outputs, n_outputs) })?;
+        let kernel = kernels.get(index).ok_or(CbfError::NoSuchIndex { what: "kernel", index, len: kernels.len() })?;
+        // SAFETY: the caller's buffers hold the lengths it passed (the kernel checks them).
+        let inputs = unsafe { slice(inputs, n_inputs, n_inputs, "kernel inputs") }?;
+        let outputs = unsafe { slice_mut(outputs, n_outputs, n_outputs, "kernel outputs") }?;
+        s.call_kernel(kernel.name, inputs, outputs)?;
         Ok(0)
     })
 }

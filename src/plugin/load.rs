@@ -13,7 +13,7 @@ use crate::dynamic::{
     CapacityCount, DynBarriers, DynFilter, DynParams, DynRows, DynSettings, DynSystem, FamilyStore, RowView,
 };
 use crate::error::CbfError;
-use crate::filter::{Calibration, Cause, FamilyRelaxation, InputSource, Output, WorstCase};
+use crate::filter::{Calibration, Cause, FamilyRelaxation, InputSource, Output, Verdict, WorstCase};
 use crate::param_domain::Domain;
 use crate::system::{
     find_kernel, ClassK, FamilyInfo, FamilyKind, FamilyParams, InstanceKind, KernelSignature, RowLayout,
@@ -253,7 +253,7 @@ impl PluginSystem {
             return None;
         }
         Some(RowView {
-            lie: unsafe { &*r.lie },
+            lie: unsafe { &*r.lie.cast::<[f64; crate::system::MAX_RELATIVE_DEGREE + 1]>() },
             lg: unsafe { statics(r.lg, self.nu) },
             active: r.active,
             culled: r.culled,
@@ -294,9 +294,13 @@ impl PluginSystem {
     }
 
     /// The plugin's settings read by `fill` (its defaults, or a filter's).
-    fn settings_from(&self, fill: impl FnOnce(*mut SettingsC)) -> DynSettings {
+    /// Settings written by `fill` into buffers sized from the description (which the
+    /// plugin checks: `fill` cannot fail on them).
+    fn settings_from(&self, fill: impl FnOnce(*mut SettingsC, *mut ErrorC) -> i32) -> DynSettings {
         let (mut families, mut inputs) = self.settings_buffers();
         let mut c = SettingsC {
+            n_families: families.len(),
+            n_inputs: self.nu,
             families: families.as_mut_ptr(),
             input_weights: inputs[0].as_mut_ptr(),
             input_min: inputs[1].as_mut_ptr(),
@@ -305,7 +309,9 @@ impl PluginSystem {
             measure_cpu_time: false,
             cull_far_rows: true,
         };
-        fill(&mut c);
+        let mut err = ErrorC::new();
+        let status = fill(&mut c, &mut err);
+        debug_assert_eq!(status, 0, "settings buffers sized from the description");
         self.read_settings(&families, &inputs, &c)
     }
 }
@@ -348,7 +354,16 @@ impl DynSystem for PluginSystem {
         let mut err = ErrorC::new();
         // SAFETY: lengths checked.
         let status = unsafe {
-            (self.table.dynamics)(dynamics_op::DRIFT, x.as_ptr(), std::ptr::null(), f.as_mut_ptr(), &mut err)
+            (self.table.dynamics)(
+                dynamics_op::DRIFT,
+                x.as_ptr(),
+                x.len(),
+                std::ptr::null(),
+                0,
+                f.as_mut_ptr(),
+                f.len(),
+                &mut err,
+            )
         };
         self.call(status.into(), &err).map(drop)
     }
@@ -358,7 +373,16 @@ impl DynSystem for PluginSystem {
         let mut err = ErrorC::new();
         // SAFETY: lengths checked.
         let status = unsafe {
-            (self.table.dynamics)(dynamics_op::INPUT_MATRIX, x.as_ptr(), std::ptr::null(), g.as_mut_ptr(), &mut err)
+            (self.table.dynamics)(
+                dynamics_op::INPUT_MATRIX,
+                x.as_ptr(),
+                x.len(),
+                std::ptr::null(),
+                0,
+                g.as_mut_ptr(),
+                g.len(),
+                &mut err,
+            )
         };
         self.call(status.into(), &err).map(drop)
     }
@@ -368,8 +392,18 @@ impl DynSystem for PluginSystem {
         Self::check_len("xdot output", self.nx, xdot.len())?;
         let mut err = ErrorC::new();
         // SAFETY: lengths checked.
-        let status =
-            unsafe { (self.table.dynamics)(dynamics_op::XDOT, x.as_ptr(), u.as_ptr(), xdot.as_mut_ptr(), &mut err) };
+        let status = unsafe {
+            (self.table.dynamics)(
+                dynamics_op::XDOT,
+                x.as_ptr(),
+                x.len(),
+                u.as_ptr(),
+                u.len(),
+                xdot.as_mut_ptr(),
+                xdot.len(),
+                &mut err,
+            )
+        };
         self.call(status.into(), &err).map(drop)
     }
     fn params(&self, capacity: &[CapacityCount]) -> Result<Box<dyn DynParams>, CbfError> {
@@ -407,7 +441,7 @@ impl DynSystem for PluginSystem {
     }
     fn default_settings(&self) -> DynSettings {
         // SAFETY: buffers sized from the description.
-        self.settings_from(|c| unsafe { (self.table.default_settings)(c) })
+        self.settings_from(|c, err| unsafe { (self.table.default_settings)(c, err) })
     }
     fn filter(&self, capacity: &[CapacityCount], settings: &DynSettings) -> Result<Box<dyn DynFilter>, CbfError> {
         Self::check_len("family settings", self.families.len(), settings.families.len())?;
@@ -425,6 +459,8 @@ impl DynSystem for PluginSystem {
         let mut families: Vec<FamilyParamsC> = settings.families.iter().map(family_params_c).collect();
         let mut inputs = [settings.input_weights.clone(), settings.input_min.clone(), settings.input_max.clone()];
         let c = SettingsC {
+            n_families: families.len(),
+            n_inputs: self.nu,
             families: families.as_mut_ptr(),
             input_weights: inputs[0].as_mut_ptr(),
             input_min: inputs[1].as_mut_ptr(),
@@ -557,8 +593,10 @@ impl DynParams for PluginParams {
         self
     }
     fn clone_box(&self) -> Box<dyn DynParams> {
-        // SAFETY: a live handle.
-        let h = unsafe { (self.system.table.params_clone)(self.handle) };
+        // SAFETY: a live handle (so the clone fails only if the plugin panics; a null
+        // handle then makes every later call an error, not undefined behaviour).
+        let mut err = ErrorC::new();
+        let h = unsafe { (self.system.table.params_clone)(self.handle, &mut err) };
         Box::new(PluginParams::new(self.system, h))
     }
 }
@@ -664,7 +702,8 @@ impl DynBarriers for PluginBarriers {
         let p = self.system.own(params)?;
         let mut err = ErrorC::new();
         // SAFETY: live handles of this plugin; `x` checked.
-        let status = unsafe { (self.system.table.barriers_evaluate)(self.handle, t, x.as_ptr(), p.handle, &mut err) };
+        let status =
+            unsafe { (self.system.table.barriers_evaluate)(self.handle, t, x.as_ptr(), x.len(), p.handle, &mut err) };
         self.system.call(status.into(), &err).map(drop)
     }
 }
@@ -700,6 +739,9 @@ impl PluginFilter {
     /// Copy the plugin's last report into this side's buffers (no allocation).
     fn refresh(&mut self) {
         let mut r = ReportC {
+            n_u: self.u.len(),
+            n_rows: self.active.len(),
+            n_families: self.relaxation.len(),
             u: self.u.as_mut_ptr(),
             active: self.active.as_mut_ptr(),
             delta: self.delta.as_mut_ptr(),
@@ -725,7 +767,9 @@ impl PluginFilter {
             cpu_time_ns: -1,
         };
         // SAFETY: a live filter handle; every buffer sized for its rows, families, inputs.
-        unsafe { (self.system.table.filter_report)(self.handle, &mut r) };
+        let mut err = ErrorC::new();
+        let status = unsafe { (self.system.table.filter_report)(self.handle, &mut r, &mut err) };
+        debug_assert_eq!(status, 0, "report buffers sized from the filter's layout");
         for (out, c) in self.relaxed.iter_mut().zip(&self.causes) {
             *out = cause(*c);
         }
@@ -770,7 +814,18 @@ impl DynFilter for PluginFilter {
         let mut err = ErrorC::new();
         // SAFETY: live handles of this plugin; lengths checked.
         let status = unsafe {
-            (self.system.table.filter_update)(self.handle, t, x.as_ptr(), u_ref.as_ptr(), p.handle, &mut err)
+            (self.system.table.filter_update)(
+                self.handle,
+                t,
+                x.as_ptr(),
+                x.len(),
+                u_ref.as_ptr(),
+                u_ref.len(),
+                p.handle,
+                self.u.as_mut_ptr(),
+                self.u.len(),
+                &mut err,
+            )
         };
         self.system.call(status.into(), &err)?;
         self.refresh();
@@ -779,13 +834,27 @@ impl DynFilter for PluginFilter {
     fn output(&self) -> Output<&[f64]> {
         self.output.map_input(|_| self.u.as_slice())
     }
+    fn input(&self) -> &[f64] {
+        &self.u
+    }
+    fn verdict(&self) -> Verdict {
+        self.output.safety.verdict
+    }
     fn fallback_input(&self, u_ref: &[f64], out: &mut [f64]) -> Result<(), CbfError> {
         PluginSystem::check_len("nominal input", self.system.nu, u_ref.len())?;
         PluginSystem::check_len("fallback output", self.system.nu, out.len())?;
         let mut err = ErrorC::new();
         // SAFETY: a live filter handle; lengths checked.
-        let status =
-            unsafe { (self.system.table.filter_fallback)(self.handle, u_ref.as_ptr(), out.as_mut_ptr(), &mut err) };
+        let status = unsafe {
+            (self.system.table.filter_fallback)(
+                self.handle,
+                u_ref.as_ptr(),
+                u_ref.len(),
+                out.as_mut_ptr(),
+                out.len(),
+                &mut err,
+            )
+        };
         self.system.call(status.into(), &err).map(drop)
     }
     fn active(&self) -> &[bool] {
@@ -808,12 +877,12 @@ impl DynFilter for PluginFilter {
     }
     fn settings(&self) -> DynSettings {
         // SAFETY: a live filter handle; buffers sized from the description.
-        self.system.settings_from(|c| unsafe { (self.system.table.filter_settings)(self.handle, c) })
+        self.system.settings_from(|c, err| unsafe { (self.system.table.filter_settings)(self.handle, c, err) })
     }
     fn worst_case(&self) -> WorstCase {
-        let mut out = WorstCaseC::default();
-        // SAFETY: a live filter handle; `out` one value.
-        unsafe { (self.system.table.filter_worst_case)(self.handle, &mut out) };
+        let (mut out, mut err) = (WorstCaseC::default(), ErrorC::new());
+        // SAFETY: a live filter handle; `out` one value (so the call cannot fail).
+        unsafe { (self.system.table.filter_worst_case)(self.handle, &mut out, &mut err) };
         out.into()
     }
     fn calibrate(&mut self, t: f64, x: &[f64], params: &dyn DynParams) -> Result<Calibration, CbfError> {
@@ -821,8 +890,9 @@ impl DynFilter for PluginFilter {
         let p = self.system.own(params)?;
         let (mut out, mut err) = (Calibration::default(), ErrorC::new());
         // SAFETY: live handles of this plugin; the state's length checked; `out` one value.
-        let status =
-            unsafe { (self.system.table.filter_calibrate)(self.handle, t, x.as_ptr(), p.handle, &mut out, &mut err) };
+        let status = unsafe {
+            (self.system.table.filter_calibrate)(self.handle, t, x.as_ptr(), x.len(), p.handle, &mut out, &mut err)
+        };
         self.system.call(status.into(), &err)?;
         Ok(out)
     }

@@ -39,10 +39,15 @@ use crate::system::MAX_RELATIVE_DEGREE;
 /// counted work ([`ReportC::work`]); version 4 the filter's stated worst case and this
 /// machine's calibration ([`PluginV1::filter_worst_case`], [`PluginV1::filter_calibrate`]);
 /// version 5 the certificate's interval operations in both ([`WorstCaseC::interval_ops`],
-/// `Calibration::ns_per_interval_op`). The table keeps the name it was born with.
-pub const ABI_VERSION: u32 = 5;
+/// `Calibration::ns_per_interval_op`); version 6 made the table safe to call from C
+/// (`cbfgen.h`): every buffer travels with its length and is checked, a null handle or
+/// buffer is an error ([`ErrorCode::NullPointer`]), and every error carries its
+/// [`ErrorCode`]. The table keeps the name it was born with.
+pub const ABI_VERSION: u32 = 6;
 
-/// The symbol a plugin exports: `extern "C" fn() -> *const PluginV1`.
+/// The symbol a plugin exports: `extern "C" fn() -> *const PluginV1`. A system's C library
+/// ([`crate::export_c!`]) exports `cbfgen_<name>_plugin_v1` instead, so that several can
+/// be linked into one program.
 pub const ENTRY_POINT: &str = "cbfgen_plugin_v1";
 
 /// Room for an error message crossing the boundary (longer ones are cut at a character).
@@ -68,19 +73,89 @@ impl StrC {
     }
 }
 
-/// An error message written by the plugin into the caller's buffer.
+/// What went wrong in a call ([`ErrorC::code`]): the [`CbfError`](crate::error::CbfError)
+/// variant of the same name, or one of the boundary's own.
+#[repr(u32)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[allow(missing_docs)] // CbfError's variants, documented there
+pub enum ErrorCode {
+    /// No error.
+    Ok = 0,
+    NonFinite = 1,
+    NotPositive = 2,
+    CapacityExceeded = 3,
+    TooLarge = 4,
+    Thread = 5,
+    CapacityMismatch = 6,
+    Plugin = 7,
+    OutOfRange = 8,
+    LengthMismatch = 9,
+    BadRowPattern = 10,
+    NonFiniteRow = 11,
+    SolverSetup = 12,
+    QpFailed = 13,
+    NoSuchIndex = 14,
+    UnknownName = 15,
+    Unsupported = 16,
+    Malformed = 17,
+    SystemMismatch = 18,
+    NotARotation = 19,
+    NotPositiveDefinite = 20,
+    ParamOutOfDomain = 21,
+    /// A handle or buffer was a null pointer.
+    NullPointer = 100,
+    /// The call panicked (a bug in cbfgen: please report it); the objects it was given may
+    /// be left mid-update and are best freed.
+    Panic = 101,
+    /// The table's version is not the header's (`cbfgen_check`).
+    AbiMismatch = 102,
+}
+
+impl ErrorCode {
+    /// The code of `e`.
+    pub fn of(e: &crate::error::CbfError) -> Self {
+        use crate::error::CbfError as E;
+        match e {
+            E::NonFinite { .. } => Self::NonFinite,
+            E::NotPositive { .. } => Self::NotPositive,
+            E::CapacityExceeded { .. } => Self::CapacityExceeded,
+            E::TooLarge { .. } => Self::TooLarge,
+            E::Thread { .. } => Self::Thread,
+            E::CapacityMismatch => Self::CapacityMismatch,
+            E::Plugin { .. } => Self::Plugin,
+            E::OutOfRange { .. } => Self::OutOfRange,
+            E::LengthMismatch { .. } => Self::LengthMismatch,
+            E::BadRowPattern { .. } => Self::BadRowPattern,
+            E::NonFiniteRow { .. } => Self::NonFiniteRow,
+            E::SolverSetup { .. } => Self::SolverSetup,
+            E::QpFailed { .. } => Self::QpFailed,
+            E::NoSuchIndex { .. } => Self::NoSuchIndex,
+            E::UnknownName { .. } => Self::UnknownName,
+            E::Unsupported { .. } => Self::Unsupported,
+            E::Malformed { .. } => Self::Malformed,
+            E::SystemMismatch { .. } => Self::SystemMismatch,
+            E::NotARotation { .. } => Self::NotARotation,
+            E::NotPositiveDefinite { .. } => Self::NotPositiveDefinite,
+            E::ParamOutOfDomain { .. } => Self::ParamOutOfDomain,
+        }
+    }
+}
+
+/// An error written by the plugin into the caller's buffer: its code and its message.
 #[repr(C)]
 pub struct ErrorC {
-    /// Bytes used.
+    /// What went wrong ([`ErrorCode`]; 0 when nothing did).
+    pub code: u32,
+    /// Bytes of `text` used.
     pub len: usize,
-    /// The message, UTF-8.
+    /// The message, UTF-8, not NUL-terminated (`len` bytes; C readers print `%.*s`).
     pub text: [u8; ERROR_CAPACITY],
 }
 
 impl ErrorC {
-    /// An empty message.
+    /// No error.
     pub fn new() -> Self {
-        Self { len: 0, text: [0; ERROR_CAPACITY] }
+        Self { code: ErrorCode::Ok as u32, len: 0, text: [0; ERROR_CAPACITY] }
     }
 }
 
@@ -243,10 +318,14 @@ pub struct SolverC {
 }
 
 /// [`DynSettings`](crate::dynamic::DynSettings), in buffers the caller owns (one entry per
-/// family, one per input).
+/// family, one per input; their lengths are checked).
 #[repr(C)]
 #[derive(Debug)]
 pub struct SettingsC {
+    /// Entries of `families`: the system's family count.
+    pub n_families: usize,
+    /// Entries of each per-input buffer: the system's input count.
+    pub n_inputs: usize,
     /// Per family.
     pub families: *mut FamilyParamsC,
     /// Per input: weights.
@@ -282,7 +361,8 @@ pub struct RowLayoutC {
 #[derive(Debug, Clone, Copy)]
 #[allow(missing_docs)] // RowView's fields
 pub struct RowC {
-    pub lie: *const [f64; MAX_RELATIVE_DEGREE + 1],
+    /// The row's Lie derivatives `h, L_f h, …`: `MAX_RELATIVE_DEGREE + 1` values.
+    pub lie: *const f64,
     pub lg: *const f64,
     pub active: bool,
     pub culled: bool,
@@ -316,13 +396,20 @@ pub struct SafetyC {
 }
 
 /// A filter's last update, written into the caller's buffers (`u`: `nu` entries; `active`,
-/// `delta`, `relative`, `causes`: one per row; `relaxation`: one per family). Enums as
+/// `delta`, `relative`, `causes`: one per row; `relaxation`: one per family; the three
+/// lengths are checked, and a null buffer of a nonzero length is an error). Enums as
 /// codes: `source` and `status`/`backend` index [`INPUT_SOURCES`], [`QP_STATUSES`],
 /// [`BACKENDS`] (−1: none); `nonfinite_row` and `cpu_time_ns` −1: none.
 #[repr(C)]
 #[derive(Debug)]
 #[allow(missing_docs)] // Output's fields
 pub struct ReportC {
+    /// Entries of `u`: the system's input count.
+    pub n_u: usize,
+    /// Entries of each per-row buffer: the filter's row count ([`PluginV1::rows_len`]).
+    pub n_rows: usize,
+    /// Entries of `relaxation`: the system's family count.
+    pub n_families: usize,
     pub u: *mut f64,
     pub active: *mut bool,
     pub delta: *mut f64,
@@ -426,10 +513,21 @@ pub struct PluginV1 {
     /// The `cbfgen` version the plugin was built against.
     pub core_version: StrC,
     pub describe: unsafe extern "C" fn() -> *const DescriptionC,
-    pub dynamics: unsafe extern "C" fn(op: u32, x: *const f64, u: *const f64, out: *mut f64, err: *mut ErrorC) -> i32,
+    /// A [`dynamics_op`]: `x` `nx` states, `u` `nu` inputs (`XDOT` only; else ignored),
+    /// `out` the drift (`nx`), the input matrix (`nx·nu`, row-major) or `ẋ` (`nx`).
+    pub dynamics: unsafe extern "C" fn(
+        op: u32,
+        x: *const f64,
+        n_x: usize,
+        u: *const f64,
+        n_u: usize,
+        out: *mut f64,
+        n_out: usize,
+        err: *mut ErrorC,
+    ) -> i32,
     pub params_new:
         unsafe extern "C" fn(counts: *const crate::dynamic::CapacityCount, n: usize, err: *mut ErrorC) -> Handle,
-    pub params_clone: unsafe extern "C" fn(params: Handle) -> Handle,
+    pub params_clone: unsafe extern "C" fn(params: Handle, err: *mut ErrorC) -> Handle,
     pub params_free: unsafe extern "C" fn(params: Handle),
     /// A [`store_op`] on family `family`, member `member`: `values`/`len` in or out,
     /// `flag` for `SET_ENABLED`; returns the count asked, 1/0 for yes/no, 0 otherwise.
@@ -446,13 +544,19 @@ pub struct PluginV1 {
     ) -> i64,
     pub barriers_new: unsafe extern "C" fn(params: Handle, err: *mut ErrorC) -> Handle,
     pub barriers_free: unsafe extern "C" fn(barriers: Handle),
-    pub barriers_evaluate:
-        unsafe extern "C" fn(barriers: Handle, t: f64, x: *const f64, params: Handle, err: *mut ErrorC) -> i32,
-    /// Row count of a barrier set or filter.
+    pub barriers_evaluate: unsafe extern "C" fn(
+        barriers: Handle,
+        t: f64,
+        x: *const f64,
+        n_x: usize,
+        params: Handle,
+        err: *mut ErrorC,
+    ) -> i32,
+    /// Row count of a barrier set or filter (0 for a null handle).
     pub rows_len: unsafe extern "C" fn(rows: Handle, filter: bool) -> usize,
     pub layout: unsafe extern "C" fn(rows: Handle, filter: bool, i: usize, out: *mut RowLayoutC) -> bool,
     pub row: unsafe extern "C" fn(rows: Handle, filter: bool, i: usize, out: *mut RowC) -> bool,
-    pub default_settings: unsafe extern "C" fn(out: *mut SettingsC),
+    pub default_settings: unsafe extern "C" fn(out: *mut SettingsC, err: *mut ErrorC) -> i32,
     pub filter_new: unsafe extern "C" fn(
         counts: *const crate::dynamic::CapacityCount,
         n: usize,
@@ -460,23 +564,39 @@ pub struct PluginV1 {
         err: *mut ErrorC,
     ) -> Handle,
     pub filter_free: unsafe extern "C" fn(filter: Handle),
+    /// One update at time `t`, state `x` (`n_x` of them), nominal input `u_ref` (`n_u`):
+    /// writes the input to apply into `u` (`n_u_out`, the system's input count) and
+    /// returns the safety verdict (0 met, 1 relaxed, 2 unassessed), or −1 with the error
+    /// (then `u` is untouched: apply `filter_fallback`). The rest of the update's report
+    /// is `filter_report`'s.
     pub filter_update: unsafe extern "C" fn(
         filter: Handle,
         t: f64,
         x: *const f64,
+        n_x: usize,
         u_ref: *const f64,
+        n_u: usize,
         params: Handle,
+        u: *mut f64,
+        n_u_out: usize,
         err: *mut ErrorC,
     ) -> i32,
-    pub filter_report: unsafe extern "C" fn(filter: Handle, out: *mut ReportC),
-    pub filter_fallback:
-        unsafe extern "C" fn(filter: Handle, u_ref: *const f64, out: *mut f64, err: *mut ErrorC) -> i32,
-    pub filter_settings: unsafe extern "C" fn(filter: Handle, out: *mut SettingsC),
-    pub filter_worst_case: unsafe extern "C" fn(filter: Handle, out: *mut WorstCaseC),
+    pub filter_report: unsafe extern "C" fn(filter: Handle, out: *mut ReportC, err: *mut ErrorC) -> i32,
+    pub filter_fallback: unsafe extern "C" fn(
+        filter: Handle,
+        u_ref: *const f64,
+        n_u: usize,
+        out: *mut f64,
+        n_out: usize,
+        err: *mut ErrorC,
+    ) -> i32,
+    pub filter_settings: unsafe extern "C" fn(filter: Handle, out: *mut SettingsC, err: *mut ErrorC) -> i32,
+    pub filter_worst_case: unsafe extern "C" fn(filter: Handle, out: *mut WorstCaseC, err: *mut ErrorC) -> i32,
     pub filter_calibrate: unsafe extern "C" fn(
         filter: Handle,
         t: f64,
         x: *const f64,
+        n_x: usize,
         params: Handle,
         out: *mut crate::filter::Calibration,
         err: *mut ErrorC,
@@ -511,6 +631,9 @@ pub const QP_STATUSES: [QpStatus; 9] = [
     QpStatus::SolverFault,
     QpStatus::NonFinite,
 ];
+/// The codes of [`SafetyC::verdict`] and of [`PluginV1::filter_update`]'s return.
+pub const VERDICTS: [crate::filter::Verdict; 3] =
+    [crate::filter::Verdict::Met, crate::filter::Verdict::Relaxed, crate::filter::Verdict::Unassessed];
 /// The codes of [`ReportC::backend`].
 pub const BACKENDS: [Backend; 2] = [Backend::Dense, Backend::Osqp];
 /// The codes of [`SolverC::backend`].
