@@ -8,7 +8,6 @@ Needs gcc, g++, CMake and Eigen 3: ``scripts/cbf setup`` installs the last two."
 
 from __future__ import annotations
 
-import os
 import re
 import shutil
 import subprocess
@@ -35,23 +34,12 @@ def _cmake() -> str:
 
 
 @pytest.fixture(scope="module")
-def prefix(tmp_path_factory):
+def prefix(environment, tmp_path_factory):
     """double_integrator (built in) and your_robot (a spec) installed into a fresh prefix."""
-    saved = {k: os.environ.get(k) for k in ("CBFGEN_SOURCE", "CBFGEN_CACHE", "CARGO_TARGET_DIR")}
-    os.environ["CBFGEN_SOURCE"] = str(REPO_ROOT)
-    os.environ["CBFGEN_CACHE"] = str(tmp_path_factory.mktemp("cache"))
-    os.environ["CARGO_TARGET_DIR"] = str(REPO_ROOT / "target" / "spec-crates")
     folder = tmp_path_factory.mktemp("prefix")
-    try:
-        assert embed.install(["double_integrator", str(YOUR_ROBOT)], folder, progress=False) == [
-            "double_integrator", "your_robot"]
-        yield folder
-    finally:
-        for k, v in saved.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
+    assert embed.install(["double_integrator", str(YOUR_ROBOT)], folder, progress=False) == [
+        "double_integrator", "your_robot"]
+    return folder
 
 
 def _run(args: list, **kwargs) -> subprocess.CompletedProcess:

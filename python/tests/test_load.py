@@ -2,7 +2,7 @@
 the same classes as a built-in system.
 
 The builds share the spec-crate tests' Cargo target directory (the core compiles once);
-the plugin cache is per test session."""
+the plugin cache is this module's (the `environment` fixture, conftest.py)."""
 
 from __future__ import annotations
 
@@ -19,21 +19,6 @@ DOUBLE = REPO_ROOT / "systems" / "double_integrator" / "spec" / "double_integrat
 CRUISE = REPO_ROOT / "symbolic" / "tests" / "specs" / "adaptive_cruise.py"
 
 pytestmark = pytest.mark.skipif(shutil.which("cargo") is None, reason="cbfgen.load builds with cargo")
-
-
-@pytest.fixture(scope="module")
-def environment(tmp_path_factory):
-    """The variables cbfgen.load reads: the sources, a fresh cache, a warm target dir."""
-    saved = {k: os.environ.get(k) for k in ("CBFGEN_SOURCE", "CBFGEN_CACHE", "CARGO_TARGET_DIR")}
-    os.environ["CBFGEN_SOURCE"] = str(REPO_ROOT)
-    os.environ["CBFGEN_CACHE"] = str(tmp_path_factory.mktemp("cache"))
-    os.environ["CARGO_TARGET_DIR"] = str(REPO_ROOT / "target" / "spec-crates")
-    yield Path(os.environ["CBFGEN_CACHE"])
-    for k, v in saved.items():
-        if v is None:
-            os.environ.pop(k, None)
-        else:
-            os.environ[k] = v
 
 
 def _spec_copy(tmp_path: Path, spec: Path) -> Path:
