@@ -73,8 +73,8 @@ int main() {
   const double ox = 3.0, oy = 0.05, radius = 0.5;
   SafetyFilterController unicycle(cbfgen_your_robot_plugin_v1(), [&](const cbfgen::System& system) {
     cbfgen::Params params(system, {{system.family("obstacle"), 0, 4}});  // room for 4 discs
-    params.set("speed_limit", Eigen::Matrix<double, 1, 1>(1.5));
-    params.push("obstacle", Eigen::Vector3d(ox, oy, radius));  // centre, radius
+    params.set("speed_limit", {1.5});
+    params.push("obstacle", {ox, oy, radius});                   // centre, radius
     params.set("corridor", Eigen::Vector3d(0.0, 1.0, 1.0), 0);  // normal (0, 1), offset 1: y >= -1
     params.set("corridor", Eigen::Vector3d(0.0, -1.0, 1.0), 1);  // y <= 1
     return params;

@@ -19,6 +19,7 @@
 
 #include <Eigen/Core>
 #include <cstddef>
+#include <initializer_list>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -133,6 +134,11 @@ class Params {
   Params& set(const std::string& family, const VectorRef& values, std::size_t instance = 0) {
     return set(system_.family(family), 0, instance, values);
   }
+  // The same with the numbers written out: params.set("speed_limit", {1.5}).
+  Params& set(const std::string& family, std::initializer_list<double> values, std::size_t instance = 0) {
+    return set(family, VectorRef(Eigen::Map<const Vector>(values.begin(), static_cast<Eigen::Index>(values.size()))),
+               instance);
+  }
   // Add an instance to a capacity or optional family.
   Params& push(const std::string& family, const VectorRef& values) {
     cbfgen_error err{};
@@ -140,6 +146,9 @@ class Params {
                                      static_cast<std::size_t>(values.size()), &err),
                   err);
     return *this;
+  }
+  Params& push(const std::string& family, std::initializer_list<double> values) {
+    return push(family, VectorRef(Eigen::Map<const Vector>(values.begin(), static_cast<Eigen::Index>(values.size()))));
   }
   // Remove every instance of a capacity or optional family.
   Params& clear(const std::string& family) {

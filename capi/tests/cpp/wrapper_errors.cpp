@@ -43,6 +43,9 @@ int main() {
   expect(throws([&] { params.set("sine_barrier", Eigen::Vector2d(0.2, 2.0)); }, CBFGEN_ERROR_CODE_LENGTH_MISMATCH,
                 "expected length 3, got 2"),
          "a wrong number of parameters");
+  expect(throws([&] { params.set("sine_barrier", {0.2, 2.0, -0.5, 1.0}); }, CBFGEN_ERROR_CODE_LENGTH_MISMATCH,
+                "expected length 3, got 4"),
+         "a wrong number of parameters, written out");
   expect(throws([&] { params.push("sine_barrier", Eigen::Vector3d(0.2, 2.0, -0.5)); },
                 CBFGEN_ERROR_CODE_UNSUPPORTED, "fixed"),
          "pushing onto a fixed family");
@@ -50,7 +53,7 @@ int main() {
          "a capacity for a family that does not exist");
 
   const cbfgen::Params unset(system);  // copied below: the clone is unset too
-  params.set("sine_barrier", Eigen::Vector3d(0.2, 2.0, -0.5));
+  params.set("sine_barrier", {0.2, 2.0, -0.5});
   cbfgen::Filter filter(system, params);
   const Eigen::Vector2d falling(-0.45, -1.0);  // 5 cm above the boundary at t = 0, falling at 1 m/s
   const Eigen::VectorXd push_down = Eigen::VectorXd::Constant(1, -5.0);
