@@ -6,6 +6,8 @@
 //! script and rustfmt settings, `src/`, `generated/`, the `cbfgen-build` crate and the
 //! generator's files (the set the generated files' inputs hash covers,
 //! `cbfgen_build::inputs_hash::package_files`). `cbfgen.plugins` hashes the same set.
+//! Beside them, the C interface's headers and CMake package (`capi/include`, `capi/cmake`),
+//! which `cbfgen.embed` installs with a spec's libraries.
 
 use cbfgen_build::inputs_hash::package_files;
 use std::fmt::Write as _;
@@ -16,7 +18,18 @@ fn main() {
     let crate_dir = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets this"));
     let root = crate_dir.parent().expect("python/ sits in the repository").to_path_buf();
     // The lock too: a plugin resolves to the very versions this module was built with.
-    let top = ["Cargo.toml", "Cargo.lock", "build.rs", "rustfmt.toml", "cbfgen-build/Cargo.toml"];
+    let top = [
+        "Cargo.toml",
+        "Cargo.lock",
+        "build.rs",
+        "rustfmt.toml",
+        "cbfgen-build/Cargo.toml",
+        "capi/include/cbfgen/abi.h",
+        "capi/include/cbfgen/cbfgen.h",
+        "capi/include/cbfgen/cbfgen.hpp",
+        "capi/cmake/cbfgenConfig.cmake",
+        "capi/cmake/cbfgenConfigVersion.cmake",
+    ];
     let mut files: Vec<PathBuf> = top.iter().map(|f| root.join(f)).collect();
     for folder in ["src", "generated", "cbfgen-build/src"] {
         rust_files(&root.join(folder), &mut files);

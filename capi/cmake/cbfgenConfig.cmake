@@ -7,7 +7,8 @@
 # installed system cbfgen::<name> (its shared library) and cbfgen::<name>_static (its static
 # library: at most one static cbfgen library per program, each carries Rust's standard
 # library). A component is a system's name.
-cmake_minimum_required(VERSION 3.16)
+cmake_policy(PUSH)  # this file's policies, not the caller's
+cmake_policy(VERSION 3.16...3.31)
 get_filename_component(_cbfgen_prefix "${CMAKE_CURRENT_LIST_DIR}/../../.." ABSOLUTE)
 
 if(NOT TARGET cbfgen::c)
@@ -49,3 +50,4 @@ foreach(_cbfgen_component IN LISTS cbfgen_FIND_COMPONENTS)
     endif()
   endif()
 endforeach()
+cmake_policy(POP)

@@ -17,8 +17,10 @@ Installing more systems into the same DIR adds them. A C++ project then does::
 
 (``cbfgen::<name>_static`` links the static library instead: at most one static cbfgen
 library per program, since each carries Rust's standard library; shared ones mix freely).
-Building needs what :func:`cbfgen.load` needs, and a clone of cbfgen (for its headers and
-built-in systems): ``CBFGEN_SOURCE`` or the working directory's. docs/embedding.md has more.
+Building needs what :func:`cbfgen.load` needs; a built-in system also needs a clone of
+cbfgen (its crate): ``CBFGEN_SOURCE``, or the clone around the working directory. A spec
+builds from the sources embedded in this module when there is no clone, as
+:func:`cbfgen.load` does. docs/embedding.md has more.
 """
 
 from __future__ import annotations
@@ -129,6 +131,10 @@ def _crate(source: Path, system: str, folder: Path, progress: bool) -> tuple[str
     spec = Path(system)
     if system in BUILT_IN:
         crate_folder, path = BUILT_IN[system]
+        if not (source / crate_folder).is_dir():
+            raise LoadError(f"cbfgen.embed: the built-in system {system} is built from its crate in a clone of "
+                            f"cbfgen, and {source} is not one: run from a clone, or set {plugins.SOURCE_ENV} to one "
+                            "(a spec file needs no clone)")
         crate_name = path.split("::")[0].replace("_", "-")
         dependency = f'{crate_name} = {{ path = "{(source / crate_folder).as_posix()}" }}\n'
         name, lib = system, LIB_RS_BUILT_IN.format(name=system, path=path)
@@ -168,10 +174,7 @@ def install(systems: list[str], prefix: str | Path, *, progress: bool = True) ->
     headers and the CMake package, under ``prefix``. Returns the systems' names."""
     prefix = Path(prefix).resolve()
     source = plugins.source_dir(Path.cwd())
-    capi = source / "capi"
-    if not (capi / "include" / "cbfgen" / "cbfgen.h").is_file():
-        raise LoadError(f"cbfgen.embed needs a clone of cbfgen (its capi/ folder): {source} has none; "
-                        f"set {plugins.SOURCE_ENV} to a clone")
+    capi = source / "capi"  # in a clone, or among the sources embedded in this module
     cargo = plugins._cargo()
     names = []
     for system in systems:

@@ -186,6 +186,14 @@ def test_embed_refuses_what_is_neither_a_system_nor_a_spec(prefix, tmp_path):
         embed.install(["pandas"], tmp_path, progress=False)
 
 
+def test_without_a_clone_a_built_in_system_names_the_fix(environment, tmp_path, monkeypatch):
+    monkeypatch.delenv("CBFGEN_SOURCE", raising=False)
+    monkeypatch.chdir(tmp_path)  # an installed wheel, no clone around: the embedded sources
+    with pytest.raises(cbfgen.LoadError, match=r"the built-in system panda is built from its crate in a clone of "
+                                               r"cbfgen, .* \(a spec file needs no clone\)"):
+        embed.install(["panda"], tmp_path / "prefix", progress=False)
+
+
 def test_embed_knows_every_built_in_system_and_the_core_s_version():
     names = _run([sys.executable, "-c", "import cbfgen; print(' '.join(cbfgen.systems()))"]).stdout.split()
     assert sorted(embed.BUILT_IN) == sorted(names)

@@ -34,7 +34,9 @@ def resolved_features(*selection: str) -> dict[str, set[str]]:
 
 def test_the_python_module_and_the_workspace_build_shared_crates_with_the_same_features():
     python = resolved_features("-p", "cbfgen-python", "--edges", "normal,build")
-    workspace = resolved_features("--workspace", "--exclude", "cbfgen-python")
+    # Not capi: its cbindgen builds syn for the target (the header generator), a build of
+    # syn nothing else has and the Python module never makes, so it shares nothing with it.
+    workspace = resolved_features("--workspace", "--exclude", "cbfgen-python", "--exclude", "cbfgen-capi")
     shared = sorted(set(python) & set(workspace))
     assert "cbfgen v0.1.0" in shared and any(p.startswith("nalgebra ") for p in shared)
     differ = {p: (sorted(python[p]), sorted(workspace[p])) for p in shared if python[p] != workspace[p]}

@@ -231,7 +231,8 @@ def test_with_no_clone_anywhere_the_embedded_core_builds_the_same_plugin(environ
     assert source.is_relative_to(environment / "source")
     # The embedded files are the repository's, byte for byte (the manifest made standalone).
     embedded = dict(cbfgen._native.core_sources())
-    wanted = {"Cargo.toml", "Cargo.lock", "rustfmt.toml", "src/lib.rs", "cbfgen-build/Cargo.toml", "symbolic/spec.py"}
+    wanted = {"Cargo.toml", "Cargo.lock", "rustfmt.toml", "src/lib.rs", "cbfgen-build/Cargo.toml", "symbolic/spec.py",
+              "capi/include/cbfgen/cbfgen.hpp", "capi/cmake/cbfgenConfig.cmake"}  # cbfgen.embed's, for a spec
     assert wanted <= embedded.keys()
     for path, data in embedded.items():
         assert data == (REPO_ROOT / path).read_bytes(), path
