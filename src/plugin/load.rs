@@ -204,6 +204,16 @@ impl PluginSystem {
         }
     }
 
+    /// The plugin's dynamics `op` at `x` (and `u`, for `XDOT`) into `out`.
+    fn dynamics(&self, op: u32, x: &[f64], u: &[f64], out: &mut [f64]) -> Result<(), CbfError> {
+        let mut err = ErrorC::new();
+        // SAFETY: the slices' own pointers and lengths (the plugin checks them).
+        let status = unsafe {
+            (self.table.dynamics)(op, x.as_ptr(), x.len(), u.as_ptr(), u.len(), out.as_mut_ptr(), out.len(), &mut err)
+        };
+        self.call(status.into(), &err).map(drop)
+    }
+
     /// `params` as this system's own.
     fn own<'a>(&self, params: &'a dyn DynParams) -> Result<&'a PluginParams, CbfError> {
         params
@@ -293,9 +303,8 @@ impl PluginSystem {
         }
     }
 
-    /// The plugin's settings read by `fill` (its defaults, or a filter's).
-    /// Settings written by `fill` into buffers sized from the description (which the
-    /// plugin checks: `fill` cannot fail on them).
+    /// The plugin's settings read by `fill` (its defaults, or a filter's) into buffers sized
+    /// from the description (which the plugin checks: `fill` cannot fail on them).
     fn settings_from(&self, fill: impl FnOnce(*mut SettingsC, *mut ErrorC) -> i32) -> DynSettings {
         let (mut families, mut inputs) = self.settings_buffers();
         let mut c = SettingsC {
@@ -351,60 +360,18 @@ impl DynSystem for PluginSystem {
     fn drift(&self, x: &[f64], f: &mut [f64]) -> Result<(), CbfError> {
         Self::check_len("state", self.nx, x.len())?;
         Self::check_len("drift output", self.nx, f.len())?;
-        let mut err = ErrorC::new();
-        // SAFETY: lengths checked.
-        let status = unsafe {
-            (self.table.dynamics)(
-                dynamics_op::DRIFT,
-                x.as_ptr(),
-                x.len(),
-                std::ptr::null(),
-                0,
-                f.as_mut_ptr(),
-                f.len(),
-                &mut err,
-            )
-        };
-        self.call(status.into(), &err).map(drop)
+        self.dynamics(dynamics_op::DRIFT, x, &[], f)
     }
     fn input_matrix(&self, x: &[f64], g: &mut [f64]) -> Result<(), CbfError> {
         Self::check_len("state", self.nx, x.len())?;
         Self::check_len("input matrix output", self.nx * self.nu, g.len())?;
-        let mut err = ErrorC::new();
-        // SAFETY: lengths checked.
-        let status = unsafe {
-            (self.table.dynamics)(
-                dynamics_op::INPUT_MATRIX,
-                x.as_ptr(),
-                x.len(),
-                std::ptr::null(),
-                0,
-                g.as_mut_ptr(),
-                g.len(),
-                &mut err,
-            )
-        };
-        self.call(status.into(), &err).map(drop)
+        self.dynamics(dynamics_op::INPUT_MATRIX, x, &[], g)
     }
     fn xdot(&self, x: &[f64], u: &[f64], xdot: &mut [f64]) -> Result<(), CbfError> {
         Self::check_len("state", self.nx, x.len())?;
         Self::check_len("input", self.nu, u.len())?;
         Self::check_len("xdot output", self.nx, xdot.len())?;
-        let mut err = ErrorC::new();
-        // SAFETY: lengths checked.
-        let status = unsafe {
-            (self.table.dynamics)(
-                dynamics_op::XDOT,
-                x.as_ptr(),
-                x.len(),
-                u.as_ptr(),
-                u.len(),
-                xdot.as_mut_ptr(),
-                xdot.len(),
-                &mut err,
-            )
-        };
-        self.call(status.into(), &err).map(drop)
+        self.dynamics(dynamics_op::XDOT, x, u, xdot)
     }
     fn params(&self, capacity: &[CapacityCount]) -> Result<Box<dyn DynParams>, CbfError> {
         let mut err = ErrorC::new();

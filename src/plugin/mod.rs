@@ -20,6 +20,14 @@
 //! there for its sizes, exactly as a linked system's are), the loader's side only moves
 //! numbers. A loaded library is never unloaded (its statics back the system for the rest
 //! of the process).
+//!
+//! **Also C's interface.** A system's C library exports the same table
+//! ([`crate::export_c!`]), and `capi/include/cbfgen/abi.h` is generated from this module
+//! by cbindgen (docs/embedding.md). So the table assumes nothing of its caller: every
+//! buffer travels with its length and is checked, a null handle or buffer is an error
+//! ([`ErrorCode::NullPointer`]), every error carries an [`ErrorCode`] beside its message,
+//! and a field or signature changed here is a new [`ABI_VERSION`] and a regenerated
+//! header (a test compares them).
 
 mod convert;
 mod export;

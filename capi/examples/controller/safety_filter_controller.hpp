@@ -46,6 +46,7 @@ class SafetyFilterController {
   // to the limits, reported as unsafe) and the controller reports ERROR.
   ReturnType update(double time, const Eigen::Ref<const Eigen::VectorXd>& state,
                     const Eigen::Ref<const Eigen::VectorXd>& nominal) noexcept {
+    if (!filter_) return ReturnType::ERROR;  // not configured
     if (filter_->update(time, state, nominal, *params_)) {
       command_ = filter_->u();
       return ReturnType::OK;
