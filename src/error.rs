@@ -147,8 +147,7 @@ pub enum CbfError {
         determinant: f64,
     },
     /// A cost matrix (a spec's objective `P(x)`) that is not symmetric positive definite
-    /// with every Cholesky pivot at least [`crate::qp::metric::MIN_PIVOT`] of its largest
-    /// diagonal entry.
+    /// with every Cholesky pivot at least `required` of its largest diagonal entry.
     NotPositiveDefinite {
         /// Which matrix, as named in the message.
         what: &'static str,
@@ -158,6 +157,9 @@ pub enum CbfError {
         /// That pivot relative to the largest diagonal entry (`NaN` for a matrix that is
         /// not finite or not symmetric).
         value: f64,
+        /// The least relative pivot the check accepts (the factorisation's own threshold,
+        /// carried here so the message states it).
+        required: f64,
     },
     /// A run-time parameter outside the domain its spec declares (or a primitive it is used
     /// in requires): a negative half extent, a reflection given as a rotation, a NaN. See
@@ -212,14 +214,13 @@ impl fmt::Display for CbfError {
             CbfError::NotARotation { deviation, determinant } => {
                 write!(f, "rotation is not a proper rotation (|R^T R - I| = {deviation:.3e}, det R = {determinant:.6})")
             }
-            CbfError::NotPositiveDefinite { what, index, value } if value.is_nan() => {
+            CbfError::NotPositiveDefinite { what, index, value, .. } if value.is_nan() => {
                 write!(f, "{what} is not a finite symmetric matrix (row {index})")
             }
-            CbfError::NotPositiveDefinite { what, index, value } => write!(
+            CbfError::NotPositiveDefinite { what, index, value, required } => write!(
                 f,
-                "{what} is not positive definite (Cholesky pivot {index} is {value:.3e} of the largest diagonal entry; at least {:e} is \
-                 required)",
-                crate::qp::metric::MIN_PIVOT
+                "{what} is not positive definite (Cholesky pivot {index} is {value:.3e} of the largest diagonal entry; at least \
+                 {required:e} is required)"
             ),
             CbfError::ParamOutOfDomain { family, member, instance, param, found: Found::NotSet, .. } => write!(
                 f,

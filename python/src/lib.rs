@@ -1,4 +1,4 @@
-//! The Python extension module `cbfgen._native` (feature `python`; build it with maturin,
+//! The Python extension module `cbfgen._native` (the `cbfgen-python` crate; build it with maturin,
 //! as `scripts/cbf setup` does). The `cbfgen` Python package re-exports the generic part
 //! (`System`, `Params`, `EcbfFilter`, `Rows`, the SSAT and the kernel table) and
 //! `cbfgen.tachyon3` the robot's own (`Environment`, `Course`, `simulate`, kinematics);

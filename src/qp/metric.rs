@@ -61,10 +61,11 @@ impl<const NU: usize> InputMetric<NU> {
     /// box holds).
     pub fn objective(p: &[[f64; NU]; NU], q: &[f64; NU], u_ref: &[f64; NU]) -> Result<(Self, [f64; NU]), CbfError> {
         const WHAT: &str = "the objective's P(x)";
-        let not_symmetric = |index| CbfError::NotPositiveDefinite { what: WHAT, index, value: f64::NAN };
+        let not_symmetric =
+            |index| CbfError::NotPositiveDefinite { what: WHAT, index, value: f64::NAN, required: MIN_PIVOT };
         let scale = (0..NU).map(|j| p[j][j]).fold(0.0, f64::max);
         if !(scale > 0.0 && scale.is_finite()) {
-            return Err(CbfError::NotPositiveDefinite { what: WHAT, index: 0, value: scale });
+            return Err(CbfError::NotPositiveDefinite { what: WHAT, index: 0, value: scale, required: MIN_PIVOT });
         }
         for i in 0..NU {
             for j in 0..NU {
@@ -82,7 +83,7 @@ impl<const NU: usize> InputMetric<NU> {
         for j in 0..NU {
             let pivot = p[j][j] / scale - (0..j).map(|k| u[k][j] * u[k][j]).sum::<f64>();
             if pivot.is_nan() || pivot < MIN_PIVOT {
-                return Err(CbfError::NotPositiveDefinite { what: WHAT, index: j, value: pivot });
+                return Err(CbfError::NotPositiveDefinite { what: WHAT, index: j, value: pivot, required: MIN_PIVOT });
             }
             u[j][j] = pivot.sqrt();
             for i in j + 1..NU {
