@@ -5,8 +5,8 @@
 #
 # Targets: cbfgen::c (the C headers), cbfgen::cpp (the C++17 wrapper, with Eigen 3), and per
 # installed system cbfgen::<name> (its shared library) and cbfgen::<name>_static (its static
-# library: at most one static cbfgen library per program, each carries Rust's standard
-# library). A component is a system's name.
+# library, carrying the core and Rust's standard library: static libraries of one install
+# link together; shared ones mix freely whatever built them). A component is a system's name.
 cmake_policy(PUSH)  # this file's policies, not the caller's
 cmake_policy(VERSION 3.16...3.31)
 get_filename_component(_cbfgen_prefix "${CMAKE_CURRENT_LIST_DIR}/../../.." ABSOLUTE)

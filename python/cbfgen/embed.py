@@ -15,8 +15,9 @@ Installing more systems into the same DIR adds them. A C++ project then does::
     find_package(cbfgen REQUIRED COMPONENTS double_integrator)
     target_link_libraries(my_controller PRIVATE cbfgen::cpp cbfgen::double_integrator)
 
-(``cbfgen::<name>_static`` links the static library instead: at most one static cbfgen
-library per program, since each carries Rust's standard library; shared ones mix freely).
+(``cbfgen::<name>_static`` links the static library instead, which carries the core and
+Rust's standard library: static libraries of one install link together, those of two
+different builds are not meant to; shared ones mix freely).
 Building needs what :func:`cbfgen.load` needs; a built-in system also needs a clone of
 cbfgen (its crate): ``CBFGEN_SOURCE``, or the clone around the working directory. A spec
 builds from the sources embedded in this module when there is no clone, as

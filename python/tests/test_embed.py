@@ -87,6 +87,26 @@ def test_the_headers_compile_as_strict_c99_and_cxx17(prefix, tmp_path):
         prefix / "include" / "cbfgen" / "abi.h").read_text()
 
 
+def test_two_systems_static_libraries_link_into_one_program(prefix, tmp_path):
+    """As docs/embedding.md says: static libraries of one install share the core and Rust's
+    runtime (the linker keeps one copy of what they share), and each system keeps its own
+    entry table: your_robot's describes your_robot, not the system linked first (before
+    the tables were made per system, both entry points served the first system)."""
+    unit = tmp_path / "two.c"
+    unit.write_text("#include <cbfgen/systems/double_integrator.h>\n#include <cbfgen/systems/your_robot.h>\n"
+                    "int main(void) {\n  cbfgen_error err = {0, 0, {0}};\n"
+                    "  return cbfgen_check(cbfgen_double_integrator_plugin_v1(), &err) == 0 &&\n"
+                    "         cbfgen_check(cbfgen_your_robot_plugin_v1(), &err) == 0 &&\n"
+                    "         cbfgen_your_robot_plugin_v1()->describe()->nx == 4 ? 0 : 1;\n}\n")
+    cmake_file = (prefix / "lib" / "cmake" / "cbfgen" / "cbfgen_system_your_robot.cmake").read_text()
+    native = re.search(r'"cbfgen::c;([^"]*)"', cmake_file).group(1).split(";")
+    built = _run(["gcc", *STRICT_C, f"-I{prefix / 'include'}", unit, prefix / "lib" / "libcbfgen_double_integrator.a",
+                  prefix / "lib" / "libcbfgen_your_robot.a", *[f"-l{n}" for n in native], "-o", tmp_path / "two"])
+    assert built.returncode == 0, built.stderr
+    ran = _run([tmp_path / "two"])
+    assert ran.returncode == 0, ran.stdout + ran.stderr
+
+
 def test_a_c_closed_loop_gives_the_rust_filter_s_inputs_bit_for_bit(prefix, tmp_path):
     program = _c_program(prefix, CAPI / "tests" / "c" / "closed_loop.c", tmp_path / "closed_loop")
     ran = _run([program])

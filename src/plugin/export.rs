@@ -3,9 +3,10 @@
 //! Handles are `Box<Box<dyn …>>` turned into raw pointers: the outer box gives a thin
 //! pointer to hand across, the inner one is the type-erased object.
 
+use std::any::TypeId;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::ptr;
-use std::sync::OnceLock;
+use std::sync::{Mutex, PoisonError};
 
 use super::convert::{cause_c, domain_c, family_params, family_params_c, safety_c, solver, solver_c, write_error};
 use super::{
@@ -16,18 +17,43 @@ use crate::dynamic::{CapacityCount, DynBarriers, DynFilter, DynParams, DynRows, 
 use crate::error::CbfError;
 use crate::system::{FamilyKind, InstanceKind};
 
-/// The one system this plugin exports (set by [`export`]).
-static SYSTEM: OnceLock<&'static dyn DynSystem> = OnceLock::new();
-
-fn system() -> &'static dyn DynSystem {
-    *SYSTEM.get().expect("export() sets the system before the table is handed out")
+/// A system an entry table is made for: the marker type [`crate::export_plugin!`] and
+/// [`crate::export_c!`] define, so that each exported system has a table of its own (the
+/// entry points are generic over it) and several can live in one program, as static
+/// libraries linked together do.
+pub trait Exported: 'static {
+    /// The system the table serves.
+    const SYSTEM: &'static dyn DynSystem;
 }
 
-/// The entry table of a plugin exporting `system`: what [`crate::export_plugin!`]'s
-/// `cbfgen_plugin_v1` returns. A plugin exports one system; later calls keep the first.
-pub fn export(system: &'static dyn DynSystem) -> &'static PluginV1 {
-    SYSTEM.get_or_init(|| system);
-    &TABLE
+/// The entry table of `S::SYSTEM`: what the export macros put in a `static`.
+pub const fn table<S: Exported>() -> PluginV1 {
+    PluginV1 {
+        abi_version: ABI_VERSION,
+        core_version: StrC { ptr: env!("CARGO_PKG_VERSION").as_ptr(), len: env!("CARGO_PKG_VERSION").len() },
+        describe: describe::<S>,
+        dynamics: dynamics::<S>,
+        params_new: params_new::<S>,
+        params_clone: params_clone::<S>,
+        params_free,
+        store: store::<S>,
+        barriers_new: barriers_new::<S>,
+        barriers_free,
+        barriers_evaluate: barriers_evaluate::<S>,
+        rows_len,
+        layout,
+        row,
+        default_settings: default_settings::<S>,
+        filter_new: filter_new::<S>,
+        filter_free,
+        filter_update: filter_update::<S>,
+        filter_report: filter_report::<S>,
+        filter_fallback: filter_fallback::<S>,
+        filter_settings: filter_settings::<S>,
+        filter_worst_case: filter_worst_case::<S>,
+        filter_calibrate: filter_calibrate::<S>,
+        kernel_call: kernel_call::<S>,
+    }
 }
 
 /// Export a generated system as a plugin: `cbfgen::export_plugin!(SYSTEM);` in a
@@ -39,15 +65,16 @@ macro_rules! export_plugin {
         /// The plugin's entry table (cbfgen's plugin ABI, of `cbfgen::plugin::ABI_VERSION`).
         #[unsafe(no_mangle)]
         pub extern "C" fn cbfgen_plugin_v1() -> *const $crate::plugin::PluginV1 {
-            $crate::plugin::export($system)
+            $crate::__entry_table!($system)
         }
     };
 }
 
 /// Export a generated system to C and C++ (`cbfgen.h`): `cbfgen::export_c!(SYSTEM,
 /// "pvtol");` in a `staticlib`/`cdylib` crate exports `cbfgen_pvtol_plugin_v1`, the
-/// system's entry table, named after the system so that several systems' shared libraries
-/// can be linked into one program. `python -m cbfgen.embed install` writes such a crate.
+/// system's entry table, named after the system so that several systems' libraries, shared
+/// or static, can be linked into one program. `python -m cbfgen.embed install` writes
+/// such a crate.
 #[macro_export]
 macro_rules! export_c {
     ($system:expr, $name:literal) => {
@@ -55,37 +82,24 @@ macro_rules! export_c {
         /// `cbfgen::plugin::ABI_VERSION`).
         #[unsafe(export_name = concat!("cbfgen_", $name, "_plugin_v1"))]
         pub extern "C" fn cbfgen_system_plugin_v1() -> *const $crate::plugin::PluginV1 {
-            $crate::plugin::export($system)
+            $crate::__entry_table!($system)
         }
     };
 }
 
-static TABLE: PluginV1 = PluginV1 {
-    abi_version: ABI_VERSION,
-    core_version: StrC { ptr: env!("CARGO_PKG_VERSION").as_ptr(), len: env!("CARGO_PKG_VERSION").len() },
-    describe,
-    dynamics,
-    params_new,
-    params_clone,
-    params_free,
-    store,
-    barriers_new,
-    barriers_free,
-    barriers_evaluate,
-    rows_len,
-    layout,
-    row,
-    default_settings,
-    filter_new,
-    filter_free,
-    filter_update,
-    filter_report,
-    filter_fallback,
-    filter_settings,
-    filter_worst_case,
-    filter_calibrate,
-    kernel_call,
-};
+/// The export macros' table of `$system`: a marker type for it and a static of its own.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __entry_table {
+    ($system:expr) => {{
+        struct Exported;
+        impl $crate::plugin::Exported for Exported {
+            const SYSTEM: &'static dyn $crate::dynamic::DynSystem = $system;
+        }
+        static TABLE: $crate::plugin::PluginV1 = $crate::plugin::table::<Exported>();
+        &TABLE
+    }};
+}
 
 /// Why a call failed: its code and message (a [`CbfError`], or the boundary's own).
 struct Fault {
@@ -99,19 +113,25 @@ impl From<CbfError> for Fault {
     }
 }
 
-/// A null `what` where a handle or buffer was needed.
+/// A null `what` where a handle or buffer was needed (the system's name is put before it
+/// by [`guarded`]).
 fn null(what: &str) -> Fault {
-    Fault { code: ErrorCode::NullPointer, message: format!("{}: {what} is a null pointer", system().name()) }
+    Fault { code: ErrorCode::NullPointer, message: format!("{what} is a null pointer") }
 }
 
-/// Run `f`, its error (or a panic) into `err`; `fail` is what the call returns then.
-fn guarded<T>(err: *mut ErrorC, fail: T, f: impl FnOnce() -> Result<T, Fault>) -> T {
+/// Run `f` for `S`'s table, its error (or a panic) into `err`; `fail` is what the call
+/// returns then. The boundary's own errors (a null pointer, a panic) name the system.
+fn guarded<S: Exported, T>(err: *mut ErrorC, fail: T, f: impl FnOnce() -> Result<T, Fault>) -> T {
     let fault = match catch_unwind(AssertUnwindSafe(f)) {
         Ok(Ok(v)) => return v,
         Ok(Err(fault)) => fault,
-        Err(_) => Fault { code: ErrorCode::Panic, message: format!("{}: the plugin panicked", system().name()) },
+        Err(_) => Fault { code: ErrorCode::Panic, message: "the plugin panicked".into() },
     };
-    write_error(fault.code, &fault.message, err);
+    let message = match fault.code {
+        ErrorCode::NullPointer | ErrorCode::Panic => format!("{}: {}", S::SYSTEM.name(), fault.message),
+        _ => fault.message,
+    };
+    write_error(fault.code, &message, err);
     fail
 }
 
@@ -186,10 +206,16 @@ fn strs(items: &[&'static str]) -> *const StrC {
     leak(items.iter().map(|s| StrC::new(s)).collect())
 }
 
-unsafe extern "C" fn describe() -> *const DescriptionC {
-    static DESCRIPTION: OnceLock<Description> = OnceLock::new();
-    let d = DESCRIPTION.get_or_init(|| {
-        let s = system();
+unsafe extern "C" fn describe<S: Exported>() -> *const DescriptionC {
+    // One description per exported system, built on first use and kept (a static in a
+    // generic function would be one for every system of the program).
+    static DESCRIPTIONS: Mutex<Vec<(TypeId, &'static Description)>> = Mutex::new(Vec::new());
+    let mut known = DESCRIPTIONS.lock().unwrap_or_else(PoisonError::into_inner);
+    if let Some((_, d)) = known.iter().find(|(id, _)| *id == TypeId::of::<S>()) {
+        return &d.0;
+    }
+    let d: &'static Description = Box::leak(Box::new({
+        let s = S::SYSTEM;
         // The domains live with the parameter types: read them off empty parameters.
         let params = s.params(&[]).ok();
         let families: Vec<FamilyC> = s
@@ -257,11 +283,12 @@ unsafe extern "C" fn describe() -> *const DescriptionC {
             n_kernels: kernels.len(),
             kernels: leak(kernels),
         })
-    });
+    }));
+    known.push((TypeId::of::<S>(), d));
     &d.0
 }
 
-unsafe extern "C" fn dynamics(
+unsafe extern "C" fn dynamics<S: Exported>(
     op: u32,
     x: *const f64,
     n_x: usize,
@@ -271,8 +298,8 @@ unsafe extern "C" fn dynamics(
     n_out: usize,
     err: *mut ErrorC,
 ) -> i32 {
-    guarded(err, -1, || {
-        let s = system();
+    guarded::<S, _>(err, -1, || {
+        let s = S::SYSTEM;
         let (nx, nu) = (s.nx(), s.nu());
         // SAFETY (every slice): the caller's buffers hold the lengths it passed.
         let x = unsafe { slice(x, n_x, nx, "state") }?;
@@ -291,16 +318,16 @@ unsafe extern "C" fn dynamics(
     })
 }
 
-unsafe extern "C" fn params_new(counts: *const CapacityCount, n: usize, err: *mut ErrorC) -> Handle {
-    guarded(err, ptr::null_mut(), || {
+unsafe extern "C" fn params_new<S: Exported>(counts: *const CapacityCount, n: usize, err: *mut ErrorC) -> Handle {
+    guarded::<S, _>(err, ptr::null_mut(), || {
         // SAFETY: `n` counts.
         let counts = unsafe { slice(counts, n, n, "capacity counts") }?;
-        Ok(boxed(system().params(counts)?))
+        Ok(boxed(S::SYSTEM.params(counts)?))
     })
 }
 
-unsafe extern "C" fn params_clone(params: Handle, err: *mut ErrorC) -> Handle {
-    guarded(err, ptr::null_mut(), || {
+unsafe extern "C" fn params_clone<S: Exported>(params: Handle, err: *mut ErrorC) -> Handle {
+    guarded::<S, _>(err, ptr::null_mut(), || {
         // SAFETY: a live parameters handle, or null.
         Ok(boxed(unsafe { object::<dyn DynParams>(params, "parameters handle") }?.clone_box()))
     })
@@ -313,7 +340,7 @@ unsafe extern "C" fn params_free(params: Handle) {
     }
 }
 
-unsafe extern "C" fn store(
+unsafe extern "C" fn store<S: Exported>(
     params: Handle,
     op: u32,
     family: usize,
@@ -324,7 +351,7 @@ unsafe extern "C" fn store(
     flag: bool,
     err: *mut ErrorC,
 ) -> i64 {
-    guarded(err, -1, || {
+    guarded::<S, _>(err, -1, || {
         // SAFETY: a live parameters handle or null; `values` holds `len` numbers or is null.
         let p = unsafe { object::<dyn DynParams>(params, "parameters handle") }?;
         let values = unsafe { slice_mut(values, len, len, "values") }?;
@@ -349,11 +376,11 @@ unsafe extern "C" fn store(
     })
 }
 
-unsafe extern "C" fn barriers_new(params: Handle, err: *mut ErrorC) -> Handle {
-    guarded(err, ptr::null_mut(), || {
+unsafe extern "C" fn barriers_new<S: Exported>(params: Handle, err: *mut ErrorC) -> Handle {
+    guarded::<S, _>(err, ptr::null_mut(), || {
         // SAFETY: a live parameters handle or null.
         let p = unsafe { object::<dyn DynParams>(params, "parameters handle") }?;
-        Ok(boxed(system().barriers_for(p.as_ref())?))
+        Ok(boxed(S::SYSTEM.barriers_for(p.as_ref())?))
     })
 }
 
@@ -364,7 +391,7 @@ unsafe extern "C" fn barriers_free(barriers: Handle) {
     }
 }
 
-unsafe extern "C" fn barriers_evaluate(
+unsafe extern "C" fn barriers_evaluate<S: Exported>(
     barriers: Handle,
     t: f64,
     x: *const f64,
@@ -372,11 +399,11 @@ unsafe extern "C" fn barriers_evaluate(
     params: Handle,
     err: *mut ErrorC,
 ) -> i32 {
-    guarded(err, -1, || {
+    guarded::<S, _>(err, -1, || {
         // SAFETY: live handles or null; `x` holds `n_x` states.
         let b = unsafe { object::<dyn DynBarriers>(barriers, "barriers handle") }?;
         let p = unsafe { object::<dyn DynParams>(params, "parameters handle") }?;
-        let x = unsafe { slice(x, n_x, system().nx(), "state") }?;
+        let x = unsafe { slice(x, n_x, S::SYSTEM.nx(), "state") }?;
         Ok(b.evaluate(t, x, p.as_ref()).map(|()| 0)?)
     })
 }
@@ -438,19 +465,19 @@ unsafe fn write_settings(s: &DynSettings, out: *mut SettingsC) -> Result<i32, Fa
     Ok(0)
 }
 
-unsafe extern "C" fn default_settings(out: *mut SettingsC, err: *mut ErrorC) -> i32 {
+unsafe extern "C" fn default_settings<S: Exported>(out: *mut SettingsC, err: *mut ErrorC) -> i32 {
     // SAFETY: the caller's settings, checked.
-    guarded(err, -1, || unsafe { write_settings(&system().default_settings(), out) })
+    guarded::<S, _>(err, -1, || unsafe { write_settings(&S::SYSTEM.default_settings(), out) })
 }
 
-unsafe extern "C" fn filter_new(
+unsafe extern "C" fn filter_new<S: Exported>(
     counts: *const CapacityCount,
     n: usize,
     settings: *const SettingsC,
     err: *mut ErrorC,
 ) -> Handle {
-    guarded(err, ptr::null_mut(), || {
-        let s = system();
+    guarded::<S, _>(err, ptr::null_mut(), || {
+        let s = S::SYSTEM;
         let nu = s.nu();
         // SAFETY: the caller's settings and counts, their lengths checked.
         let c = unsafe { settings.as_ref() }.ok_or_else(|| null("settings"))?;
@@ -482,7 +509,7 @@ unsafe extern "C" fn filter_free(filter: Handle) {
     }
 }
 
-unsafe extern "C" fn filter_update(
+unsafe extern "C" fn filter_update<S: Exported>(
     filter: Handle,
     t: f64,
     x: *const f64,
@@ -494,7 +521,7 @@ unsafe extern "C" fn filter_update(
     n_u_out: usize,
     err: *mut ErrorC,
 ) -> i32 {
-    guarded(err, -1, || {
+    guarded::<S, _>(err, -1, || {
         // SAFETY: live handles or null; the buffers hold the lengths passed. The filter
         // checks the lengths against the system's (this is the per-cycle call: nothing
         // else is looked up here).
@@ -510,8 +537,8 @@ unsafe extern "C" fn filter_update(
     })
 }
 
-unsafe extern "C" fn filter_report(filter: Handle, out: *mut ReportC, err: *mut ErrorC) -> i32 {
-    guarded(err, -1, || {
+unsafe extern "C" fn filter_report<S: Exported>(filter: Handle, out: *mut ReportC, err: *mut ErrorC) -> i32 {
+    guarded::<S, _>(err, -1, || {
         // SAFETY: a live filter handle or null; the report's buffers hold the lengths it states.
         let f = unsafe { object::<dyn DynFilter>(filter, "filter handle") }?;
         let r = unsafe { out.as_mut() }.ok_or_else(|| null("report"))?;
@@ -550,7 +577,7 @@ unsafe extern "C" fn filter_report(filter: Handle, out: *mut ReportC, err: *mut 
     })
 }
 
-unsafe extern "C" fn filter_fallback(
+unsafe extern "C" fn filter_fallback<S: Exported>(
     filter: Handle,
     u_ref: *const f64,
     n_u: usize,
@@ -558,8 +585,8 @@ unsafe extern "C" fn filter_fallback(
     n_out: usize,
     err: *mut ErrorC,
 ) -> i32 {
-    guarded(err, -1, || {
-        let nu = system().nu();
+    guarded::<S, _>(err, -1, || {
+        let nu = S::SYSTEM.nu();
         // SAFETY: a live filter handle or null; the buffers hold the lengths passed.
         let f = unsafe { object::<dyn DynFilter>(filter, "filter handle") }?;
         let u_ref = unsafe { slice(u_ref, n_u, nu, "nominal input") }?;
@@ -567,16 +594,16 @@ unsafe extern "C" fn filter_fallback(
     })
 }
 
-unsafe extern "C" fn filter_settings(filter: Handle, out: *mut SettingsC, err: *mut ErrorC) -> i32 {
-    guarded(err, -1, || {
+unsafe extern "C" fn filter_settings<S: Exported>(filter: Handle, out: *mut SettingsC, err: *mut ErrorC) -> i32 {
+    guarded::<S, _>(err, -1, || {
         // SAFETY: a live filter handle or null; the caller's settings, checked.
         let f = unsafe { object::<dyn DynFilter>(filter, "filter handle") }?;
         unsafe { write_settings(&f.settings(), out) }
     })
 }
 
-unsafe extern "C" fn filter_worst_case(filter: Handle, out: *mut WorstCaseC, err: *mut ErrorC) -> i32 {
-    guarded(err, -1, || {
+unsafe extern "C" fn filter_worst_case<S: Exported>(filter: Handle, out: *mut WorstCaseC, err: *mut ErrorC) -> i32 {
+    guarded::<S, _>(err, -1, || {
         // SAFETY: a live filter handle or null; `out` one value or null.
         let f = unsafe { object::<dyn DynFilter>(filter, "filter handle") }?;
         *unsafe { out_ref(out, "worst case") }? = f.worst_case().into();
@@ -584,7 +611,7 @@ unsafe extern "C" fn filter_worst_case(filter: Handle, out: *mut WorstCaseC, err
     })
 }
 
-unsafe extern "C" fn filter_calibrate(
+unsafe extern "C" fn filter_calibrate<S: Exported>(
     filter: Handle,
     t: f64,
     x: *const f64,
@@ -593,18 +620,18 @@ unsafe extern "C" fn filter_calibrate(
     out: *mut crate::filter::Calibration,
     err: *mut ErrorC,
 ) -> i32 {
-    guarded(err, -1, || {
+    guarded::<S, _>(err, -1, || {
         // SAFETY: live handles or null; `x` holds `n_x` states; `out` one value or null.
         let f = unsafe { object::<dyn DynFilter>(filter, "filter handle") }?;
         let p = unsafe { object::<dyn DynParams>(params, "parameters handle") }?;
-        let x = unsafe { slice(x, n_x, system().nx(), "state") }?;
+        let x = unsafe { slice(x, n_x, S::SYSTEM.nx(), "state") }?;
         let out = unsafe { out_ref(out, "calibration") }?;
         *out = f.calibrate(t, x, p.as_ref())?;
         Ok(0)
     })
 }
 
-unsafe extern "C" fn kernel_call(
+unsafe extern "C" fn kernel_call<S: Exported>(
     index: usize,
     inputs: *const f64,
     n_inputs: usize,
@@ -612,8 +639,8 @@ unsafe extern "C" fn kernel_call(
     n_outputs: usize,
     err: *mut ErrorC,
 ) -> i32 {
-    guarded(err, -1, || {
-        let s = system();
+    guarded::<S, _>(err, -1, || {
+        let s = S::SYSTEM;
         let kernels = s.kernels();
         let kernel = kernels.get(index).ok_or(CbfError::NoSuchIndex { what: "kernel", index, len: kernels.len() })?;
         // SAFETY: the caller's buffers hold the lengths it passed (the kernel checks them).

@@ -33,7 +33,7 @@ mod convert;
 mod export;
 mod load;
 
-pub use export::export;
+pub use export::{table, Exported};
 pub use load::load;
 
 use std::ffi::c_void;

@@ -33,8 +33,8 @@ fn state() -> (f64, [f64; 2], [f64; 1]) {
     (0.3, [0.1f64.mul_add((0.6f64).sin(), -0.03), -0.5], [-3.0])
 }
 
-/// The update through `dyn DynFilter`, and through the C ABI (`cbfgen::plugin::export`'s
-/// table, as `cbfgen.h` calls it).
+/// The update through `dyn DynFilter`, and through the C ABI (the table `cbfgen::export_c!`
+/// exports, called as `cbfgen.h` calls it).
 fn erased_and_c(
     g: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
     state: (f64, [f64; 2], [f64; 1]),
@@ -55,7 +55,12 @@ fn erased_and_c(
         })
     });
 
-    let table = cbfgen::plugin::export(system);
+    struct DoubleIntegrator;
+    impl cbfgen::plugin::Exported for DoubleIntegrator {
+        const SYSTEM: &'static dyn cbfgen::dynamic::DynSystem = cbfgen_double_integrator::SYSTEM;
+    }
+    static TABLE: cbfgen::plugin::PluginV1 = cbfgen::plugin::table::<DoubleIntegrator>();
+    let table = &TABLE;
     let mut err = ErrorC::new();
     // SAFETY (every call): the table's own handles, buffers sized from its description.
     let c_params = unsafe { (table.params_new)(std::ptr::null(), 0, &mut err) };
