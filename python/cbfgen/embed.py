@@ -27,6 +27,7 @@ builds from the sources embedded in this module when there is no clone, as
 from __future__ import annotations
 
 import argparse
+import importlib.metadata
 import re
 import shutil
 import sys
@@ -35,7 +36,7 @@ from pathlib import Path
 from . import plugins
 from .plugins import LoadError
 
-VERSION = "0.1.0"  # the core's version (checked against Cargo.toml by the tests)
+VERSION = importlib.metadata.version("cbfgen")  # the wheel's, which maturin takes from Cargo.toml
 
 # Built-in systems: name -> (crate folder, the path of its `SYSTEM` in the crate). One
 # line each, as python/src/registry.rs lists them for the Python module.
